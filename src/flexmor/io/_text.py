@@ -1,0 +1,230 @@
+"""Shared helpers for the readers: opening files with clear errors, numeric line parsing.
+
+:func:`parse_triplets` reads ``row col value`` files of any size. It first tries a
+vectorized fast path (NumPy's C text parser, a few seconds for ten million lines); only when
+that fails, or when the parsed numbers break a rule, does it scan the file line by line to
+report the first offending line with its number.
+"""
+
+from __future__ import annotations
+
+import io
+import warnings
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import ModelError, ReadError
+
+__all__ = ["read_text", "parse_triplets", "entry_line", "build_model"]
+
+_COMMENT_CHARS = "#%*!"
+_BLOCK = 50_000  # lines per block of the diagnosing scanner
+
+
+def read_text(path) -> str:
+    """Return the text of ``path``; binary content or missing files raise ReadError."""
+    path = Path(path)
+    if not path.exists():
+        raise ReadError(path, "file not found")
+    if path.is_dir():
+        raise ReadError(path, "is a directory, expected a file")
+    try:
+        raw = path.read_bytes()
+    except OSError as exc:
+        raise ReadError(path, f"cannot read: {exc.strerror}") from None
+    if not raw.strip():
+        raise ReadError(path, "file is empty")
+    if b"\x00" in raw[:65536]:
+        raise ReadError(path, "looks like a binary file, expected text")
+    try:
+        return raw.decode("utf-8")
+    except UnicodeDecodeError:
+        return raw.decode("latin-1")
+
+
+def _data_lines(text: str):
+    """Yield ``(lineno, stripped_line)`` of the lines that are neither blank nor comments."""
+    for lineno, line in enumerate(text.splitlines(), 1):
+        s = line.strip()
+        if s and s[0] not in _COMMENT_CHARS:
+            yield lineno, s
+
+
+def _to_index(tok: str) -> int:
+    """Parse an index token; integral floats such as ``3.0`` are accepted like the fast path."""
+    try:
+        return int(tok)
+    except ValueError:
+        v = float(tok)  # ValueError propagates
+        if not v.is_integer():
+            raise ValueError(tok) from None
+        return int(v)
+
+
+def _loadtxt(src):
+    """``np.loadtxt`` into an (k, 3) float array, or None on any parse problem."""
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            a = np.loadtxt(src, dtype=np.float64, ndmin=2, comments=None)
+    except (ValueError, OverflowError):
+        return None
+    if a.shape[0] == 0 or a.shape[1] != 3:
+        return None
+    return a
+
+
+def _fast_triplets(path: Path, text: str):
+    """Vectorized parse into an (k, 3) float array, or None when the text needs the scanner."""
+    if any(ch in text for ch in _COMMENT_CHARS):
+        return None  # loadtxt would also strip comments in mid-line; let the scanner decide
+    if "," in text or "d" in text or "D" in text:
+        return _loadtxt(io.StringIO(text.replace(",", " ").replace("D", "E").replace("d", "e")))
+    return _loadtxt(path)
+
+
+def _valid(a: np.ndarray, base: int, n: int | None) -> bool:
+    """Whether all parsed triplets have integral in-range indices and finite values."""
+    if a.shape[0] == 0:
+        return True
+    ij = a[:, :2]
+    return bool(
+        np.all(ij == np.floor(ij))
+        and ij.min() >= base
+        and (n is None or ij.max() - base < n)
+        and np.all(np.isfinite(a[:, 2]))
+    )
+
+
+def parse_triplets(path, *, one_based: bool = True, n: int | None = None):
+    """Parse ``row col value`` lines (whitespace or comma separated).
+
+    Blank lines and lines starting with ``# % * !`` are skipped; Fortran exponents
+    (``1.0D+03``) are accepted.
+
+    Parameters
+    ----------
+    path : str or path-like
+        The text file.
+    one_based : bool
+        Whether indices start at 1 (else 0).
+    n : int, optional
+        Matrix size; indices beyond it are refused.
+
+    Returns
+    -------
+    rows, cols : ndarray of int64
+        0-based indices, in file order.
+    vals : ndarray of float64
+        Values, in file order.
+
+    Raises
+    ------
+    ReadError
+        For every malformed line (wrong column count, non-numeric or non-integral index,
+        index below the base or beyond ``n``, NaN or Inf value), with its line number.
+    """
+    path = Path(path)
+    text = read_text(path)
+    base = 1 if one_based else 0
+    a = _fast_triplets(path, text)
+    if a is None or not _valid(a, base, n):
+        a = _scan_triplets(path, text, base, n)
+    rows = a[:, 0].astype(np.int64) - base
+    cols = a[:, 1].astype(np.int64) - base
+    return rows, cols, np.ascontiguousarray(a[:, 2])
+
+
+def _scan_triplets(path: Path, text: str, base: int, n: int | None) -> np.ndarray:
+    """Parse in blocks of lines: each block vectorized if it can be, else line by line.
+
+    Line numbers stay exact; only a block with comments or a defect is scanned in Python, so
+    a defect near the end of a huge file is found in seconds.
+    """
+    lines = text.splitlines()
+    parts = []
+    for start in range(0, len(lines), _BLOCK):
+        block = lines[start:start + _BLOCK]
+        joined = "\n".join(block)
+        a = None
+        if not any(ch in joined for ch in _COMMENT_CHARS):
+            a = _loadtxt(io.StringIO(joined.replace(",", " ").replace("D", "E").replace("d", "e")))
+        if a is None or not _valid(a, base, n):
+            a = _scan_block(path, block, start, base, n)
+        parts.append(a)
+    a = np.concatenate(parts) if parts else np.zeros((0, 3))
+    if a.shape[0] == 0:
+        raise ReadError(path, "no matrix entries found")
+    return a
+
+
+def _scan_block(path: Path, lines: list, offset: int, base: int, n: int | None) -> np.ndarray:
+    """Line-by-line parse of ``lines`` (line numbers start after ``offset``); raises at the first defect."""
+    out = []
+    for lineno, line in enumerate(lines, offset + 1):
+        s = line.strip()
+        if not s or s[0] in _COMMENT_CHARS:
+            continue
+        parts = s.replace(",", " ").split()
+        if len(parts) != 3:
+            raise ReadError(path, f"expected 3 columns 'row col value', found {len(parts)} in {s[:60]!r}; "
+                            "is the file truncated or damaged?", lineno)
+        try:
+            i, j = _to_index(parts[0]), _to_index(parts[1])
+        except ValueError:
+            raise ReadError(path, f"row and column must be integers, got {s[:60]!r}", lineno) from None
+        try:
+            v = float(parts[2].replace("D", "E").replace("d", "e"))
+        except ValueError:
+            raise ReadError(path, f"non-numeric value {parts[2][:30]!r}", lineno) from None
+        if i < base or j < base:
+            raise ReadError(path, f"index {min(i, j)} below {base} ({base}-based indices expected)", lineno)
+        if n is not None and (i - base >= n or j - base >= n):
+            raise ReadError(path, f"index {max(i, j)} beyond the matrix size {n}", lineno)
+        if not np.isfinite(v):
+            raise ReadError(path, f"non-finite value {parts[2]}; the FE program wrote NaN or Inf", lineno)
+        out.append((i, j, v))
+    return np.array(out, dtype=np.float64).reshape(-1, 3)
+
+
+def entry_line(path, k: int) -> int | None:
+    """Line number (1-based) of the ``k``-th (0-based) data line of a triplet file.
+
+    Used to point at an entry that breaks a rule found only after vectorized parsing
+    (duplicates, wrong triangle). Returns None when there is no such line.
+    """
+    text = read_text(path)
+    for count, (lineno, _) in enumerate(_data_lines(text)):
+        if count == k:
+            return lineno
+    return None
+
+
+def build_model(path, roles: dict | None = None, **fields):
+    """Construct a :class:`~flexmor.model.FEModel`, turning ModelError into ReadError.
+
+    Parameters
+    ----------
+    path : str or path-like
+        The main file, named in the error.
+    roles : dict of str to path, optional
+        File of each matrix (``{"M": mass_path, ...}``): a ModelError whose message starts
+        with that matrix name (or ``mass``, ``stiffness``, ``damping``) is reported against
+        that file.
+    **fields
+        Passed to ``FEModel``.
+    """
+    from ..model import FEModel
+
+    try:
+        return FEModel(**fields)
+    except ModelError as exc:
+        msg = str(exc)
+        target = path
+        words = {"M": "mass", "K": "stiffness", "D": "damping"}
+        for name, p in (roles or {}).items():
+            if msg.startswith((f"{name} ", f"{name}[", words.get(name, name))):
+                target = p
+                break
+        raise ReadError(target, msg) from None

@@ -1,0 +1,307 @@
+"""Reader of CalculiX matrix exports (``*FREQUENCY, SOLVER=MATRIXSTORAGE``).
+
+CalculiX writes, for the job ``<job>.inp``:
+
+* ``<job>.sti`` and ``<job>.mas``: stiffness and mass as ``row col value`` lines, 1-based,
+  upper triangle only (``row <= col``), constrained degrees of freedom already removed;
+* ``<job>.dof``: the equation map, one line per equation, ``node.direction`` (``12.3`` is
+  node 12, z).
+
+The main file is the ``.sti``; ``.mas``, ``.dof`` and the input deck ``.inp`` (node table
+from ``*NODE``, node sets from ``*NSET`` and ``*NODE, NSET=...``) must lie beside it. The full
+symmetric matrices are rebuilt as ``A = U + U^T - diag(U)``.
+"""
+
+from __future__ import annotations
+
+import logging
+from pathlib import Path
+
+import numpy as np
+import scipy.sparse as sp
+
+from ..errors import ReadError
+from . import register_format
+from ._text import build_model, entry_line, parse_triplets, read_text
+
+__all__ = ["read_calculix", "read_inp", "read_dof"]
+
+log = logging.getLogger(__name__)
+
+_MAX_INCLUDE_DEPTH = 10
+
+
+def _sibling(path: Path, suffix: str, what: str) -> Path:
+    p = path.with_suffix(suffix)
+    if not p.exists():
+        alt = path.with_suffix(suffix.upper())
+        if alt.exists():
+            return alt
+        raise ReadError(p, f"not found; CalculiX writes the {what} beside {path.name} "
+                           f"(*FREQUENCY, SOLVER=MATRIXSTORAGE in {path.stem}.inp)")
+    return p
+
+
+def _sniff(path: Path) -> None:
+    """Refuse empty, binary or cut-off matrix files before parsing them.
+
+    CalculiX ends every line with a line break; a last line without one was cut off while
+    writing or copying, and its last number may look valid but be wrong (``5.16e+0`` of
+    ``5.16e+09``).
+    """
+    try:
+        with open(path, "rb") as f:
+            head = f.read(65536)
+            f.seek(0, 2)
+            size = f.tell()
+            f.seek(max(size - 1, 0))
+            last = f.read(1)
+    except OSError as exc:
+        raise ReadError(path, f"cannot read: {exc.strerror}") from None
+    if not head.strip():
+        read_text(path)  # raises "file is empty" unless data follows leading blank space
+    if b"\x00" in head:
+        raise ReadError(path, "looks like a binary file; CalculiX writes text with 'row col value' lines")
+    if last not in (b"\n", b"\r"):
+        with open(path, "rb") as f:
+            nlines = sum(chunk.count(b"\n") for chunk in iter(lambda: f.read(1 << 24), b"")) + 1
+        raise ReadError(path, "last line has no line end: the file was cut off (disk full, interrupted "
+                              "copy?); write it again with CalculiX", nlines)
+
+
+def read_dof(path) -> np.ndarray:
+    """Read a CalculiX ``.dof`` equation map.
+
+    Returns
+    -------
+    ndarray of int64, shape (n_dof, 2)
+        Node id and direction code (1..6) of each equation.
+
+    Raises
+    ------
+    ReadError
+        For a line that is not ``node.direction`` or a direction outside 1..6.
+    """
+    path = Path(path)
+    lines = read_text(path).rstrip().splitlines()
+    out = np.empty((len(lines), 2), dtype=np.int64)
+    for i, line in enumerate(lines):
+        s = line.strip()
+        node, dot, d = s.partition(".")
+        if not (dot and node.isdigit() and d.isdigit()):
+            raise ReadError(path, f"expected 'node.direction' such as '12.3', got {s[:40]!r}", i + 1)
+        out[i] = int(node), int(d)
+        if not 1 <= out[i, 1] <= 6:
+            extra = " (0 is temperature: flexmor needs a mechanical model)" if out[i, 1] == 0 else ""
+            raise ReadError(path, f"direction {out[i, 1]} is not one of 1..6{extra}", i + 1)
+    return out
+
+
+def _options(card: str) -> tuple[str, dict]:
+    """Split a keyword line ``*NSET, NSET=A, GENERATE`` into ``('NSET', {'NSET': 'A', 'GENERATE': ''})``."""
+    parts = [p.strip() for p in card.lstrip("*").split(",")]
+    opts = {}
+    for p in parts[1:]:
+        if p:
+            key, _, val = p.partition("=")
+            opts[key.strip().upper()] = val.strip()
+    return parts[0].upper(), opts
+
+
+def read_inp(path, _depth: int = 0, _state: dict | None = None):
+    """Read the node table and node sets of a CalculiX/Abaqus-style input deck.
+
+    Only ``*NODE`` and ``*NSET`` (with ``GENERATE`` and set names as members) and
+    ``*INCLUDE, INPUT=...`` are interpreted; everything else is skipped.
+
+    Returns
+    -------
+    node_ids : ndarray of int64, shape (n_nodes,)
+    xyz : ndarray of float64, shape (n_nodes, 3)
+    node_sets : dict of str to ndarray of int64
+        Upper-case names.
+
+    Raises
+    ------
+    ReadError
+        For malformed node lines, duplicate node ids, unreadable includes or set members
+        that are no node.
+    """
+    path = Path(path)
+    top = _state is None
+    st = _state if _state is not None else {"ids": [], "xyz": [], "where": {}, "sets": {}, "set_lines": []}
+    text = read_text(path)
+    block, opts, cur_set = None, {}, None
+    for lineno, raw in enumerate(text.splitlines(), 1):
+        s = raw.strip()
+        if not s or s.startswith("**"):
+            continue
+        if s.startswith("*"):
+            block, opts = _options(s)
+            cur_set = None
+            if block == "NODE" and opts.get("NSET"):
+                cur_set = opts["NSET"].upper()
+                st["sets"].setdefault(cur_set, [])
+            elif block == "NSET":
+                if not opts.get("NSET"):
+                    raise ReadError(path, "*NSET without NSET=name", lineno)
+                cur_set = opts["NSET"].upper()
+                st["sets"].setdefault(cur_set, [])
+            elif block == "INCLUDE":
+                inc = opts.get("INPUT", "").strip("\"'")
+                if not inc:
+                    raise ReadError(path, "*INCLUDE without INPUT=file", lineno)
+                if _depth >= _MAX_INCLUDE_DEPTH:
+                    raise ReadError(path, f"*INCLUDE nested deeper than {_MAX_INCLUDE_DEPTH} levels", lineno)
+                inc_path = (path.parent / inc) if not Path(inc).is_absolute() else Path(inc)
+                if not inc_path.exists():
+                    raise ReadError(path, f"included file {inc} not found", lineno)
+                read_inp(inc_path, _depth + 1, st)
+            continue
+        if block == "NODE":
+            _node_line(path, lineno, s, st, cur_set)
+        elif block == "NSET":
+            _nset_line(path, lineno, s, st, cur_set, "GENERATE" in opts)
+    if not top:
+        return None
+    ids = np.asarray(st["ids"], dtype=np.int64)
+    xyz = np.asarray(st["xyz"], dtype=np.float64).reshape(-1, 3)
+    known = np.sort(ids)
+    for name, lp, lno, members in st["set_lines"]:
+        bad = members[~np.isin(members, known)]
+        if bad.size:
+            raise ReadError(lp, f"node set {name} names node {bad[0]}, which no *NODE line defines", lno)
+    sets = {}
+    for name, members in st["sets"].items():
+        arr = np.unique(np.asarray(members, dtype=np.int64))
+        if arr.size == 0:
+            log.warning("%s: node set %s is empty", path, name)
+        sets[name] = arr
+    return ids, xyz, sets
+
+
+def _node_line(path, lineno, s, st, cur_set):
+    parts = [p.strip() for p in s.split(",")]
+    if parts and parts[-1] == "":
+        parts.pop()
+    if not 2 <= len(parts) <= 4:
+        raise ReadError(path, f"expected 'id, x, y, z' in *NODE, got {s[:60]!r}", lineno)
+    try:
+        nid = int(parts[0])
+        c = [float(p.replace("D", "E").replace("d", "e")) for p in parts[1:]]
+    except ValueError:
+        raise ReadError(path, f"non-numeric node line {s[:60]!r}", lineno) from None
+    if not np.all(np.isfinite(c)):
+        raise ReadError(path, f"node {nid} has a non-finite coordinate", lineno)
+    if nid in st["where"]:
+        p0, l0 = st["where"][nid]
+        raise ReadError(path, f"node {nid} defined twice (first at {Path(p0).name}:{l0})", lineno)
+    st["where"][nid] = (str(path), lineno)
+    st["ids"].append(nid)
+    st["xyz"].append(c + [0.0] * (3 - len(c)))
+    if cur_set is not None:
+        st["sets"][cur_set].append(nid)
+
+
+def _nset_line(path, lineno, s, st, cur_set, generate):
+    toks = [t.strip() for t in s.split(",") if t.strip()]
+    if generate:
+        try:
+            vals = [int(t) for t in toks]
+        except ValueError:
+            raise ReadError(path, f"GENERATE expects 'first, last, step', got {s[:60]!r}", lineno) from None
+        if len(vals) == 2:
+            vals.append(1)
+        if len(vals) != 3 or vals[2] <= 0 or vals[1] < vals[0]:
+            raise ReadError(path, "GENERATE expects 'first, last, step' with first <= last and step > 0, "
+                                  f"got {s[:60]!r}", lineno)
+        members = np.arange(vals[0], vals[1] + 1, vals[2], dtype=np.int64)
+    else:
+        ids = []
+        for t in toks:
+            if t.lstrip("-").isdigit():
+                ids.append(int(t))
+            elif t.upper() in st["sets"] and t.upper() != cur_set:
+                ids.extend(st["sets"][t.upper()])
+            else:
+                raise ReadError(path, f"*NSET member {t!r} is neither a node number nor a known node set", lineno)
+        members = np.asarray(ids, dtype=np.int64)
+    st["sets"][cur_set].extend(members.tolist())
+    st["set_lines"].append((cur_set, path, lineno, members))
+
+
+def _read_upper(path: Path, n: int) -> sp.csr_matrix:
+    """Read one upper-triangular CalculiX matrix file and return the full symmetric matrix."""
+    r, c, v = parse_triplets(path, one_based=True, n=n)
+    lower = np.flatnonzero(r > c)
+    if lower.size:
+        k = int(lower[0])
+        raise ReadError(path, f"entry ({r[k] + 1}, {c[k] + 1}) lies below the diagonal; CalculiX "
+                              "writes the upper triangle only, so the file is damaged or not from CalculiX",
+                        entry_line(path, k))
+    key = c * np.int64(n) + r
+    if not np.all(key[1:] > key[:-1]):  # CalculiX writes column by column; other orders are checked by sorting
+        order = np.argsort(key, kind="stable")
+        dup = np.flatnonzero(key[order][1:] == key[order][:-1])
+        if dup.size:
+            k = int(order[dup[0] + 1])
+            first = int(order[dup[0]])
+            raise ReadError(path, f"entry ({r[k] + 1}, {c[k] + 1}) appears twice (also on line "
+                                  f"{entry_line(path, first)}); the file is damaged", entry_line(path, k))
+    off = r != c
+    rows = np.concatenate([r, c[off]])
+    cols = np.concatenate([c, r[off]])
+    vals = np.concatenate([v, v[off]])
+    return sp.csr_matrix((vals, (rows, cols)), shape=(n, n))
+
+
+def read_calculix(path) -> "FEModel":  # noqa: F821
+    """Read a CalculiX ``.sti`` file with its ``.mas``, ``.dof`` and ``.inp`` siblings.
+
+    Parameters
+    ----------
+    path : str or path-like
+        The stiffness file ``<job>.sti``.
+
+    Returns
+    -------
+    FEModel
+        Full symmetric ``M`` and ``K``, node table and node sets from the ``.inp``, the
+        equation map from the ``.dof``; ``name`` is the file stem.
+
+    Raises
+    ------
+    ReadError
+        Missing sibling files, malformed lines (with line number), lower-triangle or
+        duplicate entries, equations on nodes the ``.inp`` does not define.
+    """
+    path = Path(path)
+    if path.suffix.lower() in (".mas", ".dof", ".inp"):
+        raise ReadError(path, f"pass the stiffness file {path.stem}.sti; the other files are found beside it")
+    _sniff(path)
+    mas = _sibling(path, ".mas", "mass matrix")
+    dof_path = _sibling(path, ".dof", "equation map")
+    inp = path.with_suffix(".inp")
+    if not inp.exists():
+        raise ReadError(inp, f"not found; the input deck with the nodes (*NODE) must lie beside {path.name}")
+    dofs = read_dof(dof_path)
+    n = dofs.shape[0]
+    _sniff(mas)
+    K = _read_upper(path, n)
+    M = _read_upper(mas, n)
+    node_ids, xyz, sets = read_inp(inp)
+    known = np.isin(dofs[:, 0], node_ids)
+    if not np.all(known):
+        i = int(np.flatnonzero(~known)[0])
+        raise ReadError(dof_path, f"equation {i + 1} is on node {dofs[i, 0]}, which {inp.name} does not define; "
+                                  "are the .dof and .inp from the same job?", i + 1)
+    return build_model(
+        path,
+        roles={"M": mas, "K": path},
+        M=M, K=K, node_ids=node_ids, xyz=xyz, dofs=dofs, node_sets=sets,
+        name=path.stem, source=str(path),
+    )
+
+
+register_format("calculix", [".sti"], reader=read_calculix,
+                description="CalculiX *FREQUENCY, SOLVER=MATRIXSTORAGE export (.sti + .mas + .dof + .inp)")

@@ -1,0 +1,186 @@
+"""Reader of mass/stiffness pairs in Matrix Market format (``.mtx``, ``.mm``).
+
+A model is two (or three) Matrix Market files in one folder, told apart by the end of the
+file stem (case-insensitive); the part before it, ``<base>``, is the same for all of them
+and may end in a separator such as ``_``:
+
+=========  ==============================================
+stiffness  ``<base>K``, ``<base>STIF``, ``<base>STIFF``, ``<base>STIFFNESS``
+mass       ``<base>M``, ``<base>MASS``
+damping    ``<base>D``, ``<base>DAMP``, ``<base>DAMPING`` (optional)
+=========  ==============================================
+
+e.g. ``rotor_K.mtx`` + ``rotor_M.mtx`` (+ ``rotor_D.mtx``), or ``plate_stiffness.mm`` +
+``plate_mass.mm``. The whole words may also stand inside the stem, as in Ansys' export
+``rotorStiffnessMatrix.txt`` + ``rotorMassMatrix.txt`` (read with ``format="matrix-market"``).
+Pass either the stiffness or the mass file; the other is found beside it (with the same
+suffix, ``.mtx`` or ``.mm``). Symmetric storage (one triangle) is expanded by
+:func:`scipy.io.mmread`. The model has no node table and no equation map.
+"""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import numpy as np
+import scipy.io
+import scipy.sparse as sp
+
+from ..errors import ReadError
+from . import register_format
+from ._text import build_model
+
+__all__ = ["read_matrix_market", "find_siblings"]
+
+_SUFFIXES = (".mtx", ".mm")
+#: Stem endings of each role, longest first within a role.
+_TAGS = {
+    "K": ("stiffness", "stiff", "stif", "k"),
+    "M": ("mass", "m"),
+    "D": ("damping", "damp", "d"),
+}
+_ROLE_NAME = {"K": "stiffness", "M": "mass", "D": "damping"}
+_LINE_MSG = re.compile(r"^\s*Line\s+(\d+)\s*:\s*(.*)$", re.S)
+
+
+def _role_of(stem: str):
+    """All ``(role, head, tail)`` readings of a file stem (``stem = head + tag + tail``).
+
+    Tags at the end of the stem come first (longest first), then the full words
+    (``stiffness``, ``mass``) inside the stem, as in ``rotorMassMatrix``.
+    """
+    low = stem.lower()
+    found = [(1, len(t), role, stem[: len(stem) - len(t)], "") for role in ("K", "M") for t in _TAGS[role]
+             if low.endswith(t)]
+    for role, word in (("K", "stiffness"), ("M", "mass")):
+        i = low.rfind(word)
+        if i >= 0 and i + len(word) < len(low):
+            found.append((0, len(word), role, stem[:i], stem[i + len(word):]))
+    return [(role, head, tail) for *_, role, head, tail in sorted(found, key=lambda f: (-f[0], -f[1]))]
+
+
+def find_siblings(path) -> dict:
+    """Find the stiffness, mass and (optional) damping files that belong with ``path``.
+
+    Returns
+    -------
+    dict
+        ``{"K": Path, "M": Path}`` and ``"D"`` when a damping file exists.
+
+    Raises
+    ------
+    ReadError
+        When the name does not follow the naming rule or a partner file is missing.
+    """
+    path = Path(path)
+    readings = _role_of(path.stem)
+    if not readings and any(path.stem.lower().endswith(t) for t in _TAGS["D"]):
+        raise ReadError(path, "this looks like the damping matrix; pass the stiffness or mass file, "
+                              "the damping file is found beside it")
+    if not readings:
+        raise ReadError(path, "cannot tell stiffness from mass by the name; name the files "
+                              "<base>_K.mtx and <base>_M.mtx (see flexmor.io.matrix_market)")
+    listing = {p.name.lower(): p for p in path.parent.iterdir() if p.is_file()}
+    suffixes = tuple(dict.fromkeys((path.suffix.lower(),) + _SUFFIXES))
+    tried = []
+    for role, head, tail in readings:
+        other = "M" if role == "K" else "K"
+        found = {role: path}
+        for want in (other, "D"):
+            for tag in _TAGS[want]:
+                if tail and len(tag) < 4:
+                    continue  # inside a stem only whole words are swapped
+                for suf in suffixes:
+                    name = head + (tag.upper() if len(tag) == 1 else tag) + tail + suf
+                    if want == other:
+                        tried.append(name)
+                    if name.lower() in listing and listing[name.lower()] != path:
+                        found.setdefault(want, listing[name.lower()])
+        if other in found:
+            return found
+    role = readings[0][0]
+    other = "mass" if role == "K" else "stiffness"
+    raise ReadError(path, f"read as the {_ROLE_NAME[role]} matrix, but no {other} file beside it; looked for "
+                          f"{', '.join(dict.fromkeys(tried))}")
+
+
+def _check_header(path: Path) -> None:
+    try:
+        with open(path, "rb") as f:
+            head = f.readline(200)
+    except OSError as exc:
+        raise ReadError(path, f"cannot read: {exc.strerror}") from None
+    if not head.strip():
+        raise ReadError(path, "file is empty" if path.stat().st_size == 0 else "first line is blank", 1)
+    words = head.decode("latin-1").lower().split()
+    if not words or words[0] != "%%matrixmarket":
+        raise ReadError(path, "not a Matrix Market file (first line must start with %%MatrixMarket); "
+                              "plain 'row col value' files (Abaqus *MATRIX GENERATE) need another --format", 1)
+    if len(words) < 5 or words[1] != "matrix" or words[2] not in ("coordinate", "array"):
+        raise ReadError(path, f"unsupported Matrix Market header {head.strip()[:80]!r}; expected "
+                              "'%%MatrixMarket matrix coordinate|array real|integer general|symmetric'", 1)
+    if words[3] not in ("real", "integer", "double"):
+        raise ReadError(path, f"field '{words[3]}' is not supported; flexmor needs real matrices", 1)
+    if words[4] not in ("general", "symmetric"):
+        raise ReadError(path, f"symmetry '{words[4]}' is not supported; use general or symmetric", 1)
+
+
+def _read_one(path: Path, role: str) -> sp.csr_matrix:
+    _check_header(path)
+    try:
+        A = scipy.io.mmread(str(path))
+    except Exception as exc:  # noqa: BLE001 - any parser failure is a malformed file
+        msg = str(exc).strip() or type(exc).__name__
+        m = _LINE_MSG.match(msg)
+        if m:
+            raise ReadError(path, f"malformed Matrix Market data: {m.group(2)}", int(m.group(1))) from None
+        raise ReadError(path, f"malformed Matrix Market file: {msg}") from None
+    A = sp.csr_matrix(A, dtype=np.float64)
+    if A.shape[0] != A.shape[1]:
+        raise ReadError(path, f"{_ROLE_NAME[role]} matrix is {A.shape[0]} x {A.shape[1]}, expected square")
+    bad = ~np.isfinite(A.data)
+    if np.any(bad):
+        coo = A.tocoo()
+        k = int(np.flatnonzero(~np.isfinite(coo.data))[0])
+        raise ReadError(path, f"non-finite value {coo.data[k]} at ({coo.row[k] + 1}, {coo.col[k] + 1})")
+    return A
+
+
+def read_matrix_market(path) -> "FEModel":  # noqa: F821
+    """Read a stiffness/mass (/damping) triple of Matrix Market files.
+
+    Parameters
+    ----------
+    path : str or path-like
+        The stiffness or the mass file; see the module docstring for the naming rule.
+
+    Returns
+    -------
+    FEModel
+        ``M``, ``K`` and ``D`` if present; no nodes. ``name`` is the common base of the
+        file names.
+
+    Raises
+    ------
+    ReadError
+        Missing partner file, bad header or data (with line number where the parser knows
+        it), non-square, non-finite or asymmetric matrices, sizes that disagree.
+    """
+    path = Path(path)
+    _check_header(path)
+    files = find_siblings(path)
+    mats = {role: _read_one(p, role) for role, p in files.items()}
+    _, head, tail = _role_of(files["K"].stem)[0]
+    base = (head.rstrip("_-. ") + tail) or files["K"].parent.name or "model"
+    return build_model(
+        path,
+        roles=files,
+        M=mats["M"], K=mats["K"], D=mats.get("D"),
+        damping={"type": "given"} if "D" in mats else {"type": "none"},
+        name=base, source=str(path),
+    )
+
+
+register_format("matrix-market", [".mtx", ".mm"], reader=read_matrix_market,
+                description="Matrix Market pair <base>_K.mtx + <base>_M.mtx (+ <base>_D.mtx)")
