@@ -1,0 +1,260 @@
+"""The ``flexmor`` command line. The only module that prints or exits.
+
+Exit codes: 0 success, 2 bad input (a one-line ``flexmor: error: ...`` on stderr naming the
+file and line where there is one), 130 interrupted.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import logging
+import math
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+from . import __version__
+from .errors import FlexmorError
+
+__all__ = ["main"]
+
+
+def _clean(x):
+    """JSON-safe copy: arrays to lists, NaN/Inf to None."""
+    if isinstance(x, dict):
+        return {str(k): _clean(v) for k, v in x.items()}
+    if isinstance(x, (list, tuple)):
+        return [_clean(v) for v in x]
+    if isinstance(x, np.ndarray):
+        return _clean(x.tolist())
+    if isinstance(x, np.generic):
+        x = x.item()
+    if isinstance(x, float) and not math.isfinite(x):
+        return None
+    return x
+
+
+def _emit_json(obj) -> None:
+    print(json.dumps(_clean(obj), indent=None))
+
+
+def _progress(args, desc: str):
+    """A ``progress(iterable, total)`` wrapper: tqdm on a terminal, nothing under --json."""
+    if getattr(args, "json", False) or not sys.stderr.isatty():
+        return None
+    try:
+        from tqdm import tqdm
+    except ImportError:
+        return None
+    return lambda it, total: tqdm(it, total=total, desc=desc, unit="freq", leave=False)
+
+
+def _fmt(x, spec=".3e"):
+    return "-" if x is None else format(x, spec)
+
+
+def _read_model(args):
+    from .io import read
+    from .workflow import apply_damping, parse_band, parse_pair
+
+    t0 = time.perf_counter()
+    model = read(args.model, format=args.format)
+    t_read = time.perf_counter() - t0
+    band = parse_band(args.band) if getattr(args, "band", None) else None
+    rayleigh = parse_pair(args.rayleigh, "--rayleigh") if getattr(args, "rayleigh", None) else None
+    model = apply_damping(model, rayleigh=rayleigh, modal_damping=getattr(args, "modal_damping", None), band=band)
+    return model, t_read, band
+
+
+# -- info --------------------------------------------------------------------------------------
+def cmd_info(args) -> int:
+    from .linalg import available_backends
+    from .linalg.eigen import eigenmodes, frequencies_hz, rigid_body_threshold
+
+    model, t_read, _ = _read_model(args)
+    out = model.summary()
+    out["backends"] = available_backends()
+    if args.modes:
+        k = min(args.modes, model.n_dof)
+        lam, _ = eigenmodes(model.K, model.M, k, backend=args.backend)
+        out["frequencies_hz"] = frequencies_hz(lam).tolist()
+        out["n_rigid"] = int(np.sum(lam < rigid_body_threshold(model.K, model.M)))
+    out["timings"] = {"read": t_read}
+    if args.json:
+        _emit_json(out)
+        return 0
+    print(f"model     {model.name}  ({model.source})")
+    print(f"DOF       {model.n_dof}    nodes {model.n_nodes}    nnz(K) {model.K.nnz}")
+    print(f"damping   {model.damping}")
+    if model.node_sets:
+        print("node sets " + ", ".join(f"{k} ({v.size})" for k, v in model.node_sets.items()))
+    print(f"backends  {', '.join(out['backends'])}")
+    if args.modes:
+        print(f"\n mode   frequency [Hz]   ({out['n_rigid']} rigid-body modes)")
+        for i, f in enumerate(out["frequencies_hz"], 1):
+            tag = "  rigid" if i <= out["n_rigid"] else ""
+            print(f"{i:5d}   {f:14.6f}{tag}")
+    return 0
+
+
+# -- reduce ------------------------------------------------------------------------------------
+def cmd_reduce(args) -> int:
+    from .io.hdf5 import write_reduced
+    from .ports import make_ports
+    from .workflow import DEFAULT_BAND, reduce_and_judge
+
+    model, t_read, band = _read_model(args)
+    ports = make_ports(model, args.input, args.output)
+    band = None if args.no_error else (band or DEFAULT_BAND)
+    red, res = reduce_and_judge(model, args.method, args.order, ports, band=band, n_freq=args.n_freq,
+                                backend=args.backend, progress=_progress(args, "full FRF"),
+                                interface=args.interface or None)
+    res["timings"]["read"] = t_read
+    path = Path(args.output_file or f"{model.name}_{args.method}_{red.order}.h5")
+    write_reduced(red, path)
+    res["file"] = str(path)
+    if args.json:
+        _emit_json(res)
+        return 0
+    print(f"{args.method}: order {red.order}, {res['seconds']:.3f} s (basis + projection)")
+    if res["band_hz"]:
+        print(f"band {res['band_hz'][0]:g}-{res['band_hz'][1]:g} Hz: band_error {_fmt(res['band_error'])}, "
+              f"max_rel_error {_fmt(res['max_rel_error'])}")
+    fr = res["frequencies_hz"]
+    print("reduced frequencies [Hz]: " + " ".join(f"{f:.4g}" for f in fr[:12]) + (" ..." if len(fr) > 12 else ""))
+    print(f"written {path}")
+    return 0
+
+
+# -- compare -----------------------------------------------------------------------------------
+def cmd_compare(args) -> int:
+    from .analysis.compare import FullResponse
+    from .io.hdf5 import read_reduced
+    from .ports import make_ports
+    from .workflow import DEFAULT_BAND
+
+    model, t_read, band = _read_model(args)
+    band = band or DEFAULT_BAND
+    reds = [read_reduced(p) for p in args.reduced]
+    fulls, rows = {}, []
+    for path, red in zip(args.reduced, reds):
+        if red.D is not None and model.D is None and red.damping.get("type") == "rayleigh":
+            model = model.with_rayleigh(red.damping["alpha"], red.damping["beta"])
+        key = (tuple(red.input_names), tuple(red.output_names))
+        if key not in fulls:
+            fulls[key] = FullResponse(model, make_ports(model, *key), band, n=args.n_freq, backend=args.backend,
+                                      progress=_progress(args, "full FRF"))
+        err = fulls[key].evaluate(red)
+        rows.append({"file": str(path), "method": red.method, "order": red.order, "band_hz": list(band),
+                     "band_error": err["band_error"], "max_rel_error": err["max_rel_error"]})
+    if args.json:
+        _emit_json({"model": model.name, "band_hz": list(band), "results": rows})
+        return 0
+    _table(rows)
+    return 0
+
+
+def _table(rows) -> None:
+    print(f"{'method':<16}{'order':>6}{'band_error':>13}{'max_rel_error':>15}{'seconds':>10}")
+    for r in rows:
+        print(f"{r['method']:<16}{r['order']:>6}{_fmt(r['band_error']):>13}{_fmt(r['max_rel_error']):>15}"
+              f"{_fmt(r.get('seconds'), '.3f'):>10}")
+
+
+# -- demo --------------------------------------------------------------------------------------
+def cmd_demo(args) -> int:
+    from .workflow import run_demo
+
+    if not args.json:
+        print("flexmor demo: built-in steel cantilever 1 x 0.1 x 0.1 m, clamped at x = 0")
+    res = run_demo(args.out, n=args.n, progress=_progress(args, "full FRF"),
+                   on_result=None if args.json else (lambda r: print(f"  reduced {r['method']} r={r['order']}")))
+    if args.json:
+        _emit_json(res)
+        return 0
+    m = res["model"]
+    print(f"model {m['name']}: {m['n_dof']} DOF; band {res['band_hz'][0]:g}-{res['band_hz'][1]:g} Hz, "
+          f"{res['n_freq']} frequencies, full FRF {res['full_frf_seconds']:.2f} s\n")
+    _table(res["results"])
+    print(f"\nreduced bodies and {res['plot']} written to {args.out}/")
+    return 0
+
+
+# -- parser ------------------------------------------------------------------------------------
+def _add_model_args(p, damping=True):
+    p.add_argument("model", help="main file of the FE export (format from the suffix)")
+    p.add_argument("--format", help="override the format chosen from the suffix")
+    p.add_argument("--backend", default="auto", help="sparse solver: auto, pardiso, cholmod, scipy")
+    p.add_argument("--json", action="store_true", help="print one JSON object on stdout")
+    if damping:
+        p.add_argument("--band", metavar="FMIN:FMAX", help="frequency band in Hz (default 1:1000)")
+        p.add_argument("--rayleigh", metavar="ALPHA:BETA", help="Rayleigh damping D = alpha M + beta K (1/s, s)")
+        p.add_argument("--modal-damping", metavar="ZETA", type=float,
+                       help="damping ratio; realized as Rayleigh damping with this ratio at both band ends")
+        p.add_argument("--n-freq", type=int, default=200, help="log-spaced base points of the error grid")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    from .reduction import METHODS, _load_builtin
+
+    _load_builtin()
+    ap = argparse.ArgumentParser(prog="flexmor", description="Model order reduction of elastic bodies for EMBS.")
+    ap.add_argument("--version", action="version", version=f"flexmor {__version__}")
+    ap.add_argument("-v", "--verbose", action="count", default=0, help="log more (-vv: debug)")
+    sub = ap.add_subparsers(dest="command", required=True)
+
+    p = sub.add_parser("demo", help="reduce the built-in cantilever with several methods")
+    p.add_argument("--out", default="demo-output", help="output directory (default demo-output)")
+    p.add_argument("--n", type=int, default=4, help="elements through the beam height (model size)")
+    p.add_argument("--json", action="store_true", help="print one JSON object on stdout")
+    p.set_defaults(func=cmd_demo)
+
+    p = sub.add_parser("info", help="sizes, checks and lowest eigenfrequencies of a model")
+    _add_model_args(p, damping=False)
+    p.add_argument("--modes", type=int, default=0, help="number of lowest eigenfrequencies to compute")
+    p.set_defaults(func=cmd_info)
+
+    p = sub.add_parser("reduce", help="reduce a model and write the reduced body (.h5)")
+    _add_model_args(p)
+    p.add_argument("--method", required=True, choices=sorted(METHODS), help="reduction method")
+    p.add_argument("--order", type=int, help="reduced order r")
+    p.add_argument("--input", action="append", default=[], metavar="SPEC", help="input NODE:DIR or SET:DIR")
+    p.add_argument("--output", action="append", default=[], metavar="SPEC", help="output NODE:DIR or SET:DIR")
+    p.add_argument("--interface", action="append", default=[], metavar="SPEC", help="interface NODE, SET, SET:DIR")
+    p.add_argument("-o", "--output-file", metavar="FILE", help="reduced body file (.h5)")
+    p.add_argument("--no-error", action="store_true", help="skip the error evaluation against the full model")
+    p.set_defaults(func=cmd_reduce)
+
+    p = sub.add_parser("compare", help="error measures of reduced bodies against the full model")
+    _add_model_args(p)
+    p.add_argument("reduced", nargs="+", help="reduced body files (.h5)")
+    p.set_defaults(func=cmd_compare)
+    return ap
+
+
+def main(argv=None) -> int:
+    """Run the command line; returns the exit code."""
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    level = [logging.WARNING, logging.INFO, logging.DEBUG][min(args.verbose, 2)]
+    logging.basicConfig(level=level, format="%(levelname)s %(name)s: %(message)s")
+    logging.captureWarnings(True)
+    try:
+        return args.func(args)
+    except FlexmorError as exc:
+        print(f"flexmor: error: {exc}", file=sys.stderr)
+        return 2
+    except MemoryError:
+        print("flexmor: error: out of memory; try a faster backend (--backend pardiso) or a smaller model",
+              file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("flexmor: interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())

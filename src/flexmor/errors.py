@@ -1,0 +1,76 @@
+"""Exception and warning classes of flexmor.
+
+Every error that a user can cause (a bad file, a bad option, a model that a method cannot
+handle) is raised as a subclass of :class:`FlexmorError`, with a one-line message that names
+the file (and line) where there is one. The command line turns these into exit code 2.
+"""
+
+from __future__ import annotations
+
+__all__ = [
+    "FlexmorError",
+    "ReadError",
+    "ModelError",
+    "PortError",
+    "SolverError",
+    "ConvergenceError",
+    "OptionError",
+    "FlexmorWarning",
+]
+
+
+class FlexmorError(Exception):
+    """Base class of all errors raised by flexmor for bad input or failed computations."""
+
+
+class ReadError(FlexmorError):
+    """A file could not be read: missing, malformed, or not of the expected format.
+
+    Parameters
+    ----------
+    path : str or path-like
+        The file concerned.
+    message : str
+        What is wrong (and, where possible, what to do).
+    line : int, optional
+        1-based line number in the file, when the problem is on a line.
+    """
+
+    def __init__(self, path, message: str, line: int | None = None):
+        self.path = str(path)
+        self.line = line
+        self.reason = message
+        where = f"{self.path}:{line}" if line is not None else self.path
+        super().__init__(f"{where}: {message}")
+
+
+class ModelError(FlexmorError):
+    """The finite-element model is inconsistent (shapes, symmetry, non-finite values, ...)."""
+
+
+class PortError(FlexmorError):
+    """An input, output or interface specification does not match the model."""
+
+
+class SolverError(FlexmorError):
+    """A linear solver failed (singular matrix, backend not available, out of memory)."""
+
+
+class ConvergenceError(FlexmorError):
+    """An iterative method did not converge."""
+
+
+class OptionError(FlexmorError, ValueError):
+    """An option has a value that is not allowed; the message lists the allowed ones."""
+
+
+class FlexmorWarning(UserWarning):
+    """Warnings about legal but noteworthy situations (rigid-body modes, singular mass, ...)."""
+
+
+def check_choice(name: str, value: str, allowed) -> str:
+    """Return `value` if it is one of `allowed`, else raise :class:`OptionError` listing them."""
+    allowed = list(allowed)
+    if value not in allowed:
+        raise OptionError(f"{name}={value!r} is not allowed; choose one of: {', '.join(map(str, allowed))}")
+    return value

@@ -1,0 +1,269 @@
+"""The finite-element model container :class:`FEModel`.
+
+A model is the second-order system ``M q'' + D q' + K q = B u`` with sparse symmetric
+``M`` (positive definite), ``K`` (positive semi-definite) and optional ``D``, plus the
+geometry needed to address degrees of freedom by node and direction:
+
+* ``node_ids`` (n_nodes,) and ``xyz`` (n_nodes, 3): the node table, coordinates in the
+  length unit of the FE file (flexmor never converts units);
+* ``dofs`` (n_dof, 2): for each equation, the node id and the direction code
+  1..6 = x, y, z, rx, ry, rz;
+* ``node_sets``: named sets of node ids.
+
+Files without geometry (MATLAB benchmarks) may instead carry their own input and output
+matrices ``B`` (n_dof, m) and ``C`` (p, n_dof).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.sparse as sp
+
+from .errors import ModelError
+
+__all__ = ["FEModel", "DIRECTIONS", "direction_code", "direction_name"]
+
+#: Direction names and their codes in ``FEModel.dofs[:, 1]``.
+DIRECTIONS = {"x": 1, "y": 2, "z": 3, "rx": 4, "ry": 5, "rz": 6}
+_DIR_NAMES = {v: k for k, v in DIRECTIONS.items()}
+
+#: Relative tolerance of the symmetry check ``max|A - A^T| <= tol * max|A|``.
+SYMMETRY_RTOL = 1e-8
+
+
+def direction_code(name: str) -> int:
+    """Return the code 1..6 of a direction name (``x y z rx ry rz``, case-insensitive)."""
+    try:
+        return DIRECTIONS[name.strip().lower()]
+    except KeyError:
+        raise ModelError(f"unknown direction {name!r}; use one of: {' '.join(DIRECTIONS)}") from None
+
+
+def direction_name(code: int) -> str:
+    """Return the name (``x`` ... ``rz``) of a direction code 1..6."""
+    return _DIR_NAMES.get(int(code), str(code))
+
+
+def _as_csr(name: str, A, n: int | None = None) -> sp.csr_matrix:
+    if A is None:
+        return None
+    if not sp.issparse(A):
+        A = np.asarray(A)
+        if A.ndim != 2:
+            raise ModelError(f"{name} must be a 2-D matrix, got shape {A.shape}")
+    A = sp.csr_matrix(A)
+    if not np.issubdtype(A.dtype, np.floating):
+        if np.issubdtype(A.dtype, np.complexfloating):
+            raise ModelError(f"{name} is complex; flexmor needs real matrices")
+        A = A.astype(np.float64)
+    A.sum_duplicates()
+    return A
+
+
+def _check_square_symmetric(name: str, A: sp.csr_matrix, n: int) -> None:
+    if A.shape != (n, n):
+        raise ModelError(f"{name} has shape {A.shape}, expected ({n}, {n}) like M")
+    if not np.all(np.isfinite(A.data)):
+        bad = int(np.count_nonzero(~np.isfinite(A.data)))
+        raise ModelError(f"{name} contains {bad} non-finite entries (NaN or Inf)")
+    scale = float(np.max(np.abs(A.data))) if A.nnz else 0.0
+    if scale == 0.0:
+        return
+    R = (A - A.T).tocoo()
+    if R.nnz:
+        k = int(np.argmax(np.abs(R.data)))
+        asym = abs(float(R.data[k]))
+        if asym > SYMMETRY_RTOL * scale:
+            raise ModelError(
+                f"{name} is not symmetric: |{name}[{R.row[k] + 1},{R.col[k] + 1}] - "
+                f"{name}[{R.col[k] + 1},{R.row[k] + 1}]| = {asym:.3g} > {SYMMETRY_RTOL:g} * max|{name}| "
+                f"(1-based equation numbers)"
+            )
+
+
+@dataclass
+class FEModel:
+    """A linear finite-element model of one elastic body.
+
+    Parameters
+    ----------
+    M, K : sparse matrix, shape (n_dof, n_dof)
+        Mass and stiffness matrices (symmetric; stored in full, CSR).
+    D : sparse matrix, optional
+        Damping matrix. See :meth:`with_rayleigh` for proportional damping.
+    node_ids : ndarray of int, shape (n_nodes,)
+        Node numbers as in the FE file.
+    xyz : ndarray of float, shape (n_nodes, 3)
+        Node coordinates (length unit of the FE file).
+    dofs : ndarray of int, shape (n_dof, 2), optional
+        Equation map: node id and direction code 1..6 (x y z rx ry rz) of each equation.
+    node_sets : dict of str to ndarray of int
+        Named node sets (node ids). Names are stored upper-case.
+    B, C : sparse matrix, optional
+        Input (n_dof, m) and output (p, n_dof) matrices delivered with the model file.
+    input_names, output_names : list of str
+        Names of the columns of ``B`` and rows of ``C``.
+    name : str
+        Short model name. ``source`` is the file it was read from.
+    damping : dict
+        How ``D`` was obtained, e.g. ``{"type": "rayleigh", "alpha": .., "beta": ..}``.
+
+    Raises
+    ------
+    ModelError
+        On inconsistent shapes, non-finite values, asymmetric matrices or a mass diagonal
+        that is not positive.
+    """
+
+    M: sp.csr_matrix
+    K: sp.csr_matrix
+    D: sp.csr_matrix | None = None
+    node_ids: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
+    xyz: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
+    dofs: np.ndarray | None = None
+    node_sets: dict = field(default_factory=dict)
+    B: sp.csr_matrix | None = None
+    C: sp.csr_matrix | None = None
+    input_names: list = field(default_factory=list)
+    output_names: list = field(default_factory=list)
+    name: str = "model"
+    source: str = ""
+    damping: dict = field(default_factory=lambda: {"type": "none"})
+
+    def __post_init__(self):
+        self.M = _as_csr("M", self.M)
+        self.K = _as_csr("K", self.K)
+        self.D = _as_csr("D", self.D)
+        if self.M.shape[0] != self.M.shape[1]:
+            raise ModelError(f"M must be square, got shape {self.M.shape}")
+        n = self.M.shape[0]
+        if n == 0:
+            raise ModelError("the model has no degrees of freedom")
+        for nm, A in (("M", self.M), ("K", self.K), ("D", self.D)):
+            if A is not None:
+                _check_square_symmetric(nm, A, n)
+        dm = self.M.diagonal()
+        if np.any(dm <= 0):
+            i = int(np.flatnonzero(dm <= 0)[0])
+            raise ModelError(
+                f"mass matrix diagonal is not positive at {np.count_nonzero(dm <= 0)} equation(s), "
+                f"first: {self.describe_dof(i)} (M = {dm[i]:.3g})"
+            )
+        dk = self.K.diagonal()
+        if np.any(dk < 0):
+            i = int(np.flatnonzero(dk < 0)[0])
+            raise ModelError(f"stiffness matrix has a negative diagonal entry at {self.describe_dof(i)}")
+        self._check_geometry(n)
+        self._check_io(n)
+
+    # -- validation -------------------------------------------------------------------------
+    def _check_geometry(self, n: int) -> None:
+        self.node_ids = np.asarray(self.node_ids, dtype=np.int64).reshape(-1)
+        self.xyz = np.asarray(self.xyz, dtype=np.float64).reshape(-1, 3)
+        if self.xyz.shape[0] != self.node_ids.size:
+            raise ModelError(f"{self.node_ids.size} node ids but {self.xyz.shape[0]} coordinate rows")
+        if not np.all(np.isfinite(self.xyz)):
+            raise ModelError("node coordinates contain NaN or Inf")
+        if np.unique(self.node_ids).size != self.node_ids.size:
+            raise ModelError("node ids are not unique")
+        self._node_index = {int(k): i for i, k in enumerate(self.node_ids)}
+        if self.dofs is not None:
+            self.dofs = np.asarray(self.dofs, dtype=np.int64).reshape(-1, 2)
+            if self.dofs.shape[0] != n:
+                raise ModelError(f"the equation map has {self.dofs.shape[0]} rows but the matrices have {n}")
+            if np.any((self.dofs[:, 1] < 1) | (self.dofs[:, 1] > 6)):
+                raise ModelError("equation map has direction codes outside 1..6")
+            if self.node_ids.size:
+                known = np.isin(self.dofs[:, 0], self.node_ids)
+                if not np.all(known):
+                    i = int(np.flatnonzero(~known)[0])
+                    raise ModelError(f"equation {i + 1} refers to node {self.dofs[i, 0]}, which is not in the node table")
+            key = self.dofs[:, 0] * 8 + self.dofs[:, 1]
+            if np.unique(key).size != n:
+                raise ModelError("the equation map names a (node, direction) pair twice")
+            self._dof_index = {(int(a), int(b)): i for i, (a, b) in enumerate(self.dofs)}
+        else:
+            self._dof_index = {}
+        sets = {}
+        for name, ids in self.node_sets.items():
+            ids = np.asarray(ids, dtype=np.int64).reshape(-1)
+            if self.node_ids.size:
+                unknown = ids[~np.isin(ids, self.node_ids)]
+                if unknown.size:
+                    raise ModelError(f"node set {name!r} names unknown node {unknown[0]}")
+            sets[str(name).upper()] = ids
+        self.node_sets = sets
+
+    def _check_io(self, n: int) -> None:
+        if self.B is not None:
+            self.B = _as_csr("B", self.B)
+            if self.B.shape[0] != n:
+                raise ModelError(f"B has {self.B.shape[0]} rows, expected {n}")
+            if not self.input_names:
+                self.input_names = [f"u{i + 1}" for i in range(self.B.shape[1])]
+        if self.C is not None:
+            self.C = _as_csr("C", self.C)
+            if self.C.shape[1] != n:
+                raise ModelError(f"C has {self.C.shape[1]} columns, expected {n}")
+            if not self.output_names:
+                self.output_names = [f"y{i + 1}" for i in range(self.C.shape[0])]
+        for nm, A in (("B", self.B), ("C", self.C)):
+            if A is not None and not np.all(np.isfinite(A.data)):
+                raise ModelError(f"{nm} contains NaN or Inf")
+
+    # -- queries ----------------------------------------------------------------------------
+    @property
+    def n_dof(self) -> int:
+        """Number of equations (degrees of freedom)."""
+        return self.M.shape[0]
+
+    @property
+    def n_nodes(self) -> int:
+        """Number of nodes in the node table."""
+        return int(self.node_ids.size)
+
+    def describe_dof(self, i: int) -> str:
+        """Human-readable name of equation ``i`` (0-based), e.g. ``'equation 7 (node 3, y)'``."""
+        if self.dofs is not None and getattr(self, "dofs", None) is not None and len(self.dofs) > i:
+            nd, d = self.dofs[i]
+            return f"equation {i + 1} (node {nd}, {direction_name(d)})"
+        return f"equation {i + 1}"
+
+    def dof_index(self, node: int, direction: int) -> int:
+        """Equation index (0-based) of ``(node, direction)``; ``KeyError`` when absent."""
+        return self._dof_index[(int(node), int(direction))]
+
+    def has_node(self, node: int) -> bool:
+        """True if ``node`` is in the node table."""
+        return int(node) in self._node_index
+
+    def node_xyz(self, nodes) -> np.ndarray:
+        """Coordinates (k, 3) of the given node ids."""
+        return self.xyz[[self._node_index[int(k)] for k in np.atleast_1d(nodes)]]
+
+    def summary(self) -> dict:
+        """Sizes and properties as a plain dict (used by ``flexmor info``)."""
+        return {
+            "name": self.name,
+            "source": self.source,
+            "n_dof": self.n_dof,
+            "n_nodes": self.n_nodes,
+            "nnz_M": int(self.M.nnz),
+            "nnz_K": int(self.K.nnz),
+            "damping": self.damping,
+            "node_sets": {k: int(v.size) for k, v in self.node_sets.items()},
+            "inputs": list(self.input_names),
+            "outputs": list(self.output_names),
+        }
+
+    # -- derived models ---------------------------------------------------------------------
+    def with_rayleigh(self, alpha: float, beta: float) -> "FEModel":
+        """Return a copy with Rayleigh damping ``D = alpha M + beta K`` (alpha in 1/s, beta in s)."""
+        alpha, beta = float(alpha), float(beta)
+        if not (np.isfinite(alpha) and np.isfinite(beta)) or alpha < 0 or beta < 0:
+            raise ModelError(f"Rayleigh coefficients must be finite and >= 0, got alpha={alpha}, beta={beta}")
+        D = (alpha * self.M + beta * self.K).tocsr()
+        return dataclasses.replace(self, D=D, damping={"type": "rayleigh", "alpha": alpha, "beta": beta})

@@ -1,0 +1,162 @@
+"""Inputs, outputs and interfaces of a model, addressed by node and direction.
+
+A port SPEC is a string:
+
+``NODE:DIR``
+    one node id and a direction ``x y z rx ry rz`` (e.g. ``42:y``);
+``SET:DIR``
+    a node set of the model (e.g. ``TIP:y``). As an **input**, a unit total force is
+    spread over the set with equal weights ``1/k`` on each of its ``k`` nodes; as an
+    **output**, the displacement is averaged with the same weights (an RBE3-like
+    distributing coupling with uniform weights, so ``C = B^T`` for the same SPEC). Nodes of
+    the set whose direction is constrained (removed from the equations) keep their weight:
+    their displacement is zero and their share of the force goes into the support.
+``SET`` or ``NODE`` (interfaces only)
+    all directions of the set's (node's) nodes that are equations of the model.
+
+Models read with their own ``B``/``C`` (MATLAB benchmarks) use those when no SPEC is given.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+
+from .errors import PortError
+from .model import DIRECTIONS, FEModel, direction_code
+
+__all__ = ["Ports", "make_ports", "interface_dofs", "parse_spec"]
+
+
+@dataclass
+class Ports:
+    """Input matrix ``B`` (n_dof, m), output matrix ``C`` (p, n_dof) and their names/specs."""
+
+    B: sp.csr_matrix
+    C: sp.csr_matrix
+    input_names: list
+    output_names: list
+
+    @property
+    def n_inputs(self) -> int:
+        return self.B.shape[1]
+
+    @property
+    def n_outputs(self) -> int:
+        return self.C.shape[0]
+
+
+def parse_spec(spec: str):
+    """Split a SPEC into ``(target, direction code or None)``."""
+    spec = str(spec).strip()
+    if not spec:
+        raise PortError("empty port specification")
+    if ":" in spec:
+        target, d = spec.rsplit(":", 1)
+        if d.strip().lower() not in DIRECTIONS:
+            raise PortError(f"port {spec!r}: unknown direction {d!r}; use one of: {' '.join(DIRECTIONS)}")
+        return target.strip(), direction_code(d)
+    return spec, None
+
+
+def _nodes_of(model: FEModel, target: str, spec: str) -> np.ndarray:
+    if target.upper() in model.node_sets:
+        nodes = model.node_sets[target.upper()]
+        if nodes.size == 0:
+            raise PortError(f"port {spec!r}: node set {target!r} is empty")
+        return nodes
+    try:
+        node = int(target)
+    except ValueError:
+        sets = ", ".join(sorted(model.node_sets)) or "none"
+        raise PortError(f"port {spec!r}: {target!r} is neither a node id nor a node set (sets: {sets})") from None
+    if model.dofs is None:
+        raise PortError(f"port {spec!r}: the model has no equation map, so nodes cannot be addressed")
+    if model.n_nodes and not model.has_node(node):
+        raise PortError(f"port {spec!r}: node {node} is not in the model")
+    return np.array([node], dtype=np.int64)
+
+
+def _weights(model: FEModel, spec: str):
+    """Equation indices and weights (summing to 1 over the set) of a ``NODE:DIR``/``SET:DIR``."""
+    target, d = parse_spec(spec)
+    if d is None:
+        raise PortError(f"port {spec!r}: give a direction, e.g. {target}:y")
+    nodes = _nodes_of(model, target, spec)
+    if model.dofs is None:
+        raise PortError(f"port {spec!r}: the model has no equation map")
+    idx = []
+    for nd in nodes:
+        try:
+            idx.append(model.dof_index(nd, d))
+        except KeyError:
+            continue
+    if not idx:
+        what = f"node {nodes[0]}" if nodes.size == 1 else f"set {target!r}"
+        raise PortError(f"port {spec!r}: {what} has no free equation in direction {spec.rsplit(':', 1)[1]} "
+                        "(constrained or not a DOF of this model)")
+    return np.asarray(idx), np.full(len(idx), 1.0 / nodes.size)
+
+
+def _matrix(model: FEModel, specs) -> sp.csr_matrix:
+    cols = [_weights(model, s) for s in specs]
+    rows = np.concatenate([c[0] for c in cols])
+    vals = np.concatenate([c[1] for c in cols])
+    jj = np.concatenate([np.full(len(c[0]), j) for j, c in enumerate(cols)])
+    return sp.csr_matrix((vals, (rows, jj)), shape=(model.n_dof, len(specs)))
+
+
+def make_ports(model: FEModel, inputs=(), outputs=()) -> Ports:
+    """Build ``B`` and ``C`` from port SPECs.
+
+    Parameters
+    ----------
+    model : FEModel
+    inputs, outputs : sequence of str
+        SPECs (see module docstring). Without inputs the model's own ``B`` is used; without
+        outputs the model's own ``C``, or else the outputs equal the inputs (collocated).
+
+    Returns
+    -------
+    Ports
+
+    Raises
+    ------
+    PortError
+        Unknown node, set or direction, or no inputs at all.
+    """
+    inputs, outputs = list(inputs or []), list(outputs or [])
+    if inputs:
+        B, in_names = _matrix(model, inputs), inputs
+    elif model.B is not None:
+        B, in_names = model.B, list(model.input_names)
+    else:
+        raise PortError("no inputs: give at least one --input NODE:DIR or SET:DIR")
+    if outputs:
+        C, out_names = _matrix(model, outputs).T.tocsr(), outputs
+    elif model.C is not None:
+        C, out_names = model.C, list(model.output_names)
+    elif inputs:
+        C, out_names = B.T.tocsr(), list(in_names)
+    else:
+        raise PortError("no outputs: give at least one --output NODE:DIR or SET:DIR")
+    return Ports(B=sp.csr_matrix(B), C=sp.csr_matrix(C), input_names=list(in_names), output_names=list(out_names))
+
+
+def interface_dofs(model: FEModel, specs) -> np.ndarray:
+    """Sorted equation indices of interface SPECs (``NODE``, ``SET``, ``NODE:DIR``, ``SET:DIR``)."""
+    if model.dofs is None:
+        raise PortError("the model has no equation map, so interfaces cannot be defined")
+    out = set()
+    for spec in specs:
+        target, d = parse_spec(spec)
+        nodes = _nodes_of(model, target, spec)
+        found = np.flatnonzero(np.isin(model.dofs[:, 0], nodes) & ((model.dofs[:, 1] == d) if d else True))
+        if found.size == 0:
+            raise PortError(f"interface {spec!r} has no free equations (all constrained?)")
+        out.update(found.tolist())
+    if not out:
+        raise PortError("no interface given: use --interface NODE, SET or SET:DIR")
+    return np.array(sorted(out), dtype=np.int64)

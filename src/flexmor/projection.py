@@ -1,0 +1,116 @@
+"""The one projection path: ``project(model, basis, ports) -> ReducedModel``.
+
+Galerkin (one-sided) projection keeps the reduced body a mechanical second-order system
+with symmetric ``Mr``, ``Kr`` that a multibody code accepts::
+
+    Mr = V^T M V,  Dr = V^T D V,  Kr = V^T K V,  Br = V^T B,  Cr = C V,   q ≈ V qr
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.linalg as sla
+
+from . import __version__
+from .basis import Basis
+from .errors import ModelError
+from .model import FEModel
+from .ports import Ports
+
+__all__ = ["ReducedModel", "project"]
+
+
+def _sym(A: np.ndarray) -> np.ndarray:
+    return 0.5 * (A + A.T)
+
+
+@dataclass
+class ReducedModel:
+    """A reduced elastic body ``Mr qr'' + Dr qr' + Kr qr = Br u``, ``y = Cr qr``.
+
+    Attributes
+    ----------
+    M, K : ndarray, shape (r, r)
+        Reduced mass and stiffness (symmetric).
+    D : ndarray, shape (r, r) or None
+        Reduced damping.
+    B : ndarray, shape (r, m)
+    C : ndarray, shape (p, r)
+    V : ndarray, shape (n_dof, r) or None
+        The basis (mode shapes at the equations ``dofs``), for expansion and export.
+    method, info
+        Method name and its parameters / diagnostics.
+    input_names, output_names : list of str
+        Port SPECs (or names) of the inputs and outputs.
+    node_ids, xyz, dofs
+        Node table and equation map of the full model.
+    model_name : str
+        Name of the full model; ``errors`` holds error measures once evaluated.
+    """
+
+    M: np.ndarray
+    K: np.ndarray
+    D: np.ndarray | None
+    B: np.ndarray
+    C: np.ndarray
+    V: np.ndarray | None = None
+    method: str = ""
+    info: dict = field(default_factory=dict)
+    input_names: list = field(default_factory=list)
+    output_names: list = field(default_factory=list)
+    node_ids: np.ndarray | None = None
+    xyz: np.ndarray | None = None
+    dofs: np.ndarray | None = None
+    model_name: str = ""
+    damping: dict = field(default_factory=lambda: {"type": "none"})
+    errors: dict = field(default_factory=dict)
+    version: str = __version__
+
+    @property
+    def order(self) -> int:
+        """Reduced dimension r."""
+        return int(self.M.shape[0])
+
+    def eigenvalues(self) -> np.ndarray:
+        """Eigenvalues ``omega^2`` of ``(Kr, Mr)``, ascending."""
+        return sla.eigh(self.K, self.M, eigvals_only=True)
+
+    def frequencies_hz(self) -> np.ndarray:
+        """Undamped eigenfrequencies in Hz (round-off negatives reported as 0)."""
+        lam = self.eigenvalues()
+        return np.sqrt(np.clip(lam, 0.0, None)) / (2 * np.pi)
+
+
+def project(model: FEModel, basis: Basis, ports: Ports) -> ReducedModel:
+    """Galerkin projection of ``model`` onto ``basis``; the one path used by every method.
+
+    Parameters
+    ----------
+    model : FEModel
+    basis : Basis
+        ``basis.V`` of shape (n_dof, r).
+    ports : Ports
+        Inputs and outputs; projected to ``Br = V^T B`` and ``Cr = C V``.
+
+    Returns
+    -------
+    ReducedModel
+    """
+    V = np.asarray(basis.V, dtype=float)
+    if V.ndim != 2 or V.shape[0] != model.n_dof:
+        raise ModelError(f"basis has shape {V.shape}, expected ({model.n_dof}, r)")
+    if V.shape[1] == 0:
+        raise ModelError(f"method {basis.method!r} produced an empty basis")
+    Mr = _sym(V.T @ (model.M @ V))
+    Kr = _sym(V.T @ (model.K @ V))
+    Dr = _sym(V.T @ (model.D @ V)) if model.D is not None else None
+    Br = np.asarray((ports.B.T @ V).T)
+    Cr = np.asarray(ports.C @ V)
+    return ReducedModel(
+        M=Mr, K=Kr, D=Dr, B=Br, C=Cr, V=V, method=basis.method, info=dict(basis.info),
+        input_names=list(ports.input_names), output_names=list(ports.output_names),
+        node_ids=model.node_ids, xyz=model.xyz, dofs=model.dofs, model_name=model.name,
+        damping=dict(model.damping),
+    )

@@ -1,0 +1,67 @@
+"""Guyan (static) condensation onto interface degrees of freedom."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..basis import Basis
+from ..errors import OptionError
+from ..linalg import factorize
+from ..ports import interface_dofs
+from . import register_method
+
+
+def constraint_modes(model, interface, backend: str = "auto"):
+    """Static constraint modes of the interface DOFs.
+
+    Returns ``(V, b, i, F)``: the basis ``V`` (n_dof, n_b) with ``V[b] = I`` and
+    ``V[i] = -K_ii^{-1} K_ib``, the interface and interior equation indices, and the
+    factorization ``F`` of ``K_ii`` (for reuse, e.g. by fixed-interface modes).
+    """
+    if not interface:
+        raise OptionError("this method needs an interface: --interface NODE, SET or SET:DIR")
+    b = interface_dofs(model, interface)
+    mask = np.ones(model.n_dof, bool)
+    mask[b] = False
+    i = np.flatnonzero(mask)
+    if i.size == 0:
+        raise OptionError("every DOF is an interface DOF; nothing to condense")
+    K = model.K.tocsr()
+    Kii = K[i][:, i]
+    Kib = K[i][:, b]
+    F = factorize(Kii, backend, symmetric=True, positive=True)
+    V = np.zeros((model.n_dof, b.size))
+    V[b, np.arange(b.size)] = 1.0
+    V[i] = -F.solve(Kib.toarray())
+    return V, b, i, F
+
+
+@register_method("guyan", "static condensation onto the interface DOFs")
+def guyan(model, ports, order, *, interface=None, backend: str = "auto") -> Basis:
+    """Guyan reduction: the static constraint modes of the interface DOFs.
+
+    Parameters
+    ----------
+    model : FEModel
+    ports : Ports
+        Unused by the basis.
+    order : int or None
+        Must equal the number of interface DOFs if given.
+    interface : list of str
+        Interface SPECs (``NODE``, ``SET``, ``NODE:DIR``, ``SET:DIR``).
+    backend : str
+        Backend of :func:`flexmor.linalg.factorize` for ``K_ii``.
+
+    Returns
+    -------
+    Basis
+        Exact for static loads at the interface DOFs.
+
+    References
+    ----------
+    Guyan, R. J. (1965). Reduction of stiffness and mass matrices. AIAA Journal 3(2), 380.
+    """
+    V, b, _, _ = constraint_modes(model, interface, backend)
+    if order is not None and order != b.size:
+        raise OptionError(f"guyan's order is the number of interface DOFs ({b.size}), not {order}")
+    return Basis(V, "guyan", {"n_interface_dofs": int(b.size)})

@@ -1,0 +1,75 @@
+"""Modal truncation: the lowest free (or constrained) eigenmodes of the body."""
+
+from __future__ import annotations
+
+import logging
+import warnings
+
+import numpy as np
+
+from ..basis import Basis
+from ..errors import FlexmorWarning, OptionError, check_choice
+from ..linalg.eigen import eigenmodes, frequencies_hz, rigid_body_threshold
+from . import register_method
+
+log = logging.getLogger(__name__)
+
+
+def rigid_split(lam, K, M):
+    """Boolean mask of eigenvalues that belong to rigid-body modes (see ``rigid_body_threshold``)."""
+    return np.asarray(lam) < rigid_body_threshold(K, M)
+
+
+@register_method("modal", "lowest eigenmodes (rigid-body modes excluded by default)", survives_coupling=False)
+def modal(model, ports, order, *, rigid: str = "exclude", sigma: float | None = None, backend: str = "auto") -> Basis:
+    """Modal truncation basis: the ``order`` lowest mass-normalized eigenmodes.
+
+    Parameters
+    ----------
+    model : FEModel
+    ports : Ports
+        Unused by the basis (modes do not depend on inputs); kept for the common signature.
+    order : int
+        Number of modes r.
+    rigid : {'exclude', 'include'}
+        Rigid-body modes (eigenvalue below :func:`flexmor.linalg.eigen.rigid_body_threshold`)
+        of a free body are excluded by default: the floating frame of reference describes
+        rigid motion; their number is reported in ``info['n_rigid']``.
+    sigma : float, optional
+        Shift of the shift-invert Lanczos solver (default: negative, model-scaled).
+    backend : str
+        Backend of :func:`flexmor.linalg.factorize`.
+
+    Returns
+    -------
+    Basis
+        ``info`` holds ``frequencies_hz`` of the kept modes and ``n_rigid``.
+
+    References
+    ----------
+    Craig, R. R., Kurdila, A. J. (2006). Fundamentals of Structural Dynamics, 2nd ed.,
+    Wiley, ch. 11 (modal truncation).
+    """
+    check_choice("rigid", rigid, ["exclude", "include"])
+    if order is None:
+        raise OptionError("modal needs --order")
+    n = model.n_dof
+    if order > n:
+        raise OptionError(f"order {order} exceeds the number of DOF {n}")
+    extra = 6 if rigid == "exclude" else 0
+    while True:
+        k = min(n, order + extra)
+        lam, phi = eigenmodes(model.K, model.M, k, sigma=sigma, backend=backend)
+        is_rb = rigid_split(lam, model.K, model.M)
+        n_rb = int(is_rb.sum())
+        if rigid == "include" or k - n_rb >= order or k == n:
+            break
+        extra = n_rb + 6
+    if n_rb > 6:
+        warnings.warn(f"{n_rb} zero-frequency modes found (more than 6 rigid-body modes): "
+                      "the model is a mechanism or has unconnected parts", FlexmorWarning, stacklevel=2)
+    keep = ~is_rb if rigid == "exclude" else np.ones(lam.size, bool)
+    lam, phi = lam[keep][:order], phi[:, keep][:, :order]
+    if lam.size < order:
+        raise OptionError(f"only {lam.size} flexible modes exist; order {order} is too large")
+    return Basis(phi, "modal", {"n_rigid": n_rb, "rigid": rigid, "frequencies_hz": frequencies_hz(lam).tolist()})

@@ -1,0 +1,44 @@
+"""Shared fixtures: the real CalculiX beam exports in tests/data and their reference values."""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+DATA = Path(__file__).parent / "data"
+CCX = DATA / "calculix"
+
+
+def calculix_frequencies(dat_path) -> np.ndarray:
+    """Eigenfrequencies (Hz) that CalculiX wrote into its ``.dat`` file (CYCLES/TIME column)."""
+    text = Path(dat_path).read_text()
+    block = text.split("E I G E N V A L U E   O U T P U T")[1].split("P A R T I C I P A T I O N")[0]
+    rows = [ln.split() for ln in block.splitlines() if re.match(r"^\s+\d+\s+[-\d.]", ln)]
+    return np.array([float(r[3]) for r in rows])
+
+
+@pytest.fixture(scope="session")
+def clamped():
+    from flexmor.io import read
+
+    return read(CCX / "beam8_clamped_mat.sti")
+
+
+@pytest.fixture(scope="session")
+def free():
+    from flexmor.io import read
+
+    return read(CCX / "beam8_free_mat.sti")
+
+
+@pytest.fixture(scope="session")
+def clamped_ref():
+    return calculix_frequencies(CCX / "beam8_clamped_freq.dat")
+
+
+@pytest.fixture(scope="session")
+def free_ref():
+    return calculix_frequencies(CCX / "beam8_free_freq.dat")

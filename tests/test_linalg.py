@@ -1,0 +1,62 @@
+"""The factorization layer and the eigen solver on real FE matrices."""
+
+import numpy as np
+import pytest
+import scipy.sparse as sp
+
+from flexmor.errors import OptionError, SolverError
+from flexmor.linalg import available_backends, eigenmodes, factorize
+from flexmor.linalg import eigen as eigen_mod
+
+BACKENDS = available_backends()
+
+
+@pytest.mark.parametrize("backend", BACKENDS)
+def test_solve_block_and_vector(clamped, backend):
+    K = clamped.K
+    rng = np.random.default_rng(1)
+    B = rng.standard_normal((K.shape[0], 7))
+    F = factorize(K, backend, positive=True)
+    assert F.backend == backend
+    X = F.solve(B)
+    assert np.linalg.norm(K @ X - B) / np.linalg.norm(B) < 1e-10
+    x = F.solve(B[:, 0])
+    assert x.shape == (K.shape[0],)
+    np.testing.assert_allclose(x, X[:, 0], rtol=1e-10, atol=0)
+    z = F.solve(B[:, 0] + 1j * B[:, 1])
+    np.testing.assert_allclose(z.imag, X[:, 1], rtol=1e-10, atol=1e-20)
+
+
+def test_backends_agree(clamped):
+    b = np.ones(clamped.n_dof)
+    xs = [factorize(clamped.K, name, positive=True).solve(b) for name in BACKENDS]
+    for x in xs[1:]:
+        assert np.linalg.norm(x - xs[0]) / np.linalg.norm(xs[0]) < 1e-10
+
+
+def test_complex_shifted_matrix(clamped):
+    w = 2 * np.pi * 150.0
+    A = (clamped.K - w**2 * clamped.M + 1j * w * 1e-5 * clamped.K).tocsr()
+    b = np.ones(clamped.n_dof)
+    x = factorize(A).solve(b)
+    assert np.linalg.norm(A @ x - b) / np.linalg.norm(b) < 1e-10
+
+
+@pytest.mark.parametrize("backend", BACKENDS)
+def test_singular_matrix_is_refused(free, backend):
+    with pytest.raises(SolverError, match="singular"):
+        factorize(free.K, backend)
+
+
+def test_unknown_backend_lists_choices():
+    with pytest.raises(OptionError, match="pardiso"):
+        factorize(sp.identity(3, format="csr"), "nonsense")
+
+
+def test_lanczos_matches_dense(free, monkeypatch):
+    lam_dense, _ = eigenmodes(free.K, free.M, 12)
+    monkeypatch.setattr(eigen_mod, "DENSE_LIMIT", 10)
+    lam, phi = eigenmodes(free.K, free.M, 12)
+    np.testing.assert_allclose(lam[6:], lam_dense[6:], rtol=1e-9)
+    assert np.all(np.abs(lam[:6]) < 1e-6 * lam[6])  # rigid-body modes
+    np.testing.assert_allclose(phi.T @ (free.M @ phi), np.eye(12), atol=1e-9)
