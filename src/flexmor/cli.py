@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from . import __version__
-from .errors import FlexmorError
+from .errors import ConvergenceError, FlexmorError, ModelError, SolverError
 
 __all__ = ["main"]
 
@@ -245,7 +245,11 @@ def main(argv=None) -> int:
     try:
         return args.func(args)
     except FlexmorError as exc:
-        print(f"flexmor: error: {exc}", file=sys.stderr)
+        msg = str(exc)
+        model = getattr(args, "model", None)
+        if model and isinstance(exc, (ModelError, SolverError, ConvergenceError)) and str(model) not in msg:
+            msg = f"{model}: {msg}"  # problems found after reading still name the file
+        print(f"flexmor: error: {msg}", file=sys.stderr)
         return 2
     except MemoryError:
         print("flexmor: error: out of memory; try a faster backend (--backend pardiso) or a smaller model",

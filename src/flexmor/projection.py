@@ -75,7 +75,10 @@ class ReducedModel:
 
     def eigenvalues(self) -> np.ndarray:
         """Eigenvalues ``omega^2`` of ``(Kr, Mr)``, ascending."""
-        return sla.eigh(self.K, self.M, eigvals_only=True)
+        try:
+            return sla.eigh(self.K, self.M, eigvals_only=True)
+        except np.linalg.LinAlgError:
+            raise ModelError("the reduced mass matrix is not positive definite") from None
 
     def frequencies_hz(self) -> np.ndarray:
         """Undamped eigenfrequencies in Hz (round-off negatives reported as 0)."""

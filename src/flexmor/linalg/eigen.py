@@ -9,7 +9,7 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 from scipy.sparse.linalg import ArpackNoConvergence, LinearOperator, eigsh
 
-from ..errors import ConvergenceError, OptionError
+from ..errors import ConvergenceError, ModelError, OptionError
 from .factorize import factorize
 
 __all__ = ["eigenmodes", "default_shift", "rigid_body_threshold", "frequencies_hz", "DENSE_LIMIT"]
@@ -79,7 +79,10 @@ def eigenmodes(K, M, k: int, *, sigma: float | None = None, backend: str = "auto
     if k < 1 or k > n:
         raise OptionError(f"number of modes must be between 1 and {n}, got {k}")
     if n <= DENSE_LIMIT or k >= n // 2:
-        lam, phi = sla.eigh(_dense(K), _dense(M))
+        try:
+            lam, phi = sla.eigh(_dense(K), _dense(M))
+        except np.linalg.LinAlgError:
+            raise ModelError("the mass matrix is not positive definite") from None
         lam, phi = lam[:k], phi[:, :k]
     else:
         if sigma is None:

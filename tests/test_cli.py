@@ -1,0 +1,123 @@
+"""The command-line contract of DESIGN.md, on the real CalculiX exports."""
+
+import json
+import shutil
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+from conftest import CCX
+
+from flexmor.cli import main
+
+CLAMPED = str(CCX / "beam8_clamped_mat.sti")
+FREE = str(CCX / "beam8_free_mat.sti")
+
+
+def run_json(capsys, *argv):
+    assert main(list(argv)) == 0
+    return json.loads(capsys.readouterr().out)
+
+
+def test_info_clamped_matches_calculix(capsys, clamped_ref):
+    out = run_json(capsys, "info", CLAMPED, "--modes", "10", "--json")
+    assert out["n_dof"] == 270 and out["n_nodes"] == 99
+    np.testing.assert_allclose(out["frequencies_hz"], clamped_ref[:10], rtol=1e-5)
+    assert out["n_rigid"] == 0
+
+
+def test_info_free_shows_rigid_modes(capsys, free_ref):
+    out = run_json(capsys, "info", FREE, "--modes", "12", "--json")
+    assert out["n_rigid"] == 6
+    f = np.array(out["frequencies_hz"])
+    assert np.all(f[:6] < 1e-2)
+    np.testing.assert_allclose(f[6:9], [620.672, 620.672, 1610.433], rtol=1e-5)
+    np.testing.assert_allclose(f[6:], free_ref[6:12], rtol=1e-5)
+    assert main(["info", FREE, "--modes", "8"]) == 0
+    text = capsys.readouterr().out
+    assert text.count("rigid") == 7 and "620.67" in text
+
+
+def test_reduce_json_and_compare(capsys, tmp_path):
+    body = tmp_path / "cb.h5"
+    out = run_json(capsys, "reduce", CLAMPED, "--method", "craig-bampton", "--order", "33", "--interface", "TIP",
+                   "--input", "TIP:y", "--band", "10:3000", "--rayleigh", "0:1e-6", "-o", str(body), "--json")
+    for key in ("method", "order", "seconds", "band_hz", "band_error", "max_rel_error", "frequencies_hz", "timings"):
+        assert key in out
+    assert out["order"] == 33 and out["band_hz"] == [10, 3000]
+    assert 0 < out["band_error"] < 1
+    assert set(out["timings"]) >= {"read", "factorize", "basis", "project", "error"}
+    assert body.exists()
+    modal = tmp_path / "modal.h5"
+    out2 = run_json(capsys, "reduce", CLAMPED, "--method", "modal", "--order", "8", "--input", "TIP:y",
+                    "--band", "10:3000", "--rayleigh", "0:1e-6", "-o", str(modal), "--json")
+    assert out2["band_error"] < 1e-5
+    cmp = run_json(capsys, "compare", CLAMPED, str(body), str(modal), "--band", "10:3000", "--json")
+    errs = [r["band_error"] for r in cmp["results"]]
+    np.testing.assert_allclose(errs, [out["band_error"], out2["band_error"]], rtol=1e-10)
+
+
+def _copy_beam(tmp_path):
+    for ext in ("sti", "mas", "dof", "inp"):
+        shutil.copy(CCX / f"beam8_clamped_mat.{ext}", tmp_path / f"b.{ext}")
+    return tmp_path / "b.sti"
+
+
+def _edit(path, lineno, new):
+    lines = path.read_text().splitlines(keepends=True)
+    lines[lineno - 1] = new
+    path.write_text("".join(lines))
+
+
+BAD = {
+    "missing file": (lambda p: p.unlink(), "b.sti: file not found"),
+    "missing sibling": (lambda p: p.with_suffix(".mas").unlink(), "b.mas"),
+    "truncated line": (lambda p: _edit(p, 5, "2 3\n"), "b.sti:5"),
+    "non-numeric": (lambda p: _edit(p, 7, "3 3 abc\n"), "b.sti:7"),
+    "index out of range": (lambda p: _edit(p, 9, "3 999 1.0\n"), "b.sti:9"),
+    "NaN": (lambda p: _edit(p, 3, "2 2 nan\n"), "b.sti:3"),
+    "indefinite mass": (lambda p: p.with_suffix(".mas").write_text(
+        p.with_suffix(".mas").read_text().replace("1 2  0.0000000000000e+00", "1 2  9.0e+03", 1)),
+        "b.sti: the mass matrix is not positive definite"),
+}
+
+
+def test_non_symmetric_exit_2(capsys, tmp_path):
+    from conftest import DATA
+
+    out = tmp_path / "o.h5"
+    code = main(["reduce", str(DATA / "bad" / "asym_K.mtx"), "--method", "modal", "--order", "2", "--input", "1:x",
+                 "-o", str(out)])
+    err = capsys.readouterr().err.strip()
+    assert code == 2 and "asym_K.mtx" in err and "not symmetric" in err and len(err.splitlines()) == 1
+    assert not out.exists()
+
+
+@pytest.mark.parametrize("case", list(BAD))
+def test_bad_input_exit_2_one_line(case, tmp_path, capsys):
+    sti = _copy_beam(tmp_path)
+    mutate, expect = BAD[case]
+    mutate(sti)
+    out = tmp_path / "out.h5"
+    code = main(["reduce", str(sti), "--method", "modal", "--order", "4", "--input", "TIP:y", "-o", str(out)])
+    err = capsys.readouterr().err.strip()
+    assert code == 2
+    assert len(err.splitlines()) == 1 and expect in err and "Traceback" not in err, err
+    assert not out.exists()
+
+
+@pytest.mark.parametrize("spec,msg", [("12345:y", "node 12345"), ("NOSET:y", "NOSET")])
+def test_bad_port_exit_2(spec, msg, tmp_path, capsys):
+    out = tmp_path / "out.h5"
+    code = main(["reduce", CLAMPED, "--method", "modal", "--order", "4", "--input", spec, "-o", str(out)])
+    err = capsys.readouterr().err.strip()
+    assert code == 2 and msg in err and len(err.splitlines()) == 1
+    assert not out.exists()
+
+
+def test_console_script_exit_code(tmp_path):
+    r = subprocess.run([sys.executable, "-m", "flexmor", "info", str(tmp_path / "nope.sti")],
+                       capture_output=True, text=True)
+    assert r.returncode == 2
+    assert r.stderr.strip() == f"flexmor: error: {tmp_path / 'nope.sti'}: file not found"
