@@ -9,7 +9,6 @@ from __future__ import annotations
 import argparse
 import json
 import logging
-import math
 import sys
 import time
 from pathlib import Path
@@ -18,27 +17,13 @@ import numpy as np
 
 from . import __version__
 from .errors import ConvergenceError, FlexmorError, ModelError, SolverError
+from .jsonutil import jsonable
 
 __all__ = ["main"]
 
 
-def _clean(x):
-    """JSON-safe copy: arrays to lists, NaN/Inf to None."""
-    if isinstance(x, dict):
-        return {str(k): _clean(v) for k, v in x.items()}
-    if isinstance(x, (list, tuple)):
-        return [_clean(v) for v in x]
-    if isinstance(x, np.ndarray):
-        return _clean(x.tolist())
-    if isinstance(x, np.generic):
-        x = x.item()
-    if isinstance(x, float) and not math.isfinite(x):
-        return None
-    return x
-
-
 def _emit_json(obj) -> None:
-    print(json.dumps(_clean(obj), indent=None))
+    print(json.dumps(jsonable(obj, finite=True)))
 
 
 def _progress(args, desc: str):
@@ -72,7 +57,7 @@ def _read_model(args):
 # -- info --------------------------------------------------------------------------------------
 def cmd_info(args) -> int:
     from .linalg import available_backends
-    from .linalg.eigen import eigenmodes, frequencies_hz, rigid_body_threshold
+    from .linalg.eigen import eigenmodes, frequencies_hz, is_rigid
 
     model, t_read, _ = _read_model(args)
     out = model.summary()
@@ -81,7 +66,7 @@ def cmd_info(args) -> int:
         k = min(args.modes, model.n_dof)
         lam, _ = eigenmodes(model.K, model.M, k, backend=args.backend)
         out["frequencies_hz"] = frequencies_hz(lam).tolist()
-        out["n_rigid"] = int(np.sum(lam < rigid_body_threshold(model.K, model.M)))
+        out["n_rigid"] = int(np.sum(is_rigid(lam, model.K, model.M)))
     out["timings"] = {"read": t_read}
     if args.json:
         _emit_json(out)

@@ -13,23 +13,12 @@ import json
 import numpy as np
 
 from ..errors import ReadError
+from ..jsonutil import jsonable
 from . import atomic_write, register_format
 
 FORMAT_TAG = "flexmor-reduced"
 _ARRAYS = ("M", "K", "D", "B", "C", "V", "node_ids", "xyz", "dofs")
 _JSON = ("info", "damping", "errors", "input_names", "output_names")
-
-
-def _jsonable(x):
-    if isinstance(x, dict):
-        return {str(k): _jsonable(v) for k, v in x.items()}
-    if isinstance(x, (list, tuple)):
-        return [_jsonable(v) for v in x]
-    if isinstance(x, np.ndarray):
-        return x.tolist()
-    if isinstance(x, np.generic):
-        return x.item()
-    return x
 
 
 def write_reduced(red, path) -> None:
@@ -49,7 +38,7 @@ def write_reduced(red, path) -> None:
                 if val is not None:
                     h.create_dataset(name, data=np.asarray(val), compression="gzip" if np.size(val) > 4096 else None)
             for name in _JSON:
-                h.attrs[name] = json.dumps(_jsonable(errors if name == "errors" else getattr(red, name)))
+                h.attrs[name] = json.dumps(jsonable(errors if name == "errors" else getattr(red, name)))
             if "rel_error" in red.errors and "freqs_hz" in red.errors:
                 g = h.create_group("errors")
                 g.create_dataset("freqs_hz", data=np.asarray(red.errors["freqs_hz"]))

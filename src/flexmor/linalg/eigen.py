@@ -12,7 +12,7 @@ from scipy.sparse.linalg import ArpackNoConvergence, LinearOperator, eigsh
 from ..errors import ConvergenceError, ModelError, OptionError
 from .factorize import factorize
 
-__all__ = ["eigenmodes", "default_shift", "rigid_body_threshold", "frequencies_hz", "DENSE_LIMIT"]
+__all__ = ["eigenmodes", "default_shift", "rigid_body_threshold", "is_rigid", "frequencies_hz", "DENSE_LIMIT"]
 
 log = logging.getLogger(__name__)
 
@@ -39,6 +39,11 @@ def rigid_body_threshold(K, M) -> float:
     computed rigid-body eigenvalues many orders of magnitude lower.
     """
     return 1e-4 * abs(default_shift(K, M))
+
+
+def is_rigid(lam, K, M) -> np.ndarray:
+    """Boolean mask of the eigenvalues ``lam`` that belong to rigid-body modes."""
+    return np.asarray(lam) < rigid_body_threshold(K, M)
 
 
 def eigenmodes(K, M, k: int, *, sigma: float | None = None, backend: str = "auto", tol: float = 0.0,

@@ -9,15 +9,10 @@ import numpy as np
 
 from ..basis import Basis
 from ..errors import FlexmorWarning, OptionError, check_choice
-from ..linalg.eigen import eigenmodes, frequencies_hz, rigid_body_threshold
+from ..linalg.eigen import eigenmodes, frequencies_hz, is_rigid
 from . import register_method
 
 log = logging.getLogger(__name__)
-
-
-def rigid_split(lam, K, M):
-    """Boolean mask of eigenvalues that belong to rigid-body modes (see ``rigid_body_threshold``)."""
-    return np.asarray(lam) < rigid_body_threshold(K, M)
 
 
 @register_method("modal", "lowest eigenmodes (rigid-body modes excluded by default)", survives_coupling=False)
@@ -60,7 +55,7 @@ def modal(model, ports, order, *, rigid: str = "exclude", sigma: float | None = 
     while True:
         k = min(n, order + extra)
         lam, phi = eigenmodes(model.K, model.M, k, sigma=sigma, backend=backend)
-        is_rb = rigid_split(lam, model.K, model.M)
+        is_rb = is_rigid(lam, model.K, model.M)
         n_rb = int(is_rb.sum())
         if rigid == "include" or k - n_rb >= order or k == n:
             break
