@@ -8,7 +8,8 @@ from typing import Callable
 
 import numpy as np
 
-from ..linalg.eigen import eigenmodes, frequencies_hz
+from ..linalg import factorize
+from ..linalg.eigen import DENSE_LIMIT, default_shift, eigenmodes, frequencies_hz
 from .frequency import band_grid, error_measures, frf_full, frf_reduced, rel_error
 
 __all__ = ["FullResponse", "modal_damping_ratios"]
@@ -25,10 +26,14 @@ def modal_damping_ratios(damping: dict, freqs_hz) -> np.ndarray | None:
 
 
 def _resonances(model, fmax: float, backend: str, max_modes: int = 400) -> np.ndarray:
-    """Eigenfrequencies (Hz) of the full model up to ``fmax`` (modal pre-pass)."""
+    """Eigenfrequencies (Hz) of the full model up to ``fmax`` (modal pre-pass, one factorization)."""
+    sigma = default_shift(model.K, model.M)
+    F = None
+    if model.n_dof > DENSE_LIMIT:
+        F = factorize((model.K - sigma * model.M).tocsr(), backend, positive=True)
     k = min(model.n_dof, 20)
     while True:
-        lam, _ = eigenmodes(model.K, model.M, k, backend=backend)
+        lam, _ = eigenmodes(model.K, model.M, k, sigma=sigma, factorization=F)
         f = frequencies_hz(lam)
         if f[-1] > fmax or k >= min(model.n_dof, max_modes):
             return f[f <= fmax]
