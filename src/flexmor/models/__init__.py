@@ -1,0 +1,9 @@
+"""Built-in parametric finite-element models (scikit-fem) for the demo, tests and benchmarks.
+
+scikit-fem is imported only when a model is built, so ``import flexmor`` needs NumPy and
+SciPy only (``pip install flexmor[full]`` for the models).
+"""
+
+from .solid import ELEMENTS, KINDS, cantilever, plate, size_for_dofs
+
+__all__ = ["ELEMENTS", "KINDS", "cantilever", "plate", "size_for_dofs"]
