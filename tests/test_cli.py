@@ -121,3 +121,16 @@ def test_console_script_exit_code(tmp_path):
                        capture_output=True, text=True)
     assert r.returncode == 2
     assert r.stderr.strip() == f"flexmor: error: {tmp_path / 'nope.sti'}: file not found"
+
+
+def test_demo_writes_bodies_and_plot(capsys, tmp_path):
+    out = run_json(capsys, "demo", "--out", str(tmp_path), "--n", "2", "--json")
+    res = out["results"]
+    assert [r["method"] for r in res] == ["modal"] * 3 + ["craig-bampton"] * 2
+    modal = [r["band_error"] for r in res[:3]]
+    assert modal[0] > modal[1] > modal[2]
+    assert res[4]["band_error"] < res[3]["band_error"]
+    for r in res:
+        assert (tmp_path / r["file"].split("/")[-1]).exists()
+    png = (tmp_path / "rel_error.png").read_bytes()
+    assert png[:8] == b"\x89PNG\r\n\x1a\n"

@@ -180,7 +180,8 @@ class FEModel:
                 known = np.isin(self.dofs[:, 0], self.node_ids)
                 if not np.all(known):
                     i = int(np.flatnonzero(~known)[0])
-                    raise ModelError(f"equation {i + 1} refers to node {self.dofs[i, 0]}, which is not in the node table")
+                    raise ModelError(
+                        f"equation {i + 1} refers to node {self.dofs[i, 0]}, which is not in the node table")
             key = self.dofs[:, 0] * 8 + self.dofs[:, 1]
             if np.unique(key).size != n:
                 raise ModelError("the equation map names a (node, direction) pair twice")
@@ -227,7 +228,7 @@ class FEModel:
 
     def describe_dof(self, i: int) -> str:
         """Human-readable name of equation ``i`` (0-based), e.g. ``'equation 7 (node 3, y)'``."""
-        if self.dofs is not None and getattr(self, "dofs", None) is not None and len(self.dofs) > i:
+        if self.dofs is not None and len(self.dofs) > i:
             nd, d = self.dofs[i]
             return f"equation {i + 1} (node {nd}, {direction_name(d)})"
         return f"equation {i + 1}"

@@ -102,7 +102,8 @@ def eigenmodes(K, M, k: int, *, sigma: float | None = None, backend: str = "auto
         try:
             lam, phi = eigsh(K, k=k, M=M, sigma=sigma, which="LM", OPinv=op, tol=tol, ncv=ncv)
         except ArpackNoConvergence as exc:
-            raise ConvergenceError(f"Lanczos did not converge for {k} modes ({len(exc.eigenvalues)} converged)") from None
+            raise ConvergenceError(
+                f"Lanczos did not converge for {k} modes ({len(exc.eigenvalues)} converged)") from None
         order = np.argsort(lam)
         lam, phi = lam[order], phi[:, order]
         # Rayleigh quotients: quadratically accurate in the eigenvector error, they remove

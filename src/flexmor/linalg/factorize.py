@@ -90,7 +90,9 @@ class _ScipyLU(Factorization):
         super().__init__(A)
         from scipy.sparse.linalg import splu
 
-        opts = dict(permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0, options={"SymmetricMode": True}) if symmetric else {}
+        opts = {}
+        if symmetric:
+            opts = dict(permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0, options={"SymmetricMode": True})
         try:
             self._lu = splu(sp.csc_matrix(A), **opts)
         except RuntimeError as exc:

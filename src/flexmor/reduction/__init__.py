@@ -82,7 +82,8 @@ def reduce(model, method: str, order: int | None, ports, **options) -> tuple[Red
     allowed = m.options
     unknown = [k for k, v in options.items() if k not in allowed and v is not None]
     if unknown:
-        raise OptionError(f"method {method!r} does not take option(s) {', '.join(unknown)}; it takes: {', '.join(allowed)}")
+        raise OptionError(
+            f"method {method!r} does not take option(s) {', '.join(unknown)}; it takes: {', '.join(allowed)}")
     opts = {k: v for k, v in options.items() if k in allowed and v is not None}
     if order is not None and (int(order) != order or order < 1):
         raise OptionError(f"order must be a positive integer, got {order}")
