@@ -22,11 +22,12 @@ import logging
 from typing import Callable
 
 import numpy as np
+import scipy.sparse as sp
 
 from ..errors import OptionError
 from ..linalg import factorize
 
-__all__ = ["frf_full", "frf_reduced", "rel_error", "band_error", "max_rel_error", "band_grid", "error_measures"]
+__all__ = ["ShiftedMatrices", "frf_full", "frf_reduced", "rel_error", "band_error", "max_rel_error", "band_grid", "error_measures"]
 
 log = logging.getLogger(__name__)
 
@@ -38,34 +39,85 @@ def _omega(freqs) -> np.ndarray:
     return 2 * np.pi * f
 
 
+class ShiftedMatrices:
+    """``A(w) = K - w^2 M + i w D`` for many ``w`` on one sparsity pattern.
+
+    The data of ``K``, ``M`` and ``D`` are aligned once on the union of their patterns, so
+    each frequency costs one vector operation over the non-zeros instead of sparse additions.
+
+    Parameters
+    ----------
+    K, M : sparse matrix, shape (n, n)
+    D : sparse matrix, optional
+    """
+
+    def __init__(self, K, M, D=None):
+        mats = [sp.csr_matrix(X) for X in (K, M, D) if X is not None]
+        pattern = abs(mats[0])
+        for X in mats[1:]:
+            pattern = pattern + abs(X)
+        pattern = sp.csr_matrix(pattern)
+        pattern.sum_duplicates()
+        pattern.sort_indices()
+        self.indptr, self.indices, self.shape = pattern.indptr, pattern.indices, pattern.shape
+        keys = self._keys(pattern)
+        self.data = []
+        for X in mats:
+            X = X.copy()
+            X.sum_duplicates()
+            vals = np.zeros(pattern.nnz)
+            vals[np.searchsorted(keys, self._keys(X))] = X.data
+            self.data.append(vals)
+        self.damped = D is not None
+
+    @staticmethod
+    def _keys(X) -> np.ndarray:
+        rows = np.repeat(np.arange(X.shape[0], dtype=np.int64), np.diff(X.indptr))
+        return rows * X.shape[1] + X.indices
+
+    def __call__(self, w: float) -> sp.csr_matrix:
+        """The matrix at angular frequency ``w`` (rad/s); complex when damped."""
+        data = self.data[0] - w ** 2 * self.data[1]
+        if self.damped:
+            data = data + 1j * w * self.data[2]
+        return sp.csr_matrix((data, self.indices, self.indptr), shape=self.shape)
+
+
 def frf_full(model, ports, freqs, *, backend: str = "auto", progress: Callable | None = None) -> np.ndarray:
     """Frequency response of the full sparse model, shape (n_freq, n_outputs, n_inputs).
 
-    One factorization of ``K - w^2 M + i w D`` per frequency (real when ``D`` is None) and one
-    block solve for all inputs.
+    One factorization of ``K - w^2 M + i w D`` per frequency (complex symmetric when damped,
+    real symmetric indefinite when ``D`` is None) and one block solve for all inputs.
 
     Parameters
     ----------
     model : FEModel
+        The full model (``K``, ``M``, optional ``D``).
     ports : Ports
+        Inputs ``B`` (n_dof, m) and outputs ``C`` (p, n_dof).
     freqs : array_like
         Frequencies in Hz.
     backend : str
         Backend of :func:`flexmor.linalg.factorize`.
     progress : callable, optional
         Called as ``progress(iterable, total)`` and must return an iterable (e.g. tqdm).
+
+    Returns
+    -------
+    ndarray, shape (n_freq, n_outputs, n_inputs), complex
     """
     w = _omega(freqs)
     B = ports.B.toarray()
     C = ports.C
     H = np.empty((w.size, C.shape[0], B.shape[1]), dtype=complex)
+    if w.size == 0:
+        return H
+    A = ShiftedMatrices(model.K, model.M, model.D)
     it = range(w.size) if progress is None else progress(range(w.size), w.size)
     for k in it:
-        A = model.K - w[k] ** 2 * model.M
-        if model.D is not None:
-            A = A + 1j * w[k] * model.D
-        F = factorize(A.tocsr(), backend, symmetric=True, check=False)
+        F = factorize(A(w[k]), backend, symmetric=True, check=False)
         H[k] = C @ F.solve(B)
+        del F  # release the factors before the next frequency
     return H
 
 

@@ -10,15 +10,16 @@ Backends (``backend=``):
     SuperLU from SciPy, always available; symmetric mode with minimum-degree ordering on
     ``A + A^T``. Slow and memory hungry above ~50k DOF of a 3D solid.
 ``pardiso``
-    Intel MKL PARDISO through *pypardiso* (``pip install flexmor[fast]``); real symmetric
-    (indefinite, Bunch-Kaufman) or positive definite (Cholesky) factorization of the upper
-    triangle with nested-dissection ordering (METIS). Real matrices only.
+    Intel MKL PARDISO (the library located by *pypardiso*, ``pip install flexmor[fast]``),
+    called through ctypes: real symmetric positive definite (Cholesky), real symmetric
+    indefinite (Bunch-Kaufman) or complex symmetric (``K - w^2 M + i w D``, matrix type 6)
+    factorization of the upper triangle with nested-dissection ordering (METIS).
 ``cholmod``
     CHOLMOD through *scikit-sparse* when SuiteSparse is installed; real symmetric positive
     definite matrices only.
 ``auto``
-    The fastest available backend that supports the matrix (cholmod for positive definite,
-    then pardiso, then scipy).
+    The fastest available backend that supports the matrix (cholmod for real positive
+    definite, then pardiso for real or complex, then scipy).
 """
 
 from __future__ import annotations
@@ -107,36 +108,116 @@ class _ScipyLU(Factorization):
         return self._lu.solve(np.asarray(b, dtype=np.result_type(b, self._lu.U.dtype)))
 
 
+_MKL_PARDISO = None
+
+
+def _mkl_pardiso():
+    """The MKL ``pardiso`` entry point (found through pypardiso's library search), typed once."""
+    global _MKL_PARDISO
+    if _MKL_PARDISO is None:
+        import ctypes
+
+        import pypardiso
+
+        fn = pypardiso.PyPardisoSolver().libmkl.pardiso
+        i32p = ctypes.POINTER(ctypes.c_int32)
+        fn.argtypes = [ctypes.POINTER(ctypes.c_int64), i32p, i32p, i32p, i32p, i32p, ctypes.c_void_p,
+                       i32p, i32p, i32p, i32p, i32p, i32p, ctypes.c_void_p, ctypes.c_void_p, i32p]
+        fn.restype = None
+        _MKL_PARDISO = fn
+    return _MKL_PARDISO
+
+
+#: PARDISO error codes (MKL reference) in the messages of :class:`SolverError`.
+_PARDISO_ERRORS = {-1: "input inconsistent", -2: "not enough memory", -3: "reordering problem",
+                   -4: "zero pivot (singular matrix)", -5: "unclassified internal error",
+                   -6: "reordering failed", -7: "diagonal matrix is singular", -8: "32-bit integer overflow",
+                   -9: "not enough memory for out-of-core", -10: "error opening out-of-core files"}
+
+
 class _Pardiso(Factorization):
+    """Intel MKL PARDISO called through ctypes on the upper triangle (symmetric) or the full matrix.
+
+    Matrix types: real symmetric positive definite (2), real symmetric indefinite (-2,
+    Bunch-Kaufman), complex symmetric (6, e.g. ``K - w^2 M + i w D``), real (11) and complex
+    (13) unsymmetric. Symmetric indefinite types use symmetric weighted matching and scaling
+    (iparm 11/13), recommended by Intel for saddle-point-like and shifted matrices.
+    """
+
     backend = "pardiso"
 
     def __init__(self, A, *, symmetric=True, positive=False):
         super().__init__(A)
-        import pypardiso
+        import ctypes
 
-        if np.iscomplexobj(A.data if sp.issparse(A) else A):
-            raise SolverError("the pardiso backend handles real matrices only")
-        mtype = (2 if positive else -2) if symmetric else 11
-        self._A = sp.triu(A, format="csr") if symmetric else sp.csr_matrix(A)
-        self._A.sort_indices()
-        self._A.data = self._A.data.astype(np.float64)
-        if np.any(np.diff(self._A.indptr) == 0):
+        self._fn = _mkl_pardiso()
+        cplx = np.iscomplexobj(A.data)
+        if cplx:
+            self._mtype = 6 if symmetric else 13
+        else:
+            self._mtype = (2 if positive else -2) if symmetric else 11
+        self.dtype = np.dtype(np.complex128 if cplx else np.float64)
+        U = sp.triu(A, format="csr") if symmetric else sp.csr_matrix(A)
+        U.sum_duplicates()
+        U.sort_indices()
+        if np.any(np.diff(U.indptr) == 0):
             raise SolverError("matrix has an empty row: it is singular")
-        self._s = pypardiso.PyPardisoSolver(mtype=mtype, size_limit_storage=0)
+        self._data = np.ascontiguousarray(U.data, dtype=self.dtype)
+        self._ia = np.ascontiguousarray(U.indptr, dtype=np.int32)
+        self._ja = np.ascontiguousarray(U.indices, dtype=np.int32)
+        self._n = U.shape[0]
+        self._pt = np.zeros(64, dtype=np.int64)
+        self._iparm = np.zeros(64, dtype=np.int32)
+        ip = self._iparm
+        ip[0] = 1  # user values below, zeros are MKL defaults
+        ip[1] = 2  # nested dissection (METIS)
+        ip[7] = 2  # at most two iterative refinement steps
+        ip[9] = 13 if self._mtype in (11, 13) else 8  # pivot perturbation 1e-13 / 1e-8
+        indefinite = self._mtype in (-2, 6, 11, 13)
+        ip[10] = ip[12] = 1 if indefinite else 0  # scaling + weighted matching
+        ip[34] = 1  # zero-based indices
+        self._ctypes = ctypes
+        self._live = False
         try:
-            self._s.factorize(self._A)
-        except pypardiso.pardiso_wrapper.PyPardisoError as exc:
-            raise SolverError(f"PARDISO failed to factorize: {exc}") from None
-        self.dtype = np.dtype(np.float64)
+            self._call(12, None, None, 0)
+        except SolverError:
+            self._release()
+            raise
+        self._live = True
+
+    def _call(self, phase, b, x, nrhs):
+        c = self._ctypes
+        i32 = c.c_int32
+        err = i32(0)
+        one = c.byref(i32(1))
+        dummy = np.zeros(1, self.dtype)
+        bp = (b if b is not None else dummy).ctypes.data
+        xp = (x if x is not None else dummy).ctypes.data
+        self._fn(self._pt.ctypes.data_as(c.POINTER(c.c_int64)), one, one, c.byref(i32(self._mtype)),
+                 c.byref(i32(phase)), c.byref(i32(self._n)), self._data.ctypes.data,
+                 self._ia.ctypes.data_as(c.POINTER(i32)), self._ja.ctypes.data_as(c.POINTER(i32)),
+                 None, c.byref(i32(nrhs)), self._iparm.ctypes.data_as(c.POINTER(i32)), c.byref(i32(0)),
+                 bp, xp, c.byref(err))
+        if err.value != 0:
+            what = _PARDISO_ERRORS.get(err.value, "unknown error")
+            raise SolverError(f"PARDISO phase {phase} failed with error {err.value}: {what}")
 
     def _solve(self, b):
-        self._s.set_phase(33)
-        x = self._s._call_pardiso(self._A, np.asfortranarray(b, dtype=np.float64))
+        b = np.asfortranarray(b, dtype=np.result_type(b.dtype, self.dtype))
+        if np.iscomplexobj(b) and self.dtype.kind != "c":  # handled by Factorization.solve
+            raise SolverError("complex right-hand side for a real PARDISO factorization")
+        x = np.zeros_like(b, order="F")
+        self._call(33, b, x, b.shape[1])
         return x
+
+    def _release(self):
+        if np.any(self._pt):
+            self._call(-1, None, None, 0)  # free all internal memory of this handle
+            self._pt[:] = 0
 
     def __del__(self):
         try:
-            self._s.free_memory(everything=True)
+            self._release()
         except Exception:  # noqa: BLE001 - interpreter shutdown
             pass
 
@@ -172,9 +253,7 @@ def _pardiso_ok() -> bool:
     if not _has("pypardiso"):
         return False
     try:
-        import pypardiso  # noqa: F401
-
-        pypardiso.PyPardisoSolver()
+        _mkl_pardiso()
         return True
     except Exception:  # noqa: BLE001 - missing MKL runtime
         return False
@@ -183,7 +262,7 @@ def _pardiso_ok() -> bool:
 #: name -> (class, availability check, handles complex, needs positive definite)
 BACKENDS = {
     "cholmod": (_Cholmod, lambda: _has("sksparse"), False, True),
-    "pardiso": (_Pardiso, _pardiso_ok, False, False),
+    "pardiso": (_Pardiso, _pardiso_ok, True, False),
     "scipy": (_ScipyLU, lambda: True, True, False),
 }
 _AVAILABLE: dict[str, bool] = {}

@@ -1,0 +1,79 @@
+"""Complex symmetric factorizations of K - w^2 M + i w D (PARDISO matrix type 6) and the sweep."""
+
+import numpy as np
+import pytest
+
+from flexmor.analysis.frequency import ShiftedMatrices, frf_full
+from flexmor.linalg import available_backends, factorize
+from flexmor.linalg.factorize import STATS
+from flexmor.ports import make_ports
+
+needs_pardiso = pytest.mark.skipif("pardiso" not in available_backends(), reason="needs MKL PARDISO")
+
+
+def _shifted(model, f_hz, beta=1e-5):
+    w = 2 * np.pi * f_hz
+    return (model.K - w**2 * model.M + 1j * w * beta * model.K).tocsr()
+
+
+@needs_pardiso
+@pytest.mark.parametrize("f_hz", [0.0, 150.0, 2500.0])  # below, between and above resonances
+def test_complex_symmetric_pardiso_matches_scipy(clamped, f_hz):
+    A = _shifted(clamped, f_hz)
+    rng = np.random.default_rng(3)
+    B = rng.standard_normal((clamped.n_dof, 4)) + 1j * rng.standard_normal((clamped.n_dof, 4))
+    F = factorize(A, "pardiso")
+    assert F.backend == "pardiso" and F._mtype == 6 and F.dtype == np.complex128
+    X = F.solve(B)  # one block solve for all columns
+    assert np.linalg.norm(A @ X - B) / np.linalg.norm(B) < 1e-10
+    Xs = factorize(A, "scipy").solve(B)
+    assert np.linalg.norm(X - Xs) / np.linalg.norm(Xs) < 1e-10
+    x = F.solve(B[:, 0].real)  # real right-hand side of a complex matrix
+    np.testing.assert_allclose(x, factorize(A, "scipy").solve(B[:, 0].real), rtol=1e-9, atol=0)
+
+
+@needs_pardiso
+def test_auto_picks_pardiso_for_complex_and_real_shift_stays_indefinite(clamped):
+    assert factorize(_shifted(clamped, 300.0)).backend == "pardiso"
+    w = 2 * np.pi * 300.0
+    A = (clamped.K - w**2 * clamped.M).tocsr()  # undamped, between resonances: indefinite
+    F = factorize(A)
+    assert F.backend == "pardiso" and F._mtype == -2 and F.dtype == np.float64
+    b = np.ones(clamped.n_dof)
+    assert np.linalg.norm(A @ F.solve(b) - b) / np.linalg.norm(b) < 1e-10
+
+
+@needs_pardiso
+def test_pardiso_memory_is_released(clamped):
+    F = factorize(_shifted(clamped, 100.0), "pardiso")
+    assert np.any(F._pt)
+    F._release()
+    assert not np.any(F._pt)
+    F._release()  # idempotent
+
+
+def test_shifted_matrices_equal_sparse_sum(clamped):
+    model = clamped.with_rayleigh(2.0, 1e-6)
+    S = ShiftedMatrices(model.K, model.M, model.D)
+    w = 2 * np.pi * 700.0
+    ref = model.K - w**2 * model.M + 1j * w * model.D
+    assert abs(S(w) - ref).max() <= 1e-12 * abs(ref).max()
+    assert S(w).dtype == np.complex128 and ShiftedMatrices(model.K, model.M)(w).dtype == np.float64
+
+
+@pytest.mark.parametrize("backend", available_backends())
+def test_frf_full_one_factorization_per_frequency(clamped, backend):
+    if backend == "cholmod":
+        pytest.skip("cholmod needs positive definite matrices")
+    model = clamped.with_rayleigh(0.0, 1e-6)
+    ports = make_ports(model, ["TIP:y", "TIP:z"])
+    freqs = [20.0, 400.0, 1500.0]
+    n0 = STATS["count"]
+    H = frf_full(model, ports, freqs, backend=backend)
+    assert STATS["count"] - n0 == 3
+    assert H.shape == (3, 2, 2)
+    w = 2 * np.pi * 400.0
+    X = factorize((model.K - w**2 * model.M + 1j * w * model.D).tocsr(), "scipy").solve(ports.B.toarray())
+    ref = ports.C @ X
+    assert np.abs(H[1] - ref).max() / np.abs(ref).max() < 1e-10
+    assert np.abs(H[1] - H[1].T).max() < 1e-10 * np.abs(H[1]).max()  # collocated: reciprocity
