@@ -29,15 +29,22 @@ class Format:
     reader: Callable | None = None
     writer: Callable | None = None
     description: str = ""
+    match: Callable | None = None
 
 
 #: name -> Format
 FORMATS: dict[str, Format] = {}
 
 
-def register_format(name: str, extensions, reader=None, writer=None, description: str = "") -> None:
-    """Register a file format under ``name`` for the given suffixes (with dot, lower case)."""
-    FORMATS[name] = Format(name, tuple(e.lower() for e in extensions), reader, writer, description)
+def register_format(name: str, extensions, reader=None, writer=None, description: str = "",
+                    match: Callable | None = None) -> None:
+    """Register a file format under ``name`` for the given suffixes (with dot, lower case).
+
+    ``match(path) -> bool`` optionally tells files of this format apart from other formats
+    with the same suffix (e.g. Abaqus ``<job>_STIF1.mtx`` among Matrix Market ``.mtx``): a
+    format whose ``match`` accepts the path wins; one whose ``match`` refuses it comes last.
+    """
+    FORMATS[name] = Format(name, tuple(e.lower() for e in extensions), reader, writer, description, match)
 
 
 def formats() -> dict[str, Format]:
@@ -47,7 +54,7 @@ def formats() -> dict[str, Format]:
 
 
 def _load_builtin() -> None:
-    from . import calculix, hdf5, matlab, matrix_market  # noqa: F401  (they register themselves)
+    from . import abaqus, calculix, hdf5, matlab, matrix_market  # noqa: F401  (they register themselves)
 
 
 def _suffix(path: Path) -> str:
@@ -84,6 +91,7 @@ def read(path, format: str | None = None, **options):
         if not cands:
             known = sorted({e for f in FORMATS.values() if f.reader for e in f.extensions})
             raise ReadError(path, f"unknown file type {ext!r}; known: {' '.join(known)} (or pass --format)")
+        cands.sort(key=lambda f: 1 if f.match is None else (0 if f.match(path) else 2))
         fmt = cands[0]
     else:
         if format not in FORMATS or FORMATS[format].reader is None:

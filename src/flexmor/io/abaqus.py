@@ -1,0 +1,296 @@
+"""Reader of Abaqus matrix exports (``*MATRIX GENERATE`` + ``*MATRIX OUTPUT``).
+
+For the job ``<job>.inp`` with ::
+
+    *STEP
+    *MATRIX GENERATE, STIFFNESS, MASS
+    *MATRIX OUTPUT, STIFFNESS, MASS, FORMAT=COORDINATE   (or FORMAT=LABELS, the default)
+    *END STEP
+
+Abaqus writes ``<job>_STIF1.mtx`` and ``<job>_MASS1.mtx`` (``1``: the step; ``_DMPV1.mtx``
+with viscous damping when requested). The main file is the ``.inp``; pass it (or one of the
+``.mtx`` files) and the rest is found beside it. Two matrix forms are read, told apart by the
+number of columns of the first data line:
+
+COORDINATE, ``row, col, value``
+    Global equation numbers, 1-based. Abaqus numbers the equations node by node in its
+    internal node order (instances in deck order, labels ascending within an instance, see
+    :mod:`flexmor.io.abaqus_inp`) with the same number of DOFs per node, ``d``: equation
+    ``(k - 1) * d + j`` is direction ``j`` of the ``k``-th node. ``d`` is 3 for continuum
+    elements (``C3D*``), 2 for plane ones (``CPS* CPE* CAX*``), 6 for shells and beams; for
+    mixed meshes pass ``dof_per_node=`` or use the LABELS form.
+LABELS, ``node, dof, node, dof, value``
+    Node labels (``instance.label`` in assemblies) and directions 1..6.
+
+Either triangle or both may be stored; one triangle is mirrored. An entry given twice is
+refused (a damaged file), never summed. Equations that have neither stiffness nor mass (a
+direction no element uses) are removed and logged. Units are those of the deck.
+
+``.inp`` is shared with CalculiX: if ``<job>.sti`` lies beside the deck and no ``_STIF``
+file does, the CalculiX reader is used.
+"""
+
+from __future__ import annotations
+
+import io
+import logging
+import re
+import warnings
+from pathlib import Path
+
+import numpy as np
+import scipy.sparse as sp
+
+from ..errors import ReadError
+from . import register_format
+from ._text import build_model, entry_line, parse_triplets, read_text
+from .abaqus_inp import AbaqusDeck, read_deck
+
+__all__ = ["read_abaqus", "read_deck", "AbaqusDeck", "MATRIX_FILE"]
+
+log = logging.getLogger(__name__)
+
+#: ``<job>_<KIND><step>.mtx`` as written by ``*MATRIX OUTPUT``.
+MATRIX_FILE = re.compile(r"^(?P<job>.+)_(?P<kind>STIF|MASS|DMPV|DMPS|LOAD)(?P<step>\d+)$", re.I)
+_ROLE = {"STIF": "K", "MASS": "M", "DMPV": "D"}
+
+
+def _is_matrix_file(path) -> bool:
+    p = Path(path)
+    return p.suffix.lower() == ".mtx" and MATRIX_FILE.match(p.stem) is not None
+
+
+def _files(path: Path) -> tuple[Path, dict]:
+    """The deck and the matrix files ``{'K': .., 'M': .., 'D': ..}`` of the job of ``path``."""
+    m = MATRIX_FILE.match(path.stem) if path.suffix.lower() == ".mtx" else None
+    job = m.group("job") if m else path.stem
+    step = m.group("step") if m else None
+    listing = {p.name.lower(): p for p in path.parent.iterdir() if p.is_file()}
+    deck = listing.get(f"{job}.inp".lower())
+    if deck is None:
+        raise ReadError(path.parent / f"{job}.inp", "not found; the input deck with the nodes must lie beside "
+                                                    "the .mtx files")
+    if step is None:
+        steps = sorted({int(MATRIX_FILE.match(Path(n).stem).group("step")) for n in listing
+                        if n.endswith(".mtx") and n.startswith(job.lower() + "_stif")
+                        and MATRIX_FILE.match(Path(n).stem)})
+        if not steps:
+            return deck, {}
+        if len(steps) > 1:
+            log.info("%s: matrices of steps %s; reading step %d", deck, steps, steps[0])
+        step = str(steps[0])
+    files = {}
+    for kind, role in _ROLE.items():
+        p = listing.get(f"{job}_{kind}{step}.mtx".lower())
+        if p is not None:
+            files[role] = p
+    for role, kind in (("K", "STIF"), ("M", "MASS")):
+        if role not in files:
+            raise ReadError(path.parent / f"{job}_{kind}{step}.mtx",
+                            f"not found; request it with *MATRIX GENERATE, STIFFNESS, MASS in {job}.inp")
+    return deck, files
+
+
+def _first_data_columns(path: Path, text: str) -> int:
+    for line in text.splitlines():
+        s = line.strip()
+        if s and not s.startswith("*"):
+            return len(s.replace(",", " ").split())
+    raise ReadError(path, "no matrix entries found")
+
+
+def _parse_labels(path: Path, text: str):
+    """``(row node tokens, row dofs, col node tokens, col dofs, values)`` of a LABELS file."""
+    if "*" not in text:
+        try:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                a = np.loadtxt(io.StringIO(text.replace("D", "E").replace("d", "e")), delimiter=",",
+                               dtype=np.float64, ndmin=2)
+            ok = a.shape[1] == 5 and np.all(a[:, :4] == np.floor(a[:, :4])) and np.all(np.isfinite(a[:, 4]))
+        except ValueError:
+            ok = False
+        if ok:
+            ints = a[:, :4].astype(np.int64)
+            if ints[:, [1, 3]].min() >= 1 and ints[:, [1, 3]].max() <= 6 and ints[:, [0, 2]].min() >= 1:
+                return ints[:, 0].astype(str), ints[:, 1], ints[:, 2].astype(str), ints[:, 3], a[:, 4]
+    rows = []
+    for lineno, line in enumerate(text.splitlines(), 1):
+        s = line.strip()
+        if not s or s.startswith("*"):
+            continue
+        t = [x.strip() for x in s.split(",")]
+        if t and t[-1] == "":
+            t.pop()
+        if len(t) != 5:
+            raise ReadError(path, f"expected 5 columns 'node, dof, node, dof, value' (LABELS form), found {len(t)} "
+                                  f"in {s[:60]!r}; is the file truncated or damaged?", lineno)
+        try:
+            d1, d2 = int(t[1]), int(t[3])
+            v = float(t[4].replace("D", "E").replace("d", "e"))
+        except ValueError:
+            raise ReadError(path, f"non-numeric direction or value in {s[:60]!r}", lineno) from None
+        for node, d in ((t[0], d1), (t[2], d2)):
+            lab = node.rsplit(".", 1)[-1]
+            if not lab.lstrip("-").isdigit():
+                raise ReadError(path, f"node label {node!r} is not a number (or instance.number)", lineno)
+            if int(lab) <= 0:
+                raise ReadError(path, f"node label {node} <= 0 is an internal DOF (Lagrange multiplier or hybrid "
+                                      "element); flexmor needs matrices on nodes only", lineno)
+            if not 1 <= d <= 6:
+                raise ReadError(path, f"direction {d} is not one of 1..6 (displacements and rotations); "
+                                      "flexmor needs a purely mechanical model", lineno)
+        if not np.isfinite(v):
+            raise ReadError(path, f"non-finite value {t[4]}", lineno)
+        rows.append((t[0], d1, t[2], d2, v))
+    if not rows:
+        raise ReadError(path, "no matrix entries found")
+    r1, d1, r2, d2, v = zip(*rows)
+    return np.array(r1), np.array(d1), np.array(r2), np.array(d2), np.array(v, dtype=np.float64)
+
+
+def _labels_to_equations(path, text, deck: AbaqusDeck, lut):
+    """Node tokens of a LABELS file → equation indices and the equation map."""
+    n1, d1, n2, d2, v = _parse_labels(path, text)
+    tokens, inv = np.unique(np.concatenate([n1, n2]), return_inverse=True)
+    ids = np.empty(tokens.size, dtype=np.int64)
+    for k, tok in enumerate(tokens):
+        inst, _, lab = tok.rpartition(".")
+        key = (inst.upper(), int(lab))
+        if key not in lut:
+            rows = np.flatnonzero((inv[: n1.size] == k) | (inv[n1.size:] == k))
+            raise ReadError(path, f"node {tok} is not defined in the input deck", entry_line(path, int(rows[0])))
+        ids[k] = lut[key]
+    return ids[inv[: n1.size]], d1, ids[inv[n1.size:]], d2, v
+
+
+def _dof_per_node(deck: AbaqusDeck, n_max: int, path: Path) -> int:
+    kinds = set()
+    for etype, _ in deck.elements:
+        if etype.startswith(("C3D", "SC8", "SC6")):
+            kinds.add(3)
+        elif etype.startswith(("CPS", "CPE", "CAX")):
+            kinds.add(2)
+        elif etype.startswith(("S", "B3", "B2", "PIPE")):
+            kinds.add(6)
+    if len(kinds) == 1:
+        return kinds.pop()
+    if len(kinds) > 1:
+        raise ReadError(path, f"elements with {sorted(kinds)} DOFs per node: the COORDINATE form is ambiguous; "
+                              "write FORMAT=LABELS or pass dof_per_node=")
+    for d in (3, 6, 2):
+        if n_max <= d * deck.node_ids.size and n_max > d * (deck.node_ids.size - 1):
+            return d
+    raise ReadError(path, f"equation numbers up to {n_max} do not fit {deck.node_ids.size} nodes; pass dof_per_node=")
+
+
+def _read_matrix(path: Path, deck: AbaqusDeck, lut: dict, dpn):
+    """One matrix as ``(node, dof, node, dof, value)`` arrays, in model node ids."""
+    text = read_text(path)
+    ncol = _first_data_columns(path, text)
+    if ncol == 5:
+        return _labels_to_equations(path, text, deck, lut) + ("labels",)
+    if ncol != 3:
+        raise ReadError(path, f"first entry has {ncol} columns; expected 3 (COORDINATE: row, col, value) or "
+                              "5 (LABELS: node, dof, node, dof, value)")
+    n_cap = deck.node_ids.size * (dpn or 6)
+    r, c, v = parse_triplets(path, one_based=True, n=n_cap)
+    d = dpn or _dof_per_node(deck, int(max(r.max(), c.max())) + 1, path)
+    big = np.flatnonzero(np.maximum(r, c) >= d * deck.node_ids.size)
+    if big.size:
+        k = int(big[0])
+        raise ReadError(path, f"equation {max(r[k], c[k]) + 1} is beyond {deck.node_ids.size} nodes x {d} DOFs of "
+                              "the input deck; are the .mtx and .inp from the same job?", entry_line(path, k))
+    ids = deck.node_ids
+    return ids[r // d], r % d + 1, ids[c // d], c % d + 1, v, "coordinate"
+
+
+def _assemble(path, parts, eq_index, n):
+    n1, d1, n2, d2, v, _ = parts
+    r = eq_index(n1, d1)
+    c = eq_index(n2, d2)
+    key = r * np.int64(n) + c
+    order = np.argsort(key, kind="stable")
+    dup = np.flatnonzero(key[order][1:] == key[order][:-1])
+    if dup.size:
+        k, first = int(order[dup[0] + 1]), int(order[dup[0]])
+        raise ReadError(path, f"entry ({n1[k]}.{d1[k]}, {n2[k]}.{d2[k]}) appears twice (also on line "
+                              f"{entry_line(path, first)}); duplicates are refused, not summed",
+                        entry_line(path, k))
+    lower, upper = np.any(r > c), np.any(r < c)
+    if lower != upper:  # one triangle: mirror it
+        off = r != c
+        r, c, v = np.concatenate([r, c[off]]), np.concatenate([c, r[off]]), np.concatenate([v, v[off]])
+    return sp.csr_matrix((v, (r, c)), shape=(n, n))
+
+
+def read_abaqus(path, *, dof_per_node: int | None = None) -> "FEModel":  # noqa: F821
+    """Read an Abaqus ``*MATRIX GENERATE`` export with its input deck.
+
+    Parameters
+    ----------
+    path : str or path-like
+        The deck ``<job>.inp`` or one of ``<job>_STIF1.mtx``, ``<job>_MASS1.mtx``.
+    dof_per_node : int, optional
+        DOFs per node of the COORDINATE form; by default told by the element types.
+
+    Returns
+    -------
+    FEModel
+        ``K``, ``M`` (and ``D`` from ``_DMPV``), node table and sets from the deck, the
+        equation map; ``name`` is the job name.
+
+    Raises
+    ------
+    ReadError
+        Missing files, malformed lines (with line number), entries given twice, equations
+        beyond the deck's nodes, nodes the deck does not define.
+    """
+    path = Path(path)
+    deck_path, files = _files(path)
+    if not files:
+        sti = deck_path.with_suffix(".sti")
+        if sti.exists():
+            from .calculix import read_calculix
+            log.info("%s: no Abaqus _STIF .mtx but %s beside it; reading as CalculiX", deck_path, sti.name)
+            return read_calculix(sti)
+        raise ReadError(deck_path.parent / f"{deck_path.stem}_STIF1.mtx",
+                        f"not found; Abaqus writes it for *MATRIX GENERATE, STIFFNESS, MASS in {deck_path.name} "
+                        f"(a CalculiX job would have {deck_path.stem}.sti)")
+    deck = read_deck(deck_path)
+    lut = deck.lookup()
+    parsed = {role: _read_matrix(p, deck, lut, dof_per_node) for role, p in files.items()}
+    # equation map: every (node, dof) that occurs, in internal node order, then direction
+    pos = {int(i): k for k, i in enumerate(deck.node_ids)}
+    pairs = np.unique(np.concatenate([
+        np.stack([np.vectorize(pos.get, otypes=[np.int64])(np.concatenate([p[0], p[2]])),
+                  np.concatenate([p[1], p[3]])], axis=1) for p in parsed.values()]), axis=0)
+    n = pairs.shape[0]
+    code = pairs[:, 0] * 8 + pairs[:, 1]
+
+    def eq_index(nodes, dirs):
+        k = np.vectorize(pos.get, otypes=[np.int64])(nodes) * 8 + np.asarray(dirs, dtype=np.int64)
+        return np.searchsorted(code, k)
+
+    mats = {role: _assemble(files[role], parsed[role], eq_index, n) for role in parsed}
+    dofs = np.stack([deck.node_ids[pairs[:, 0]], pairs[:, 1]], axis=1)
+    used = (abs(mats["K"]).sum(axis=1).A1 > 0) | (abs(mats["M"]).sum(axis=1).A1 > 0)
+    if not np.all(used):
+        keep = np.flatnonzero(used)
+        log.info("%s: removed %d equations without stiffness and mass", deck_path, n - keep.size)
+        mats = {k: A[keep][:, keep] for k, A in mats.items()}
+        dofs = dofs[keep]
+    forms = {p[-1] for p in parsed.values()}
+    log.info("%s: %d equations, %d nodes, %s form", deck_path, dofs.shape[0], deck.node_ids.size, "/".join(forms))
+    return build_model(
+        deck_path,
+        roles=files,
+        M=mats["M"], K=mats["K"], D=mats.get("D"),
+        damping={"type": "given"} if "D" in mats else {"type": "none"},
+        node_ids=deck.node_ids, xyz=deck.xyz, dofs=dofs, node_sets=deck.node_sets,
+        name=deck_path.stem, source=str(deck_path),
+    )
+
+
+register_format("abaqus", [".inp", ".mtx"], reader=read_abaqus, match=_is_matrix_file,
+                description="Abaqus *MATRIX GENERATE export (.inp + <job>_STIF1.mtx + <job>_MASS1.mtx)")
