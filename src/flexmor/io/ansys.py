@@ -1,0 +1,295 @@
+"""Readers of Ansys matrix exports: Matrix Market (HBMAT/MMF) sets and binary ``.full`` files.
+
+Matrix Market set (``.txt`` or ``.mtx``; pass the stiffness or the mass file)
+    ``<base>Stiffness....txt`` + ``<base>Mass....txt`` (found as in
+    :mod:`flexmor.io.matrix_market`), plus, beside them and starting with ``<base>``:
+
+    * the equation map, either the *mapping vector* (a file whose name contains
+      ``mapping``: Matrix Market ``array integer``, one node number per block of ``d``
+      equations, ``d = n_eq / length``: 3 means UX UY UZ, 6 adds ROTX ROTY ROTZ; block ``i``
+      holds equations ``d*i+1 .. d*i+d`` of node ``vector[i]``) or an HBMAT ``.mapping``
+      file (``Matrix Eqn  Node  DOF`` lines with labels ``UX UY UZ ROTX ROTY ROTZ``);
+    * the nodal coordinates (a name containing ``coord``, ``knoten`` or ``node``): a
+      header line, then ``node  x  y  z`` separated by tabs or semicolons, decimal points or
+      decimal commas (the German Workbench export ``Knotennummer  X-Position (m) ...``).
+
+    Without a map the model has no nodes (like plain Matrix Market).
+Binary ``.full`` (``ansys-mapdl-reader``, optional: ``pip install flexmor[ansys]``)
+    Upper triangles are expanded; constrained DOFs (zero rows and columns) are removed, logged
+    and listed in ``model.constrained_dofs`` (k, 2: node, direction). Coordinates and node
+    components come from ``<stem>.cdb`` beside it or ``coordinates=``.
+
+In both, equations with neither stiffness nor mass are removed and reported. Units are those
+of the Ansys model.
+"""
+
+from __future__ import annotations
+
+import logging
+import re
+from pathlib import Path
+
+import numpy as np
+import scipy.sparse as sp
+
+from ..errors import ReadError
+from . import register_format
+from ._text import build_model, read_text
+from .matrix_market import _check_header, _read_one, find_siblings
+
+__all__ = ["read_ansys", "read_mapping", "read_coordinates"]
+
+log = logging.getLogger(__name__)
+
+_DOF_LABELS = {"UX": 1, "UY": 2, "UZ": 3, "ROTX": 4, "ROTY": 5, "ROTZ": 6}
+
+
+def read_mapping(path, n_eq: int) -> np.ndarray:
+    """Read an Ansys equation map (mapping vector or HBMAT ``.mapping`` file).
+
+    Parameters
+    ----------
+    path : str or path-like
+    n_eq : int
+        Number of equations of the matrices.
+
+    Returns
+    -------
+    ndarray of int64, shape (n_eq, 2)
+        Node and direction code (1..6) of each equation.
+
+    Raises
+    ------
+    ReadError
+        Malformed lines, a length that does not divide ``n_eq``, unknown DOF labels,
+        equation numbers outside ``1..n_eq``.
+    """
+    path = Path(path)
+    lines = read_text(path).splitlines()
+    data = [(k, s.strip()) for k, s in enumerate(lines, 1) if s.strip() and not s.lstrip().startswith("%")]
+    if data and len(data[0][1].split()) >= 3 and not data[0][1].split()[0].lstrip("-").isdigit():
+        data = data[1:]  # header "Matrix Eqn  Node  DOF"
+    if not data:
+        raise ReadError(path, "no equation map entries found")
+    if len(data[0][1].split()) == 3:  # HBMAT .mapping: eqn node label
+        out = np.zeros((n_eq, 2), dtype=np.int64)
+        for lineno, s in data:
+            t = s.split()
+            if len(t) != 3 or not (t[0].isdigit() and t[1].isdigit()):
+                raise ReadError(path, f"expected 'equation node DOF' such as '7 3 UX', got {s[:60]!r}", lineno)
+            eq, node, lab = int(t[0]), int(t[1]), t[2].upper()
+            if not 1 <= eq <= n_eq:
+                raise ReadError(path, f"equation {eq} outside 1..{n_eq} of the matrices", lineno)
+            if lab not in _DOF_LABELS:
+                raise ReadError(path, f"DOF {lab} is not one of {' '.join(_DOF_LABELS)}", lineno)
+            out[eq - 1] = node, _DOF_LABELS[lab]
+        if np.any(out[:, 1] == 0):
+            raise ReadError(path, f"equation {int(np.flatnonzero(out[:, 1] == 0)[0]) + 1} is missing from the map")
+        return out
+    (hl, head), body = data[0], data[1:]
+    h = head.split()
+    if len(h) != 2 or not all(x.isdigit() for x in h) or h[1] != "1":
+        raise ReadError(path, f"expected the Matrix Market array size 'n 1', got {head[:60]!r}", hl)
+    nodes = []
+    for lineno, s in body:
+        if not s.isdigit():
+            raise ReadError(path, f"expected one node number per line, got {s[:60]!r}", lineno)
+        nodes.append(int(s))
+    if len(nodes) != int(h[0]):
+        raise ReadError(path, f"header announces {h[0]} entries but {len(nodes)} follow; is the file truncated?",
+                        body[-1][0] if body else hl)
+    nodes = np.asarray(nodes, dtype=np.int64)
+    if nodes.size == 0 or n_eq % nodes.size or n_eq // nodes.size not in (1, 2, 3, 6):
+        raise ReadError(path, f"{nodes.size} nodes do not fit {n_eq} equations (1, 2, 3 or 6 DOFs per node)")
+    d = n_eq // nodes.size
+    return np.stack([np.repeat(nodes, d), np.tile(np.arange(1, d + 1), nodes.size)], axis=1)
+
+
+def read_coordinates(path):
+    """Read a nodal-coordinate table (header line, then ``node x y z``; tabs/semicolons, decimal commas).
+
+    Returns
+    -------
+    node_ids : ndarray of int64
+    xyz : ndarray of float64, shape (n, 3)
+    """
+    path = Path(path)
+    lines = read_text(path).splitlines()
+    ids, xyz = [], []
+    for lineno, raw in enumerate(lines, 1):
+        s = raw.strip()
+        if not s:
+            continue
+        if "\t" in s or ";" in s:
+            t = [x.strip().replace(",", ".") for x in re.split(r"[\t;]", s) if x.strip()]
+        else:
+            t = s.replace(",", " ").split() if s.count(",") >= 3 else s.split()
+        if lineno == 1 and not t[0].isdigit():
+            continue  # header (e.g. "Knotennummer  X-Position (m) ...")
+        if len(t) != 4 or not t[0].isdigit():
+            raise ReadError(path, f"expected 'node x y z', got {s[:60]!r}", lineno)
+        try:
+            c = [float(x) for x in t[1:]]
+        except ValueError:
+            raise ReadError(path, f"non-numeric coordinate in {s[:60]!r}", lineno) from None
+        if not np.all(np.isfinite(c)):
+            raise ReadError(path, "non-finite coordinate", lineno)
+        ids.append(int(t[0]))
+        xyz.append(c)
+    if not ids:
+        raise ReadError(path, "no node lines found")
+    return np.asarray(ids, dtype=np.int64), np.asarray(xyz, dtype=np.float64)
+
+
+def _companions(stiff: Path):
+    """Mapping and coordinate files beside an MMF stiffness file (None when absent)."""
+    m = re.search(r"stiff", stiff.stem, re.I)
+    base = stiff.stem[: m.start()].lower() if m else stiff.stem.lower()
+    mapping = coords = None
+    for p in sorted(stiff.parent.iterdir()):
+        low = p.name.lower()
+        if not p.is_file() or not low.startswith(base) or p == stiff:
+            continue
+        if "mapping" in low and mapping is None:
+            mapping = p
+        elif any(w in low for w in ("coord", "knoten", "node")) and coords is None:
+            coords = p
+    return mapping, coords
+
+
+def _drop_empty(path, mats, dofs, what="without stiffness and mass"):
+    used = (abs(mats["K"]).sum(axis=1).A1 > 0) | (abs(mats["M"]).sum(axis=1).A1 > 0)
+    if np.all(used):
+        return mats, dofs, np.zeros((0, 2), dtype=np.int64)
+    keep = np.flatnonzero(used)
+    gone = dofs[~used] if dofs is not None else np.stack([np.flatnonzero(~used) + 1, np.zeros(int((~used).sum()),
+                                                                                               np.int64)], axis=1)
+    log.info("%s: removed %d equations %s (first: %s)", path, gone.shape[0], what, gone[:3].tolist())
+    return {k: A[keep][:, keep] for k, A in mats.items()}, (dofs[keep] if dofs is not None else None), gone
+
+
+def _read_mmf(path: Path):
+    _check_header(path)
+    files = find_siblings(path)
+    mats = {role: _read_one(p, role) for role, p in files.items()}
+    n = mats["K"].shape[0]
+    mapping, coords = _companions(files["K"])
+    dofs = read_mapping(mapping, n) if mapping else None
+    node_ids, xyz = (read_coordinates(coords) if coords else (np.zeros(0, np.int64), np.zeros((0, 3))))
+    if dofs is None:
+        log.info("%s: no equation map beside it; the model has no nodes", path)
+        node_ids, xyz = np.zeros(0, np.int64), np.zeros((0, 3))
+    elif node_ids.size:
+        miss = ~np.isin(dofs[:, 0], node_ids)
+        if np.any(miss):
+            raise ReadError(mapping, f"node {dofs[np.flatnonzero(miss)[0], 0]} is not in {coords.name}")
+    mats, dofs, _ = _drop_empty(path, mats, dofs)
+    return build_model(path, roles=files, M=mats["M"], K=mats["K"], D=mats.get("D"),
+                       damping={"type": "given"} if "D" in mats else {"type": "none"},
+                       node_ids=node_ids, xyz=xyz, dofs=dofs,
+                       name=re.split(r"stiff", files["K"].stem, flags=re.I)[0] or files["K"].stem,
+                       source=str(path))
+
+
+def _read_full(path: Path, coordinates=None):
+    try:
+        from ansys.mapdl.reader import read_binary
+    except ImportError:
+        raise ReadError(path, "binary .full files need ansys-mapdl-reader: pip install 'flexmor[ansys]'") from None
+    _check_records(path)
+    try:
+        full = read_binary(str(path))
+        dof_ref, k, m = full.load_km(as_sparse=True, sort=False)
+    except Exception as exc:  # noqa: BLE001 - the library raises many kinds on damaged files
+        raise ReadError(path, f"not a readable Ansys .full file ({type(exc).__name__}: {str(exc)[:120]})") from None
+    if not hasattr(full, "load_km") or dof_ref is None or k is None or m is None:
+        raise ReadError(path, "the .full file holds no stiffness and mass matrices")
+    dofs = np.asarray(dof_ref, dtype=np.int64).copy()
+    dofs[:, 1] += 1
+    if np.any((dofs[:, 1] < 1) | (dofs[:, 1] > 6)):
+        raise ReadError(path, "the .full file has non-mechanical DOFs (temperature, pressure ...)")
+    mats = {}
+    for role, U in (("K", k), ("M", m)):
+        U = sp.csr_matrix(U, dtype=np.float64)
+        lower = sp.tril(U, -1)
+        if lower.nnz and sp.triu(U, 1).nnz:
+            mats[role] = U  # already full
+        else:
+            mats[role] = (U + U.T - sp.diags(U.diagonal())).tocsr()
+    mats, dofs, gone = _drop_empty(path, mats, dofs, "constrained (zero rows and columns)")
+    node_ids, xyz, sets = np.zeros(0, np.int64), np.zeros((0, 3)), {}
+    cdb = Path(coordinates) if coordinates else path.with_suffix(".cdb")
+    if cdb.exists():
+        node_ids, xyz, sets = _read_cdb(cdb)
+    elif coordinates:
+        raise ReadError(cdb, "coordinate file not found")
+    model = build_model(path, roles={"K": path, "M": path}, M=mats["M"], K=mats["K"], node_ids=node_ids, xyz=xyz,
+                        dofs=dofs, node_sets=sets, name=path.stem, source=str(path))
+    model.constrained_dofs = gone
+    return model
+
+
+def _check_records(path: Path) -> None:
+    """Walk the record structure of an Ansys binary file before the C reader sees it.
+
+    Every record is ``[n][flags] n words [n]``; a record running past the end of the file
+    means the file was cut off. ansys-mapdl-reader aborts the whole process on such files,
+    so they are refused here.
+    """
+    raw = path.read_bytes()
+    if len(raw) < 412 or len(raw) % 4:
+        raise ReadError(path, f"{len(raw)} bytes is not an Ansys binary file (truncated?)")
+    w = np.frombuffer(raw, dtype="<i4")
+    if w[0] != 100 or w[102] != 100:
+        raise ReadError(path, "no Ansys binary header (first record of 100 words); not a .full file")
+    off, count = 0, 0
+    while off < w.size:
+        n = int(w[off])
+        if n == -1 and count > 2:
+            return  # end of data; the rest is block padding
+        end = off + 2 + n
+        if n < 0 or off + 1 >= w.size or end >= w.size or int(w[end]) != n:
+            raise ReadError(path, f"record {count + 1} at byte {4 * off} is broken or runs past the end of the "
+                                  "file: the file is truncated or damaged; write it again with Ansys")
+        off, count = end + 1, count + 1
+
+
+def _read_cdb(path: Path):
+    from ansys.mapdl.reader import Archive
+
+    try:
+        a = Archive(str(path), read_parameters=False, parse_vtk=False)
+    except Exception as exc:  # noqa: BLE001
+        raise ReadError(path, f"not a readable Ansys archive ({type(exc).__name__}: {str(exc)[:120]})") from None
+    sets = {str(k).upper(): np.asarray(v, dtype=np.int64) for k, v in dict(a.node_components).items()}
+    return np.asarray(a.nnum, dtype=np.int64), np.asarray(a.nodes, dtype=np.float64)[:, :3], sets
+
+
+def read_ansys(path, *, coordinates=None) -> "FEModel":  # noqa: F821
+    """Read an Ansys matrix export (Matrix Market set or binary ``.full``).
+
+    Parameters
+    ----------
+    path : str or path-like
+        The stiffness (or mass) Matrix Market file, or the ``.full`` file.
+    coordinates : str or path-like, optional
+        ``.cdb`` archive with the nodes of a ``.full`` file (default ``<stem>.cdb`` beside it).
+
+    Returns
+    -------
+    FEModel
+
+    Raises
+    ------
+    ReadError
+        Missing partner files, malformed matrices, maps or coordinates (with line numbers),
+        maps that do not fit the matrices, ``.full`` without ansys-mapdl-reader.
+    """
+    path = Path(path)
+    if path.suffix.lower() == ".full":
+        return _read_full(path, coordinates)
+    return _read_mmf(path)
+
+
+register_format("ansys", [".full", ".txt"], reader=read_ansys,
+                description="Ansys HBMAT/MMF export (stiffness, mass, mapping vector, coordinates) or binary .full")
