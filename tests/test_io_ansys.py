@@ -67,7 +67,8 @@ def test_hbmat_mapping_file_and_decimal_points(tmp_path, rotor):
     lab = {1: "UX", 2: "UY", 3: "UZ"}
     (tmp_path / "rotorAnsysStiffness.mapping").write_text(
         "Matrix Eqn   Node   DOF\n" + "".join(f"{i + 1} {n} {lab[d]}\n" for i, (n, d) in enumerate(rotor.dofs)))
-    xyz = "Node;X;Y;Z\n" + "".join(f"{n};{float(x)!r};{float(y)!r};{float(z)!r}\n" for n, (x, y, z) in zip(rotor.node_ids, rotor.xyz))
+    xyz = "Node;X;Y;Z\n" + "".join(f"{n};" + ";".join(repr(float(c)) for c in p) + "\n"
+                                    for n, p in zip(rotor.node_ids, rotor.xyz))
     (tmp_path / ROTOR[3]).write_text(xyz)
     model = flexmor.io.read(path)
     np.testing.assert_array_equal(model.dofs, rotor.dofs)
