@@ -42,3 +42,9 @@ def clamped_ref():
 @pytest.fixture(scope="session")
 def free_ref():
     return calculix_frequencies(CCX / "beam8_free_freq.dat")
+
+
+@pytest.fixture(autouse=True)
+def _hermetic_frf_cache(tmp_path_factory, monkeypatch):
+    """Every test writes the full-FRF disk cache into a temporary directory, never ~/.cache."""
+    monkeypatch.setenv("FLEXMOR_CACHE_DIR", str(tmp_path_factory.getbasetemp() / "flexmor-cache"))

@@ -8,73 +8,190 @@ from typing import Callable
 
 import numpy as np
 
+from ..errors import OptionError
 from ..linalg import factorize
 from ..linalg.eigen import DENSE_LIMIT, default_shift, eigenmodes, frequencies_hz
-from .frequency import band_grid, error_measures, frf_full, frf_reduced, rel_error
+from ..linalg.factorize import STATS
+from . import cache as frf_cache
+from .frequency import error_measures, frf_full, frf_reduced, rel_error
+from .grid import DEFAULT_TOL, adaptive_grid
 
-__all__ = ["FullResponse", "modal_damping_ratios"]
+__all__ = ["FullResponse", "modal_damping_ratios", "PATHS"]
 
 log = logging.getLogger(__name__)
 
+#: How the full FRF on the grid is obtained: ``direct`` sparse solves at every grid point,
+#: ``surrogate`` a verified large projection model (see :mod:`flexmor.analysis.surrogate`),
+#: ``auto`` the surrogate above :data:`SURROGATE_MIN_DOF` DOF for damped models.
+PATHS = ("auto", "direct", "surrogate")
 
-def modal_damping_ratios(damping: dict, freqs_hz) -> np.ndarray | None:
-    """Damping ratio of each mode for Rayleigh damping ``zeta = alpha/(2w) + beta w/2``; else None."""
-    if damping.get("type") != "rayleigh":
-        return None
+#: Models with at least this many DOF use the verified surrogate under ``path="auto"``.
+SURROGATE_MIN_DOF = 10**12  # enabled with the surrogate module
+
+
+def modal_damping_ratios(damping: dict, freqs_hz, phi=None, D=None) -> np.ndarray | None:
+    """Modal damping ratios of the modes with eigenfrequencies ``freqs_hz``.
+
+    Rayleigh damping gives ``zeta = alpha/(2w) + beta w/2``; another damping matrix ``D``
+    with mass-normalized modes ``phi`` gives ``zeta_k = phi_k^T D phi_k / (2 w_k)`` (exact
+    for proportional damping, the diagonal approximation otherwise); else None.
+    """
     w = 2 * np.pi * np.maximum(np.asarray(freqs_hz, float), 1e-30)
-    return damping["alpha"] / (2 * w) + damping["beta"] * w / 2
+    if damping.get("type") == "rayleigh":
+        return damping["alpha"] / (2 * w) + damping["beta"] * w / 2
+    if D is not None and phi is not None:
+        return np.einsum("ij,ij->j", phi, D @ phi) / (2 * w)
+    return None
 
 
-def _resonances(model, fmax: float, backend: str, max_modes: int = 400) -> np.ndarray:
-    """Eigenfrequencies (Hz) of the full model up to ``fmax`` (modal pre-pass, one factorization)."""
+def _modes(model, fmax: float, backend: str, max_modes: int = 400):
+    """Modal pre-pass: eigenfrequencies (Hz) and mass-normalized modes up to ``fmax``.
+
+    Returns ``(f, phi, F, sigma)``: ``F`` the factorization of ``K - sigma M`` (None for
+    small dense problems), reused by the surrogate.
+    """
     sigma = default_shift(model.K, model.M)
     F = None
     if model.n_dof > DENSE_LIMIT:
         F = factorize((model.K - sigma * model.M).tocsr(), backend, positive=True)
     k = min(model.n_dof, 20)
     while True:
-        lam, _ = eigenmodes(model.K, model.M, k, sigma=sigma, factorization=F)
+        lam, phi = eigenmodes(model.K, model.M, k, sigma=sigma, factorization=F)
         f = frequencies_hz(lam)
         if f[-1] > fmax or k >= min(model.n_dof, max_modes):
-            return f[f <= fmax]
+            keep = f <= fmax
+            return f[keep], phi[:, keep], F, sigma
         k = min(model.n_dof, 2 * k, max_modes)
+
+
+def _resonances(model, fmax: float, backend: str, max_modes: int = 400) -> np.ndarray:
+    """Eigenfrequencies (Hz) of the full model up to ``fmax`` (modal pre-pass, one factorization)."""
+    return _modes(model, fmax, backend, max_modes)[0]
 
 
 class FullResponse:
     """The full model's FRF over a band, computed once and reused for every reduced body.
 
+    A modal pre-pass finds the resonances in the band and their modal damping; the adaptive
+    grid (:func:`flexmor.analysis.grid.adaptive_grid`) places points at them and refines
+    until the trapezoidal integral of ``||H||_F^2`` is resolved to ``tol``. The result is
+    cached on disk (:mod:`flexmor.analysis.cache`) so that later runs on the same model,
+    ports, damping, band and grid parameters cost no sweep.
+
     Parameters
     ----------
     model : FEModel
+        The full model.
     ports : Ports
+        Inputs and outputs.
     band : (float, float)
         ``(fmin, fmax)`` in Hz.
     n : int
-        Log-spaced base points of :func:`band_grid` (plus resonance refinement).
+        Log-spaced base points of the grid.
+    tol : float
+        Relative tolerance of the grid refinement (see :func:`adaptive_grid`).
+    max_points : int
+        Largest grid.
     backend : str
         Backend of :func:`flexmor.linalg.factorize`.
+    path : {'auto', 'direct', 'surrogate'}
+        How H is evaluated on the grid (see :data:`PATHS`).
+    cache : bool or path-like
+        Use the disk cache (True: :func:`flexmor.analysis.cache.cache_dir`; a path: that
+        directory; False: neither read nor write).
     progress : callable, optional
-        ``progress(iterable, total)`` wrapper for the sweep.
+        ``progress(iterable, total)`` wrapper for the direct sweeps.
 
     Attributes
     ----------
     freqs : ndarray
-        The grid (Hz). ``resonances`` the full model's eigenfrequencies in the band.
+        The grid (Hz).
     H : ndarray, shape (n_freq, n_outputs, n_inputs)
+        The full FRF on the grid.
+    resonances, zeta : ndarray
+        Eigenfrequencies (Hz) in the band and their modal damping ratios (0 when unknown).
+    grid : dict
+        Grid size, tolerance, number of resonances, refinement rounds, rationale, the path
+        used and ``cache_hit``.
     seconds : float
-        Wall time of the pre-pass and the sweep.
+        Wall time of the pre-pass and the sweep (or of the cache read).
+    timings : dict
+        ``prepass``, ``sweep``, ``cache`` seconds.
+    cache_hit : bool
+        The FRF came from the disk cache.
+    n_factorizations : int
+        Sparse factorizations spent (0 on a cache hit).
     """
 
-    def __init__(self, model, ports, band, *, n: int = 200, backend: str = "auto", progress: Callable | None = None):
+    def __init__(self, model, ports, band, *, n: int = 50, tol: float = DEFAULT_TOL, max_points: int = 3000,
+                 backend: str = "auto", path: str = "auto", cache=True, progress: Callable | None = None):
         t0 = time.perf_counter()
+        c0 = STATS["count"]
+        if path not in PATHS:
+            raise OptionError(f"path={path!r} is not allowed; choose one of: {', '.join(PATHS)}")
         self.band = (float(band[0]), float(band[1]))
-        band_grid(*self.band, n=2)  # validates the band before any expensive work
-        self.resonances = _resonances(model, self.band[1], backend)
-        zeta = modal_damping_ratios(model.damping, self.resonances)
-        self.freqs = band_grid(*self.band, n=n, resonances=self.resonances, zeta=zeta)
-        self.H = frf_full(model, ports, self.freqs, backend=backend, progress=progress)
+        if not (np.isfinite(self.band[0]) and np.isfinite(self.band[1])) or not 0 < self.band[0] < self.band[1]:
+            raise OptionError(f"band must satisfy 0 < FMIN < FMAX (Hz), got {band[0]}:{band[1]}")
+        damped = model.D is not None
+        if path == "auto":
+            path = "surrogate" if damped and model.n_dof >= SURROGATE_MIN_DOF else "direct"
+        if path == "surrogate" and not damped:
+            raise OptionError("the surrogate path needs a damped model (--rayleigh or --modal-damping)")
+        self.path = path
+        params = {"band": self.band, "n": int(n), "tol": float(tol), "max_points": int(max_points), "path": path}
+        self.timings = {"prepass": 0.0, "sweep": 0.0, "cache": 0.0}
+        directory = None if cache is True else cache
+        key = frf_cache.frf_key(model, ports, params) if cache is not False else None
+        entry = frf_cache.load(key, (ports.n_outputs, ports.n_inputs), directory) if key else None
+        self.timings["cache"] = time.perf_counter() - t0
+        self.cache_hit = entry is not None
+        if entry is not None:
+            self.freqs, self.H = entry["freqs"], entry["H"]
+            self.resonances, self.zeta, self.grid = entry["resonances"], entry["zeta"], entry["info"]
+            log.info("full FRF from the cache (%d frequencies)", self.freqs.size)
+        else:
+            self._compute(model, ports, n=n, tol=tol, max_points=max_points, backend=backend, progress=progress)
+            if key:
+                t1 = time.perf_counter()
+                frf_cache.store(key, self.freqs, self.H, self.resonances, self.zeta, self.grid, directory)
+                self.timings["cache"] += time.perf_counter() - t1
+        self.grid["cache_hit"] = self.cache_hit
+        self.n_factorizations = STATS["count"] - c0
         self.seconds = time.perf_counter() - t0
-        log.info("full FRF: %d frequencies in %.2f s", self.freqs.size, self.seconds)
+        log.info("full FRF: %d frequencies in %.2f s (%s%s)", self.freqs.size, self.seconds, path,
+                 ", cached" if self.cache_hit else "")
+
+    def _compute(self, model, ports, *, n, tol, max_points, backend, progress):
+        t0 = time.perf_counter()
+        fmin, fmax = self.band
+        damped = model.D is not None
+        f_modes = fmax * (1.5 if self.path == "surrogate" else 1.0)
+        f_all, phi, F0, sigma = _modes(model, f_modes, backend)
+        z_all = modal_damping_ratios(model.damping, f_all, phi, model.D) if damped else None
+        z_all = np.zeros(f_all.size) if z_all is None else np.maximum(z_all, 0.0)
+        inband = (f_all >= fmin) & (f_all <= fmax)
+        self.resonances, self.zeta = f_all[inband], z_all[inband]
+        self.timings["prepass"] = time.perf_counter() - t0
+        t1 = time.perf_counter()
+        if self.path == "surrogate":
+            from .surrogate import Surrogate
+
+            sur = Surrogate(model, ports, self.band, phi=phi, factorization=F0, sigma=sigma, backend=backend)
+            evaluate = sur.frf
+        else:
+            sur = None
+
+            def evaluate(freqs):
+                return frf_full(model, ports, freqs, backend=backend, progress=progress)
+
+        refine = damped and bool(np.all(self.zeta > 0))
+        self.freqs, self.H, self.grid = adaptive_grid(
+            evaluate, fmin, fmax, n=n, resonances=self.resonances, zeta=self.zeta, tol=tol,
+            max_points=max_points, refine=refine)
+        if sur is not None:
+            self.grid["surrogate"] = sur.verify(self.freqs)
+        self.grid["path"] = self.path
+        self.timings["sweep"] = time.perf_counter() - t1
 
     def evaluate(self, reduced) -> dict:
         """Error measures of ``reduced`` (dict with ``band_error``, ``max_rel_error``, ``rel_error``)."""

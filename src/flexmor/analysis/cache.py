@@ -1,0 +1,134 @@
+"""Disk cache of full-model frequency responses.
+
+A full FRF is stored as one ``.npz`` file (no pickles) named by a BLAKE2 hash of everything
+it depends on: the contents of ``K``, ``M``, ``D``, ``B`` and ``C``, the damping description,
+the band and the grid parameters. The key is stored inside the file and checked on load
+together with the array shapes, so a renamed, truncated or foreign file is never used.
+Files are written atomically (:func:`flexmor.io.atomic_write`).
+
+The directory is ``$FLEXMOR_CACHE_DIR`` if set, else ``$XDG_CACHE_HOME/flexmor``, else
+``~/.cache/flexmor``.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import logging
+import os
+from pathlib import Path
+
+import numpy as np
+import scipy.sparse as sp
+
+__all__ = ["cache_dir", "frf_key", "load", "store", "FORMAT_VERSION"]
+
+log = logging.getLogger(__name__)
+
+#: Bumped whenever the meaning of a cached FRF changes (grid rules, solver conventions).
+FORMAT_VERSION = 1
+
+
+def cache_dir() -> Path:
+    """The cache directory (not created here)."""
+    env = os.environ.get("FLEXMOR_CACHE_DIR")
+    if env:
+        return Path(env)
+    xdg = os.environ.get("XDG_CACHE_HOME")
+    return (Path(xdg) if xdg else Path.home() / ".cache") / "flexmor"
+
+
+def _update_matrix(h, name: str, A) -> None:
+    h.update(name.encode())
+    if A is None:
+        h.update(b"none")
+        return
+    A = sp.csr_matrix(A, copy=True)
+    A.sum_duplicates()
+    A.sort_indices()
+    h.update(np.asarray(A.shape, np.int64).tobytes())
+    for arr, dt in ((A.indptr, np.int64), (A.indices, np.int64), (A.data, np.float64)):
+        h.update(np.ascontiguousarray(arr, dtype=dt).tobytes())
+
+
+def frf_key(model, ports, params: dict) -> str:
+    """Hex key of a full FRF: hash of the matrix contents, ports, damping and ``params``.
+
+    Parameters
+    ----------
+    model : FEModel
+    ports : Ports
+    params : dict
+        JSON-serializable description of band, grid and evaluation path.
+    """
+    h = hashlib.blake2b(digest_size=20)
+    h.update(f"flexmor-frf-v{FORMAT_VERSION}".encode())
+    for name, A in (("K", model.K), ("M", model.M), ("D", model.D), ("B", ports.B), ("C", ports.C)):
+        _update_matrix(h, name, A)
+    h.update(json.dumps(model.damping, sort_keys=True, default=str).encode())
+    h.update(json.dumps(params, sort_keys=True, default=str).encode())
+    return h.hexdigest()
+
+
+def _path(key: str, directory=None) -> Path:
+    return Path(directory or cache_dir()) / f"frf-{key}.npz"
+
+
+def load(key: str, shape_out: tuple[int, int], directory=None) -> dict | None:
+    """The cached entry for ``key`` or None (missing, unreadable or not matching).
+
+    Parameters
+    ----------
+    key : str
+        From :func:`frf_key`.
+    shape_out : (int, int)
+        Expected ``(n_outputs, n_inputs)`` of the stored FRF.
+    directory : path, optional
+        Cache directory; default :func:`cache_dir`.
+
+    Returns
+    -------
+    dict or None
+        ``freqs``, ``H``, ``resonances``, ``zeta`` arrays and ``info`` (dict).
+    """
+    path = _path(key, directory)
+    if not path.is_file():
+        return None
+    try:
+        with np.load(path, allow_pickle=False) as z:
+            entry = {k: z[k] for k in ("key", "freqs", "H", "resonances", "zeta", "info")}
+        ok = (str(entry["key"]) == key and entry["H"].ndim == 3
+              and entry["H"].shape == (entry["freqs"].size, *shape_out)
+              and np.all(np.isfinite(entry["freqs"])) and np.all(np.diff(entry["freqs"]) > 0))
+        if not ok:
+            log.warning("ignoring cache file %s: it does not match its key", path)
+            return None
+        entry["info"] = json.loads(str(entry["info"]))
+        del entry["key"]
+        return entry
+    except Exception as exc:  # noqa: BLE001 - a damaged cache file is only a miss
+        log.warning("ignoring unreadable cache file %s (%s)", path, exc)
+        return None
+
+
+def store(key: str, freqs, H, resonances, zeta, info: dict, directory=None) -> Path | None:
+    """Write one entry atomically; returns its path, or None when the directory is not writable."""
+    from ..io import atomic_write
+    from ..jsonutil import jsonable
+
+    path = _path(key, directory)
+    arrays = dict(key=np.array(key), freqs=np.asarray(freqs, float), H=np.asarray(H, complex),
+                  resonances=np.asarray(resonances, float), zeta=np.asarray(zeta, float),
+                  info=np.array(json.dumps(jsonable(info))))
+    try:
+        atomic_write(path, lambda tmp: _savez(tmp, arrays))
+    except OSError as exc:
+        log.warning("could not write the FRF cache %s (%s)", path, exc)
+        return None
+    log.info("cached full FRF in %s", path)
+    return path
+
+
+def _savez(tmp: str, arrays: dict) -> None:
+    with open(tmp, "wb") as fh:  # a file object: np.savez would append '.npz' to a name
+        np.savez(fh, **arrays)
