@@ -6,7 +6,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-__all__ = ["Basis", "orthonormalize"]
+__all__ = ["Basis", "orthonormalize", "extend_orthonormal"]
 
 
 @dataclass
@@ -52,3 +52,46 @@ def orthonormalize(V: np.ndarray, M=None, *, tol: float = 1e-10, passes: int = 2
         keep = w > tol * w[-1]
         X = X @ (U[:, keep] / np.sqrt(w[keep]))
     return X
+
+
+def extend_orthonormal(V: np.ndarray | None, X: np.ndarray, *, tol: float = 1e-10) -> np.ndarray:
+    """Block Gram-Schmidt step: orthonormal columns spanning the part of ``X`` outside ``span(V)``.
+
+    ``V`` (n, r) must have orthonormal columns (Euclidean; real or complex, then the Hermitian
+    inner product is used). The columns of ``X`` are scaled to unit norm, orthogonalized
+    against ``V`` twice ("twice is enough"), and factorized by a column-pivoted QR; columns
+    whose remaining norm is below ``tol`` (relative to their own norm) are deflated, so the
+    result has between 0 and ``X.shape[1]`` columns. A last projection pass keeps the new
+    block orthogonal to ``V`` when deflation was close. Cost: O(n r b) BLAS-3 for a block of
+    ``b`` columns.
+
+    Returns
+    -------
+    ndarray, shape (n, k)
+        New orthonormal columns Q, ``Q^H V = 0``, ``Q^H Q = I``.
+
+    References
+    ----------
+    Giraud, L., Langou, J., Rozloznik, M. (2005). The loss of orthogonality in the
+    Gram-Schmidt orthogonalization process. Comput. Math. Appl. 50, 1069-1075.
+    """
+    import scipy.linalg as sla
+
+    X = np.array(X, dtype=np.result_type(X, float if V is None else V, float), copy=True)
+    if X.ndim == 1:
+        X = X[:, None]
+    nrm = np.linalg.norm(X, axis=0)
+    X = X[:, nrm > 0] / nrm[nrm > 0]
+    if X.shape[1] == 0:
+        return X
+    has_v = V is not None and V.shape[1] > 0
+    for _ in range(2):
+        if has_v:
+            X -= V @ (V.conj().T @ X)
+    Q, R, _ = sla.qr(X, mode="economic", pivoting=True)
+    k = int(np.sum(np.abs(np.diag(R)) > tol))
+    Q = Q[:, :k]
+    if has_v and k:
+        Q -= V @ (V.conj().T @ Q)
+        Q, _ = np.linalg.qr(Q)
+    return Q

@@ -1,0 +1,178 @@
+"""Structure-preserving second-order IRKA (one-sided Galerkin, tangential directions).
+
+Iterative rational Krylov: interpolate ``H(s) = C (s^2 M + s D + K)^{-1} B`` tangentially at
+the mirror images ``sigma_j = -lambda_j`` of poles of the current reduced body and repeat
+until the points settle. The basis is built from
+``(sigma_j^2 M + sigma_j D + K)^{-1} B b_j`` (one factorization per point, a complex point
+and its conjugate share one solve that gives a real and an imaginary column); the reduced
+body is the one-sided Galerkin projection, so it stays a symmetric mechanical system.
+
+A reduced second-order body of order r has 2r poles, but r real columns interpolate at r
+points only. The r points are the mirror images of the reduced poles of smallest magnitude
+(the lowest reduced modes), in conjugate pairs. Choosing instead the most H2-dominant poles
+(largest residue over damping) flips between pole sets and cycles on lightly damped
+solids; the smallest-magnitude choice converged in all our tests.
+"""
+
+from __future__ import annotations
+
+import logging
+
+import numpy as np
+import scipy.linalg as sla
+
+from ..basis import Basis
+from ..errors import OptionError
+from ..projection import project
+from . import register_method
+from .krylov import krylov, merge_blocks, shifted_factorization
+
+__all__ = ["irka", "reduced_poles", "select_shifts"]
+
+log = logging.getLogger(__name__)
+
+
+def _linearize(red):
+    """First-order form ``E x' = A x + B u``, ``y = C x`` of a reduced body (dense)."""
+    r = red.M.shape[0]
+    Dr = red.D if red.D is not None else np.zeros((r, r))
+    Z, I = np.zeros((r, r)), np.eye(r)
+    E = np.block([[I, Z], [Z, red.M]])
+    A = np.block([[Z, I], [-red.K, -Dr]])
+    B = np.vstack([np.zeros_like(red.B), red.B])
+    C = np.hstack([red.C, np.zeros_like(red.C)])
+    return E, A, B, C
+
+
+def reduced_poles(red):
+    """Poles and right tangential directions of a reduced body.
+
+    Returns ``(lam, b)``: the 2r poles of the first-order form and the directions
+    ``b_j = (y_j^H B1)^T`` with the left eigenvectors ``y_j`` normalized so that
+    ``y_j^H E x_j = 1`` (the residue is ``(C1 x_j)(y_j^H B1)``).
+    """
+    E, A, B, C = _linearize(red)
+    lam, Y, X = sla.eig(A, E, left=True, right=True)
+    scale = np.einsum("ij,ij->j", Y.conj(), E @ X)
+    return lam, (Y.conj().T @ B) / scale[:, None]
+
+
+def select_shifts(lam, b, r: int):
+    """Mirror images of the smallest poles, in conjugate pairs, until r real columns.
+
+    Returns ``(sigma, dirs)``: one representative point (``Im >= 0``) per pair and, per point,
+    the tangential directions as columns of an (m, k) array. Poles that coincide (relative
+    distance 1e-6; e.g. the y and z bending modes of a square beam) share one point with a
+    block of directions; a direction adds columns only if it is new (rank test), so a
+    repeated pole of a single-input body does not waste columns.
+    """
+    keep = lam.imag >= -1e-12 * np.abs(lam)
+    lam, b = lam[keep], b[keep]
+    sig, dirs, cols = [], [], 0
+    for j in np.argsort(np.abs(lam)):
+        if cols >= r:
+            break
+        real = abs(lam[j].imag) <= 1e-12 * abs(lam[j])
+        d = (b[j].real if real else b[j])[:, None]
+        g = next((i for i, q in enumerate(sig) if abs(lam[j] + q) <= 1e-6 * abs(lam[j])), None)
+        if g is None:
+            sig.append(-lam[j].real if real else -lam[j])
+            dirs.append(d)
+        else:
+            blk = np.hstack([dirs[g], d])
+            if np.linalg.matrix_rank(blk, tol=1e-8 * np.abs(blk).max()) <= dirs[g].shape[1]:
+                continue
+            dirs[g] = blk
+        cols += 1 if real else 2
+    return np.asarray(sig, dtype=complex), dirs
+
+
+def _shift_change(new, old) -> float:
+    """Largest relative distance of a new point to the nearest old one."""
+    if old is None or len(old) == 0:
+        return np.inf
+    d = np.abs(new[:, None] - old[None, :]).min(axis=1)
+    return float(np.max(d / np.maximum(np.abs(new), np.finfo(float).tiny)))
+
+
+def tangential_basis(model, B, sigma, dirs, order, backend="auto"):
+    """Orthonormal real basis of ``(s_j^2 M + s_j D + K)^{-1} B b_j`` (real and imaginary parts)."""
+    blocks = []
+    for s, b in zip(sigma, dirs):
+        F, s = shifted_factorization(model, s, backend)
+        x = F.solve(B @ b)
+        blocks.append([np.hstack([x.real, x.imag]) if s.imag != 0 else np.real(x)])
+        del F
+    return merge_blocks(blocks, order)
+
+
+@register_method("irka", "second-order IRKA: H2-type tangential interpolation at iterated points")
+def irka(model, ports, order, *, max_iter: int = 50, shift_tol: float = 1e-4, band=None,
+         backend: str = "auto") -> Basis:
+    """Second-order IRKA basis (one-sided Galerkin, structure preserving).
+
+    Parameters
+    ----------
+    model : FEModel
+        Needs damping (``D``) for the poles to leave the imaginary axis; undamped bodies
+        interpolate on it.
+    ports : Ports
+        ``B`` gives the tangential interpolation data (``C`` enters through the residues).
+    order : int
+        Reduced dimension r.
+    max_iter : int
+        Maximum number of iterations (each: r/2 complex factorizations of order n).
+    shift_tol : float
+        Convergence when every new point lies within ``shift_tol`` (relative) of an old one.
+    band : (float, float), optional
+        Band (Hz) of the :func:`flexmor.reduction.krylov.krylov` start basis, whose
+        reduced poles give the initial points; default (1, 1000).
+    backend : str
+        Backend of :func:`flexmor.linalg.factorize`.
+
+    Returns
+    -------
+    Basis
+        ``info``: ``converged`` (bool), ``iterations``, ``shift_change`` (last relative change),
+        ``shifts_rad_s`` (final points). Without convergence a warning is logged and the basis
+        of the last points is returned (it interpolates there and is usable).
+
+    References
+    ----------
+    Gugercin, S., Antoulas, A. C., Beattie, C. (2008). H2 model reduction for large-scale
+    linear dynamical systems. SIAM J. Matrix Anal. Appl. 30(2), 609-638.
+
+    Wyatt, S. (2012). Issues in interpolatory model reduction: inexact solves, second-order
+    systems and DAEs. PhD thesis, Virginia Tech, ch. 5 (SOR-IRKA).
+
+    Beattie, C. A., Gugercin, S. (2009). Interpolatory projection methods for
+    structure-preserving model reduction. Systems Control Lett. 58(3), 225-232.
+    """
+    if order is None:
+        raise OptionError("irka needs --order")
+    if int(max_iter) != max_iter or max_iter < 1:
+        raise OptionError(f"max_iter must be a positive integer, got {max_iter}")
+    if not shift_tol > 0:
+        raise OptionError(f"shift_tol must be positive, got {shift_tol}")
+    B = ports.B.toarray()
+    basis = krylov(model, ports, order, band=band, backend=backend)
+    V = basis.V
+    old, change, it, history = None, np.inf, 0, []
+    for it in range(1, int(max_iter) + 1):
+        red = project(model, Basis(V, "irka"), ports)
+        sigma, dirs = select_shifts(*reduced_poles(red), order)
+        change = _shift_change(sigma, old)
+        history.append(change)
+        log.debug("irka iteration %d: shift change %.2e", it, change)
+        if change < shift_tol:
+            break
+        V = tangential_basis(model, B, sigma, dirs, order, backend)
+        old = sigma
+    converged = change < shift_tol
+    if not converged:
+        log.warning("irka did not converge in %d iterations (last relative shift change %.2e > %.1e); "
+                    "the basis of the last points is returned", max_iter, change, shift_tol)
+    info = {"converged": bool(converged), "iterations": it, "shift_change": change,
+            "shift_history": history, "shifts_rad_s": [str(s) for s in (old if old is not None else [])],
+            "max_iter": int(max_iter), "shift_tol": float(shift_tol)}
+    return Basis(V, "irka", info)
