@@ -13,6 +13,12 @@ A port SPEC is a string:
     their displacement is zero and their share of the force goes into the support.
 ``SET`` or ``NODE`` (interfaces only)
     all directions of the set's (node's) nodes that are equations of the model.
+``SET@rbe3:DIR`` (``SET@rbe3[x,y,z]:DIR``)
+    force/moment at a master point (the set's centroid by default) distributed over the set
+    by an RBE3 coupling, and the master's motion fitted to the set's translations
+    (:mod:`flexmor.couplings`); ``DIR`` may be a rotation. ``SET@rbe2`` changes the model:
+    apply :func:`flexmor.couplings.couple` first, then ``SET@rbe2`` and ``SET@rbe2:DIR``
+    name the master node of the coupled model (also as interface: 6 DOFs).
 
 Models read with their own ``B``/``C`` (MATLAB benchmarks) use those when no SPEC is given.
 """
@@ -84,6 +90,10 @@ def _weights(model: FEModel, spec: str):
     target, d = parse_spec(spec)
     if d is None:
         raise PortError(f"port {spec!r}: give a direction, e.g. {target}:y")
+    if "@" in target and target.replace(" ", "").upper() not in model.node_sets:
+        from .couplings import port_row
+
+        return port_row(model, target, d)
     nodes = _nodes_of(model, target, spec)
     if model.dofs is None:
         raise PortError(f"port {spec!r}: the model has no equation map")
@@ -152,6 +162,9 @@ def interface_dofs(model: FEModel, specs) -> np.ndarray:
     out = set()
     for spec in specs:
         target, d = parse_spec(spec)
+        if "@" in target and target.replace(" ", "").upper() not in model.node_sets:
+            raise PortError(f"interface {spec!r}: couplings are part of the model; use "
+                            f"flexmor.couplings.couple(model, [{spec!r}]).model and reduce that")
         nodes = _nodes_of(model, target, spec)
         found = np.flatnonzero(np.isin(model.dofs[:, 0], nodes) & ((model.dofs[:, 1] == d) if d else True))
         if found.size == 0:
