@@ -268,7 +268,8 @@ def _pick(names, want, letter, what, path):
         return cands[0]
     if letter == "B":
         return None
-    raise ReadError(path, f"cannot tell the {what} matrix among {', '.join(sorted(names))}; pass {what}=NAME")
+    raise ReadError(path, f"cannot tell the {what} matrix among {', '.join(sorted(names))}; name them K.../M... "
+                          f"or pass {what}=NAME to flexmor.io.read")
 
 
 def _dmig_model(path, mats, names, geometry):
