@@ -95,8 +95,11 @@ def cmd_reduce(args) -> int:
     ports = make_ports(model, args.input, args.output)
     band = None if args.no_error else (band or DEFAULT_BAND)
     red, res = reduce_and_judge(model, args.method, args.order, ports, band=band, n_freq=args.n_freq,
+                                grid_tol=args.grid_tol, full_frf=args.full_frf, cache=not args.no_cache,
                                 backend=args.backend, progress=_progress(args, "full FRF"),
-                                interface=args.interface or None)
+                                interface=args.interface or None, tol=args.tol, points=args.points,
+                                moments=args.moments, side=args.side, rigid=args.rigid, max_iter=args.max_iter,
+                                shift_tol=args.shift_tol)
     res["timings"]["read"] = t_read
     path = Path(args.output_file or f"{model.name}_{args.method}_{red.order}.h5")
     write_reduced(red, path)
@@ -105,6 +108,9 @@ def cmd_reduce(args) -> int:
         _emit_json(res)
         return 0
     print(f"{args.method}: order {red.order}, {res['seconds']:.3f} s (basis + projection)")
+    if res.get("tol") is not None:
+        print(f"--tol {res['tol']:g}: order {red.order} chosen, verified band_error {_fmt(res['band_error'])} "
+              + ("meets it" if res["tol_reached"] else "MISSES it (largest order tried)"))
     if res["band_hz"]:
         print(f"band {res['band_hz'][0]:g}-{res['band_hz'][1]:g} Hz: band_error {_fmt(res['band_error'])}, "
               f"max_rel_error {_fmt(res['max_rel_error'])}")
@@ -130,13 +136,20 @@ def cmd_compare(args) -> int:
             model = model.with_rayleigh(red.damping["alpha"], red.damping["beta"])
         key = (tuple(red.input_names), tuple(red.output_names))
         if key not in fulls:
+            grid_opts = {} if args.grid_tol is None else {"tol": args.grid_tol}
             fulls[key] = FullResponse(model, make_ports(model, *key), band, n=args.n_freq, backend=args.backend,
-                                      progress=_progress(args, "full FRF"))
+                                      path=args.full_frf, cache=not args.no_cache,
+                                      progress=_progress(args, "full FRF"), **grid_opts)
+        t0 = time.perf_counter()
         err = fulls[key].evaluate(red)
+        t_err = time.perf_counter() - t0
         rows.append({"file": str(path), "method": red.method, "order": red.order, "band_hz": list(band),
-                     "band_error": err["band_error"], "max_rel_error": err["max_rel_error"]})
+                     "band_error": err["band_error"], "max_rel_error": err["max_rel_error"],
+                     "timings": {"error": t_err}})
     if args.json:
-        _emit_json({"model": model.name, "band_hz": list(band), "results": rows})
+        grids = [dict(f.summary(), inputs=list(k[0]), outputs=list(k[1])) for k, f in fulls.items()]
+        _emit_json({"model": model.name, "band_hz": list(band), "results": rows, "grids": grids,
+                    "timings": {"read": t_read, "full_frf": sum(f.seconds for f in fulls.values())}})
         return 0
     _table(rows)
     return 0
@@ -179,7 +192,11 @@ def _add_model_args(p, damping=True):
         p.add_argument("--rayleigh", metavar="ALPHA:BETA", help="Rayleigh damping D = alpha M + beta K (1/s, s)")
         p.add_argument("--modal-damping", metavar="ZETA", type=float,
                        help="damping ratio; realized as Rayleigh damping with this ratio at both band ends")
-        p.add_argument("--n-freq", type=int, default=200, help="log-spaced base points of the error grid")
+        p.add_argument("--n-freq", type=int, default=50, help="log-spaced base points of the error grid")
+        p.add_argument("--grid-tol", type=float, help="relative tolerance of the adaptive error grid (default 3e-3)")
+        p.add_argument("--full-frf", choices=["auto", "direct", "surrogate"], default="auto",
+                       help="full FRF by direct solves or a verified surrogate (auto: surrogate from 20k DOF)")
+        p.add_argument("--no-cache", action="store_true", help="neither read nor write the full-FRF disk cache")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -211,6 +228,16 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--interface", action="append", default=[], metavar="SPEC", help="interface NODE, SET, SET:DIR")
     p.add_argument("-o", "--output-file", metavar="FILE", help="reduced body file (.h5)")
     p.add_argument("--no-error", action="store_true", help="skip the error evaluation against the full model")
+    g = p.add_argument_group("interpolation methods (krylov, adaptive, irka)")
+    g.add_argument("--tol", type=float, help="target band_error: choose the smallest order meeting it (verified)")
+    g.add_argument("--points", metavar="P1,P2", help="expansion points in Hz, s = 2 pi p: 0, 300j (frequency "
+                   "axis), -5 (real); default three real points over the band")
+    g.add_argument("--moments", type=int, help="moments (blocks) per expansion point")
+    g.add_argument("--side", choices=["input", "output", "both"], help="Krylov space of B, C^T or both (default input)")
+    g.add_argument("--rigid", choices=["include", "exclude"], help="rigid-body modes of a free body in the basis "
+                   "(krylov/adaptive default include, modal default exclude)")
+    g.add_argument("--max-iter", type=int, help="irka: maximum iterations (default 50)")
+    g.add_argument("--shift-tol", type=float, help="irka: relative change of the points for convergence (1e-4)")
     p.set_defaults(func=cmd_reduce)
 
     p = sub.add_parser("compare", help="error measures of reduced bodies against the full model")

@@ -61,17 +61,43 @@ def apply_damping(model, *, rayleigh=None, modal_damping=None, band=None):
 
 
 def reduce_and_judge(model, method: str, order, ports, *, band=None, full: FullResponse | None = None,
-                     n_freq: int = 200, backend: str = "auto", progress=None, **options):
+                     n_freq: int = 50, grid_tol: float | None = None, full_frf: str = "auto", cache=True,
+                     backend: str = "auto", progress=None, tol: float | None = None, **options):
     """Reduce ``model`` and evaluate the error measures over ``band``.
 
     Returns ``(reduced, result)``; ``result`` is the JSON record of ``flexmor reduce``:
     ``method, order, seconds, band_hz, band_error, max_rel_error, frequencies_hz, timings``.
     ``full`` (a :class:`FullResponse`) is reused when given, else computed (``band=None``
-    skips the error evaluation).
+    skips the error evaluation). ``n_freq``, ``grid_tol``, ``full_frf`` (the path: auto,
+    direct, surrogate) and ``cache`` are passed to :class:`FullResponse`; ``result["grid"]``
+    describes the grid (size, tolerance, resonances, path, ``cache_hit``) and
+    ``timings["full_frf"]`` is the wall time of the full FRF computed here.
+        ``tol`` switches to the target-error mode (:func:`flexmor.tolerance.reduce_to_tolerance`):
+    the smallest order whose verified band_error is ``<= tol``, ``order`` then being the
+    largest order tried; ``result`` gets ``tol`` and ``tol_reached``.
     """
+    if band is not None and "band" in _method_options(method):
+        options.setdefault("band", tuple(band))  # default expansion points of krylov, adaptive, irka
+    t_full = None
+    if tol is not None:  # target-error mode: the order is chosen against the full FRF
+        if full is None and band is None:
+            raise OptionError("--tol needs the error evaluation over a band (drop --no-error)")
+        if full is None:
+            grid_opts = {} if grid_tol is None else {"tol": grid_tol}
+            full = FullResponse(model, ports, band, n=n_freq, backend=backend, path=full_frf, cache=cache,
+                                progress=progress, **grid_opts)
+            t_full = full.seconds
     f0 = STATS["seconds"]
-    red, t = reduce(model, method, order, ports, backend=backend, **options)
+    if tol is not None:
+        from .tolerance import reduce_to_tolerance
+
+        red, t, _ = reduce_to_tolerance(model, method, ports, tol=tol, full=full, max_order=order,
+                                        backend=backend, **options)
+    else:
+        red, t = reduce(model, method, order, ports, backend=backend, **options)
     t["factorize"] = STATS["seconds"] - f0
+    if t_full is not None:
+        t["full_frf"] = t_full
     result = {
         "method": method,
         "order": red.order,
@@ -81,17 +107,30 @@ def reduce_and_judge(model, method: str, order, ports, *, band=None, full: FullR
         "info": red.info,
     }
     if full is None and band is not None:
-        full = FullResponse(model, ports, band, n=n_freq, backend=backend, progress=progress)
+        grid_opts = {} if grid_tol is None else {"tol": grid_tol}
+        full = FullResponse(model, ports, band, n=n_freq, backend=backend, path=full_frf, cache=cache,
+                            progress=progress, **grid_opts)
         t["full_frf"] = full.seconds
     if full is not None:
         t0 = time.perf_counter()
         err = full.evaluate(red)
         t["error"] = time.perf_counter() - t0
         result.update(band_hz=list(full.band), band_error=err["band_error"], max_rel_error=err["max_rel_error"])
+        result["grid"] = full.summary()
         red.errors = {"band_hz": list(full.band), "band_error": err["band_error"],
                       "max_rel_error": err["max_rel_error"], "freqs_hz": full.freqs, "rel_error": err["rel_error"]}
+    if tol is not None:
+        result["tol"] = tol
+        result["tol_reached"] = red.info["tol_search"]["tol_reached"]
     result["timings"] = t
     return red, result
+
+
+def _method_options(method: str) -> list:
+    from .reduction import METHODS, _load_builtin
+
+    _load_builtin()
+    return METHODS[method].options if method in METHODS else []
 
 
 def run_demo(out, *, n: int = 4, band=(10.0, 3000.0), progress=None, on_result=None):

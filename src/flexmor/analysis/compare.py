@@ -15,6 +15,7 @@ from ..linalg.factorize import STATS
 from . import cache as frf_cache
 from .frequency import error_measures, frf_full, frf_reduced, rel_error
 from .grid import DEFAULT_TOL, adaptive_grid
+from .surrogate import DEFAULT_SURROGATE_TOL
 
 __all__ = ["FullResponse", "modal_damping_ratios", "PATHS"]
 
@@ -26,7 +27,7 @@ log = logging.getLogger(__name__)
 PATHS = ("auto", "direct", "surrogate")
 
 #: Models with at least this many DOF use the verified surrogate under ``path="auto"``.
-SURROGATE_MIN_DOF = 10**12  # enabled with the surrogate module
+SURROGATE_MIN_DOF = 20000
 
 
 def modal_damping_ratios(damping: dict, freqs_hz, phi=None, D=None) -> np.ndarray | None:
@@ -96,6 +97,8 @@ class FullResponse:
         Backend of :func:`flexmor.linalg.factorize`.
     path : {'auto', 'direct', 'surrogate'}
         How H is evaluated on the grid (see :data:`PATHS`).
+    surrogate_tol : float
+        Largest pointwise relative error of the surrogate at its direct checks.
     cache : bool or path-like
         Use the disk cache (True: :func:`flexmor.analysis.cache.cache_dir`; a path: that
         directory; False: neither read nor write).
@@ -124,7 +127,8 @@ class FullResponse:
     """
 
     def __init__(self, model, ports, band, *, n: int = 50, tol: float = DEFAULT_TOL, max_points: int = 3000,
-                 backend: str = "auto", path: str = "auto", cache=True, progress: Callable | None = None):
+                 backend: str = "auto", path: str = "auto", surrogate_tol: float = DEFAULT_SURROGATE_TOL,
+                 cache=True, progress: Callable | None = None):
         t0 = time.perf_counter()
         c0 = STATS["count"]
         if path not in PATHS:
@@ -139,6 +143,8 @@ class FullResponse:
             raise OptionError("the surrogate path needs a damped model (--rayleigh or --modal-damping)")
         self.path = path
         params = {"band": self.band, "n": int(n), "tol": float(tol), "max_points": int(max_points), "path": path}
+        if path == "surrogate":
+            params["surrogate_tol"] = float(surrogate_tol)
         self.timings = {"prepass": 0.0, "sweep": 0.0, "cache": 0.0}
         directory = None if cache is True else cache
         key = frf_cache.frf_key(model, ports, params) if cache is not False else None
@@ -150,7 +156,8 @@ class FullResponse:
             self.resonances, self.zeta, self.grid = entry["resonances"], entry["zeta"], entry["info"]
             log.info("full FRF from the cache (%d frequencies)", self.freqs.size)
         else:
-            self._compute(model, ports, n=n, tol=tol, max_points=max_points, backend=backend, progress=progress)
+            self._compute(model, ports, n=n, tol=tol, max_points=max_points, backend=backend, progress=progress,
+                          surrogate_tol=surrogate_tol)
             if key:
                 t1 = time.perf_counter()
                 frf_cache.store(key, self.freqs, self.H, self.resonances, self.zeta, self.grid, directory)
@@ -161,7 +168,7 @@ class FullResponse:
         log.info("full FRF: %d frequencies in %.2f s (%s%s)", self.freqs.size, self.seconds, path,
                  ", cached" if self.cache_hit else "")
 
-    def _compute(self, model, ports, *, n, tol, max_points, backend, progress):
+    def _compute(self, model, ports, *, n, tol, max_points, backend, progress, surrogate_tol):
         t0 = time.perf_counter()
         fmin, fmax = self.band
         damped = model.D is not None
@@ -176,7 +183,8 @@ class FullResponse:
         if self.path == "surrogate":
             from .surrogate import Surrogate
 
-            sur = Surrogate(model, ports, self.band, phi=phi, factorization=F0, sigma=sigma, backend=backend)
+            sur = Surrogate(model, ports, self.band, phi=phi, factorization=F0, sigma=sigma, backend=backend,
+                            tol=surrogate_tol, resonances=self.resonances, zeta=self.zeta)
             evaluate = sur.frf
         else:
             sur = None
@@ -192,6 +200,16 @@ class FullResponse:
             self.grid["surrogate"] = sur.verify(self.freqs)
         self.grid["path"] = self.path
         self.timings["sweep"] = time.perf_counter() - t1
+
+    def summary(self) -> dict:
+        """JSON-ready description of the grid: ``n_points, tol, n_resonances, path, cache_hit,
+        seconds, n_factorizations`` and the rest of :attr:`grid` (surrogate checks without
+        their list)."""
+        out = {k: v for k, v in self.grid.items() if k != "surrogate"}
+        if "surrogate" in self.grid:
+            out["surrogate"] = {k: v for k, v in self.grid["surrogate"].items() if k != "checks"}
+        out.update(seconds=self.seconds, n_factorizations=self.n_factorizations, timings=dict(self.timings))
+        return out
 
     def evaluate(self, reduced) -> dict:
         """Error measures of ``reduced`` (dict with ``band_error``, ``max_rel_error``, ``rel_error``)."""

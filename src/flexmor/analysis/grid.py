@@ -24,7 +24,7 @@ __all__ = ["initial_grid", "quadrature_weights", "trapezoid_simpson_gap", "adapt
 log = logging.getLogger(__name__)
 
 #: Default relative tolerance of the trapezoidal integral of ``||H||_F^2`` over the band.
-DEFAULT_TOL = 1e-2
+DEFAULT_TOL = 3e-3
 
 #: Offsets of the points placed at a damped resonance ``f_k``, in units of ``zeta_k f_k``
 #: (the half-power bandwidth is ``2 zeta_k f_k``).
