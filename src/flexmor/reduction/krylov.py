@@ -283,8 +283,15 @@ def krylov(model, ports, order, *, points=None, moments: int | None = None, side
     b = start_block(ports, side).shape[1]
     per_round = sum(b * (1 if p.imag == 0 else 2) for p in pts)
     k = int(moments) if moments is not None else math.ceil(order / per_round)
-    blocks, used = blocks_at_points(model, ports, pts, k, side=side, backend=backend)
-    V = merge_blocks(blocks, order)
+    for _ in range(4):
+        blocks, used = blocks_at_points(model, ports, pts, k, side=side, backend=backend)
+        V = merge_blocks(blocks, order)
+        exhausted = all(len(b) < k for b in blocks)
+        if moments is not None or V.shape[1] >= order or exhausted:
+            break
+        # deflation (e.g. real solutions at points on the frequency axis of an undamped body):
+        # more moments per point fill the order
+        k += math.ceil((order - V.shape[1]) / per_round) + 1
     n_rb = 0
     if rigid == "exclude":
         V, n_rb = exclude_rigid(model, V, backend)

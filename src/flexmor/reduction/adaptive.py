@@ -1,0 +1,132 @@
+"""Greedy (adaptive) choice of expansion points: no mode or point selection by hand.
+
+Start with a real point at the lower band edge and a point on the frequency axis at the
+upper edge; then repeatedly add the point ``s = i 2 pi f*`` where a cheap error estimate is
+largest. The estimate is the difference between the two latest reduced bodies,
+``est(f) = ||H_k(f) - H_{k-1}(f)||_F / ||H_k(f)||_F`` on a fine candidate grid: it costs only
+small dense solves (:func:`flexmor.analysis.frequency.frf_reduced`), never a full-model
+frequency sweep, and it is large where the reduced body has not settled yet. Each new point
+costs one factorization and ``moments`` block solves
+(:func:`flexmor.reduction.krylov.blocks_at_points`).
+"""
+
+from __future__ import annotations
+
+import logging
+
+import numpy as np
+
+from ..analysis.frequency import frf_reduced, rel_error
+from ..basis import Basis, extend_orthonormal
+from ..errors import OptionError, check_choice
+from ..projection import project
+from . import register_method
+from .krylov import DEFLATION_TOL, RIGID, SIDES, blocks_at_points, exclude_rigid
+
+__all__ = ["adaptive"]
+
+log = logging.getLogger(__name__)
+
+
+def _band_estimate(freqs, Hk, Hprev) -> float:
+    """``∫||Hk - Hprev||^2 df / ∫||Hk||^2 df``: the band_error of the previous body w.r.t. the latest."""
+    num = np.trapezoid(np.sum(np.abs(Hk - Hprev) ** 2, axis=(1, 2)), freqs)
+    den = np.trapezoid(np.sum(np.abs(Hk) ** 2, axis=(1, 2)), freqs)
+    return float(num / den) if den > 0 else np.inf
+
+
+@register_method("adaptive", "greedy expansion points in the band from a cheap error estimate")
+def adaptive(model, ports, order, *, band=None, tol: float | None = None, moments: int = 1,
+             side: str = "input", n_candidates: int = 400, max_points: int = 60, rigid: str = "include",
+             backend: str = "auto") -> Basis:
+    """Krylov basis with greedily chosen expansion points in the band.
+
+    Parameters
+    ----------
+    model : FEModel
+    ports : Ports
+    order : int or None
+        Reduced dimension r (the basis is truncated to r columns). None: stop on ``tol``.
+    band : (float, float), optional
+        Band (Hz) of the candidate points; default (1, 1000).
+    tol : float, optional
+        Stop when the estimated band error (the ``band_error`` of the previous reduced body
+        against the latest on the candidate grid) falls below ``tol``. Needs ``order`` or
+        ``tol``. The estimate is not a bound; ``flexmor reduce --tol`` verifies against
+        the full model.
+    moments : int
+        Moments (blocks) per point.
+    side : {'input', 'output', 'both'}
+        Krylov spaces of ``B``, ``C^T`` or both.
+    n_candidates : int
+        Log-spaced candidate frequencies in the band.
+    max_points : int
+        Upper limit of expansion points.
+    rigid : {'include', 'exclude'}
+        Free bodies, as in :func:`flexmor.reduction.krylov.krylov`: the first point is a real
+        positive one, so the matrices are regular; ``include`` keeps rigid-body motion in the
+        basis, ``exclude`` projects the rigid-body modes out at the end.
+    backend : str
+        Backend of :func:`flexmor.linalg.factorize` (one factorization per point).
+
+    Returns
+    -------
+    Basis
+        ``info``: ``points_hz`` in the order chosen, ``estimates`` (estimated band error after
+        each point), ``nested``.
+
+    References
+    ----------
+    Grimme, E. J. (1997). Krylov projection methods for model reduction. PhD thesis,
+    University of Illinois (rational Krylov with several points).
+
+    Feng, L., Korvink, J. G., Benner, P. (2015). A fully adaptive scheme for model order
+    reduction based on moment matching. IEEE Trans. Compon. Packag. Manuf. Technol. 5(12),
+    1872-1884.
+
+    Bonin, T., Fassbender, H., Soppa, A., Zaeh, M. (2016). A fully adaptive rational global
+    Arnoldi method for the model-order reduction of second-order MIMO systems with
+    proportional damping. Math. Comput. Simul. 122, 1-19.
+    """
+    check_choice("side", side, SIDES)
+    check_choice("rigid", rigid, RIGID)
+    if order is None and tol is None:
+        raise OptionError("adaptive needs --order or --tol")
+    if tol is not None and not tol > 0:
+        raise OptionError(f"tol must be positive, got {tol}")
+    for name, v in (("moments", moments), ("n_candidates", n_candidates), ("max_points", max_points)):
+        if int(v) != v or v < 1:
+            raise OptionError(f"{name} must be a positive integer, got {v}")
+    fmin, fmax = (float(b) for b in (band or (1.0, 1000.0)))
+    if not 0 < fmin < fmax:
+        raise OptionError(f"band must satisfy 0 < FMIN < FMAX (Hz), got {fmin}:{fmax}")
+    cand = np.geomspace(fmin, fmax, int(n_candidates))
+    limit = model.n_dof if order is None else int(order)
+    points = [complex(fmin), 1j * fmax]
+    V, H_prev, estimates, chosen = np.zeros((model.n_dof, 0)), None, [], []
+    while points and len(chosen) < max_points:
+        p = points.pop(0)
+        blocks, _ = blocks_at_points(model, ports, [p], int(moments), side=side, backend=backend)
+        for blk in blocks[0]:
+            V = np.hstack([V, extend_orthonormal(V, blk, tol=DEFLATION_TOL)])
+        chosen.append(p)
+        if V.shape[1] >= limit:
+            break
+        Hk = frf_reduced(project(model, Basis(V, "adaptive"), ports), cand)
+        if H_prev is not None:
+            est = rel_error(Hk, H_prev)
+            estimates.append(_band_estimate(cand, Hk, H_prev))
+            log.debug("adaptive: %d points, order %d, estimated band error %.2e", len(chosen), V.shape[1],
+                      estimates[-1])
+            if tol is not None and estimates[-1] < tol:
+                break
+            if not points:
+                points.append(1j * cand[int(np.argmax(est))])
+        H_prev = Hk
+    V = V[:, :limit]
+    n_rb = 0
+    if rigid == "exclude":
+        V, n_rb = exclude_rigid(model, V, backend)
+    info = {"points_hz": [str(p) for p in chosen], "estimates": estimates, "moments": int(moments),
+            "side": side, "rigid": rigid, "n_rigid_excluded": n_rb, "nested": rigid == "include"}
+    return Basis(V, "adaptive", info)
