@@ -61,17 +61,20 @@ def apply_damping(model, *, rayleigh=None, modal_damping=None, band=None):
 
 
 def reduce_and_judge(model, method: str, order, ports, *, band=None, full: FullResponse | None = None,
-                     n_freq: int = 200, backend: str = "auto", progress=None, tol: float | None = None,
-                     **options):
+                     n_freq: int = 50, grid_tol: float | None = None, full_frf: str = "auto", cache=True,
+                     backend: str = "auto", progress=None, tol: float | None = None, **options):
     """Reduce ``model`` and evaluate the error measures over ``band``.
 
     Returns ``(reduced, result)``; ``result`` is the JSON record of ``flexmor reduce``:
     ``method, order, seconds, band_hz, band_error, max_rel_error, frequencies_hz, timings``.
     ``full`` (a :class:`FullResponse`) is reused when given, else computed (``band=None``
-    skips the error evaluation). ``tol`` switches to the target-error mode
-    (:func:`flexmor.tolerance.reduce_to_tolerance`): the smallest order whose verified
-    band_error is ``<= tol``, ``order`` then being the largest order tried; ``result`` gets
-    ``tol`` and ``tol_reached``.
+    skips the error evaluation). ``n_freq``, ``grid_tol``, ``full_frf`` (the path: auto,
+    direct, surrogate) and ``cache`` are passed to :class:`FullResponse`; ``result["grid"]``
+    describes the grid (size, tolerance, resonances, path, ``cache_hit``) and
+    ``timings["full_frf"]`` is the wall time of the full FRF computed here.
+    ``tol`` switches to the target-error mode (:func:`flexmor.tolerance.reduce_to_tolerance`):
+    the smallest order whose verified band_error is ``<= tol``, ``order`` then being the
+    largest order tried; ``result`` gets ``tol`` and ``tol_reached``.
     """
     if band is not None and "band" in _method_options(method):
         options.setdefault("band", tuple(band))  # default expansion points of krylov, adaptive, irka
@@ -80,7 +83,9 @@ def reduce_and_judge(model, method: str, order, ports, *, band=None, full: FullR
         if full is None and band is None:
             raise OptionError("--tol needs the error evaluation over a band (drop --no-error)")
         if full is None:
-            full = FullResponse(model, ports, band, n=n_freq, backend=backend, progress=progress)
+            grid_opts = {} if grid_tol is None else {"tol": grid_tol}
+            full = FullResponse(model, ports, band, n=n_freq, backend=backend, path=full_frf, cache=cache,
+                                progress=progress, **grid_opts)
             t_full = full.seconds
     f0 = STATS["seconds"]
     if tol is not None:
@@ -102,13 +107,16 @@ def reduce_and_judge(model, method: str, order, ports, *, band=None, full: FullR
         "info": red.info,
     }
     if full is None and band is not None:
-        full = FullResponse(model, ports, band, n=n_freq, backend=backend, progress=progress)
+        grid_opts = {} if grid_tol is None else {"tol": grid_tol}
+        full = FullResponse(model, ports, band, n=n_freq, backend=backend, path=full_frf, cache=cache,
+                            progress=progress, **grid_opts)
         t["full_frf"] = full.seconds
     if full is not None:
         t0 = time.perf_counter()
         err = full.evaluate(red)
         t["error"] = time.perf_counter() - t0
         result.update(band_hz=list(full.band), band_error=err["band_error"], max_rel_error=err["max_rel_error"])
+        result["grid"] = full.summary()
         red.errors = {"band_hz": list(full.band), "band_error": err["band_error"],
                       "max_rel_error": err["max_rel_error"], "freqs_hz": full.freqs, "rel_error": err["rel_error"]}
     if tol is not None:
