@@ -21,7 +21,7 @@ from ..basis import Basis, extend_orthonormal
 from ..errors import OptionError, check_choice
 from ..projection import project
 from . import register_method
-from .krylov import DEFLATION_TOL, RIGID, SIDES, blocks_at_points, exclude_rigid
+from .krylov import DEFLATION_TOL, RIGID, SIDES, blocks_at_points, rigid_body_modes, start_block
 
 __all__ = ["adaptive"]
 
@@ -63,9 +63,9 @@ def adaptive(model, ports, order, *, band=None, tol: float | None = None, moment
     max_points : int
         Upper limit of expansion points.
     rigid : {'include', 'exclude'}
-        Free bodies, as in :func:`flexmor.reduction.krylov.krylov`: the first point is a real
-        positive one, so the matrices are regular; ``include`` keeps rigid-body motion in the
-        basis, ``exclude`` projects the rigid-body modes out at the end.
+        Free bodies, as in :func:`flexmor.reduction.krylov.krylov`: ``include`` puts the
+        rigid-body modes the ports excite first, ``exclude`` leaves them out; the Krylov
+        vectors are M-orthogonal to all rigid-body modes either way.
     backend : str
         Backend of :func:`flexmor.linalg.factorize` (one factorization per point).
 
@@ -104,9 +104,14 @@ def adaptive(model, ports, order, *, band=None, tol: float | None = None, moment
     limit = model.n_dof if order is None else int(order)
     points = [complex(fmin), 1j * fmax]
     V, H_prev, estimates, chosen = np.zeros((model.n_dof, 0)), None, [], []
+    phi = rigid_body_modes(model)
+    if phi.shape[1] and rigid == "include":  # the rigid motion the ports excite, first
+        w = np.linalg.norm(phi.T @ start_block(ports, side), axis=1)
+        V = extend_orthonormal(None, phi[:, w > 1e-8 * w.max()], tol=DEFLATION_TOL) if w.max() > 0 else V
     while points and len(chosen) < max_points:
         p = points.pop(0)
-        blocks, _ = blocks_at_points(model, ports, [p], int(moments), side=side, backend=backend)
+        blocks, _ = blocks_at_points(model, ports, [p], int(moments), side=side, backend=backend,
+                                     rigid_modes=phi)
         for blk in blocks[0]:
             V = np.hstack([V, extend_orthonormal(V, blk, tol=DEFLATION_TOL)])
         chosen.append(p)
@@ -124,9 +129,7 @@ def adaptive(model, ports, order, *, band=None, tol: float | None = None, moment
                 points.append(1j * cand[int(np.argmax(est))])
         H_prev = Hk
     V = V[:, :limit]
-    n_rb = 0
-    if rigid == "exclude":
-        V, n_rb = exclude_rigid(model, V, backend)
+    n_rb = int(phi.shape[1]) if rigid == "exclude" else 0
     info = {"points_hz": [str(p) for p in chosen], "estimates": estimates, "moments": int(moments),
-            "side": side, "rigid": rigid, "n_rigid_excluded": n_rb, "nested": rigid == "include"}
+            "side": side, "rigid": rigid, "n_rigid": int(phi.shape[1]), "n_rigid_excluded": n_rb, "nested": True}
     return Basis(V, "adaptive", info)

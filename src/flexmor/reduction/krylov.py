@@ -29,10 +29,11 @@ import scipy.linalg as sla
 from ..basis import Basis, extend_orthonormal
 from ..errors import OptionError, SolverError, check_choice
 from ..linalg import factorize
-from ..linalg.eigen import default_shift, eigenmodes, is_rigid
+from ..linalg.eigen import default_shift
 from . import register_method
 
-__all__ = ["krylov", "parse_points", "default_points", "SecondOrderArnoldi", "start_block", "exclude_rigid"]
+__all__ = ["krylov", "parse_points", "default_points", "SecondOrderArnoldi", "start_block",
+           "rigid_body_modes"]
 
 log = logging.getLogger(__name__)
 
@@ -127,8 +128,9 @@ class SecondOrderArnoldi:
     or ``None`` when the sequence is exhausted.
     """
 
-    def __init__(self, model, F, s: complex, start: np.ndarray, *, tol: float = DEFLATION_TOL):
+    def __init__(self, model, F, s: complex, start: np.ndarray, *, tol: float = DEFLATION_TOL, project=None):
         self.M, self.F, self.tol = model.M, F, tol
+        self._project = project if project is not None else (lambda X: X)
         s = complex(s).real if complex(s).imag == 0 else complex(s)
         self.A1 = (2 * s) * model.M + model.D if model.D is not None else (2 * s) * model.M
         self.s, self.W, self.n_solves, self.tau = s, None, 0, 1.0
@@ -157,7 +159,7 @@ class SecondOrderArnoldi:
     def next_block(self):
         n = self.M.shape[0]
         if self.W is None:
-            X0 = self.F.solve(self._start)
+            X0 = self._project(self.F.solve(self._start))
             self.n_solves += 1
             x = X0[:, 0]
             mx = np.vdot(x, self.M @ x).real
@@ -168,34 +170,62 @@ class SecondOrderArnoldi:
         if self._last is None:
             return None
         V, L = self._last[:n], self._last[n:]
-        top = -self.F.solve(self.tau * (self.A1 @ V) + self.tau ** 2 * (self.M @ L))
+        top = -self._project(self.F.solve(self.tau * (self.A1 @ V) + self.tau ** 2 * (self.M @ L)))
         self.n_solves += 1
         self._last = None
         return self._append(np.vstack([top, V.astype(top.dtype)]))
 
 
-def exclude_rigid(model, V: np.ndarray, backend: str = "auto"):
-    """Remove rigid-body modes from ``span(V)`` by M-orthogonal projection; ``(V, n_rigid)``."""
-    lam, phi = eigenmodes(model.K, model.M, min(model.n_dof, 12), backend=backend)
-    phi = phi[:, is_rigid(lam, model.K, model.M)]
-    if phi.shape[1]:
-        V = V - phi @ (phi.T @ (model.M @ V))
-        V = extend_orthonormal(None, V, tol=DEFLATION_TOL)
-    return V, int(phi.shape[1])
+def rigid_body_modes(model) -> np.ndarray:
+    """M-orthonormal rigid-body modes of a free body from its geometry, (n_dof, k), k <= 6.
+
+    The six rigid motions (translations; rotations ``e_a x (x - x_c)`` on translational
+    and ``1`` on rotational DOF) are built from the node coordinates and the equation map; those
+    with ``||K phi|| <= 1e-8 ||K||_1 ||phi||`` are rigid-body modes of the model (none for a
+    supported body or a model without geometry). Costs six sparse products, no eigen solve.
+    """
+    if model.dofs is None or model.n_nodes == 0:
+        return np.zeros((model.n_dof, 0))
+    xyz = model.node_xyz(model.dofs[:, 0])
+    xyz = xyz - xyz.mean(axis=0)
+    d = model.dofs[:, 1]
+    R = np.zeros((model.n_dof, 6))
+    for a in range(3):
+        R[d == a + 1, a] = 1.0
+        e = np.eye(3)[a]
+        for j in range(3):  # (e_a x x)_j on translations
+            R[d == j + 1, 3 + a] = np.cross(e, xyz[d == j + 1])[:, j]
+        R[d == a + 4, 3 + a] = 1.0
+    nrm = np.linalg.norm(R, axis=0)
+    R = R[:, nrm > 0] / nrm[nrm > 0]
+    kn = abs(model.K).sum(axis=0).max()
+    R = R[:, np.linalg.norm(model.K @ R, axis=0) <= 1e-8 * kn]
+    if R.shape[1] == 0:
+        return R
+    G = R.T @ (model.M @ R)
+    w, U = np.linalg.eigh(0.5 * (G + G.T))
+    keep = w > 1e-12 * w[-1]
+    return R @ (U[:, keep] / np.sqrt(w[keep]))
 
 
-def blocks_at_points(model, ports, points, n_moments: int, *, side: str = "input", backend: str = "auto"):
+def blocks_at_points(model, ports, points, n_moments: int, *, side: str = "input", backend: str = "auto",
+                     rigid_modes=None):
     """Krylov blocks for every point, ``n_moments`` per point, one factorization at a time.
 
     Returns ``(blocks, used)``: ``blocks[p]`` the list of real blocks of point ``p`` (a
     complex point's block split into real and imaginary parts), ``used`` the points (rad/s)
-    actually used.
+    actually used. With ``rigid_modes`` (M-orthonormal, of a free body) every new vector is
+    made M-orthogonal to them: the blocks span moments of the flexible part of ``H`` (exact
+    for proportional damping), without rigid-body round-off from nearly singular shifts.
     """
     start = start_block(ports, side)
+    proj = None
+    if rigid_modes is not None and rigid_modes.shape[1]:
+        proj = lambda X: X - rigid_modes @ (rigid_modes.T @ (model.M @ X))  # noqa: E731
     blocks, used = [], []
     for p in points:
         F, s = shifted_factorization(model, 2 * np.pi * complex(p), backend)
-        seq = SecondOrderArnoldi(model, F, s, start)
+        seq = SecondOrderArnoldi(model, F, s, start, project=proj)
         out = []
         for _ in range(n_moments):
             Vb = seq.next_block()
@@ -246,11 +276,16 @@ def krylov(model, ports, order, *, points=None, moments: int | None = None, side
     band : (float, float), optional
         Band (Hz) for the default points; default (1, 1000).
     rigid : {'include', 'exclude'}
-        Free bodies: ``include`` keeps rigid-body motion in the basis (moments at points near
-        0 are dominated by it; the reduced body then has six near-zero frequencies);
-        ``exclude`` removes the rigid-body modes by M-orthogonal projection, as the floating
-        frame of reference wants (moments of the flexible part are matched for
-        proportional damping). A point 0 on a free body is moved to a small real shift.
+        Free bodies (rigid-body modes found from the geometry, :func:`rigid_body_modes`):
+        the Krylov vectors are kept M-orthogonal to the rigid-body modes (moments of the
+        flexible part of ``H``; for proportional damping ``H`` is rigid part + flexible part,
+        so nothing is lost), which removes the round-off that nearly singular shifts would
+        otherwise put into the basis. ``include`` (default) puts the rigid-body modes that
+        the ports excite first in the basis: the reduced body moves rigidly like the full one
+        and all moments of ``H`` are matched. ``exclude`` leaves them out, as the floating
+        frame of reference wants (it describes rigid motion itself); then the moments of the
+        flexible part are matched. A point 0 on a free body (singular ``K``) is moved to a
+        small real shift.
     backend : str
         Backend of :func:`flexmor.linalg.factorize` (one factorization per point).
 
@@ -283,21 +318,24 @@ def krylov(model, ports, order, *, points=None, moments: int | None = None, side
     b = start_block(ports, side).shape[1]
     per_round = sum(b * (1 if p.imag == 0 else 2) for p in pts)
     k = int(moments) if moments is not None else math.ceil(order / per_round)
+    phi = rigid_body_modes(model)
+    head = []
+    if phi.shape[1] and rigid == "include":  # the rigid motion the ports excite, first
+        w = np.linalg.norm(phi.T @ start_block(ports, side), axis=1)
+        head = [[phi[:, w > 1e-8 * w.max(initial=0.0)]]] if w.max(initial=0.0) > 0 else []
     for _ in range(4):
-        blocks, used = blocks_at_points(model, ports, pts, k, side=side, backend=backend)
-        V = merge_blocks(blocks, order)
+        blocks, used = blocks_at_points(model, ports, pts, k, side=side, backend=backend, rigid_modes=phi)
+        V = merge_blocks(head + blocks, order)
         exhausted = all(len(b) < k for b in blocks)
         if moments is not None or V.shape[1] >= order or exhausted:
             break
         # deflation (e.g. real solutions at points on the frequency axis of an undamped body):
         # more moments per point fill the order
         k += math.ceil((order - V.shape[1]) / per_round) + 1
-    n_rb = 0
-    if rigid == "exclude":
-        V, n_rb = exclude_rigid(model, V, backend)
-        V = V[:, :order] if order else V
+    n_rb = int(phi.shape[1]) if rigid == "exclude" else 0
     if order is not None and V.shape[1] < order:
         log.warning("krylov: only %d independent directions for order %d (deflation)", V.shape[1], order)
     info = {"points_hz": [str(p) for p in pts], "points_rad_s": [str(s) for s in used], "moments": k,
-            "side": side, "rigid": rigid, "n_rigid_excluded": n_rb, "nested": rigid == "include"}
+            "side": side, "rigid": rigid, "n_rigid": int(phi.shape[1]), "n_rigid_excluded": n_rb,
+            "nested": True}
     return Basis(V, "krylov", info)
