@@ -51,8 +51,7 @@ def register_method(name: str, description: str, *, survives_coupling: bool = Tr
 
 
 def _load_builtin():
-    from . import craig_bampton, guyan, modal  # noqa: F401
-    from . import adaptive, irka, krylov  # noqa: F401
+    from . import adaptive, craig_bampton, guyan, irka, krylov, modal  # noqa: F401
 
 
 def reduce(model, method: str, order: int | None, ports, **options) -> tuple[ReducedModel, dict]:

@@ -51,7 +51,7 @@ def reduced_poles(red):
     ``b_j = (y_j^H B1)^T`` with the left eigenvectors ``y_j`` normalized so that
     ``y_j^H E x_j = 1`` (the residue is ``(C1 x_j)(y_j^H B1)``).
     """
-    E, A, B, C = _linearize(red)
+    E, A, B, _ = _linearize(red)
     lam, Y, X = sla.eig(A, E, left=True, right=True)
     scale = np.einsum("ij,ij->j", Y.conj(), E @ X)
     return lam, (Y.conj().T @ B) / scale[:, None]

@@ -24,9 +24,8 @@ import logging
 import math
 
 import numpy as np
-import scipy.linalg as sla
 
-from ..basis import Basis, extend_orthonormal
+from ..basis import Basis, extend_orthonormal, rank_revealing_qr
 from ..errors import OptionError, SolverError, check_choice
 from ..linalg import factorize
 from ..linalg.eigen import default_shift
@@ -145,7 +144,7 @@ class SecondOrderArnoldi:
         if self.W is not None:
             for _ in range(2):
                 X -= self.W @ (self.W.conj().T @ X)
-        Q, R, _ = sla.qr(X, mode="economic", pivoting=True)
+        Q, R, _ = rank_revealing_qr(X)
         k = int(np.sum(np.abs(np.diag(R)) > self.tol * ref))
         if k < X.shape[1]:
             log.debug("second-order Arnoldi: %d of %d directions deflated", X.shape[1] - k, X.shape[1])
@@ -170,9 +169,13 @@ class SecondOrderArnoldi:
         if self._last is None:
             return None
         V, L = self._last[:n], self._last[n:]
-        top = -self._project(self.F.solve(self.tau * (self.A1 @ V) + self.tau ** 2 * (self.M @ L)))
-        self.n_solves += 1
+        rhs = self.tau * (self.A1 @ V) + self.tau ** 2 * (self.M @ L)
         self._last = None
+        if not np.any(rhs):  # e.g. s = 0 without damping: odd moments vanish, no solve needed
+            self._append(np.vstack([np.zeros_like(V), V]))
+            return np.zeros((n, 0), dtype=V.dtype)
+        top = -self._project(self.F.solve(rhs))
+        self.n_solves += 1
         return self._append(np.vstack([top, V.astype(top.dtype)]))
 
 
@@ -221,16 +224,23 @@ def blocks_at_points(model, ports, points, n_moments: int, *, side: str = "input
     start = start_block(ports, side)
     proj = None
     if rigid_modes is not None and rigid_modes.shape[1]:
-        proj = lambda X: X - rigid_modes @ (rigid_modes.T @ (model.M @ X))  # noqa: E731
+
+        def proj(X):
+            return X - rigid_modes @ (rigid_modes.T @ (model.M @ X))
+
     blocks, used = [], []
     for p in points:
         F, s = shifted_factorization(model, 2 * np.pi * complex(p), backend)
         seq = SecondOrderArnoldi(model, F, s, start, project=proj)
-        out = []
-        for _ in range(n_moments):
+        out, empty = [], 0
+        while len(out) < n_moments and empty < 2:
             Vb = seq.next_block()
             if Vb is None:
                 break
+            if Vb.shape[1] == 0:  # a vanishing moment (matched for free): does not count
+                empty += 1
+                continue
+            empty = 0
             out.append(np.hstack([Vb.real, Vb.imag]) if s.imag != 0 else Vb.real)
         blocks.append(out)
         used.append(s)

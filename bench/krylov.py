@@ -1,0 +1,181 @@
+#!/usr/bin/env python
+"""Benchmark of the interpolation methods (``krylov``, ``irka``, ``adaptive``).
+
+Part 1, overhead (``--size``, default 100k DOF): the built-in clamped cantilever
+(``cantilever(size_for_dofs(size))``) with six inputs (``TIP:x/y/z`` spread over the tip face
+and ``TIP_CENTER:x/y/z`` at its centre node). ``krylov`` of order 60 at the single point
+``s = 0`` needs one factorization of ``K`` and 10 block solves with 6 right-hand sides. The
+reference is exactly that bare work: ``factorize(K)`` plus 10 solves of random (n, 6) blocks.
+``ratio = time(krylov basis) / time(reference)`` shows what the second-order Arnoldi process
+(sparse products with ``M`` and ``D``, block Gram-Schmidt twice, deflation, merge) costs on
+top of the solver. Also timed: ``krylov`` r = 60 with the default three real points over the
+band and the projection.
+
+Part 2, quality (``--cmp-size``, default 3k DOF, Rayleigh damping ``alpha=10 1/s``,
+``beta=1e-6 s``, band 1-3000 Hz, same six inputs, collocated outputs): time and band_error of
+``modal``, ``krylov``, ``adaptive`` and ``irka`` at order ``--cmp-order`` and, when a Python
+with pyMOR is given (``--pymor-python``), pyMOR's ``SORIRKAReductor`` at the same order (run in
+that interpreter in a child process on the same matrices; its reduced model is two-sided,
+so it is evaluated from its own reduced matrices).
+
+Usage::
+
+    python bench/krylov.py                                   # both parts
+    python bench/krylov.py --size 30000 --cmp-size 3000 --pymor-python /tmp/pymor-venv/bin/python
+
+Writes ``bench/results/krylov.json``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import pathlib
+import platform
+import subprocess
+import sys
+import tempfile
+import time
+
+import numpy as np
+
+HERE = pathlib.Path(__file__).resolve().parent
+INPUTS = ["TIP:x", "TIP:y", "TIP:z", "TIP_CENTER:x", "TIP_CENTER:y", "TIP_CENTER:z"]
+
+
+def overhead(size: int, order: int, backend: str, repeat: int) -> dict:
+    from flexmor.linalg import factorize
+    from flexmor.models import cantilever, size_for_dofs
+    from flexmor.ports import make_ports
+    from flexmor.reduction import reduce
+
+    model = cantilever(size_for_dofs(size))
+    ports = make_ports(model, INPUTS)
+    m = ports.n_inputs
+    n_blocks = -(-order // m)
+    rng = np.random.default_rng(0)
+    t_ref, t_kry, t_proj = [], [], []
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        F = factorize(model.K, backend, symmetric=True, positive=True, check=False)
+        t1 = time.perf_counter()
+        for _ in range(n_blocks):
+            F.solve(rng.standard_normal((model.n_dof, m)))
+        t_ref.append((t1 - t0, time.perf_counter() - t1))
+        del F
+        red, t = reduce(model, "krylov", order, ports, points="0", backend=backend)
+        t_kry.append(t["basis"])
+        t_proj.append(t["project"])
+    ref = min(a + b for a, b in t_ref)
+    red3, t3 = reduce(model, "krylov", order, ports, band=(1.0, 3000.0), backend=backend)
+    return {"n_dof": model.n_dof, "nnz_K": int(model.K.nnz), "inputs": INPUTS, "order": red.order,
+            "block_solves": n_blocks, "backend": backend,
+            "ref_factorize_s": min(a for a, _ in t_ref), "ref_solves_s": min(b for _, b in t_ref), "ref_s": ref,
+            "krylov_basis_s": min(t_kry), "krylov_project_s": min(t_proj), "ratio": min(t_kry) / ref,
+            "krylov_3points_basis_s": t3["basis"], "krylov_3points_order": red3.order}
+
+
+def _pymor_worker(inp: str, out: str) -> None:
+    """Runs in the pyMOR interpreter: SOR-IRKA on the matrices in ``inp``."""
+    import logging
+
+    import scipy.sparse as sp
+    from pymor.models.iosys import SecondOrderModel
+    from pymor.reductors.sor_irka import SORIRKAReductor
+
+    logging.getLogger("pymor").setLevel(logging.ERROR)
+    d = np.load(inp)
+    mats = [sp.csc_matrix((d[k + "_data"], d[k + "_indices"], d[k + "_indptr"]), shape=tuple(d[k + "_shape"]))
+            for k in ("M", "D", "K")]
+    fom = SecondOrderModel.from_matrices(mats[0], mats[1], mats[2], d["B"], d["C"])
+    t0 = time.perf_counter()
+    red = SORIRKAReductor(fom)
+    rom = red.reduce(int(d["r"]), maxit=int(d["maxit"]), tol=1e-4)
+    sec = time.perf_counter() - t0
+    np.savez(out, M=rom.M.matrix, D=rom.E.matrix, K=rom.K.matrix, B=rom.B.matrix, C=rom.Cp.matrix, seconds=sec,
+             iterations=len(red.conv_crit), conv=np.array(red.conv_crit))
+
+
+def compare(size: int, order: int, pymor_python: str | None, maxit: int) -> dict:
+    from flexmor.analysis.compare import FullResponse
+    from flexmor.analysis.frequency import band_error, frf_reduced
+    from flexmor.models import cantilever, size_for_dofs
+    from flexmor.ports import make_ports
+    from flexmor.projection import ReducedModel
+    from flexmor.workflow import reduce_and_judge
+
+    band = (1.0, 3000.0)
+    model = cantilever(size_for_dofs(size)).with_rayleigh(10.0, 1e-6)
+    ports = make_ports(model, INPUTS)
+    full = FullResponse(model, ports, band)
+    rows = {}
+    for method in ("modal", "krylov", "adaptive", "irka"):
+        red, res = reduce_and_judge(model, method, order, ports, full=full, band=band)
+        rows[method] = {"order": red.order, "seconds": res["seconds"], "band_error": res["band_error"]}
+        if method == "irka":
+            rows[method].update(iterations=red.info["iterations"], converged=red.info["converged"])
+    if pymor_python:
+        with tempfile.TemporaryDirectory() as tmp:
+            inp, out = f"{tmp}/in.npz", f"{tmp}/out.npz"
+            arrs = {}
+            for k, A in (("M", model.M), ("D", model.D), ("K", model.K)):
+                A = A.tocsc()
+                arrs.update({k + "_data": A.data, k + "_indices": A.indices, k + "_indptr": A.indptr,
+                             k + "_shape": np.array(A.shape)})
+            np.savez(inp, B=ports.B.toarray(), C=ports.C.toarray(), r=order, maxit=maxit, **arrs)
+            t0 = time.perf_counter()
+            proc = subprocess.run([pymor_python, __file__, "--pymor-worker", inp, out], capture_output=True, check=False,
+                                  text=True)
+            if proc.returncode:
+                rows["pymor_sor_irka"] = {"error": proc.stderr.strip().splitlines()[-1:]}
+            else:
+                d = np.load(out)
+                red = ReducedModel(M=d["M"], K=d["K"], D=d["D"], B=d["B"], C=d["C"])
+                err = band_error(full.freqs, full.H, frf_reduced(red, full.freqs))
+                rows["pymor_sor_irka"] = {"order": int(d["M"].shape[0]), "seconds": float(d["seconds"]),
+                                          "band_error": err, "iterations": int(d["iterations"]),
+                                          "last_conv": float(d["conv"][-1]), "process_s": time.perf_counter() - t0}
+    return {"n_dof": model.n_dof, "band_hz": list(band), "order": order, "rayleigh": [10.0, 1e-6],
+            "n_freq": int(full.freqs.size), "full_frf_s": full.seconds, "methods": rows}
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--size", type=int, default=100_000)
+    ap.add_argument("--order", type=int, default=60)
+    ap.add_argument("--backend", default="auto")
+    ap.add_argument("--repeat", type=int, default=2)
+    ap.add_argument("--cmp-size", type=int, default=3000)
+    ap.add_argument("--cmp-order", type=int, default=30)
+    ap.add_argument("--pymor-python", help="a Python interpreter with pyMOR installed")
+    ap.add_argument("--pymor-maxit", type=int, default=50)
+    ap.add_argument("--skip-overhead", action="store_true")
+    ap.add_argument("--out", default=str(HERE / "results" / "krylov.json"))
+    ap.add_argument("--pymor-worker", nargs=2, help=argparse.SUPPRESS)
+    args = ap.parse_args(argv)
+    if args.pymor_worker:
+        _pymor_worker(*args.pymor_worker)
+        return 0
+    res = {"python": sys.version.split()[0], "machine": platform.processor() or platform.machine()}
+    if not args.skip_overhead:
+        res["overhead"] = o = overhead(args.size, args.order, args.backend, args.repeat)
+        print(f"overhead: n_dof {o['n_dof']}, krylov r={o['order']} with {len(INPUTS)} inputs at s=0: "
+              f"{o['krylov_basis_s']:.2f} s; factorize {o['ref_factorize_s']:.2f} s + {o['block_solves']} block "
+              f"solves {o['ref_solves_s']:.2f} s = {o['ref_s']:.2f} s; ratio {o['ratio']:.2f}; "
+              f"projection {o['krylov_project_s']:.2f} s; 3 points {o['krylov_3points_basis_s']:.2f} s")
+    res["compare"] = c = compare(args.cmp_size, args.cmp_order, args.pymor_python, args.pymor_maxit)
+    print(f"compare: n_dof {c['n_dof']}, order {c['order']}, band {c['band_hz']} Hz, full FRF "
+          f"{c['full_frf_s']:.1f} s ({c['n_freq']} frequencies)")
+    for k, v in c["methods"].items():
+        extra = {kk: vv for kk, vv in v.items() if kk not in ("order", "seconds", "band_error")}
+        if "error" in v:
+            print(f"  {k:16s} failed: {v['error']}")
+        else:
+            print(f"  {k:16s} r={v['order']:3d}  {v['seconds']:8.2f} s  band_error {v['band_error']:.2e}  {extra}")
+    pathlib.Path(args.out).parent.mkdir(parents=True, exist_ok=True)
+    pathlib.Path(args.out).write_text(json.dumps(res, indent=1, default=float))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
