@@ -77,3 +77,11 @@ def test_frf_full_one_factorization_per_frequency(clamped, backend):
     ref = ports.C @ X
     assert np.abs(H[1] - ref).max() / np.abs(ref).max() < 1e-10
     assert np.abs(H[1] - H[1].T).max() < 1e-10 * np.abs(H[1]).max()  # collocated: reciprocity
+
+
+@needs_pardiso
+def test_pardiso_inertia_counts_modes_below_a_shift(clamped, clamped_ref):
+    for f_hz in (100.0, 2000.0, 9000.0):
+        w = 2 * np.pi * f_hz
+        F = factorize((clamped.K - w**2 * clamped.M).tocsr(), "pardiso", check=False)
+        assert F.inertia == (clamped.n_dof - np.sum(clamped_ref < f_hz), np.sum(clamped_ref < f_hz))

@@ -56,13 +56,31 @@ def _modes(model, fmax: float, backend: str, max_modes: int = 400):
     if model.n_dof > DENSE_LIMIT:
         F = factorize((model.K - sigma * model.M).tocsr(), backend, positive=True)
     k = min(model.n_dof, 20)
+    if F is not None:
+        k = _count_below(model, fmax, backend) or k
     while True:
         lam, phi = eigenmodes(model.K, model.M, k, sigma=sigma, factorization=F)
         f = frequencies_hz(lam)
         if f[-1] > fmax or k >= min(model.n_dof, max_modes):
             keep = f <= fmax
             return f[keep], phi[:, keep], F, sigma
-        k = min(model.n_dof, 2 * k, max_modes)
+        # the next k from the density of modes found so far (+15 %), at least 8 more
+        k = min(model.n_dof, max_modes, max(k + 8, int(np.ceil(1.15 * k * fmax / max(f[-1], 1e-30)))))
+
+
+def _count_below(model, fmax: float, backend: str) -> int | None:
+    """Number of eigenfrequencies below ``fmax`` plus 2 from the inertia of ``K - w^2 M``.
+
+    One real symmetric indefinite factorization (Sylvester's law of inertia) replaces the
+    guessing of the number of modes; None when the backend does not report the inertia.
+    """
+    try:
+        F = factorize((model.K - (2 * np.pi * fmax) ** 2 * model.M).tocsr(), backend, symmetric=True, check=False)
+    except Exception:  # noqa: BLE001 - e.g. fmax exactly at an eigenvalue: fall back to guessing
+        return None
+    if F.inertia is None:
+        return None
+    return min(model.n_dof, F.inertia[1] + 2)
 
 
 def _resonances(model, fmax: float, backend: str, max_modes: int = 400) -> np.ndarray:
@@ -124,6 +142,8 @@ class FullResponse:
         The FRF came from the disk cache.
     n_factorizations : int
         Sparse factorizations spent (0 on a cache hit).
+    surrogate : Surrogate or None
+        The verified surrogate when it was built here.
     """
 
     def __init__(self, model, ports, band, *, n: int = 50, tol: float = DEFAULT_TOL, max_points: int = 3000,
@@ -151,6 +171,7 @@ class FullResponse:
         entry = frf_cache.load(key, (ports.n_outputs, ports.n_inputs), directory) if key else None
         self.timings["cache"] = time.perf_counter() - t0
         self.cache_hit = entry is not None
+        self.surrogate = None
         if entry is not None:
             self.freqs, self.H = entry["freqs"], entry["H"]
             self.resonances, self.zeta, self.grid = entry["resonances"], entry["zeta"], entry["info"]
@@ -172,7 +193,7 @@ class FullResponse:
         t0 = time.perf_counter()
         fmin, fmax = self.band
         damped = model.D is not None
-        f_modes = fmax * (1.5 if self.path == "surrogate" else 1.0)
+        f_modes = fmax * (1.1 if self.path == "surrogate" else 1.0)
         f_all, phi, F0, sigma = _modes(model, f_modes, backend)
         z_all = modal_damping_ratios(model.damping, f_all, phi, model.D) if damped else None
         z_all = np.zeros(f_all.size) if z_all is None else np.maximum(z_all, 0.0)
@@ -198,6 +219,7 @@ class FullResponse:
             max_points=max_points, refine=refine)
         if sur is not None:
             self.grid["surrogate"] = sur.verify(self.freqs)
+        self.surrogate = sur
         self.grid["path"] = self.path
         self.timings["sweep"] = time.perf_counter() - t1
 

@@ -5,7 +5,7 @@ of a band with tens of resonances has a thousand points or more. The surrogate r
 those solves by a large Galerkin projection of the full model whose accuracy is checked
 against direct solves:
 
-1. basis ``V``: the modes of the modal pre-pass (up to 1.5 ``fmax``), the static response
+1. basis ``V``: the modes of the modal pre-pass (up to 1.1 ``fmax``), the static response
    ``(K - sigma M)^{-1} B`` and ``n_krylov - 1`` second-order Krylov blocks
    ``(K - sigma M)^{-1} M X`` from the pre-pass factorization (no new factorization);
 2. greedy verification: the relative residual ``||A(w) V x(w) - B||_F / ||B||_F`` is

@@ -55,6 +55,11 @@ class Factorization:
         Shape of the factorized matrix.
     seconds : float
         Wall time of the factorization.
+    inertia : tuple of int or None
+        ``(n_positive, n_negative)`` eigenvalues of a real symmetric indefinite matrix when
+        the backend reports them (pardiso), else None. For ``K - s M`` the number of
+        negative eigenvalues is the number of eigenvalues of ``(K, M)`` below ``s``
+        (Sylvester's law of inertia).
     """
 
     backend = "none"
@@ -63,6 +68,7 @@ class Factorization:
         self.shape = A.shape
         self.dtype = A.dtype
         self.seconds = 0.0
+        self.inertia = None
 
     def _solve(self, b: np.ndarray) -> np.ndarray:  # pragma: no cover - abstract
         raise NotImplementedError
@@ -171,7 +177,7 @@ class _Pardiso(Factorization):
         ip = self._iparm
         ip[0] = 1  # user values below, zeros are MKL defaults
         ip[1] = 2  # nested dissection (METIS)
-        ip[7] = 2  # at most two iterative refinement steps
+        ip[7] = 0  # iterative refinement (two steps) only after perturbed pivots
         ip[9] = 13 if self._mtype in (11, 13) else 8  # pivot perturbation 1e-13 / 1e-8
         indefinite = self._mtype in (-2, 6, 11, 13)
         ip[10] = ip[12] = 1 if indefinite else 0  # scaling + weighted matching
@@ -184,6 +190,8 @@ class _Pardiso(Factorization):
             self._release()
             raise
         self._live = True
+        if self._mtype == -2 and self._iparm[13] == 0:  # no perturbed pivots: exact inertia
+            self.inertia = (int(self._iparm[21]), int(self._iparm[22]))
 
     def _call(self, phase, b, x, nrhs):
         c = self._ctypes
