@@ -27,7 +27,8 @@ import scipy.sparse as sp
 from ..errors import OptionError
 from ..linalg import factorize
 
-__all__ = ["ShiftedMatrices", "frf_full", "frf_reduced", "rel_error", "band_error", "max_rel_error", "band_grid", "error_measures"]
+__all__ = ["ShiftedMatrices", "frf_full", "frf_reduced", "rel_error", "band_error", "max_rel_error", "band_grid",
+           "error_measures"]
 
 log = logging.getLogger(__name__)
 

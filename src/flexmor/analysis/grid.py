@@ -19,7 +19,8 @@ import numpy as np
 
 from ..errors import OptionError
 
-__all__ = ["initial_grid", "quadrature_weights", "trapezoid_simpson_gap", "adaptive_grid", "DEFAULT_TOL", "PEAK_OFFSETS"]
+__all__ = ["initial_grid", "quadrature_weights", "trapezoid_simpson_gap", "adaptive_grid", "DEFAULT_TOL",
+           "PEAK_OFFSETS"]
 
 log = logging.getLogger(__name__)
 
@@ -242,14 +243,16 @@ def adaptive_grid(evaluate: Callable, fmin: float, fmax: float, *, n: int = 50, 
         f, H = f[order], np.concatenate([H, Hn])[order]
         rounds += 1
         log.debug("grid round %d: %d new points, %d in all, gap %.1e", rounds, new.size, f.size, gap)
-    n_res = 0 if resonances is None else int(np.sum((np.asarray(resonances) >= fmin) & (np.asarray(resonances) <= fmax)))
+    res = np.asarray([] if resonances is None else resonances, float)
+    n_res = int(np.sum((res >= fmin) & (res <= fmax)))
     info = {
         "n_points": int(f.size), "n_initial": int(n_initial), "n_base": int(n), "n_resonances": n_res,
         "tol": float(tol), "rounds": rounds, "converged": bool(converged), "quadrature_gap": gap,
         "rule": "piecewise parabolic (quadrature_weights)",
         "rationale": (f"{int(n)} log-spaced points, {len(PEAK_OFFSETS)} points per damped resonance at "
                       "f_k (1 + c zeta_k), c in {0, ±0.5, ±1.5, ±4}; intervals bisected (2:1 graded) "
-                      "while, in the cell of any resonance, sum |Simpson - trapezoid| of ∫||H||² > tol ∫||H||²" if refine else
+                      "while, in the cell of any resonance, sum |Simpson - trapezoid| of ∫||H||² > tol ∫||H||²"
+                      if refine else
                       f"{int(n)} log-spaced points plus relative offsets ±{{1e-3, 3e-3, 1e-2, 3e-2}} at each "
                       "undamped resonance; no refinement (∫||H||² has poles at undamped resonances)"),
     }
