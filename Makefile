@@ -11,7 +11,7 @@ $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
 
 $(STAMP): $(BIN)/python pyproject.toml
-	$(BIN)/pip install -q -e ".[full,fast,test,ansys]"
+	$(BIN)/pip install -q -e ".[full,fast,test,ansys,exudyn]"
 	touch $(STAMP)
 
 install: $(STAMP)

@@ -162,6 +162,27 @@ def _table(rows) -> None:
               f"{_fmt(r.get('seconds'), '.3f'):>10}")
 
 
+# -- export ------------------------------------------------------------------------------------
+def cmd_export(args) -> int:
+    from .io import read
+    from .io.export import export, export_format
+    from .io.hdf5 import read_reduced
+
+    red = read_reduced(args.reduced)
+    fmt = export_format(args.output_file, args.format)
+    model = read(args.model, format=args.model_format) if args.model else None
+    opts = {"nodes": args.node or None} if fmt in ("sid", "mat") else {}
+    if fmt == "sid":
+        opts["m1_order"] = args.m1_order
+    export(red, args.output_file, fmt, model=model, **opts)
+    out = {"file": str(args.output_file), "format": fmt, "order": red.order, "method": red.method}
+    if args.json:
+        _emit_json(out)
+    else:
+        print(f"exported {args.reduced} ({red.method}, order {red.order}) as {fmt}: {args.output_file}")
+    return 0
+
+
 # -- demo --------------------------------------------------------------------------------------
 def cmd_demo(args) -> int:
     from .workflow import run_demo
@@ -244,6 +265,20 @@ def build_parser() -> argparse.ArgumentParser:
     _add_model_args(p)
     p.add_argument("reduced", nargs="+", help="reduced body files (.h5)")
     p.set_defaults(func=cmd_compare)
+
+    p = sub.add_parser("export", help="export a reduced body to an MBS code (SID, Exudyn) or MATLAB/state space")
+    p.add_argument("reduced", help="reduced body file (.h5)")
+    p.add_argument("-o", "--output-file", required=True, metavar="FILE", help="file to write")
+    p.add_argument("--format", help="sid, exudyn, mat, statespace (ss); default from the suffix")
+    p.add_argument("--model", help="FE model the body was reduced from (required for sid and exudyn: the "
+                   "inertia invariants integrate over its mass matrix)")
+    p.add_argument("--model-format", help="override the format of --model chosen from its suffix")
+    p.add_argument("--node", action="append", default=[], metavar="NODE|SET",
+                   help="SID frame node (node id or set; a set gives an RBE3 master); default the port nodes")
+    p.add_argument("--m1-order", choices=["row-q-col", "row-col-q"], default="row-q-col",
+                   help="index order of SID m1(i,j,k) entries (default row-q-col, as PY_SID/EMBS)")
+    p.add_argument("--json", action="store_true", help="print one JSON object on stdout")
+    p.set_defaults(func=cmd_export)
     return ap
 
 

@@ -54,7 +54,7 @@ def formats() -> dict[str, Format]:
 
 
 def _load_builtin() -> None:
-    from . import abaqus, ansys, calculix, hdf5, matlab, matrix_market, nastran  # noqa: F401  (they register themselves)
+    from . import abaqus, ansys, calculix, hdf5, matlab, matrix_market, nastran, sid  # noqa: F401  (they register themselves)
 
 
 def _suffix(path: Path) -> str:

@@ -1,0 +1,227 @@
+"""Export of a reduced body to Exudyn's floating-frame reduced-order object.
+
+Exudyn's ``ObjectFFRFreducedOrder`` (nodal-based floating frame of reference with modal
+reduction, Zwölfer & Gerstmayr 2021) works on meshes of 3-DOF nodes. Besides the reduced
+mass and stiffness it needs the mode basis at every mesh node (``modeBasis``, 3 rows per node,
+node-major), the reference positions ``xRef`` and the inertia terms
+
+    Mtt = Φtᵀ M Φt,  inertiaLocal = x̃ᵀ M x̃,  chiU = Φtᵀ M x / m,
+    mPsiTildePsi = Ψ̃ᵀ M Ψ,  mPsiTildePsiTilde = Ψ̃ᵀ M Ψ̃,  mPhitTPsi = Φtᵀ M Ψ,
+    mPhitTPsiTilde = Φtᵀ M Ψ̃,  mXRefTildePsi = x̃ᵀ M Ψ,  mXRefTildePsiTilde = x̃ᵀ M Ψ̃,
+
+(``Φt`` rigid translations, ``x̃``/``Ψ̃`` node-wise skew matrices of the positions/modes), the
+same integrals as the SID invariants (:mod:`flexmor.invariants`). :func:`exudyn_data`
+computes them with one sparse product (O(nnz(M)·r)) without Exudyn; :func:`write_exudyn`
+stores them in the ``.npz`` layout of ``exudyn.FEM.ObjectFFRFreducedOrderInterface``
+(``cms.LoadFromFile(path)``), and :func:`add_to_exudyn` adds the body to a ``MainSystem``.
+Rotational DOFs of the FE model (beams, shells) are not part of Exudyn's mesh and are dropped.
+
+References
+----------
+A. Zwölfer, J. Gerstmayr, The nodal-based floating frame of reference formulation with modal
+reduction, *Acta Mechanica* 232:835-851, 2021.
+
+J. Gerstmayr, Exudyn – a C++-based Python package for flexible multibody systems,
+*Multibody System Dynamics* 60:533-561, 2024.
+
+R. Schwertassek, O. Wallrapp, *Dynamik flexibler Mehrkörpersysteme*, Vieweg, 1999, ch. 6.
+"""
+
+from __future__ import annotations
+
+import logging
+
+import numpy as np
+import scipy.sparse as sp
+
+from ..errors import ModelError, OptionError
+from . import atomic_write, register_format
+
+__all__ = ["exudyn_data", "write_exudyn", "add_to_exudyn", "add_marker", "NODE_TYPES"]
+
+log = logging.getLogger(__name__)
+
+#: Rigid-body node types of the floating frame (Exudyn names).
+NODE_TYPES = ("NodeType.RotationEulerParameters", "NodeType.RotationRxyz", "NodeType.RotationRotationVector")
+
+
+def _skew_rows(U):
+    """Node-wise skew matrices of ``U`` (3n, m): (3n, 3m), block (i, j) = skew(U[3i:3i+3, j])."""
+    n3, m = U.shape
+    T = U.reshape(n3 // 3, 3, m)
+    S = np.zeros((n3 // 3, 3, 3, m))
+    x, y, z = T[:, 0], T[:, 1], T[:, 2]
+    S[:, 0, 1], S[:, 0, 2], S[:, 1, 0] = -z, y, z
+    S[:, 1, 2], S[:, 2, 0], S[:, 2, 1] = -x, -y, x
+    return S.transpose(0, 1, 3, 2).reshape(n3, 3 * m)
+
+
+def exudyn_data(reduced, model, *, node_type: str = NODE_TYPES[0]) -> dict:
+    """The dictionary of ``ObjectFFRFreducedOrderInterface`` (file version 1) for a reduced body.
+
+    Parameters
+    ----------
+    reduced : ReducedModel
+        With its basis ``V``.
+    model : FEModel
+        The full model it was reduced from.
+    node_type : str
+        Rigid-body node of the floating frame, one of :data:`NODE_TYPES`.
+
+    Returns
+    -------
+    dict
+        Keys of ``ObjectFFRFreducedOrderInterface.GetDictionary()``; ``nodeIds`` (the FE node
+        id of each Exudyn mesh node) in addition.
+
+    Raises
+    ------
+    ModelError
+        No basis, a basis that does not match the model, no node table.
+    """
+    from ..invariants import node_triples, rigid_content
+
+    if node_type not in NODE_TYPES:
+        raise OptionError(f"node_type={node_type!r} is not allowed; choose one of: {', '.join(NODE_TYPES)}")
+    if reduced.V is None:
+        raise ModelError("the reduced body holds no basis V; re-run flexmor reduce (it stores V)")
+    V = np.asarray(reduced.V, dtype=float)
+    if V.shape[0] != model.n_dof:
+        raise ModelError(f"basis has {V.shape[0]} rows, but the model {model.name!r} has {model.n_dof} equations; "
+                         "export needs the model the body was reduced from")
+    trans, rot = node_triples(model)
+    if np.any(rot >= 0):
+        log.warning("%s: rotational DOFs are not part of Exudyn's 3-DOF mesh and are dropped", model.name)
+    if rigid_content(model, V) < 1e-6:
+        log.warning("the basis contains a rigid-body motion: Exudyn's floating frame and the modes are redundant")
+    n, r = model.n_nodes, V.shape[1]
+    ok = (trans >= 0).reshape(-1)
+    rows = np.flatnonzero(ok)
+    S = sp.csr_matrix((np.ones(rows.size), (trans.reshape(-1)[ok], rows)), shape=(model.n_dof, 3 * n))
+    Me = (S.T @ model.M @ S).tocsr()
+    Psi = np.zeros((3 * n, r))
+    Psi[rows] = V[trans.reshape(-1)[ok]]
+    x = model.xyz.reshape(-1)
+    Phit = np.tile(np.eye(3), (n, 1))
+    xt = _skew_rows(x[:, None])
+    Pt = _skew_rows(Psi)
+    F = np.hstack([Phit, xt, Psi, Pt])
+    MF = np.asarray(Me @ F)
+    MPhit, Mxt, MPsi, MPt = MF[:, :3], MF[:, 3:6], MF[:, 6:6 + r], MF[:, 6 + r:]
+    Mtt = Phit.T @ MPhit
+    mass = float(Mtt[0, 0])
+    chi = (MPhit.T @ x) / mass
+    rot_dofs = 4 if node_type.endswith("EulerParameters") else 3
+    return {
+        "modeBasis": Psi, "trigList": np.zeros((0, 3), dtype=np.int64), "postProcessingModes": {},
+        "massMatrixReduced": np.asarray(reduced.M, float), "stiffnessMatrixReduced": np.asarray(reduced.K, float),
+        "infoList": np.array([r, n, 3, rot_dofs, 3 + rot_dofs, 3 + rot_dofs + r]),
+        "rigidBodyNodeType": node_type, "xRef": x, "inertiaLocal": xt.T @ Mxt, "Mtt": Mtt,
+        "totalMass": mass, "chiU": chi, "chiUtilde": _skew_rows(chi[:, None]),
+        "mPsiTildePsi": Pt.T @ MPsi, "mPsiTildePsiTilde": Pt.T @ MPt, "mPhitTPsi": Phit.T @ MPsi,
+        "mPhitTPsiTilde": Phit.T @ MPt, "mXRefTildePsi": xt.T @ MPsi, "mXRefTildePsiTilde": xt.T @ MPt,
+        "fileVersion": 1, "type": "ObjectFFRFreducedOrderInterface", "nodeIds": model.node_ids.copy(),
+    }
+
+
+def write_exudyn(reduced, path, *, model=None, node_type: str = NODE_TYPES[0]) -> None:
+    """Write the Exudyn data of a reduced body to ``path`` (``.npz``), atomically.
+
+    Load it in Exudyn with ``cms = exudyn.FEM.ObjectFFRFreducedOrderInterface();
+    cms.LoadFromFile(path)``, then ``cms.AddObjectFFRFreducedOrder(mbs, ...)``.
+
+    Raises
+    ------
+    ModelError
+        Without ``model`` (the inertia terms need the FE mass matrix), or see :func:`exudyn_data`.
+    """
+    if model is None:
+        raise ModelError("Exudyn export needs the FE model the body was reduced from (--model MODEL): "
+                         "the inertia terms are integrals over its mass matrix")
+    data = exudyn_data(reduced, model, node_type=node_type)
+
+    def write(tmp):
+        with open(tmp, "wb") as f:
+            np.savez(f, **data)
+
+    atomic_write(path, write)
+
+
+def add_to_exudyn(mbs, reduced, model, *, position=(0.0, 0.0, 0.0), velocity=(0.0, 0.0, 0.0), rotation=None,
+                  angular_velocity=(0.0, 0.0, 0.0), gravity=(0.0, 0.0, 0.0), rayleigh=(0.0, 0.0),
+                  node_type: str = NODE_TYPES[0], name: str = "", color=(0.1, 0.9, 0.1, 1.0)) -> dict:
+    """Add a reduced body as ``ObjectFFRFreducedOrder`` to an Exudyn ``MainSystem``.
+
+    Parameters
+    ----------
+    mbs : exudyn.MainSystem
+    reduced : ReducedModel
+    model : FEModel
+        The full model the body was reduced from.
+    position, velocity : sequence of 3 float
+        Reference position and initial velocity of the floating frame.
+    rotation : array (3, 3), optional
+        Reference rotation matrix of the frame (default identity).
+    angular_velocity : sequence of 3 float
+    gravity : sequence of 3 float
+        Gravity vector (mass-proportional load) or zeros.
+    rayleigh : (alpha, beta)
+        Damping ``alpha Mr + beta Kr`` of the modal coordinates.
+    node_type : str
+        Rigid-body node of the frame, one of :data:`NODE_TYPES`.
+    name : str
+    color : sequence of 4 float
+
+    Returns
+    -------
+    dict
+        Exudyn's ``nRigidBody``, ``nGenericODE2``, ``oFFRFreducedOrder``, ``loadGravity``, and
+        ``cms`` (the interface object) and ``node_index`` (FE node id -> Exudyn mesh node).
+    """
+    from exudyn.FEM import ObjectFFRFreducedOrderInterface
+
+    data = exudyn_data(reduced, model, node_type=node_type)
+    data.pop("nodeIds")
+    cms = ObjectFFRFreducedOrderInterface()
+    cms.SetWithDictionary(data)
+    res = cms.AddObjectFFRFreducedOrder(
+        mbs, positionRef=list(position), initialVelocity=list(velocity),
+        rotationMatrixRef=[] if rotation is None else np.asarray(rotation), initialAngularVelocity=list(angular_velocity),
+        massProportionalDamping=float(rayleigh[0]), stiffnessProportionalDamping=float(rayleigh[1]),
+        gravity=list(gravity), color=list(color), name=name)
+    res = dict(res)
+    res["cms"] = cms
+    res["node_index"] = {int(k): i for i, k in enumerate(model.node_ids)}
+    return res
+
+
+def add_marker(mbs, body: dict, model, target) -> int:
+    """Marker (``MarkerSuperElementPosition``) at a node id or the mean of a node set.
+
+    Parameters
+    ----------
+    mbs : exudyn.MainSystem
+    body : dict
+        As returned by :func:`add_to_exudyn`.
+    model : FEModel
+    target : int or str
+        Node id, or node-set name (equal weights).
+
+    Returns
+    -------
+    int
+        The marker number.
+    """
+    import exudyn.itemInterface as eii
+
+    if isinstance(target, str) and target.upper() in model.node_sets:
+        ids = model.node_sets[target.upper()]
+    else:
+        ids = [int(target)]
+    idx = [body["node_index"][int(k)] for k in ids]
+    return mbs.AddMarker(eii.MarkerSuperElementPosition(bodyNumber=body["oFFRFreducedOrder"], meshNodeNumbers=idx,
+                                                        weightingFactors=[1.0 / len(idx)] * len(idx)))
+
+
+register_format("exudyn", [".npz"], writer=write_exudyn,
+                description="Exudyn ObjectFFRFreducedOrderInterface data (.npz) of a reduced body")

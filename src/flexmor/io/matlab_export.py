@@ -1,0 +1,102 @@
+"""Export of a reduced body to a MATLAB ``.mat`` file (``scipy.io.savemat``, format v5).
+
+Variables (MATLAB names; all present, empty where not available):
+
+==================  ==========  ====================================================
+``Mr Kr Dr``        r x r       reduced mass, stiffness, damping (``Dr`` zeros if none)
+``Br``, ``Cr``      r x m, p x r  reduced input and output matrices
+``V``               n x r       basis at the equations of the full model
+``node_ids``        n_nodes x 1 node numbers; ``xyz`` n_nodes x 3 coordinates
+``dofs``            n x 2       equation map: node id, direction 1..6 (x y z rx ry rz)
+``frequencies_hz``  r x 1       undamped eigenfrequencies of the reduced body
+``input_names``,    cell        port SPECs
+``output_names``
+``method``,         char        method, full model name, flexmor version
+``model_name``,
+``version``
+``inv``             struct      inertia invariants when the FE model is given
+                                (``mass mdCM J Ct Cr Cr1 Gr Ge Oe Oe1 Me Ke``, frame
+                                nodes ``node_id origin phi psi``; see
+                                :mod:`flexmor.invariants`); otherwise ``[]``
+==================  ==========  ====================================================
+
+References
+----------
+R. Schwertassek, O. Wallrapp, *Dynamik flexibler Mehrkörpersysteme*, Vieweg, 1999, ch. 6.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import scipy.io
+
+from . import atomic_write, register_format
+
+__all__ = ["write_mat", "MAT_FIELDS"]
+
+#: Variables every exported ``.mat`` file holds.
+MAT_FIELDS = ("Mr", "Kr", "Dr", "Br", "Cr", "V", "node_ids", "xyz", "dofs", "frequencies_hz", "input_names",
+              "output_names", "method", "model_name", "version", "inv")
+
+
+def _cell(names):
+    arr = np.empty((len(names), 1), dtype=object)
+    for i, s in enumerate(names):
+        arr[i, 0] = str(s)
+    return arr
+
+
+def _empty(a, shape=(0, 0)):
+    return np.zeros(shape) if a is None else np.asarray(a)
+
+
+def mat_variables(reduced, model=None, *, nodes=None) -> dict:
+    """The variables of the ``.mat`` file as a dict (see the module docstring)."""
+    r = reduced.order
+    out = {
+        "Mr": reduced.M, "Kr": reduced.K, "Dr": _empty(reduced.D, (r, r)) if reduced.D is not None else np.zeros((r, r)),
+        "Br": reduced.B, "Cr": reduced.C, "V": _empty(reduced.V),
+        "node_ids": _empty(reduced.node_ids, (0,)).reshape(-1, 1).astype(float),
+        "xyz": _empty(reduced.xyz, (0, 3)), "dofs": _empty(reduced.dofs, (0, 2)).astype(float),
+        "frequencies_hz": reduced.frequencies_hz().reshape(-1, 1),
+        "input_names": _cell(reduced.input_names), "output_names": _cell(reduced.output_names),
+        "method": reduced.method, "model_name": reduced.model_name, "version": reduced.version,
+        "inv": np.zeros((0, 0)),
+    }
+    if model is not None and reduced.V is not None:
+        from ..invariants import compute_invariants, frame_nodes
+
+        try:
+            fn = frame_nodes(model, reduced.V, nodes, reduced)
+        except Exception:  # noqa: BLE001 - frame nodes are optional in the .mat file
+            fn = []
+        inv = compute_invariants(model, reduced.V, K=reduced.K, D=reduced.D, nodes=fn)
+        out["inv"] = {
+            "mass": inv.mass, "mdCM": inv.mdCM0.reshape(3, 1), "mdCM1": inv.mdCM1, "J": inv.J0,
+            "J1": inv.J1.transpose(1, 2, 0), "Ct": inv.Ct, "Cr": inv.Cr0, "Cr1": inv.Cr1, "Gr": inv.Gr,
+            "Ge": inv.Ge, "Oe": inv.Oe0, "Oe1": inv.Oe1, "Me": inv.Me, "Ke": inv.Ke,
+            "node_id": np.array([n.id for n in fn], dtype=float).reshape(-1, 1),
+            "origin": np.array([n.origin for n in fn]).reshape(-1, 3),
+            "phi": np.array([n.phi for n in fn]).reshape(-1, 3, r),
+            "psi": np.array([n.psi for n in fn]).reshape(-1, 3, r),
+        }
+    return out
+
+
+def write_mat(reduced, path, *, model=None, nodes=None) -> None:
+    """Write a reduced body to a MATLAB ``.mat`` file (v5), atomically.
+
+    Parameters
+    ----------
+    reduced : ReducedModel
+    path : str or path-like
+    model : FEModel, optional
+        The full model; when given, the inertia invariants are added as struct ``inv``.
+    nodes : sequence of str, optional
+        Frame nodes for ``inv`` (default: the body's port/interface nodes).
+    """
+    data = mat_variables(reduced, model, nodes=nodes)
+    atomic_write(path, lambda tmp: scipy.io.savemat(tmp, data, do_compression=True, oned_as="column"))
+
+
+register_format("mat", [".mat"], writer=write_mat, description="reduced body as MATLAB .mat (Mr Kr Dr Br Cr V ...)")

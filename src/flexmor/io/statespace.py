@@ -1,0 +1,103 @@
+"""First-order state-space form of a reduced second-order body.
+
+With the state ``x = [qr; qr']`` the reduced body ``Mr qr'' + Dr qr' + Kr qr = Br u``,
+``y = Cr qr`` becomes
+
+    x' = A x + B u,   y = C x + D u,
+    A = [[0, I], [-Mr⁻¹ Kr, -Mr⁻¹ Dr]],  B = [[0], [Mr⁻¹ Br]],  C = [Cr, 0],  D = 0,
+
+and, without inverting ``Mr``, the descriptor form ``E x' = Ae x + Be u`` with
+``E = blkdiag(I, Mr)``, ``Ae = [[0, I], [-Kr, -Dr]]``, ``Be = [[0], [Br]]``. The file holds
+``A B C D E Ae Be`` (``.npz``, or ``.mat`` by suffix).
+
+References
+----------
+A. C. Antoulas, *Approximation of Large-Scale Dynamical Systems*, SIAM, 2005, ch. 4.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import scipy.linalg as sla
+
+from ..errors import ModelError
+from . import atomic_write, register_format
+
+__all__ = ["StateSpace", "state_space", "write_statespace"]
+
+
+@dataclass
+class StateSpace:
+    """``x' = A x + B u``, ``y = C x + D u`` and the descriptor form ``E x' = Ae x + Be u``."""
+
+    A: np.ndarray
+    B: np.ndarray
+    C: np.ndarray
+    D: np.ndarray
+    E: np.ndarray
+    Ae: np.ndarray
+    Be: np.ndarray
+
+    def to_scipy(self):
+        """``scipy.signal.StateSpace`` of ``(A, B, C, D)``."""
+        import scipy.signal
+
+        return scipy.signal.StateSpace(self.A, self.B, self.C, self.D)
+
+    def to_control(self):
+        """``control.StateSpace`` (python-control, when installed)."""
+        import control
+
+        return control.ss(self.A, self.B, self.C, self.D)
+
+    def arrays(self) -> dict:
+        return {k: getattr(self, k) for k in ("A", "B", "C", "D", "E", "Ae", "Be")}
+
+
+def state_space(reduced) -> StateSpace:
+    """First-order form of a reduced body (see the module docstring).
+
+    Raises
+    ------
+    ModelError
+        When ``Mr`` is singular.
+    """
+    M, K = np.asarray(reduced.M, float), np.asarray(reduced.K, float)
+    r = M.shape[0]
+    Dm = np.zeros((r, r)) if reduced.D is None else np.asarray(reduced.D, float)
+    Bm, Cm = np.asarray(reduced.B, float), np.asarray(reduced.C, float)
+    try:
+        lu = sla.cho_factor(M)
+    except np.linalg.LinAlgError:
+        raise ModelError("the reduced mass matrix is not positive definite; no state-space form") from None
+    Z, I = np.zeros((r, r)), np.eye(r)
+    A = np.block([[Z, I], [-sla.cho_solve(lu, K), -sla.cho_solve(lu, Dm)]])
+    B = np.vstack([np.zeros_like(Bm), sla.cho_solve(lu, Bm)])
+    C = np.hstack([Cm, np.zeros_like(Cm)])
+    D = np.zeros((Cm.shape[0], Bm.shape[1]))
+    E = np.block([[I, Z], [Z, M]])
+    Ae = np.block([[Z, I], [-K, -Dm]])
+    Be = np.vstack([np.zeros_like(Bm), Bm])
+    return StateSpace(A, B, C, D, E, Ae, Be)
+
+
+def write_statespace(reduced, path, *, model=None) -> None:
+    """Write ``A B C D E Ae Be`` to ``.npz`` (or ``.mat`` by suffix), atomically; ``model`` is unused."""
+    data = state_space(reduced).arrays()
+    if Path(path).suffix.lower() == ".mat":
+        import scipy.io
+
+        atomic_write(path, lambda tmp: scipy.io.savemat(tmp, data))
+    else:
+        def write(tmp):
+            with open(tmp, "wb") as f:  # np.savez would append .npz to the temporary name
+                np.savez(f, **data)
+
+        atomic_write(path, write)
+
+
+register_format("statespace", [".npz"], writer=write_statespace,
+                description="first-order state space A B C D (and descriptor E Ae Be) of a reduced body")
