@@ -2,12 +2,11 @@
 
 from __future__ import annotations
 
-
 import numpy as np
 import pytest
 import scipy.io
-
 from conftest import CCX
+
 from flexmor.cli import main
 from flexmor.errors import OptionError
 from flexmor.io.export import export

@@ -25,7 +25,7 @@ from pathlib import Path
 from ..errors import OptionError
 from . import FORMATS
 
-__all__ = ["export", "EXPORT_FORMATS", "ALIASES"]
+__all__ = ["ALIASES", "EXPORT_FORMATS", "export"]
 
 #: Export formats (names) and aliases accepted by :func:`export`.
 EXPORT_FORMATS = ("sid", "exudyn", "mat", "statespace")

@@ -37,7 +37,7 @@ import scipy.sparse as sp
 from ..errors import ModelError, OptionError
 from . import atomic_write, register_format
 
-__all__ = ["exudyn_data", "write_exudyn", "add_to_exudyn", "add_marker", "NODE_TYPES"]
+__all__ = ["NODE_TYPES", "add_marker", "add_to_exudyn", "exudyn_data", "write_exudyn"]
 
 log = logging.getLogger(__name__)
 

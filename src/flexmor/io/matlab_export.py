@@ -32,7 +32,7 @@ import scipy.io
 
 from . import atomic_write, register_format
 
-__all__ = ["write_mat", "MAT_FIELDS"]
+__all__ = ["MAT_FIELDS", "write_mat"]
 
 #: Variables every exported ``.mat`` file holds.
 MAT_FIELDS = ("Mr", "Kr", "Dr", "Br", "Cr", "V", "node_ids", "xyz", "dofs", "frequencies_hz", "input_names",

@@ -32,106 +32,19 @@ R. Schwertassek, O. Wallrapp, *Dynamik flexibler Mehrkörpersysteme*, Vieweg, 19
 from __future__ import annotations
 
 import logging
-import re
-from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
 from .. import __version__
-from ..errors import OptionError, ReadError
+from ..errors import OptionError
 from . import atomic_write, register_format
+from .sid_reader import read_sid
+from .sid_types import BODY_OBJECTS, M1_ORDERS, NODE_OBJECTS, SIDFile, SIDNode, Taylor
 
-__all__ = ["Taylor", "SIDNode", "SIDFile", "sid_from_reduced", "write_sid", "read_sid", "M1_ORDERS"]
+__all__ = ["M1_ORDERS", "SIDFile", "SIDNode", "Taylor", "read_sid", "sid_from_reduced", "write_sid"]
 
 log = logging.getLogger(__name__)
-
-#: Index orders of ``m1(i, j, k)`` entries; the first is the default.
-M1_ORDERS = ("row-q-col", "row-col-q")
-BODY_OBJECTS = ("mdCM", "J", "Ct", "Cr", "Me", "Gr", "Ge", "Oe", "ksigma", "Ke", "De")
-NODE_OBJECTS = ("origin", "phi", "psi", "AP")
-
-
-@dataclass
-class Taylor:
-    """A SID Taylor object ``A(q) = m0 + Σ_k m1[:, :, k] q_k``.
-
-    Attributes
-    ----------
-    m0 : ndarray (nrow, ncol)
-    m1 : ndarray (nrow, ncol, nq) or None
-        First-order term (``order = 1``), indexed ``[row, col, q]`` whatever the file order.
-    nq : int
-        Number of modal coordinates. ``structure`` as in the file (0..4); ``nqn`` 0.
-    """
-
-    m0: np.ndarray
-    m1: np.ndarray | None = None
-    nq: int = 0
-    structure: int = 3
-    nqn: int = 0
-
-    @property
-    def order(self) -> int:
-        return 0 if self.m1 is None else 1
-
-    def value(self, q) -> np.ndarray:
-        """The matrix at the modal coordinates ``q``."""
-        return self.m0 if self.m1 is None else self.m0 + self.m1 @ np.asarray(q, dtype=float)
-
-
-@dataclass
-class SIDNode:
-    """A frame node: ``origin`` (3x1, order 1), ``phi``, ``psi`` (3 x nq), ``AP`` (3x3, order 1)."""
-
-    id: int
-    origin: Taylor
-    phi: Taylor
-    psi: Taylor
-    AP: Taylor
-    rframe: str = "body ref"
-
-
-@dataclass
-class SIDFile:
-    """Contents of a ``.SID_FEM`` file.
-
-    Attributes
-    ----------
-    mass : float
-    ielastq : list of str
-        Names of the modal coordinates (``nelastq = len(ielastq)``).
-    nodes : list of SIDNode
-    objects : dict of str to Taylor
-        ``mdCM J Ct Cr Me Gr Ge Oe ksigma Ke De``.
-    header : str
-        The first line (node and mode counts and a comment).
-    """
-
-    mass: float
-    ielastq: list
-    nodes: list = field(default_factory=list)
-    objects: dict = field(default_factory=dict)
-    header: str = ""
-
-    @property
-    def nq(self) -> int:
-        return len(self.ielastq)
-
-    def frequencies_hz(self) -> np.ndarray:
-        """Undamped eigenfrequencies of ``(Ke, Me)`` in Hz."""
-        import scipy.linalg as sla
-
-        lam = sla.eigh(self.objects["Ke"].m0, self.objects["Me"].m0, eigvals_only=True)
-        return np.sqrt(np.clip(lam, 0, None)) / (2 * np.pi)
-
-    def ielastq_hz(self) -> np.ndarray:
-        """Frequencies written in the ``ielastq`` names (``... : 9.089 Hz``); NaN where none."""
-        out = []
-        for s in self.ielastq:
-            m = re.search(r"([-+\d.eEdD]+)\s*Hz", s)
-            out.append(float(m.group(1).replace("D", "E").replace("d", "e")) if m else np.nan)
-        return np.array(out)
 
 
 def _taylor(m0, m1=None, nq=0, *, sym=False):
@@ -194,7 +107,7 @@ def sid_from_reduced(reduced, model, *, nodes=None) -> SIDFile:
         ap1 = np.stack([_skew(nd.psi[:, a]) for a in range(r)], axis=2)
         sid_nodes.append(SIDNode(nd.id, _taylor(nd.origin[:, None], nd.phi[:, None, :], r),
                                  _taylor(nd.phi, nq=r), _taylor(nd.psi, nq=r), _taylor(np.eye(3), ap1, r)))
-    jv = lambda J: np.array([J[0, 0], J[1, 1], J[2, 2], J[0, 1], J[0, 2], J[1, 2]])  # noqa: E731
+    jv = lambda J: np.array([J[0, 0], J[1, 1], J[2, 2], J[0, 1], J[0, 2], J[1, 2]])
     J1 = np.stack([jv(inv.J1[a]) for a in range(r)], axis=1)[:, None, :]
     De = inv.De if inv.De is not None else np.zeros((r, r))
     objects = {
@@ -210,7 +123,7 @@ def sid_from_reduced(reduced, model, *, nodes=None) -> SIDFile:
         "Ke": _taylor(inv.Ke, nq=r, sym=True),
         "De": _taylor(De, nq=r, sym=True),
     }
-    off = lambda A: np.max(np.abs(A - np.diag(np.diag(A))), initial=0.0) <= 1e-9 * np.max(np.abs(A))  # noqa: E731
+    off = lambda A: np.max(np.abs(A - np.diag(np.diag(A))), initial=0.0) <= 1e-9 * np.max(np.abs(A))
     if off(inv.Ke) and off(inv.Me):
         f = np.sqrt(np.clip(np.diag(inv.Ke) / np.diag(inv.Me), 0, None)) / (2 * np.pi)
         names = [f"Eigen Mode {a + 1:4d} : {f[a]:12.3f} Hz" for a in range(r)]
@@ -309,171 +222,6 @@ def write_sid(reduced, path, *, model=None, nodes=None, m1_order: str = "row-q-c
         sid = sid_from_reduced(reduced, model, nodes=nodes)
     text = sid_text(sid, m1_order=m1_order)
     atomic_write(path, lambda tmp: Path(tmp).write_text(text))
-
-
-# -- reading -----------------------------------------------------------------------------------
-_ENTRY = re.compile(r"^(m[01])\s*\(\s*(\d+)\s*,\s*(\d+)\s*(?:,\s*(\d+)\s*)?\)\s*=\s*(\S+)\s*$", re.I)
-_KEYVAL = re.compile(r"^([A-Za-z_][\w ]*?)\s*(?:\(\s*(\d+)\s*\))?\s*=\s*(.*)$")
-
-
-def _float(path, lineno, s):
-    try:
-        return float(s.replace("D", "E").replace("d", "e"))
-    except ValueError:
-        raise ReadError(path, f"not a number: {s!r}", line=lineno) from None
-
-
-def _finish(path, raw, m1_order):
-    h = raw["h"]
-    try:
-        nrow, ncol, nq, order = h["nrow"], h["ncol"], h.get("nq", 0), h.get("order", 0)
-    except KeyError as exc:
-        raise ReadError(path, f"Taylor object {raw['name']} lacks {exc.args[0]}", line=raw["line"]) from None
-    structure = h.get("structure", 3)
-    m0 = np.eye(nrow, ncol) if structure == 4 else np.zeros((nrow, ncol))
-    for (i, j), v, ln in raw["m0"]:
-        if not (1 <= i <= nrow and 1 <= j <= ncol):
-            raise ReadError(path, f"{raw['name']}: m0({i},{j}) outside {nrow} x {ncol}", line=ln)
-        m0[i - 1, j - 1] = v
-        if structure == 2:
-            m0[j - 1, i - 1] = v
-    m1 = None
-    if order >= 1:
-        m1 = np.zeros((nrow, ncol, nq))
-        for (i, a, b), v, ln in raw["m1"]:
-            j, k = (b, a) if m1_order == "row-q-col" else (a, b)
-            if not (1 <= i <= nrow and 1 <= j <= ncol and 1 <= k <= nq):
-                raise ReadError(path, f"{raw['name']}: m1({i},{a},{b}) outside {nrow} x {ncol} x nq={nq} "
-                                f"(m1_order={m1_order})", line=ln)
-            m1[i - 1, j - 1, k - 1] = v
-    return Taylor(m0, m1, nq, structure, h.get("nqn", 0))
-
-
-def _evidence(raw):
-    h, votes = raw["h"], set()
-    ncol, nq = h.get("ncol", 0), h.get("nq", 0)
-    for (_, a, b), _, _ in raw["m1"]:
-        fits_rqc = a <= nq and b <= ncol
-        fits_rcq = a <= ncol and b <= nq
-        if fits_rqc != fits_rcq:
-            votes.add("row-q-col" if fits_rqc else "row-col-q")
-    return votes
-
-
-def read_sid(path, *, m1_order: str = "auto") -> SIDFile:
-    """Read a ``.SID_FEM`` file.
-
-    Parameters
-    ----------
-    path : str or path-like
-    m1_order : {'auto', 'row-q-col', 'row-col-q'}
-        Index order of ``m1`` entries; ``auto`` decides from the index ranges and falls back
-        to ``row-q-col``.
-
-    Returns
-    -------
-    SIDFile
-
-    Raises
-    ------
-    ReadError
-        Missing file, malformed lines or blocks, entries outside the declared sizes,
-        contradicting ``m1`` index orders.
-    """
-    path = Path(path)
-    if m1_order not in ("auto",) + M1_ORDERS:
-        raise OptionError(f"m1_order={m1_order!r} is not allowed; choose one of: auto, {', '.join(M1_ORDERS)}")
-    try:
-        lines = path.read_text(errors="replace").splitlines()
-    except OSError as exc:
-        raise ReadError(path, f"cannot read: {exc.strerror}") from None
-    header, mass, ielastq, nodes_raw, body_raw = "", None, {}, [], {}
-    stack, cur_node, cur_obj, nelastq = [], None, None, None
-    for ln, line in enumerate(lines, 1):
-        s = line.strip()
-        if not s:
-            continue
-        if ln == 1 and ":" in s and not s.lower().startswith("part"):
-            header = line.rstrip()
-            continue
-        low = s.lower()
-        if cur_obj is not None:
-            m = _ENTRY.match(s)
-            if m:
-                key = m.group(1).lower()
-                idx = tuple(int(g) for g in m.group(2, 3, 4) if g is not None)
-                if (key == "m0") != (len(idx) == 2):
-                    raise ReadError(path, f"{key} needs {2 if key == 'm0' else 3} indices: {s!r}", line=ln)
-                cur_obj[key].append((idx, _float(path, ln, m.group(5)), ln))
-                continue
-            if low == "end " + cur_obj["name"].lower():
-                (cur_node["objs"] if cur_node is not None else body_raw)[cur_obj["name"]] = cur_obj
-                cur_obj = None
-                continue
-            m = _KEYVAL.match(s)
-            if m and m.group(1).lower() in ("order", "nrow", "ncol", "nq", "nqn", "structure"):
-                try:
-                    cur_obj["h"][m.group(1).lower()] = int(m.group(3))
-                except ValueError:
-                    raise ReadError(path, f"{m.group(1)} must be an integer: {s!r}", line=ln) from None
-                continue
-            raise ReadError(path, f"unexpected line in Taylor object {cur_obj['name']}: {s!r}", line=ln)
-        if low.startswith("end"):
-            what = low[3:].strip()
-            if what == "node":
-                nodes_raw.append(cur_node)
-                cur_node = None
-            if stack and stack[-1] == what:
-                stack.pop()
-            continue
-        m = _KEYVAL.match(s)
-        if m:
-            key, val = m.group(1).strip().lower(), m.group(3).strip()
-            if key == "new node":
-                try:
-                    cur_node = {"id": int(val), "rframe": "", "objs": {}, "line": ln}
-                except ValueError:
-                    raise ReadError(path, f"node id must be an integer: {s!r}", line=ln) from None
-            elif key == "mass":
-                mass = _float(path, ln, val)
-            elif key == "nelastq":
-                nelastq = int(val)
-            elif key == "ielastq":
-                ielastq[int(m.group(2))] = val
-            elif key == "rframe" and cur_node is not None:
-                cur_node["rframe"] = val
-            continue
-        name = s.split()[0]
-        names = NODE_OBJECTS if cur_node is not None else BODY_OBJECTS
-        if name in names:
-            cur_obj = {"name": name, "h": {}, "m0": [], "m1": [], "line": ln}
-        else:
-            stack.append(low)
-    if cur_obj is not None:
-        raise ReadError(path, f"Taylor object {cur_obj['name']} not closed (truncated file?)", line=cur_obj["line"])
-    if mass is None:
-        raise ReadError(path, "no refmod mass found: not a SID file")
-    missing = [n for n in BODY_OBJECTS if n not in body_raw]
-    if missing:
-        raise ReadError(path, f"missing SID objects: {', '.join(missing)}")
-    raws = list(body_raw.values()) + [o for nd in nodes_raw for o in nd["objs"].values()]
-    if m1_order == "auto":
-        votes = set().union(*[_evidence(r) for r in raws])
-        if len(votes) > 1:
-            raise ReadError(path, "m1 entries contradict each other in their index order")
-        m1_order = votes.pop() if votes else M1_ORDERS[0]
-        log.debug("%s: m1 index order %s", path, m1_order)
-    objects = {n: _finish(path, body_raw[n], m1_order) for n in BODY_OBJECTS}
-    nodes = []
-    for nd in nodes_raw:
-        miss = [n for n in NODE_OBJECTS if n not in nd["objs"]]
-        if miss:
-            raise ReadError(path, f"node {nd['id']} lacks {', '.join(miss)}", line=nd["line"])
-        t = {n: _finish(path, nd["objs"][n], m1_order) for n in NODE_OBJECTS}
-        nodes.append(SIDNode(nd["id"], rframe=nd["rframe"], **t))
-    nq = nelastq if nelastq is not None else objects["Me"].m0.shape[0]
-    names = [ielastq.get(a + 1, f"q{a + 1}") for a in range(nq)]
-    return SIDFile(mass=mass, ielastq=names, nodes=nodes, objects=objects, header=header)
 
 
 def _read_as_model(path, **options):
