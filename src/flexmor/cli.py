@@ -26,7 +26,7 @@ def _emit_json(obj) -> None:
     print(json.dumps(jsonable(obj, finite=True)))
 
 
-def _progress(args, desc: str):
+def _progress(args, desc: str, unit: str = "freq"):
     """A ``progress(iterable, total)`` wrapper: tqdm on a terminal, nothing under --json."""
     if getattr(args, "json", False) or not sys.stderr.isatty():
         return None
@@ -34,7 +34,7 @@ def _progress(args, desc: str):
         from tqdm import tqdm
     except ImportError:
         return None
-    return lambda it, total: tqdm(it, total=total, desc=desc, unit="freq", leave=False)
+    return lambda it, total: tqdm(it, total=total, desc=desc, unit=unit, leave=False)
 
 
 def _fmt(x, spec=".3e"):
@@ -183,6 +183,45 @@ def cmd_export(args) -> int:
     return 0
 
 
+# -- report ------------------------------------------------------------------------------------
+def cmd_report(args) -> int:
+    from .analysis.compare import FullResponse
+    from .errors import OptionError
+    from .io.hdf5 import read_reduced
+    from .ports import make_ports
+    from .report.html import build_report, write_report
+    from .workflow import DEFAULT_BAND
+
+    model, t_read, band = _read_model(args)
+    band = band or DEFAULT_BAND
+    reds = [read_reduced(p) for p in args.reduced]
+    if model.D is None and reds[0].D is not None and reds[0].damping.get("type") == "rayleigh":
+        model = model.with_rayleigh(reds[0].damping["alpha"], reds[0].damping["beta"])
+    key = (list(reds[0].input_names), list(reds[0].output_names))
+    other = [str(p) for p, r in zip(args.reduced, reds) if (list(r.input_names), list(r.output_names)) != key]
+    if other:
+        raise OptionError(f"a report needs bodies with the same inputs/outputs as {args.reduced[0]}; "
+                          f"these differ: {', '.join(other)}")
+    ports = make_ports(model, *key)
+    grid_opts = {} if args.grid_tol is None else {"tol": args.grid_tol}
+    full = FullResponse(model, ports, band, n=args.n_freq, backend=args.backend, path=args.full_frf,
+                        cache=not args.no_cache, progress=_progress(args, "full FRF"), **grid_opts)
+    rep = build_report(model, ports, reds, band=band, full=full, signal=args.signal, dt=args.dt, t_end=args.t_end,
+                       scheme=args.scheme, n_modes=args.modes, backend=args.backend,
+                       time_progress=_progress(args, "time steps", unit="step"))
+    write_report(rep, args.output_file)
+    if args.json:
+        _emit_json({"file": str(args.output_file), "model": model.name, "band_hz": list(band), "results": rep.rows,
+                    "time": rep.time, "notes": rep.notes, "timings": {"read": t_read, "full_frf": full.seconds}})
+        return 0
+    print(f"{'body':<22}{'band_error':>13}{'max_rel_error':>15}{'time_max_error':>16}")
+    for r in rep.rows:
+        print(f"{r['label']:<22}{_fmt(r['band_error']):>13}{_fmt(r['max_rel_error']):>15}"
+              f"{_fmt(r['time_max_error']):>16}")
+    print(f"written {args.output_file}")
+    return 0
+
+
 # -- demo --------------------------------------------------------------------------------------
 def cmd_demo(args) -> int:
     from .workflow import run_demo
@@ -190,6 +229,7 @@ def cmd_demo(args) -> int:
     if not args.json:
         print("flexmor demo: built-in steel cantilever 1 x 0.1 x 0.1 m, clamped at x = 0")
     res = run_demo(args.out, n=args.n, progress=_progress(args, "full FRF"),
+                   time_progress=_progress(args, "time steps", unit="step"),
                    on_result=None if args.json else (lambda r: print(f"  reduced {r['method']} r={r['order']}")))
     if args.json:
         _emit_json(res)
@@ -199,6 +239,8 @@ def cmd_demo(args) -> int:
           f"{res['n_freq']} frequencies, full FRF {res['full_frf_seconds']:.2f} s\n")
     _table(res["results"])
     print(f"\nreduced bodies and {res['plot']} written to {args.out}/")
+    if res.get("report"):
+        print(f"report: {res['report']}")
     return 0
 
 
@@ -265,6 +307,19 @@ def build_parser() -> argparse.ArgumentParser:
     _add_model_args(p)
     p.add_argument("reduced", nargs="+", help="reduced body files (.h5)")
     p.set_defaults(func=cmd_compare)
+
+    p = sub.add_parser("report", help="self-contained HTML report: FRFs, errors, MAC, time responses")
+    _add_model_args(p)
+    p.add_argument("reduced", nargs="+", help="reduced body files (.h5) with the same inputs and outputs")
+    p.add_argument("-o", "--output-file", default="report.html", metavar="FILE", help="HTML file (report.html)")
+    p.add_argument("--signal", choices=["step", "impulse", "sweep"], default="step",
+                   help="input of the time-domain comparison, applied to each input in turn (default step)")
+    p.add_argument("--dt", type=float, help="time step in s (default 1/(20 FMAX))")
+    p.add_argument("--t-end", type=float, help="end time in s (default 3 periods of the lowest mode)")
+    p.add_argument("--scheme", choices=["newmark", "generalized-alpha"], default="newmark",
+                   help="time integrator (default newmark, average acceleration)")
+    p.add_argument("--modes", type=int, default=12, help="full flexible modes in the eigenfrequency/MAC table")
+    p.set_defaults(func=cmd_report)
 
     p = sub.add_parser("export", help="export a reduced body to an MBS code (SID, Exudyn) or MATLAB/state space")
     p.add_argument("reduced", help="reduced body file (.h5)")

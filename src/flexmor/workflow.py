@@ -133,13 +133,14 @@ def _method_options(method: str) -> list:
     return METHODS[method].options if method in METHODS else []
 
 
-def run_demo(out, *, n: int = 4, band=(10.0, 3000.0), progress=None, on_result=None):
+def run_demo(out, *, n: int = 4, band=(10.0, 3000.0), progress=None, on_result=None, time_progress=None):
     """The demo job: the built-in clamped steel cantilever reduced by several methods.
 
     Inputs/outputs: tip force / tip displacement in y and z (``TIP:y``, ``TIP:z``), Rayleigh
     damping ``beta = 1e-6 s``; ``modal`` at r = 4, 8, 16 and ``craig-bampton`` with the
     tip's centre node as interface (3 DOF) plus 5 and 13 fixed-interface modes. Writes one
-    ``.h5`` per reduced body and ``rel_error.png`` into ``out``.
+    ``.h5`` per reduced body, ``rel_error.png`` and the HTML report ``report.html``
+    (:mod:`flexmor.report.html`) into ``out``; ``time_progress`` wraps its time integration.
 
     Returns the list of result records (as :func:`reduce_and_judge`) with ``file`` added.
     """
@@ -154,9 +155,10 @@ def run_demo(out, *, n: int = 4, band=(10.0, 3000.0), progress=None, on_result=N
     jobs = [("modal", 4, {}), ("modal", 8, {}), ("modal", 16, {}),
             ("craig-bampton", 8, {"interface": ["TIP_CENTER"]}),
             ("craig-bampton", 16, {"interface": ["TIP_CENTER"]})]
-    results, curves = [], {}
+    results, curves, reds = [], {}, []
     for method, order, opts in jobs:
         red, res = reduce_and_judge(model, method, order, ports, full=full, **opts)
+        reds.append(red)
         path = out / f"{model.name}_{method}_{order}.h5"
         write_reduced(red, path)
         res["file"] = str(path)
@@ -166,5 +168,13 @@ def run_demo(out, *, n: int = 4, band=(10.0, 3000.0), progress=None, on_result=N
             on_result(res)
     plot_rel_error(full.freqs, curves, out / "rel_error.png",
                    title=f"{model.name}: {model.n_dof} DOF, inputs/outputs TIP:y, TIP:z")
+    from .report.html import build_report, write_report
+
+    rep = build_report(model, ports, reds, band=band, full=full, seconds=[r["seconds"] for r in results],
+                       time_progress=time_progress)
+    write_report(rep, out / "report.html")
+    for res, row in zip(results, rep.rows):
+        res.update(time_mean_error=row["time_mean_error"], time_max_error=row["time_max_error"])
     return {"model": model.summary(), "full_frf_seconds": full.seconds, "n_freq": int(full.freqs.size),
-            "band_hz": list(band), "results": results, "plot": str(out / "rel_error.png")}
+            "band_hz": list(band), "results": results, "plot": str(out / "rel_error.png"),
+            "report": str(out / "report.html"), "time": rep.time}

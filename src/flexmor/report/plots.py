@@ -4,7 +4,8 @@ from __future__ import annotations
 
 from ..io import atomic_write
 
-__all__ = ["plot_rel_error"]
+__all__ = ["body_png", "figure_png", "frf_png", "mac_png", "plot_rel_error", "rel_error_png", "singular_values_png",
+           "time_png"]
 
 
 def plot_rel_error(freqs, curves: dict, path, *, title: str = "") -> None:
@@ -19,11 +20,13 @@ def plot_rel_error(freqs, curves: dict, path, *, title: str = "") -> None:
     path : path-like
         Output PNG file.
     """
-    import matplotlib
+    fig = _rel_error_figure(freqs, curves, title)
+    atomic_write(path, lambda tmp: fig.savefig(tmp, format="png"))
+    _pyplot().close(fig)
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
 
+def _rel_error_figure(freqs, curves: dict, title: str = ""):
+    plt = _pyplot()
     fig, ax = plt.subplots(figsize=(8, 4.8), dpi=110)
     for label, err in curves.items():
         ax.loglog(freqs, err, label=label, lw=1.2)
@@ -34,5 +37,161 @@ def plot_rel_error(freqs, curves: dict, path, *, title: str = "") -> None:
     if title:
         ax.set_title(title)
     fig.tight_layout()
-    atomic_write(path, lambda tmp: fig.savefig(tmp, format="png"))
-    plt.close(fig)
+    return fig
+
+
+# -- report figures (PNG bytes for embedding) ---------------------------------------------------
+def _pyplot():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def figure_png(fig, *, dpi: int = 100) -> bytes:
+    """Render a matplotlib figure to PNG bytes and close it."""
+    import io
+
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=dpi)
+    _pyplot().close(fig)
+    return buf.getvalue()
+
+
+def rel_error_png(freqs, curves: dict, *, title: str = "") -> bytes:
+    """:func:`plot_rel_error` as PNG bytes."""
+    return figure_png(_rel_error_figure(freqs, curves, title))
+
+
+def frf_png(freqs, H, reduced: dict, input_names, output_names, *, max_pairs: int = 9) -> bytes:
+    """``|H_ij(f)|`` of the full model (black) and each reduced body, one panel per pair.
+
+    ``H`` has shape (n_freq, n_outputs, n_inputs); ``reduced`` maps labels to arrays of the
+    same shape. At most ``max_pairs`` pairs are drawn (outputs fastest); pairs whose peak is
+    below ``1e-8`` of the largest one (zero by symmetry, round-off only) are left out.
+    """
+    import numpy as np
+
+    plt = _pyplot()
+    peak = np.abs(H).max(axis=0)
+    pairs = [(i, j) for j in range(H.shape[2]) for i in range(H.shape[1])
+             if peak[i, j] >= 1e-8 * peak.max()][:max_pairs]  # numerically zero cross terms are left out
+    nc = min(3, len(pairs))
+    nr = -(-len(pairs) // nc)
+    fig, axes = plt.subplots(nr, nc, figsize=(4.2 * nc, 3.2 * nr), squeeze=False, layout="constrained")
+    for ax, (i, j) in zip(axes.flat, pairs):
+        ax.loglog(freqs, np.abs(H[:, i, j]), "k-", lw=2.0, label="full")
+        for label, Hr in reduced.items():
+            ax.loglog(freqs, np.abs(Hr[:, i, j]), lw=1.0, label=label)
+        ax.set_title(f"{output_names[i]} / {input_names[j]}", fontsize=9)
+        ax.set_xlabel("f [Hz]", fontsize=8)
+        ax.grid(True, which="both", alpha=0.3)
+    for ax in list(axes.flat)[len(pairs):]:
+        ax.axis("off")
+    axes.flat[0].set_ylabel("|H|")
+    axes.flat[0].legend(fontsize=7)
+    return figure_png(fig)
+
+
+def singular_values_png(values: dict) -> bytes:
+    """Semilog plot of decaying singular values (Hankel, POD) per label."""
+    import numpy as np
+
+    plt = _pyplot()
+    fig, ax = plt.subplots(figsize=(7, 4), layout="constrained")
+    for label, s in values.items():
+        s = np.asarray(s, float)
+        ax.semilogy(np.arange(1, s.size + 1), s / s[0] if s.size and s[0] > 0 else s, "o-", ms=3, label=label)
+    ax.set_xlabel("index")
+    ax.set_ylabel(r"$\sigma_k / \sigma_1$")
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=8)
+    return figure_png(fig)
+
+
+def mac_png(macs: dict) -> bytes:
+    """MAC matrices (full modes x reduced modes) as heat maps, one panel per body."""
+    plt = _pyplot()
+    n = max(1, len(macs))
+    nc = min(3, n)
+    nr = -(-n // nc)
+    fig, axes = plt.subplots(nr, nc, figsize=(3.8 * nc, 3.4 * nr), squeeze=False, layout="constrained")
+    im = None
+    for ax, (label, A) in zip(axes.flat, macs.items()):
+        im = ax.imshow(A, vmin=0, vmax=1, cmap="viridis", origin="upper", aspect="auto")
+        ax.set_title(label, fontsize=9)
+        ax.set_xlabel("reduced mode", fontsize=8)
+        ax.set_ylabel("full mode", fontsize=8)
+    for ax in list(axes.flat)[len(macs):]:
+        ax.axis("off")
+    if im is not None:
+        fig.colorbar(im, ax=axes.ravel().tolist(), shrink=0.8, label="MAC")
+    return figure_png(fig)
+
+
+def time_png(t, y, reduced: dict, labels, *, quantity: str = "displacement", max_channels: int = 4) -> bytes:
+    """Time responses (top) and the error norm ``||y - ŷ||(t)`` per body (bottom).
+
+    ``y`` has shape (n_t, n_outputs, n_cases); ``reduced`` maps labels to arrays of that
+    shape; ``labels[(i, j)]`` names channel ``y[:, i, j]``.
+    """
+    import numpy as np
+
+    plt = _pyplot()
+    chans = [(i, j) for j in range(y.shape[2]) for i in range(y.shape[1])][:max_channels]
+    fig, axes = plt.subplots(2, 1, figsize=(9, 6.4), sharex=True, layout="constrained")
+    for n, (i, j) in enumerate(chans):
+        ax = axes[0]
+        ax.plot(t, y[:, i, j], color=f"C{n}", lw=2.2, alpha=0.5, label=f"full {labels[(i, j)]}")
+        for k, (label, yr) in enumerate(reduced.items()):
+            ax.plot(t, yr[:, i, j], color=f"C{n}", lw=0.9, ls=["-", "--", ":", "-."][k % 4],
+                    label=f"{label}" if n == 0 else None)
+    axes[0].set_ylabel(quantity)
+    axes[0].legend(fontsize=7, ncol=2)
+    axes[0].grid(True, alpha=0.3)
+    peak = max(np.max(np.linalg.norm(y.reshape(y.shape[0], -1), axis=1)), np.finfo(float).tiny)
+    tops = []
+    for label, yr in reduced.items():
+        e = np.linalg.norm((y - yr).reshape(y.shape[0], -1), axis=1) / peak
+        tops.append(max(float(np.max(e)), 1e-16))
+        axes[1].semilogy(t, np.maximum(e, 1e-16), lw=1.0, label=label)
+    if tops:
+        axes[1].set_ylim(bottom=max(1e-3 * min(tops), 1e-16))
+    axes[1].set_ylabel(r"$\|y-\hat y\|(t) / \max_t\|y\|$")
+    axes[1].set_xlabel("t [s]")
+    axes[1].grid(True, which="both", alpha=0.3)
+    axes[1].legend(fontsize=7)
+    return figure_png(fig)
+
+
+def body_png(xyz, marks: dict, *, title: str = "") -> bytes:
+    """3D scatter of the nodes (grey) with marked node groups (label -> coordinates (k, 3))."""
+    import numpy as np
+
+    plt = _pyplot()
+    fig = plt.figure(figsize=(7, 5))
+    ax = fig.add_subplot(projection="3d")
+    xyz = np.asarray(xyz, float).reshape(-1, 3)
+    ax.scatter(xyz[:, 0], xyz[:, 1], xyz[:, 2], s=2, c="0.6", alpha=0.5, label=f"nodes ({len(xyz)})")
+    styles = [("o", 60), ("^", 30), ("s", 90), ("D", 30)]
+    for k, (label, pts) in enumerate(marks.items()):
+        pts = np.asarray(pts, float).reshape(-1, 3)
+        if pts.size:
+            mk, s = styles[k % len(styles)]
+            ax.scatter(pts[:, 0], pts[:, 1], pts[:, 2], s=s, marker=mk, color=f"C{k}", depthshade=False,
+                       label=f"{label} ({len(pts)})")
+    span = np.ptp(xyz, axis=0) if len(xyz) else np.ones(3)
+    ax.set_box_aspect(np.maximum(span, 0.15 * max(span.max(), 1e-30)))  # slender bodies stay visible
+    from matplotlib.ticker import MaxNLocator
+
+    for axis in (ax.xaxis, ax.yaxis, ax.zaxis):
+        axis.set_major_locator(MaxNLocator(3))
+    ax.set_xlabel("x")
+    ax.set_ylabel("y")
+    ax.set_zlabel("z")
+    ax.legend(fontsize=7, loc="upper left")
+    if title:
+        ax.set_title(title, fontsize=9)
+    return figure_png(fig)

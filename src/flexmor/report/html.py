@@ -1,0 +1,310 @@
+"""One self-contained HTML report judging reduced bodies against their full model.
+
+:func:`build_report` computes everything (full FRF once, errors, H2 norms where they exist,
+eigenfrequencies and MAC, time responses) into a :class:`Report`; :func:`render_html`
+turns it into one HTML page whose figures are PNG images embedded as base64 ``data:`` URIs
+(no external resources, readable offline and attachable to a mail); :func:`write_report`
+writes it atomically.
+
+Sections: summary table (method, order, ``band_error``, ``max_rel_error``, ``h2_error``,
+``time_mean_error``, ``time_max_error``, seconds), the body with its ports and interface
+nodes, ``|H|`` of full and reduced bodies per input/output pair, ``rel_error(f)`` of all bodies
+on one log-log plot, singular values where the method reports them, the eigenfrequency/MAC
+table with MAC matrices, and the time responses with their errors.
+"""
+
+from __future__ import annotations
+
+import base64
+import datetime
+import html
+import logging
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .. import __version__
+from ..errors import FlexmorError, OptionError, check_choice
+from ..io import atomic_write
+from . import plots
+
+__all__ = ["SIGNALS", "SINGULAR_VALUE_KEYS", "Report", "build_report", "render_html", "write_report"]
+
+log = logging.getLogger(__name__)
+
+#: Built-in input signals of the time-domain comparison.
+SIGNALS = ("step", "impulse", "sweep")
+#: ``info`` fields of a reduced body that hold singular values (first one found is plotted).
+SINGULAR_VALUE_KEYS = ("hankel_singular_values", "hsv", "singular_values", "pod_singular_values")
+#: Columns of the summary table: (key, header, format).
+COLUMNS = [("label", "body", "s"), ("method", "method", "s"), ("order", "order", "d"),
+           ("band_error", "band_error", ".4e"), ("max_rel_error", "max_rel_error", ".4e"),
+           ("h2_error", "H2 error (rel.)", ".4e"), ("time_mean_error", "time_mean_error", ".4e"),
+           ("time_max_error", "time_max_error", ".4e"), ("time_seconds", "time integration [s]", ".3f"),
+           ("seconds", "reduction [s]", ".3f")]
+
+
+@dataclass
+class Report:
+    """Everything a report shows; ``rows`` are JSON-ready (one per reduced body)."""
+
+    title: str
+    model: dict
+    band: tuple
+    rows: list
+    figures: dict = field(default_factory=dict)
+    modal: dict = field(default_factory=dict)
+    time: dict = field(default_factory=dict)
+    notes: list = field(default_factory=list)
+
+
+def fmt(value, spec: str) -> str:
+    """Format a table entry; None/NaN give '-'."""
+    if value is None or (isinstance(value, float) and not np.isfinite(value)):
+        return "-"
+    return format(value, spec)
+
+
+def _spec_nodes(model, specs) -> np.ndarray:
+    """Node ids addressed by port SPECs (``NODE:DIR``, ``SET:DIR``, ``SET@rbe3:DIR``)."""
+    nodes = []
+    for spec in specs:
+        target = str(spec).rsplit(":", 1)[0].split("@")[0].strip()
+        if target.upper() in model.node_sets:
+            nodes.extend(model.node_sets[target.upper()].tolist())
+        elif target.lstrip("-").isdigit() and model.has_node(int(target)):
+            nodes.append(int(target))
+    return np.unique(np.asarray(nodes, dtype=np.int64))
+
+
+def _interface_nodes(model, red) -> np.ndarray:
+    """Interface nodes of a Guyan/Craig-Bampton body: its physical DOFs are the unit rows of ``V``."""
+    if "interface" in red.info:
+        return _spec_nodes(model, red.info["interface"])
+    nb = red.info.get("n_interface_dofs")
+    if not nb or red.V is None or model.dofs is None:
+        return np.zeros(0, dtype=np.int64)
+    A = np.abs(red.V)
+    unit = (np.abs(A.max(axis=1) - 1) < 1e-9) & (np.abs(A.sum(axis=1) - 1) < 1e-9)
+    return np.unique(model.dofs[unit, 0])
+
+
+def _signal(name, dt: float, t_end: float, band):
+    from ..analysis import time as tm
+
+    if callable(name):
+        return name, getattr(name, "__name__", "custom")
+    check_choice("signal", name, list(SIGNALS))
+    if name == "step":
+        return tm.step(), "unit step on each input in turn"
+    if name == "impulse":
+        w = max(4 * dt, 1.0 / band[1])
+        return tm.impulse(w), f"unit impulse (half-sine, {w:.3g} s) on each input in turn"
+    return tm.sine_sweep(band[0], band[1], t_end), f"linear sine sweep {band[0]:g}-{band[1]:g} Hz over {t_end:.3g} s"
+
+
+def build_report(model, ports, reduced, *, band, labels=None, seconds=None, full=None, signal="step",
+                 dt: float | None = None, t_end: float | None = None, max_steps: int = 5000,
+                 scheme: str = "newmark", rho_inf: float = 0.9, n_modes: int = 12, h2_max_dof: int = 1000,
+                 backend: str = "auto", progress=None, time_progress=None, title: str | None = None) -> Report:
+    """Compute the contents of a report on ``reduced`` bodies of ``model``.
+
+    Parameters
+    ----------
+    model : FEModel
+        The full model (with the damping the bodies were judged with).
+    ports : Ports
+        Inputs and outputs shared by all bodies.
+    reduced : list of ReducedModel
+    band : (float, float)
+        Frequency band in Hz.
+    labels : list of str, optional
+        Names of the bodies (default ``method r=order``).
+    seconds : list of float, optional
+        Reduction wall time of each body (else ``info['seconds']`` when present).
+    full : FullResponse, optional
+        The full FRF on the band, reused when given.
+    signal : {'step', 'impulse', 'sweep'} or callable
+        Input of the time-domain comparison (see :mod:`flexmor.analysis.time`).
+    dt, t_end : float, optional
+        Time step and end time; default ``t_end = 3 / f1`` (lowest full eigenfrequency) and
+        ``dt = 1 / (20 fmax)``, at most ``max_steps`` steps.
+    scheme, rho_inf
+        Integrator of :func:`flexmor.analysis.time.simulate`.
+    n_modes : int
+        Full flexible modes in the eigenfrequency/MAC table.
+    h2_max_dof : int
+        The H2 error (:func:`flexmor.analysis.norms.h2_error`, dense) is computed for damped
+        models up to this size.
+    backend : str
+        Backend of :func:`flexmor.linalg.factorize`.
+    progress, time_progress : callable, optional
+        ``progress(iterable, total)`` wrappers of the FRF sweep and the full time integration.
+    title : str, optional
+
+    Returns
+    -------
+    Report
+    """
+    from ..analysis.compare import FullResponse
+    from ..analysis.frequency import frf_reduced
+    from ..analysis.modal_check import full_modes, modal_check
+    from ..analysis.time import simulate, time_errors
+
+    reduced = list(reduced)
+    if not reduced:
+        raise OptionError("a report needs at least one reduced body")
+    labels = list(labels) if labels else [f"{r.method} r={r.order}" for r in reduced]
+    labels = [lb if labels.count(lb) == 1 else f"{lb} #{i + 1}" for i, lb in enumerate(labels)]
+    seconds = list(seconds) if seconds else [r.info.get("seconds") for r in reduced]
+    band = (float(band[0]), float(band[1]))
+    if full is None:
+        full = FullResponse(model, ports, band, backend=backend, progress=progress)
+    notes = []
+    rep = Report(title=title or f"flexmor report: {model.name}", model=model.summary(), band=band, rows=[],
+                 notes=notes)
+
+    # frequency domain
+    H_red, curves = {}, {}
+    for lb, red, sec in zip(labels, reduced, seconds):
+        err = full.evaluate(red)
+        H_red[lb], curves[lb] = frf_reduced(red, full.freqs), err["rel_error"]
+        rep.rows.append({"label": lb, "method": red.method, "order": red.order, "band_error": err["band_error"],
+                         "max_rel_error": err["max_rel_error"], "h2_error": None, "seconds": sec})
+    damped = model.D is not None
+    if damped and model.n_dof <= h2_max_dof:
+        from ..analysis.norms import h2_error
+
+        for row, red in zip(rep.rows, reduced):
+            try:
+                row["h2_error"] = h2_error(model, ports, red)
+            except (FlexmorError, np.linalg.LinAlgError) as exc:
+                notes.append(f"H2 error of {row['label']} not computed: {exc}")
+    else:
+        notes.append("H2 errors not computed: " + (f"the model has {model.n_dof} > {h2_max_dof} DOF (dense method)"
+                                                   if damped else "undamped bodies have no finite H2 norm"))
+    rep.figures["frf"] = plots.frf_png(full.freqs, full.H, H_red, ports.input_names, ports.output_names)
+    rep.figures["rel_error"] = plots.rel_error_png(full.freqs, curves, title=f"{model.name}, {model.n_dof} DOF")
+    svs = {}
+    for lb, red in zip(labels, reduced):
+        key = next((k for k in SINGULAR_VALUE_KEYS if np.size(red.info.get(k, [])) > 1), None)
+        if key:
+            svs[f"{lb} ({key})"] = np.asarray(red.info[key], float)
+    if svs:
+        rep.figures["singular_values"] = plots.singular_values_png(svs)
+
+    # eigenfrequencies and MAC
+    f, phi, n_rig = full_modes(model, n_modes, backend=backend)
+    rep.modal = {"full_hz": f, "n_rigid": n_rig, "bodies": {}}
+    for lb, red in zip(labels, reduced):
+        rep.modal["bodies"][lb] = modal_check(model, red, full=(f, phi, n_rig))
+    rep.figures["mac"] = plots.mac_png({lb: c["mac"] for lb, c in rep.modal["bodies"].items()})
+
+    # time domain
+    f_lo = float(f[0]) if f.size else band[0]
+    t_end = float(t_end) if t_end else 3.0 / f_lo
+    dt = float(dt) if dt else max(1.0 / (20.0 * band[1]), t_end / max_steps)
+    u, desc = _signal(signal, dt, t_end, band)
+    y_full = simulate(model, u, dt=dt, t_end=t_end, ports=ports, scheme=scheme, rho_inf=rho_inf, backend=backend,
+                      progress=time_progress)
+    y_red = {}
+    for lb, red, row in zip(labels, reduced, rep.rows):
+        yr = simulate(red, u, dt=dt, t_end=t_end, scheme=scheme, rho_inf=rho_inf)
+        e = time_errors(y_full, yr)
+        row.update(time_mean_error=e["time_mean_error"], time_max_error=e["time_max_error"], time_seconds=yr.seconds)
+        y_red[lb] = yr.displacement
+    rep.time = {"signal": desc, "dt": dt, "t_end": float(y_full.t[-1]), "n_steps": int(y_full.t.size - 1),
+                "scheme": scheme, "seconds_full": y_full.seconds}
+    chan = {(i, j): f"{ports.output_names[i]} / {ports.input_names[j] if y_full.displacement.shape[2] > 1 else 'u'}"
+            for i in range(ports.n_outputs) for j in range(y_full.displacement.shape[2])}
+    rep.figures["time"] = plots.time_png(y_full.t, y_full.displacement, y_red, chan)
+
+    # the body
+    marks = {"inputs": model.node_xyz(_spec_nodes(model, ports.input_names)) if model.n_nodes else [],
+             "outputs": model.node_xyz(_spec_nodes(model, ports.output_names)) if model.n_nodes else []}
+    iface = np.unique(np.concatenate([_interface_nodes(model, r) for r in reduced]))
+    if iface.size and model.n_nodes:
+        marks["interface"] = model.node_xyz(iface)
+    if model.n_nodes:
+        rep.figures["body"] = plots.body_png(model.xyz, marks, title=f"{model.name}: {model.n_nodes} nodes")
+    else:
+        notes.append("the model has no node coordinates: no picture of the body")
+    log.info("report on %d bodies: %d figures", len(reduced), len(rep.figures))
+    return rep
+
+
+# -- rendering ---------------------------------------------------------------------------------
+_CSS = """body{font-family:system-ui,sans-serif;margin:2em auto;max-width:1100px;color:#222}
+table{border-collapse:collapse;margin:1em 0;font-size:0.9em}th,td{border:1px solid #bbb;padding:3px 8px;
+text-align:right}th{background:#eee}td.l{text-align:left}img{max-width:100%;display:block;margin:1em 0}
+.note{color:#666;font-size:0.9em}h2{border-bottom:1px solid #ccc;margin-top:2em}"""
+
+
+def _img(png: bytes, alt: str) -> str:
+    return f'<img alt="{html.escape(alt)}" src="data:image/png;base64,{base64.b64encode(png).decode("ascii")}">'
+
+
+def _table(header, rows, left=(0,)) -> str:
+    h = "".join(f"<th>{html.escape(str(c))}</th>" for c in header)
+    body = "".join("<tr>" + "".join(f'<td{" class=l" if k in left else ""}>{html.escape(str(c))}</td>'
+                                    for k, c in enumerate(r)) + "</tr>" for r in rows)
+    return f"<table><tr>{h}</tr>{body}</table>"
+
+
+def render_html(rep: Report) -> str:
+    """The report as one self-contained HTML page (figures embedded as base64 PNG)."""
+    e = html.escape
+    m = rep.model
+    out = [(f"<!DOCTYPE html><html lang=en><head><meta charset=utf-8><title>{e(rep.title)}</title>"
+            f"<style>{_CSS}</style></head><body><h1>{e(rep.title)}</h1>"),
+           (f"<p>Model <b>{e(str(m['name']))}</b> ({e(str(m.get('source', '')))}): {m['n_dof']} DOF, "
+           f"{m['n_nodes']} nodes, damping {e(str(m.get('damping')))}. Band {rep.band[0]:g}-{rep.band[1]:g} Hz. "
+           f"flexmor {e(__version__)}, {datetime.datetime.now().isoformat(timespec='seconds')}.</p>"),
+           '<h2 id="summary">Summary</h2>',
+           _table([c[1] for c in COLUMNS], [[fmt(r.get(k), s) for k, _, s in COLUMNS] for r in rep.rows], (0, 1)),
+           ("<p class=note>band_error = &int;&Vert;H&minus;&Ecirc;&Vert;&sup2;<sub>F</sub> df / &int;&Vert;H&Vert;"
+           "&sup2;<sub>F</sub> df over the band; max_rel_error = max<sub>f</sub> rel_error(f); time errors of the "
+           "output displacements: mean<sub>t</sub>&Vert;y&minus;&ycirc;&Vert; / mean<sub>t</sub>&Vert;y&Vert; and "
+           "max<sub>t</sub>&Vert;y&minus;&ycirc;&Vert; / max<sub>t</sub>&Vert;y&Vert;. Full model time "
+           f"integration: {rep.time.get('seconds_full', float('nan')):.3f} s.</p>")]
+    out += [f"<p class=note>{e(n)}</p>" for n in rep.notes]
+    if "body" in rep.figures:
+        out += ['<h2 id="body">The body</h2>', _img(rep.figures["body"], "nodes with ports and interface")]
+    out += ['<h2 id="frf">Transfer functions |H|</h2>', _img(rep.figures["frf"], "|H| full vs reduced"),
+            '<h2 id="rel-error">rel_error(f)</h2>', _img(rep.figures["rel_error"], "rel_error per method")]
+    if "singular_values" in rep.figures:
+        out += ['<h2 id="singular-values">Singular values</h2>',
+                _img(rep.figures["singular_values"], "singular values")]
+    out.append('<h2 id="modal">Eigenfrequencies and MAC</h2>')
+    if rep.modal:
+        bodies = rep.modal["bodies"]
+        header = ["mode", "full [Hz]"] + [h for lb in bodies for h in (f"{lb} [Hz]", "Δf/f", "MAC")]
+        rows = []
+        for i, f in enumerate(rep.modal["full_hz"]):
+            row = [i + 1, fmt(float(f), ".4f")]
+            for c in bodies.values():
+                row += [fmt(float(c["pair_hz"][i]), ".4f"), fmt(float(c["freq_rel_error"][i]), ".2e"),
+                        fmt(float(c["pair_mac"][i]), ".4f")]
+            rows.append(row)
+        out.append(_table(header, rows, ()))
+        if rep.modal.get("n_rigid"):
+            out.append(f"<p class=note>{rep.modal['n_rigid']} rigid-body modes of the full model are left out.</p>")
+        out.append("<p class=note>Each full mode is paired with the reduced mode of largest MAC (reduced modes "
+                   "expanded with V); modes of repeated eigenfrequencies are aligned within their eigenspace.</p>")
+        out.append(_img(rep.figures["mac"], "MAC matrices"))
+    t = rep.time
+    out += ['<h2 id="time">Time responses</h2>',
+            (f"<p>{e(t['signal'])}; {e(t['scheme'])}, dt = {t['dt']:.3g} s, {t['n_steps']} steps to "
+             f"{t['t_end']:.3g} s.</p>"), _img(rep.figures["time"], "time responses and errors"), "</body></html>"]
+    return "\n".join(out)
+
+
+def write_report(rep: Report, path) -> None:
+    """Write :func:`render_html` of ``rep`` to ``path`` atomically (UTF-8)."""
+    text = render_html(rep)
+
+    def write(tmp):
+        with open(tmp, "w", encoding="utf-8") as fh:
+            fh.write(text)
+
+    atomic_write(path, write)

@@ -1,0 +1,155 @@
+"""Modal checks (eigenfrequencies, MAC) and the self-contained HTML report."""
+
+from __future__ import annotations
+
+import base64
+import io
+import re
+import shutil
+import subprocess
+
+import numpy as np
+import pytest
+
+from flexmor.analysis.compare import FullResponse
+from flexmor.analysis.modal_check import mac, modal_check
+from flexmor.analysis.norms import h2_error
+from flexmor.analysis.time import simulate, step, time_errors
+from flexmor.ports import make_ports
+from flexmor.reduction import reduce
+
+BAND = (10.0, 3000.0)
+
+
+def test_mac_definition():
+    rng = np.random.default_rng(1)
+    x, y = rng.standard_normal((50, 1)), rng.standard_normal((50, 1))
+    y -= x * (x.T @ y) / (x.T @ x)  # orthogonal to x
+    A = mac(np.hstack([x, y]), np.hstack([-3 * x, y + 0.5 * x]))
+    assert A[0, 0] == pytest.approx(1.0, abs=1e-14) and A[1, 0] == pytest.approx(0.0, abs=1e-14)
+    c = 0.5 ** 2 * np.sum(x * x) / np.sum((y + 0.5 * x) ** 2)  # cos^2 of the angle
+    assert A[0, 1] == pytest.approx(c, rel=1e-12)
+
+
+def test_modal_basis_has_unit_mac_and_equal_frequencies(clamped, clamped_ref):
+    # the square beam has repeated bending frequencies: the MAC must not depend on the arbitrary
+    # orientation of the modes inside each two-dimensional eigenspace
+    ports = make_ports(clamped, ["TIP:y"])
+    red, _ = reduce(clamped, "modal", 12, ports)
+    c = modal_check(clamped, red, n_modes=10)
+    n = c["full_hz"].size
+    assert n == 11  # modes 10 and 11 share 3117 Hz: a repeated eigenvalue is never cut in two
+    assert np.sum(np.isclose(c["full_hz"][:-1], c["full_hz"][1:], rtol=1e-6)) >= 3
+    assert np.max(np.abs(np.diag(c["mac"][:, :n]) - 1.0)) < 1e-10
+    assert np.array_equal(c["pair"], np.arange(n))
+    assert np.max(np.abs(c["freq_rel_error"])) < 1e-10
+    assert c["full_hz"] == pytest.approx(clamped_ref[:n], rel=1e-4)  # CalculiX's own eigenfrequencies
+
+
+def test_truncated_bases_have_upper_bound_frequencies(clamped, free):
+    ports = make_ports(clamped, ["TIP:y", "TIP:z"])
+    cb, _ = reduce(clamped, "craig-bampton", 33, ports, interface=["TIP"])
+    c = modal_check(clamped, cb, n_modes=6)
+    k = c["full_hz"].size
+    # Rayleigh-Ritz: the i-th reduced eigenfrequency is never below the i-th full one
+    assert np.all(c["reduced_hz"][:k] >= c["full_hz"] * (1 - 1e-10))
+    assert np.all(c["pair_mac"][:4] > 0.99) and np.all(c["freq_rel_error"][:4] < 0.01)
+    red, _ = reduce(free, "modal", 8, make_ports(free, ["TIP:y"]))
+    c = modal_check(free, red, n_modes=8)
+    assert c["n_rigid_full"] == 6 and c["n_rigid_reduced"] == 0
+    assert np.min(c["pair_mac"]) > 1 - 1e-10
+
+
+@pytest.fixture(scope="module")
+def report(clamped, tmp_path_factory):
+    from flexmor.report.html import build_report, write_report
+
+    model = clamped.with_rayleigh(0.0, 1e-6)
+    ports = make_ports(model, ["TIP:y", "TIP:z"])
+    reds = [reduce(model, "modal", 8, ports)[0],
+            reduce(model, "craig-bampton", 33, ports, interface=["TIP"])[0]]
+    rep = build_report(model, ports, reds, band=BAND, seconds=[0.5, None], n_modes=6, dt=5e-5, t_end=0.01)
+    path = tmp_path_factory.mktemp("report") / "report.html"
+    write_report(rep, path)
+    return model, ports, reds, rep, path, path.read_text(encoding="utf-8")
+
+
+def test_report_is_self_contained_with_valid_images(report):
+    import matplotlib.image as mpimg
+
+    *_, text = report
+    imgs = re.findall(r'<img[^>]*src="([^"]*)"', text)
+    assert text.count("data:image/png;base64,") == len(imgs) == 5  # body, |H|, rel_error, MAC, time
+    for src in imgs:
+        png = base64.b64decode(src.split(",", 1)[1], validate=True)
+        assert png[:8] == b"\x89PNG\r\n\x1a\n"
+        arr = mpimg.imread(io.BytesIO(png))
+        assert arr.shape[0] > 200 and arr.shape[1] > 200 and np.ptp(arr) > 0.1  # not blank
+    assert not re.search(r'(src|href)="(?!data:)', text) and "http" not in text
+    for sec in ("summary", "body", "frf", "rel-error", "modal", "time"):
+        assert f'id="{sec}"' in text
+    assert 'id="singular-values"' not in text  # neither body reports singular values
+
+
+def test_report_numbers_equal_the_computed_ones(report):
+    model, ports, reds, rep, _, text = report
+    full = FullResponse(model, ports, BAND, cache=False)
+    y = simulate(model, step(), dt=5e-5, t_end=0.01, ports=ports)
+    for row, red in zip(rep.rows, reds):
+        err = full.evaluate(red)
+        assert row["band_error"] == pytest.approx(err["band_error"], rel=1e-6)
+        assert row["max_rel_error"] == pytest.approx(err["max_rel_error"], rel=1e-6)
+        assert row["h2_error"] == pytest.approx(h2_error(model, ports, red), rel=1e-9)
+        e = time_errors(y, simulate(red, step(), dt=5e-5, t_end=0.01))
+        assert row["time_mean_error"] == pytest.approx(e["time_mean_error"], rel=1e-9)
+        for key in ("band_error", "max_rel_error", "h2_error", "time_mean_error", "time_max_error"):
+            assert f"<td>{row[key]:.4e}</td>" in text
+    assert rep.rows[0]["band_error"] < 1e-3 < rep.rows[1]["band_error"]  # modal 8 beats CB here
+    assert "<td>0.500</td>" in text  # the given reduction time
+    # modal r=8 reproduces the six lowest eigenfrequencies: MAC 1.0000 and Δf/f ~ 0 in its columns
+    modal = rep.modal["bodies"]["modal r=8"]
+    assert np.allclose(modal["pair_hz"], rep.modal["full_hz"], rtol=1e-10)
+    assert text.count("<td>1.0000</td>") >= 6
+    assert f"<td>{rep.modal['full_hz'][0]:.4f}</td>" in text
+
+
+def test_report_opens_in_headless_chromium(report):
+    *_, path, text = report
+    exe = next((shutil.which(n) for n in ("chromium", "chromium-browser", "google-chrome", "headless_shell")
+                if shutil.which(n)), None)
+    if exe is None:
+        pytest.skip("no chromium/chrome on PATH; images are checked by decoding them instead")
+    js = ("<script>window.onload=()=>{const bad=[...document.images].filter(i=>!i.complete||i.naturalWidth==0)"
+          ".length;document.title='BROKEN='+bad+' OF '+document.images.length;}</script>")
+    probe = path.with_name("probe.html")
+    probe.write_text(text.replace("</body>", js + "</body>"), encoding="utf-8")
+    out = subprocess.run([exe, "--headless", "--disable-gpu", "--no-sandbox", "--virtual-time-budget=5000",
+                          "--dump-dom", probe.as_uri()], check=False, capture_output=True, text=True,
+                         timeout=120)
+    assert "BROKEN=0 OF 5" in out.stdout
+
+
+def test_cli_report_writes_html_and_json(report, tmp_path, capsys):
+    import json
+
+    from conftest import CCX
+
+    from flexmor.cli import main
+    from flexmor.io.hdf5 import write_reduced
+
+    _, _, reds, rep, _, _ = report
+    files = []
+    for k, red in enumerate(reds):
+        files.append(tmp_path / f"body{k}.h5")
+        write_reduced(red, files[-1])
+    out = tmp_path / "r.html"
+    code = main(["report", str(CCX / "beam8_clamped_mat.sti"), *map(str, files), "-o", str(out), "--band", "10:3000",
+                 "--dt", "5e-5", "--t-end", "0.01", "--modes", "6", "--json"])
+    assert code == 0
+    res = json.loads(capsys.readouterr().out)
+    assert [r["label"] for r in res["results"]] == ["modal r=8", "craig-bampton r=33"]
+    # the bodies carry the Rayleigh damping; the report applies it to the undamped file: same numbers
+    for got, want in zip(res["results"], rep.rows):
+        assert got["band_error"] == pytest.approx(want["band_error"], rel=1e-6)
+        assert got["time_max_error"] == pytest.approx(want["time_max_error"], rel=1e-9)
+    assert out.read_text(encoding="utf-8").count("data:image/png;base64,") == 5

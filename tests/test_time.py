@@ -1,0 +1,140 @@
+"""Time integration (Newmark, generalized-α) against closed-form and matrix-exponential solutions."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import scipy.linalg as sla
+import scipy.sparse as sp
+
+from flexmor.analysis.time import impulse, scheme_parameters, simulate, sine_sweep, step, time_errors
+from flexmor.errors import OptionError
+from flexmor.ports import make_ports
+from flexmor.reduction import reduce
+
+W = 2 * np.pi * 1.0  # 1 Hz oscillator
+SDOF = (np.eye(1), None, np.eye(1) * W ** 2, np.ones((1, 1)), np.ones((1, 1)))
+
+
+def _chain(n=3, k=1000.0, m=1.0, c=0.5):
+    """Spring-mass chain fixed at one end (sparse), unit force on the last mass, Rayleigh-like D."""
+    K = sp.diags([2 * k * np.ones(n), -k * np.ones(n - 1), -k * np.ones(n - 1)], [0, 1, -1]).tolil()
+    K[n - 1, n - 1] = k
+    K = K.tocsr()
+    M = sp.identity(n, format="csr") * m
+    D = (c * M + 1e-4 * K).tocsr()
+    B = np.zeros((n, 1))
+    B[-1] = 1.0
+    return M, D, K, B, sp.csr_matrix(B.T)
+
+
+def _exact_step(M, D, K, B, C, t):
+    """Step response of the first-order form, exact via the matrix exponential of the augmented system."""
+    M, D, K = (X.toarray() for X in (M, D, K))
+    n = M.shape[0]
+    Mi = np.linalg.inv(M)
+    A = np.block([[np.zeros((n, n)), np.eye(n)], [-Mi @ K, -Mi @ D]])
+    b = np.vstack([np.zeros((n, 1)), Mi @ B])
+    aug = np.zeros((2 * n + 1, 2 * n + 1))
+    aug[:2 * n, :2 * n], aug[:2 * n, 2 * n:] = A, b
+    e0 = np.zeros(2 * n + 1)
+    e0[-1] = 1.0
+    Cd = C.toarray()
+    return np.array([(Cd @ (sla.expm(aug * tk) @ e0)[:n]) for tk in t])
+
+
+def test_newmark_sdof_is_the_exact_discrete_solution_with_known_period_elongation():
+    h = 1e-2
+    r = simulate(SDOF, step(), dt=h, t_end=2.0)
+    y = r.displacement[:, 0, 0] * W ** 2  # normalized by the static deflection
+    w_bar = 2 / h * np.arctan(W * h / 2)  # trapezoidal rule: omega_bar h = 2 arctan(omega h / 2)
+    assert np.max(np.abs(y - (1 - np.cos(w_bar * r.t)))) < 1e-12
+    # period elongation dT/T = (omega h)^2 / 12 to second order
+    assert (W / w_bar - 1) == pytest.approx((W * h) ** 2 / 12, rel=1e-3)
+    assert r.n_factorizations == 0 and r.seconds > 0
+    # the velocity and acceleration outputs follow the same discrete solution
+    assert np.max(np.abs(r.acceleration[:, 0, 0] - np.cos(w_bar * r.t))) < 1e-9
+
+
+def test_newmark_sdof_matches_closed_form_to_1e6():
+    r = simulate(SDOF, step(), dt=2e-4, t_end=1.0)
+    y = r.displacement[:, 0, 0] * W ** 2
+    assert np.max(np.abs(y - (1 - np.cos(W * r.t)))) < 1e-6
+    assert r.t[-1] == pytest.approx(1.0)
+
+
+def test_generalized_alpha_with_rho_one_is_newmark():
+    M, D, K, B, C = _chain()
+    a = simulate((M, D, K, B, C), step(), dt=2e-3, t_end=0.5, scheme="newmark")
+    g = simulate((M, D, K, B, C), step(), dt=2e-3, t_end=0.5, scheme="generalized-alpha", rho_inf=1.0)
+    scale = np.max(np.abs(a.displacement))
+    assert np.max(np.abs(a.displacement - g.displacement)) < 1e-12 * scale
+    assert np.max(np.abs(a.acceleration - g.acceleration)) < 1e-10 * np.max(np.abs(a.acceleration))
+    p = scheme_parameters("generalized-alpha", 0.0)
+    assert (p["alpha_m"], p["alpha_f"], p["gamma"], p["beta"]) == pytest.approx((-1.0, 0.0, 1.5, 1.0))
+
+
+@pytest.mark.parametrize("scheme", ["newmark", "generalized-alpha"])
+def test_sparse_chain_against_matrix_exponential_second_order(scheme):
+    M, D, K, B, C = _chain()
+    errs = []
+    for h in (4e-3, 2e-3):
+        r = simulate((M, D, K, B, C), step(), dt=h, t_end=0.4, scheme=scheme, rho_inf=0.7)
+        assert r.n_factorizations == 2  # effective matrix + M for the initial acceleration
+        ex = _exact_step(M, D, K, B, C, r.t[::10])[:, 0]
+        errs.append(np.max(np.abs(r.displacement[::10, 0, 0] - ex)) / np.max(np.abs(ex)))
+    assert errs[1] < 2e-3
+    assert 3.3 < errs[0] / errs[1] < 4.7  # second order
+
+
+def test_block_over_inputs_equals_separate_runs(clamped):
+    model = clamped.with_rayleigh(0.0, 1e-5)
+    ports = make_ports(model, ["TIP:y", "TIP:z"])
+    u = sine_sweep(10, 500, 0.02)
+    blk = simulate(model, u, dt=1e-4, t_end=0.02, ports=ports)
+    assert blk.displacement.shape == (201, 2, 2) and blk.n_factorizations == 1  # u(0) = 0: no M solve
+    t = blk.t
+    one = simulate(model, np.column_stack([np.zeros_like(t), u(t)]), dt=1e-4, t_end=0.02, ports=ports)
+    assert one.displacement.shape == (201, 2, 1)
+    assert np.allclose(one.displacement[:, :, 0], blk.displacement[:, :, 1], rtol=0, atol=1e-12 * np.abs(
+        blk.displacement).max())
+    # bending in z barely moves the tip in y: the cross term is small but the direct one is not
+    assert np.abs(blk.displacement[:, 0, 1]).max() < 1e-6 * np.abs(blk.displacement[:, 1, 1]).max()
+
+
+def test_full_vs_modal_error_decreases_with_order_within_truncation_bound(clamped):
+    """Newmark of the full model equals Newmark of all its modes, so the difference to the
+    modal body is the discrete response of the truncated modes, bounded by 2 sum |c_k b_k| / w_k^2."""
+    model = clamped.with_rayleigh(0.0, 1e-5)
+    ports = make_ports(model, ["TIP:y"])
+    lam, phi = sla.eigh(model.K.toarray(), model.M.toarray())
+    cb = np.abs((ports.C @ phi).ravel() * (ports.B.T @ phi).ravel()) / lam
+    f1 = np.sqrt(lam[0]) / (2 * np.pi)
+    dt, t_end = 1 / (200 * f1), 3 / f1
+    full = simulate(model, step(), dt=dt, t_end=t_end, ports=ports)
+    peak = np.max(np.abs(full.displacement))
+    assert 1.9 * np.sum(cb) < peak <= 2 * np.sum(cb)  # light damping: overshoot to nearly 2x static
+    errs = []
+    for r in (5, 10, 20):
+        red, _ = reduce(model, "modal", r, ports)
+        e = time_errors(full, simulate(red, step(), dt=dt, t_end=t_end))
+        assert e["time_max_error"] <= 2 * np.sum(cb[r:]) / peak
+        assert e["time_max_error"] > 0.2 * np.sum(cb[r:]) / peak  # the bound is not vacuous
+        errs.append(e)
+    assert errs[0]["time_mean_error"] > errs[1]["time_mean_error"] > errs[2]["time_mean_error"]
+    assert errs[2]["time_max_error"] < 2e-4
+    assert errs[2]["seconds_reduced"] < errs[2]["seconds_full"]
+
+
+def test_signals():
+    t = np.linspace(0, 0.02, 20001)
+    assert np.trapezoid(impulse(0.01, 2.5)(t), t) == pytest.approx(2.5, rel=1e-6)
+    assert step(3.0, rise=0.01)(np.array([0.005, 0.02])) == pytest.approx([1.5, 3.0])
+    s = sine_sweep(100, 200, 1.0)
+    # phase 2 pi (100 t + 50 t^2) = pi at the first zero crossing
+    tt = np.linspace(1e-5, 0.008, 80000)
+    assert tt[np.argmax(s(tt) < 0)] == pytest.approx((-100 + np.sqrt(100 ** 2 + 100)) / 100, rel=1e-4)
+    with pytest.raises(OptionError, match="newmark"):
+        simulate(SDOF, step(), dt=0.1, t_end=1, scheme="euler")
+    with pytest.raises(OptionError, match="samples"):
+        simulate(SDOF, np.ones(5), dt=0.1, t_end=1)
