@@ -68,6 +68,7 @@ def report(clamped, tmp_path_factory):
     ports = make_ports(model, ["TIP:y", "TIP:z"])
     reds = [reduce(model, "modal", 8, ports)[0],
             reduce(model, "craig-bampton", 33, ports, interface=["TIP"])[0]]
+    reds[1].info["hankel_sv"] = np.geomspace(1.0, 1e-6, 20).tolist()  # as a balanced-truncation body reports
     rep = build_report(model, ports, reds, band=BAND, seconds=[0.5, None], n_modes=6, dt=5e-5, t_end=0.01)
     path = tmp_path_factory.mktemp("report") / "report.html"
     write_report(rep, path)
@@ -77,18 +78,18 @@ def report(clamped, tmp_path_factory):
 def test_report_is_self_contained_with_valid_images(report):
     import matplotlib.image as mpimg
 
-    *_, text = report
+    *_, rep, _, text = report
     imgs = re.findall(r'<img[^>]*src="([^"]*)"', text)
-    assert text.count("data:image/png;base64,") == len(imgs) == 5  # body, |H|, rel_error, MAC, time
+    assert text.count("data:image/png;base64,") == len(imgs) == 6  # body, |H|, rel_error, SV, MAC, time
     for src in imgs:
         png = base64.b64decode(src.split(",", 1)[1], validate=True)
         assert png[:8] == b"\x89PNG\r\n\x1a\n"
         arr = mpimg.imread(io.BytesIO(png))
         assert arr.shape[0] > 200 and arr.shape[1] > 200 and np.ptp(arr) > 0.1  # not blank
     assert not re.search(r'(src|href)="(?!data:)', text) and "http" not in text
-    for sec in ("summary", "body", "frf", "rel-error", "modal", "time"):
+    for sec in ("summary", "body", "frf", "rel-error", "singular-values", "modal", "time"):
         assert f'id="{sec}"' in text
-    assert 'id="singular-values"' not in text  # neither body reports singular values
+    assert list(rep.figures) == ["frf", "rel_error", "singular_values", "mac", "time", "body"]
 
 
 def test_report_numbers_equal_the_computed_ones(report):
@@ -126,7 +127,7 @@ def test_report_opens_in_headless_chromium(report):
     out = subprocess.run([exe, "--headless", "--disable-gpu", "--no-sandbox", "--virtual-time-budget=5000",
                           "--dump-dom", probe.as_uri()], check=False, capture_output=True, text=True,
                          timeout=120)
-    assert "BROKEN=0 OF 5" in out.stdout
+    assert "BROKEN=0 OF 6" in out.stdout
 
 
 def test_cli_report_writes_html_and_json(report, tmp_path, capsys):
@@ -152,4 +153,4 @@ def test_cli_report_writes_html_and_json(report, tmp_path, capsys):
     for got, want in zip(res["results"], rep.rows):
         assert got["band_error"] == pytest.approx(want["band_error"], rel=1e-6)
         assert got["time_max_error"] == pytest.approx(want["time_max_error"], rel=1e-9)
-    assert out.read_text(encoding="utf-8").count("data:image/png;base64,") == 5
+    assert out.read_text(encoding="utf-8").count("data:image/png;base64,") == 6  # hankel_sv kept in the .h5

@@ -35,7 +35,8 @@ log = logging.getLogger(__name__)
 #: Built-in input signals of the time-domain comparison.
 SIGNALS = ("step", "impulse", "sweep")
 #: ``info`` fields of a reduced body that hold singular values (first one found is plotted).
-SINGULAR_VALUE_KEYS = ("hankel_singular_values", "hsv", "singular_values", "pod_singular_values")
+SINGULAR_VALUE_KEYS = ("hankel_sv", "hankel_singular_values", "hsv", "pod_sv", "singular_values",
+                       "pod_singular_values")
 #: Columns of the summary table: (key, header, format).
 COLUMNS = [("label", "body", "s"), ("method", "method", "s"), ("order", "order", "d"),
            ("band_error", "band_error", ".4e"), ("max_rel_error", "max_rel_error", ".4e"),
@@ -196,6 +197,9 @@ def build_report(model, ports, reduced, *, band, labels=None, seconds=None, full
     # eigenfrequencies and MAC
     f, phi, n_rig = full_modes(model, n_modes, backend=backend)
     rep.modal = {"full_hz": f, "n_rigid": n_rig, "bodies": {}}
+    if n_rig:
+        notes.append(f"free body ({n_rig} rigid-body modes): the time responses include rigid-body motion, which "
+                     "bodies without rigid-body modes cannot follow (in an MBS code the floating frame carries it)")
     for lb, red in zip(labels, reduced):
         rep.modal["bodies"][lb] = modal_check(model, red, full=(f, phi, n_rig))
     rep.figures["mac"] = plots.mac_png({lb: c["mac"] for lb, c in rep.modal["bodies"].items()})
