@@ -1,0 +1,443 @@
+"""Gramians of the second-order body, kept as low-rank factors, and the balancing step.
+
+For ``H(s) = C (s^2 M + s D + K)^{-1} B`` and ``X(w) = (-w^2 M + i w D + K)^{-1} B`` the
+position controllability Gramian restricted to a band ``Omega = [w1, w2]`` (rad/s) is
+
+    P_p = (1/pi) int_Omega Re(X(w) X(w)^H) dw,
+
+the velocity Gramian ``P_v`` has the integrand multiplied by ``w^2``, and the observability
+Gramian ``Q_p`` is ``P_p`` of the dual body ``(M, D, K, C^T)`` (``Y(w) = A(w)^{-1} C^T``; ``M``, ``D``,
+``K`` are symmetric, so the same factorization serves). With ``Omega = [0, inf)`` these are
+the blocks of the Gramians of the first-order realization ``E = diag(I, M)``,
+``A = [[0, I], [-K, -D]]``: ``P_p = P_11``, ``P_v = P_22``, ``Q_p = Q_22`` (Reis & Stykel 2008).
+
+The integral is evaluated by a quadrature that resolves the resonances: the band is split
+into one cell per resonance ``w_k`` (at the geometric midpoints between neighbours), and in
+each cell the substitution ``w = w_k + g_k tan(theta)`` (``g_k = zeta_k w_k``, the half
+width of the peak) turns the Lorentzian peak into a smooth integrand, integrated by
+composite Gauss-Legendre in ``theta``; an unbounded last cell ends at ``theta = pi/2``. The
+rule converges exponentially: doubling ``nodes`` changes the Gramian by round-off once the
+peaks are resolved. Resonances and damping ratios come from the modal pre-pass of
+:mod:`flexmor.analysis.compare`. Each node costs one complex symmetric factorization of
+``K - w^2 M + i w D`` (:func:`flexmor.linalg.factorize`) and one block solve with
+``[B, C^T]``; the factors ``P ≈ R R^T`` have ``2 (m + p)`` columns per node before column
+compression and no N x N matrix is ever formed.
+
+**Undamped models** (``D`` is None): the integrand has poles ``1/(w - w_k)^2`` at the
+resonances, so a Gramian over a band that contains one is infinite. The Gramians are then
+computed for the body with a small Rayleigh damping of ratio :data:`UNDAMPED_ZETA` at the
+band ends (reported in ``info['gramian_damping']``); the reduction basis is still projected
+onto the undamped model. Free bodies: the rigid-body modes (from the geometry) are removed
+M-orthogonally from every solution, the Gramians are those of the flexible part.
+
+References
+----------
+Gawronski, W., Juang, J.-N. (1990). Model reduction in limited time and frequency intervals.
+Int. J. Systems Sci. 21(2), 349-376.
+
+Reis, T., Stykel, T. (2008). Balanced truncation model reduction of second-order systems.
+Math. Comput. Model. Dyn. Syst. 14(5), 391-406.
+
+Benner, P., Kürschner, P., Saak, J. (2016). Frequency-limited balanced truncation with
+low-rank approximations. SIAM J. Sci. Comput. 38(1), A471-A499.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.linalg as sla
+
+from ..basis import orthonormalize
+from ..errors import OptionError, check_choice
+from ..linalg import factorize
+from ..linalg.eigen import DENSE_LIMIT, eigenmodes, frequencies_hz, is_rigid
+
+__all__ = ["GramianFactors", "quadrature_rule", "gramian_factors", "dense_gramians", "balance",
+           "compress", "VARIANTS", "UNDAMPED_ZETA"]
+
+log = logging.getLogger(__name__)
+
+#: Variants of second-order balancing: the controllability Gramian of positions or velocities.
+VARIANTS = ("position", "velocity")
+
+#: Damping ratio given to undamped models for their Gramians (see module docstring).
+UNDAMPED_ZETA = 1e-3
+
+#: Relative singular value below which factor columns are dropped by :func:`compress`.
+COMPRESS_TOL = 1e-13
+
+
+@dataclass
+class GramianFactors:
+    """Low-rank factors of the Gramians: ``P_p ≈ R R^T``, ``P_v ≈ Rv Rv^T``, ``Q_p ≈ L L^T``.
+
+    Attributes
+    ----------
+    R, Rv, L : ndarray, shape (n_dof, k)
+        Position and velocity controllability and position observability factors
+        (``L`` is None without outputs requested).
+    nodes_hz, weights : ndarray
+        Quadrature nodes (Hz) and weights (for ``dw`` in rad/s).
+    info : dict
+        ``n_nodes``, ``n_resonances``, ``band_hz``, ``gramian_damping`` ...
+    """
+
+    R: np.ndarray
+    Rv: np.ndarray
+    L: np.ndarray | None
+    nodes_hz: np.ndarray
+    weights: np.ndarray
+    info: dict = field(default_factory=dict)
+
+    def controllability(self, variant: str = "position") -> np.ndarray:
+        """The factor of ``variant`` (``position`` or ``velocity``)."""
+        check_choice("variant", variant, VARIANTS)
+        return self.R if variant == "position" else self.Rv
+
+
+def compress(R: np.ndarray, tol: float = COMPRESS_TOL) -> np.ndarray:
+    """Column compression ``R -> R'`` with ``R' R'^T = R R^T`` up to ``tol`` (relative), fewer columns."""
+    if R.shape[1] == 0:
+        return R
+    if R.shape[1] >= R.shape[0]:  # wide (small model): one thin SVD
+        Q, T = np.eye(R.shape[0]), R
+    else:
+        Q, T = np.linalg.qr(R)
+    U, s, _ = np.linalg.svd(T, full_matrices=False)
+    k = int(np.sum(s > tol * s[0])) if s.size and s[0] > 0 else 0
+    return Q @ (U[:, :k] * s[:k])
+
+
+def _gauss(a: float, b: float, n: int, panels: int):
+    """Composite Gauss-Legendre nodes and weights on ``[a, b]``."""
+    x, w = np.polynomial.legendre.leggauss(n)
+    edges = np.linspace(a, b, panels + 1)
+    h = np.diff(edges) / 2
+    mid = (edges[:-1] + edges[1:]) / 2
+    return (mid[:, None] + h[:, None] * x).ravel(), (h[:, None] * w).ravel()
+
+
+#: Damping ratio above which a mode has no resonance peak worth a cell of its own.
+ZETA_PEAK = 0.5
+
+#: Ratio of neighbouring panel lengths of the meshes graded towards each peak.
+GRADING = 3.0
+
+
+def _log_gauss(d0: float, d1: float, nodes: int, panels: int):
+    """Gauss nodes in ``u = log d`` on ``[d0, d1]`` (``d0 > 0``), one panel per decade at least."""
+    np_ = max(panels, math.ceil(math.log10(d1 / d0)))
+    u, wu = _gauss(math.log(d0), math.log(d1), nodes, np_)
+    return np.exp(u), wu * np.exp(u)
+
+
+def _tail(d0: float, nodes: int, panels: int):
+    """Nodes of ``[d0, inf)`` by ``d = d0 / t``, ``t`` in ``(0, 1]``."""
+    t, wt = _gauss(0.0, 1.0, nodes, panels)
+    return d0 / t, wt * d0 / t ** 2
+
+
+def _panels(edges, nodes: int):
+    """Gauss-Legendre with ``nodes`` points on every panel between sorted ``edges``."""
+    x, w = np.polynomial.legendre.leggauss(nodes)
+    e = np.unique(edges)
+    h = np.diff(e) / 2
+    mid = (e[:-1] + e[1:]) / 2
+    return (mid[:, None] + h[:, None] * x).ravel(), (h[:, None] * w).ravel()
+
+
+def _smooth(a: float, b: float, s_lo: float, s_hi: float, nodes: int, panels: int):
+    """A cell without a peak: linear near 0, Gauss in ``log w`` over the decades, ``1/t`` tail."""
+    ws, wts = [], []
+    if a == 0:
+        a1 = min(b, s_lo / 10)
+        x, w = _gauss(0.0, a1, nodes, panels)
+        ws.append(x), wts.append(w)
+        a = a1
+    b1 = min(b, 10 * s_hi) if math.isinf(b) else b
+    if b1 > a:
+        x, w = _log_gauss(a, b1, nodes, panels)
+        ws.append(x), wts.append(w)
+    if math.isinf(b):
+        x, w = _tail(max(a, b1), nodes, panels)
+        ws.append(x), wts.append(w)
+    return np.concatenate(ws), np.concatenate(wts)
+
+
+def _peak_cell(a: float, b: float, c: float, g: float, nodes: int, s_hi: float):
+    """A cell ``[a, b]`` around the peak ``c`` (half width ``g``): panels graded towards ``c``.
+
+    Break points ``c ± g GRADING^j`` (and ``c``): every panel is at least as far from the
+    poles ``c ± i g`` as it is long, so Gauss-Legendre converges geometrically on each.
+    """
+    top = b if math.isfinite(b) else max(10 * s_hi, 10 * c)
+    j = np.arange(0, 1 + math.ceil(math.log(max(top - c, c - a, g) / g, GRADING)))
+    d = g * GRADING ** j
+    edges = np.concatenate([[a, c, min(b, top)], c - d[c - d > a], c + d[c + d < top]])
+    x, w = _panels(edges, nodes)
+    if math.isinf(b):
+        xt, wt = _tail(top - c, nodes, 1)
+        x, w = np.concatenate([x, c + xt]), np.concatenate([w, wt])
+    return x, w
+
+
+def quadrature_rule(lo: float, hi: float, centres=(), widths=(), *, nodes: int = 6, panels: int = 1, scale=None):
+    """Nodes and weights of ``∫_lo^hi g(w) dw`` for ``g`` with Lorentzian peaks (rad/s).
+
+    One cell per peak (split at geometric midpoints between neighbouring peaks), with
+    Gauss-Legendre panels graded geometrically towards the peak (break points
+    ``w_k ± g_k 3^j``); an unbounded last cell ends with ``w - w_k = d / t``. Without
+    peaks: Gauss in ``log w`` per decade between the ``scale`` bounds, linear near 0 and
+    ``1/t`` beyond. Each panel stays as far from the poles ``w_k ± i g_k`` as it is long, so
+    the rule converges geometrically in ``nodes`` (an hp-quadrature).
+
+    Parameters
+    ----------
+    lo, hi : float
+        Interval in rad/s, ``0 <= lo < hi``; ``hi`` may be ``inf``.
+    centres, widths : array_like
+        Resonances ``w_k`` and half widths ``g_k = zeta_k w_k`` (rad/s); modes with
+        ``g_k >= ZETA_PEAK w_k`` or ``g_k <= 0`` have no peak and get no cell.
+    nodes : int
+        Gauss points per panel.
+    panels : int
+        Minimum number of panels of the pieces without a peak.
+    scale : (float, float), optional
+        Frequency range (rad/s) of the system for cells without a peak; default the range
+        of ``centres`` (or 1).
+
+    Returns
+    -------
+    w, weights : ndarray
+    """
+    if not (0 <= lo < hi):
+        raise OptionError(f"quadrature interval must satisfy 0 <= lo < hi, got {lo}, {hi}")
+    c = np.asarray(centres, float)
+    g = np.asarray(widths, float)
+    if scale is None:
+        scale = (c.min(), c.max()) if c.size and c.min() > 0 else (1.0, 1.0)
+    keep = (c > lo) & (c < hi) & (g > 0) & (g < ZETA_PEAK * c)
+    c, g = c[keep], g[keep]
+    order = np.argsort(c)
+    c, g = c[order], g[order]
+    if c.size > 1:  # merge (near-)multiple resonances, e.g. the two bending directions of a beam
+        sel = np.concatenate([[True], np.diff(c) > 0.5 * np.minimum(g[1:], g[:-1])])
+        c, g = c[sel], g[sel]
+    if c.size == 0:
+        return _smooth(lo, hi, scale[0], scale[1], nodes, panels)
+    edges = np.concatenate([[lo], np.sqrt(c[:-1] * c[1:]), [hi]])
+    parts = [_peak_cell(edges[k], edges[k + 1], c[k], g[k], nodes, scale[1]) for k in range(c.size)]
+    return np.concatenate([p[0] for p in parts]), np.concatenate([p[1] for p in parts])
+
+
+def _resonances(model, fmax: float, backend: str):
+    """Eigenfrequencies (Hz), damping ratios and rigid-body modes for the quadrature cells.
+
+    Small models (``n_dof <= DENSE_LIMIT``): all modes. Larger: the modal pre-pass of
+    :func:`flexmor.analysis.compare._modes` up to ``fmax`` (finite).
+    """
+    from ..analysis.compare import _modes, modal_damping_ratios
+
+    if model.n_dof <= DENSE_LIMIT:
+        lam, phi = eigenmodes(model.K, model.M, model.n_dof)
+        f = frequencies_hz(lam)
+        rigid = is_rigid(lam, model.K, model.M)
+        keep = ~rigid & (f <= fmax)
+        f_all, phi_all = f[keep], phi[:, keep]
+    else:
+        if math.isinf(fmax):
+            raise OptionError("the Gramian of a large model needs a finite cutoff frequency")
+        f_all, phi_all, _, _ = _modes(model, fmax, backend)
+        f_all, phi_all = f_all[f_all > 0], phi_all[:, f_all > 0]
+    z = modal_damping_ratios(model.damping, f_all, phi_all, model.D) if model.D is not None else None
+    z = np.zeros(f_all.size) if z is None else np.asarray(z, float)
+    return f_all, z
+
+
+def _regularized(model, band_hz, f_res):
+    """``model`` itself when damped, else with Rayleigh damping of ratio UNDAMPED_ZETA at the band ends."""
+    if model.D is not None:
+        return model, dict(model.damping)
+    lo = band_hz[0] if band_hz[0] > 0 else (f_res[0] / 2 if f_res.size else 1.0)
+    hi = band_hz[1] if math.isfinite(band_hz[1]) else (f_res[-1] * 2 if f_res.size else 10 * lo)
+    w1, w2 = 2 * math.pi * lo, 2 * math.pi * max(hi, 1.01 * lo)
+    z = UNDAMPED_ZETA
+    reg = model.with_rayleigh(2 * z * w1 * w2 / (w1 + w2), 2 * z / (w1 + w2))
+    log.warning("undamped model: Gramians computed with Rayleigh damping of ratio %g (alpha=%.3g, beta=%.3g)",
+                z, reg.damping["alpha"], reg.damping["beta"])
+    return reg, dict(reg.damping, regularization=True)
+
+
+def gramian_factors(model, ports, band=(0.0, math.inf), *, side: str = "both", nodes: int = 4, panels: int = 1,
+                    cutoff: float | None = None, backend: str = "auto", rigid_modes=None,
+                    max_columns: int = 2000) -> GramianFactors:
+    """Low-rank factors of the (frequency-limited) second-order Gramians by quadrature.
+
+    Parameters
+    ----------
+    model : FEModel
+    ports : Ports
+        ``B`` (controllability) and ``C`` (observability).
+    band : (float, float)
+        ``(fmin, fmax)`` in Hz, ``0 <= fmin < fmax``; ``fmax = inf`` is the full band.
+    side : {'input', 'both'}
+        ``input``: only the controllability factors (``L`` is None).
+    nodes, panels : int
+        Gauss points per panel and panels per resonance cell (:func:`quadrature_rule`).
+    cutoff : float, optional
+        Highest resonance (Hz) resolved by its own cell for a large model; default ``fmax``
+        (full band: ``10 fmin`` or 10 kHz). Small models resolve all resonances.
+    backend : str
+        Backend of :func:`flexmor.linalg.factorize`.
+    rigid_modes : ndarray, optional
+        M-orthonormal rigid-body modes removed from every solution.
+    max_columns : int
+        Factors are column-compressed whenever they exceed this many columns.
+
+    Returns
+    -------
+    GramianFactors
+    """
+    from ..analysis.frequency import ShiftedMatrices
+
+    check_choice("side", side, ("input", "both"))
+    fmin, fmax = float(band[0]), float(band[1])
+    if not (0 <= fmin < fmax) or math.isnan(fmax):
+        raise OptionError(f"band must satisfy 0 <= FMIN < FMAX (Hz), got {fmin}:{fmax}")
+    if int(nodes) < 1 or int(panels) < 1:
+        raise OptionError(f"nodes and panels must be positive integers, got {nodes}, {panels}")
+    fcut = cutoff if cutoff is not None else (fmax if math.isfinite(fmax) else max(10 * fmin, 1e4))
+    f_res, z = _resonances(model, max(fcut, fmin), backend)
+    work, damping = _regularized(model, (fmin, fmax), f_res)
+    if model.D is None:
+        from ..analysis.compare import modal_damping_ratios
+
+        z = modal_damping_ratios(work.damping, f_res)
+    lo = 2 * math.pi * fmin
+    if rigid_modes is not None and rigid_modes.shape[1] and lo == 0:
+        lo = 2 * math.pi * 1e-3 * (f_res[0] if f_res.size else 1.0)  # the flexible part is regular at 0
+    scale = (2 * math.pi * f_res[0], 2 * math.pi * f_res[-1]) if f_res.size else None
+    wk, wt = quadrature_rule(lo, 2 * math.pi * fmax, 2 * math.pi * f_res, 2 * math.pi * f_res * np.maximum(z, 0),
+                             nodes=int(nodes), panels=int(panels), scale=scale)
+    B = ports.B.toarray()
+    m = B.shape[1]
+    rhs = np.hstack([B, ports.C.T.toarray()]) if side == "both" else B
+    A = ShiftedMatrices(work.K, work.M, work.D)
+    R, Rv, L = [], [], []
+
+    def flush(parts):
+        return [compress(np.hstack(parts))] if parts else []
+
+    for k, (w, weight) in enumerate(zip(wk, wt)):
+        F = factorize(A(w), backend, symmetric=True, check=False)
+        X = F.solve(rhs)
+        del F
+        if rigid_modes is not None and rigid_modes.shape[1]:
+            X = X - rigid_modes @ (rigid_modes.T @ (work.M @ X))
+        s = math.sqrt(weight / math.pi)
+        R.append(s * np.hstack([X[:, :m].real, X[:, :m].imag]))
+        Rv.append(w * R[-1])
+        if side == "both":
+            L.append(s * np.hstack([X[:, m:].real, X[:, m:].imag]))
+        if sum(r.shape[1] for r in R) > max_columns:
+            R, Rv, L = flush(R), flush(Rv), flush(L)
+    R, Rv, L = flush(R), flush(Rv), flush(L)
+    info = {"band_hz": [fmin, fmax], "n_nodes": int(wk.size), "nodes_per_panel": int(nodes), "panels": int(panels),
+            "n_resonances": int(np.sum((f_res >= fmin) & (f_res <= fmax))), "cutoff_hz": float(fcut),
+            "gramian_damping": damping, "rank_R": int(R[0].shape[1])}
+    log.info("Gramian factors: %d quadrature nodes, rank %d", wk.size, R[0].shape[1])
+    return GramianFactors(R[0], Rv[0], L[0] if L else None, wk / (2 * math.pi), wt, info)
+
+
+def balance(R: np.ndarray, L: np.ndarray, M, order: int):
+    """Square-root balancing of factors: the right balancing vectors and the singular values.
+
+    With ``Y = L^T M R = U diag(sigma) Z^T`` the leading ``order`` right balancing vectors
+    are ``T = R Z_r diag(sigma_r)^{-1/2}``; ``sigma`` are the (position or velocity) Hankel
+    singular values of the second-order body (Reis & Stykel 2008).
+
+    Returns
+    -------
+    T : ndarray, shape (n, r)
+    sigma : ndarray
+        All singular values, descending.
+    """
+    Y = L.T @ (M @ R)
+    _, s, Zt = np.linalg.svd(Y, full_matrices=False)
+    r = int(min(order, int(np.sum(s > 1e-14 * s[0])) if s.size else 0))
+    if r < order:
+        log.warning("balancing: only %d non-zero singular values for order %d", r, order)
+    return R @ (Zt[:r].T / np.sqrt(s[:r])), s
+
+
+def dense_gramians(M, D, K, B, C, band=None, *, rigid_tol=None):
+    """Exact Gramians ``P_p, P_v, Q_p`` of a small dense second-order body (full band or a band).
+
+    The flexible part is transformed to modal coordinates (``Phi^T M Phi = I``) and the
+    first-order realization ``[[0, I], [-Lambda, -D_f]]`` is solved by
+    :func:`scipy.linalg.solve_continuous_lyapunov`; a band ``[w1, w2]`` uses the
+    Gawronski-Juang formula ``P_Omega = P S^H + S P``, ``S = S(w2) - S(w1)``,
+    ``S(w) = (i/2pi) log((A + iwI)(A - iwI)^{-1})``. Rigid-body modes (eigenvalues below
+    :func:`flexmor.linalg.eigen.rigid_body_threshold`) are left out. Undamped bodies need
+    ``D`` (see the module docstring).
+
+    Parameters
+    ----------
+    M, D, K : ndarray, shape (r, r)
+    B : ndarray, shape (r, m)
+    C : ndarray, shape (p, r)
+    band : (float, float), optional
+        Band in Hz; None is the full band.
+
+    Returns
+    -------
+    Pp, Pv, Qp : ndarray, shape (r, r)
+        In the coordinates of ``M``, ``K`` (``P = Phi_f P_modal Phi_f^T``).
+    Phi_rigid : ndarray, shape (r, k)
+        The rigid-body modes left out.
+    """
+    lam, phi = sla.eigh(K, M)
+    rigid = is_rigid(lam, K, M) if rigid_tol is None else lam < rigid_tol
+    pf, lf = phi[:, ~rigid], np.clip(lam[~rigid], 0, None)
+    n = lf.size
+    Df = pf.T @ D @ pf
+    A = np.block([[np.zeros((n, n)), np.eye(n)], [-np.diag(lf), -Df]])
+
+    def gram(Bm):
+        Bt = np.vstack([np.zeros((n, Bm.shape[1])), pf.T @ Bm])
+        P = sla.solve_continuous_lyapunov(A, -Bt @ Bt.T)
+        if band is not None:
+            S = np.zeros_like(A, dtype=complex)
+            eye = np.eye(2 * n)
+            for sign, f in ((1, band[1]), (-1, band[0])):
+                if f > 0 and math.isfinite(f):
+                    w = 2 * math.pi * f
+                    S += sign * (1j / (2 * math.pi)) * sla.logm((A + 1j * w * eye) @ np.linalg.inv(A - 1j * w * eye))
+                elif sign == 1:  # fmax = inf
+                    S += 0.5 * eye
+            P = (P @ S.conj().T + S @ P).real
+        P = 0.5 * (P + P.T)
+        return P
+
+    P = gram(np.asarray(B, float))
+    Q = gram(np.asarray(C, float).T)
+    Pp = pf @ P[:n, :n] @ pf.T
+    Pv = pf @ P[n:, n:] @ pf.T
+    Qp = pf @ Q[:n, :n] @ pf.T
+    return Pp, Pv, Qp, phi[:, rigid]
+
+
+def psd_factor(P: np.ndarray, tol: float = 1e-14) -> np.ndarray:
+    """A factor ``R`` with ``R R^T = P`` for a symmetric positive semi-definite ``P`` (eigen)."""
+    w, U = np.linalg.eigh(0.5 * (P + P.T))
+    keep = w > tol * max(w[-1], 0) if w.size else np.zeros(0, bool)
+    return U[:, keep] * np.sqrt(w[keep])
+
+
+def truncation_basis(T: np.ndarray, M) -> np.ndarray:
+    """M-orthonormal basis of ``span(T)`` for the Galerkin projection (exported bodies are one-sided)."""
+    return orthonormalize(T, M)
