@@ -6,7 +6,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-__all__ = ["Basis", "orthonormalize", "extend_orthonormal", "rank_revealing_qr"]
+__all__ = ["Basis", "orthonormalize", "extend_orthonormal", "rank_revealing_qr", "Columns"]
 
 
 @dataclass
@@ -59,10 +59,10 @@ def extend_orthonormal(V: np.ndarray | None, X: np.ndarray, *, tol: float = 1e-1
 
     ``V`` (n, r) must have orthonormal columns (Euclidean; real or complex, then the Hermitian
     inner product is used). The columns of ``X`` are scaled to unit norm, orthogonalized
-    against ``V`` twice ("twice is enough"), and factorized by a column-pivoted QR; columns
+    against ``V`` twice ("twice is enough"), and factorized by a rank-revealing QR; columns
     whose remaining norm is below ``tol`` (relative to their own norm) are deflated, so the
-    result has between 0 and ``X.shape[1]`` columns. A last projection pass keeps the new
-    block orthogonal to ``V`` when deflation was close. Cost: O(n r b) BLAS-3 for a block of
+    result has between 0 and ``X.shape[1]`` columns. A third projection pass keeps the new
+    block orthogonal to ``V`` when deflation was close (a kept ``|R_ii| < 1e-3``). Cost: O(n r b) BLAS-3 for a block of
     ``b`` columns.
 
     Returns
@@ -87,9 +87,10 @@ def extend_orthonormal(V: np.ndarray | None, X: np.ndarray, *, tol: float = 1e-1
         if has_v:
             X -= V @ (V.conj().T @ X)
     Q, R, _ = rank_revealing_qr(X)
-    k = int(np.sum(np.abs(np.diag(R)) > tol))
+    d = np.abs(np.diag(R))
+    k = int(np.sum(d > tol))
     Q = Q[:, :k]
-    if has_v and k:
+    if has_v and k and d[k - 1] < 1e-3:  # nearly dependent: one more pass keeps Q^H V = 0
         Q -= V @ (V.conj().T @ Q)
         Q, _ = np.linalg.qr(Q)
     return Q
@@ -107,3 +108,28 @@ def rank_revealing_qr(X: np.ndarray):
     Q1, R1 = np.linalg.qr(X)
     Q2, R, piv = sla.qr(R1, pivoting=True)
     return Q1 @ Q2, R, piv
+
+
+class Columns:
+    """A growable (n, k) column store: appending costs O(n b), not a copy of all columns.
+
+    Storage is Fortran-ordered with doubling capacity, so :attr:`view` (the first ``k``
+    columns) is contiguous for BLAS.
+    """
+
+    def __init__(self, n: int, dtype=float, capacity: int = 16):
+        self._A = np.empty((n, capacity), dtype=dtype, order="F")
+        self.k = 0
+
+    @property
+    def view(self) -> np.ndarray:
+        return self._A[:, : self.k]
+
+    def append(self, Q: np.ndarray) -> None:
+        q = Q.shape[1]
+        if self.k + q > self._A.shape[1]:
+            A = np.empty((self._A.shape[0], max(2 * self._A.shape[1], self.k + q)), dtype=self._A.dtype, order="F")
+            A[:, : self.k] = self.view
+            self._A = A
+        self._A[:, self.k:self.k + q] = Q
+        self.k += q

@@ -25,7 +25,7 @@ import math
 
 import numpy as np
 
-from ..basis import Basis, extend_orthonormal, rank_revealing_qr
+from ..basis import Basis, Columns, extend_orthonormal, rank_revealing_qr
 from ..errors import OptionError, SolverError, check_choice
 from ..linalg import factorize
 from ..linalg.eigen import default_shift
@@ -142,8 +142,9 @@ class SecondOrderArnoldi:
         if ref == 0:
             return None
         if self.W is not None:
+            W = self.W.view
             for _ in range(2):
-                X -= self.W @ (self.W.conj().T @ X)
+                X -= W @ (W.conj().T @ X)
         Q, R, _ = rank_revealing_qr(X)
         k = int(np.sum(np.abs(np.diag(R)) > self.tol * ref))
         if k < X.shape[1]:
@@ -151,7 +152,9 @@ class SecondOrderArnoldi:
         if k == 0:
             return None
         Q = Q[:, :k]
-        self.W = Q if self.W is None else np.hstack([self.W, Q])
+        if self.W is None:
+            self.W = Columns(Q.shape[0], Q.dtype)
+        self.W.append(Q)
         self._last = Q
         return Q[: Q.shape[0] // 2]
 
@@ -215,8 +218,10 @@ def blocks_at_points(model, ports, points, n_moments: int, *, side: str = "input
                      rigid_modes=None):
     """Krylov blocks for every point, ``n_moments`` per point, one factorization at a time.
 
-    Returns ``(blocks, used)``: ``blocks[p]`` the list of real blocks of point ``p`` (a
-    complex point's block split into real and imaginary parts), ``used`` the points (rad/s)
+    Returns ``(blocks, used)``: ``blocks[p]`` the list of real, orthonormal blocks of point
+    ``p`` (a complex point's block split into real and imaginary parts; together
+    ``n_moments`` blocks' worth of independent columns unless the space is exhausted; the
+    blocks of one point are orthonormal to each other), ``used`` the points (rad/s)
     actually used. With ``rigid_modes`` (M-orthonormal, of a free body) every new vector is
     made M-orthogonal to them: the blocks span moments of the flexible part of ``H`` (exact
     for proportional damping), without rigid-body round-off from nearly singular shifts.
@@ -232,33 +237,46 @@ def blocks_at_points(model, ports, points, n_moments: int, *, side: str = "input
     for p in points:
         F, s = shifted_factorization(model, 2 * np.pi * complex(p), backend)
         seq = SecondOrderArnoldi(model, F, s, start, project=proj)
-        out, empty = [], 0
-        while len(out) < n_moments and empty < 2:
+        # the point's share: n_moments blocks of independent directions; vanishing moments
+        # (matched for free) and deflated directions do not count, so no second pass is needed
+        share = n_moments * start.shape[1] * (1 if s.imag == 0 else 2)
+        T, out, empty = Columns(model.n_dof), [], 0
+        while T.k < share and empty < 3:
             Vb = seq.next_block()
             if Vb is None:
                 break
-            if Vb.shape[1] == 0:  # a vanishing moment (matched for free): does not count
-                empty += 1
-                continue
-            empty = 0
-            out.append(np.hstack([Vb.real, Vb.imag]) if s.imag != 0 else Vb.real)
+            Q = extend_orthonormal(T.view, np.hstack([Vb.real, Vb.imag]) if s.imag != 0 else Vb.real,
+                                   tol=DEFLATION_TOL) if Vb.shape[1] else Vb.real
+            empty = empty + 1 if Q.shape[1] == 0 else 0
+            if Q.shape[1]:
+                T.append(Q)
+                out.append(Q)
         blocks.append(out)
         used.append(s)
         del F, seq
     return blocks, used
 
 
-def merge_blocks(blocks, order: int | None = None) -> np.ndarray:
-    """Merge per-point blocks round-robin (moment 0 of every point, then moment 1, ...)."""
-    n = next(b[0].shape[0] for b in blocks if b)
-    V = np.zeros((n, 0))
+def merge_blocks(blocks, order: int | None = None, *, orthonormal: bool = False) -> np.ndarray:
+    """Merge per-point blocks round-robin (moment 0 of every point, then moment 1, ...).
+
+    With ``orthonormal=True`` (the blocks of each point are orthonormal, as from
+    :func:`blocks_at_points`) a single point needs no further work; otherwise, and for
+    several points, the blocks are merged by block Gram-Schmidt with deflation.
+    """
+    nonempty = [b for b in blocks if b]
+    if orthonormal and len(nonempty) == 1:  # one point: its blocks are orthonormal already
+        V = np.hstack(nonempty[0])
+        return V[:, :order] if order is not None else V
+    n = nonempty[0][0].shape[0]
+    V = Columns(n)
     for j in range(max(len(b) for b in blocks)):
         for b in blocks:
             if j < len(b):
-                V = np.hstack([V, extend_orthonormal(V, b[j], tol=DEFLATION_TOL)])
-                if order is not None and V.shape[1] >= order:
-                    return V[:, :order]
-    return V
+                V.append(extend_orthonormal(V.view, b[j], tol=DEFLATION_TOL))
+                if order is not None and V.k >= order:
+                    return np.ascontiguousarray(V.view[:, :order])
+    return np.ascontiguousarray(V.view)
 
 
 @register_method("krylov", "second-order block Krylov moment matching at expansion points")
@@ -280,7 +298,9 @@ def krylov(model, ports, order, *, points=None, moments: int | None = None, side
         solve; contributes real and imaginary parts), real positive points are cheap and
         safe for free bodies. Default: :func:`default_points` (three real points over ``band``).
     moments : int, optional
-        Moments (blocks) per point; default as many as ``order`` needs.
+        Moments (blocks) per point; default as many as ``order`` needs. A point delivers
+        ``moments`` blocks' worth of independent columns: moments that vanish (odd moments
+        at ``s = 0`` without damping) or deflate are replaced by further ones.
     side : {'input', 'output', 'both'}
         Krylov space of ``B`` (input), of ``C^T`` (output) or of both.
     band : (float, float), optional
@@ -335,7 +355,7 @@ def krylov(model, ports, order, *, points=None, moments: int | None = None, side
         head = [[phi[:, w > 1e-8 * w.max(initial=0.0)]]] if w.max(initial=0.0) > 0 else []
     for _ in range(4):
         blocks, used = blocks_at_points(model, ports, pts, k, side=side, backend=backend, rigid_modes=phi)
-        V = merge_blocks(head + blocks, order)
+        V = merge_blocks(head + blocks, order, orthonormal=not head)
         exhausted = all(len(b) < k for b in blocks)
         if moments is not None or V.shape[1] >= order or exhausted:
             break
