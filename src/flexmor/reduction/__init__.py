@@ -53,6 +53,7 @@ def register_method(name: str, description: str, *, survives_coupling: bool = Tr
 def _load_builtin():
     from . import adaptive, craig_bampton, guyan, irka, krylov, modal  # noqa: F401
     from . import balanced  # noqa: F401  (sobt, fw-sobt; gramians.py holds the Gramians)
+    from . import cms, pod, svdmor, two_step  # noqa: F401
 
 
 def reduce(model, method: str, order: int | None, ports, **options) -> tuple[ReducedModel, dict]:

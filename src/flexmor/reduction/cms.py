@@ -1,0 +1,178 @@
+"""Component mode synthesis with Krylov or Gramian internal vectors: ``cms-krylov``, ``cms-gramian``.
+
+The Craig-Bampton structure is kept: the static constraint modes of the interface DOFs
+(:func:`flexmor.reduction.guyan.constraint_modes`) make the reduced coordinates the interface
+displacements and reproduce the static response to interface loads exactly. The internal
+(fixed-interface) vectors are not the lowest eigenmodes of ``(K_ii, M_ii)`` but a reduction
+basis of the fixed-interface body ``M_ii q'' + D_ii q' + K_ii q = B_i u`` whose inputs are
+the loads that the body's inputs put on the interior: the inertia (and damping) loads of the
+constraint modes moving with the static interface motion under the inputs, and the external
+inputs on interior DOFs ``B[i]`` (:func:`fixed_interface_body`). For an assembly, give the
+coupling DOFs as inputs too (e.g. ``--input TIP:x --input TIP:y --input TIP:z``), so that the
+internal vectors also serve the interface motions the other components impose. The internal vectors come from :func:`flexmor.reduction.krylov.krylov` or from
+frequency-limited balancing (:func:`flexmor.reduction.balanced.balanced_basis`) of that body.
+"""
+
+from __future__ import annotations
+
+import logging
+
+import numpy as np
+import scipy.sparse as sp
+
+from ..basis import Basis
+from ..errors import OptionError
+from ..model import FEModel
+from ..ports import Ports
+from . import register_method
+from .guyan import constraint_modes
+
+__all__ = ["cms_krylov", "cms_gramian", "fixed_interface_body"]
+
+log = logging.getLogger(__name__)
+
+
+def fixed_interface_body(model, ports, Psi, b, i, *, tol: float = 1e-8):
+    """The fixed-interface body and the loads that the body's inputs put on it.
+
+    With ``x_b`` the static interface motion under the inputs (``Psi^T K Psi x_b = Psi^T B``,
+    least squares for a free body), the interior is loaded by the inertia and damping loads
+    ``-(M_ib + M_ii Psi_i) x_b``, ``-(D_ib + D_ii Psi_i) x_b`` and by the external inputs on
+    interior DOFs ``B[i]``. Returns ``(sub, sub_ports)``: an :class:`FEModel` of the interior
+    DOFs and collocated ports whose columns are an orthonormal basis of those loads.
+    """
+    M, K = model.M.tocsr(), model.K.tocsr()
+    B = ports.B.toarray()
+    Kb = Psi.T @ (K @ Psi)
+    x_b = np.linalg.lstsq(0.5 * (Kb + Kb.T), Psi.T @ B, rcond=1e-12)[0]
+    Mii = M[i][:, i]
+    loads = [M[i][:, b] @ x_b + Mii @ (Psi[i] @ x_b)]
+    D = model.D.tocsr() if model.D is not None else None
+    if D is not None:
+        loads.append(D[i][:, b] @ x_b + D[i][:, i] @ (Psi[i] @ x_b))
+    if np.any(B[i]):
+        loads.append(B[i])
+    L = np.hstack(loads)
+    L = L[:, np.linalg.norm(L, axis=0) > 0]
+    L = L / np.linalg.norm(L, axis=0)
+    U, s, _ = np.linalg.svd(L, full_matrices=False)
+    U = U[:, s > tol * s[0]]
+    sub = FEModel(M=Mii, K=K[i][:, i], D=None if D is None else D[i][:, i], name=f"{model.name}-interior",
+                  damping=dict(model.damping))
+    Bs = sp.csr_matrix(U)
+    names = [f"load{k + 1}" for k in range(U.shape[1])]
+    return sub, Ports(B=Bs, C=Bs.T.tocsr(), input_names=names, output_names=names)
+
+
+def _cms(model, ports, order, interface, method, internal, backend):
+    Psi, b, i, _ = constraint_modes(model, interface, backend)
+    if order is None or order < b.size:
+        raise OptionError(f"{method} needs --order >= number of interface DOFs ({b.size}), got {order}")
+    n_int = min(order - b.size, i.size)
+    V = np.zeros((model.n_dof, b.size + n_int))
+    V[:, : b.size] = Psi
+    info = {"n_interface_dofs": int(b.size), "n_internal": int(n_int)}
+    if n_int:
+        sub, sub_ports = fixed_interface_body(model, ports, Psi, b, i)
+        Bi = internal(sub, sub_ports, n_int)
+        V[i, b.size: b.size + Bi.order] = Bi.V
+        V = V[:, : b.size + Bi.order]
+        info.update(n_internal=int(Bi.order), n_loads=int(sub_ports.n_inputs), internal=Bi.info)
+    return Basis(V, method, info)
+
+
+@register_method("cms-krylov", "constraint modes + Krylov vectors of the fixed-interface body")
+def cms_krylov(model, ports, order, *, interface=None, band=None, points=None, backend: str = "auto") -> Basis:
+    """Craig-Bampton with second-order Krylov vectors of the fixed-interface body as internal vectors.
+
+    Parameters
+    ----------
+    model : FEModel
+    ports : Ports
+        External inputs on interior DOFs load the fixed-interface body.
+    order : int
+        Interface DOFs plus internal vectors.
+    interface : list of str
+        Interface SPECs (``NODE``, ``SET``, ``NODE:DIR``, ``SET:DIR``).
+    band : (float, float), optional
+        Band (Hz) of the default Krylov points (three real points; default 1:1000).
+    points : str, optional
+        Krylov expansion points (Hz), see :func:`flexmor.reduction.krylov.parse_points`.
+    backend : str
+        Backend of :func:`flexmor.linalg.factorize`.
+
+    Returns
+    -------
+    Basis
+        Columns: constraint modes (reduced coordinates = interface displacements), then the
+        internal vectors; moment matching of the fixed-interface body survives coupling.
+
+    References
+    ----------
+    Craig, R. R., Bampton, M. C. C. (1968). Coupling of substructures for dynamic analyses.
+    AIAA Journal 6(7), 1313-1319.
+
+    Holzwarth, P., Eberhard, P. (2015). SVD-based improvements for component mode synthesis
+    in elastic multibody systems. European Journal of Mechanics A/Solids 49, 408-418.
+
+    Fehr, J. (2011). Automated and error-controlled model reduction in elastic multibody
+    systems. Dissertation, Universität Stuttgart, Shaker Verlag.
+    """
+    from .krylov import krylov
+
+    def internal(sub, sub_ports, n):
+        return krylov(sub, sub_ports, n, points=points, band=band or (1.0, 1000.0), rigid="exclude",
+                      backend=backend)
+
+    return _cms(model, ports, order, interface, "cms-krylov", internal, backend)
+
+
+@register_method("cms-gramian", "constraint modes + balanced (frequency-limited Gramian) vectors of the "
+                 "fixed-interface body")
+def cms_gramian(model, ports, order, *, interface=None, band=None, variant: str = "position", nodes: int = 4,
+                backend: str = "auto") -> Basis:
+    """Craig-Bampton with frequency-limited balanced vectors of the fixed-interface body.
+
+    The internal vectors are the leading right balancing vectors of the fixed-interface body
+    (:func:`flexmor.reduction.balanced.balanced_basis` with the Gramians of ``band``).
+
+    Parameters
+    ----------
+    model : FEModel
+    ports : Ports
+    order : int
+        Interface DOFs plus internal vectors.
+    interface : list of str
+        Interface SPECs.
+    band : (float, float), optional
+        Band (Hz) of the frequency-limited Gramians (default 1:1000).
+    variant : {'position', 'velocity'}
+        See :func:`flexmor.reduction.balanced.sobt`.
+    nodes : int
+        Gauss points per quadrature panel.
+    backend : str
+        Backend of :func:`flexmor.linalg.factorize`.
+
+    Returns
+    -------
+    Basis
+        ``info['internal']['hankel_sv']`` the singular values of the fixed-interface body.
+
+    References
+    ----------
+    Craig, R. R., Bampton, M. C. C. (1968). Coupling of substructures for dynamic analyses.
+    AIAA Journal 6(7), 1313-1319.
+
+    Benner, P., Kürschner, P., Saak, J. (2016). Frequency-limited balanced truncation with
+    low-rank approximations. SIAM J. Sci. Comput. 38(1), A471-A499.
+
+    Fehr, J. (2011). Automated and error-controlled model reduction in elastic multibody
+    systems. Dissertation, Universität Stuttgart, Shaker Verlag.
+    """
+    from .balanced import balanced_basis
+
+    def internal(sub, sub_ports, n):
+        return balanced_basis(sub, sub_ports, n, tuple(band or (1.0, 1000.0)), method="cms-gramian",
+                              variant=variant, nodes=nodes, rigid="exclude", backend=backend)
+
+    return _cms(model, ports, order, interface, "cms-gramian", internal, backend)
