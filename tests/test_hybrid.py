@@ -91,3 +91,21 @@ def test_svdmor_many_inputs(clamped):
     assert red.info["directions"] == [2, 2]  # y-bending and torsion of the tip: rank 2
     assert 0 < max(red.info["discarded_input_sv"]) < 1e-3 * red.info["input_sv"][0]
     assert red.B.shape == (9, 9)  # the reduced body keeps all inputs
+
+
+def test_cli_options_of_gramian_methods(tmp_path, capsys):
+    import json
+    from pathlib import Path
+
+    from flexmor.cli import main
+
+    sti = Path(__file__).parent / "data" / "calculix" / "beam8_clamped_mat.sti"
+    argv = ["reduce", str(sti), "--method", "two-step", "--order", "6", "--intermediate", "30", "--input", "TIP:y",
+            "--band", "10:3000", "--rayleigh", "0:1e-6", "--variant", "velocity", "--no-cache", "--json",
+            "-o", str(tmp_path / "ts.h5")]
+    assert main(argv) == 0
+    res = json.loads(capsys.readouterr().out)
+    assert res["info"]["intermediate"] == 30 and res["info"]["variant"] == "velocity"
+    assert res["band_error"] < 1e-6  # measured 3.8e-8
+    assert main(["reduce", str(sti), "--method", "pod", "--energy", "2", "--input", "TIP:y", "--no-error",
+                 "-o", str(tmp_path / "p.h5")]) == 2

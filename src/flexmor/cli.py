@@ -99,7 +99,9 @@ def cmd_reduce(args) -> int:
                                 backend=args.backend, progress=_progress(args, "full FRF"),
                                 interface=args.interface or None, tol=args.tol, points=args.points,
                                 moments=args.moments, side=args.side, rigid=args.rigid, max_iter=args.max_iter,
-                                shift_tol=args.shift_tol)
+                                shift_tol=args.shift_tol, intermediate=args.intermediate, variant=args.variant,
+                                energy=args.energy, snapshots=args.snapshots, gramian=args.gramian,
+                                directions=args.directions, nodes=args.nodes)
     res["timings"]["read"] = t_read
     path = Path(args.output_file or f"{model.name}_{args.method}_{red.order}.h5")
     write_reduced(red, path)
@@ -301,6 +303,15 @@ def build_parser() -> argparse.ArgumentParser:
                    "(krylov/adaptive default include, modal default exclude)")
     g.add_argument("--max-iter", type=int, help="irka: maximum iterations (default 50)")
     g.add_argument("--shift-tol", type=float, help="irka: relative change of the points for convergence (1e-4)")
+    g = p.add_argument_group("Gramian and hybrid methods (sobt, fw-sobt, pod, two-step, cms-*, svdmor)")
+    g.add_argument("--variant", choices=["position", "velocity"], help="balance position or velocity Gramians "
+                   "(default position)")
+    g.add_argument("--nodes", type=int, help="Gauss points per panel of the Gramian quadrature (default 4)")
+    g.add_argument("--intermediate", type=int, metavar="R1", help="two-step: intermediate Krylov order (default 120)")
+    g.add_argument("--gramian", choices=["band", "full"], help="two-step: frequency-limited or full-band Gramians")
+    g.add_argument("--energy", type=float, help="pod: keep the fewest modes with this share of the snapshot energy")
+    g.add_argument("--snapshots", choices=["frequency", "time", "both"], help="pod: snapshot source (default frequency)")
+    g.add_argument("--directions", type=int, help="svdmor: input/output directions kept (default: sv > 1e-3 max)")
     p.set_defaults(func=cmd_reduce)
 
     p = sub.add_parser("compare", help="error measures of reduced bodies against the full model")

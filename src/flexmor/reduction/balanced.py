@@ -15,11 +15,13 @@ import logging
 import math
 
 import numpy as np
+import scipy.linalg as sla
 
 from ..basis import Basis
 from ..errors import OptionError, check_choice
 from . import register_method
-from .gramians import VARIANTS, balance, gramian_factors, truncation_basis
+from ..linalg.eigen import DENSE_LIMIT
+from .gramians import VARIANTS, _regularized, balance, dense_gramians, gramian_factors, psd_factor, truncation_basis
 
 __all__ = ["sobt", "fw_sobt", "balanced_basis"]
 
@@ -50,17 +52,32 @@ def balanced_basis(model, ports, order, band, *, method: str, variant: str = "po
     if order > model.n_dof:
         raise OptionError(f"order {order} exceeds the number of DOF {model.n_dof}")
     phi, head = _rigid(model, ports, rigid)
-    G = gramian_factors(model, ports, band, nodes=nodes, cutoff=cutoff, backend=backend, rigid_modes=phi)
     n_flex = order - head.shape[1]
     if n_flex < 1:
         raise OptionError(f"order {order} leaves no room next to {head.shape[1]} rigid-body modes")
-    T, sigma = balance(G.controllability(variant), G.L, model.M, n_flex)
+    if math.isinf(band[1]) and band[0] == 0 and model.n_dof <= DENSE_LIMIT:
+        R, L, ginfo = _dense_factors(model, ports, variant)  # small body: exact Lyapunov solutions
+    else:
+        G = gramian_factors(model, ports, band, nodes=nodes, cutoff=cutoff, backend=backend, rigid_modes=phi)
+        R, L, ginfo = G.controllability(variant), G.L, G.info
+    T, sigma = balance(R, L, model.M, n_flex)
     V = truncation_basis(np.hstack([head, T]), model.M)
     k = max(N_REPORTED, 2 * order)
     info = {"variant": variant, "hankel_sv": sigma[:k].tolist(),
             "truncated_sv_sum": float(np.sum(sigma[n_flex:])), "n_rigid_included": int(head.shape[1]),
-            "nested": False, **G.info}
+            "nested": False, **ginfo}
     return Basis(V, method, info)
+
+
+def _dense_factors(model, ports, variant):
+    """Exact full-band Gramian factors of a small body (:func:`~flexmor.reduction.gramians.dense_gramians`)."""
+    from ..linalg.eigen import frequencies_hz
+
+    M, K = model.M.toarray(), model.K.toarray()
+    work, damping = _regularized(model, (0.0, math.inf), frequencies_hz(sla.eigh(K, M, eigvals_only=True)))
+    Pp, Pv, Qp, _ = dense_gramians(M, work.D.toarray(), K, ports.B.toarray(), ports.C.toarray())
+    info = {"band_hz": [0.0, math.inf], "gramians": "dense Lyapunov (exact)", "gramian_damping": damping}
+    return psd_factor(Pp if variant == "position" else Pv), psd_factor(Qp), info
 
 
 @register_method("sobt", "second-order balanced truncation, full-band Gramians (low rank)", survives_coupling=False)
@@ -88,7 +105,8 @@ def sobt(model, ports, order, *, variant: str = "position", nodes: int = 4, band
         Large models (more than 600 DOF): resonances up to ``cutoff`` Hz get their own
         quadrature cell, the rest of ``[0, inf)`` is one tail cell (their contribution to the
         Gramians decays like ``w^-4`` with stiffness-proportional damping). Small models
-        resolve every resonance, so the Gramians are the exact Lyapunov solutions.
+        (up to 600 DOF) get the exact dense Lyapunov solutions
+        (:func:`flexmor.reduction.gramians.dense_gramians`).
     rigid : {'include', 'exclude'}
         Free bodies: the rigid-body modes excited by the inputs lead the basis (include) or
         are left to the floating frame (exclude); the Gramians are those of the flexible part.

@@ -46,6 +46,7 @@ from __future__ import annotations
 
 import logging
 import math
+import warnings
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -378,7 +379,8 @@ def dense_gramians(M, D, K, B, C, band=None, *, rigid_tol=None):
     """Exact Gramians ``P_p, P_v, Q_p`` of a small dense second-order body (full band or a band).
 
     The flexible part is transformed to modal coordinates (``Phi^T M Phi = I``) and the
-    first-order realization ``[[0, I], [-Lambda, -D_f]]`` is solved by
+    well-scaled first-order realization ``[[0, Omega], [-Omega, -D_f]]`` (state
+    ``(Omega q, q')``, ``Omega^2 = Lambda``) is solved by
     :func:`scipy.linalg.solve_continuous_lyapunov`; a band ``[w1, w2]`` uses the
     Gawronski-Juang formula ``P_Omega = P S^H + S P``, ``S = S(w2) - S(w1)``,
     ``S(w) = (i/2pi) log((A + iwI)(A - iwI)^{-1})``. Rigid-body modes (eigenvalues below
@@ -405,7 +407,8 @@ def dense_gramians(M, D, K, B, C, band=None, *, rigid_tol=None):
     pf, lf = phi[:, ~rigid], np.clip(lam[~rigid], 0, None)
     n = lf.size
     Df = pf.T @ D @ pf
-    A = np.block([[np.zeros((n, n)), np.eye(n)], [-np.diag(lf), -Df]])
+    om = np.sqrt(np.maximum(lf, 1e-300))  # state (Omega q, q'): A = [[0, Omega], [-Omega, -D]] is well scaled
+    A = np.block([[np.zeros((n, n)), np.diag(om)], [-np.diag(om), -Df]])
 
     def gram(Bm):
         Bt = np.vstack([np.zeros((n, Bm.shape[1])), pf.T @ Bm])
@@ -423,11 +426,15 @@ def dense_gramians(M, D, K, B, C, band=None, *, rigid_tol=None):
         P = 0.5 * (P + P.T)
         return P
 
-    P = gram(np.asarray(B, float))
-    Q = gram(np.asarray(C, float).T)
-    Pp = pf @ P[:n, :n] @ pf.T
+    with warnings.catch_warnings(record=True) as caught:  # scipy's accuracy notes go to the log
+        warnings.simplefilter("always")
+        P = gram(np.asarray(B, float))
+        Q = gram(np.asarray(C, float).T)
+    for w in caught:
+        log.debug("dense Gramians: %s", w.message)
+    Pp = (pf / om) @ P[:n, :n] @ (pf / om).T
     Pv = pf @ P[n:, n:] @ pf.T
-    Qp = pf @ Q[:n, :n] @ pf.T
+    Qp = (pf / om) @ Q[:n, :n] @ (pf / om).T
     return Pp, Pv, Qp, phi[:, rigid]
 
 
