@@ -13,7 +13,8 @@ from flexmor.model import FEModel
 from flexmor.ports import Ports, make_ports
 from flexmor.projection import project
 from flexmor.reduction import reduce
-from flexmor.reduction.gramians import dense_gramians, gramian_factors, quadrature_rule
+from flexmor.reduction.dense_gramians import dense_gramians
+from flexmor.reduction.gramians import gramian_factors, quadrature_rule
 from flexmor.workflow import reduce_and_judge
 
 BAND = (10.0, 1000.0)

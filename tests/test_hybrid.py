@@ -34,7 +34,7 @@ def test_pod_beats_modal_and_energy_truncation(beam):
     e_modal, _ = _err(beam, "modal", 8)
     assert e_pod < 0.1 * e_modal
     assert red.info["energy_captured"] > 1 - 1e-9
-    e4, red4 = _err(beam, "pod", None, energy=0.99)
+    _, red4 = _err(beam, "pod", None, energy=0.99)
     lam = np.array(red4.info["pod_energy"])
     r = red4.order
     assert lam[:r].sum() / lam.sum() >= 0.99 > lam[: r - 1].sum() / lam.sum()
@@ -50,7 +50,7 @@ def test_pod_time_snapshots(beam):
 
 
 def test_two_step(beam):
-    model, ports, full = beam
+    model, ports, _ = beam
     # r2 = r1: the same space as the intermediate Krylov basis, hence the same reduced body
     e_k, _ = _err(beam, "krylov", 12, side="both")
     e_2, red = _err(beam, "two-step", 12, intermediate=12)

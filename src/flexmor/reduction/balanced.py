@@ -19,9 +19,10 @@ import scipy.linalg as sla
 
 from ..basis import Basis
 from ..errors import OptionError, check_choice
-from . import register_method
 from ..linalg.eigen import DENSE_LIMIT
-from .gramians import VARIANTS, _regularized, balance, dense_gramians, gramian_factors, psd_factor, truncation_basis
+from . import register_method
+from .dense_gramians import dense_gramians, psd_factor
+from .gramians import VARIANTS, _regularized, balance, gramian_factors, truncation_basis
 
 __all__ = ["sobt", "fw_sobt", "balanced_basis"]
 

@@ -11,7 +11,8 @@ from ..basis import Basis, orthonormalize
 from ..errors import OptionError, check_choice
 from ..projection import project
 from . import register_method
-from .gramians import UNDAMPED_ZETA, VARIANTS, balance, dense_gramians, psd_factor
+from .dense_gramians import dense_gramians, psd_factor
+from .gramians import UNDAMPED_ZETA, VARIANTS, balance
 from .krylov import krylov
 
 __all__ = ["two_step", "GRAMIANS"]
