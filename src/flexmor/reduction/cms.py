@@ -128,7 +128,7 @@ def cms_krylov(model, ports, order, *, interface=None, band=None, points=None, b
 
 
 @register_method("cms-gramian", "constraint modes + balanced (frequency-limited Gramian) vectors of the "
-                 "fixed-interface body")
+                 "fixed-interface body", survives_coupling=False)
 def cms_gramian(model, ports, order, *, interface=None, band=None, variant: str = "position", nodes: int = 4,
                 backend: str = "auto") -> Basis:
     """Craig-Bampton with frequency-limited balanced vectors of the fixed-interface body.

@@ -49,7 +49,8 @@ def port_directions(model, ports, points, *, backend: str = "auto"):
     return Wt.T, s_in, U, s_out, used
 
 
-@register_method("svdmor", "SVD compression of many inputs/outputs from sampled transfer data, then krylov")
+@register_method("svdmor", "SVD compression of many inputs/outputs from sampled transfer data, then krylov",
+                 survives_coupling=False)
 def svdmor(model, ports, order, *, directions: int | None = None, band=None, points=None, side: str = "both",
            rigid: str = "include", backend: str = "auto") -> Basis:
     """SVDMOR: Krylov reduction of the body with its inputs and outputs compressed by an SVD.
@@ -58,7 +59,9 @@ def svdmor(model, ports, order, *, directions: int | None = None, band=None, poi
     samples ``H(s)`` at real points over the band, keeps the ``directions`` dominant input
     directions ``W`` (``B -> B W``) and output directions ``U`` (``C -> U^T C``), and builds
     the Krylov basis of the compressed body, so more moments fit into the same order. The
-    reduced body keeps all original inputs and outputs (``Br = V^T B``).
+    reduced body keeps all original inputs and outputs (``Br = V^T B``). Moments are matched
+    only in the kept directions (``U^T H W``), so the interpolation property does not carry
+    over to an assembly.
 
     Parameters
     ----------
