@@ -137,3 +137,17 @@ def test_demo_writes_bodies_and_plot(capsys, tmp_path):
     page = (tmp_path / "report.html").read_text(encoding="utf-8")
     assert out["report"] == str(tmp_path / "report.html") and page.count("data:image/png;base64,") == 5
     assert all(f"<td>{r['time_max_error']:.4e}</td>" in page for r in res)
+
+
+def test_rbe2_interface_reduce_compare_export(capsys, tmp_path):
+    body = tmp_path / "cb.h5"
+    out = run_json(capsys, "reduce", CLAMPED, "--method", "craig-bampton", "--order", "10", "--interface", "TIP@rbe2",
+                   "--input", "TIP@rbe2:y", "--input", "TIP@rbe2:rz", "--band", "10:3000", "--rayleigh", "0:1e-6",
+                   "-o", str(body), "--json")
+    assert out["order"] == 10 and out["info"]["n_interface_dofs"] == 6
+    assert out["info"]["couplings"] == ["TIP@rbe2"]
+    cmp = run_json(capsys, "compare", CLAMPED, str(body), "--band", "10:3000", "--json")
+    assert cmp["results"][0]["band_error"] == pytest.approx(out["band_error"], rel=1e-10)
+    sid = tmp_path / "cb.SID_FEM"
+    assert main(["export", str(body), "--model", CLAMPED, "--format", "sid", "-o", str(sid)]) == 0
+    assert sid.exists()

@@ -41,12 +41,12 @@ def _fmt(x, spec=".3e"):
     return "-" if x is None else format(x, spec)
 
 
-def _read_model(args):
+def _read_model(args, couplings=()):
     from .io import read
-    from .workflow import apply_damping, parse_band, parse_pair
+    from .workflow import apply_damping, parse_band, parse_pair, prepare_model
 
     t0 = time.perf_counter()
-    model = read(args.model, format=args.format)
+    model = prepare_model(read(args.model, format=args.format), couplings)
     t_read = time.perf_counter() - t0
     band = parse_band(args.band) if getattr(args, "band", None) else None
     rayleigh = parse_pair(args.rayleigh, "--rayleigh") if getattr(args, "rayleigh", None) else None
@@ -89,9 +89,10 @@ def cmd_info(args) -> int:
 def cmd_reduce(args) -> int:
     from .io.hdf5 import write_reduced
     from .ports import make_ports
-    from .workflow import DEFAULT_BAND, reduce_and_judge
+    from .workflow import DEFAULT_BAND, coupling_specs, reduce_and_judge
 
-    model, t_read, band = _read_model(args)
+    couplings = coupling_specs(args.interface, args.input + args.output)
+    model, t_read, band = _read_model(args, couplings)
     ports = make_ports(model, args.input, args.output)
     band = None if args.no_error else (band or DEFAULT_BAND)
     red, res = reduce_and_judge(model, args.method, args.order, ports, band=band, n_freq=args.n_freq,
@@ -103,6 +104,8 @@ def cmd_reduce(args) -> int:
                                 energy=args.energy, snapshots=args.snapshots, gramian=args.gramian,
                                 directions=args.directions, nodes=args.nodes)
     res["timings"]["read"] = t_read
+    if couplings:
+        red.info["couplings"] = couplings
     path = Path(args.output_file or f"{model.name}_{args.method}_{red.order}.h5")
     write_reduced(red, path)
     res["file"] = str(path)
@@ -124,24 +127,20 @@ def cmd_reduce(args) -> int:
 
 # -- compare -----------------------------------------------------------------------------------
 def cmd_compare(args) -> int:
-    from .analysis.compare import FullResponse
     from .io.hdf5 import read_reduced
     from .ports import make_ports
-    from .workflow import DEFAULT_BAND
+    from .workflow import DEFAULT_BAND, prepare_model
 
     model, t_read, band = _read_model(args)
     band = band or DEFAULT_BAND
     reds = [read_reduced(p) for p in args.reduced]
     fulls, rows = {}, []
     for path, red in zip(args.reduced, reds):
-        if red.D is not None and model.D is None and red.damping.get("type") == "rayleigh":
-            model = model.with_rayleigh(red.damping["alpha"], red.damping["beta"])
-        key = (tuple(red.input_names), tuple(red.output_names))
+        couplings = tuple(red.info.get("couplings", ()))
+        key = (tuple(red.input_names), tuple(red.output_names), couplings)
         if key not in fulls:
-            grid_opts = {} if args.grid_tol is None else {"tol": args.grid_tol}
-            fulls[key] = FullResponse(model, make_ports(model, *key), band, n=args.n_freq, backend=args.backend,
-                                      path=args.full_frf, cache=not args.no_cache,
-                                      progress=_progress(args, "full FRF"), **grid_opts)
+            body_model = prepare_model(model, couplings, red.damping)
+            fulls[key] = _full_response(args, body_model, make_ports(body_model, *key[:2]), band)
         t0 = time.perf_counter()
         err = fulls[key].evaluate(red)
         t_err = time.perf_counter() - t0
@@ -149,12 +148,22 @@ def cmd_compare(args) -> int:
                      "band_error": err["band_error"], "max_rel_error": err["max_rel_error"],
                      "timings": {"error": t_err}})
     if args.json:
-        grids = [dict(f.summary(), inputs=list(k[0]), outputs=list(k[1])) for k, f in fulls.items()]
+        grids = [dict(f.summary(), inputs=list(k[0]), outputs=list(k[1]), couplings=list(k[2]))
+                 for k, f in fulls.items()]
         _emit_json({"model": model.name, "band_hz": list(band), "results": rows, "grids": grids,
                     "timings": {"read": t_read, "full_frf": sum(f.seconds for f in fulls.values())}})
         return 0
     _table(rows)
     return 0
+
+
+def _full_response(args, model, ports, band):
+    """The full FRF over ``band`` with the sweep options of the command line."""
+    from .analysis.compare import FullResponse
+
+    grid_opts = {} if args.grid_tol is None else {"tol": args.grid_tol}
+    return FullResponse(model, ports, band, n=args.n_freq, backend=args.backend, path=args.full_frf,
+                        cache=not args.no_cache, progress=_progress(args, "full FRF"), **grid_opts)
 
 
 def _table(rows) -> None:
@@ -169,10 +178,13 @@ def cmd_export(args) -> int:
     from .io import read
     from .io.export import export, export_format
     from .io.hdf5 import read_reduced
+    from .workflow import prepare_model
 
     red = read_reduced(args.reduced)
     fmt = export_format(args.output_file, args.format)
     model = read(args.model, format=args.model_format) if args.model else None
+    if model is not None:
+        model = prepare_model(model, red.info.get("couplings", ()))
     opts = {"nodes": args.node or None} if fmt in ("sid", "mat") else {}
     if fmt == "sid":
         opts["m1_order"] = args.m1_order
@@ -187,27 +199,27 @@ def cmd_export(args) -> int:
 
 # -- report ------------------------------------------------------------------------------------
 def cmd_report(args) -> int:
-    from .analysis.compare import FullResponse
     from .errors import OptionError
     from .io.hdf5 import read_reduced
     from .ports import make_ports
     from .report.html import build_report, write_report
-    from .workflow import DEFAULT_BAND
+    from .workflow import DEFAULT_BAND, prepare_model
 
     model, t_read, band = _read_model(args)
     band = band or DEFAULT_BAND
     reds = [read_reduced(p) for p in args.reduced]
-    if model.D is None and reds[0].D is not None and reds[0].damping.get("type") == "rayleigh":
-        model = model.with_rayleigh(reds[0].damping["alpha"], reds[0].damping["beta"])
-    key = (list(reds[0].input_names), list(reds[0].output_names))
-    other = [str(p) for p, r in zip(args.reduced, reds) if (list(r.input_names), list(r.output_names)) != key]
+
+    def key_of(r):
+        return list(r.input_names), list(r.output_names), list(r.info.get("couplings", []))
+
+    key = key_of(reds[0])
+    other = [str(p) for p, r in zip(args.reduced, reds) if key_of(r) != key]
     if other:
-        raise OptionError(f"a report needs bodies with the same inputs/outputs as {args.reduced[0]}; "
+        raise OptionError(f"a report needs bodies with the same inputs/outputs/couplings as {args.reduced[0]}; "
                           f"these differ: {', '.join(other)}")
-    ports = make_ports(model, *key)
-    grid_opts = {} if args.grid_tol is None else {"tol": args.grid_tol}
-    full = FullResponse(model, ports, band, n=args.n_freq, backend=args.backend, path=args.full_frf,
-                        cache=not args.no_cache, progress=_progress(args, "full FRF"), **grid_opts)
+    model = prepare_model(model, key[2], reds[0].damping)
+    ports = make_ports(model, *key[:2])
+    full = _full_response(args, model, ports, band)
     rep = build_report(model, ports, reds, band=band, full=full, signal=args.signal, dt=args.dt, t_end=args.t_end,
                        scheme=args.scheme, n_modes=args.modes, backend=args.backend,
                        time_progress=_progress(args, "time steps", unit="step"))
@@ -290,7 +302,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--order", type=int, help="reduced order r")
     p.add_argument("--input", action="append", default=[], metavar="SPEC", help="input NODE:DIR or SET:DIR")
     p.add_argument("--output", action="append", default=[], metavar="SPEC", help="output NODE:DIR or SET:DIR")
-    p.add_argument("--interface", action="append", default=[], metavar="SPEC", help="interface NODE, SET, SET:DIR")
+    p.add_argument("--interface", action="append", default=[], metavar="SPEC",
+                   help="interface NODE, SET, SET:DIR, or SET@rbe2 / SET@rbe3 (6-DOF master node at the centroid)")
     p.add_argument("-o", "--output-file", metavar="FILE", help="reduced body file (.h5)")
     p.add_argument("--no-error", action="store_true", help="skip the error evaluation against the full model")
     g = p.add_argument_group("interpolation methods (krylov, adaptive, irka)")

@@ -14,7 +14,8 @@ from .linalg.factorize import STATS
 from .ports import make_ports
 from .reduction import reduce
 
-__all__ = ["parse_band", "parse_pair", "apply_damping", "reduce_and_judge", "run_demo", "DEFAULT_BAND"]
+__all__ = ["coupling_specs", "prepare_model", "parse_band", "parse_pair", "apply_damping", "reduce_and_judge",
+           "run_demo", "DEFAULT_BAND"]
 
 log = logging.getLogger(__name__)
 
@@ -57,6 +58,34 @@ def apply_damping(model, *, rayleigh=None, modal_damping=None, band=None):
             raise OptionError(f"--modal-damping must be in [0, 1), got {z}")
         w1, w2 = (2 * np.pi * f for f in (band or DEFAULT_BAND))
         return model.with_rayleigh(2 * z * w1 * w2 / (w1 + w2), 2 * z / (w1 + w2))
+    return model
+
+
+def coupling_specs(interfaces=(), ports=()) -> list[str]:
+    """The SPECs that change the model: interfaces ``SET@rbe2``/``SET@rbe3`` and ports ``SET@rbe2:DIR``.
+
+    (``SET@rbe3:DIR`` ports work on the unchanged model and are not listed.)
+    """
+    from .ports import parse_spec
+
+    specs = [s for s in interfaces if "@" in s] + [s for s in ports if "@rbe2" in s.lower()]
+    out = []
+    for s in specs:
+        target = parse_spec(s)[0]
+        if target.upper() not in (t.upper() for t in out):
+            out.append(target)
+    return out
+
+
+def prepare_model(model, couplings=(), damping: dict | None = None):
+    """The model a reduced body belongs to: ``couplings`` applied (:func:`flexmor.couplings.couple`)
+    and, when the model has no damping of its own, the body's Rayleigh ``damping``."""
+    if couplings:
+        from .couplings import couple
+
+        model = couple(model, list(couplings)).model
+    if damping and model.D is None and damping.get("type") == "rayleigh":
+        model = model.with_rayleigh(damping["alpha"], damping["beta"])
     return model
 
 

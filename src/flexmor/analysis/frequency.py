@@ -154,6 +154,17 @@ def band_error(freqs, H, Hr) -> float:
     h2 = np.sum(np.abs(H) ** 2, axis=(1, 2))
     w = quadrature_weights(f) if f.size > 1 else np.ones(1)
     den, num = w @ h2, w @ e2
+    if num < 0 or den <= 0:
+        # a parabolic rule on a non-uniform grid has some negative weights; for an error at
+        # round-off level that can give a negative integral: use the trapezoidal rule instead
+        wt = np.zeros_like(f)
+        if f.size > 1:
+            d = np.diff(f) / 2
+            wt[:-1] += d
+            wt[1:] += d
+        else:
+            wt[:] = 1.0
+        den, num = wt @ h2, wt @ e2
     return float(num / den) if den > 0 else float("nan")
 
 
