@@ -94,7 +94,7 @@ class AbaqusDeck:
         return out
 
 
-def _options(card: str) -> tuple[str, dict]:
+def keyword_options(card: str) -> tuple[str, dict]:
     parts = [p.strip() for p in card.lstrip("*").split(",")]
     opts = {}
     for p in parts[1:]:
@@ -149,7 +149,7 @@ class _Parser:
 
     # -- keywords ---------------------------------------------------------------------------
     def _keyword(self, path, lineno, s, st, depth):
-        kw, opts = _options(s)
+        kw, opts = keyword_options(s)
         st["block"], st["opts"], st["cont"] = kw, opts, []
         if kw == "PART":
             name = opts.get("NAME", "").upper()

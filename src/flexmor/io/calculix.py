@@ -23,6 +23,7 @@ import scipy.sparse as sp
 from ..errors import ReadError
 from . import register_format
 from ._text import build_model, entry_line, parse_triplets, read_text
+from .abaqus_inp import keyword_options
 
 __all__ = ["read_calculix", "read_inp", "read_dof"]
 
@@ -97,17 +98,6 @@ def read_dof(path) -> np.ndarray:
     return out
 
 
-def _options(card: str) -> tuple[str, dict]:
-    """Split a keyword line ``*NSET, NSET=A, GENERATE`` into ``('NSET', {'NSET': 'A', 'GENERATE': ''})``."""
-    parts = [p.strip() for p in card.lstrip("*").split(",")]
-    opts = {}
-    for p in parts[1:]:
-        if p:
-            key, _, val = p.partition("=")
-            opts[key.strip().upper()] = val.strip()
-    return parts[0].upper(), opts
-
-
 def read_inp(path, _depth: int = 0, _state: dict | None = None):
     """Read the node table and node sets of a CalculiX/Abaqus-style input deck.
 
@@ -137,7 +127,7 @@ def read_inp(path, _depth: int = 0, _state: dict | None = None):
         if not s or s.startswith("**"):
             continue
         if s.startswith("*"):
-            block, opts = _options(s)
+            block, opts = keyword_options(s)
             cur_set = None
             if block == "NODE" and opts.get("NSET"):
                 cur_set = opts["NSET"].upper()

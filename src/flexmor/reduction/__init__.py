@@ -51,9 +51,19 @@ def register_method(name: str, description: str, *, survives_coupling: bool = Tr
 
 
 def _load_builtin():
-    from . import adaptive, craig_bampton, guyan, irka, krylov, modal  # noqa: F401
-    from . import balanced  # noqa: F401  (sobt, fw-sobt; gramians.py holds the Gramians)
-    from . import cms, pod, svdmor, two_step  # noqa: F401
+    from . import (  # noqa: F401  # noqa: F401
+        adaptive,
+        balanced,  # noqa: F401  (sobt, fw-sobt; gramians.py holds the Gramians)
+        cms,
+        craig_bampton,
+        guyan,
+        irka,
+        krylov,
+        modal,
+        pod,
+        svdmor,
+        two_step,
+    )
 
 
 def reduce(model, method: str, order: int | None, ports, **options) -> tuple[ReducedModel, dict]:

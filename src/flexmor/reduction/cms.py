@@ -21,11 +21,10 @@ import numpy as np
 import scipy.sparse as sp
 
 from ..basis import Basis
-from ..errors import OptionError
 from ..model import FEModel
 from ..ports import Ports
 from . import register_method
-from .guyan import constraint_modes
+from .craig_bampton import cb_frame
 
 __all__ = ["cms_krylov", "cms_gramian", "fixed_interface_body"]
 
@@ -65,12 +64,8 @@ def fixed_interface_body(model, ports, Psi, b, i, *, tol: float = 1e-8):
 
 
 def _cms(model, ports, order, interface, method, internal, backend):
-    Psi, b, i, _ = constraint_modes(model, interface, backend)
-    if order is None or order < b.size:
-        raise OptionError(f"{method} needs --order >= number of interface DOFs ({b.size}), got {order}")
-    n_int = min(order - b.size, i.size)
-    V = np.zeros((model.n_dof, b.size + n_int))
-    V[:, : b.size] = Psi
+    V, b, i, _ = cb_frame(model, interface, order, method, backend)
+    Psi, n_int = V[:, : b.size], V.shape[1] - b.size
     info = {"n_interface_dofs": int(b.size), "n_internal": int(n_int)}
     if n_int:
         sub, sub_ports = fixed_interface_body(model, ports, Psi, b, i)

@@ -11,6 +11,21 @@ from . import register_method
 from .guyan import constraint_modes
 
 
+def cb_frame(model, interface, order, method: str, backend: str = "auto"):
+    """The Craig-Bampton frame shared by the CMS methods.
+
+    Returns ``(V, b, i, F)``: ``V`` (n_dof, order) with the constraint modes in its first
+    ``n_b`` columns and zeros in the ``order - n_b`` internal columns (at most the number of
+    interior DOFs), the interface and interior equations, and the factorization of ``K_ii``.
+    """
+    V_c, b, i, F = constraint_modes(model, interface, backend)
+    if order is None or order < b.size:
+        raise OptionError(f"{method} needs --order >= number of interface DOFs ({b.size}), got {order}")
+    V = np.zeros((model.n_dof, b.size + min(order - b.size, i.size)))
+    V[:, : b.size] = V_c
+    return V, b, i, F
+
+
 @register_method("craig-bampton", "constraint modes + fixed-interface normal modes")
 def craig_bampton(model, ports, order, *, interface=None, backend: str = "auto") -> Basis:
     """Craig-Bampton basis ``[[I, 0], [Psi, Phi_i]]`` of total order r = n_b + n_modes.
@@ -40,12 +55,8 @@ def craig_bampton(model, ports, order, *, interface=None, backend: str = "auto")
     Craig, R. R., Bampton, M. C. C. (1968). Coupling of substructures for dynamic analyses.
     AIAA Journal 6(7), 1313-1319.
     """
-    V_c, b, i, F = constraint_modes(model, interface, backend)
-    if order is None or order < b.size:
-        raise OptionError(f"craig-bampton needs --order >= number of interface DOFs ({b.size}), got {order}")
-    n_modes = min(order - b.size, i.size)
-    V = np.zeros((model.n_dof, b.size + n_modes))
-    V[:, : b.size] = V_c
+    V, b, i, F = cb_frame(model, interface, order, "craig-bampton", backend)
+    n_modes = V.shape[1] - b.size
     freqs = []
     if n_modes:
         Kii = model.K[i][:, i]
