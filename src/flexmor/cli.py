@@ -126,14 +126,20 @@ def cmd_reduce(args) -> int:
 
 
 # -- compare -----------------------------------------------------------------------------------
-def cmd_compare(args) -> int:
+def _model_and_bodies(args):
+    """The full model (as read), the band (default DEFAULT_BAND) and the reduced bodies of ``args``."""
     from .io.hdf5 import read_reduced
-    from .ports import make_ports
-    from .workflow import DEFAULT_BAND, prepare_model
+    from .workflow import DEFAULT_BAND
 
     model, t_read, band = _read_model(args)
-    band = band or DEFAULT_BAND
-    reds = [read_reduced(p) for p in args.reduced]
+    return model, t_read, band or DEFAULT_BAND, [read_reduced(p) for p in args.reduced]
+
+
+def cmd_compare(args) -> int:
+    from .ports import make_ports
+    from .workflow import prepare_model
+
+    model, t_read, band, reds = _model_and_bodies(args)
     fulls, rows = {}, []
     for path, red in zip(args.reduced, reds):
         couplings = tuple(red.info.get("couplings", ()))
@@ -200,14 +206,11 @@ def cmd_export(args) -> int:
 # -- report ------------------------------------------------------------------------------------
 def cmd_report(args) -> int:
     from .errors import OptionError
-    from .io.hdf5 import read_reduced
     from .ports import make_ports
     from .report.html import build_report, write_report
-    from .workflow import DEFAULT_BAND, prepare_model
+    from .workflow import prepare_model
 
-    model, t_read, band = _read_model(args)
-    band = band or DEFAULT_BAND
-    reds = [read_reduced(p) for p in args.reduced]
+    model, t_read, band, reds = _model_and_bodies(args)
 
     def key_of(r):
         return list(r.input_names), list(r.output_names), list(r.info.get("couplings", []))
