@@ -13,7 +13,6 @@ import flexmor.io
 from flexmor.errors import ReadError
 
 DATA = Path(__file__).parent / "data" / "ansys"
-SHARED = Path(__file__).parents[2] / "shared" / "data" / "ansys"
 ROTOR = ["rotorAnsysStiffnessMatrixSparse.txt", "rotorAnsysMassMatrixSparse.txt",
          "rotorAnsysMatrixDofMappingVector.txt", "rotorAnsysNodalCoordinates.txt"]
 
@@ -113,7 +112,7 @@ def test_hbmat_mapping_errors(tmp_path):
         flexmor.io.read(path)
 
 
-FULL = SHARED / "ansys_file.full"
+FULL = DATA / "ansys_file.full"
 
 
 @pytest.fixture(scope="module")
@@ -121,7 +120,7 @@ def full_model():
     pytest.importorskip("ansys.mapdl.reader")
     if not FULL.exists():
         pytest.skip("ansys_file.full not available")
-    return flexmor.io.read(FULL, coordinates=SHARED / "ansys_HexBeam.cdb")
+    return flexmor.io.read(FULL, coordinates=DATA / "ansys_HexBeam.cdb")
 
 
 def test_full_file_constrained_dofs_removed_and_reported(full_model):
