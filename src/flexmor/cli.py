@@ -253,7 +253,8 @@ def cmd_demo(args) -> int:
         return 0
     m = res["model"]
     print(f"model {m['name']}: {m['n_dof']} DOF; band {res['band_hz'][0]:g}-{res['band_hz'][1]:g} Hz, "
-          f"{res['n_freq']} frequencies, full FRF {res['full_frf_seconds']:.2f} s\n")
+          f"{res['n_freq']} frequencies, full FRF {res['full_frf_seconds']:.2f} s"
+          + (" (from cache)" if res["grid"].get("cache_hit") else "") + "\n")
     _table(res["results"])
     print(f"\nreduced bodies and {res['plot']} written to {args.out}/")
     if res.get("report"):

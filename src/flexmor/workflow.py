@@ -166,8 +166,9 @@ def run_demo(out, *, n: int = 4, band=(10.0, 3000.0), progress=None, on_result=N
     """The demo job: the built-in clamped steel cantilever reduced by several methods.
 
     Inputs/outputs: tip force / tip displacement in y and z (``TIP:y``, ``TIP:z``), Rayleigh
-    damping ``beta = 1e-6 s``; ``modal`` at r = 4, 8, 16 and ``craig-bampton`` with the
-    tip's centre node as interface (3 DOF) plus 5 and 13 fixed-interface modes. Writes one
+    damping ``beta = 1e-6 s``; ``modal`` at r = 4, 8, 16, ``craig-bampton`` with the
+    tip's centre node as interface (3 DOF) plus 5 and 13 fixed-interface modes, and
+    ``krylov`` and ``fw-sobt`` at r = 8 over the band. Writes one
     ``.h5`` per reduced body, ``rel_error.png`` and the HTML report ``report.html``
     (:mod:`flexmor.report.html`) into ``out``; ``time_progress`` wraps its time integration.
 
@@ -183,7 +184,8 @@ def run_demo(out, *, n: int = 4, band=(10.0, 3000.0), progress=None, on_result=N
     full = FullResponse(model, ports, band, backend="auto", progress=progress)
     jobs = [("modal", 4, {}), ("modal", 8, {}), ("modal", 16, {}),
             ("craig-bampton", 8, {"interface": ["TIP_CENTER"]}),
-            ("craig-bampton", 16, {"interface": ["TIP_CENTER"]})]
+            ("craig-bampton", 16, {"interface": ["TIP_CENTER"]}), ("krylov", 8, {"band": band}),
+            ("fw-sobt", 8, {"band": band})]
     results, curves, reds = [], {}, []
     for method, order, opts in jobs:
         red, res = reduce_and_judge(model, method, order, ports, full=full, **opts)
@@ -205,5 +207,6 @@ def run_demo(out, *, n: int = 4, band=(10.0, 3000.0), progress=None, on_result=N
     for res, row in zip(results, rep.rows):
         res.update(time_mean_error=row["time_mean_error"], time_max_error=row["time_max_error"])
     return {"model": model.summary(), "full_frf_seconds": full.seconds, "n_freq": int(full.freqs.size),
+            "grid": full.summary(),
             "band_hz": list(band), "results": results, "plot": str(out / "rel_error.png"),
             "report": str(out / "report.html"), "time": rep.time}
