@@ -98,3 +98,20 @@ def test_method_option_errors(clamped):
         reduce(clamped, "modal", 4, ports, interface=["TIP"])
     with pytest.raises(OptionError, match="interface DOFs"):
         reduce(clamped, "craig-bampton", 10, ports, interface=["TIP"])
+
+
+def test_hinf_error_band_estimate(clamped):
+    from flexmor.analysis.frequency import hinf_error
+
+    ports = make_ports(clamped, ["TIP:y", "TIP:z"])
+    freqs = np.geomspace(10, 3000, 400)
+    H = frf_full(clamped, ports, freqs)
+    red, _ = reduce(clamped, "modal", 6, ports)
+    Hr = frf_reduced(red, freqs)
+    E = H - Hr
+    expect = max(np.linalg.svd(e, compute_uv=False)[0] for e in E) / max(
+        np.linalg.svd(h, compute_uv=False)[0] for h in H)
+    assert hinf_error(H, Hr) == pytest.approx(expect, rel=1e-12)
+    assert hinf_error(H, H) == 0.0
+    red2, _ = reduce(clamped, "modal", 12, ports)
+    assert hinf_error(H, frf_reduced(red2, freqs)) < hinf_error(H, Hr)

@@ -152,6 +152,7 @@ def cmd_compare(args) -> int:
         t_err = time.perf_counter() - t0
         rows.append({"file": str(path), "method": red.method, "order": red.order, "band_hz": list(band),
                      "band_error": err["band_error"], "max_rel_error": err["max_rel_error"],
+                     "hinf_error": err["hinf_error"],
                      "timings": {"error": t_err}})
     if args.json:
         grids = [dict(f.summary(), inputs=list(k[0]), outputs=list(k[1]), couplings=list(k[2]))

@@ -95,7 +95,7 @@ def reduce_and_judge(model, method: str, order, ports, *, band=None, full: FullR
     """Reduce ``model`` and evaluate the error measures over ``band``.
 
     Returns ``(reduced, result)``; ``result`` is the JSON record of ``flexmor reduce``:
-    ``method, order, seconds, band_hz, band_error, max_rel_error, frequencies_hz, timings``.
+    ``method, order, seconds, band_hz, band_error, max_rel_error, hinf_error, frequencies_hz, timings``.
     ``full`` (a :class:`FullResponse`) is reused when given, else computed (``band=None``
     skips the error evaluation). ``n_freq``, ``grid_tol``, ``full_frf`` (the path: auto,
     direct, surrogate) and ``cache`` are passed to :class:`FullResponse`; ``result["grid"]``
@@ -131,7 +131,7 @@ def reduce_and_judge(model, method: str, order, ports, *, band=None, full: FullR
         "method": method,
         "order": red.order,
         "seconds": t["basis"] + t["project"],
-        "band_hz": None, "band_error": None, "max_rel_error": None,
+        "band_hz": None, "band_error": None, "max_rel_error": None, "hinf_error": None,
         "frequencies_hz": red.frequencies_hz().tolist(),
         "info": red.info,
     }
@@ -144,7 +144,8 @@ def reduce_and_judge(model, method: str, order, ports, *, band=None, full: FullR
         t0 = time.perf_counter()
         err = full.evaluate(red)
         t["error"] = time.perf_counter() - t0
-        result.update(band_hz=list(full.band), band_error=err["band_error"], max_rel_error=err["max_rel_error"])
+        result.update(band_hz=list(full.band), band_error=err["band_error"], max_rel_error=err["max_rel_error"],
+                      hinf_error=err["hinf_error"])
         result["grid"] = full.summary()
         red.errors = {"band_hz": list(full.band), "band_error": err["band_error"],
                       "max_rel_error": err["max_rel_error"], "freqs_hz": full.freqs, "rel_error": err["rel_error"]}

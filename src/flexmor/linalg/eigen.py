@@ -10,9 +10,10 @@ import scipy.sparse as sp
 from scipy.sparse.linalg import ArpackNoConvergence, LinearOperator, eigsh
 
 from ..errors import ConvergenceError, ModelError, OptionError
+from .block_eigen import block_lanczos
 from .factorize import factorize
 
-__all__ = ["eigenmodes", "default_shift", "rigid_body_threshold", "is_rigid", "frequencies_hz", "DENSE_LIMIT"]
+__all__ = ["eigenmodes", "default_shift", "rigid_body_threshold", "is_rigid", "frequencies_hz", "DENSE_LIMIT", "METHODS"]
 
 log = logging.getLogger(__name__)
 
@@ -46,8 +47,12 @@ def is_rigid(lam, K, M) -> np.ndarray:
     return np.asarray(lam) < rigid_body_threshold(K, M)
 
 
+#: Choices of ``eigenmodes(method=...)``.
+METHODS = ("auto", "lanczos", "arpack", "dense")
+
+
 def eigenmodes(K, M, k: int, *, sigma: float | None = None, backend: str = "auto", tol: float = 0.0,
-               factorization=None):
+               factorization=None, method: str = "auto", block: int | None = None):
     """Lowest ``k`` eigenpairs of ``K phi = lambda M phi`` (M positive definite).
 
     Parameters
@@ -62,9 +67,17 @@ def eigenmodes(K, M, k: int, *, sigma: float | None = None, backend: str = "auto
     backend : str
         Backend of :func:`flexmor.linalg.factorize` for ``K - sigma M``.
     tol : float
-        ARPACK tolerance (0 = machine precision).
+        Convergence tolerance: ARPACK's (0 = machine precision) or the relative residual of
+        the block Lanczos iteration (0 = its default 1e-9, eigenvalues to ~1e-14 relative).
     factorization : Factorization, optional
         An existing factorization of ``K - sigma M`` to reuse (``sigma`` must be given).
+    method : {'auto', 'lanczos', 'arpack', 'dense'}
+        ``lanczos``: block shift-invert Lanczos (:func:`flexmor.linalg.block_eigen.block_lanczos`,
+        one block solve of ``p`` right-hand sides per step); ``arpack``: SciPy's ``eigsh``
+        in shift-invert mode (one single-vector solve per step); ``dense``: LAPACK on dense
+        copies. ``auto``: dense up to :data:`DENSE_LIMIT` DOF or ``k >= n/2``, else lanczos.
+    block : int, optional
+        Block size of ``lanczos`` (default ``min(max(8, k // 2), 24)``).
 
     Returns
     -------
@@ -78,12 +91,21 @@ def eigenmodes(K, M, k: int, *, sigma: float | None = None, backend: str = "auto
     Ericsson, T., Ruhe, A. (1980). The spectral transformation Lanczos method for the
     numerical solution of large sparse generalized symmetric eigenvalue problems.
     Math. Comp. 35, 1251-1268.
+    Grimes, R. G., Lewis, J. G., Simon, H. D. (1994). A shifted block Lanczos algorithm for
+    solving sparse symmetric generalized eigenproblems. SIAM J. Matrix Anal. Appl. 15(1),
+    228-272.
     """
+    if method not in METHODS:
+        raise OptionError(f"method={method!r} is not allowed; choose one of: {', '.join(METHODS)}")
     n = K.shape[0]
     k = int(k)
     if k < 1 or k > n:
         raise OptionError(f"number of modes must be between 1 and {n}, got {k}")
-    if n <= DENSE_LIMIT or k >= n // 2:
+    if method == "auto":
+        method = "dense" if n <= DENSE_LIMIT or k >= n // 2 else "lanczos"
+    if method != "dense" and k >= n:
+        method = "dense"
+    if method == "dense":
         try:
             lam, phi = sla.eigh(_dense(K), _dense(M))
         except np.linalg.LinAlgError:
@@ -97,15 +119,18 @@ def eigenmodes(K, M, k: int, *, sigma: float | None = None, backend: str = "auto
         F = factorization
         if F is None:
             F = factorize((K - sigma * M).tocsr(), backend, symmetric=True, positive=sigma < 0)
-        op = LinearOperator(K.shape, matvec=F.solve, matmat=F.solve, dtype=np.float64)
-        ncv = min(n, max(2 * k + 1, k + 32))
-        try:
-            lam, phi = eigsh(K, k=k, M=M, sigma=sigma, which="LM", OPinv=op, tol=tol, ncv=ncv)
-        except ArpackNoConvergence as exc:
-            raise ConvergenceError(
-                f"Lanczos did not converge for {k} modes ({len(exc.eigenvalues)} converged)") from None
-        order = np.argsort(lam)
-        lam, phi = lam[order], phi[:, order]
+        if method == "lanczos":
+            lam, phi = block_lanczos(K, M, k, F, sigma, block=block, tol=tol or 1e-9)
+        else:
+            op = LinearOperator(K.shape, matvec=F.solve, matmat=F.solve, dtype=np.float64)
+            ncv = min(n, max(2 * k + 1, k + 32))
+            try:
+                lam, phi = eigsh(K, k=k, M=M, sigma=sigma, which="LM", OPinv=op, tol=tol, ncv=ncv)
+            except ArpackNoConvergence as exc:
+                raise ConvergenceError(
+                    f"Lanczos did not converge for {k} modes ({len(exc.eigenvalues)} converged)") from None
+            order = np.argsort(lam)
+            lam, phi = lam[order], phi[:, order]
         # Rayleigh quotients: quadratically accurate in the eigenvector error, they remove
         # the spectral transformation's loss of accuracy for eigenvalues far from sigma
         lam = np.einsum("ij,ij->j", phi, K @ phi) / np.einsum("ij,ij->j", phi, M @ phi)

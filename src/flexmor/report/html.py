@@ -40,7 +40,7 @@ SINGULAR_VALUE_KEYS = ("hankel_sv", "hankel_singular_values", "hsv", "pod_sv", "
 #: Columns of the summary table: (key, header, format).
 COLUMNS = [("label", "body", "s"), ("method", "method", "s"), ("order", "order", "d"),
            ("band_error", "band_error", ".4e"), ("max_rel_error", "max_rel_error", ".4e"),
-           ("h2_error", "H2 error (rel.)", ".4e"), ("time_mean_error", "time_mean_error", ".4e"),
+           ("hinf_error", "H∞ error (rel., band)", ".4e"), ("h2_error", "H2 error (rel.)", ".4e"), ("time_mean_error", "time_mean_error", ".4e"),
            ("time_max_error", "time_max_error", ".4e"), ("time_seconds", "time integration [s]", ".3f"),
            ("seconds", "reduction [s]", ".3f")]
 
@@ -171,7 +171,8 @@ def build_report(model, ports, reduced, *, band, labels=None, seconds=None, full
         err = full.evaluate(red)
         H_red[lb], curves[lb] = frf_reduced(red, full.freqs), err["rel_error"]
         rep.rows.append({"label": lb, "method": red.method, "order": red.order, "band_error": err["band_error"],
-                         "max_rel_error": err["max_rel_error"], "h2_error": None, "seconds": sec})
+                         "max_rel_error": err["max_rel_error"], "hinf_error": err["hinf_error"], "h2_error": None,
+                         "seconds": sec})
     damped = model.D is not None
     if damped and model.n_dof <= h2_max_dof:
         from ..analysis.norms import h2_error
