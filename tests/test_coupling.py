@@ -145,3 +145,19 @@ def test_undeclared_port_of_a_reduced_body_is_an_error(beam_and_krylov):
     with pytest.raises(PortError, match="not declared at reduction time"):
         asm.spring(("beam", "TIP:z"), None, 1e6)
     assert sp.issparse(Assembly().add_body("x", beam_and_krylov[0], beam_and_krylov[1]).model.K)
+
+
+def test_mixed_full_and_reduced_assembly(beam_and_krylov):
+    """A full body coupled to a reduced one (sparse path) matches two full bodies."""
+    model, ports, red = beam_and_krylov
+    f = np.array([3.0, 40.0])
+    io = {"inputs": [("a", cb.TIP)], "outputs": [("b", cb.TIP)]}
+    H = []
+    for second in (model, red):
+        asm = Assembly()
+        asm.add_body("a", model, ports)
+        asm.add_body("b", second, ports if second is model else None)
+        asm.spring(("a", cb.TIP), ("b", cb.MID), 1e5)
+        assert asm.sparse
+        H.append(asm.frf(f, **io))
+    assert np.abs(H[0] - H[1]).max() < 1e-3 * np.abs(H[0]).max()
