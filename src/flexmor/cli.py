@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from . import __version__
-from .errors import ConvergenceError, FlexmorError, ModelError, SolverError
+from .errors import ConvergenceError, FlexmorError, ModelError, PortError, SolverError
 from .jsonutil import jsonable
 
 __all__ = ["main"]
@@ -64,9 +64,15 @@ def cmd_info(args) -> int:
     out["backends"] = available_backends()
     if args.modes:
         k = min(args.modes, model.n_dof)
-        lam, _ = eigenmodes(model.K, model.M, k, backend=args.backend)
+        lam, _ = eigenmodes(model.K, model.M, min(max(k, 7), model.n_dof), backend=args.backend)
+        n_zero = int(np.sum(is_rigid(lam, model.K, model.M)))
+        if n_zero > 6:  # a body has at most 6 rigid-body modes; more is a mechanism (decided in issue 11)
+            raise ModelError(f"{args.model}: the stiffness matrix has at least {n_zero} zero-energy modes (a free "
+                             "body has at most 6): the model is a mechanism; look for unconnected parts, "
+                             "missing elements or released DOFs")
+        lam = lam[:k]
         out["frequencies_hz"] = frequencies_hz(lam).tolist()
-        out["n_rigid"] = int(np.sum(is_rigid(lam, model.K, model.M)))
+        out["n_rigid"] = min(n_zero, k)
     out["timings"] = {"read": t_read}
     if args.json:
         _emit_json(out)
@@ -378,7 +384,7 @@ def main(argv=None) -> int:
     except FlexmorError as exc:
         msg = str(exc)
         model = getattr(args, "model", None)
-        if model and isinstance(exc, (ModelError, SolverError, ConvergenceError)) and str(model) not in msg:
+        if model and isinstance(exc, (ModelError, PortError, SolverError, ConvergenceError)) and str(model) not in msg:
             msg = f"{model}: {msg}"  # problems found after reading still name the file
         print(f"flexmor: error: {msg}", file=sys.stderr)
         return 2

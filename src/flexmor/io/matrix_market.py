@@ -29,7 +29,7 @@ import scipy.sparse as sp
 
 from ..errors import ReadError
 from . import register_format
-from ._text import build_model
+from ._text import build_model, entry_line, parse_triplets
 
 __all__ = ["read_matrix_market", "find_siblings"]
 
@@ -127,10 +127,75 @@ def _check_header(path: Path) -> None:
         raise ReadError(path, f"symmetry '{words[4]}' is not supported; use general or symmetric", 1)
 
 
+#: Largest matrix dimension accepted (a header claiming more is refused before allocation).
+MAX_DIM = 2**31 - 1
+
+
+def _size_line(path: Path):
+    """``(lineno, [ints])`` of the size line (the first line after the banner and comments)."""
+    with open(path, "rb") as f:
+        for lineno, raw in enumerate(f, 1):
+            s = raw.decode("latin-1").strip()
+            if lineno == 1 or not s or s.startswith("%"):
+                continue
+            try:
+                return lineno, [int(t) for t in s.split()]
+            except ValueError:
+                raise ReadError(path, f"size line must hold integers 'rows cols entries', got {s[:60]!r}",
+                                lineno) from None
+    raise ReadError(path, "no size line after the %%MatrixMarket header: the file was cut off")
+
+
+def _read_coordinate(path: Path, symmetric: bool) -> sp.csr_matrix:
+    """Strict parser of a real coordinate file: sizes, indices, values and duplicates checked."""
+    lineno, size = _size_line(path)
+    if len(size) != 3 or min(size) < 0:
+        raise ReadError(path, "size line must be 'rows cols entries' (three non-negative integers)", lineno)
+    nr, nc, nnz = size
+    fsize = path.stat().st_size
+    if max(nr, nc) > MAX_DIM or nnz > fsize // 6 + 1 or (nnz and max(nr, nc) > 1000 * nnz + 10**6):
+        raise ReadError(path, f"header claims a {nr} x {nc} matrix with {nnz} entries, which a "
+                              f"{fsize}-byte file cannot hold; the size line is corrupt", lineno)
+    rows, cols, vals = parse_triplets(path)
+    rows, cols, vals = rows[1:], cols[1:], vals[1:]  # the first 'triplet' is the size line
+    if len(vals) != nnz:
+        raise ReadError(path, f"header announces {nnz} entries but the file holds {len(vals)}"
+                              + ("; the file is truncated (cut off)" if len(vals) < nnz else ""))
+    out = np.flatnonzero((rows < 0) | (cols < 0) | (rows >= nr) | (cols >= nc))
+    if out.size:
+        k = int(out[0])
+        raise ReadError(path, f"entry ({rows[k] + 1}, {cols[k] + 1}) is out of bounds of the {nr} x {nc} matrix "
+                              "(indices are 1-based)", entry_line(path, k + 1))
+    r, c = (np.maximum(rows, cols), np.minimum(rows, cols)) if symmetric else (rows, cols)
+    key = r * max(nc, 1) + c
+    order = np.argsort(key, kind="stable")
+    dup = np.flatnonzero(np.diff(key[order]) == 0)
+    if dup.size:
+        k = int(order[dup[0] + 1])
+        raise ReadError(path, f"entry ({rows[k] + 1}, {cols[k] + 1}) appears twice; each entry once, please",
+                        entry_line(path, k + 1))
+    if symmetric:
+        off = rows != cols
+        rows, cols, vals = (np.concatenate([rows, cols[off]]), np.concatenate([cols, rows[off]]),
+                            np.concatenate([vals, vals[off]]))
+    return sp.csr_matrix((vals, (rows, cols)), shape=(nr, nc), dtype=np.float64)
+
+
 def _read_one(path: Path, role: str) -> sp.csr_matrix:
     _check_header(path)
+    with open(path, "rb") as f:
+        words = f.readline(200).decode("latin-1").lower().split()
     try:
-        A = scipy.io.mmread(str(path))
+        if words[2] == "coordinate":
+            A = _read_coordinate(path, words[4] == "symmetric")
+        else:
+            lineno, size = _size_line(path)
+            if len(size) != 2 or min(size) < 0 or size[0] * size[1] > path.stat().st_size // 2 + 1:
+                raise ReadError(path, f"array size line {size} does not fit the file; the size line is corrupt",
+                                lineno)
+            A = scipy.io.mmread(str(path))
+    except ReadError:
+        raise
     except Exception as exc:  # noqa: BLE001 - any parser failure is a malformed file
         msg = str(exc).strip() or type(exc).__name__
         m = _LINE_MSG.match(msg)
