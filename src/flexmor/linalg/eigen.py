@@ -68,7 +68,7 @@ def eigenmodes(K, M, k: int, *, sigma: float | None = None, backend: str = "auto
         Backend of :func:`flexmor.linalg.factorize` for ``K - sigma M``.
     tol : float
         Convergence tolerance: ARPACK's (0 = machine precision) or the relative residual of
-        the block Lanczos iteration (0 = its default 1e-9, eigenvalues to ~1e-14 relative).
+        the block Lanczos iteration (0 = its default 1e-8, eigenvalues to ~1e-14 relative).
     factorization : Factorization, optional
         An existing factorization of ``K - sigma M`` to reuse (``sigma`` must be given).
     method : {'auto', 'lanczos', 'arpack', 'dense'}
@@ -77,7 +77,7 @@ def eigenmodes(K, M, k: int, *, sigma: float | None = None, backend: str = "auto
         in shift-invert mode (one single-vector solve per step); ``dense``: LAPACK on dense
         copies. ``auto``: dense up to :data:`DENSE_LIMIT` DOF or ``k >= n/2``, else lanczos.
     block : int, optional
-        Block size of ``lanczos`` (default ``min(max(8, k // 2), 24)``).
+        Block size of ``lanczos`` (default ``min(max(6, k // 4), 16)``).
 
     Returns
     -------
@@ -120,7 +120,7 @@ def eigenmodes(K, M, k: int, *, sigma: float | None = None, backend: str = "auto
         if F is None:
             F = factorize((K - sigma * M).tocsr(), backend, symmetric=True, positive=sigma < 0)
         if method == "lanczos":
-            lam, phi = block_lanczos(K, M, k, F, sigma, block=block, tol=tol or 1e-9)
+            lam, phi = block_lanczos(K, M, k, F, sigma, block=block, tol=tol or 1e-8)
         else:
             op = LinearOperator(K.shape, matvec=F.solve, matmat=F.solve, dtype=np.float64)
             ncv = min(n, max(2 * k + 1, k + 32))

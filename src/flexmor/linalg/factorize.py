@@ -32,7 +32,8 @@ import scipy.sparse as sp
 
 from ..errors import OptionError, SolverError
 
-__all__ = ["factorize", "Factorization", "available_backends", "BACKENDS"]
+__all__ = ["factorize", "Factorization", "available_backends", "BACKENDS", "memory_available",
+           "estimate_memory", "check_memory", "describe_backends"]
 
 log = logging.getLogger(__name__)
 
@@ -55,6 +56,10 @@ class Factorization:
         Shape of the factorized matrix.
     seconds : float
         Wall time of the factorization.
+    memory_estimate : float or None
+        Bytes the backend expected to need for factor and solves (pardiso: from its analysis
+        phase; scipy: the heuristic of :func:`estimate_memory`), checked against the
+        available memory before the numerical factorization.
     inertia : tuple of int or None
         ``(n_positive, n_negative)`` eigenvalues of a real symmetric indefinite matrix when
         the backend reports them (pardiso), else None. For ``K - s M`` the number of
@@ -69,6 +74,7 @@ class Factorization:
         self.dtype = A.dtype
         self.seconds = 0.0
         self.inertia = None
+        self.memory_estimate = None
 
     def _solve(self, b: np.ndarray) -> np.ndarray:  # pragma: no cover - abstract
         raise NotImplementedError
@@ -97,6 +103,8 @@ class _ScipyLU(Factorization):
         super().__init__(A)
         from scipy.sparse.linalg import splu
 
+        self.memory_estimate = estimate_memory(A, "scipy")
+        check_memory(self.memory_estimate, "scipy", A.shape[0])
         opts = {}
         if symmetric:
             opts = dict(permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0, options={"SymmetricMode": True})
@@ -112,6 +120,54 @@ class _ScipyLU(Factorization):
         if np.iscomplexobj(b) and not np.iscomplexobj(self._lu.U.data):
             return self._lu.solve(np.ascontiguousarray(b.real)) + 1j * self._lu.solve(np.ascontiguousarray(b.imag))
         return self._lu.solve(np.asarray(b, dtype=np.result_type(b, self._lu.U.dtype)))
+
+
+#: Refuse a factorization whose estimate exceeds this share of the available memory.
+MEMORY_FRACTION = 0.9
+
+
+def memory_available() -> float | None:
+    """Bytes of memory available to new allocations (``MemAvailable`` of /proc/meminfo), or None."""
+    try:
+        with open("/proc/meminfo") as fh:
+            for line in fh:
+                if line.startswith("MemAvailable:"):
+                    return 1024.0 * int(line.split()[1])
+    except (OSError, ValueError, IndexError):
+        pass
+    return None
+
+
+def estimate_memory(A, backend: str) -> float | None:
+    """Heuristic bytes for factorizing ``A`` with a backend that reports nothing beforehand.
+
+    For SuperLU (``scipy``) an empirical fit to the fill of 3D solid FE matrices measured in
+    ``bench/solvers.py`` (0.52 GB at 27k DOF, 3.7 GB at 94.5k DOF, nested-dissection-free
+    minimum-degree ordering): ``3.7 GB * (n / 94500)**1.6 * (nnz / n / 73.5)``; it overestimates
+    shells and 2D meshes, whose fill grows more slowly. None for other backends.
+    """
+    if backend != "scipy":
+        return None
+    n = A.shape[0]
+    per_row = max(A.nnz / max(n, 1) / 73.5, 0.1)
+    itemsize = 2.0 if np.iscomplexobj(A.data) else 1.0
+    return 3.7e9 * (n / 94500.0) ** 1.6 * per_row * itemsize
+
+
+def check_memory(estimate: float | None, backend: str, n: int) -> None:
+    """Raise :class:`SolverError` when ``estimate`` bytes would not fit into the available memory."""
+    avail = memory_available()
+    if estimate is None or avail is None:
+        return
+    log.debug("factorization of n=%d with %s: estimate %.0f MB, available %.0f MB", n, backend,
+              estimate / 2**20, avail / 2**20)
+    if estimate > MEMORY_FRACTION * avail:
+        others = [b for b in available_backends() if b != backend]
+        hint = (f"try another backend ({', '.join(others)}), " if others else "") + \
+            "a distributed backend on a machine with more memory, or a smaller model"
+        raise SolverError(
+            f"factorizing {n} equations with {backend} needs about {estimate / 2**20:.0f} MB, "
+            f"but only {avail / 2**20:.0f} MB of memory are available; {hint}")
 
 
 _MKL_PARDISO = None
@@ -185,7 +241,11 @@ class _Pardiso(Factorization):
         self._ctypes = ctypes
         self._live = False
         try:
-            self._call(12, None, None, 0)
+            self._call(11, None, None, 0)  # analysis: ordering, symbolic factorization, memory
+            kb = max(int(self._iparm[14]), int(self._iparm[15]) + int(self._iparm[16]))
+            self.memory_estimate = 1024.0 * kb
+            check_memory(self.memory_estimate, "pardiso", self._n)
+            self._call(22, None, None, 0)  # numerical factorization
         except SolverError:
             self._release()
             raise
@@ -350,3 +410,19 @@ def factorize(A, backend: str = "auto", *, symmetric: bool = True, positive: boo
                 "a free-free body needs a shift or reference conditions"
             )
     return F
+
+
+#: What each backend does (for ``flexmor info --backends``).
+_DESCRIPTIONS = {
+    "cholmod": "CHOLMOD supernodal Cholesky (scikit-sparse); real symmetric positive definite only",
+    "pardiso": "Intel MKL PARDISO; real SPD (Cholesky), real symmetric indefinite (LDLT, inertia), "
+               "complex symmetric and unsymmetric; METIS ordering; memory estimate before factorizing",
+    "scipy": "SciPy SuperLU; real and complex, minimum-degree ordering; slow above ~50k DOF of a 3D solid",
+}
+
+
+def describe_backends() -> list[dict]:
+    """One dict per known backend: ``name``, ``available``, ``complex``, ``positive_only``, ``description``."""
+    avail = set(available_backends())
+    return [{"name": name, "available": name in avail, "complex": cplx, "positive_only": pos,
+             "description": _DESCRIPTIONS.get(name, "")} for name, (_, _, cplx, pos) in BACKENDS.items()]
