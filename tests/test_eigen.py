@@ -103,3 +103,16 @@ def test_describe_backends_lists_capabilities():
     rows = {r["name"]: r for r in describe_backends()}
     assert rows["scipy"]["available"] and rows["scipy"]["complex"]
     assert rows["cholmod"]["positive_only"] and not rows["cholmod"]["complex"]
+
+
+def test_cli_info_backends(capsys):
+    import json
+
+    from flexmor.cli import main
+
+    assert main(["info", "--backends", "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    names = [b["name"] for b in out["backends"]]
+    assert names == ["cholmod", "pardiso", "scipy"]
+    assert out["memory_available_mb"] is None or out["memory_available_mb"] > 0
+    assert main(["info"]) == 2  # neither MODEL nor --backends

@@ -55,10 +55,33 @@ def _read_model(args, couplings=()):
 
 
 # -- info --------------------------------------------------------------------------------------
+def _info_backends(args) -> int:
+    from .linalg.factorize import describe_backends, memory_available
+
+    rows = describe_backends()
+    avail = memory_available()
+    if args.json:
+        print(json.dumps({"backends": rows, "memory_available_mb": None if avail is None else avail / 2**20}))
+        return 0
+    for r in rows:
+        flags = ("available" if r["available"] else "not installed") + (", complex" if r["complex"] else "") + \
+            (", SPD only" if r["positive_only"] else "")
+        print(f"{r['name']:<8} {flags:<32} {r['description']}")
+    if avail is not None:
+        print(f"memory available: {avail / 2**20:.0f} MB (factorizations that would not fit are refused)")
+    return 0
+
+
 def cmd_info(args) -> int:
     from .linalg import available_backends
     from .linalg.eigen import eigenmodes, frequencies_hz, is_rigid
 
+    if args.backends:
+        return _info_backends(args)
+    if args.model is None:
+        from .errors import OptionError
+
+        raise OptionError("info needs a MODEL file (or --backends)")
     model, t_read, _ = _read_model(args)
     out = model.summary()
     out["backends"] = available_backends()
@@ -305,6 +328,10 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("info", help="sizes, checks and lowest eigenfrequencies of a model")
     _add_model_args(p, damping=False)
     p.add_argument("--modes", type=int, default=0, help="number of lowest eigenfrequencies to compute")
+    p.add_argument("--backends", action="store_true", help="list the sparse solver backends and what each supports")
+    for action in p._actions:  # MODEL is optional with --backends
+        if action.dest == "model":
+            action.nargs, action.required = "?", False
     p.set_defaults(func=cmd_info)
 
     p = sub.add_parser("reduce", help="reduce a model and write the reduced body (.h5)")

@@ -56,7 +56,7 @@ def _iterate(K, M, k, F, sigma, *, block=None, tol=1e-8, max_basis=None, max_res
     n = K.shape[0]
     p = int(block) if block else min(max(6, k // 4), 16)
     p = max(1, min(p, n - k if n > k else 1))
-    cap = int(max_basis) if max_basis else max(4 * k, k + 12 * p)
+    cap = int(max_basis) if max_basis else max(5 * k, k + 14 * p)
     cap = min(max(cap, k + 2 * p), n)
     Q = np.empty((n, cap), order="F")  # column blocks contiguous for the BLAS products
     MQ = np.empty((n, cap), order="F")
@@ -115,10 +115,10 @@ def _iterate(K, M, k, F, sigma, *, block=None, tol=1e-8, max_basis=None, max_res
             R = KX - MX * lam
             res = np.linalg.norm(R, axis=0) / ((np.abs(lam) + scale) * np.linalg.norm(MX, axis=0) + 1e-300)
             # round-off puts a floor of about eps ||K|| ||x|| under ||R||: accept a pair below
-            # 0.1 sqrt(tol) once its residual has stopped decreasing
+            # 0.01 sqrt(tol) once its residual has stopped decreasing
             stalled = res >= 0.5 * res_old if res_old is not None else np.zeros(k, bool)
             res_old = res
-            done = (res <= tol) | (stalled & (res <= np.sqrt(tol) * 1e-1))
+            done = (res <= tol) | (stalled & (res <= np.sqrt(tol) * 1e-2))
             last = (R, done)
             log.debug("block Lanczos: %d columns, %d solves, max residual %.1e", m, solves, res.max())
             if done.all() or m == n:
@@ -152,10 +152,10 @@ def block_lanczos(K, M, k: int, F, sigma: float, *, block: int | None = None, to
         Relative residual ``||K x - lambda M x|| / ((|lambda| + |sigma|) ||M x||)`` below which
         a Ritz pair counts as converged. The eigenvalue (a Rayleigh quotient) is then accurate
         to about ``tol**2`` relative to the gap. Round-off limits this residual to about
-        ``eps ||K|| / lambda``; a pair whose residual is below ``0.1 sqrt(tol)`` and fell by less than
+        ``eps ||K|| / lambda``; a pair whose residual is below ``0.01 sqrt(tol)`` and fell by less than
         half since the previous block (stalled at that floor) also counts.
     max_basis : int, optional
-        Columns before a thick restart; default ``max(4 k, k + 12 p)``.
+        Columns before a thick restart; default ``max(5 k, k + 14 p)``.
     max_restarts : int
         Raise :class:`ConvergenceError` after this many restarts.
     seed : int
