@@ -94,6 +94,8 @@ def read_mapping(path, n_eq: int) -> np.ndarray:
     for lineno, s in body:
         if not s.isdigit():
             raise ReadError(path, f"expected one node number per line, got {s[:60]!r}", lineno)
+        if len(s) > 15:
+            raise ReadError(path, f"node number {s[:30]} is too large", lineno)
         nodes.append(int(s))
     if len(nodes) != int(h[0]):
         raise ReadError(path, f"header announces {h[0]} entries but {len(nodes)} follow; is the file truncated?",

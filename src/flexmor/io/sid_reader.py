@@ -130,6 +130,8 @@ def read_sid(path, *, m1_order: str = "auto") -> SIDFile:
         if low.startswith("end"):
             what = low[3:].strip()
             if what == "node":
+                if cur_node is None:
+                    raise ReadError(path, "'end node' without a 'new node' before it", line=ln)
                 nodes_raw.append(cur_node)
                 cur_node = None
             if stack and stack[-1] == what:
@@ -146,7 +148,10 @@ def read_sid(path, *, m1_order: str = "auto") -> SIDFile:
             elif key == "mass":
                 mass = _float(path, ln, val)
             elif key == "nelastq":
-                nelastq = int(val)
+                try:
+                    nelastq = int(val)
+                except ValueError:
+                    raise ReadError(path, f"nelastq must be an integer: {s!r}", line=ln) from None
             elif key == "ielastq":
                 ielastq[int(m.group(2))] = val
             elif key == "rframe" and cur_node is not None:
