@@ -132,7 +132,7 @@ def _parse_labels(path: Path, text: str):
             raise ReadError(path, f"non-numeric direction or value in {s[:60]!r}", lineno) from None
         for node, d in ((t[0], d1), (t[2], d2)):
             lab = node.rsplit(".", 1)[-1]
-            if not lab.lstrip("-").isdigit():
+            if not (lab.isascii() and lab.lstrip("-").isdigit()):
                 raise ReadError(path, f"node label {node!r} is not a number (or instance.number)", lineno)
             if int(lab) <= 0:
                 raise ReadError(path, f"node label {node} <= 0 is an internal DOF (Lagrange multiplier or hybrid "

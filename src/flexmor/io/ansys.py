@@ -92,7 +92,7 @@ def read_mapping(path, n_eq: int) -> np.ndarray:
         raise ReadError(path, f"expected the Matrix Market array size 'n 1', got {head[:60]!r}", hl)
     nodes = []
     for lineno, s in body:
-        if not s.isdigit():
+        if not (s.isascii() and s.isdigit()):
             raise ReadError(path, f"expected one node number per line, got {s[:60]!r}", lineno)
         if len(s) > 15:
             raise ReadError(path, f"node number {s[:30]} is too large", lineno)

@@ -34,6 +34,9 @@ __all__ = ["read_nastran", "read_dmig", "read_op4", "read_grids"]
 
 log = logging.getLogger(__name__)
 
+#: Largest OP4 matrix (entries) read densely: 2e8 entries = 1.6 GB of float64.
+_MAX_DENSE = 200_000_000
+
 _IMPLICIT_EXP = re.compile(r"^([+-]?(?:\d+\.?\d*|\.\d+))([+-]\d+)$")
 
 
@@ -167,6 +170,9 @@ def read_op4(path) -> dict:
         bigmat = nrow < 0
         nrow = abs(nrow)
         cplx = typ in (3, 4)
+        if nrow * ncol > _MAX_DENSE:
+            raise ReadError(path, f"matrix {name} of {nrow} x {ncol} is too large for a dense OP4 read "
+                                  f"(limit {_MAX_DENSE} entries); is the header corrupt?", i + 1)
         A = np.zeros((nrow, ncol), np.complex128 if cplx else np.float64)
         i += 1
         while True:

@@ -32,6 +32,10 @@ def _float(path, lineno, s):
         raise ReadError(path, f"not a number: {s!r}", line=lineno) from None
 
 
+#: Largest Taylor object (nrow * ncol * nq entries) a SID file may announce.
+_MAX_ENTRIES = 100_000_000
+
+
 def _finish(path, raw, m1_order):
     h = raw["h"]
     try:
@@ -39,6 +43,9 @@ def _finish(path, raw, m1_order):
     except KeyError as exc:
         raise ReadError(path, f"Taylor object {raw['name']} lacks {exc.args[0]}", line=raw["line"]) from None
     structure = h.get("structure", 3)
+    if min(nrow, ncol, nq) < 0 or max(nrow, 1) * max(ncol, 1) * max(nq, 1) > _MAX_ENTRIES:
+        raise ReadError(path, f"Taylor object {raw['name']}: size {nrow} x {ncol} (nq {nq}) is negative or "
+                              "implausibly large; is the header corrupt?", line=raw["line"])
     m0 = np.eye(nrow, ncol) if structure == 4 else np.zeros((nrow, ncol))
     for (i, j), v, ln in raw["m0"]:
         if not (1 <= i <= nrow and 1 <= j <= ncol):
