@@ -94,6 +94,20 @@ class AbaqusDeck:
         return out
 
 
+def include_path(path: Path, opts: dict, depth: int, lineno: int) -> Path:
+    """The file named by ``*INCLUDE, INPUT=file`` (relative to ``path``'s folder), checked to exist
+    and to nest at most ``_MAX_INCLUDE_DEPTH`` levels (``depth`` is the current level)."""
+    inc = opts.get("INPUT", "").strip("\"'")
+    if not inc:
+        raise ReadError(path, "*INCLUDE without INPUT=file", lineno)
+    if depth >= _MAX_INCLUDE_DEPTH:
+        raise ReadError(path, f"*INCLUDE nested deeper than {_MAX_INCLUDE_DEPTH} levels", lineno)
+    p = Path(inc) if Path(inc).is_absolute() else path.parent / inc
+    if not p.exists():
+        raise ReadError(path, f"included file {inc} not found", lineno)
+    return p
+
+
 def keyword_options(card: str) -> tuple[str, dict]:
     parts = [p.strip() for p in card.lstrip("*").split(",")]
     opts = {}
@@ -188,15 +202,7 @@ class _Parser:
             tgt = st["part"] or self.flat
             tgt.sections.append((opts.get("ELSET", "").upper(), opts.get("MATERIAL", "").upper()))
         elif kw == "INCLUDE":
-            inc = opts.get("INPUT", "").strip("'")
-            if not inc:
-                raise ReadError(path, "*INCLUDE without INPUT=file", lineno)
-            if depth >= _MAX_INCLUDE_DEPTH:
-                raise ReadError(path, f"*INCLUDE nested deeper than {_MAX_INCLUDE_DEPTH} levels", lineno)
-            p = Path(inc) if Path(inc).is_absolute() else path.parent / inc
-            if not p.exists():
-                raise ReadError(path, f"included file {inc} not found", lineno)
-            self.parse(p, depth + 1)
+            self.parse(include_path(path, opts, depth, lineno), depth + 1)
             st["block"] = None
 
     def _target(self, st):
@@ -321,7 +327,7 @@ def read_deck(path) -> AbaqusDeck:
         groups = [(name, part, None, None) for name, part in P.parts.items()]
     if P.flat.labels or not groups:
         groups.append(("", P.flat, None, None))
-    keys, xyz, elems_raw = [], [], []
+    keys, xyz = [], []
     for name, part, t, r in groups:
         if not part.labels:
             continue

@@ -23,13 +23,11 @@ import scipy.sparse as sp
 from ..errors import ReadError
 from . import register_format
 from ._text import build_model, entry_line, parse_triplets, read_text
-from .abaqus_inp import keyword_options
+from .abaqus_inp import include_path, keyword_options
 
 __all__ = ["read_calculix", "read_inp", "read_dof"]
 
 log = logging.getLogger(__name__)
-
-_MAX_INCLUDE_DEPTH = 10
 
 
 def _sibling(path: Path, suffix: str, what: str) -> Path:
@@ -138,15 +136,7 @@ def read_inp(path, _depth: int = 0, _state: dict | None = None):
                 cur_set = opts["NSET"].upper()
                 st["sets"].setdefault(cur_set, [])
             elif block == "INCLUDE":
-                inc = opts.get("INPUT", "").strip("\"'")
-                if not inc:
-                    raise ReadError(path, "*INCLUDE without INPUT=file", lineno)
-                if _depth >= _MAX_INCLUDE_DEPTH:
-                    raise ReadError(path, f"*INCLUDE nested deeper than {_MAX_INCLUDE_DEPTH} levels", lineno)
-                inc_path = (path.parent / inc) if not Path(inc).is_absolute() else Path(inc)
-                if not inc_path.exists():
-                    raise ReadError(path, f"included file {inc} not found", lineno)
-                read_inp(inc_path, _depth + 1, st)
+                read_inp(include_path(path, opts, _depth, lineno), _depth + 1, st)
             continue
         if block == "NODE":
             _node_line(path, lineno, s, st, cur_set)
