@@ -145,7 +145,7 @@ def test_punch_geometry_errors(tmp_path):
     with pytest.raises(ReadError, match=r"g\.bdf: grid 1 of the matrices has no GRID card"):
         flexmor.io.read(p)
     p.with_suffix(".bdf").write_text("$\nGRID,1,5,0.,0.,0.\n")
-    with pytest.raises(ReadError, match=r"g\.bdf:2: GRID 1 uses coordinate system CP=5"):
+    with pytest.raises(ReadError, match=r"g\.bdf:2: GRID 1: coordinate system CP=5 is not defined"):
         flexmor.io.read(p)
 
 
@@ -161,5 +161,5 @@ def test_broken_op4(tmp_path, edit, words):
     with pytest.raises(ReadError, match=words):
         read_op4(p)
     (tmp_path / "bin.op4").write_bytes(b"\x00\x01\x02" * 40)
-    with pytest.raises(ReadError, match="binary OP4 is not supported"):
+    with pytest.raises(ReadError, match="not an OP4 file"):
         read_op4(tmp_path / "bin.op4")

@@ -95,6 +95,10 @@ def _set_nodes(model: FEModel, name: str, spec: str) -> np.ndarray:
         raise PortError(f"coupling {spec!r}: the model has no node table and equation map")
     if nodes.size == 0:
         raise PortError(f"coupling {spec!r}: node set {name!r} is empty")
+    local = [int(k) for k in nodes if int(k) in model.node_frames]
+    if local:
+        raise PortError(f"coupling {spec!r}: node {local[0]} has local displacement directions (a Nastran CD "
+                        "system); couplings need global x y z: read the model with directions='basic'")
     return nodes
 
 

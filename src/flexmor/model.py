@@ -17,18 +17,29 @@ matrices ``B`` (n_dof, m) and ``C`` (p, n_dof).
 from __future__ import annotations
 
 import dataclasses
+import warnings
 from dataclasses import dataclass, field
 
 import numpy as np
 import scipy.sparse as sp
 
-from .errors import ModelError
+from .errors import FlexmorWarning, ModelError
 
 __all__ = ["FEModel", "DIRECTIONS", "direction_code", "direction_name"]
 
 #: Direction names and their codes in ``FEModel.dofs[:, 1]``.
 DIRECTIONS = {"x": 1, "y": 2, "z": 3, "rx": 4, "ry": 5, "rz": 6}
 _DIR_NAMES = {v: k for k, v in DIRECTIONS.items()}
+
+#: What a singular or indefinite mass matrix allows (appended to its warning).
+SINGULAR_MASS_NOTE = (
+    "the mass matrix is singular or indefinite, as 20-node hexahedra with reduced integration (C3D20R) can "
+    "give. Methods that only factorize K - sigma M with sigma < 0, or K, still work: eigenmodes by "
+    "shift-invert (modal, craig-bampton, cms-*), guyan, krylov/adaptive/irka/two-step with real or "
+    "imaginary expansion points, and the FRF / error evaluation. What needs M^-1 does not: time "
+    "integration of the full model with a non-zero initial force (initial acceleration), first-order "
+    "state-space forms with M^-1 K. With negative diagonal entries (indefinite M) spurious negative "
+    "eigenvalues can appear: check the frequencies")
 
 #: Relative tolerance of the symmetry check ``max|A - A^T| <= tol * max|A|``.
 SYMMETRY_RTOL = 1e-8
@@ -48,8 +59,8 @@ def direction_name(code: int) -> str:
 
 
 def _as_csr(name: str, A, n: int | None = None) -> sp.csr_matrix:
-    if A is None:
-        return None
+    if A is None or getattr(A, "partitioned", False):  # rows spread over MPI ranks: kept as they are
+        return A
     if not sp.issparse(A):
         A = np.asarray(A)
         if A.ndim != 2:
@@ -69,6 +80,8 @@ def _check_square_symmetric(name: str, A: sp.csr_matrix, n: int) -> None:
     if not np.all(np.isfinite(A.data)):
         bad = int(np.count_nonzero(~np.isfinite(A.data)))
         raise ModelError(f"{name} contains {bad} non-finite entries (NaN or Inf)")
+    if getattr(A, "partitioned", False):  # each rank holds some rows: symmetric by construction
+        return
     scale = float(np.max(np.abs(A.data))) if A.nnz else 0.0
     if scale == 0.0:
         return
@@ -110,6 +123,15 @@ class FEModel:
         Short model name. ``source`` is the file it was read from.
     damping : dict
         How ``D`` was obtained, e.g. ``{"type": "rayleigh", "alpha": .., "beta": ..}``.
+    node_frames : dict of int to ndarray (3, 3)
+        Nodes whose direction codes are not the global x y z (Nastran grids with a local
+        displacement system): the columns are the node's directions 1-3 (and 4-6) in
+        global components. Empty for almost all models.
+    singular_mass_ok : bool
+        The element formulation legitimately gives a singular or indefinite mass matrix
+        (20-node hexahedra with reduced integration or row-sum lumping, e.g. CalculiX
+        C3D20R): non-positive mass diagonals are then reported by a :class:`FlexmorWarning`
+        (see :data:`SINGULAR_MASS_NOTE`) instead of raising ModelError.
 
     Raises
     ------
@@ -132,6 +154,8 @@ class FEModel:
     name: str = "model"
     source: str = ""
     damping: dict = field(default_factory=lambda: {"type": "none"})
+    node_frames: dict = field(default_factory=dict)
+    singular_mass_ok: bool = False
 
     def __post_init__(self):
         self.M = _as_csr("M", self.M)
@@ -148,10 +172,11 @@ class FEModel:
         dm = self.M.diagonal()
         if np.any(dm <= 0):
             i = int(np.flatnonzero(dm <= 0)[0])
-            raise ModelError(
-                f"mass matrix diagonal is not positive at {np.count_nonzero(dm <= 0)} equation(s), "
-                f"first: {self.describe_dof(i)} (M = {dm[i]:.3g})"
-            )
+            msg = (f"mass matrix diagonal is not positive at {np.count_nonzero(dm <= 0)} equation(s), "
+                   f"first: {self.describe_dof(i)} (M = {dm[i]:.3g})")
+            if not self.singular_mass_ok or not np.sum(dm) > 0:
+                raise ModelError(msg)
+            warnings.warn(f"{self.source or self.name}: {msg}; {SINGULAR_MASS_NOTE}", FlexmorWarning, stacklevel=3)
         dk = self.K.diagonal()
         if np.any(dk < 0):
             i = int(np.flatnonzero(dk < 0)[0])
@@ -170,6 +195,15 @@ class FEModel:
         if np.unique(self.node_ids).size != self.node_ids.size:
             raise ModelError("node ids are not unique")
         self._node_index = {int(k): i for i, k in enumerate(self.node_ids)}
+        frames = {}
+        for nd, Q in (self.node_frames or {}).items():
+            Q = np.asarray(Q, dtype=np.float64)
+            if Q.shape != (3, 3) or not np.allclose(Q.T @ Q, np.eye(3), atol=1e-8):
+                raise ModelError(f"node_frames[{nd}] is not an orthonormal 3 x 3 matrix")
+            if int(nd) not in self._node_index:
+                raise ModelError(f"node_frames names node {nd}, which is not in the node table")
+            frames[int(nd)] = Q
+        self.node_frames = frames
         if self.dofs is not None:
             self.dofs = np.asarray(self.dofs, dtype=np.int64).reshape(-1, 2)
             if self.dofs.shape[0] != n:

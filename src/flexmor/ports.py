@@ -97,6 +97,10 @@ def _weights(model: FEModel, spec: str):
     nodes = _nodes_of(model, target, spec)
     if model.dofs is None:
         raise PortError(f"port {spec!r}: the model has no equation map")
+    if nodes.size > 1 and any(int(k) in model.node_frames for k in nodes):
+        raise PortError(f"port {spec!r}: set {target!r} has nodes with local displacement directions (Nastran CD "
+                        "systems), so its average in one direction is undefined; read the model with "
+                        "directions='basic'")
     idx = []
     for nd in nodes:
         try:

@@ -1,26 +1,32 @@
-"""Readers of Nastran matrix exports: DMIG cards in punch files and ASCII OP4 files.
+"""Readers of Nastran matrix exports: DMIG cards in punch files and OP4 files.
 
 DMIG (``.pch``; ``PARAM,EXTOUT,DMIGPCH`` writes ``KAAX``, ``MAAX`` ...)
     Small-field, large-field (``DMIG*`` with ``*`` continuations) and free-field cards.
     Rows and columns are ``(grid, component)``; the model's equations are all pairs that
     occur, sorted by grid and component. Symmetric matrices (``IFO=6``) may store either
-    triangle; an entry given twice is refused. Scalar points (component 0, e.g. the modal
-    DOFs of a superelement) are refused: the model needs grid DOFs. Grid coordinates come
-    from ``<stem>.bdf`` or ``<stem>.dat`` beside the punch file, or ``geometry=``
-    (``GRID`` cards in the basic system: ``CP`` and ``CD`` must be blank or 0).
-OP4, ASCII (``.op4``)
-    Dense and sparse (string) columns, real or complex, any ``NxEw.d`` format. The model
-    has no nodes: ``stiffness=``/``mass=`` name the matrices.
+    triangle (or both); an entry given twice is refused, not summed. Scalar points
+    (component 0, the modal DOFs of a superelement) are refused here: read such files with
+    :func:`flexmor.io.nastran_se.read_superelement`.
+OP4 (``.op4``, ASCII or binary, :mod:`flexmor.io.op4`)
+    Without a bulk-data file the model has no nodes. With one, its ``ASET/ASET1/BSET/...``
+    cards (else 6 DOFs per GRID, sorted by id) give the equation map, checked against the
+    matrix size.
+Geometry (:mod:`flexmor.io.nastran_bulk`)
+    ``<stem>.bdf``/``.dat``/``.nas``/``.asm`` beside the matrix file, or ``geometry=``:
+    ``GRID`` positions in any ``CP`` system (``CORD1*``/``CORD2*``, chained) are converted
+    to basic. Matrix rows and columns are in each grid's displacement system ``CD``: by
+    default such grids' equations are rotated to basic x y z (``K_b = T K T^T`` with the
+    orthogonal block ``T`` of each grid), so that ports, couplings and node selections use
+    global directions; ``directions='local'`` keeps them and records the frames.
 
 Matrix names default to the one name starting with ``K`` and the one starting with ``M``
 (and ``B`` for damping); pass ``stiffness=``, ``mass=``, ``damping=`` otherwise. Units are
-those of the Nastran model. pyNastran is not needed (and currently pins ``numpy<2``).
+those of the Nastran model. pyNastran is not needed.
 """
 
 from __future__ import annotations
 
 import logging
-import re
 from pathlib import Path
 
 import numpy as np
@@ -28,58 +34,13 @@ import scipy.sparse as sp
 
 from ..errors import ReadError
 from . import register_format
-from ._text import build_model, read_text
+from ._text import build_model
+from .nastran_bulk import Bulk, cards, num, read_bulk
+from .op4 import read_op4
 
-__all__ = ["read_nastran", "read_dmig", "read_op4", "read_grids"]
+__all__ = ["dof_transform", "find_bulk", "read_dmig", "read_grids", "read_nastran", "read_op4"]
 
 log = logging.getLogger(__name__)
-
-#: Largest OP4 matrix (entries) read densely: 2e8 entries = 1.6 GB of float64.
-_MAX_DENSE = 200_000_000
-
-_IMPLICIT_EXP = re.compile(r"^([+-]?(?:\d+\.?\d*|\.\d+))([+-]\d+)$")
-
-
-def _num(tok: str) -> float:
-    t = tok.strip().upper().replace("D", "E")
-    m = _IMPLICIT_EXP.match(t)
-    return float(f"{m.group(1)}E{m.group(2)}" if m else t)
-
-
-def _cards(path: Path, text: str):
-    """Yield ``(lineno, NAME, fields, field line numbers)`` of each bulk-data card, continuations merged.
-
-    Each line contributes 8 fields (small field, free field) or 4 (large field, ``NAME*``
-    and ``*`` continuations); short free-field lines are padded with blanks.
-    """
-    card = None
-    for lineno, raw in enumerate(text.splitlines(), 1):
-        line = raw.split("$", 1)[0].rstrip()
-        if not line.strip():
-            continue
-        if "," in line[:10]:
-            parts = line.split(",")
-            head, fields = parts[0].strip(), [p.strip() for p in parts[1:]]
-            large = head.endswith("*") or (head == "*")
-            width = 4 if large else 8
-            fields = (fields + [""] * width)[:max(width, len(fields))]
-        elif line[0] == "*" or line[:8].strip().endswith("*"):
-            head = line[:8].strip()
-            fields = [line[i:i + 16].strip() for i in range(8, 72, 16)]
-        else:
-            head = line[:8].strip()
-            fields = [line[i:i + 8].strip() for i in range(8, 72, 8)]
-        if head == "" or head[0] in "*+":
-            if card is None:
-                raise ReadError(path, f"continuation line without a card: {raw[:60]!r}", lineno)
-            card[2].extend(fields)
-            card[3].extend([lineno] * len(fields))
-            continue
-        if card is not None:
-            yield card
-        card = (lineno, head.rstrip("*").upper(), fields, [lineno] * len(fields))
-    if card is not None:
-        yield card
 
 
 def read_dmig(path) -> dict:
@@ -96,24 +57,24 @@ def read_dmig(path) -> dict:
     ReadError
         Malformed cards (with line number), column cards without a header, unknown forms.
     """
-    path = Path(path)
+    top = Path(path)
     mats: dict = {}
-    for lineno, name, f, flines in _cards(path, read_text(path)):
+    for fpath, lineno, name, f, flines in cards(top):
         if name != "DMIG":
             continue
         if len(f) < 3 or not f[0]:
-            raise ReadError(path, "DMIG card without a matrix name", lineno)
+            raise ReadError(fpath, "DMIG card without a matrix name", lineno)
         mname = f[0].upper()
         try:
             if f[1] == "0":
                 ifo, tin = int(f[2]), int(f[3] or 0)
                 if ifo not in (1, 2, 6, 9) or tin not in (1, 2, 3, 4):
-                    raise ReadError(path, f"DMIG {mname}: form {ifo} / type {tin} not supported "
+                    raise ReadError(fpath, f"DMIG {mname}: form {ifo} / type {tin} not supported "
                                           "(IFO 1, 2, 6, 9; TIN 1-4)", lineno)
                 mats[mname] = {"ifo": ifo, "complex": tin > 2, "r": [], "c": [], "v": [], "line": []}
                 continue
             if mname not in mats:
-                raise ReadError(path, f"DMIG {mname} column before its header card (GJ=0)", lineno)
+                raise ReadError(fpath, f"DMIG {mname} column before its header card (GJ=0)", lineno)
             m = mats[mname]
             gj, cj = int(f[1]), int(f[2] or 0)
             for k in range(4, len(f), 4):
@@ -121,147 +82,27 @@ def read_dmig(path) -> dict:
                 if not g:
                     continue
                 lineno = flines[k]
-                v = complex(_num(a), _num(b) if b else 0.0) if m["complex"] else _num(a)
+                v = complex(num(a), num(b) if b else 0.0) if m["complex"] else num(a)
                 m["r"].append((int(g), int(c or 0)))
                 m["c"].append((gj, cj))
                 m["v"].append(v)
                 m["line"].append(lineno)
         except ValueError:
-            raise ReadError(path, f"DMIG {mname}: non-numeric field", lineno) from None
+            raise ReadError(fpath, f"DMIG {mname}: non-numeric field", lineno) from None
     out = {}
     for k, m in mats.items():
         dt = np.complex128 if m["complex"] else np.float64
         out[k] = (m["ifo"], np.array(m["r"], np.int64).reshape(-1, 2), np.array(m["c"], np.int64).reshape(-1, 2),
                   np.array(m["v"], dt), np.array(m["line"], np.int64))
     if not out:
-        raise ReadError(path, "no DMIG matrices found")
-    return out
-
-
-def read_op4(path) -> dict:
-    """Read the matrices of an ASCII OP4 file.
-
-    Returns
-    -------
-    dict of str to ndarray
-        Name -> dense matrix (nrow, ncol), real or complex; symmetric forms (6) are expanded.
-
-    Raises
-    ------
-    ReadError
-        Binary OP4, malformed headers or columns (with line number), truncated files.
-    """
-    path = Path(path)
-    raw = path.read_bytes() if path.exists() else b""
-    if b"\x00" in raw[:4096]:
-        raise ReadError(path, "binary OP4 is not supported; write it with FORMAT=ASCII (OUTPUT4 ... ,-1 / ASCII)")
-    lines = read_text(path).splitlines()
-    out, i = {}, 0
-    while i < len(lines):
-        if not lines[i].strip():
-            i += 1
-            continue
-        h = lines[i]
-        m = re.match(r"^\s*(-?\d+)\s+(-?\d+)\s+(\d+)\s+(\d+)\s*(\S+)\s+\S*?(\d+)[EeDd](\d+)\.(\d+)", h)
-        if not m:
-            raise ReadError(path, f"expected an OP4 header 'ncol nrow form type NAME fmt', got {h[:60]!r}", i + 1)
-        ncol, nrow, form, typ = (int(m.group(k)) for k in range(1, 5))
-        name, per_line, width = m.group(5).upper(), int(m.group(6)), int(m.group(7))
-        bigmat = nrow < 0
-        nrow = abs(nrow)
-        cplx = typ in (3, 4)
-        if nrow * ncol > _MAX_DENSE:
-            raise ReadError(path, f"matrix {name} of {nrow} x {ncol} is too large for a dense OP4 read "
-                                  f"(limit {_MAX_DENSE} entries); is the header corrupt?", i + 1)
-        A = np.zeros((nrow, ncol), np.complex128 if cplx else np.float64)
-        i += 1
-        while True:
-            if i >= len(lines):
-                raise ReadError(path, f"matrix {name}: file ends before the closing column record", len(lines))
-            try:
-                icol, irow, nw = (int(x) for x in lines[i].split())
-            except ValueError:
-                raise ReadError(path, f"matrix {name}: expected a column record 'icol irow nwords'", i + 1) from None
-            i += 1
-            vals, i = _op4_values(path, lines, i, nw, per_line, width) if icol <= ncol else _skip(lines, i, nw,
-                                                                                                    per_line)
-            if icol > ncol:
-                break
-            pieces = [(irow, vals)] if irow > 0 else _strings(path, vals, bigmat, i)
-            for r0, v in pieces:
-                v = v[0::2] + 1j * v[1::2] if cplx else v
-                if r0 < 1 or r0 - 1 + len(v) > nrow or icol < 1:
-                    raise ReadError(path, f"matrix {name}: column {icol} rows {r0}..{r0 + len(v) - 1} outside "
-                                          f"{nrow} x {ncol}", i)
-                A[r0 - 1:r0 - 1 + len(v), icol - 1] = v
-        if form == 6:
-            A = np.triu(A) + np.triu(A, 1).T
-        out[name] = A
-    if not out:
-        raise ReadError(path, "no matrices found")
-    return out
-
-
-def _skip(lines, i, nw, per_line):
-    return None, i + -(-nw // per_line)
-
-
-def _op4_values(path, lines, i, nw, per_line, width):
-    vals = []
-    while len(vals) < nw:
-        if i >= len(lines):
-            raise ReadError(path, "file ends inside a column (truncated?)", len(lines))
-        s = lines[i].rstrip()
-        toks = [s[k:k + width] for k in range(0, len(s), width)]
-        if not toks:
-            raise ReadError(path, "blank line inside a column", i + 1)
-        try:
-            vals.extend(_num(t) for t in toks)
-        except ValueError:
-            raise ReadError(path, f"non-numeric value in {s[:60]!r}", i + 1) from None
-        i += 1
-    if len(vals) != nw:
-        raise ReadError(path, f"column announces {nw} words, found {len(vals)}", i)
-    return np.asarray(vals), i
-
-
-def _strings(path, vals, bigmat, lineno):
-    """Split a sparse column's words into ``(first row, values)`` strings."""
-    out, k = [], 0
-    while k < len(vals):
-        if bigmat:
-            n, r0 = int(vals[k]) - 1, int(vals[k + 1])
-            k += 2
-        else:
-            code = int(vals[k])
-            n, r0 = (code >> 16) - 1, code & 0xFFFF
-            k += 1
-        if n < 0 or k + n > len(vals):
-            raise ReadError(path, "broken sparse string in an OP4 column", lineno)
-        out.append((r0, vals[k:k + n]))
-        k += n
+        raise ReadError(top, "no DMIG matrices found")
     return out
 
 
 def read_grids(path):
-    """``(ids, xyz)`` of the ``GRID`` cards of a bulk-data file (basic system only)."""
-    path = Path(path)
-    ids, xyz = [], []
-    for lineno, name, f, _ in _cards(path, read_text(path)):
-        if name != "GRID":
-            continue
-        f = f + [""] * 6
-        try:
-            gid, cp, cd = int(f[0]), int(f[1] or 0), int(f[5] or 0)
-            x = [_num(t) if t else 0.0 for t in f[2:5]]
-        except ValueError:
-            raise ReadError(path, "non-numeric GRID field", lineno) from None
-        if cp or cd:
-            raise ReadError(path, f"GRID {gid} uses coordinate system CP={cp}/CD={cd}; flexmor reads the basic "
-                                  "system only", lineno)
-        ids.append(gid)
-        xyz.append(x)
-    return np.asarray(ids, np.int64), np.asarray(xyz, np.float64).reshape(-1, 3)
+    """``(ids, xyz)`` of the ``GRID`` cards of a bulk-data file, positions in the basic system."""
+    b = read_bulk(path)
+    return b.grid_ids, b.xyz
 
 
 def _pick(names, want, letter, what, path):
@@ -278,17 +119,71 @@ def _pick(names, want, letter, what, path):
                           f"or pass {what}=NAME to flexmor.io.read")
 
 
-def _dmig_model(path, mats, names, geometry):
+def find_bulk(path: Path, geometry=None) -> Path | None:
+    """The bulk-data file with the GRID cards: ``geometry`` or ``<stem>.bdf/.dat/.nas/.asm`` beside ``path``."""
+    if geometry:
+        geo = Path(geometry)
+        if not geo.exists():
+            raise ReadError(geo, "geometry file not found")
+        return geo
+    for suf in (".bdf", ".dat", ".nas", ".blk", ".asm"):
+        for p in (path.with_suffix(suf), path.with_suffix(suf.upper())):
+            if p.exists() and p != path:
+                return p
+    return None
+
+
+def dof_transform(bulk: Bulk, dofs: np.ndarray, where) -> sp.csr_matrix | None:
+    """``T`` with ``q_basic = T q_cd`` for the equations ``dofs`` (grid, component 1..6), or None.
+
+    Grids whose displacement system ``CD`` is not the basic system need all three
+    translations (rotations) among the equations to be rotated; otherwise ReadError.
+    Scalar points (component 0) pass unchanged.
+    """
+    local = {int(g) for g, c in zip(bulk.grid_ids, bulk.cd) if c != 0}
+    if not local:
+        return None
+    n = dofs.shape[0]
+    idx = {(int(g), int(c)): i for i, (g, c) in enumerate(dofs)}
+    rows, cols, vals = [], [], []
+    done = np.zeros(n, bool)
+    for g in sorted(local & {int(x) for x in dofs[:, 0]}):
+        Q = bulk.frame(g)
+        for base in (1, 4):
+            eq = [idx.get((g, base + k)) for k in range(3)]
+            have = [e for e in eq if e is not None]
+            if not have:
+                continue
+            if len(have) < 3:
+                miss = [base + k for k, e in enumerate(eq) if e is None]
+                cd = int(bulk.cd[np.searchsorted(bulk.grid_ids, g)])
+                raise ReadError(where, f"grid {g}: components {','.join(map(str, miss))} of its displacement "
+                                       f"system CD={cd} are not among the equations (constrained?), so the "
+                                       f"remaining ones cannot be rotated to the basic system; read with "
+                                       f"directions='local' to keep the equations in the CD systems")
+            for a in range(3):
+                for b in range(3):
+                    rows.append(eq[a])
+                    cols.append(eq[b])
+                    vals.append(Q[a, b])
+            done[eq] = True
+    keep = np.flatnonzero(~done)
+    T = sp.csr_matrix((np.concatenate([vals, np.ones(keep.size)]),
+                       (np.concatenate([rows, keep]).astype(np.int64), np.concatenate([cols, keep]).astype(np.int64))),
+                      shape=(n, n))
+    return T
+
+
+def _dmig_matrices(path, mats, names):
     pairs = np.unique(np.concatenate([np.concatenate([mats[n][1], mats[n][2]]) for n in names.values()]), axis=0)
-    if np.any(pairs[:, 1] == 0) or np.any(pairs[:, 1] > 6):
-        g = pairs[(pairs[:, 1] == 0) | (pairs[:, 1] > 6)][0]
-        raise ReadError(path, f"DOF {g[0]}-{g[1]} is a scalar point (or component > 6); flexmor needs grid DOFs "
-                              "1..6 (superelement modal DOFs are not supported)")
+    if np.any(pairs[:, 1] < 0) or np.any(pairs[:, 1] > 6):
+        g = pairs[(pairs[:, 1] < 0) | (pairs[:, 1] > 6)][0]
+        raise ReadError(path, f"DOF {g[0]}-{g[1]}: component must be 0 (scalar point) or 1..6")
     code = pairs[:, 0] * 8 + pairs[:, 1]
     n = pairs.shape[0]
     out = {}
     for role, name in names.items():
-        ifo, r, c, v, line = mats[name]
+        _, r, c, v, line = mats[name]
         if np.iscomplexobj(v):
             raise ReadError(path, f"DMIG {name} is complex; flexmor needs real matrices")
         i = np.searchsorted(code, r[:, 0] * 8 + r[:, 1])
@@ -304,30 +199,74 @@ def _dmig_model(path, mats, names, geometry):
             off = i != j
             i, j, v = np.concatenate([i, j[off]]), np.concatenate([j, i[off]]), np.concatenate([v, v[off]])
         out[role] = sp.csr_matrix((v, (i, j)), shape=(n, n))
-    node_ids, xyz = np.zeros(0, np.int64), np.zeros((0, 3))
-    geo = Path(geometry) if geometry else next((p for p in (path.with_suffix(".bdf"), path.with_suffix(".dat"))
-                                                if p.exists()), None)
-    if geo is not None:
-        if not geo.exists():
-            raise ReadError(geo, "geometry file not found")
-        node_ids, xyz = read_grids(geo)
-        miss = ~np.isin(pairs[:, 0], node_ids)
-        if np.any(miss):
-            raise ReadError(geo, f"grid {pairs[miss][0, 0]} of the matrices has no GRID card here")
-    return out, pairs, node_ids, xyz
+    return out, pairs
 
 
-def read_nastran(path, *, stiffness=None, mass=None, damping=None, geometry=None) -> "FEModel":  # noqa: F821
-    """Read stiffness and mass (and damping) from a DMIG punch file or an ASCII OP4 file.
+def _op4_dofs(path, n, bulk: Bulk | None, geo, explicit):
+    """Equation map of OP4 matrices of size ``n``: the a-set cards of the bulk file, else all grid DOFs."""
+    if bulk is None:
+        return None
+    if bulk.aset:
+        dofs = np.unique(np.array(bulk.aset, np.int64).reshape(-1, 2), axis=0)
+        what = "the ASET/BSET/QSET DOFs"
+    else:
+        dofs = np.array([(g, c) for g in bulk.grid_ids for c in range(1, 7)] + [(s, 0) for s in bulk.spoints],
+                        np.int64).reshape(-1, 2)
+        dofs = dofs[np.lexsort((dofs[:, 1], dofs[:, 0]))]
+        what = "6 DOFs per GRID plus the SPOINTs"
+    if dofs.shape[0] != n:
+        msg = f"{what} of {geo.name} give {dofs.shape[0]} equations, but the OP4 matrices have {n}"
+        if explicit:
+            raise ReadError(geo, msg)
+        log.warning("%s; the model is read without node table", msg)
+        return None
+    return dofs
+
+
+def _model_dofs(path, out, pairs, bulk, geo, directions):
+    """Node table, equation map and matrices in basic directions (or kept local)."""
+    if np.any(pairs[:, 1] == 0):
+        g = pairs[pairs[:, 1] == 0][0]
+        raise ReadError(path, f"DOF {g[0]}-0 is a scalar point (e.g. a superelement's modal coordinate); an FE "
+                              "model needs grid DOFs 1..6 - read a Craig-Bampton superelement with "
+                              "flexmor.io.nastran_se.read_superelement")
+    if bulk is None:
+        return out, np.zeros(0, np.int64), np.zeros((0, 3)), {}
+    miss = ~np.isin(pairs[:, 0], bulk.grid_ids)
+    if np.any(miss):
+        raise ReadError(geo, f"grid {pairs[miss][0, 0]} of the matrices has no GRID card here")
+    frames = {}
+    if directions == "basic":
+        T = dof_transform(bulk, pairs, geo)
+        if T is not None:
+            Tt = T.T.tocsr()
+            out = {k: (T @ A @ Tt).tocsr() for k, A in out.items()}
+            log.info("%s: equations of grids with a local CD system rotated to the basic system", path)
+    else:
+        frames = {int(g): bulk.frame(int(g)) for g, c in zip(bulk.grid_ids, bulk.cd) if c != 0}
+    return out, bulk.grid_ids, bulk.xyz, frames
+
+
+def read_nastran(path, *, stiffness=None, mass=None, damping=None, geometry=None,
+                 directions: str = "basic") -> "FEModel":  # noqa: F821
+    """Read stiffness and mass (and damping) from a DMIG punch file or an OP4 file.
 
     Parameters
     ----------
     path : str or path-like
-        ``.pch`` (DMIG) or ``.op4``.
+        ``.pch`` (DMIG) or ``.op4`` (ASCII or binary).
     stiffness, mass, damping : str, optional
         Matrix names (default: the one name starting with K, M, B).
     geometry : str or path-like, optional
-        Bulk-data file with the GRID cards (default ``<stem>.bdf``/``.dat`` beside a punch file).
+        Bulk-data file with the GRID cards (default ``<stem>.bdf``/``.dat``/``.nas``/``.asm``
+        beside the file). For OP4 its ASET/BSET cards (else 6 DOFs per GRID) give the
+        equation map.
+    directions : {'basic', 'local'}
+        ``basic``: equations of grids with a displacement system ``CD`` other than basic are
+        rotated to basic x y z (``K_b = T K T^T``), so ports and couplings see global
+        directions; needs all three translations (rotations) of such a grid. ``local``:
+        keep the ``CD`` components; the model's ``node_frames`` holds each such grid's
+        directions, which couplings use and set ports refuse.
 
     Returns
     -------
@@ -337,26 +276,45 @@ def read_nastran(path, *, stiffness=None, mass=None, damping=None, geometry=None
     ------
     ReadError
         Malformed cards or columns (with line number), missing or ambiguous matrix names,
-        complex matrices, scalar points, duplicate entries, grids without coordinates.
+        complex matrices, scalar points, duplicate entries, grids without coordinates,
+        undefined or circular coordinate systems.
     """
+    from ..errors import check_choice
+
+    check_choice("directions", directions, ("basic", "local"))
     path = Path(path)
     op4 = path.suffix.lower() == ".op4"
-    mats = read_op4(path) if op4 else read_dmig(path)
+    mats = read_op4(path, sparse=True) if op4 else read_dmig(path)
     names = {"K": _pick(mats, stiffness, "K", "stiffness", path), "M": _pick(mats, mass, "M", "mass", path)}
     b = _pick(mats, damping, "B", "damping", path)
     if b:
         names["D"] = b
+    geo = find_bulk(path, geometry)
+    bulk = read_bulk(geo) if geo is not None else None
     if op4:
         out = {}
         for role, nm in names.items():
             A = mats[nm]
-            if np.iscomplexobj(A):
+            if np.iscomplexobj(A.data):
                 raise ReadError(path, f"matrix {nm} is complex; flexmor needs real matrices")
+            if A.shape[0] != A.shape[1]:
+                raise ReadError(path, f"matrix {nm} is {A.shape[0]} x {A.shape[1]}, not square")
             out[role] = sp.csr_matrix(A)
-        kw = {}
+        n = out["K"].shape[0]
+        if any(A.shape != (n, n) for A in out.values()):
+            raise ReadError(path, "the matrices " + ", ".join(f"{nm} {mats[nm].shape}" for nm in names.values())
+                                  + " differ in size")
+        pairs = _op4_dofs(path, n, bulk, geo, geometry is not None)
+        if pairs is None:
+            bulk = None
     else:
-        out, pairs, node_ids, xyz = _dmig_model(path, mats, names, geometry)
-        kw = {"dofs": pairs, "node_ids": node_ids, "xyz": xyz}
+        out, pairs = _dmig_matrices(path, mats, names)
+    kw = {}
+    if pairs is not None:
+        out, ids, xyz, frames = _model_dofs(path, out, pairs, bulk, geo, directions)
+        kw = {"dofs": pairs, "node_ids": ids, "xyz": xyz}
+        if frames:
+            kw["node_frames"] = frames
     log.info("%s: matrices %s", path, names)
     return build_model(path, M=out["M"], K=out["K"], D=out.get("D"),
                        damping={"type": "given"} if "D" in out else {"type": "none"},
@@ -364,4 +322,4 @@ def read_nastran(path, *, stiffness=None, mass=None, damping=None, geometry=None
 
 
 register_format("nastran", [".pch", ".op4"], reader=read_nastran,
-                description="Nastran DMIG punch file (KAAX/MAAX ...) or ASCII OP4")
+                description="Nastran DMIG punch file (KAAX/MAAX ...) or OP4 (ASCII or binary), GRIDs from the .bdf")

@@ -1,0 +1,369 @@
+"""Nastran bulk data: card splitting, grid points and coordinate systems.
+
+Cards
+    Small field (8 columns), large field (``NAME*`` with 16-column fields and ``*``
+    continuations), free field (commas; a 10th field that is blank or starts with ``+``/``*``
+    is a continuation marker and dropped). Columns 73-80 of fixed-field lines are the
+    continuation marker and ignored; tabs expand to 8-column stops; ``$`` starts a comment.
+    When the file has ``BEGIN BULK``, only the lines after it (up to ``ENDDATA``) are read.
+    ``INCLUDE 'file'`` lines are followed (relative to the including file).
+Grid points
+    ``GRID ID CP X1 X2 X3 CD`` with blank CP/CD taken from ``GRDSET``. Positions in the
+    ``CP`` system are converted to the basic system; the ``CD`` system is the one in which
+    the grid's displacement components (and thus DMIG/OP4 rows and columns) are measured.
+Coordinate systems
+    ``CORD2R/C/S`` (points A, B, C in the reference system ``RID``, chains of any depth) and
+    ``CORD1R/C/S`` (three grid points, two systems per card). Cylindrical coordinates are
+    ``(R, theta[deg], Z)``, spherical ``(R, theta[deg], phi[deg])``. The displacement
+    directions of a grid in a cylindrical (spherical) ``CD`` system are the local unit
+    vectors ``(e_R, e_theta, e_Z)`` (``(e_R, e_theta, e_phi)``) at the grid's position; on
+    the axis, where they are undefined, those at ``theta = 0`` are used.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import ReadError
+from ._text import read_text
+
+__all__ = ["Bulk", "CoordSystem", "cards", "num", "read_bulk"]
+
+_IMPLICIT_EXP = re.compile(r"^([+-]?(?:\d+\.?\d*|\.\d+))([+-]\d+)$")
+_MAX_INCLUDE_DEPTH = 20
+
+
+def num(tok: str) -> float:
+    """A Nastran real: ``1.5``, ``1.5E-3``, ``1.5D-3``, ``1.5-3`` (implicit exponent), ``.5``."""
+    t = tok.strip().upper().replace("D", "E")
+    m = _IMPLICIT_EXP.match(t)
+    v = float(f"{m.group(1)}E{m.group(2)}" if m else t)
+    if not np.isfinite(v):
+        raise ValueError(tok)
+    return v
+
+
+def _lines(path: Path, depth: int = 0):
+    """``(path, lineno, line)`` of the bulk section, INCLUDEs expanded."""
+    text = read_text(path)
+    raw_lines = text.splitlines()
+    start = 0
+    if depth == 0:
+        for k, ln in enumerate(raw_lines):
+            if ln.lstrip().upper().startswith("BEGIN") and "BULK" in ln.upper().split("$")[0]:
+                start = k + 1
+                break
+    for lineno, raw in enumerate(raw_lines[start:], start + 1):
+        s = raw.split("$", 1)[0]
+        u = s.strip().upper()
+        if u.startswith("ENDDATA"):
+            return
+        if u.startswith("INCLUDE"):
+            m = re.search(r"['\"]([^'\"]+)['\"]", s) or re.match(r"\s*INCLUDE\s+(\S+)", s, re.IGNORECASE)
+            if not m:
+                raise ReadError(path, "INCLUDE without a file name", lineno)
+            if depth >= _MAX_INCLUDE_DEPTH:
+                raise ReadError(path, f"INCLUDE nested deeper than {_MAX_INCLUDE_DEPTH} levels (a cycle?)", lineno)
+            inc = Path(m.group(1))
+            inc = inc if inc.is_absolute() else path.parent / inc
+            if not inc.exists():
+                raise ReadError(path, f"included file {inc} not found", lineno)
+            yield from _lines(inc, depth + 1)
+            continue
+        yield path, lineno, s.expandtabs(8).rstrip()
+
+
+def cards(path):
+    """Yield ``(path, lineno, NAME, fields, field line numbers)`` of each card, continuations merged.
+
+    Each line contributes 8 fields (small field, free field) or 4 (large field).
+    """
+    path = Path(path)
+    card = None
+    for fpath, lineno, line in _lines(path):
+        if not line.strip():
+            continue
+        if "," in line[:10]:
+            parts = line.split(",")
+            head, fields = parts[0].strip(), [p.strip() for p in parts[1:]]
+            large = head.endswith("*") or head.startswith("*")
+            width = 4 if large else 8
+            if len(fields) > width and (fields[width] == "" or fields[width][0] in "+*") \
+                    and not any(fields[width + 1:]):
+                fields = fields[:width]
+            fields = fields + [""] * (width - len(fields))
+        elif line[0] == "*" or line[:8].strip().endswith("*"):
+            head = line[:8].strip()
+            fields = [line[i:i + 16].strip() for i in range(8, 72, 16)]
+        else:
+            head = line[:8].strip()
+            fields = [line[i:i + 8].strip() for i in range(8, 72, 8)]
+        if head == "" or head[0] in "*+":
+            if card is None:
+                raise ReadError(fpath, f"continuation line without a card: {line[:60]!r}", lineno)
+            card[3].extend(fields)
+            card[4].extend([lineno] * len(fields))
+            continue
+        if card is not None:
+            yield card
+        card = (fpath, lineno, head.rstrip("*").upper(), fields, [lineno] * len(fields))
+    if card is not None:
+        yield card
+
+
+def _rect(kind: str, c) -> np.ndarray:
+    """Rectangular coordinates of ``c`` given in a system of ``kind`` R, C or S."""
+    c = np.asarray(c, dtype=np.float64)
+    if kind == "R":
+        return c
+    if kind == "C":
+        r, t, z = c[0], np.radians(c[1]), c[2]
+        return np.array([r * np.cos(t), r * np.sin(t), z])
+    r, t, p = c[0], np.radians(c[1]), np.radians(c[2])
+    return np.array([r * np.sin(t) * np.cos(p), r * np.sin(t) * np.sin(p), r * np.cos(t)])
+
+
+def _triad(kind: str, x) -> np.ndarray:
+    """Columns: the local unit vectors of ``kind`` at rectangular point ``x`` (in that system's frame)."""
+    if kind == "R":
+        return np.eye(3)
+    rho = np.hypot(x[0], x[1])
+    t = np.arctan2(x[1], x[0]) if rho > 0 else 0.0
+    ct, st = np.cos(t), np.sin(t)
+    if kind == "C":
+        return np.array([[ct, -st, 0.0], [st, ct, 0.0], [0.0, 0.0, 1.0]])
+    th = np.arctan2(rho, x[2]) if (rho > 0 or x[2] != 0) else 0.0
+    p = t
+    ce, se, cp, sp_ = np.cos(th), np.sin(th), np.cos(p), np.sin(p)
+    e_r = [se * cp, se * sp_, ce]
+    e_t = [ce * cp, ce * sp_, -se]
+    e_p = [-sp_, cp, 0.0]
+    return np.array([e_r, e_t, e_p]).T
+
+
+@dataclass
+class CoordSystem:
+    """A resolved coordinate system: origin and axes (columns of ``R``) in the basic system."""
+
+    cid: int
+    kind: str  # R, C, S
+    origin: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    R: np.ndarray = field(default_factory=lambda: np.eye(3))
+
+    def to_basic(self, c) -> np.ndarray:
+        """Basic position of a point with coordinates ``c`` in this system."""
+        return self.origin + self.R @ _rect(self.kind, c)
+
+    def directions(self, x_basic) -> np.ndarray:
+        """Columns: the displacement directions (basic components) at basic point ``x_basic``."""
+        return self.R @ _triad(self.kind, self.R.T @ (np.asarray(x_basic) - self.origin))
+
+
+BASIC = CoordSystem(0, "R")
+
+
+@dataclass
+class Bulk:
+    """Geometry and DOF sets of a bulk-data file.
+
+    Attributes
+    ----------
+    grid_ids : ndarray of int
+    xyz : ndarray, shape (n, 3)
+        Basic coordinates.
+    cd : ndarray of int
+        Displacement coordinate system of each grid (0 = basic).
+    systems : dict of int to CoordSystem
+    spoints : ndarray of int
+        Scalar points (``SPOINT``, also the ``QSET`` modal coordinates of a superelement).
+    aset : list of (int, int)
+        ``(id, component)`` pairs named by ``ASET/ASET1/BSET/BSET1/QSET/QSET1`` (component 0
+        for scalar points).
+    """
+
+    grid_ids: np.ndarray
+    xyz: np.ndarray
+    cd: np.ndarray
+    systems: dict
+    spoints: np.ndarray
+    aset: list
+
+    def frame(self, gid: int) -> np.ndarray:
+        """3x3 matrix whose columns are grid ``gid``'s displacement directions in basic components."""
+        i = int(np.searchsorted(self.grid_ids, gid))
+        c = int(self.cd[i])
+        return np.eye(3) if c == 0 else self.systems[c].directions(self.xyz[i])
+
+
+def _int(f, k, default=0):
+    t = f[k] if k < len(f) else ""
+    return int(t) if t else default
+
+
+def _real(f, k):
+    t = f[k] if k < len(f) else ""
+    return num(t) if t else 0.0
+
+
+def _components(tok: str) -> list:
+    if tok in ("", "0"):
+        return [0]
+    if not tok.isdigit() or any(ch not in "123456" for ch in tok):
+        raise ValueError(tok)
+    return sorted({int(ch) for ch in tok})
+
+
+def _thru(toks) -> list:
+    """Expand ``ID1 THRU ID2`` lists of ids."""
+    out, k = [], 0
+    toks = [t for t in toks if t]
+    while k < len(toks):
+        if k + 2 < len(toks) and toks[k + 1].upper() == "THRU":
+            a, b = int(toks[k]), int(toks[k + 2])
+            if b < a or b - a > 10_000_000:
+                raise ValueError(f"{a} THRU {b}")
+            out.extend(range(a, b + 1))
+            k += 3
+        else:
+            out.append(int(toks[k]))
+            k += 1
+    return out
+
+
+def read_bulk(path) -> Bulk:
+    """Read grids, coordinate systems, scalar points and a-set cards of a bulk-data file.
+
+    Raises
+    ------
+    ReadError
+        Malformed cards (with file and line), grids or systems defined twice, references to
+        undefined systems or grids, circular definitions, degenerate CORD2 points.
+    """
+    path = Path(path)
+    grids, cord2, cord1, spoints, aset = {}, {}, {}, [], []
+    gdef = {"cp": 0, "cd": 0}
+    for fpath, lineno, name, f, fl in cards(path):
+        try:
+            if name == "GRID":
+                gid = int(f[0])
+                if gid in grids:
+                    raise ReadError(fpath, f"GRID {gid} defined twice (first on line {grids[gid][3]})", lineno)
+                grids[gid] = (f[1], [_real(f, k) for k in (2, 3, 4)], f[5] if len(f) > 5 else "", lineno, fpath)
+            elif name == "GRDSET":
+                gdef = {"cp": _int(f, 1), "cd": _int(f, 5)}
+            elif name in ("CORD2R", "CORD2C", "CORD2S"):
+                cid = int(f[0])
+                if cid <= 0 or cid in cord2 or cid in cord1:
+                    raise ReadError(fpath, f"{name} {cid}: id must be positive and unique", lineno)
+                cord2[cid] = (name[-1], _int(f, 1), np.array([_real(f, k) for k in range(2, 11)]).reshape(3, 3),
+                              lineno, fpath)
+            elif name in ("CORD1R", "CORD1C", "CORD1S"):
+                for k in (0, 4):
+                    if k < len(f) and f[k]:
+                        cid = int(f[k])
+                        if cid <= 0 or cid in cord2 or cid in cord1:
+                            raise ReadError(fpath, f"{name} {cid}: id must be positive and unique", lineno)
+                        cord1[cid] = (name[-1], [int(f[k + j]) for j in (1, 2, 3)], lineno, fpath)
+            elif name == "SPOINT":
+                spoints.extend(_thru(f))
+            elif name in ("ASET", "BSET", "QSET"):
+                for k in range(0, len(f) - 1, 2):
+                    if f[k]:
+                        aset.extend((int(f[k]), c) for c in _components(f[k + 1]))
+            elif name in ("ASET1", "BSET1", "QSET1"):
+                comps = _components(f[0])
+                aset.extend((i, c) for i in _thru(f[1:]) for c in comps)
+        except ValueError as exc:
+            raise ReadError(fpath, f"{name}: malformed field ({exc})", lineno) from None
+        except IndexError:
+            raise ReadError(fpath, f"{name}: too few fields", lineno) from None
+    return _resolve(path, grids, gdef, cord2, cord1, spoints, aset)
+
+
+def _resolve(path, grids, gdef, cord2, cord1, spoints, aset) -> Bulk:
+    systems = {0: BASIC}
+    pos = {}  # grid -> basic position
+    pending_g = {}
+    for gid, (cp, x, cd, lineno, fpath) in grids.items():
+        try:
+            pending_g[gid] = (int(cp) if cp else gdef["cp"], x, int(cd) if cd else gdef["cd"], lineno, fpath)
+        except ValueError:
+            raise ReadError(fpath, f"GRID {gid}: CP/CD must be integers", lineno) from None
+    pending_s = dict(cord2)
+    pending_s.update({k: v for k, v in cord1.items()})
+    while True:
+        progress = False
+        for gid in list(pending_g):
+            cp, x, _, lineno, fpath = pending_g[gid]
+            if cp in systems:
+                pos[gid] = systems[cp].to_basic(x)
+                del pending_g[gid]
+                progress = True
+        for cid in list(pending_s):
+            spec = pending_s[cid]
+            if cid in cord2:
+                kind, rid, P, lineno, fpath = spec
+                if rid not in systems:
+                    continue
+                a, b, c = (systems[rid].to_basic(p) for p in P)
+            else:
+                kind, gids, lineno, fpath = spec
+                if not all(g in pos for g in gids):
+                    continue
+                a, b, c = (pos[g] for g in gids)
+            systems[cid] = _axes(fpath, lineno, cid, kind, a, b, c)
+            del pending_s[cid]
+            progress = True
+        if not pending_g and not pending_s:
+            break
+        if not progress:
+            _unresolved(pending_g, pending_s, cord2, grids, systems)
+    ids = np.array(sorted(grids), dtype=np.int64)
+    cds = np.array([_cd(grids[int(g)], gdef) for g in ids], dtype=np.int64)
+    for g, c in zip(ids, cds):
+        if c not in systems:
+            _, _, _, lineno, fpath = grids[int(g)]
+            raise ReadError(fpath, f"GRID {g}: displacement system CD={c} is not defined", lineno)
+    xyz = np.array([pos[int(g)] for g in ids]).reshape(-1, 3)
+    return Bulk(ids, xyz, cds, systems, np.unique(np.asarray(spoints, np.int64)), aset)
+
+
+def _cd(grid, gdef) -> int:
+    return int(grid[2]) if grid[2] else gdef["cd"]
+
+
+def _unresolved(pending_g, pending_s, cord2, grids, systems):
+    for cid, spec in pending_s.items():
+        if cid in cord2:
+            kind, rid, _, lineno, fpath = spec
+            if rid not in pending_s:
+                raise ReadError(fpath, f"CORD2{kind} {cid}: reference system RID={rid} is not defined", lineno)
+        else:
+            kind, gids, lineno, fpath = spec
+            miss = [g for g in gids if g not in grids]
+            if miss:
+                raise ReadError(fpath, f"CORD1{kind} {cid}: grid {miss[0]} is not defined", lineno)
+    for gid, (cp, _, _, lineno, fpath) in pending_g.items():
+        if cp not in pending_s:
+            raise ReadError(fpath, f"GRID {gid}: coordinate system CP={cp} is not defined", lineno)
+    cid = next(iter(pending_s))
+    fpath, lineno = pending_s[cid][-1], pending_s[cid][-2]
+    raise ReadError(fpath, f"coordinate system {cid} depends on itself (circular CORD/GRID references)", lineno)
+
+
+def _axes(fpath, lineno, cid, kind, a, b, c) -> CoordSystem:
+    z = b - a
+    nz = np.linalg.norm(z)
+    xz = c - a
+    scale = max(nz, np.linalg.norm(xz), 1e-300)
+    y = np.cross(z, xz)
+    if nz <= 1e-12 * scale or np.linalg.norm(y) <= 1e-12 * scale * scale:
+        raise ReadError(fpath, f"coordinate system {cid}: points A, B, C are coincident or collinear", lineno)
+    z = z / nz
+    y = y / np.linalg.norm(y)
+    x = np.cross(y, z)
+    return CoordSystem(cid, kind, a, np.column_stack([x, y, z]))

@@ -1,0 +1,321 @@
+"""Nastran OUTPUT4 (``.op4``) matrix files, ASCII and binary.
+
+Layout (MSC/NX Nastran DMAP ``OUTPUT4``): per matrix a header ``NCOL NROW FORM TYPE NAME``
+(ASCII: ``4I8, 2A4, format`` in fixed columns), then one record per stored column
+``ICOL IROW NW`` followed by its values, and a closing record with ``ICOL = NCOL + 1``.
+``TYPE`` 1/2 real single/double, 3/4 complex single/double; ``FORM`` 6 is symmetric (stored
+in full by Nastran; an upper-triangle-only file is completed). A column with ``IROW > 0`` is
+dense from row ``IROW``; ``IROW = 0`` marks a sparse column of strings, each with a header
+``IS = 65536 (L + 1) + IROW`` (``L`` words follow), or, for ``BIGMAT`` matrices (``NROW <
+0`` in the header), two header words ``L + 1, IROW``. Sparse counts are in words: a double
+precision value is two words in 32-bit files. ASCII dense columns count values.
+
+Binary files are Fortran unformatted records (4-byte record markers) in either byte order,
+with 32-bit integers and names of 8 characters, or 64-bit integers (header record of 48
+bytes, names of 16 characters, a "word" of 8 bytes). Every record length, count and index is
+checked against the header and the file size before use.
+"""
+
+from __future__ import annotations
+
+import re
+import struct
+from pathlib import Path
+
+import numpy as np
+import scipy.sparse as sp
+
+from ..errors import ReadError
+from ._text import read_text
+from .nastran_bulk import num
+
+__all__ = ["read_op4"]
+
+#: Largest OP4 matrix (entries) returned densely: 2e8 entries = 1.6 GB of float64.
+MAX_DENSE = 200_000_000
+_HEADER = re.compile(r"^\s*(-?\d+)\s+(-?\d+)\s+(\d+)\s+(\d+)\s*(\S+)\s*(.*)$")
+_FMT = re.compile(r"(\d+)\s*[EeDd]\s*(\d+)\.(\d+)")
+
+
+def read_op4(path, *, sparse: bool = False) -> dict:
+    """Read all matrices of an OP4 file (ASCII or binary).
+
+    Parameters
+    ----------
+    path : str or path-like
+    sparse : bool
+        Return ``scipy.sparse.csc_matrix`` (any size) instead of dense arrays (refused
+        above :data:`MAX_DENSE` entries).
+
+    Returns
+    -------
+    dict of str to matrix
+        Upper-case name -> matrix (nrow, ncol), real or complex.
+
+    Raises
+    ------
+    ReadError
+        Malformed headers or columns (with line number for ASCII, byte offset for binary),
+        indices outside the matrix, truncated files.
+    """
+    path = Path(path)
+    if not path.exists():
+        raise ReadError(path, "file not found")
+    raw = path.read_bytes()
+    if not raw.strip():
+        raise ReadError(path, "file is empty")
+    binary = len(raw) >= 16 and (raw[12] == 0 or raw[15] == 0 or b"\x00" in raw[:16])
+    mats = _binary(path, raw) if binary else _ascii(path)
+    out = {}
+    for name, (nrow, ncol, form, r, c, v) in mats.items():
+        if form == 6 and nrow == ncol and r.size and not (np.any(r > c) and np.any(r < c)):
+            off = r != c
+            r, c, v = np.concatenate([r, c[off]]), np.concatenate([c, r[off]]), np.concatenate([v, v[off]])
+        A = sp.csc_matrix((v, (r, c)), shape=(nrow, ncol))
+        if not sparse:
+            if nrow * ncol > MAX_DENSE:
+                raise ReadError(path, f"matrix {name} of {nrow} x {ncol} is too large to return densely "
+                                      f"(limit {MAX_DENSE} entries); read it with sparse=True")
+            A = A.toarray()
+        out[name] = A
+    if not out:
+        raise ReadError(path, "no matrices found")
+    return out
+
+
+class _Col:
+    """Collects the entries of one matrix and checks them against its size."""
+
+    def __init__(self, path, name, nrow, ncol, cplx):
+        self.path, self.name, self.nrow, self.ncol, self.cplx = path, name, nrow, ncol, cplx
+        self.r, self.c, self.v = [], [], []
+
+    def put(self, icol, r0, vals, where):
+        if self.cplx:
+            if len(vals) % 2:
+                raise ReadError(self.path, f"matrix {self.name}: odd number of words in a complex column", where)
+            vals = np.asarray(vals[0::2]) + 1j * np.asarray(vals[1::2])
+        n = len(vals)
+        if icol < 1 or icol > self.ncol or r0 < 1 or r0 - 1 + n > self.nrow:
+            raise ReadError(self.path, f"matrix {self.name}: column {icol} rows {r0}..{r0 + n - 1} lie outside "
+                                       f"{self.nrow} x {self.ncol}", where)
+        if n:
+            self.r.append(np.arange(r0 - 1, r0 - 1 + n))
+            self.c.append(np.full(n, icol - 1))
+            self.v.append(np.asarray(vals))
+
+    def done(self, form):
+        dt = np.complex128 if self.cplx else np.float64
+        cat = (lambda xs, t: np.concatenate(xs).astype(t) if xs else np.zeros(0, t))
+        r, c, v = cat(self.r, np.int64), cat(self.c, np.int64), cat(self.v, dt)
+        key = c * np.int64(self.nrow) + r
+        if np.unique(key).size != key.size:
+            raise ReadError(self.path, f"matrix {self.name}: a column stores the same row twice")
+        return self.nrow, self.ncol, form, r, c, v
+
+
+def _check_header(path, ncol, nrow, form, typ, name, where):
+    if ncol < 0 or nrow == 0 and ncol > 0 or typ not in (1, 2, 3, 4) or not 1 <= form <= 18:
+        raise ReadError(path, f"OP4 header of {name!r}: ncol={ncol} nrow={nrow} form={form} type={typ} is not a "
+                              "valid matrix header", where)
+    if abs(nrow) * max(ncol, 1) > 10**13:
+        raise ReadError(path, f"OP4 header of {name!r}: {abs(nrow)} x {ncol} is implausibly large; is the file "
+                              "corrupt?", where)
+
+
+# -- ASCII ------------------------------------------------------------------------------------
+def _ascii(path):
+    lines = read_text(path).splitlines()
+    out, i = {}, 0
+    while i < len(lines):
+        h = lines[i]
+        if not h.strip():
+            i += 1
+            continue
+        try:
+            ncol, nrow, form, typ = (int(h[k:k + 8]) for k in range(0, 32, 8))
+            name, fmt = h[32:40].strip(), h[40:]
+            if not name:
+                raise ValueError
+        except ValueError:
+            m = _HEADER.match(h)
+            if not m:
+                raise ReadError(path, f"expected an OP4 header 'ncol nrow form type NAME format', got {h[:60]!r}",
+                                i + 1) from None
+            ncol, nrow, form, typ = (int(m.group(k)) for k in range(1, 5))
+            name, fmt = m.group(5), m.group(6)
+            f = _FMT.search(name)
+            if f:  # name and format touch
+                name, fmt = name[:f.start()].rstrip("1P,").rstrip(), name[f.start():] + fmt
+        f = _FMT.search(fmt)
+        per_line, width = (int(f.group(1)), int(f.group(2))) if f else (5, 16)
+        name = name.upper()
+        _check_header(path, ncol, nrow, form, typ, name, i + 1)
+        if per_line < 1 or width < 2:
+            raise ReadError(path, f"matrix {name}: unusable number format {fmt.strip()!r}", i + 1)
+        bigmat = nrow < 0 or abs(nrow) >= 65536
+        wper = 1 if typ & 1 else 2
+        col = _Col(path, name, abs(nrow), ncol, typ > 2)
+        i += 1
+        while True:
+            if i >= len(lines):
+                raise ReadError(path, f"matrix {name}: file ends before the closing column record", len(lines))
+            try:
+                icol, irow, nw = (int(x) for x in lines[i].split())
+            except ValueError:
+                if _HEADER.match(lines[i]) and len(lines[i].split()) > 3:
+                    raise ReadError(path, f"matrix {name}: the next matrix header follows before the closing "
+                                          f"record; the header announces {ncol} columns (corrupt header or "
+                                          "truncated matrix?)", i + 1) from None
+                raise ReadError(path, f"matrix {name}: expected a column record 'icol irow nwords', got "
+                                      f"{lines[i][:60]!r}", i + 1) from None
+            if nw < 0:
+                raise ReadError(path, f"matrix {name}: negative word count", i + 1)
+            i += 1
+            if icol > ncol:
+                i += -(-nw // per_line) if irow > 0 else 0
+                if irow == 0:  # closing record of a sparse matrix: one dummy value line
+                    i += 1 if i < len(lines) and _is_values(lines[i]) else 0
+                break
+            if irow > 0:
+                vals, i = _dense_values(path, lines, i, nw, per_line, width, wper)
+                col.put(icol, irow, vals, i)
+                continue
+            left = nw
+            while left > 0:
+                if i >= len(lines):
+                    raise ReadError(path, f"matrix {name}: file ends inside column {icol}", len(lines))
+                try:
+                    hdr = [int(x) for x in lines[i].split()]
+                    if bigmat:
+                        lp1, r0 = hdr
+                        left -= lp1 + 1
+                    else:
+                        (is_,) = hdr
+                        lp1, r0 = is_ >> 16, is_ & 0xFFFF
+                        left -= lp1
+                except ValueError:
+                    raise ReadError(path, f"matrix {name}: expected a sparse string header, got {lines[i][:60]!r}",
+                                    i + 1) from None
+                L = lp1 - 1
+                if L < 0 or L % wper or left < 0:
+                    raise ReadError(path, f"matrix {name}: sparse string of {L} words does not fit column {icol}",
+                                    i + 1)
+                i += 1
+                vals, i = _values(path, lines, i, L // wper, per_line, width)
+                col.put(icol, r0, vals, i)
+        out[name] = col.done(form)
+    return out
+
+
+def _dense_values(path, lines, i, nw, per_line, width, wper):
+    """Values of a dense ASCII column: ``nw`` counts values (Nastran, pyyeti); a file that counts
+    double precision words instead (``nw`` = 2 x values) is recognized by its next record."""
+    try:
+        return _values(path, lines, i, nw, per_line, width)
+    except ReadError:
+        if wper != 2 or nw % 2:
+            raise
+        vals, j = _values(path, lines, i, nw // 2, per_line, width)
+        if j < len(lines) and len(lines[j].split()) == 3 and all(t.lstrip("-").isdigit() for t in lines[j].split()):
+            return vals, j
+        raise
+
+
+def _is_values(line: str) -> bool:
+    try:
+        num(line.split()[0])
+        return "." in line or "E" in line.upper()
+    except (ValueError, IndexError):
+        return False
+
+
+def _values(path, lines, i, n, per_line, width):
+    vals = []
+    while len(vals) < n:
+        if i >= len(lines):
+            raise ReadError(path, "file ends inside a column (truncated?)", len(lines))
+        s = lines[i].rstrip()
+        toks = [s[k:k + width] for k in range(0, len(s), width)]
+        if not toks:
+            raise ReadError(path, "blank line inside a column", i + 1)
+        try:
+            vals.extend(num(t) for t in toks)
+        except ValueError:
+            raise ReadError(path, f"non-numeric or non-finite value in {s[:60]!r}", i + 1) from None
+        i += 1
+    if len(vals) != n:
+        raise ReadError(path, f"column announces {n} values, found {len(vals)}", i)
+    return vals, i
+
+
+# -- binary -----------------------------------------------------------------------------------
+def _binary(path, raw: bytes):
+    size = len(raw)
+    end = "<" if struct.unpack("<i", raw[:4])[0] in (24, 48) else ">"
+    first = struct.unpack(end + "i", raw[:4])[0]
+    if first not in (24, 48):
+        raise ReadError(path, "not an OP4 file: the first record is neither an ASCII header nor a binary header "
+                              "record of 24 or 48 bytes")
+    ib = 8 if first == 48 else 4
+    ifmt = end + ("q" if ib == 8 else "i")
+    out, pos = {}, 0
+
+    def record(pos):
+        if pos + 4 > size:
+            raise ReadError(path, f"file ends at byte {pos} where a record starts (truncated?)")
+        n = struct.unpack(end + "i", raw[pos:pos + 4])[0]
+        if n < 0 or pos + 8 + n > size:
+            raise ReadError(path, f"record at byte {pos} announces {n} bytes beyond the end of the file (truncated?)")
+        if struct.unpack(end + "i", raw[pos + 4 + n:pos + 8 + n])[0] != n:
+            raise ReadError(path, f"record at byte {pos}: leading and trailing record lengths differ")
+        return raw[pos + 4:pos + 4 + n], pos + 8 + n
+
+    while pos < size:
+        start = pos
+        body, pos = record(pos)
+        if len(body) != (4 * ib + (16 if ib == 8 else 8)):
+            raise ReadError(path, f"expected a matrix header record at byte {start}")
+        ncol, nrow, form, typ = struct.unpack(end + ("4q" if ib == 8 else "4i"), body[:4 * ib])
+        name = body[4 * ib:].decode("latin-1").replace("\x00", " ").strip().upper() or f"M{len(out)}"
+        _check_header(path, ncol, nrow, form, typ, name, None)
+        single = typ & 1 and ib == 4
+        word_bytes = ib
+        vfmt = np.dtype(end + ("f4" if single else "f8"))
+        wper = 1 if (typ & 1 or ib == 8) else 2
+        bigmat = nrow < 0 or abs(nrow) >= 65536
+        col = _Col(path, name, abs(nrow), ncol, typ > 2)
+        while True:
+            cstart = pos
+            body, pos = record(pos)
+            if len(body) < 3 * ib:
+                raise ReadError(path, f"matrix {name}: column record at byte {cstart} is too short")
+            icol, irow, nw = struct.unpack(end + ("3q" if ib == 8 else "3i"), body[:3 * ib])
+            data = body[3 * ib:]
+            if icol > ncol:
+                break
+            if nw < 0 or nw * word_bytes != len(data):
+                raise ReadError(path, f"matrix {name}: column {icol} announces {nw} words but its record holds "
+                                      f"{len(data) // word_bytes} (byte {cstart})")
+            if irow > 0:
+                col.put(icol, irow, np.frombuffer(data, vfmt), None)
+                continue
+            k = 0
+            while k < len(data):
+                if bigmat:
+                    if k + 2 * ib > len(data):
+                        raise ReadError(path, f"matrix {name}: broken sparse string in column {icol}")
+                    lp1, r0 = struct.unpack(end + ("2q" if ib == 8 else "2i"), data[k:k + 2 * ib])
+                    k += 2 * ib
+                else:
+                    is_ = struct.unpack(ifmt, data[k:k + ib])[0]
+                    lp1, r0 = is_ >> 16, is_ & 0xFFFF
+                    k += ib
+                L = lp1 - 1
+                nb = L * word_bytes
+                if L < 0 or L % wper or k + nb > len(data):
+                    raise ReadError(path, f"matrix {name}: broken sparse string in column {icol} (byte {cstart})")
+                col.put(icol, r0, np.frombuffer(data[k:k + nb], vfmt), None)
+                k += nb
+        out[name] = col.done(form)
+    return out
