@@ -174,7 +174,7 @@ def dof_transform(bulk: Bulk, dofs: np.ndarray, where) -> sp.csr_matrix | None:
     return T
 
 
-def _dmig_matrices(path, mats, names):
+def dmig_matrices(path, mats, names):
     pairs = np.unique(np.concatenate([np.concatenate([mats[n][1], mats[n][2]]) for n in names.values()]), axis=0)
     if np.any(pairs[:, 1] < 0) or np.any(pairs[:, 1] > 6):
         g = pairs[(pairs[:, 1] < 0) | (pairs[:, 1] > 6)][0]
@@ -247,6 +247,34 @@ def _model_dofs(path, out, pairs, bulk, geo, directions):
     return out, bulk.grid_ids, bulk.xyz, frames
 
 
+def load_matrices(path: Path, stiffness, mass, damping):
+    """``(is_op4, matrices by name, {"K": name, "M": name[, "D": name]})`` of a DMIG or OP4 file."""
+    op4 = path.suffix.lower() == ".op4"
+    mats = read_op4(path, sparse=True) if op4 else read_dmig(path)
+    names = {"K": _pick(mats, stiffness, "K", "stiffness", path), "M": _pick(mats, mass, "M", "mass", path)}
+    b = _pick(mats, damping, "B", "damping", path)
+    if b:
+        names["D"] = b
+    return op4, mats, names
+
+
+def op4_matrices(path, mats, names) -> dict:
+    """The named OP4 matrices as CSR by role; refuses complex, non-square or differently sized ones."""
+    out = {}
+    for role, nm in names.items():
+        A = mats[nm]
+        if np.iscomplexobj(A.data):
+            raise ReadError(path, f"matrix {nm} is complex; flexmor needs real matrices")
+        if A.shape[0] != A.shape[1]:
+            raise ReadError(path, f"matrix {nm} is {A.shape[0]} x {A.shape[1]}, not square")
+        out[role] = sp.csr_matrix(A)
+    n = out["K"].shape[0]
+    if any(A.shape != (n, n) for A in out.values()):
+        raise ReadError(path, "the matrices " + ", ".join(f"{nm} {mats[nm].shape}" for nm in names.values())
+                              + " differ in size")
+    return out
+
+
 def read_nastran(path, *, stiffness=None, mass=None, damping=None, geometry=None,
                  directions: str = "basic") -> "FEModel":  # noqa: F821
     """Read stiffness and mass (and damping) from a DMIG punch file or an OP4 file.
@@ -283,32 +311,17 @@ def read_nastran(path, *, stiffness=None, mass=None, damping=None, geometry=None
 
     check_choice("directions", directions, ("basic", "local"))
     path = Path(path)
-    op4 = path.suffix.lower() == ".op4"
-    mats = read_op4(path, sparse=True) if op4 else read_dmig(path)
-    names = {"K": _pick(mats, stiffness, "K", "stiffness", path), "M": _pick(mats, mass, "M", "mass", path)}
-    b = _pick(mats, damping, "B", "damping", path)
-    if b:
-        names["D"] = b
+    op4, mats, names = load_matrices(path, stiffness, mass, damping)
     geo = find_bulk(path, geometry)
     bulk = read_bulk(geo) if geo is not None else None
     if op4:
-        out = {}
-        for role, nm in names.items():
-            A = mats[nm]
-            if np.iscomplexobj(A.data):
-                raise ReadError(path, f"matrix {nm} is complex; flexmor needs real matrices")
-            if A.shape[0] != A.shape[1]:
-                raise ReadError(path, f"matrix {nm} is {A.shape[0]} x {A.shape[1]}, not square")
-            out[role] = sp.csr_matrix(A)
+        out = op4_matrices(path, mats, names)
         n = out["K"].shape[0]
-        if any(A.shape != (n, n) for A in out.values()):
-            raise ReadError(path, "the matrices " + ", ".join(f"{nm} {mats[nm].shape}" for nm in names.values())
-                                  + " differ in size")
         pairs = _op4_dofs(path, n, bulk, geo, geometry is not None)
         if pairs is None:
             bulk = None
     else:
-        out, pairs = _dmig_matrices(path, mats, names)
+        out, pairs = dmig_matrices(path, mats, names)
     kw = {}
     if pairs is not None:
         out, ids, xyz, frames = _model_dofs(path, out, pairs, bulk, geo, directions)

@@ -72,6 +72,7 @@ def read_op4(path, *, sparse: bool = False) -> dict:
             off = r != c
             r, c, v = np.concatenate([r, c[off]]), np.concatenate([c, r[off]]), np.concatenate([v, v[off]])
         A = sp.csc_matrix((v, (r, c)), shape=(nrow, ncol))
+        A.eliminate_zeros()  # dense columns store the zeros between the first and last non-zero row
         if not sparse:
             if nrow * ncol > MAX_DENSE:
                 raise ReadError(path, f"matrix {name} of {nrow} x {ncol} is too large to return densely "

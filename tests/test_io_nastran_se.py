@@ -1,0 +1,116 @@
+"""A Craig-Bampton superelement (boundary grids + modal SPOINTs) from OP4 or DMIG, read as a reduced body.
+
+The superelement is the clamped CalculiX beam reduced to its tip face (CB with 12
+fixed-interface modes, computed here with NumPy); some tip grids use a cylindrical
+displacement system. The body read back must reproduce the full model's static compliance at
+the tip DOFs exactly and its lowest eigenfrequencies closely.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import scipy.linalg as sla
+from op4_writer import write_ascii, write_binary
+
+from flexmor.errors import ReadError
+from flexmor.io.hdf5 import read_reduced, write_reduced
+from flexmor.io.nastran_se import read_superelement
+
+N_MODES = 12
+SPOINT0 = 1001
+
+
+def _cb(model):
+    tip = model.node_sets["TIP"]
+    b = np.flatnonzero(np.isin(model.dofs[:, 0], tip))
+    b = b[np.lexsort((model.dofs[b, 1], model.dofs[b, 0]))]  # Nastran a-set order: grid, component
+    i = np.setdiff1d(np.arange(model.n_dof), b)
+    K, M = model.K.toarray(), model.M.toarray()
+    Phi = -np.linalg.solve(K[np.ix_(i, i)], K[np.ix_(i, b)])
+    lam, Psi = sla.eigh(K[np.ix_(i, i)], M[np.ix_(i, i)], subset_by_index=[0, N_MODES - 1])
+    T = np.zeros((model.n_dof, b.size + N_MODES))
+    T[b, :b.size] = np.eye(b.size)
+    T[np.ix_(i, np.arange(b.size))] = Phi
+    T[i, b.size:] = Psi
+    return b, T.T @ K @ T, T.T @ M @ T, lam
+
+
+def _cyl_frame(x):
+    t = np.arctan2(x[2], x[1])  # cylindrical system about the beam axis x: CORD2C with z = basic x
+    er = np.array([0.0, np.cos(t), np.sin(t)])
+    et = np.array([0.0, -np.sin(t), np.cos(t)])
+    return np.column_stack([er, et, [1.0, 0, 0]])
+
+
+def _files(tmp_path, model, fmt):
+    b, Kr, Mr, lam = _cb(model)
+    tip = np.unique(model.dofs[b, 0])
+    local = set(tip[::2].tolist())  # every other tip grid in CD=7
+    nb = b.size
+    T = np.eye(nb + N_MODES)
+    for k, (g, d) in enumerate(model.dofs[b]):
+        if g in local:
+            Q = _cyl_frame(model.node_xyz([g])[0] - np.array([0.0, 0.05, 0.05]))
+            rows = [j for j in range(nb) if model.dofs[b[j], 0] == g]
+            T[np.ix_(rows, rows)] = Q[np.ix_([r - 1 for r in model.dofs[b[rows], 1]], [0, 1, 2])]
+    Kl, Ml = T.T @ Kr @ T, T.T @ Mr @ T  # in the CD systems
+    bulk = ["CORD2C,7,,0.,.05,.05,1.,.05,.05,", ",0.,1.,.05"]
+    for g in tip:
+        x = model.node_xyz([g])[0]
+        bulk.append(f"GRID,{g},," + ",".join(repr(float(v)) for v in x) + (",7" if g in local else ""))
+    bulk += [f"ASET1,123,{g}" for g in tip]
+    bulk += [f"SPOINT,{SPOINT0},THRU,{SPOINT0 + N_MODES - 1}", f"QSET1,0,{SPOINT0},THRU,{SPOINT0 + N_MODES - 1}"]
+    (tmp_path / "se.bdf").write_text("\n".join(bulk) + "\n")
+    if fmt == "binary":
+        write_binary(tmp_path / "se.op4", {"KAA": Kl, "MAA": Ml}, sparse=True)
+    elif fmt == "ascii":
+        write_ascii(tmp_path / "se.op4", {"KAA": Kl, "MAA": Ml})
+    else:
+        dofs = [(int(g), int(d)) for g, d in model.dofs[b]] + [(SPOINT0 + k, 0) for k in range(N_MODES)]
+        lines = []
+        for name, A in (("KAAX", Kl), ("MAAX", Ml)):
+            lines.append(f"DMIG,{name},0,6,2,0,,{len(dofs)}")
+            for j, (gj, cj) in enumerate(dofs):
+                lines.append(f"DMIG,{name},{gj},{cj}")
+                lines += [f",{gi},{ci},{float(A[i, j])!r}" for i, (gi, ci) in enumerate(dofs) if i <= j and A[i, j]]
+        (tmp_path / "se.pch").write_text("\n".join(lines) + "\n")
+        (tmp_path / "se.bdf").write_text("\n".join(bulk[:2 + len(tip)]) + "\n")  # grids only
+    return b, lam
+
+
+@pytest.mark.parametrize("fmt", ["binary", "ascii", "dmig"])
+def test_craig_bampton_superelement(tmp_path, clamped, clamped_ref, fmt):
+    b, lam = _files(tmp_path, clamped, fmt)
+    red = read_superelement(tmp_path / ("se.pch" if fmt == "dmig" else "se.op4"))
+    assert red.order == b.size + N_MODES and red.info["n_boundary"] == b.size and red.info["n_modal"] == N_MODES
+    assert red.input_names[:4] == [f"{clamped.dofs[b[0], 0]}:x", f"{clamped.dofs[b[0], 0]}:y",
+                                   f"{clamped.dofs[b[0], 0]}:z", f"{clamped.dofs[b[1 + 2], 0]}:x"]
+    np.testing.assert_allclose(red.info["fixed_interface_hz"], np.sqrt(lam) / (2 * np.pi), rtol=1e-9)
+    assert red.info["kbq_rel"] < 1e-9
+    # static compliance at the tip DOFs (basic x y z) equals the full model's
+    G = red.C @ np.linalg.solve(red.K, red.B)
+    full = np.linalg.inv(clamped.K.toarray())[np.ix_(b, b)]
+    np.testing.assert_allclose(G, full, rtol=1e-7, atol=1e-9 * abs(full).max())
+    f = red.frequencies_hz()
+    np.testing.assert_allclose(f[:4], clamped_ref[:4], rtol=1e-3)  # CB with 12 modes: 2.3e-4 off at 608 Hz
+    np.testing.assert_allclose(red.xyz, clamped.node_xyz(red.node_ids), atol=1e-12)
+    write_reduced(red, tmp_path / "se.h5")
+    back = read_reduced(tmp_path / "se.h5")
+    np.testing.assert_allclose(back.frequencies_hz(), f, rtol=1e-12)
+
+
+def test_superelement_errors(tmp_path, clamped):
+    _files(tmp_path, clamped, "binary")
+    bdf = tmp_path / "se.bdf"
+    text = bdf.read_text()
+    bdf.write_text(text.replace(f"THRU,{SPOINT0 + N_MODES - 1}", f"THRU,{SPOINT0 + N_MODES - 2}"))
+    with pytest.raises(ReadError, match="give .* a-set DOFs, but the matrices have"):
+        read_superelement(tmp_path / "se.op4")
+    bdf.unlink()
+    with pytest.raises(ReadError, match="needs the bulk data"):
+        read_superelement(tmp_path / "se.op4")
+    bdf.write_text(text)
+    write_binary(tmp_path / "se.op4", {"KAA": np.eye(3), "MAA": np.eye(4)})
+    with pytest.raises(ReadError, match="matrix MAA is 4 x 4, expected 3 x 3"):
+        read_superelement(tmp_path / "se.op4")

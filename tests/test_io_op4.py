@@ -1,0 +1,118 @@
+"""OP4 files in every layout: binary (byte orders, 32/64-bit, single/double, complex), ASCII sparse
+and BIGMAT, the CalculiX beam as KAA/MAA with its a-set from bulk data, and broken files."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import scipy.linalg as sla
+from op4_writer import write_ascii, write_binary
+
+import flexmor.io
+from flexmor.errors import ReadError
+from flexmor.io.op4 import read_op4
+
+RNG = np.random.default_rng(7)
+
+
+def _sample():
+    A = RNG.standard_normal((7, 5))
+    A[[0, 3, 4], 1] = 0.0  # runs: rows 2-3 and 6-7 of column 2
+    A[:, 3] = 0.0  # an empty column
+    return A
+
+
+@pytest.mark.parametrize("endian", ["<", ">"])
+@pytest.mark.parametrize("bit64", [False, True])
+@pytest.mark.parametrize("layout", ["dense", "sparse", "bigmat"])
+def test_binary_layouts(tmp_path, endian, bit64, layout):
+    A = _sample()
+    S = A[:5] + A[:5].T
+    p = tmp_path / "m.op4"
+    write_binary(p, {"A": A, "SYM": S}, endian=endian, bit64=bit64, sparse=layout != "dense",
+                 bigmat=layout == "bigmat")
+    m = read_op4(p)
+    np.testing.assert_array_equal(m["A"], A)
+    np.testing.assert_array_equal(m["SYM"], S)
+    assert read_op4(p, sparse=True)["A"].nnz == np.count_nonzero(A)
+
+
+@pytest.mark.parametrize("typ", [1, 3, 4])
+def test_binary_single_and_complex(tmp_path, typ):
+    A = _sample()
+    if typ > 2:
+        A = A + 1j * RNG.standard_normal(A.shape) * (A != 0)
+    p = tmp_path / "c.op4"
+    write_binary(p, {"C": A}, typ=typ, sparse=True)
+    got = read_op4(p)["C"]
+    np.testing.assert_allclose(got, A, rtol=1e-6 if typ in (1, 3) else 0)
+    assert np.iscomplexobj(got) == (typ > 2)
+
+
+@pytest.mark.parametrize("sparse, bigmat", [(True, False), (True, True), (False, False)])
+def test_ascii_layouts(tmp_path, sparse, bigmat):
+    A = _sample()
+    p = tmp_path / "a.op4"
+    write_ascii(p, {"A": A, "B": 2 * A}, sparse=sparse, bigmat=bigmat)
+    m = read_op4(p)
+    np.testing.assert_allclose(m["A"], A, rtol=1e-15)
+    np.testing.assert_allclose(m["B"], 2 * A, rtol=1e-15)
+
+
+def test_beam_as_op4_with_aset(tmp_path, clamped, clamped_ref):
+    """KAA/MAA of the CalculiX beam in binary OP4; the a-set (ASET1 per node) gives the equation map."""
+    order = np.lexsort((clamped.dofs[:, 1], clamped.dofs[:, 0]))
+    K, M = clamped.K.toarray()[np.ix_(order, order)], clamped.M.toarray()[np.ix_(order, order)]
+    write_binary(tmp_path / "beam.op4", {"KAA": K, "MAA": M}, endian=">", sparse=True)
+    nodes = np.unique(clamped.dofs[:, 0])
+    bdf = [f"GRID,{n},," + ",".join(repr(float(c)) for c in x) for n, x in zip(clamped.node_ids, clamped.xyz)]
+    bdf += [f"ASET1,123,{n}" for n in nodes]
+    (tmp_path / "beam.bdf").write_text("\n".join(bdf) + "\n")
+    model = flexmor.io.read(tmp_path / "beam.op4")
+    np.testing.assert_array_equal(model.dofs, clamped.dofs[order])
+    np.testing.assert_array_equal(model.K.toarray(), K)
+    w = sla.eigh(model.K.toarray(), model.M.toarray(), eigvals_only=True, subset_by_index=[0, 3])
+    np.testing.assert_allclose(np.sqrt(w) / (2 * np.pi), clamped_ref[:4], rtol=1e-5)
+    # a-set that does not match the matrices
+    (tmp_path / "beam.bdf").write_text("\n".join(bdf[:-1]) + "\n")
+    with pytest.raises(ReadError, match="give 267 equations, but the OP4 matrices have 270"):
+        flexmor.io.read(tmp_path / "beam.op4", geometry=tmp_path / "beam.bdf")
+
+
+def _bin(tmp_path, **kw):
+    p = tmp_path / "b.op4"
+    write_binary(p, {"A": _sample()}, **kw)
+    return p, bytearray(p.read_bytes())
+
+
+def test_broken_binary(tmp_path):
+    p, raw = _bin(tmp_path)
+    p.write_bytes(raw[:-30])
+    with pytest.raises(ReadError, match="truncated"):
+        read_op4(p)
+    p, raw = _bin(tmp_path)
+    raw[32 + 4 + 8:32 + 4 + 12] = (99).to_bytes(4, "little")  # nwords of the first column
+    p.write_bytes(raw)
+    with pytest.raises(ReadError, match="announces 99 words"):
+        read_op4(p)
+    p, raw = _bin(tmp_path)
+    raw[32 + 4 + 4:32 + 4 + 8] = (7).to_bytes(4, "little")  # first row 7 of a 7-row dense column
+    p.write_bytes(raw)
+    with pytest.raises(ReadError, match="outside 7 x 5"):
+        read_op4(p)
+    p, raw = _bin(tmp_path)
+    raw[16:20] = (9).to_bytes(4, "little")  # type 9
+    p.write_bytes(raw)
+    with pytest.raises(ReadError, match="not a valid matrix header"):
+        read_op4(p)
+
+
+def test_broken_ascii_sparse(tmp_path):
+    p = tmp_path / "s.op4"
+    write_ascii(p, {"A": _sample()}, sparse=True)
+    lines = p.read_text().splitlines()
+    k = next(i for i, ln in enumerate(lines) if len(ln.split()) == 1 and ln.strip().isdigit())
+    lines[k] = f"{(99 + 1) * 65536 + 1:12d}"  # a string longer than its column
+    p.write_text("\n".join(lines) + "\n")
+    with pytest.raises(ReadError, match=rf"s\.op4:{k + 1}: .*does not fit column"):
+        read_op4(p)
