@@ -112,5 +112,5 @@ def test_superelement_errors(tmp_path, clamped):
         read_superelement(tmp_path / "se.op4")
     bdf.write_text(text)
     write_binary(tmp_path / "se.op4", {"KAA": np.eye(3), "MAA": np.eye(4)})
-    with pytest.raises(ReadError, match="matrix MAA is 4 x 4, expected 3 x 3"):
+    with pytest.raises(ReadError, match=r"the matrices KAA \(3, 3\), MAA \(4, 4\) differ in size"):
         read_superelement(tmp_path / "se.op4")
