@@ -10,11 +10,21 @@ CalculiX writes, for the job ``<job>.inp``:
 The main file is the ``.sti``; ``.mas``, ``.dof`` and the input deck ``.inp`` (node table
 from ``*NODE``, node sets from ``*NSET`` and ``*NODE, NSET=...``) must lie beside it. The full
 symmetric matrices are rebuilt as ``A = U + U^T - diag(U)``.
+
+Quadratic elements (``C3D20R``, ``C3D20``, ``C3D15``, ``C3D10``, 8-node shells and plane
+elements, found in the ``*ELEMENT, TYPE=`` lines) can give a singular mass matrix (reduced
+integration) or one with zero or negative diagonal entries (row-sum lumping of serendipity
+elements). For such decks non-positive mass diagonals are a :class:`~flexmor.errors.FlexmorWarning`
+instead of an error, and :func:`check_mass` estimates the smallest eigenvalue of ``M`` and
+warns when it is (near) zero; the warning says which methods still work
+(:data:`flexmor.model.SINGULAR_MASS_NOTE`). For other element types a non-positive mass
+diagonal remains an error.
 """
 
 from __future__ import annotations
 
 import logging
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -25,9 +35,13 @@ from . import register_format
 from ._text import build_model, entry_line, parse_triplets, read_text
 from .abaqus_inp import include_path, keyword_options
 
-__all__ = ["read_calculix", "read_inp", "read_dof"]
+__all__ = ["check_mass", "read_calculix", "read_dof", "read_inp"]
 
 log = logging.getLogger(__name__)
+
+#: Element types whose mass matrix may legitimately be singular or indefinite (quadratic
+#: serendipity / reduced-integration / row-sum-lumped): such decks get warnings, not errors.
+_QUADRATIC = ("C3D20", "C3D15", "C3D10", "S8", "CPS8", "CPE8", "CAX8")
 
 
 def _sibling(path: Path, suffix: str, what: str) -> Path:
@@ -96,11 +110,13 @@ def read_dof(path) -> np.ndarray:
     return out
 
 
-def read_inp(path, _depth: int = 0, _state: dict | None = None):
+def read_inp(path, _depth: int = 0, _state: dict | None = None, *, element_types: set | None = None):
     """Read the node table and node sets of a CalculiX/Abaqus-style input deck.
 
     Only ``*NODE`` and ``*NSET`` (with ``GENERATE`` and set names as members) and
     ``*INCLUDE, INPUT=...`` are interpreted; everything else is skipped.
+
+    ``element_types``, when given, receives the ``TYPE=`` of every ``*ELEMENT`` keyword.
 
     Returns
     -------
@@ -136,7 +152,9 @@ def read_inp(path, _depth: int = 0, _state: dict | None = None):
                 cur_set = opts["NSET"].upper()
                 st["sets"].setdefault(cur_set, [])
             elif block == "INCLUDE":
-                read_inp(include_path(path, opts, _depth, lineno), _depth + 1, st)
+                read_inp(include_path(path, opts, _depth, lineno), _depth + 1, st, element_types=element_types)
+            elif block == "ELEMENT" and element_types is not None:
+                element_types.add(opts.get("TYPE", "").upper())
             continue
         if block == "NODE":
             _node_line(path, lineno, s, st, cur_set)
@@ -269,18 +287,56 @@ def read_calculix(path) -> "FEModel":  # noqa: F821
     _sniff(mas)
     K = _read_upper(path, n)
     M = _read_upper(mas, n)
-    node_ids, xyz, sets = read_inp(inp)
+    types: set = set()
+    node_ids, xyz, sets = read_inp(inp, element_types=types)
+    quadratic = sorted(t for t in types if t.startswith(_QUADRATIC))
     known = np.isin(dofs[:, 0], node_ids)
     if not np.all(known):
         i = int(np.flatnonzero(~known)[0])
         raise ReadError(dof_path, f"equation {i + 1} is on node {dofs[i, 0]}, which {inp.name} does not define; "
                                   "are the .dof and .inp from the same job?", i + 1)
-    return build_model(
+    model = build_model(
         path,
         roles={"M": mas, "K": path},
         M=M, K=K, node_ids=node_ids, xyz=xyz, dofs=dofs, node_sets=sets,
-        name=path.stem, source=str(path),
+        name=path.stem, source=str(path), singular_mass_ok=bool(quadratic),
     )
+    if quadratic and np.all(M.diagonal() > 0):
+        check_mass(model, f"{mas} ({', '.join(quadratic)} elements)")
+    return model
+
+
+def check_mass(model, where, *, max_dof: int = 500_000, iterations: int = 12) -> float | None:
+    """Warn (FlexmorWarning) when the mass matrix is singular or indefinite; return ``lambda_min/lambda_max``.
+
+    One factorization of ``M`` and a few inverse iterations estimate its smallest eigenvalue;
+    a failed factorization, a ratio below 1e-12 or a negative Rayleigh quotient count as
+    singular. Skipped (None) above ``max_dof`` equations.
+    """
+    from ..errors import FlexmorWarning, SolverError
+    from ..linalg import factorize
+    from ..model import SINGULAR_MASS_NOTE
+
+    M = model.M
+    if M.shape[0] > max_dof:
+        return None
+    lam_max = float(abs(M).sum(axis=1).max())  # Gershgorin bound
+    try:
+        F = factorize(M, symmetric=True, positive=False, check=False)
+        x = np.random.default_rng(1).standard_normal(M.shape[0])
+        for _ in range(iterations):
+            x = F.solve(x)
+            nx = np.linalg.norm(x)
+            if not np.isfinite(nx) or nx == 0:
+                raise SolverError("inverse iteration broke down")
+            x /= nx
+        ratio = float(x @ (M @ x)) / lam_max
+    except (SolverError, RuntimeError, ValueError, np.linalg.LinAlgError):
+        ratio = 0.0
+    if ratio < 1e-12:
+        warnings.warn(f"{where}: the mass matrix is singular or indefinite (smallest eigenvalue / largest ~ "
+                      f"{ratio:.1e}); {SINGULAR_MASS_NOTE}", FlexmorWarning, stacklevel=3)
+    return ratio
 
 
 register_format("calculix", [".sti"], reader=read_calculix,

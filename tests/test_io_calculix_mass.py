@@ -1,0 +1,69 @@
+"""Singular and indefinite mass matrices of quadratic CalculiX elements (C3D20R): a warning, not an error.
+
+The beam job is rewritten with ``TYPE=C3D20R`` and a mass matrix that is (a) lumped with
+massless nodes, (b) consistent but rank-deficient. The model must load with a FlexmorWarning,
+and the shift-invert eigen solver (which only factorizes ``K - sigma M``) must give the
+frequencies of the exact static condensation of the massless DOFs.
+"""
+
+from __future__ import annotations
+
+import shutil
+
+import numpy as np
+import pytest
+import scipy.linalg as sla
+from conftest import CCX
+
+import flexmor.io
+from flexmor.errors import FlexmorWarning, ReadError
+from flexmor.linalg import eigenmodes
+
+
+def _job(tmp_path, M, etype="C3D20R"):
+    for suf in (".sti", ".dof", ".inp"):
+        shutil.copy(CCX / f"beam8_clamped_mat{suf}", tmp_path / f"job{suf}")
+    inp = tmp_path / "job.inp"
+    inp.write_text(inp.read_text().replace("TYPE=C3D8", f"TYPE={etype}"))
+    U = np.triu(M)
+    r, c = np.nonzero(U)
+    (tmp_path / "job.mas").write_text("".join(f"{i + 1} {j + 1} {float(U[i, j])!r}\n" for i, j in zip(r, c)))
+    return tmp_path / "job.sti"
+
+
+def test_massless_nodes(tmp_path, clamped):
+    M = np.diag(np.asarray(clamped.M.sum(axis=1)).ravel())  # row-sum lumping
+    massless = np.isin(clamped.dofs[:, 0], clamped.dofs[::7, 0])
+    M[massless, massless] = 0.0
+    with pytest.warns(FlexmorWarning, match=r"diagonal is not positive at \d+ equation.*C3D20R.*shift-invert"):
+        model = flexmor.io.read(_job(tmp_path, M))
+    assert model.M.diagonal().min() == 0.0
+    lam, _ = eigenmodes(model.K, model.M, 4, method="lanczos")
+    K = clamped.K.toarray()
+    m, z = ~massless, massless
+    Kc = K[np.ix_(m, m)] - K[np.ix_(m, z)] @ np.linalg.solve(K[np.ix_(z, z)], K[np.ix_(z, m)])
+    ref = sla.eigh(Kc, M[np.ix_(m, m)], eigvals_only=True, subset_by_index=[0, 3])
+    np.testing.assert_allclose(lam, ref, rtol=1e-8)
+    with pytest.raises(ReadError, match="mass matrix diagonal is not positive"):
+        flexmor.io.read(_job(tmp_path, M, etype="C3D8"))
+
+
+def test_rank_deficient_consistent_mass(tmp_path, clamped):
+    M = clamped.M.toarray()
+    mu, U = np.linalg.eigh(M)
+    Ms = M - mu[0] * np.outer(U[:, 0], U[:, 0]) - mu[1] * np.outer(U[:, 1], U[:, 1])  # rank n - 2, PSD
+    Ms = 0.5 * (Ms + Ms.T)
+    assert Ms.diagonal().min() > 0
+    with pytest.warns(FlexmorWarning, match=r"job\.mas \(C3D20R elements\): the mass matrix is singular"):
+        model = flexmor.io.read(_job(tmp_path, Ms))
+    lam, _ = eigenmodes(model.K, model.M, 3, method="lanczos")
+    mu = sla.eigh(Ms, clamped.K.toarray(), eigvals_only=True)  # K positive definite, Ms singular: 1 / lambda
+    np.testing.assert_allclose(lam, np.sort(1.0 / mu[-3:]), rtol=1e-6)
+
+
+def test_regular_mass_with_quadratic_elements_is_quiet(tmp_path, clamped, recwarn):
+    from flexmor.io.calculix import check_mass
+
+    model = flexmor.io.read(_job(tmp_path, clamped.M.toarray()))
+    assert not [w for w in recwarn if issubclass(w.category, FlexmorWarning)]
+    assert check_mass(model, "x") > 1e-6
