@@ -11,6 +11,7 @@ A reader takes a path and returns a :class:`flexmor.model.FEModel`; it raises
 from __future__ import annotations
 
 import os
+import secrets
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable
@@ -110,14 +111,19 @@ def read(path, format: str | None = None, **options):
 def atomic_write(path, write: Callable[[str], None]) -> None:
     """Call ``write(tmp_path)`` and rename the temporary file to ``path`` only on success.
 
-    The temporary file lives in the same directory (same file system), so the rename is
-    atomic: readers see either the old file or the complete new one, never a half-written one.
+    Every file flexmor writes goes through this function. The temporary file
+    (``.NAME.PID.RANDOM.tmp``) lives in the same directory (same file system), so the rename
+    is atomic: readers see either the old file or the complete new one, never a half-written
+    one. The data are flushed to disk before the rename. On any exception inside ``write``
+    (including ``KeyboardInterrupt``) the temporary file is removed and ``path`` is untouched.
     """
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.name}.tmp{os.getpid()}")
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.{secrets.token_hex(4)}.tmp")
     try:
         write(str(tmp))
+        with open(tmp, "rb") as fh:
+            os.fsync(fh.fileno())
         os.replace(tmp, path)
     finally:
         if tmp.exists():

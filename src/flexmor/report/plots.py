@@ -21,8 +21,10 @@ def plot_rel_error(freqs, curves: dict, path, *, title: str = "") -> None:
         Output PNG file.
     """
     fig = _rel_error_figure(freqs, curves, title)
-    atomic_write(path, lambda tmp: fig.savefig(tmp, format="png"))
-    _pyplot().close(fig)
+    try:
+        atomic_write(path, lambda tmp: fig.savefig(tmp, format="png"))
+    finally:
+        _pyplot().close(fig)
 
 
 def _rel_error_figure(freqs, curves: dict, title: str = ""):
