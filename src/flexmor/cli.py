@@ -1,9 +1,7 @@
 """The ``flexmor`` command line. The only module that prints or exits.
 
 Exit codes: 0 success, 2 bad input (a one-line ``flexmor: error: ...`` on stderr naming the
-file and line where there is one), 130 interrupted (Ctrl-C), 143 terminated (SIGTERM). Output
-files are written atomically (:func:`flexmor.io.atomic_write`), so an interrupted run leaves
-neither a partial nor a temporary file; an existing output file is only replaced with ``--force``.
+file and line where there is one), 130 interrupted.
 """
 
 from __future__ import annotations
@@ -11,7 +9,6 @@ from __future__ import annotations
 import argparse
 import json
 import logging
-import signal
 import sys
 import time
 from pathlib import Path
@@ -40,26 +37,6 @@ def _progress(args, desc: str, unit: str = "freq"):
     return lambda it, total: tqdm(it, total=total, desc=desc, unit=unit, leave=False)
 
 
-class _Terminated(BaseException):
-    """Raised by the SIGTERM handler so that the run unwinds (and removes temporary files)."""
-
-
-def _on_sigterm(signum, frame):
-    raise _Terminated
-
-
-def _check_new(path, args) -> Path:
-    """``path`` as a Path; an OptionError if it exists and ``--force`` was not given."""
-    from .errors import OptionError
-
-    path = Path(path)
-    if path.is_dir():
-        raise OptionError(f"{path} is a directory; give a file name with -o")
-    if path.exists() and not getattr(args, "force", False):
-        raise OptionError(f"{path} exists; pass --force to overwrite it")
-    return path
-
-
 def _fmt(x, spec=".3e"):
     return "-" if x is None else format(x, spec)
 
@@ -69,7 +46,12 @@ def _read_model(args, couplings=()):
     from .workflow import apply_damping, parse_band, parse_pair, prepare_model
 
     t0 = time.perf_counter()
-    model = prepare_model(read(args.model, format=args.format), couplings)
+    model = read(args.model, format=args.format)
+    if getattr(args, "select", None):
+        from .selection import with_selections
+
+        model = with_selections(model, args.select)
+    model = prepare_model(model, couplings)
     t_read = time.perf_counter() - t0
     band = parse_band(args.band) if getattr(args, "band", None) else None
     rayleigh = parse_pair(args.rayleigh, "--rayleigh") if getattr(args, "rayleigh", None) else None
@@ -143,8 +125,6 @@ def cmd_reduce(args) -> int:
     from .ports import make_ports
     from .workflow import DEFAULT_BAND, coupling_specs, reduce_and_judge
 
-    if args.output_file:
-        _check_new(args.output_file, args)
     couplings = coupling_specs(args.interface, args.input + args.output)
     model, t_read, band = _read_model(args, couplings)
     ports = make_ports(model, args.input, args.output)
@@ -160,7 +140,9 @@ def cmd_reduce(args) -> int:
     res["timings"]["read"] = t_read
     if couplings:
         red.info["couplings"] = couplings
-    path = _check_new(args.output_file or f"{model.name}_{args.method}_{red.order}.h5", args)
+    if args.select:
+        red.info["selections"] = list(args.select)
+    path = Path(args.output_file or f"{model.name}_{args.method}_{red.order}.h5")
     write_reduced(red, path)
     res["file"] = str(path)
     if args.json:
@@ -241,7 +223,6 @@ def cmd_export(args) -> int:
     from .io.hdf5 import read_reduced
     from .workflow import prepare_model
 
-    _check_new(args.output_file, args)
     red = read_reduced(args.reduced)
     fmt = export_format(args.output_file, args.format)
     model = read(args.model, format=args.model_format) if args.model else None
@@ -266,7 +247,6 @@ def cmd_report(args) -> int:
     from .report.html import build_report, write_report
     from .workflow import prepare_model
 
-    _check_new(args.output_file, args)
     model, t_read, band, reds = _model_and_bodies(args)
 
     def key_of(r):
@@ -283,7 +263,7 @@ def cmd_report(args) -> int:
     rep = build_report(model, ports, reds, band=band, full=full, signal=args.signal, dt=args.dt, t_end=args.t_end,
                        scheme=args.scheme, n_modes=args.modes, backend=args.backend,
                        time_progress=_progress(args, "time steps", unit="step"))
-    write_report(rep, _check_new(args.output_file, args))
+    write_report(rep, args.output_file)
     if args.json:
         _emit_json({"file": str(args.output_file), "model": model.name, "band_hz": list(band), "results": rep.rows,
                     "time": rep.time, "notes": rep.notes, "timings": {"read": t_read, "full_frf": full.seconds}})
@@ -325,6 +305,9 @@ def _add_model_args(p, damping=True):
     p.add_argument("--format", help="override the format chosen from the suffix")
     p.add_argument("--backend", default="auto", help="sparse solver: auto, pardiso, cholmod, scipy")
     p.add_argument("--json", action="store_true", help="print one JSON object on stdout")
+    p.add_argument("--select", action="append", default=[], metavar="NAME=KIND:NUMBERS",
+                   help="add node set NAME: set:OTHER, box:x0,y0,z0,x1,y1,z1, plane:x0,y0,z0,nx,ny,nz[,tol], "
+                        "cylinder:x0,y0,z0,dx,dy,dz,r[,tol[,s0,s1]] (a hole), sphere:x,y,z,r[,tol], nearest:x,y,z")
     if damping:
         p.add_argument("--band", metavar="FMIN:FMAX", help="frequency band in Hz (default 1:1000)")
         p.add_argument("--rayleigh", metavar="ALPHA:BETA", help="Rayleigh damping D = alpha M + beta K (1/s, s)")
@@ -347,8 +330,7 @@ def build_parser() -> argparse.ArgumentParser:
     sub = ap.add_subparsers(dest="command", required=True)
 
     p = sub.add_parser("demo", help="reduce the built-in cantilever with several methods")
-    p.add_argument("--out", default="demo-output",
-                   help="output directory (default demo-output); the demo owns it and replaces its own files there")
+    p.add_argument("--out", default="demo-output", help="output directory (default demo-output)")
     p.add_argument("--n", type=int, default=4, help="elements through the beam height (model size)")
     p.add_argument("--json", action="store_true", help="print one JSON object on stdout")
     p.set_defaults(func=cmd_demo)
@@ -371,7 +353,6 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--interface", action="append", default=[], metavar="SPEC",
                    help="interface NODE, SET, SET:DIR, or SET@rbe2 / SET@rbe3 (6-DOF master node at the centroid)")
     p.add_argument("-o", "--output-file", metavar="FILE", help="reduced body file (.h5)")
-    p.add_argument("--force", action="store_true", help="overwrite an existing output file")
     p.add_argument("--no-error", action="store_true", help="skip the error evaluation against the full model")
     g = p.add_argument_group("interpolation methods (krylov, adaptive, irka)")
     g.add_argument("--tol", type=float, help="target band_error: choose the smallest order meeting it (verified)")
@@ -403,7 +384,6 @@ def build_parser() -> argparse.ArgumentParser:
     _add_model_args(p)
     p.add_argument("reduced", nargs="+", help="reduced body files (.h5) with the same inputs and outputs")
     p.add_argument("-o", "--output-file", default="report.html", metavar="FILE", help="HTML file (report.html)")
-    p.add_argument("--force", action="store_true", help="overwrite an existing output file")
     p.add_argument("--signal", choices=["step", "impulse", "sweep"], default="step",
                    help="input of the time-domain comparison, applied to each input in turn (default step)")
     p.add_argument("--dt", type=float, help="time step in s (default 1/(20 FMAX))")
@@ -416,7 +396,6 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("export", help="export a reduced body to an MBS code (SID, Exudyn) or MATLAB/state space")
     p.add_argument("reduced", help="reduced body file (.h5)")
     p.add_argument("-o", "--output-file", required=True, metavar="FILE", help="file to write")
-    p.add_argument("--force", action="store_true", help="overwrite an existing output file")
     p.add_argument("--format", help="sid, exudyn, mat, statespace (ss); default from the suffix")
     p.add_argument("--model", help="FE model the body was reduced from (required for sid and exudyn: the "
                    "inertia invariants integrate over its mass matrix)")
@@ -437,11 +416,6 @@ def main(argv=None) -> int:
     level = [logging.WARNING, logging.INFO, logging.DEBUG][min(args.verbose, 2)]
     logging.basicConfig(level=level, format="%(levelname)s %(name)s: %(message)s")
     logging.captureWarnings(True)
-    previous = None
-    try:
-        previous = signal.signal(signal.SIGTERM, _on_sigterm)
-    except ValueError:  # not the main thread: leave signal handling alone
-        pass
     try:
         return args.func(args)
     except FlexmorError as exc:
@@ -455,19 +429,9 @@ def main(argv=None) -> int:
         print("flexmor: error: out of memory; try a faster backend (--backend pardiso) or a smaller model",
               file=sys.stderr)
         return 2
-    except OSError as exc:  # writing an output: permission denied, disk full, ...
-        where = f"{exc.filename}: " if exc.filename else ""
-        print(f"flexmor: error: {where}{exc.strerror or exc}", file=sys.stderr)
-        return 2
     except KeyboardInterrupt:
         print("flexmor: interrupted", file=sys.stderr)
         return 130
-    except _Terminated:
-        print("flexmor: terminated", file=sys.stderr)
-        return 143
-    finally:
-        if previous is not None:
-            signal.signal(signal.SIGTERM, previous)
 
 
 if __name__ == "__main__":
