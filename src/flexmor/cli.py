@@ -1,7 +1,9 @@
 """The ``flexmor`` command line. The only module that prints or exits.
 
 Exit codes: 0 success, 2 bad input (a one-line ``flexmor: error: ...`` on stderr naming the
-file and line where there is one), 130 interrupted.
+file and line where there is one), 130 interrupted (Ctrl-C), 143 terminated (SIGTERM). Output
+files are written atomically (:func:`flexmor.io.atomic_write`), so an interrupted run leaves
+neither a partial nor a temporary file; an existing output file is only replaced with ``--force``.
 """
 
 from __future__ import annotations
@@ -9,6 +11,7 @@ from __future__ import annotations
 import argparse
 import json
 import logging
+import signal
 import sys
 import time
 from pathlib import Path
@@ -35,6 +38,26 @@ def _progress(args, desc: str, unit: str = "freq"):
     except ImportError:
         return None
     return lambda it, total: tqdm(it, total=total, desc=desc, unit=unit, leave=False)
+
+
+class _Terminated(BaseException):
+    """Raised by the SIGTERM handler so that the run unwinds (and removes temporary files)."""
+
+
+def _on_sigterm(signum, frame):
+    raise _Terminated
+
+
+def _check_new(path, args) -> Path:
+    """``path`` as a Path; an OptionError if it exists and ``--force`` was not given."""
+    from .errors import OptionError
+
+    path = Path(path)
+    if path.is_dir():
+        raise OptionError(f"{path} is a directory; give a file name with -o")
+    if path.exists() and not getattr(args, "force", False):
+        raise OptionError(f"{path} exists; pass --force to overwrite it")
+    return path
 
 
 def _fmt(x, spec=".3e"):
@@ -125,6 +148,8 @@ def cmd_reduce(args) -> int:
     from .ports import make_ports
     from .workflow import DEFAULT_BAND, coupling_specs, reduce_and_judge
 
+    if args.output_file:
+        _check_new(args.output_file, args)
     couplings = coupling_specs(args.interface, args.input + args.output)
     model, t_read, band = _read_model(args, couplings)
     ports = make_ports(model, args.input, args.output)
@@ -142,7 +167,7 @@ def cmd_reduce(args) -> int:
         red.info["couplings"] = couplings
     if args.select:
         red.info["selections"] = list(args.select)
-    path = Path(args.output_file or f"{model.name}_{args.method}_{red.order}.h5")
+    path = _check_new(args.output_file or f"{model.name}_{args.method}_{red.order}.h5", args)
     write_reduced(red, path)
     res["file"] = str(path)
     if args.json:
@@ -223,6 +248,7 @@ def cmd_export(args) -> int:
     from .io.hdf5 import read_reduced
     from .workflow import prepare_model
 
+    _check_new(args.output_file, args)
     red = read_reduced(args.reduced)
     fmt = export_format(args.output_file, args.format)
     model = read(args.model, format=args.model_format) if args.model else None
@@ -247,6 +273,7 @@ def cmd_report(args) -> int:
     from .report.html import build_report, write_report
     from .workflow import prepare_model
 
+    _check_new(args.output_file, args)
     model, t_read, band, reds = _model_and_bodies(args)
 
     def key_of(r):
@@ -263,7 +290,7 @@ def cmd_report(args) -> int:
     rep = build_report(model, ports, reds, band=band, full=full, signal=args.signal, dt=args.dt, t_end=args.t_end,
                        scheme=args.scheme, n_modes=args.modes, backend=args.backend,
                        time_progress=_progress(args, "time steps", unit="step"))
-    write_report(rep, args.output_file)
+    write_report(rep, _check_new(args.output_file, args))
     if args.json:
         _emit_json({"file": str(args.output_file), "model": model.name, "band_hz": list(band), "results": rep.rows,
                     "time": rep.time, "notes": rep.notes, "timings": {"read": t_read, "full_frf": full.seconds}})
@@ -330,7 +357,8 @@ def build_parser() -> argparse.ArgumentParser:
     sub = ap.add_subparsers(dest="command", required=True)
 
     p = sub.add_parser("demo", help="reduce the built-in cantilever with several methods")
-    p.add_argument("--out", default="demo-output", help="output directory (default demo-output)")
+    p.add_argument("--out", default="demo-output",
+                   help="output directory (default demo-output); the demo owns it and replaces its own files there")
     p.add_argument("--n", type=int, default=4, help="elements through the beam height (model size)")
     p.add_argument("--json", action="store_true", help="print one JSON object on stdout")
     p.set_defaults(func=cmd_demo)
@@ -353,6 +381,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--interface", action="append", default=[], metavar="SPEC",
                    help="interface NODE, SET, SET:DIR, or SET@rbe2 / SET@rbe3 (6-DOF master node at the centroid)")
     p.add_argument("-o", "--output-file", metavar="FILE", help="reduced body file (.h5)")
+    p.add_argument("--force", action="store_true", help="overwrite an existing output file")
     p.add_argument("--no-error", action="store_true", help="skip the error evaluation against the full model")
     g = p.add_argument_group("interpolation methods (krylov, adaptive, irka)")
     g.add_argument("--tol", type=float, help="target band_error: choose the smallest order meeting it (verified)")
@@ -384,6 +413,7 @@ def build_parser() -> argparse.ArgumentParser:
     _add_model_args(p)
     p.add_argument("reduced", nargs="+", help="reduced body files (.h5) with the same inputs and outputs")
     p.add_argument("-o", "--output-file", default="report.html", metavar="FILE", help="HTML file (report.html)")
+    p.add_argument("--force", action="store_true", help="overwrite an existing output file")
     p.add_argument("--signal", choices=["step", "impulse", "sweep"], default="step",
                    help="input of the time-domain comparison, applied to each input in turn (default step)")
     p.add_argument("--dt", type=float, help="time step in s (default 1/(20 FMAX))")
@@ -396,6 +426,7 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("export", help="export a reduced body to an MBS code (SID, Exudyn) or MATLAB/state space")
     p.add_argument("reduced", help="reduced body file (.h5)")
     p.add_argument("-o", "--output-file", required=True, metavar="FILE", help="file to write")
+    p.add_argument("--force", action="store_true", help="overwrite an existing output file")
     p.add_argument("--format", help="sid, exudyn, mat, statespace (ss); default from the suffix")
     p.add_argument("--model", help="FE model the body was reduced from (required for sid and exudyn: the "
                    "inertia invariants integrate over its mass matrix)")
@@ -416,6 +447,11 @@ def main(argv=None) -> int:
     level = [logging.WARNING, logging.INFO, logging.DEBUG][min(args.verbose, 2)]
     logging.basicConfig(level=level, format="%(levelname)s %(name)s: %(message)s")
     logging.captureWarnings(True)
+    previous = None
+    try:
+        previous = signal.signal(signal.SIGTERM, _on_sigterm)
+    except ValueError:  # not the main thread: leave signal handling alone
+        pass
     try:
         return args.func(args)
     except FlexmorError as exc:
@@ -429,9 +465,19 @@ def main(argv=None) -> int:
         print("flexmor: error: out of memory; try a faster backend (--backend pardiso) or a smaller model",
               file=sys.stderr)
         return 2
+    except OSError as exc:  # writing an output: permission denied, disk full, ...
+        where = f"{exc.filename}: " if exc.filename else ""
+        print(f"flexmor: error: {where}{exc.strerror or exc}", file=sys.stderr)
+        return 2
     except KeyboardInterrupt:
         print("flexmor: interrupted", file=sys.stderr)
         return 130
+    except _Terminated:
+        print("flexmor: terminated", file=sys.stderr)
+        return 143
+    finally:
+        if previous is not None:
+            signal.signal(signal.SIGTERM, previous)
 
 
 if __name__ == "__main__":
