@@ -4,7 +4,11 @@ Each case copies one sample set (e.g. a CalculiX ``.sti`` + ``.mas`` + ``.dof`` 
 scratch folder, mutates one of its files (delete / duplicate / swap lines, replace a token with
 junk, NaN or a huge integer, truncate at a random byte, prepend binary junk) and reads it with
 ``flexmor.io.read``. A finding is any exception that is not a :class:`flexmor.errors.FlexmorError`
-(or a case slower than ``--timeout`` seconds). ``python bench/fuzz.py -n 100000 -j 2``.
+(or a case slower than ``--timeout`` seconds), and any case that kills its worker process (a
+crash in compiled code, e.g. a segmentation fault): each chunk of cases runs in its own process,
+which publishes the seed it is reading, so a dead or stuck worker names the case and the run
+goes on with the next seed. Findings are printed as they occur.
+``python bench/fuzz.py -n 100000 -j 2``.
 """
 
 from __future__ import annotations
@@ -113,15 +117,19 @@ def _alarm(signum, frame):
     raise _Timeout
 
 
-def _worker(args):
-    start, count, timeout = args
+def _chunk(start, count, timeout, current, conn):
+    """Run seeds ``start .. start+count-1`` in this (child) process.
+
+    ``current`` holds the seed being read, so that the parent can name it when the process
+    dies (a crash in compiled code) or stops making progress; findings are sent at once.
+    """
     import logging
     import signal
     logging.disable(logging.CRITICAL)
     signal.signal(signal.SIGALRM, _alarm)
-    found = []
     with tempfile.TemporaryDirectory() as tmp:
         for seed in range(start, start + count):
+            current.value = seed
             signal.alarm(timeout)
             try:
                 r = run_case(seed, Path(tmp))
@@ -130,8 +138,13 @@ def _worker(args):
             finally:
                 signal.alarm(0)
             if r:
-                found.append(r)
-    return count, found
+                conn.send(("finding", r))
+    conn.send(("done", count))
+    conn.close()
+
+
+def _target(seed: int) -> str:
+    return TARGETS[seed % len(TARGETS)][0]
 
 
 def main(argv=None) -> int:
@@ -139,22 +152,89 @@ def main(argv=None) -> int:
     ap.add_argument("-n", type=int, default=100_000, help="number of cases")
     ap.add_argument("-j", type=int, default=2, help="worker processes")
     ap.add_argument("--seed", type=int, default=0, help="first seed")
-    ap.add_argument("--chunk", type=int, default=500)
+    ap.add_argument("--chunk", type=int, default=2000, help="cases per worker process")
     ap.add_argument("--time-limit", type=float, default=None, help="stop after this many seconds (report the count)")
     ap.add_argument("--timeout", type=int, default=20, help="seconds per case before it counts as a hang")
     a = ap.parse_args(argv)
+    import signal as _signal
+    from collections import deque
+    from multiprocessing.connection import wait
+
     t0 = time.perf_counter()
-    chunks = [(s, min(a.chunk, a.seed + a.n - s), a.timeout) for s in range(a.seed, a.seed + a.n, a.chunk)]
+    ctx = mp.get_context("spawn")
+    pending = deque((s, min(a.chunk, a.seed + a.n - s)) for s in range(a.seed, a.seed + a.n, a.chunk))
+    running = []  # [process, pipe, current seed, first seed, count, (seed, since)]
     done, findings = 0, []
-    with mp.get_context("spawn").Pool(a.j) as pool:
-        for count, found in pool.imap_unordered(_worker, chunks):
-            done += count
-            findings += found
-            if a.time_limit and time.perf_counter() - t0 > a.time_limit:
-                pool.terminate()
-                break
-            print(f"\r{done} cases, {len(findings)} findings, {time.perf_counter() - t0:.0f} s", end="",
-                  file=sys.stderr, flush=True)
+
+    def finding(text):
+        findings.append(text)
+        print(text, flush=True)
+
+    def drain(r):
+        while r[1].poll():
+            try:
+                kind, val = r[1].recv()
+            except EOFError:
+                return False
+            if kind == "finding":
+                finding(val)
+            else:
+                return True
+        return False
+
+    stopped = False
+    while pending or running:
+        while pending and len(running) < a.j and not stopped:
+            start, count = pending.popleft()
+            current = ctx.Value("q", start - 1, lock=False)
+            rd, wr = ctx.Pipe(duplex=False)
+            proc = ctx.Process(target=_chunk, args=(start, count, a.timeout, current, wr), daemon=True)
+            proc.start()
+            wr.close()
+            running.append([proc, rd, current, start, count, (start - 1, time.perf_counter())])
+        wait([r[0].sentinel for r in running] + [r[1] for r in running], timeout=1.0)
+        for r in list(running):
+            proc, rd, current, start, count, (seen, since) = r
+            if drain(r):
+                proc.join()
+                running.remove(r)
+                done += count
+                continue
+            seed = current.value
+            if proc.is_alive():
+                now = time.perf_counter()
+                if seed != seen:
+                    r[5] = (seed, now)
+                elif now - since > 3 * a.timeout + 30:  # stuck where SIGALRM cannot interrupt
+                    proc.kill()
+                    proc.join()
+                    drain(r)
+                    finding(f"seed {seed} {_target(seed)}: hang: no progress for {now - since:.0f} s (killed) at -")
+                    running.remove(r)
+                    done += seed - start + 1
+                    if start + count > seed + 1:
+                        pending.appendleft((seed + 1, start + count - seed - 1))
+                continue
+            proc.join()
+            drain(r)
+            running.remove(r)
+            code = proc.exitcode
+            how = f"signal {_signal.Signals(-code).name}" if code < 0 else f"exit code {code}"
+            finding(f"seed {seed} {_target(seed)}: crash: the process died ({how}) at -")
+            done += seed - start + 1
+            if start + count > seed + 1:
+                pending.appendleft((seed + 1, start + count - seed - 1))
+        if a.time_limit and time.perf_counter() - t0 > a.time_limit and not stopped:
+            stopped = True
+            pending.clear()
+            for r in running:
+                r[0].kill()
+                r[0].join()
+                drain(r)
+                done += max(0, r[2].value - r[3])  # cases finished before the one it was reading
+            running = []
+        print(f"\r{done + sum(max(0, r[2].value - r[3]) for r in running)} cases, {len(findings)} findings, "
+              f"{time.perf_counter() - t0:.0f} s", end="", file=sys.stderr, flush=True)
     print(file=sys.stderr)
     kinds = {}
     for f in findings:

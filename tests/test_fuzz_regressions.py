@@ -36,3 +36,19 @@ def test_ansys_mapping_vector_with_superscript_digit(tmp_path):
     vec.write_text("".join(lines), encoding="utf-8")
     with pytest.raises(ReadError, match="node number"):
         flexmor.io.read(tmp_path / "rotorAnsysStiffnessMatrixSparse.txt")
+
+
+def test_mat_with_damaged_compressed_variable_is_refused_not_a_crash():
+    # bench/fuzz.py seed 67581 (and 5 more seeds): scipy.io.loadmat alone dies with SIGSEGV on this
+    # file, so it is read in a child process: a crash there fails the test instead of the suite
+    import subprocess
+    import sys
+
+    code = ("import sys, flexmor.io\n"
+            "from flexmor.errors import ReadError\n"
+            "try:\n    flexmor.io.read(sys.argv[1])\n"
+            "except ReadError as e:\n    print(e)\n")
+    out = subprocess.run([sys.executable, "-c", code, str(DATA / "bad" / "mat_cut_compressed.mat")],
+                         capture_output=True, text=True, timeout=120)
+    assert out.returncode == 0, out.stderr
+    assert "damaged MATLAB file: compressed data at byte 253 are" in out.stdout

@@ -11,7 +11,9 @@ Lower-case names (``m``, ``k``, ``d``, ``b``, ``c``) are accepted when the upper
 absent. First-order files (``A``, ``B``, ``C`` with ``A = [0 I; -M^-1 K -M^-1 D]`` in some
 form) cannot be turned back into a mechanical model and are refused with a clear message.
 MATLAB v7.3 files are HDF5 containers; re-save them with ``save(file, '-v7')``.
-Reading uses :func:`scipy.io.loadmat`, which never unpickles.
+Reading uses :func:`scipy.io.loadmat`, which never unpickles, after a structural check of the
+file in pure Python (:mod:`flexmor.io._mat5`): scipy's compiled reader trusts byte counts and
+dimensions, and a damaged file could crash the process.
 """
 
 from __future__ import annotations
@@ -24,6 +26,7 @@ import scipy.sparse as sp
 
 from ..errors import ReadError
 from . import register_format
+from ._mat5 import checked_v5_stream
 from ._text import build_model
 
 __all__ = ["read_matlab"]
@@ -77,10 +80,10 @@ def read_matlab(path) -> "FEModel":  # noqa: F821
     """
     path = Path(path)
     try:
-        with open(path, "rb") as f:
-            head = f.read(1024)
+        raw = path.read_bytes()
     except OSError as exc:
         raise ReadError(path, f"cannot read: {exc.strerror}") from None
+    head = raw[:1024]
     if not head:
         raise ReadError(path, "file is empty")
     if b"MATLAB 7.3" in head[:128] or head[512:520] == _HDF5_MAGIC or head[:8] == _HDF5_MAGIC:
@@ -89,8 +92,9 @@ def read_matlab(path) -> "FEModel":  # noqa: F821
     if b"\x00" not in head and not head.startswith(b"MATLAB"):
         raise ReadError(path, "is a text file, not a binary MATLAB MAT-file; in MATLAB, load the model "
                               "and save(file, 'M', 'K', '-v7')")
+    stream = checked_v5_stream(path, raw)  # scipy's compiled reader trusts the file: check it first
     try:
-        data = scipy.io.loadmat(str(path), squeeze_me=False, struct_as_record=True)
+        data = scipy.io.loadmat(stream or str(path), squeeze_me=False, struct_as_record=True)
     except Exception as exc:  # noqa: BLE001 - scipy raises many types for bad files
         raise ReadError(path, f"not a readable MATLAB .mat file ({type(exc).__name__}: {exc}); "
                               "save it with save(file, '-v7')") from None
