@@ -124,6 +124,11 @@ def cmd_info(args) -> int:
         lam = lam[:k]
         out["frequencies_hz"] = frequencies_hz(lam).tolist()
         out["n_rigid"] = min(n_zero, k)
+    if args.reference:
+        from .io.frd import compare_modes, read_frd
+
+        out["reference"] = dict(compare_modes(model, read_frd(args.reference), backend=args.backend),
+                                file=str(args.reference))
     out["timings"] = {"read": t_read}
     if args.json:
         _emit_json(out)
@@ -139,6 +144,11 @@ def cmd_info(args) -> int:
         for i, f in enumerate(out["frequencies_hz"], 1):
             tag = "  rigid" if i <= out["n_rigid"] else ""
             print(f"{i:5d}   {f:14.6f}{tag}")
+    if args.reference:
+        ref = out["reference"]
+        print(f"\n mode   {args.reference} [Hz]   model [Hz]   rel. diff   MAC")
+        for i, row in enumerate(zip(ref["frequencies_hz"], ref["model_frequencies_hz"], ref["rel_diff"], ref["mac"]), 1):
+            print(f"{i:5d}   {row[0]:14.6f}   {row[1]:14.6f}   {row[2]:9.2e}   {row[3]:.6f}")
     return 0
 
 
@@ -367,6 +377,8 @@ def build_parser() -> argparse.ArgumentParser:
     _add_model_args(p, damping=False)
     p.add_argument("--modes", type=int, default=0, help="number of lowest eigenfrequencies to compute")
     p.add_argument("--backends", action="store_true", help="list the sparse solver backends and what each supports")
+    p.add_argument("--reference", metavar="FRD", help="CalculiX .frd with the FE program's own modes: compare "
+                   "frequencies and mode shapes (MAC) with the model's")
     for action in p._actions:  # MODEL is optional with --backends
         if action.dest == "model":
             action.nargs, action.required = "?", False
