@@ -82,6 +82,12 @@ def read_dmig(path) -> dict:
                 if not g:
                     continue
                 lineno = flines[k]
+                if not a:
+                    raise ReadError(fpath, f"DMIG {mname}: entry {g}-{c or 0} of column {gj}-{cj} has no value "
+                                           "(truncated card?)", lineno)
+                if not (0 <= int(c or 0) <= 6 and 0 <= cj <= 6):
+                    raise ReadError(fpath, f"DMIG {mname}: component {c if 0 <= cj <= 6 else cj} is not 0 "
+                                           "(scalar point) or 1..6", lineno)
                 v = complex(num(a), num(b) if b else 0.0) if m["complex"] else num(a)
                 m["r"].append((int(g), int(c or 0)))
                 m["c"].append((gj, cj))
