@@ -33,3 +33,56 @@ def test_foreign_hdf5_is_refused(tmp_path):
     q.write_text("hello")
     with pytest.raises(ReadError, match="not an HDF5 file"):
         read_reduced(q)
+
+
+def _tiny_body(path):
+    from flexmor.projection import ReducedModel
+
+    r = 3
+    red = ReducedModel(M=np.eye(r), K=np.diag([1.0, 2.0, 3.0]), D=None, B=np.ones((r, 1)), C=np.ones((2, r)),
+                       V=np.ones((12, r)), dofs=np.ones((12, 2), dtype=np.int64), method="modal")
+    write_reduced(red, path)
+
+
+@pytest.mark.parametrize("edit,message", [
+    (lambda h: (h.__delitem__("K"), h.create_dataset("K", data=np.array([b"a", b"b"]))), "dataset 'K' is of type"),
+    (lambda h: (h.__delitem__("K"), h.create_group("K")), "dataset 'K' is a group"),
+    (lambda h: (h.__delitem__("K"), h.create_dataset("K", data=np.eye(4))), "inconsistent"),
+    (lambda h: (h.__delitem__("B"), h.create_dataset("B", data=np.ones(3))), "expected 2 dimensions"),
+    (lambda h: (h.__delitem__("V"), h.create_dataset("V", data=np.ones((11, 3)))), "inconsistent"),
+    (lambda h: (h.__delitem__("dofs"), h.create_dataset("dofs", data=np.ones((12, 2)))), "expected integers"),
+    (lambda h: (h.__delitem__("M"), h.__delitem__("K"), h.create_dataset("M", shape=(60000, 60000), dtype="f8"),
+                h.create_dataset("K", shape=(60000, 60000), dtype="f8")), "implausibly large"),
+    (lambda h: (h.__delitem__("C"),), "without dataset 'C'"),
+    (lambda h: h["K"].__setitem__((0, 0), np.nan), "NaN or Inf"),
+    (lambda h: h.attrs.__setitem__("info", np.arange(3)), "attribute 'info' is not a string"),
+    (lambda h: h.attrs.__setitem__("info", "[1, 2]"), "must be JSON objects"),
+], ids=["string-K", "group-K", "K-4x4", "B-1d", "V-rows", "float-dofs", "huge", "no-C", "nan", "info-array",
+        "info-list"])
+def test_damaged_reduced_body_is_refused_before_use(tmp_path, edit, message):
+    p = tmp_path / "body.h5"
+    _tiny_body(p)
+    assert read_reduced(p).order == 3
+    with h5py.File(p, "r+") as h:
+        edit(h)
+    with pytest.raises(ReadError, match="body.h5") as e:
+        read_reduced(p)
+    assert message in str(e.value)
+
+
+def test_no_code_execution_from_data_anywhere_in_src():
+    import re
+    from pathlib import Path
+
+    import flexmor
+
+    bad = re.compile(r"\b(eval|exec|compile)\(|\bpickle\b|\bmarshal\b|\bshelve\b|allow_pickle\s*=\s*True|yaml\.load\(")
+    hits = []
+    for f in Path(flexmor.__file__).parent.rglob("*.py"):
+        for i, line in enumerate(f.read_text().splitlines(), 1):
+            code = line.split("#")[0]
+            if bad.search(code) and "re.compile(" not in code and not code.strip().startswith(('"', "'")):
+                hits.append(f"{f.name}:{i}: {line.strip()}")
+            if "np.load(" in code and "allow_pickle=False" not in code:
+                hits.append(f"{f.name}:{i}: np.load without allow_pickle=False")
+    assert hits == []

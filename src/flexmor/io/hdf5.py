@@ -47,8 +47,51 @@ def write_reduced(red, path) -> None:
     atomic_write(path, write)
 
 
+#: name -> (dimensions, allowed dtype kinds, axis names tying sizes together); "r" is the order
+_LAYOUT = {"M": ("rr", "f"), "K": ("rr", "f"), "D": ("rr", "f"), "B": ("rm", "f"), "C": ("pr", "f"),
+           "V": ("nr", "f"), "node_ids": ("k", "iu"), "xyz": ("k3", "f"), "dofs": ("n2", "iu")}
+#: Largest number of values one dataset may hold (2**31, i.e. 16 GiB of float64).
+MAX_VALUES = 2**31
+
+
+def _check_layout(path, h) -> None:
+    """Refuse datasets of the wrong kind, type or shape before anything is read."""
+    import h5py
+
+    sizes = {"3": 3, "2": 2}
+    for name, (axes, kinds) in _LAYOUT.items():
+        if name not in h:
+            if name in "MKBC":
+                raise ReadError(path, f"reduced body without dataset {name!r}")
+            continue
+        d = h[name]
+        if not isinstance(d, h5py.Dataset) or d.dtype.kind not in kinds or d.dtype.names:
+            what = "a group" if not isinstance(d, h5py.Dataset) else f"of type {d.dtype}"
+            raise ReadError(path, f"dataset {name!r} is {what}; expected {'real numbers' if kinds == 'f' else 'integers'}")
+        if len(d.shape) != len(axes):
+            raise ReadError(path, f"dataset {name!r} has shape {d.shape}; expected {len(axes)} dimensions")
+        if int(np.prod(d.shape, dtype=object)) > MAX_VALUES:
+            raise ReadError(path, f"dataset {name!r} has shape {d.shape}: implausibly large")
+        for ax, size in zip(axes, d.shape):
+            if sizes.setdefault(ax, size) != size:
+                raise ReadError(path, f"dataset {name!r} has shape {d.shape}, inconsistent with the other "
+                                      "matrices of the reduced body")
+    for name in ("freqs_hz", "rel_error"):
+        if "errors" in h and name in h["errors"]:
+            d = h["errors"][name]
+            if not isinstance(d, h5py.Dataset) or d.dtype.kind != "f" or len(d.shape) != 1 or d.shape[0] > MAX_VALUES:
+                raise ReadError(path, f"dataset 'errors/{name}' is not a 1-D array of real numbers")
+    for name in _JSON + ("method", "model_name", "version"):
+        if not isinstance(h.attrs.get(name, ""), str):
+            raise ReadError(path, f"attribute {name!r} is not a string")
+
+
 def read_reduced(path):
-    """Read a reduced body written by :func:`write_reduced`."""
+    """Read a reduced body written by :func:`write_reduced`.
+
+    The datasets' kinds, types and shapes (consistent with the order ``r``) are checked before
+    any data is read; attributes are JSON text (never pickles).
+    """
     import h5py
 
     from ..projection import ReducedModel
@@ -60,6 +103,7 @@ def read_reduced(path):
     with h:
         if h.attrs.get("format") != FORMAT_TAG:
             raise ReadError(path, f"HDF5 file without format={FORMAT_TAG!r}: not a flexmor reduced body")
+        _check_layout(path, h)
         try:
             arrays = {n: (h[n][()] if n in h else None) for n in _ARRAYS}
             meta = {n: json.loads(h.attrs[n]) for n in _JSON}
@@ -68,11 +112,12 @@ def read_reduced(path):
                 meta["errors"]["rel_error"] = h["errors/rel_error"][()]
             red = ReducedModel(**arrays, **meta, method=str(h.attrs["method"]),
                                model_name=str(h.attrs["model_name"]), version=str(h.attrs["version"]))
-        except (KeyError, ValueError, TypeError) as exc:
+        except (KeyError, ValueError, TypeError, OSError) as exc:
             raise ReadError(path, f"incomplete or corrupt reduced body ({exc})") from None
-    r = red.order
-    if red.K.shape != (r, r) or red.B.shape[0] != r or red.C.shape[1] != r:
-        raise ReadError(path, "inconsistent matrix shapes in the reduced body")
+    if not isinstance(red.info, dict) or not isinstance(red.damping, dict) or not isinstance(red.errors, dict):
+        raise ReadError(path, "attributes info, damping and errors must be JSON objects")
+    if not all(np.all(np.isfinite(a)) for a in (red.M, red.K, red.B, red.C) + ((red.D,) if red.D is not None else ())):
+        raise ReadError(path, "the reduced matrices contain NaN or Inf")
     return red
 
 
