@@ -28,7 +28,7 @@ def _shapes(model):
     return ids, U
 
 
-def _write(path, model, freqs, *, fmt=1, binary=False, perturb=None):
+def _write(path, model, freqs, *, fmt=1, binary=False, perturb=None, gk=False):
     ids, U = _shapes(model)
     if perturb is not None:
         U = perturb(U)
@@ -60,6 +60,8 @@ def _write(path, model, freqs, *, fmt=1, binary=False, perturb=None):
     for i, f in enumerate(freqs):
         line(f"    1PMODE{i + 1:12d}")
         line(f"    1PGM  {1.0:12.6E}")
+        if gk:
+            line(f"    1PGK  {(2 * np.pi * f) ** 2:16.9E}")
         line(f"  100CL{101 + i:5d}{f:12.5E}{ids.size:12d}{'':20s}{2:2d}{i + 1:5d}{'MODAL':10s}{2 if binary else fmt:2d}")
         line(" -4  DISP        4    1")
         for k in range(3):
@@ -90,6 +92,10 @@ def test_frd_modes_match_the_model(tmp_path, clamped, clamped_ref, fmt, binary):
     assert res.blocks[0]["components"] == ["D1", "D2", "D3"] and res.blocks[1]["params"]["MODE"] == "2"
     cmp = compare_modes(clamped, res)
     assert max(cmp["rel_diff"]) < 1e-5
+    exact = np.array(cmp["model_frequencies_hz"])
+    _write(p, clamped, exact, fmt=fmt, binary=binary, gk=True)  # 1PGK carries 10 digits, the 100CL value 6
+    np.testing.assert_allclose(modes(read_frd(p))[0], exact, rtol=1e-9)
+    assert abs(read_frd(p).blocks[0]["value"] / exact[0] - 1) > 1e-9
     assert min(cmp["mac"]) > 0.9999  # also for the pairs of equal frequency
 
 

@@ -27,6 +27,7 @@ eigenfrequencies and ``DISP`` mode shapes; :func:`compare_modes` checks a model 
 
 from __future__ import annotations
 
+import re
 import struct
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -228,8 +229,9 @@ def read_frd(path) -> FrdResult:
         if key == "9999":
             break
         if key == "1" and code == "P":
-            tag = s[6:12].strip()
-            params[tag] = s[12:].strip()
+            m = re.match(r"\s*([A-Za-z]+)\s*(.*)$", s[6:])
+            if m:
+                params[m.group(1).upper()] = m.group(2).strip()
         elif key in ("1",):
             continue
         elif key == "2" and code == "C":
@@ -270,7 +272,22 @@ def modes(res: FrdResult):
         if not np.array_equal(b["nodes"], nodes) or b["values"].shape[1] < 3:
             raise ModelError(f"DISP block of step {b['step']} has other nodes or fewer than 3 components")
         shapes.append(b["values"][:, :3])
-    return np.array([b["value"] for b in disp]), nodes, np.array(shapes)
+    return np.array([_frequency(b) for b in disp]), nodes, np.array(shapes)
+
+
+def _frequency(block) -> float:
+    """The step's frequency: ``value`` (6 digits), refined by ``sqrt(GK/GM)/2pi`` when the
+    generalized stiffness and mass records (8 digits) confirm it."""
+    f = float(block["value"])
+    try:
+        gk, gm = float(block["params"]["GK"]), float(block["params"]["GM"])
+    except (KeyError, ValueError):
+        return f
+    if gk >= 0 and gm > 0:
+        g = float(np.sqrt(gk / gm) / (2 * np.pi))
+        if abs(g - f) <= 1e-4 * max(abs(f), 1e-300) or (f == 0 and g < 1e-3):
+            return g
+    return f
 
 
 def compare_modes(model, res: FrdResult, *, k: int | None = None, backend: str = "auto", cluster: float = 1e-3):
