@@ -114,3 +114,23 @@ def test_superelement_errors(tmp_path, clamped):
     write_binary(tmp_path / "se.op4", {"KAA": np.eye(3), "MAA": np.eye(4)})
     with pytest.raises(ReadError, match=r"the matrices KAA \(3, 3\), MAA \(4, 4\) differ in size"):
         read_superelement(tmp_path / "se.op4")
+
+
+def test_cli_compare_and_export_superelement(tmp_path, clamped, capsys):
+    """The superelement is evaluated against the full model at its boundary DOFs, and exported."""
+    import json
+
+    import scipy.io
+    from conftest import CCX
+
+    from flexmor.cli import main
+
+    b, _ = _files(tmp_path, clamped, "binary")
+    se = str(tmp_path / "se.op4")
+    assert main(["compare", str(CCX / "beam8_clamped_mat.sti"), se, "--band", "10:300", "--json"]) == 0
+    row = json.loads(capsys.readouterr().out)["results"][0]
+    assert row["method"] == "craig-bampton" and row["order"] == b.size + N_MODES
+    assert row["band_error"] < 1e-4 and row["max_rel_error"] < 1e-2
+    assert main(["export", se, "-o", str(tmp_path / "se.mat"), "--json"]) == 0
+    m = scipy.io.loadmat(tmp_path / "se.mat")
+    np.testing.assert_allclose(m["Kr"], read_superelement(se).K, rtol=1e-12)

@@ -199,11 +199,11 @@ def cmd_reduce(args) -> int:
 # -- compare -----------------------------------------------------------------------------------
 def _model_and_bodies(args):
     """The full model (as read), the band (default DEFAULT_BAND) and the reduced bodies of ``args``."""
-    from .io.hdf5 import read_reduced
+    from .io.bodies import read_body
     from .workflow import DEFAULT_BAND
 
     model, t_read, band = _read_model(args)
-    return model, t_read, band or DEFAULT_BAND, [read_reduced(p) for p in args.reduced]
+    return model, t_read, band or DEFAULT_BAND, [read_body(p) for p in args.reduced]
 
 
 def cmd_compare(args) -> int:
@@ -255,11 +255,11 @@ def _table(rows) -> None:
 def cmd_export(args) -> int:
     from .io import read
     from .io.export import export, export_format
-    from .io.hdf5 import read_reduced
+    from .io.bodies import read_body
     from .workflow import prepare_model
 
     _check_new(args.output_file, args)
-    red = read_reduced(args.reduced)
+    red = read_body(args.reduced)
     fmt = export_format(args.output_file, args.format)
     model = read(args.model, format=args.model_format) if args.model else None
     if model is not None:
