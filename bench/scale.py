@@ -1,18 +1,31 @@
 #!/usr/bin/env python
-"""Scaling of the built-in solid models: assembly, factorization, modal r and peak memory per size.
+"""Scaling of the reduction methods on the built-in solid: time, peak memory and solver share.
 
 Each size runs in a fresh process (``--case``): ``cantilever(size_for_dofs(size))`` is built
-(assembly time), ``K - sigma M`` is factorized once through ``factorize`` (factorization time
-and PARDISO's memory estimate), then ``reduce(model, "modal", r)`` computes the basis
-(including its own factorization). *peak MB* is the peak RSS of the whole process.
+(assembly time), one bare PARDISO Cholesky of ``K - sigma M`` plus one block solve with six
+right-hand sides is timed (the reference unit of work, with PARDISO's memory estimate), then
+each method runs through ``flexmor.reduction.reduce`` with six inputs (``TIP:x/y/z`` over the
+tip face, ``TIP_CENTER:x/y/z`` at its centre node):
+
+* ``modal`` (default order 40),
+* ``craig-bampton`` with the tip face tied to one 6-DOF master by an RBE2 (``TIP@rbe2``; the
+  coupling transformation is timed separately) and ``order - 6`` fixed-interface modes,
+* ``krylov`` (default order 200; the default three real expansion points over 1-1000 Hz),
+* ``two-step`` (``krylov`` to 200, then balanced truncation to 40).
+
+For every method the solver layer's own counters (:data:`flexmor.linalg.factorize.STATS`)
+give the number and time of its factorizations and of its block solves. ``ratio`` is the
+method's wall time (basis + projection) over that bare solver time: what flexmor adds on top
+of factorizations and solves. ``peak MB`` is the peak RSS while the method ran (reset through
+``/proc/self/clear_refs`` before each method; the model's matrices are included).
 
 Usage::
 
-    python bench/scale.py                             # 30k, 100k, 300k DOF, r = 20
-    python bench/scale.py --sizes 30000,100000,300000,1000000 --order 20
+    python bench/scale.py                                     # 30k, 100k, 300k DOF, all methods
+    python bench/scale.py --sizes 1000000 --methods krylov --out bench/results/scale_1m.json
+    python bench/scale.py --sizes 3000 --methods modal,krylov --order-krylov 60   # smoke run
 
-Writes ``bench/results/scale.json``. (The full issue asks for craig-bampton, krylov and
-two-step at these sizes too; not yet here.)
+Writes ``bench/results/scale.json``.
 """
 
 from __future__ import annotations
@@ -25,19 +38,33 @@ import sys
 import time
 
 HERE = pathlib.Path(__file__).resolve().parent
+INPUTS = ["TIP:x", "TIP:y", "TIP:z", "TIP_CENTER:x", "TIP_CENTER:y", "TIP_CENTER:z"]
+METHODS = ("modal", "craig-bampton", "krylov", "two-step")
 
 
-def _hwm() -> float:
+def _status(key: str) -> float:
     with open("/proc/self/status") as fh:
         for line in fh:
-            if line.startswith("VmHWM:"):
+            if line.startswith(key + ":"):
                 return int(line.split()[1]) / 1024.0
     return float("nan")
 
 
-def run_case(size: int, order: int) -> dict:
+def _reset_peak() -> None:
+    try:
+        with open("/proc/self/clear_refs", "w") as fh:
+            fh.write("5")
+    except OSError:
+        pass
+
+
+def run_case(size: int, methods: list[str], order: int, order_krylov: int) -> dict:
+    import numpy as np
+
+    from flexmor.couplings import couple
     from flexmor.linalg import available_backends, factorize
     from flexmor.linalg.eigen import default_shift
+    from flexmor.linalg.factorize import STATS
     from flexmor.models import cantilever, size_for_dofs
     from flexmor.ports import make_ports
     from flexmor.reduction import reduce
@@ -45,48 +72,98 @@ def run_case(size: int, order: int) -> dict:
     available_backends()
     t0 = time.perf_counter()
     model = cantilever(size_for_dofs(size))
-    t_asm = time.perf_counter() - t0
+    out = {"target_dofs": size, "n_dof": model.n_dof, "nnz_K": int(model.K.nnz),
+           "assembly_s": time.perf_counter() - t0, "model_mb": _status("VmRSS"), "methods": {}}
     sigma = default_shift(model.K, model.M)
+    _reset_peak()
     t0 = time.perf_counter()
     F = factorize((model.K - sigma * model.M).tocsr(), positive=True, check=False)
-    t_fac = time.perf_counter() - t0
-    est = F.memory_estimate
-    del F
-    ports = make_ports(model, ["TIP:y"])
+    out["factor_s"] = time.perf_counter() - t0
+    b = np.random.default_rng(0).standard_normal((model.n_dof, 6))
     t0 = time.perf_counter()
-    _, timings = reduce(model, "modal", order, ports)
-    t_modal = time.perf_counter() - t0
-    return {"target_dofs": size, "n_dof": model.n_dof, "nnz_K": int(model.K.nnz), "assembly_s": t_asm,
-            "factor_s": t_fac, "factor_estimate_mb": None if est is None else est / 2**20,
-            "modal_s": t_modal, "order": order, "peak_mb": _hwm()}
+    F.solve(b)
+    out["solve6_s"] = time.perf_counter() - t0
+    out["factor_estimate_mb"] = None if F.memory_estimate is None else F.memory_estimate / 2**20
+    out["factor_peak_mb"] = _status("VmHWM")
+    out["backend"] = F.backend
+    del F, b
+    ports = make_ports(model, INPUTS)
+    for method in methods:
+        opts: dict = {}
+        body, p, r = model, ports, order
+        t_couple = 0.0
+        if method == "craig-bampton":
+            t0 = time.perf_counter()
+            body = couple(model, ["TIP@rbe2"]).model
+            t_couple = time.perf_counter() - t0
+            p = make_ports(body, [f"TIP@RBE2:{d}" for d in ("x", "y", "z", "rx", "ry", "rz")])
+            opts["interface"] = ["TIP@RBE2"]
+        elif method == "krylov":
+            r = order_krylov
+        elif method == "two-step":
+            opts["intermediate"] = order_krylov
+        before = dict(STATS)
+        _reset_peak()
+        t0 = time.perf_counter()
+        red, timings = reduce(body, method, r, p, **opts)
+        wall = time.perf_counter() - t0
+        d = {k: STATS[k] - before[k] for k in STATS}
+        solver = d["seconds"] + d["solve_seconds"]
+        out["methods"][method] = {
+            "order": red.order, "wall_s": wall, "basis_s": timings["basis"], "project_s": timings["project"],
+            "couple_s": t_couple, "factorizations": d["count"], "factor_s": d["seconds"], "solves": d["solves"],
+            "solve_columns": d["solve_columns"], "solve_s": d["solve_seconds"], "solver_s": solver,
+            "ratio": wall / solver if solver > 0 else None, "peak_mb": _status("VmHWM")}
+        del red, body
+    return out
+
+
+def _row(size: int, r: dict) -> list[str]:
+    est = r["factor_estimate_mb"] or float("nan")
+    lines = [f"{size:>8} {r['n_dof']:>8} {r['nnz_K']:>10}  assembly {r['assembly_s']:.1f} s, "
+             f"bare factor {r['factor_s']:.1f} s ({r['backend']}, estimate {est:.0f} MB, peak {r['factor_peak_mb']:.0f} MB), "
+             f"block solve (6 rhs) {r['solve6_s']:.2f} s"]
+    for name, m in r["methods"].items():
+        ratio = "-" if m["ratio"] is None else f"{m['ratio']:.2f}"
+        lines.append(f"{'':>8} {name:>14} r={m['order']:<4} wall {m['wall_s']:8.1f} s  "
+                     f"{m['factorizations']:>2} fact {m['factor_s']:7.1f} s  {m['solves']:>4} solves "
+                     f"({m['solve_columns']:>4} cols) {m['solve_s']:7.1f} s  ratio {ratio:>5}  "
+                     f"peak {m['peak_mb']:7.0f} MB" + (f"  (+ RBE2 {m['couple_s']:.1f} s)" if m["couple_s"] else ""))
+    return lines
 
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--sizes", default="30000,100000,300000")
-    ap.add_argument("--order", type=int, default=20)
-    ap.add_argument("--timeout", type=float, default=1800)
+    ap.add_argument("--methods", default=",".join(METHODS))
+    ap.add_argument("--order", type=int, default=40, help="order of modal, craig-bampton, two-step")
+    ap.add_argument("--order-krylov", type=int, default=200, help="krylov order and two-step's intermediate order")
+    ap.add_argument("--timeout", type=float, default=3600)
     ap.add_argument("--case", type=int, help=argparse.SUPPRESS)
     ap.add_argument("--out", default=str(HERE / "results" / "scale.json"))
     args = ap.parse_args(argv)
+    methods = [m.strip() for m in args.methods.split(",") if m.strip()]
+    bad = [m for m in methods if m not in METHODS]
+    if bad:
+        ap.error(f"unknown method(s) {', '.join(bad)}; choose from {', '.join(METHODS)}")
     if args.case:
-        print(json.dumps(run_case(args.case, args.order)))
+        print(json.dumps(run_case(args.case, methods, args.order, args.order_krylov)))
         return 0
     rows = []
-    head = f"{'size':>8} {'n_dof':>8} {'nnz(K)':>10} {'assembly s':>10} {'factor s':>9} {'est MB':>7} {'modal s':>8} {'peak MB':>8}"
-    print(head + "\n" + "-" * len(head), flush=True)
+    print(f"{'size':>8} {'n_dof':>8} {'nnz(K)':>10}", flush=True)
     for size in [int(s) for s in args.sizes.split(",")]:
-        cmd = [sys.executable, str(pathlib.Path(__file__).resolve()), "--case", str(size), "--order", str(args.order)]
+        cmd = [sys.executable, str(pathlib.Path(__file__).resolve()), "--case", str(size), "--methods",
+               ",".join(methods), "--order", str(args.order), "--order-krylov", str(args.order_krylov)]
+        t0 = time.perf_counter()
         proc = subprocess.run(cmd, capture_output=True, text=True, timeout=args.timeout, check=False)
         lines = [ln for ln in proc.stdout.splitlines() if ln.startswith("{")]
         if proc.returncode or not lines:
             print(f"{size:>8}  failed: {(proc.stderr.strip().splitlines() or ['?'])[-1]}", flush=True)
             continue
         r = json.loads(lines[-1])
+        r["process_s"] = time.perf_counter() - t0
         rows.append(r)
-        est = r["factor_estimate_mb"] or float("nan")
-        print(f"{size:>8} {r['n_dof']:>8} {r['nnz_K']:>10} {r['assembly_s']:>10.1f} {r['factor_s']:>9.1f} "
-              f"{est:>7.0f} {r['modal_s']:>8.1f} {r['peak_mb']:>8.0f}", flush=True)
+        print("\n".join(_row(size, r)), flush=True)
     out = pathlib.Path(args.out)
     out.parent.mkdir(parents=True, exist_ok=True)
     out.write_text(json.dumps(rows, indent=1))

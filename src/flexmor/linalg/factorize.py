@@ -40,9 +40,10 @@ log = logging.getLogger(__name__)
 #: Relative residual above which a factorization is reported as singular.
 RESIDUAL_TOL = 1e-6
 
-#: Running totals of all factorizations in this process (``count``, ``seconds``), so that
-#: callers can report the factorization share of a computation.
-STATS = {"count": 0, "seconds": 0.0}
+#: Running totals of all factorizations in this process (``count``, ``seconds``) and of the
+#: solves with them (``solves``, ``solve_columns``, ``solve_seconds``), so that callers can
+#: report the solver share of a computation.
+STATS = {"count": 0, "seconds": 0.0, "solves": 0, "solve_columns": 0, "solve_seconds": 0.0}
 
 
 class Factorization:
@@ -84,9 +85,15 @@ class Factorization:
         b = np.asarray(b)
         if b.shape[0] != self.shape[0]:
             raise SolverError(f"right-hand side has {b.shape[0]} rows, the matrix {self.shape[0]}")
+        t0 = time.perf_counter()
         if np.iscomplexobj(b) and not np.iscomplexobj(np.empty(0, self.dtype)):
-            return self._solve_real(b.real) + 1j * self._solve_real(b.imag)
-        return self._solve_real(b)
+            x = self._solve_real(b.real) + 1j * self._solve_real(b.imag)
+        else:
+            x = self._solve_real(b)
+        STATS["solves"] += 1
+        STATS["solve_columns"] += 1 if b.ndim == 1 else b.shape[1]
+        STATS["solve_seconds"] += time.perf_counter() - t0
+        return x
 
     def _solve_real(self, b):
         one = b.ndim == 1
@@ -351,6 +358,10 @@ def _pick(backend: str, is_complex: bool, positive: bool, symmetric: bool) -> st
     avail = available_backends()
     if backend != "auto":
         if backend not in avail:
+            if backend == "petsc":
+                from .petsc import require
+
+                require()  # OptionError naming the install route
             raise SolverError(f"backend {backend!r} is not available here; available: {', '.join(avail)}")
         return backend
     for name in avail:
@@ -389,6 +400,10 @@ def factorize(A, backend: str = "auto", *, symmetric: bool = True, positive: boo
     if A.shape[0] != A.shape[1]:
         raise SolverError(f"cannot factorize a non-square matrix of shape {A.shape}")
     is_complex = np.iscomplexobj(A.data)
+    if getattr(A, "partitioned", False):  # rows spread over MPI ranks (flexmor.linalg.distributed)
+        if backend not in ("auto", "petsc"):
+            raise SolverError(f"a matrix partitioned over MPI ranks needs --backend petsc, not {backend!r}")
+        backend = "petsc"
     name = _pick(backend, is_complex, positive, symmetric)
     if is_complex and not BACKENDS[name][2]:
         log.info("backend %s has no complex support; using scipy", name)
@@ -419,6 +434,11 @@ _DESCRIPTIONS = {
                "complex symmetric and unsymmetric; METIS ordering; memory estimate before factorizing",
     "scipy": "SciPy SuperLU; real and complex, minimum-degree ordering; slow above ~50k DOF of a 3D solid",
 }
+
+
+from .petsc import register as _register_petsc  # noqa: E402 - distributed backend; imports petsc4py lazily
+
+_register_petsc(BACKENDS, _DESCRIPTIONS, Factorization)
 
 
 def describe_backends() -> list[dict]:

@@ -29,6 +29,7 @@ from ..basis import Basis, Columns, extend_orthonormal, rank_revealing_qr
 from ..errors import OptionError, SolverError, check_choice
 from ..linalg import factorize
 from ..linalg.eigen import default_shift
+from ..linalg.threads import blas_threads
 from . import register_method
 
 __all__ = ["krylov", "parse_points", "default_points", "SecondOrderArnoldi", "start_block",
@@ -235,26 +236,32 @@ def blocks_at_points(model, ports, points, n_moments: int, *, side: str = "input
 
     blocks, used = [], []
     for p in points:
-        F, s = shifted_factorization(model, 2 * np.pi * complex(p), backend)
-        seq = SecondOrderArnoldi(model, F, s, start, project=proj)
-        # the point's share: n_moments blocks of independent directions; vanishing moments
-        # (matched for free) and deflated directions do not count, so no second pass is needed
-        share = n_moments * start.shape[1] * (1 if s.imag == 0 else 2)
-        T, out, empty = Columns(model.n_dof), [], 0
-        while T.k < share and empty < 3:
-            Vb = seq.next_block()
-            if Vb is None:
-                break
-            Q = extend_orthonormal(T.view, np.hstack([Vb.real, Vb.imag]) if s.imag != 0 else Vb.real,
-                                   tol=DEFLATION_TOL) if Vb.shape[1] else Vb.real
-            empty = empty + 1 if Q.shape[1] == 0 else 0
-            if Q.shape[1]:
-                T.append(Q)
-                out.append(Q)
+        with blas_threads(1):  # tall-skinny products between solves (see flexmor.linalg.threads)
+            out, s = _point_blocks(model, start, p, n_moments, backend, proj)
         blocks.append(out)
         used.append(s)
-        del F, seq
     return blocks, used
+
+
+def _point_blocks(model, start, p, n_moments: int, backend: str, proj):
+    """The orthonormal blocks of one point (see :func:`blocks_at_points`) and its ``s``."""
+    F, s = shifted_factorization(model, 2 * np.pi * complex(p), backend)
+    seq = SecondOrderArnoldi(model, F, s, start, project=proj)
+    # the point's share: n_moments blocks of independent directions; vanishing moments
+    # (matched for free) and deflated directions do not count, so no second pass is needed
+    share = n_moments * start.shape[1] * (1 if s.imag == 0 else 2)
+    T, out, empty = Columns(model.n_dof), [], 0
+    while T.k < share and empty < 3:
+        Vb = seq.next_block()
+        if Vb is None:
+            break
+        Q = extend_orthonormal(T.view, np.hstack([Vb.real, Vb.imag]) if s.imag != 0 else Vb.real,
+                               tol=DEFLATION_TOL) if Vb.shape[1] else Vb.real
+        empty = empty + 1 if Q.shape[1] == 0 else 0
+        if Q.shape[1]:
+            T.append(Q)
+            out.append(Q)
+    return out, s
 
 
 def merge_blocks(blocks, order: int | None = None, *, orthonormal: bool = False) -> np.ndarray:
@@ -270,12 +277,13 @@ def merge_blocks(blocks, order: int | None = None, *, orthonormal: bool = False)
         return V[:, :order] if order is not None else V
     n = nonempty[0][0].shape[0]
     V = Columns(n)
-    for j in range(max(len(b) for b in blocks)):
-        for b in blocks:
-            if j < len(b):
-                V.append(extend_orthonormal(V.view, b[j], tol=DEFLATION_TOL))
-                if order is not None and V.k >= order:
-                    return np.ascontiguousarray(V.view[:, :order])
+    with blas_threads(1):
+        for j in range(max(len(b) for b in blocks)):
+            for b in blocks:
+                if j < len(b):
+                    V.append(extend_orthonormal(V.view, b[j], tol=DEFLATION_TOL))
+                    if order is not None and V.k >= order:
+                        return np.ascontiguousarray(V.view[:, :order])
     return np.ascontiguousarray(V.view)
 
 
