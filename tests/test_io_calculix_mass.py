@@ -67,3 +67,21 @@ def test_regular_mass_with_quadratic_elements_is_quiet(tmp_path, clamped, recwar
     model = flexmor.io.read(_job(tmp_path, clamped.M.toarray()))
     assert not [w for w in recwarn if issubclass(w.category, FlexmorWarning)]
     assert check_mass(model, "x") > 1e-6
+
+
+@pytest.mark.parametrize("block, ok", [("blockC3D10", True), ("blockC3D8", False)])
+def test_abaqus_massless_equation(tmp_path, block, ok):
+    """Row and column 1 of the Abaqus mass cleared: allowed (warned) for C3D10, an error for C3D8."""
+    src = CCX.parent / "abaqus"
+    shutil.copy(src / f"{block}.inp", tmp_path / f"{block}.inp")
+    shutil.copy(src / f"{block}_STIF1.mtx", tmp_path / f"{block}_STIF1.mtx")
+    lines = (src / f"{block}_MASS1.mtx").read_text().splitlines()
+    kept = [ln for ln in lines if "1" not in ln.split()[:2]]
+    (tmp_path / f"{block}_MASS1.mtx").write_text("\n".join(kept) + "\n")
+    if not ok:
+        with pytest.raises(ReadError, match="mass matrix diagonal is not positive at 1 equation"):
+            flexmor.io.read(tmp_path / f"{block}.inp")
+        return
+    with pytest.warns(FlexmorWarning, match=r"blockC3D10.inp: mass matrix diagonal is not positive at 1 equation.*shift-invert"):
+        model = flexmor.io.read(tmp_path / f"{block}.inp")
+    assert model.M.diagonal()[0] == 0.0 and np.count_nonzero(model.M.diagonal() <= 0) == 1

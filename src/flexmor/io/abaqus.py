@@ -26,6 +26,10 @@ Either triangle or both may be stored; one triangle is mirrored. An entry given 
 refused (a damaged file), never summed. Equations that have neither stiffness nor mass (a
 direction no element uses) are removed and logged. Units are those of the deck.
 
+Decks with quadratic elements (``C3D20R``, ``C3D10`` ...) may have a singular or
+indefinite mass matrix: that is a FlexmorWarning (see :func:`flexmor.io.calculix.check_mass`),
+not an error.
+
 ``.inp`` is shared with CalculiX: if ``<job>.sti`` lies beside the deck and no ``_STIF``
 file does, the CalculiX reader is used.
 """
@@ -45,6 +49,7 @@ from ..errors import ReadError
 from . import register_format
 from ._text import build_model, entry_line, parse_triplets, read_text
 from .abaqus_inp import AbaqusDeck, read_deck
+from .calculix import QUADRATIC_TYPES, check_mass
 
 __all__ = ["read_abaqus", "read_deck", "AbaqusDeck", "MATRIX_FILE"]
 
@@ -282,14 +287,18 @@ def read_abaqus(path, *, dof_per_node: int | None = None) -> "FEModel":  # noqa:
         dofs = dofs[keep]
     forms = {p[-1] for p in parsed.values()}
     log.info("%s: %d equations, %d nodes, %s form", deck_path, dofs.shape[0], deck.node_ids.size, "/".join(forms))
-    return build_model(
+    quadratic = sorted({etype for etype, _ in deck.elements if etype.startswith(QUADRATIC_TYPES)})
+    model = build_model(
         deck_path,
         roles=files,
         M=mats["M"], K=mats["K"], D=mats.get("D"),
         damping={"type": "given"} if "D" in mats else {"type": "none"},
         node_ids=deck.node_ids, xyz=deck.xyz, dofs=dofs, node_sets=deck.node_sets,
-        name=deck_path.stem, source=str(deck_path),
+        name=deck_path.stem, source=str(deck_path), singular_mass_ok=bool(quadratic),
     )
+    if quadratic and np.all(model.M.diagonal() > 0):
+        check_mass(model, f"{files['M']} ({', '.join(quadratic)} elements)")
+    return model
 
 
 register_format("abaqus", [".inp", ".mtx"], reader=read_abaqus, match=_is_matrix_file,

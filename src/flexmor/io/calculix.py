@@ -35,13 +35,13 @@ from . import register_format
 from ._text import build_model, entry_line, parse_triplets, read_text
 from .abaqus_inp import include_path, keyword_options
 
-__all__ = ["check_mass", "read_calculix", "read_dof", "read_inp"]
+__all__ = ["QUADRATIC_TYPES", "check_mass", "read_calculix", "read_dof", "read_inp"]
 
 log = logging.getLogger(__name__)
 
 #: Element types whose mass matrix may legitimately be singular or indefinite (quadratic
 #: serendipity / reduced-integration / row-sum-lumped): such decks get warnings, not errors.
-_QUADRATIC = ("C3D20", "C3D15", "C3D10", "S8", "CPS8", "CPE8", "CAX8")
+QUADRATIC_TYPES = ("C3D20", "C3D15", "C3D10", "S8", "CPS8", "CPE8", "CAX8")
 
 
 def _sibling(path: Path, suffix: str, what: str) -> Path:
@@ -289,7 +289,7 @@ def read_calculix(path) -> "FEModel":  # noqa: F821
     M = _read_upper(mas, n)
     types: set = set()
     node_ids, xyz, sets = read_inp(inp, element_types=types)
-    quadratic = sorted(t for t in types if t.startswith(_QUADRATIC))
+    quadratic = sorted(t for t in types if t.startswith(QUADRATIC_TYPES))
     known = np.isin(dofs[:, 0], node_ids)
     if not np.all(known):
         i = int(np.flatnonzero(~known)[0])
