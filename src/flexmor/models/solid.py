@@ -198,12 +198,17 @@ def _build(name: str, element: str, divisions, extent, E, nu, rho, fixed_set: st
         raise OptionError(f"element divisions must be >= 1, got {(nx, ny, nz)}")
     mesh = _box_mesh(element, nx, ny, nz, *extent)
     K, M, xyz = _assemble(mesh, element, lam, mu, rho)
+    node_ids = np.arange(1, xyz.shape[0] + 1, dtype=np.int64)
+    scale = max(extent)
+    sets = {set_name: node_ids[_on(xyz[:, axis], value, scale)] for set_name, (axis, value) in set_defs.items()}
+    return _finish(name, K, M, xyz, sets, fixed_set)
+
+
+def _finish(name: str, K, M, xyz: np.ndarray, sets: dict, fixed_set: str | None) -> FEModel:
+    """The FEModel of assembled matrices: node ids ``s + 1``, set ``ALL`` added, ``fixed_set`` removed."""
     ns = xyz.shape[0]
     node_ids = np.arange(1, ns + 1, dtype=np.int64)
-    scale = max(extent)
-    sets = {"ALL": node_ids}
-    for set_name, (axis, value) in set_defs.items():
-        sets[set_name] = node_ids[_on(xyz[:, axis], value, scale)]
+    sets = {"ALL": node_ids, **sets}
     dofs = np.column_stack([np.repeat(node_ids, 3), np.tile(np.arange(1, 4, dtype=np.int64), ns)])
     if fixed_set is not None:
         fixed_nodes = np.zeros(ns, dtype=bool)
