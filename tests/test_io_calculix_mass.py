@@ -31,14 +31,16 @@ def _job(tmp_path, M, etype="C3D20R"):
     return tmp_path / "job.sti"
 
 
-def test_massless_nodes(tmp_path, clamped):
+@pytest.mark.parametrize("method", ["dense", "lanczos"])
+def test_massless_nodes(tmp_path, clamped, method):
     M = np.diag(np.asarray(clamped.M.sum(axis=1)).ravel())  # row-sum lumping
     massless = np.isin(clamped.dofs[:, 0], clamped.dofs[::7, 0])
     M[massless, massless] = 0.0
     with pytest.warns(FlexmorWarning, match=r"diagonal is not positive at \d+ equation.*C3D20R.*shift-invert"):
         model = flexmor.io.read(_job(tmp_path, M))
     assert model.M.diagonal().min() == 0.0
-    lam, _ = eigenmodes(model.K, model.M, 4, method="lanczos")
+    lam, phi = eigenmodes(model.K, model.M, 4, method=method)
+    np.testing.assert_allclose(phi.T @ model.M @ phi, np.eye(4), atol=1e-9)
     K = clamped.K.toarray()
     m, z = ~massless, massless
     Kc = K[np.ix_(m, m)] - K[np.ix_(m, z)] @ np.linalg.solve(K[np.ix_(z, z)], K[np.ix_(z, m)])
@@ -48,7 +50,8 @@ def test_massless_nodes(tmp_path, clamped):
         flexmor.io.read(_job(tmp_path, M, etype="C3D8"))
 
 
-def test_rank_deficient_consistent_mass(tmp_path, clamped):
+@pytest.mark.parametrize("method", ["dense", "lanczos"])
+def test_rank_deficient_consistent_mass(tmp_path, clamped, method):
     M = clamped.M.toarray()
     mu, U = np.linalg.eigh(M)
     Ms = M - mu[0] * np.outer(U[:, 0], U[:, 0]) - mu[1] * np.outer(U[:, 1], U[:, 1])  # rank n - 2, PSD
@@ -56,7 +59,7 @@ def test_rank_deficient_consistent_mass(tmp_path, clamped):
     assert Ms.diagonal().min() > 0
     with pytest.warns(FlexmorWarning, match=r"job\.mas \(C3D20R elements\): the mass matrix is singular"):
         model = flexmor.io.read(_job(tmp_path, Ms))
-    lam, _ = eigenmodes(model.K, model.M, 3, method="lanczos")
+    lam, _ = eigenmodes(model.K, model.M, 3, method=method)
     mu = sla.eigh(Ms, clamped.K.toarray(), eigvals_only=True)  # K positive definite, Ms singular: 1 / lambda
     np.testing.assert_allclose(lam, np.sort(1.0 / mu[-3:]), rtol=1e-6)
 

@@ -117,7 +117,7 @@ def eigenmodes(K, M, k: int, *, sigma: float | None = None, backend: str = "auto
         try:
             lam, phi = sla.eigh(_dense(K), _dense(M))
         except np.linalg.LinAlgError:
-            raise ModelError("the mass matrix is not positive definite") from None
+            lam, phi = _dense_singular_mass(K, M, k, sigma)
         lam, phi = lam[:k], phi[:, :k]
     else:
         if sigma is None:
@@ -146,6 +146,29 @@ def eigenmodes(K, M, k: int, *, sigma: float | None = None, backend: str = "auto
     mnorm = np.sqrt(np.einsum("ij,ij->j", phi, M @ phi))
     phi = phi / mnorm
     return lam, phi
+
+
+def _dense_singular_mass(K, M, k: int, sigma: float | None):
+    """Dense modes when ``M`` is only semi-definite (massless DOFs, reduced integration).
+
+    ``M phi = mu (K - sigma M) phi`` with ``sigma < 0`` needs only ``K - sigma M`` positive
+    definite; the finite eigenvalues are ``lambda = sigma + 1/mu`` (``mu > 0``), the infinite
+    ones (``mu = 0``) are dropped.
+    """
+    Kd, Md = _dense(K), _dense(M)
+    sigma = default_shift(K, M) if sigma is None or sigma >= 0 else sigma
+    try:
+        mu, phi = sla.eigh(Md, Kd - sigma * Md)
+    except np.linalg.LinAlgError:
+        raise ModelError("the mass matrix is indefinite (K - sigma M is not positive definite for sigma < 0); "
+                         "no eigenmodes") from None
+    finite = mu > 1e-12 * max(mu.max(), 1e-300)
+    if np.count_nonzero(finite) < k:
+        raise ModelError(f"the mass matrix is singular: only {np.count_nonzero(finite)} finite eigenvalues, "
+                         f"{k} requested")
+    mu, phi = mu[finite][::-1], phi[:, finite][:, ::-1]
+    log.info("mass matrix singular: %d infinite eigenvalues dropped", int(np.count_nonzero(~finite)))
+    return sigma + 1.0 / mu, phi
 
 
 def _dense(A):
