@@ -9,6 +9,7 @@ import numpy as np
 
 from ..basis import Basis, orthonormalize
 from ..errors import OptionError, check_choice
+from ..linalg.threads import blas_threads
 from ..projection import project
 from . import register_method
 from .dense_gramians import dense_gramians, psd_factor
@@ -86,7 +87,8 @@ def two_step(model, ports, order, *, intermediate: int = 120, band=None, gramian
     if Dr is None:  # undamped: Gramians of the lightly damped body (see flexmor.reduction.gramians)
         w1, w2 = (2 * math.pi * f for f in band)
         Dr = (2 * UNDAMPED_ZETA * w1 * w2 / (w1 + w2)) * red.M + (2 * UNDAMPED_ZETA / (w1 + w2)) * red.K
-    Pp, Pv, Qp, phi_rb = dense_gramians(red.M, Dr, red.K, red.B, red.C, band if gramian == "band" else None)
+    with blas_threads(1):  # small dense matrices: a second OpenBLAS thread only adds contention
+        Pp, Pv, Qp, phi_rb = dense_gramians(red.M, Dr, red.K, red.B, red.C, band if gramian == "band" else None)
     head = phi_rb if rigid == "include" else phi_rb[:, :0]
     n_flex = order - head.shape[1]
     if n_flex < 1:
