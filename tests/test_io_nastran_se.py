@@ -74,15 +74,19 @@ def _files(tmp_path, model, fmt):
             for j, (gj, cj) in enumerate(dofs):
                 lines.append(f"DMIG,{name},{gj},{cj}")
                 lines += [f",{gi},{ci},{float(A[i, j])!r}" for i, (gi, ci) in enumerate(dofs) if i <= j and A[i, j]]
-        (tmp_path / "se.pch").write_text("\n".join(lines) + "\n")
-        (tmp_path / "se.bdf").write_text("\n".join(bulk[:2 + len(tip)]) + "\n")  # grids only
+        if fmt == "dmig-inline":  # EXTSEOUT style: GRIDs in the punch file, and a K4AX beside KAAX
+            k4 = [ln.replace("KAAX", "K4AX") for ln in lines if "KAAX" in ln]
+            (tmp_path / "se.pch").write_text("\n".join(bulk[:2 + len(tip)] + lines + k4) + "\n")
+        else:
+            (tmp_path / "se.pch").write_text("\n".join(lines) + "\n")
+            (tmp_path / "se.bdf").write_text("\n".join(bulk[:2 + len(tip)]) + "\n")  # grids only
     return b, lam
 
 
-@pytest.mark.parametrize("fmt", ["binary", "ascii", "dmig"])
+@pytest.mark.parametrize("fmt", ["binary", "ascii", "dmig", "dmig-inline"])
 def test_craig_bampton_superelement(tmp_path, clamped, clamped_ref, fmt):
     b, lam = _files(tmp_path, clamped, fmt)
-    red = read_superelement(tmp_path / ("se.pch" if fmt == "dmig" else "se.op4"))
+    red = read_superelement(tmp_path / ("se.pch" if fmt.startswith("dmig") else "se.op4"))
     assert red.order == b.size + N_MODES and red.info["n_boundary"] == b.size and red.info["n_modal"] == N_MODES
     assert red.input_names[:4] == [f"{clamped.dofs[b[0], 0]}:x", f"{clamped.dofs[b[0], 0]}:y",
                                    f"{clamped.dofs[b[0], 0]}:z", f"{clamped.dofs[b[1 + 2], 0]}:x"]
@@ -95,6 +99,7 @@ def test_craig_bampton_superelement(tmp_path, clamped, clamped_ref, fmt):
     f = red.frequencies_hz()
     np.testing.assert_allclose(f[:4], clamped_ref[:4], rtol=1e-3)  # CB with 12 modes: 2.3e-4 off at 608 Hz
     np.testing.assert_allclose(red.xyz, clamped.node_xyz(red.node_ids), atol=1e-12)
+    assert red.info["matrices"]["K"] == ("KAAX" if fmt.startswith("dmig") else "KAA")
     write_reduced(red, tmp_path / "se.h5")
     back = read_reduced(tmp_path / "se.h5")
     np.testing.assert_allclose(back.frequencies_hz(), f, rtol=1e-12)

@@ -38,7 +38,7 @@ from ._text import build_model
 from .nastran_bulk import Bulk, cards, num, read_bulk
 from .op4 import read_op4
 
-__all__ = ["dof_transform", "find_bulk", "read_dmig", "read_grids", "read_nastran", "read_op4"]
+__all__ = ["bulk_of", "dof_transform", "find_bulk", "read_dmig", "read_grids", "read_nastran", "read_op4"]
 
 log = logging.getLogger(__name__)
 
@@ -111,6 +111,11 @@ def read_grids(path):
     return b.grid_ids, b.xyz
 
 
+#: Matrix names Nastran gives the a-set (and g-set ...) matrices, in order of preference:
+#: ``KAAX``/``MAAX``/``BAAX`` (DMIG punch), ``KAA``/``MAA``/``BAA`` (OUTPUT4), ``KGG`` ...
+_USUAL_SETS = ("AAX", "AA", "GGX", "GG", "FFX", "FF", "LLX", "LL", "XX", "HH")
+
+
 def _pick(names, want, letter, what, path):
     if want:
         if want.upper() not in names:
@@ -119,6 +124,9 @@ def _pick(names, want, letter, what, path):
     cands = [n for n in names if n.startswith(letter)]
     if len(cands) == 1:
         return cands[0]
+    usual = [f"{letter}{s}" for s in _USUAL_SETS if f"{letter}{s}" in cands]
+    if usual:  # e.g. KAAX beside K4AX (structural damping) from EXTSEOUT
+        return usual[0]
     if letter == "B":
         return None
     raise ReadError(path, f"cannot tell the {what} matrix among {', '.join(sorted(names))}; name them K.../M... "
@@ -137,6 +145,19 @@ def find_bulk(path: Path, geometry=None) -> Path | None:
             if p.exists() and p != path:
                 return p
     return None
+
+
+def bulk_of(path: Path, geometry, op4: bool):
+    """``(file, Bulk)`` of the geometry: :func:`find_bulk`, else the punch file itself when it
+    holds GRID cards (EXTSEOUT punch files carry GRID/ASET/SPOINT with the DMIG); else ``(None, None)``."""
+    geo = find_bulk(path, geometry)
+    if geo is not None:
+        return geo, read_bulk(geo)
+    if not op4:
+        b = read_bulk(path)
+        if b.grid_ids.size:
+            return path, b
+    return None, None
 
 
 def dof_transform(bulk: Bulk, dofs: np.ndarray, where) -> sp.csr_matrix | None:
@@ -318,8 +339,7 @@ def read_nastran(path, *, stiffness=None, mass=None, damping=None, geometry=None
     check_choice("directions", directions, ("basic", "local"))
     path = Path(path)
     op4, mats, names = load_matrices(path, stiffness, mass, damping)
-    geo = find_bulk(path, geometry)
-    bulk = read_bulk(geo) if geo is not None else None
+    geo, bulk = bulk_of(path, geometry, op4)
     if op4:
         out = op4_matrices(path, mats, names)
         n = out["K"].shape[0]

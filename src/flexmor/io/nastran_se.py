@@ -18,7 +18,12 @@ What is required
       a-set is ordered by id (grids and scalar points share one id range) and component, as
       Nastran orders it; its size must equal the matrix size. The bulk file is
       ``<stem>.bdf/.dat/.nas/.blk/.asm`` beside the matrix file or ``bulk=``;
-    * for a punch file the bulk file is optional (it gives coordinates and CD systems).
+    * for a punch file the bulk data is optional (it gives coordinates and CD systems); GRID
+      cards in the punch file itself (as ``EXTSEOUT`` writes them) are used too.
+
+On the command line a superelement file can stand where a reduced body is expected:
+``flexmor compare FULL_MODEL SE.op4`` (FRF at the boundary DOFs), ``flexmor export SE.op4 -o
+SE.mat``.
 
 The body's inputs and outputs are the boundary DOFs (``B`` selects them, ``C = B^T``), named
 ``GRID:DIR``; boundary DOFs in a local ``CD`` system are rotated to basic x y z. ``info``
@@ -37,8 +42,7 @@ import scipy.linalg as sla
 
 from ..errors import ReadError
 from ..model import direction_name
-from .nastran import dmig_matrices, dof_transform, find_bulk, load_matrices, op4_matrices
-from .nastran_bulk import read_bulk
+from .nastran import bulk_of, dmig_matrices, dof_transform, load_matrices, op4_matrices
 
 __all__ = ["MAX_ORDER", "read_superelement"]
 
@@ -97,8 +101,7 @@ def read_superelement(path, *, bulk=None, stiffness=None, mass=None, damping=Non
 
     path = Path(path)
     op4, mats, names = load_matrices(path, stiffness, mass, damping)
-    geo = find_bulk(path, bulk)
-    blk = read_bulk(geo) if geo is not None else None
+    geo, blk = bulk_of(path, bulk, op4)
     if op4:
         if blk is None:
             raise ReadError(path, "an OP4 superelement needs the bulk data with its GRID, SPOINT and ASET/QSET "
