@@ -236,3 +236,12 @@ def test_include(tmp_path):
                                        "INCLUDE 'sub/g.bdf'\nENDDATA\n")
     b = read_bulk(tmp_path / "main.bdf")
     np.testing.assert_allclose(b.xyz, [[0.0, 1.0, 0.0]], atol=1e-15)
+
+
+def test_fluid_grid_and_grdset_defaults(tmp_path):
+    p = tmp_path / "g.bdf"
+    p.write_text("CORD2R,5,,1.,0.,0.,1.,0.,1.,\n,2.,0.,0.\nGRDSET,,5,,,,5\nGRID,1,,1.,2.,3.,-1\nGRID,2,,0.,0.,0.\n"
+                 "GRID,3,0,0.,0.,0.,0\n")
+    b = read_bulk(p)
+    np.testing.assert_array_equal(b.cd, [0, 5, 0])  # -1 (fluid) has no displacement system; GRDSET CD=5
+    np.testing.assert_allclose(b.xyz, [[2.0, 2.0, 3.0], [1.0, 0.0, 0.0], [0.0, 0.0, 0.0]])  # GRDSET CP=5

@@ -333,7 +333,8 @@ def _resolve(path, grids, gdef, cord2, cord1, spoints, aset) -> Bulk:
 
 
 def _cd(grid, gdef) -> int:
-    return int(grid[2]) if grid[2] else gdef["cd"]
+    cd = int(grid[2]) if grid[2] else gdef["cd"]
+    return 0 if cd == -1 else cd  # -1: fluid grid point, no displacement system
 
 
 def _unresolved(pending_g, pending_s, cord2, grids, systems):
