@@ -181,7 +181,7 @@ class Bulk:
     spoints : ndarray of int
         Scalar points (``SPOINT``, also the ``QSET`` modal coordinates of a superelement).
     aset : list of (int, int)
-        ``(id, component)`` pairs named by ``ASET/ASET1/BSET/BSET1/QSET/QSET1`` (component 0
+        ``(id, component)`` pairs named by ``ASET/BSET/CSET/QSET (and ...1)`` (component 0
         for scalar points).
     """
 
@@ -270,11 +270,11 @@ def read_bulk(path) -> Bulk:
                         cord1[cid] = (name[-1], [int(f[k + j]) for j in (1, 2, 3)], lineno, fpath)
             elif name == "SPOINT":
                 spoints.extend(_thru(f))
-            elif name in ("ASET", "BSET", "QSET"):
+            elif name in ("ASET", "BSET", "CSET", "QSET"):
                 for k in range(0, len(f) - 1, 2):
                     if f[k]:
                         aset.extend((int(f[k]), c) for c in _components(f[k + 1]))
-            elif name in ("ASET1", "BSET1", "QSET1"):
+            elif name in ("ASET1", "BSET1", "CSET1", "QSET1"):
                 comps = _components(f[0])
                 aset.extend((i, c) for i in _thru(f[1:]) for c in comps)
         except ValueError as exc:
