@@ -115,6 +115,9 @@ def test_superelement_errors(tmp_path, clamped):
     bdf.unlink()
     with pytest.raises(ReadError, match="needs the bulk data"):
         read_superelement(tmp_path / "se.op4")
+    bdf.write_text(text + "SEQGP,1,5\n")
+    with pytest.raises(ReadError, match="SEQGP cards resequence"):
+        read_superelement(tmp_path / "se.op4")
     bdf.write_text(text)
     write_binary(tmp_path / "se.op4", {"KAA": np.eye(3), "MAA": np.eye(4)})
     with pytest.raises(ReadError, match=r"the matrices KAA \(3, 3\), MAA \(4, 4\) differ in size"):

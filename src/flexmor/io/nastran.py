@@ -111,6 +111,10 @@ def read_grids(path):
     return b.grid_ids, b.xyz
 
 
+#: Why OP4 matrices with a resequenced bulk file are refused.
+SEQGP_REFUSED = ("SEQGP cards resequence the grids, so the order of the OP4 rows and columns is not the id order "
+                 "flexmor assumes; export without SEQGP or as DMIG (PARAM,EXTOUT,DMIGPCH)")
+
 #: Matrix names Nastran gives the a-set (and g-set ...) matrices, in order of preference:
 #: ``KAAX``/``MAAX``/``BAAX`` (DMIG punch), ``KAA``/``MAA``/``BAA`` (OUTPUT4), ``KGG`` ...
 _USUAL_SETS = ("AAX", "AA", "GGX", "GG", "FFX", "FF", "LLX", "LL", "XX", "HH")
@@ -233,6 +237,8 @@ def _op4_dofs(path, n, bulk: Bulk | None, geo, explicit):
     """Equation map of OP4 matrices of size ``n``: the a-set cards of the bulk file, else all grid DOFs."""
     if bulk is None:
         return None
+    if bulk.seqgp:
+        raise ReadError(geo, SEQGP_REFUSED)
     if bulk.aset:
         dofs = np.unique(np.array(bulk.aset, np.int64).reshape(-1, 2), axis=0)
         what = "the ASET/BSET/QSET DOFs"

@@ -183,6 +183,8 @@ class Bulk:
     aset : list of (int, int)
         ``(id, component)`` pairs named by ``ASET/BSET/CSET/QSET (and ...1)`` (component 0
         for scalar points).
+    seqgp : bool
+        The file resequences grids (``SEQGP``): matrix DOF order is then not the id order.
     """
 
     grid_ids: np.ndarray
@@ -191,6 +193,7 @@ class Bulk:
     systems: dict
     spoints: np.ndarray
     aset: list
+    seqgp: bool = False
 
     def frame(self, gid: int) -> np.ndarray:
         """3x3 matrix whose columns are grid ``gid``'s displacement directions in basic components."""
@@ -245,6 +248,7 @@ def read_bulk(path) -> Bulk:
     """
     path = Path(path)
     grids, cord2, cord1, spoints, aset = {}, {}, {}, [], []
+    seqgp = False
     gdef = {"cp": 0, "cd": 0}
     for fpath, lineno, name, f, fl in cards(path):
         try:
@@ -268,6 +272,8 @@ def read_bulk(path) -> Bulk:
                         if cid <= 0 or cid in cord2 or cid in cord1:
                             raise ReadError(fpath, f"{name} {cid}: id must be positive and unique", lineno)
                         cord1[cid] = (name[-1], [int(f[k + j]) for j in (1, 2, 3)], lineno, fpath)
+            elif name == "SEQGP":
+                seqgp = True
             elif name == "SPOINT":
                 spoints.extend(_thru(f))
             elif name in ("ASET", "BSET", "CSET", "QSET"):
@@ -281,7 +287,9 @@ def read_bulk(path) -> Bulk:
             raise ReadError(fpath, f"{name}: malformed field ({exc})", lineno) from None
         except IndexError:
             raise ReadError(fpath, f"{name}: too few fields", lineno) from None
-    return _resolve(path, grids, gdef, cord2, cord1, spoints, aset)
+    bulk = _resolve(path, grids, gdef, cord2, cord1, spoints, aset)
+    bulk.seqgp = seqgp
+    return bulk
 
 
 def _resolve(path, grids, gdef, cord2, cord1, spoints, aset) -> Bulk:

@@ -42,7 +42,7 @@ import scipy.linalg as sla
 
 from ..errors import ReadError
 from ..model import direction_name
-from .nastran import bulk_of, dmig_matrices, dof_transform, load_matrices, op4_matrices
+from .nastran import SEQGP_REFUSED, bulk_of, dmig_matrices, dof_transform, load_matrices, op4_matrices
 
 __all__ = ["MAX_ORDER", "read_superelement"]
 
@@ -53,6 +53,8 @@ MAX_ORDER = 20_000
 
 
 def _aset(bulk, n, where):
+    if bulk.seqgp:
+        raise ReadError(where, SEQGP_REFUSED)
     if bulk.aset:
         dofs = {tuple(d) for d in bulk.aset} | {(int(s), 0) for s in bulk.spoints}
         what = "the ASET/BSET/QSET DOFs and SPOINTs"
