@@ -160,8 +160,10 @@ def _dense_singular_mass(K, M, k: int, sigma: float | None):
     try:
         mu, phi = sla.eigh(Md, Kd - sigma * Md)
     except np.linalg.LinAlgError:
-        raise ModelError("the mass matrix is indefinite (K - sigma M is not positive definite for sigma < 0); "
-                         "no eigenmodes") from None
+        mu = np.array([-1.0])
+    if mu.min() < -1e-12 * max(abs(mu).max(), 1e-300):
+        raise ModelError("the mass matrix is not positive definite: it is indefinite (negative eigenvalues of M "
+                         "relative to K); no meaningful eigenmodes")
     finite = mu > 1e-12 * max(mu.max(), 1e-300)
     if np.count_nonzero(finite) < k:
         raise ModelError(f"the mass matrix is singular: only {np.count_nonzero(finite)} finite eigenvalues, "
