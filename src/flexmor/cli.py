@@ -101,6 +101,7 @@ def _info_backends(args) -> int:
 
 
 def cmd_info(args) -> int:
+    from .checks import MAX_RIGID_BODY_MODES, mechanism_error
     from .linalg import available_backends
     from .linalg.eigen import eigenmodes, frequencies_hz, is_rigid
 
@@ -117,10 +118,8 @@ def cmd_info(args) -> int:
         k = min(args.modes, model.n_dof)
         lam, _ = eigenmodes(model.K, model.M, min(max(k, 7), model.n_dof), backend=args.backend)
         n_zero = int(np.sum(is_rigid(lam, model.K, model.M)))
-        if n_zero > 6:  # a body has at most 6 rigid-body modes; more is a mechanism (decided in issue 11)
-            raise ModelError(f"{args.model}: the stiffness matrix has at least {n_zero} zero-energy modes (a free "
-                             "body has at most 6): the model is a mechanism; look for unconnected parts, "
-                             "missing elements or released DOFs")
+        if n_zero > MAX_RIGID_BODY_MODES:
+            raise mechanism_error(model, n_zero)
         lam = lam[:k]
         out["frequencies_hz"] = frequencies_hz(lam).tolist()
         out["n_rigid"] = min(n_zero, k)
@@ -161,12 +160,12 @@ def cmd_reduce(args) -> int:
     if args.output_file:
         _check_new(args.output_file, args)
     couplings = coupling_specs(args.interface, args.input + args.output)
-    model, t_read, band = _read_model(args, couplings)
+    model, t_read, given_band = _read_model(args, couplings)
     ports = make_ports(model, args.input, args.output)
-    band = None if args.no_error else (band or DEFAULT_BAND)
-    red, res = reduce_and_judge(model, args.method, args.order, ports, band=band, n_freq=args.n_freq,
-                                grid_tol=args.grid_tol, full_frf=args.full_frf, cache=not args.no_cache,
-                                backend=args.backend, progress=_progress(args, "full FRF"),
+    band = None if args.no_error else (given_band or DEFAULT_BAND)
+    red, res = reduce_and_judge(model, args.method, args.order, ports, band=band, method_band=given_band,
+                                n_freq=args.n_freq, grid_tol=args.grid_tol, full_frf=args.full_frf,
+                                cache=not args.no_cache, backend=args.backend, progress=_progress(args, "full FRF"),
                                 interface=args.interface or None, tol=args.tol, points=args.points,
                                 moments=args.moments, side=args.side, rigid=args.rigid, max_iter=args.max_iter,
                                 shift_tol=args.shift_tol, intermediate=args.intermediate, variant=args.variant,

@@ -9,6 +9,7 @@ from pathlib import Path
 import numpy as np
 
 from .analysis.compare import FullResponse
+from .checks import check_rigid_body_modes
 from .errors import OptionError
 from .linalg.factorize import STATS
 from .ports import make_ports
@@ -91,7 +92,8 @@ def prepare_model(model, couplings=(), damping: dict | None = None):
 
 def reduce_and_judge(model, method: str, order, ports, *, band=None, full: FullResponse | None = None,
                      n_freq: int = 50, grid_tol: float | None = None, full_frf: str = "auto", cache=True,
-                     backend: str = "auto", progress=None, tol: float | None = None, **options):
+                     backend: str = "auto", progress=None, tol: float | None = None, method_band=None,
+                     **options):
     """Reduce ``model`` and evaluate the error measures over ``band``.
 
     Returns ``(reduced, result)``; ``result`` is the JSON record of ``flexmor reduce``:
@@ -103,10 +105,15 @@ def reduce_and_judge(model, method: str, order, ports, *, band=None, full: FullR
     ``timings["full_frf"]`` is the wall time of the full FRF computed here.
     ``tol`` switches to the target-error mode (:func:`flexmor.tolerance.reduce_to_tolerance`):
     the smallest order whose verified band_error is ``<= tol``, ``order`` then being the
-    largest order tried; ``result`` gets ``tol`` and ``tol_reached``.
+    largest order tried; ``result`` gets ``tol`` and ``tol_reached``. ``method_band`` is the band
+    the method itself uses (expansion points, Gramian band) when ``band`` is None (no error
+    evaluation). A mechanism (more than six zero-energy modes) is refused first
+    (:func:`flexmor.checks.check_rigid_body_modes`).
     """
-    if band is not None and "band" in _method_options(method):
-        options.setdefault("band", tuple(band))  # default expansion points of krylov, adaptive, irka
+    check_rigid_body_modes(model, backend=backend)
+    method_band = band if band is not None else method_band
+    if method_band is not None and "band" in _method_options(method):
+        options.setdefault("band", tuple(method_band))  # default expansion points of krylov, adaptive, irka
     t_full = None
     if tol is not None:  # target-error mode: the order is chosen against the full FRF
         if full is None and band is None:

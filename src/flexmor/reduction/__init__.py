@@ -84,6 +84,8 @@ def reduce(model, method: str, order: int | None, ports, **options) -> tuple[Red
     Returns
     -------
     reduced : ReducedModel
+        Its ``info`` holds the method's own record plus ``order_requested`` and ``options`` (the
+        options passed, as JSON values); with ``version`` the result says how it was made.
     timings : dict
         Wall times in seconds: ``basis``, ``project``.
     """
@@ -105,4 +107,20 @@ def reduce(model, method: str, order: int | None, ports, **options) -> tuple[Red
     red = project(model, basis, ports)
     t2 = time.perf_counter()
     red.info.setdefault("order_requested", order)
+    red.info.setdefault("options", _recorded(opts))
     return red, {"basis": t1 - t0, "project": t2 - t1}
+
+
+def _recorded(opts: dict) -> dict:
+    """The method options as JSON values (stored with the reduced body, with its version)."""
+    import json
+
+    from ..jsonutil import jsonable
+
+    out = {}
+    for k, v in sorted(opts.items()):
+        try:
+            out[k] = json.loads(json.dumps(jsonable(v)))
+        except (TypeError, ValueError):
+            out[k] = repr(v)
+    return out

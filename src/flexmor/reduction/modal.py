@@ -3,12 +3,12 @@
 from __future__ import annotations
 
 import logging
-import warnings
 
 import numpy as np
 
 from ..basis import Basis
-from ..errors import FlexmorWarning, OptionError, check_choice
+from ..checks import MAX_RIGID_BODY_MODES, mechanism_error
+from ..errors import OptionError, check_choice
 from ..linalg.eigen import eigenmodes, frequencies_hz, is_rigid
 from . import register_method
 
@@ -29,7 +29,8 @@ def modal(model, ports, order, *, rigid: str = "exclude", sigma: float | None = 
     rigid : {'exclude', 'include'}
         Rigid-body modes (eigenvalue below :func:`flexmor.linalg.eigen.rigid_body_threshold`)
         of a free body are excluded by default: the floating frame of reference describes
-        rigid motion; their number is reported in ``info['n_rigid']``.
+        rigid motion; their number is reported in ``info['n_rigid']``. More than six zero-energy
+        modes (a mechanism) raise :class:`~flexmor.errors.ModelError`.
     sigma : float, optional
         Shift of the shift-invert Lanczos solver (default: negative, model-scaled).
     backend : str
@@ -60,9 +61,8 @@ def modal(model, ports, order, *, rigid: str = "exclude", sigma: float | None = 
         if rigid == "include" or k - n_rb >= order or k == n:
             break
         extra = n_rb + 6
-    if n_rb > 6:
-        warnings.warn(f"{n_rb} zero-frequency modes found (more than 6 rigid-body modes): "
-                      "the model is a mechanism or has unconnected parts", FlexmorWarning, stacklevel=2)
+    if n_rb > MAX_RIGID_BODY_MODES:
+        raise mechanism_error(model, n_rb)
     keep = ~is_rb if rigid == "exclude" else np.ones(lam.size, bool)
     lam, phi = lam[keep][:order], phi[:, keep][:, :order]
     if lam.size < order:

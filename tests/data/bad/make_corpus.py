@@ -73,6 +73,10 @@ ccx("ccx_empty", "empty", sti=b"")
 _rng = random.Random(11)
 ccx("ccx_binary_junk", "binary", sti=bytes(_rng.randrange(256) for _ in range(600)) + _ok_k().encode())
 ccx("ccx_huge_index", "ccx_huge_index.sti:1", sti=_swap_line(_ok_k(), 1, "99999999999999999999 1 1.0\n"))
+# 3 nodes, one axial spring between nodes 1 and 2: 8 zero-energy modes, a mechanism
+ccx("ccx_mechanism", "the model is a mechanism", sti=_triplets([(1, 1, 1.0e6), (1, 4, -1.0e6), (4, 4, 1.0e6)]),
+    mas=_triplets([(i, i, 1.0) for i in range(1, 10)]), dof="".join(f"{n}.{d}\n" for n in (1, 2, 3) for d in (1, 2, 3)),
+    inp=INP.replace("*NSET, NSET=TIP\n2\n", "3, 2.0, 0.0, 0.0\n*NSET, NSET=TIP\n3\n"))
 
 # --- Matrix Market pairs ---------------------------------------------------------------------------
 
@@ -143,6 +147,10 @@ CASES.append(("mat_string_k.mat", "info", "mat_string_k.mat"))
 scipy.io.savemat(HERE / "mat_nan.mat", {"M": np.eye(2), "K": np.array([[1.0, np.nan], [np.nan, 1.0]])})
 CASES.append(("mat_nan.mat", "info", "mat_nan.mat"))
 CASES.append(("text.mat", "info", "text.mat"))
+# bench/fuzz.py seed 67581: a token inside the compressed M replaced; scipy's reader alone segfaults
+LF10 = (DATA / "mor" / "LF10.mat").read_bytes()
+(HERE / "mat_cut_compressed.mat").write_bytes(LF10[:434] + b"0" + LF10[584:])
+CASES.append(("mat_cut_compressed.mat", "info", "mat_cut_compressed.mat: damaged MATLAB file: compressed data"))
 SID = (DATA / "sid" / "balken1m.SID_FEM").read_text().splitlines(keepends=True)
 (HERE / "sid_truncated.SID_FEM").write_text("".join(SID[: len(SID) // 3]))
 CASES.append(("sid_truncated.SID_FEM", "info", "sid_truncated.SID_FEM"))

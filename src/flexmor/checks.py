@@ -1,0 +1,76 @@
+"""Checks of a model before it is reduced: rigid-body modes and mechanisms.
+
+An elastic body has at most six zero-energy modes (three translations, three rotations of a
+free body). More mean a mechanism: unconnected parts, missing elements, released DOFs. No
+reduced body of a mechanism is useful in a multibody code, and most methods would either fail
+with a solver message that does not say why or silently return a body with spurious
+zero-frequency modes; :func:`check_rigid_body_modes` refuses it with a :class:`ModelError`
+that names the cause. A free body (1 to 6 rigid-body modes) is legal: it is reported with a
+:class:`FlexmorWarning`, and the methods handle it (shifted expansion points, exclusion of the
+rigid-body modes).
+"""
+
+from __future__ import annotations
+
+import warnings
+import weakref
+
+import numpy as np
+
+from .errors import FlexmorWarning, ModelError
+
+__all__ = ["MAX_RIGID_BODY_MODES", "check_rigid_body_modes", "mechanism_error"]
+
+#: Zero-energy modes an elastic body can have (3 translations + 3 rotations).
+MAX_RIGID_BODY_MODES = 6
+
+_COUNTS: dict = {}  # id(K) -> (weak reference to K, M, count); sparse matrices are not hashable
+
+
+def mechanism_error(model, n_zero: int) -> ModelError:
+    """The error for a stiffness matrix with ``n_zero`` (> 6) zero-energy modes."""
+    where = model.source or model.name
+    return ModelError(f"{where}: the stiffness matrix has at least {n_zero} zero-energy modes (a free body has "
+                      f"at most {MAX_RIGID_BODY_MODES}): the model is a mechanism; look for unconnected parts, "
+                      "missing elements or released DOFs")
+
+
+def check_rigid_body_modes(model, *, backend: str = "auto") -> int:
+    """Number of rigid-body (zero-energy) modes of ``model``; refuse a mechanism.
+
+    The seven lowest eigenvalues of ``K phi = lam M phi`` (shift-invert at a negative shift, so
+    a singular ``K`` needs no special care) are compared with
+    :func:`flexmor.linalg.eigen.rigid_body_threshold`. The count is cached per stiffness matrix.
+
+    Returns
+    -------
+    int
+        0 for a supported body, 1 to 6 for a free (or partly supported) one; a
+        :class:`FlexmorWarning` says so.
+
+    Raises
+    ------
+    ModelError
+        More than six zero-energy modes (a mechanism).
+    """
+    from .linalg.eigen import eigenmodes, is_rigid
+
+    cached = _COUNTS.get(id(model.K))
+    if cached is not None and cached[0]() is model.K and cached[1]() is model.M:
+        n_zero = cached[2]
+    else:
+        k = min(MAX_RIGID_BODY_MODES + 1, model.n_dof)
+        lam, _ = eigenmodes(model.K, model.M, k, backend=backend)
+        n_zero = int(np.sum(is_rigid(lam, model.K, model.M)))
+        try:
+            key = id(model.K)
+            _COUNTS[key] = (weakref.ref(model.K, lambda _, key=key: _COUNTS.pop(key, None)), weakref.ref(model.M),
+                            n_zero)
+        except TypeError:  # not weak-referenceable: no cache
+            pass
+    if n_zero > MAX_RIGID_BODY_MODES:
+        raise mechanism_error(model, n_zero)
+    if n_zero:
+        warnings.warn(f"{model.source or model.name}: {n_zero} rigid-body modes (free or partly supported body); "
+                      "methods exclude them or use shifted expansion points", FlexmorWarning, stacklevel=2)
+    return n_zero
