@@ -57,7 +57,19 @@ class SolverError(FlexmorError):
 
 
 class ConvergenceError(FlexmorError):
-    """An iterative method did not converge."""
+    """An iterative method did not converge within its iteration limit.
+
+    Parameters
+    ----------
+    message : str
+    result : object, optional
+        The best result reached so far (e.g. ``(lam, phi)`` of the Ritz pairs of an eigen
+        solver), for callers that can use an approximate answer; None when there is none.
+    """
+
+    def __init__(self, message: str, result=None):
+        super().__init__(message)
+        self.result = result
 
 
 class OptionError(FlexmorError, ValueError):

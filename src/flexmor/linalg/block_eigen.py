@@ -82,7 +82,9 @@ def _iterate(K, M, k, F, sigma, *, block=None, tol=1e-8, max_basis=None, max_res
             # (K, M) are not those of S, so W alone would not carry their residuals)
             restarts += 1
             if restarts > max_restarts:
-                raise ConvergenceError(f"block Lanczos did not converge for {k} modes in {max_restarts} restarts")
+                n_done = int(last[1].sum()) if last is not None else 0
+                raise ConvergenceError(f"block Lanczos did not converge for {k} modes in {max_restarts} restarts "
+                                       f"({n_done} converged)", result=None if last is None else last[2:])
             keep = min(m - p, max(k + p, m // 2)) if m > k + p else m
             theta, Y = sla.eigh(H[:m, :m])
             Y = Y[:, :keep]
@@ -91,7 +93,7 @@ def _iterate(K, M, k, F, sigma, *, block=None, tol=1e-8, max_basis=None, max_res
             H[:keep, :keep] = np.diag(theta[:keep])
             m = keep
             if last is not None:
-                R, done = last
+                R, done = last[:2]
                 idx = np.flatnonzero(~done)[:p]
                 if idx.size:
                     W = np.hstack([W, F.solve(R[:, idx])])
@@ -119,7 +121,7 @@ def _iterate(K, M, k, F, sigma, *, block=None, tol=1e-8, max_basis=None, max_res
             stalled = res >= 0.5 * res_old if res_old is not None else np.zeros(k, bool)
             res_old = res
             done = (res <= tol) | (stalled & (res <= np.sqrt(tol) * 1e-2))
-            last = (R, done)
+            last = (R, done, lam, X)  # X is a new array: a restart overwriting Q leaves it intact
             log.debug("block Lanczos: %d columns, %d solves, max residual %.1e", m, solves, res.max())
             if done.all() or m == n:
                 log.info("block Lanczos: %d modes from %d block solves of %d, %d columns, %d restarts",
@@ -157,7 +159,8 @@ def block_lanczos(K, M, k: int, F, sigma: float, *, block: int | None = None, to
     max_basis : int, optional
         Columns before a thick restart; default ``max(5 k, k + 14 p)``.
     max_restarts : int
-        Raise :class:`ConvergenceError` after this many restarts.
+        Raise :class:`ConvergenceError` after this many restarts; its ``result`` holds the best
+        Ritz pairs ``(lam, phi)`` so far.
     seed : int
         Seed of the random start block (results are reproducible).
 

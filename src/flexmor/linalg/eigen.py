@@ -136,8 +136,10 @@ def eigenmodes(K, M, k: int, *, sigma: float | None = None, backend: str = "auto
             try:
                 lam, phi = eigsh(K, k=k, M=M, sigma=sigma, which="LM", OPinv=op, tol=tol, ncv=ncv, v0=v0)
             except ArpackNoConvergence as exc:
+                order = np.argsort(exc.eigenvalues)
                 raise ConvergenceError(
-                    f"Lanczos did not converge for {k} modes ({len(exc.eigenvalues)} converged)") from None
+                    f"Lanczos did not converge for {k} modes ({len(exc.eigenvalues)} converged)",
+                    result=(exc.eigenvalues[order], exc.eigenvectors[:, order])) from None
             order = np.argsort(lam)
             lam, phi = lam[order], phi[:, order]
         # Rayleigh quotients: quadratically accurate in the eigenvector error, they remove
