@@ -113,6 +113,6 @@ def test_cli_info_backends(capsys):
     assert main(["info", "--backends", "--json"]) == 0
     out = json.loads(capsys.readouterr().out)
     names = [b["name"] for b in out["backends"]]
-    assert names == ["cholmod", "pardiso", "scipy"]
+    assert names == ["cholmod", "pardiso", "scipy", "petsc"]
     assert out["memory_available_mb"] is None or out["memory_available_mb"] > 0
     assert main(["info"]) == 2  # neither MODEL nor --backends

@@ -21,6 +21,7 @@ import numpy as np
 from . import __version__
 from .errors import ConvergenceError, FlexmorError, ModelError, PortError, SolverError
 from .jsonutil import jsonable
+from .linalg.distributed import on_root, quiet_other_ranks
 
 __all__ = ["main"]
 
@@ -177,7 +178,7 @@ def cmd_reduce(args) -> int:
     if args.select:
         red.info["selections"] = list(args.select)
     path = _check_new(args.output_file or f"{model.name}_{args.method}_{red.order}.h5", args)
-    write_reduced(red, path)
+    on_root(write_reduced, red, path)  # under MPI: written once, by rank 0
     res["file"] = str(path)
     if args.json:
         _emit_json(res)
@@ -339,7 +340,8 @@ def cmd_demo(args) -> int:
 def _add_model_args(p, damping=True):
     p.add_argument("model", help="main file of the FE export (format from the suffix)")
     p.add_argument("--format", help="override the format chosen from the suffix")
-    p.add_argument("--backend", default="auto", help="sparse solver: auto, pardiso, cholmod, scipy")
+    p.add_argument("--backend", default="auto",
+                   help="sparse solver: auto, pardiso, cholmod, scipy, petsc (MPI: mpirun -n P flexmor ...)")
     p.add_argument("--json", action="store_true", help="print one JSON object on stdout")
     p.add_argument("--select", action="append", default=[], metavar="NAME=KIND:NUMBERS",
                    help="add node set NAME: set:OTHER, box:x0,y0,z0,x1,y1,z1, plane:x0,y0,z0,nx,ny,nz[,tol], "
@@ -458,6 +460,7 @@ def main(argv=None) -> int:
     level = [logging.WARNING, logging.INFO, logging.DEBUG][min(args.verbose, 2)]
     logging.basicConfig(level=level, format="%(levelname)s %(name)s: %(message)s")
     logging.captureWarnings(True)
+    quiet_other_ranks()  # mpirun -n P: only rank 0 prints
     previous = None
     try:
         previous = signal.signal(signal.SIGTERM, _on_sigterm)

@@ -68,7 +68,10 @@ def eigenmodes(K, M, k: int, *, sigma: float | None = None, backend: str = "auto
         Shift of the shift-invert Lanczos iteration; default :func:`default_shift`
         (negative, so rigid-body modes are found without a singular factorization).
     backend : str
-        Backend of :func:`flexmor.linalg.factorize` for ``K - sigma M``.
+        Backend of :func:`flexmor.linalg.factorize` for ``K - sigma M``. With ``petsc`` (or a
+        ``petsc`` factorization) the eigenpairs come from SLEPc's Krylov-Schur on the
+        distributed factorization (:func:`flexmor.linalg.petsc.slepc_eigenmodes`) instead of
+        ``lanczos``/``arpack``.
     tol : float
         Convergence tolerance: ARPACK's (0 = machine precision) or the relative residual of
         the block Lanczos iteration (0 = its default 1e-8, eigenvalues to ~1e-14 relative).
@@ -127,7 +130,11 @@ def eigenmodes(K, M, k: int, *, sigma: float | None = None, backend: str = "auto
         F = factorization
         if F is None:
             F = factorize((K - sigma * M).tocsr(), backend, symmetric=True, positive=sigma < 0)
-        if method == "lanczos":
+        if F.backend == "petsc":  # distributed: SLEPc Krylov-Schur on the same MUMPS factorization
+            from .petsc import slepc_eigenmodes
+
+            lam, phi = slepc_eigenmodes(K, M, k, F, sigma, tol=tol)
+        elif method == "lanczos":
             lam, phi = block_lanczos(K, M, k, F, sigma, block=block, tol=tol or 1e-8)
         else:
             op = LinearOperator(K.shape, matvec=F.solve, matmat=F.solve, dtype=np.float64)
@@ -163,8 +170,10 @@ def _dense_singular_mass(K, M, k: int, sigma: float | None):
     try:
         mu, phi = sla.eigh(Md, Kd - sigma * Md)
     except np.linalg.LinAlgError:
-        raise ModelError("the mass matrix is indefinite (K - sigma M is not positive definite for sigma < 0); "
-                         "no eigenmodes") from None
+        mu = np.array([-1.0])
+    if mu.min() < -1e-12 * max(abs(mu).max(), 1e-300):
+        raise ModelError("the mass matrix is not positive definite: it is indefinite (negative eigenvalues of M "
+                         "relative to K); no meaningful eigenmodes")
     finite = mu > 1e-12 * max(mu.max(), 1e-300)
     if np.count_nonzero(finite) < k:
         raise ModelError(f"the mass matrix is singular: only {np.count_nonzero(finite)} finite eigenvalues, "

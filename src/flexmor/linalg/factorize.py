@@ -358,6 +358,10 @@ def _pick(backend: str, is_complex: bool, positive: bool, symmetric: bool) -> st
     avail = available_backends()
     if backend != "auto":
         if backend not in avail:
+            if backend == "petsc":
+                from .petsc import require
+
+                require()  # OptionError naming the install route
             raise SolverError(f"backend {backend!r} is not available here; available: {', '.join(avail)}")
         return backend
     for name in avail:
@@ -396,6 +400,10 @@ def factorize(A, backend: str = "auto", *, symmetric: bool = True, positive: boo
     if A.shape[0] != A.shape[1]:
         raise SolverError(f"cannot factorize a non-square matrix of shape {A.shape}")
     is_complex = np.iscomplexobj(A.data)
+    if getattr(A, "partitioned", False):  # rows spread over MPI ranks (flexmor.linalg.distributed)
+        if backend not in ("auto", "petsc"):
+            raise SolverError(f"a matrix partitioned over MPI ranks needs --backend petsc, not {backend!r}")
+        backend = "petsc"
     name = _pick(backend, is_complex, positive, symmetric)
     if is_complex and not BACKENDS[name][2]:
         log.info("backend %s has no complex support; using scipy", name)
@@ -426,6 +434,11 @@ _DESCRIPTIONS = {
                "complex symmetric and unsymmetric; METIS ordering; memory estimate before factorizing",
     "scipy": "SciPy SuperLU; real and complex, minimum-degree ordering; slow above ~50k DOF of a 3D solid",
 }
+
+
+from .petsc import register as _register_petsc  # noqa: E402 - distributed backend; imports petsc4py lazily
+
+_register_petsc(BACKENDS, _DESCRIPTIONS, Factorization)
 
 
 def describe_backends() -> list[dict]:

@@ -1,0 +1,244 @@
+"""MPI layout of flexmor runs started with ``mpirun -n P`` (or ``srun``) for the ``petsc`` backend.
+
+flexmor runs SPMD: every rank executes the same program on the same small data (ports,
+bases, reduced matrices, frequency grids), while the sparse matrices and their factorizations
+are distributed by rows. Two ways of holding a model's matrices are supported:
+
+*replicated*
+    Every rank has the whole ``scipy.sparse`` matrix (a model read from a file); the
+    ``petsc`` backend hands each rank's row block (:func:`row_range`) to PETSc, so the
+    factor, which dominates the memory, is distributed.
+*partitioned*
+    :class:`PartitionedCSR`: every rank holds only its own rows (zero elsewhere), the matrix
+    being the sum of the ranks' pieces. Products with dense blocks (``A @ X``, ``X.T @ A``),
+    the diagonal and dense copies are completed by an ``MPI_Allreduce``; sums, scalings,
+    transposes and submatrices ``A[i][:, i]`` of partitioned matrices stay partitioned. A
+    model built this way (:func:`flexmor.models.distributed.partitioned_cantilever`) is never
+    assembled on one rank, and the methods above the solver layer run on it unchanged.
+
+Dense blocks (right-hand sides, solutions, bases) are replicated on every rank. Nothing here
+imports MPI unless the process was started by an MPI launcher (or a partitioned matrix is made).
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+import sys
+
+import numpy as np
+import scipy.sparse as sp
+
+from ..errors import SolverError
+
+__all__ = ["comm", "rank", "size", "is_root", "barrier", "row_range", "allreduce", "allgather_rows",
+           "PartitionedCSR", "is_partitioned", "launched_by_mpi", "quiet_other_ranks", "on_root"]
+
+log = logging.getLogger(__name__)
+
+#: Environment variables set by MPI launchers (Open MPI, MPICH/Hydra, PMIx, Slurm PMI).
+_LAUNCHER_VARS = ("OMPI_COMM_WORLD_SIZE", "PMI_SIZE", "PMIX_RANK", "MPI_LOCALNRANKS", "PMI_RANK")
+
+_COMM = None
+
+
+def launched_by_mpi() -> bool:
+    """True if an MPI launcher (mpirun, mpiexec, srun with PMI/PMIx) started this process."""
+    return any(v in os.environ for v in _LAUNCHER_VARS)
+
+
+def comm():
+    """The world communicator (mpi4py), or None when mpi4py is missing and no launcher is seen."""
+    global _COMM
+    if _COMM is None:
+        try:
+            from mpi4py import MPI
+        except ImportError:
+            if launched_by_mpi():
+                raise SolverError("this process was started by an MPI launcher but mpi4py is not installed; "
+                                  "install python3-mpi4py (Debian) or 'pip install flexmor[petsc]'") from None
+            return None
+        _COMM = MPI.COMM_WORLD
+    return _COMM
+
+
+def rank() -> int:
+    """Rank of this process (0 without MPI)."""
+    c = comm() if (_COMM is not None or launched_by_mpi()) else None
+    return 0 if c is None else c.Get_rank()
+
+
+def size() -> int:
+    """Number of ranks (1 without MPI)."""
+    c = comm() if (_COMM is not None or launched_by_mpi()) else None
+    return 1 if c is None else c.Get_size()
+
+
+def is_root() -> bool:
+    """True on rank 0 (and in serial runs): the rank that prints and writes files."""
+    return rank() == 0
+
+
+def barrier() -> None:
+    """Wait for all ranks (nothing in serial runs)."""
+    if size() > 1:
+        comm().Barrier()
+
+
+def on_root(fn, *args, **kwargs):
+    """Call ``fn`` on rank 0 only, between two barriers (so no rank runs ahead of a file write)."""
+    barrier()
+    out = fn(*args, **kwargs) if is_root() else None
+    barrier()
+    return out
+
+
+def quiet_other_ranks() -> None:
+    """Under MPI with several ranks: only rank 0 prints; the others drop stdout and log errors only."""
+    if not launched_by_mpi() or size() == 1 or is_root():
+        return
+    sys.stdout = open(os.devnull, "w")  # noqa: SIM115 - lives as long as the process
+    logging.getLogger().setLevel(logging.ERROR)
+
+
+def row_range(n: int, nranks: int | None = None, r: int | None = None) -> tuple[int, int]:
+    """Rows ``[start, stop)`` of rank ``r`` in PETSc's default split of ``n`` rows over ``nranks``."""
+    nranks = size() if nranks is None else nranks
+    r = rank() if r is None else r
+    base, extra = divmod(n, nranks)
+    start = r * base + min(r, extra)
+    return start, start + base + (1 if r < extra else 0)
+
+
+def allreduce(x: np.ndarray) -> np.ndarray:
+    """Element-wise sum of ``x`` over all ranks (in place when possible)."""
+    c = comm()
+    if c is None or c.Get_size() == 1:
+        return x
+    from mpi4py import MPI
+
+    x = np.ascontiguousarray(x)
+    c.Allreduce(MPI.IN_PLACE, x, op=MPI.SUM)
+    return x
+
+
+def allgather_rows(local: np.ndarray, n: int) -> np.ndarray:
+    """Stack the ranks' row blocks ``local`` (rank order) into the full ``(n, ...)`` array on every rank."""
+    c = comm()
+    local = np.ascontiguousarray(local)
+    if c is None or c.Get_size() == 1:
+        return local
+    width = int(np.prod(local.shape[1:], dtype=np.int64))
+    counts = np.array(c.allgather(local.shape[0] * width), dtype=np.int64)
+    if counts.sum() != n * width:
+        raise SolverError(f"row blocks of {counts.sum() // max(width, 1)} rows do not make {n} rows")
+    out = np.empty((n, *local.shape[1:]), dtype=local.dtype)
+    displs = np.concatenate([[0], np.cumsum(counts)[:-1]])
+    from mpi4py import MPI
+
+    c.Allgatherv(local, [out, counts, displs, MPI._typedict[local.dtype.char]])
+    return out
+
+
+def is_partitioned(A) -> bool:
+    """True for a matrix whose rows are spread over the ranks (:class:`PartitionedCSR`)."""
+    return bool(getattr(A, "partitioned", False))
+
+
+def _require_partitioned(other, what: str):
+    if sp.issparse(other) and not is_partitioned(other):
+        raise SolverError(f"cannot {what} a partitioned and a replicated sparse matrix; "
+                          "build all matrices of a distributed model partitioned")
+    return other
+
+
+class PartitionedCSR(sp.csr_matrix):
+    """A global CSR matrix of which this rank holds its own rows; the matrix is the sum over ranks.
+
+    Construct it like a ``csr_matrix`` of the global shape with only this rank's entries.
+    Linear operations keep the sum structure; the operations that need the whole matrix
+    (products with dense blocks, the diagonal, ``toarray``) reduce over the ranks, so their
+    results are the same on every rank. ``nnz`` and ``data`` are the local ones.
+    """
+
+    partitioned = True
+
+    # -- products and reductions over the ranks --------------------------------------------
+    def _matmul_vector(self, other):
+        return allreduce(super()._matmul_vector(other))
+
+    def _matmul_multivector(self, other):
+        return allreduce(super()._matmul_multivector(other))
+
+    def _matmul_sparse(self, other):
+        _require_partitioned(other, "multiply")  # A_r @ B summed over r is A @ B only for replicated B
+        if is_partitioned(other):
+            raise SolverError("the product of two partitioned sparse matrices is not supported")
+        return super()._matmul_sparse(other)
+
+    def diagonal(self, k=0):
+        return allreduce(super().diagonal(k))
+
+    def toarray(self, order=None, out=None):
+        return allreduce(super().toarray(order=order, out=out))
+
+    def todense(self, order=None, out=None):
+        return np.asmatrix(self.toarray(order=order, out=out))
+
+    def transpose(self, axes=None, copy=False):
+        return PartitionedCSR(sp.csr_matrix(self, copy=copy).transpose().tocsr())
+
+    @property
+    def T(self):
+        return self.transpose()
+
+    def global_nnz(self) -> int:
+        """Stored entries summed over the ranks."""
+        return int(allreduce(np.array([self.nnz], dtype=np.int64))[0])
+
+    # -- sums with other matrices: both must be partitioned ---------------------------------
+    def _add_sparse(self, other):
+        return super()._add_sparse(_require_partitioned(other, "add"))
+
+    def _sub_sparse(self, other):
+        return super()._sub_sparse(_require_partitioned(other, "subtract"))
+
+    def __radd__(self, other):
+        if sp.issparse(other):
+            _require_partitioned(other, "add")
+        return super().__radd__(other)
+
+    def __rsub__(self, other):
+        if sp.issparse(other):
+            _require_partitioned(other, "subtract")
+        return super().__rsub__(other)
+
+    def _add_dense(self, other):
+        raise SolverError("adding a dense array to a partitioned sparse matrix is not supported")
+
+    def local_rows(self) -> tuple[int, int, sp.csr_matrix]:
+        """``(start, stop, rows)``: the contiguous block of rows held here, as a plain CSR of shape
+        ``(stop - start, n)``. Raises :class:`SolverError` if this rank's rows are not one block
+        following those of the previous rank (e.g. a transposed partitioned matrix)."""
+        n = self.shape[0]
+        filled = np.flatnonzero(np.diff(self.indptr))
+        lo, hi = (int(filled[0]), int(filled[-1]) + 1) if filled.size else (-1, -1)
+        c = comm()
+        spans = [(lo, hi)] if c is None else c.allgather((lo, hi))
+        start = 0
+        for r, (a, b) in enumerate(spans):
+            if a < 0:
+                continue
+            if a != start:
+                raise SolverError(f"rank {r} holds rows {a}..{b - 1}, but its block should start at row {start}: "
+                                  "the partitioned matrix is not a row partition in rank order")
+            start = b
+        if start != n:
+            raise SolverError(f"the ranks hold rows 0..{start - 1} of a matrix with {n} rows")
+        me = 0 if c is None else c.Get_rank()
+        first = 0
+        for a, b in spans[:me]:
+            if a >= 0:
+                first = b
+        lo, hi = (lo, hi) if lo >= 0 else (first, first)
+        return lo, hi, sp.csr_matrix(self[lo:hi])
