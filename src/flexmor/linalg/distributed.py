@@ -31,8 +31,21 @@ import scipy.sparse as sp
 
 from ..errors import SolverError
 
-__all__ = ["comm", "rank", "size", "is_root", "barrier", "row_range", "allreduce", "allgather_rows",
-           "PartitionedCSR", "is_partitioned", "launched_by_mpi", "quiet_other_ranks", "on_root"]
+__all__ = [
+    "PartitionedCSR",
+    "allgather_rows",
+    "allreduce",
+    "barrier",
+    "comm",
+    "is_partitioned",
+    "is_root",
+    "launched_by_mpi",
+    "on_root",
+    "quiet_other_ranks",
+    "rank",
+    "row_range",
+    "size",
+]
 
 log = logging.getLogger(__name__)
 

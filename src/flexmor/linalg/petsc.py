@@ -41,7 +41,7 @@ import scipy.sparse as sp
 from ..errors import ConvergenceError, OptionError, SolverError
 from . import distributed as dist
 
-__all__ = ["PetscFactorization", "available", "require", "slepc_eigenmodes", "INSTALL_HINT", "register"]
+__all__ = ["INSTALL_HINT", "PetscFactorization", "available", "register", "require", "slepc_eigenmodes"]
 
 log = logging.getLogger(__name__)
 
@@ -293,7 +293,7 @@ def slepc_eigenmodes(K, M, k: int, F, sigma: float, *, tol: float = 0.0):
         vecs.append(vr.getArray().copy())
     order = np.argsort(-theta)[:k]
     if np.any(theta[order] <= 0):
-        raise ConvergenceError("SLEPc returned eigenvalues below the shift; choose a lower sigma")
+        raise ConvergenceError(f"SLEPc returned eigenvalues below the shift sigma = {sigma:g}; choose a lower sigma")
     phi = dist.allgather_rows(np.column_stack([vecs[i] for i in order]), n)
     for obj in (eps, Mp, vr):
         obj.destroy()

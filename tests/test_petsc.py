@@ -1,0 +1,184 @@
+"""The petsc backend: serial checks in this process, and 2-rank runs under mpirun against SciPy.
+
+Runs where petsc4py, slepc4py and mpi4py are importable (``make test-mpi`` builds that
+environment from Debian's packages); elsewhere only the install-hint test runs.
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import json
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from flexmor.errors import OptionError
+
+HERE = Path(__file__).parent
+BEAM = HERE / "data" / "calculix" / "beam8_clamped_mat.sti"
+HAVE_PETSC = all(importlib.util.find_spec(m) is not None for m in ("petsc4py", "slepc4py", "mpi4py"))
+MPIRUN = shutil.which("mpirun") or shutil.which("mpiexec")
+needs_petsc = pytest.mark.skipif(not HAVE_PETSC, reason="petsc4py/slepc4py/mpi4py not installed (make test-mpi)")
+needs_mpi = pytest.mark.skipif(not (HAVE_PETSC and MPIRUN), reason="needs petsc4py and mpirun (make test-mpi)")
+
+#: Resolution of the built-in cantilever of the 2-rank comparison: n=6 gives 8,820 DOF, which keeps
+#: the MPI tests within a few minutes on 2 shared cores; FLEXMOR_MPI_TEST_N=11 runs 47,520 DOF.
+N_BUILTIN = int(os.environ.get("FLEXMOR_MPI_TEST_N", "6"))
+
+
+def _rel(a, b) -> float:
+    a, b = np.asarray(a), np.asarray(b)
+    return float(np.max(np.abs(a - b)) / np.max(np.abs(b)))
+
+
+def test_missing_petsc_names_the_install_route(monkeypatch):
+    from flexmor.linalg import factorize, petsc
+    from flexmor.models import cantilever
+
+    fz = importlib.import_module("flexmor.linalg.factorize")  # the module (the package exports the function)
+    monkeypatch.setattr(petsc, "available", lambda: False)
+    monkeypatch.setitem(fz._AVAILABLE, "petsc", False)
+    K = cantilever(2, divisions=(4, 1, 1)).K
+    with pytest.raises(OptionError, match="python3-petsc4py"):
+        factorize(K, "petsc", positive=True)
+
+
+# -- one rank, in this process -------------------------------------------------------------------
+@needs_petsc
+def test_serial_solves_match_scipy(clamped):
+    from flexmor.linalg import factorize
+
+    K, M = clamped.K, clamped.M
+    b = np.random.default_rng(3).standard_normal((K.shape[0], 3))
+    spd = factorize(K, "petsc", positive=True)
+    assert _rel(spd.solve(b), factorize(K, "scipy").solve(b)) < 1e-10
+    # complex symmetric K - w^2 M + i w D (real 2N form with a real PETSc) and a 1-D complex rhs
+    A = (K - 4e7 * M + 1j * 2e3 * (1e-6 * K)).tocsr()
+    bc = b[:, 0] + 1j * b[:, 1]
+    assert _rel(factorize(A, "petsc").solve(bc), factorize(A, "scipy").solve(bc)) < 1e-10
+    # symmetric indefinite: the inertia counts the eigenvalues below the shift
+    from flexmor.linalg import eigenmodes
+
+    lam, _ = eigenmodes(K, M, 12, method="dense")
+    shift = 0.5 * (lam[6] + lam[7])
+    F = factorize((K - shift * M).tocsr(), "petsc", check=False)
+    assert F.inertia is not None and F.inertia[1] == 7
+    assert F.memory_per_rank > 0
+
+
+@needs_petsc
+def test_serial_slepc_modes_match_dense(clamped):
+    from flexmor.linalg import eigenmodes
+
+    lam0, phi0 = eigenmodes(clamped.K, clamped.M, 12, method="dense")
+    lam1, phi1 = eigenmodes(clamped.K, clamped.M, 10, backend="petsc", method="lanczos")
+    assert _rel(lam1, lam0[:10]) < 1e-8
+    assert np.allclose(phi1.T @ clamped.M @ phi1, np.eye(10), atol=1e-10)
+    # the square section has pairs of equal frequencies: compare the spanned subspaces
+    inside = np.sum((phi0.T @ (clamped.M @ phi1)) ** 2, axis=0)
+    assert np.all(inside > 1 - 1e-8)
+
+
+@needs_petsc
+def test_partitioned_matrix_in_one_process():
+    from flexmor.linalg.distributed import PartitionedCSR
+    from flexmor.models import cantilever
+    from flexmor.models.distributed import partitioned_cantilever
+
+    p, s = partitioned_cantilever(2, divisions=(6, 2, 2)), cantilever(2, divisions=(6, 2, 2))
+    assert isinstance(p.K, PartitionedCSR) and p.n_dof == s.n_dof
+    x = np.random.default_rng(0).standard_normal((p.n_dof, 2))
+    A = p.K - 3.0 * p.M
+    assert isinstance(A, PartitionedCSR) and isinstance(A.T, PartitionedCSR)
+    assert np.allclose(A @ x, (p.K @ x) - 3.0 * (p.M @ x))
+    # same body, other numbering: same spectrum
+    from flexmor.linalg import eigenmodes
+
+    la, _ = eigenmodes(p.K, p.M, 6, method="dense")
+    lb, _ = eigenmodes(s.K, s.M, 6, method="dense")
+    assert _rel(la, lb) < 1e-10
+
+
+# -- two ranks under mpirun ---------------------------------------------------------------------
+def _mpirun(args, tmp_path, n=2, timeout=900):
+    env = dict(os.environ, OMP_NUM_THREADS="1", OPENBLAS_NUM_THREADS="1", FLEXMOR_CACHE_DIR=str(tmp_path / "cache"),
+               OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1", OMPI_MCA_rmaps_base_oversubscribe="1",
+               OMPI_MCA_mpi_yield_when_idle="1")
+    cmd = [MPIRUN, "-n", str(n), sys.executable, *map(str, args)]
+    proc = subprocess.run(cmd, check=False, capture_output=True, text=True, env=env, cwd=tmp_path, timeout=timeout)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    return proc.stdout
+
+
+@needs_mpi
+@pytest.mark.parametrize("method", ["modal", "krylov"])
+def test_cli_two_ranks_beam8(method, tmp_path):
+    from flexmor.analysis.frequency import frf_reduced
+    from flexmor.cli import main
+    from flexmor.io.hdf5 import read_reduced
+
+    common = ["reduce", str(BEAM), "--method", method, "--order", "8", "--input", "5:y", "--input", "5:z",
+              "--band", "10:3000", "--rayleigh", "0:1e-6", "--full-frf", "surrogate", "--json", "--no-cache"]
+    out = _mpirun(["-m", "flexmor", *common, "--backend", "petsc", "-o", tmp_path / "mpi.h5"], tmp_path)
+    lines = [ln for ln in out.splitlines() if ln.strip()]
+    assert len(lines) == 1, out  # only rank 0 prints
+    par = json.loads(lines[0])
+    os.environ["FLEXMOR_CACHE_DIR"] = str(tmp_path / "cache")
+    try:
+        assert main([*common, "--backend", "scipy", "-o", str(tmp_path / "serial.h5")]) == 0
+    finally:
+        os.environ.pop("FLEXMOR_CACHE_DIR")
+    red_p, red_s = read_reduced(tmp_path / "mpi.h5"), read_reduced(tmp_path / "serial.h5")
+    assert _rel(red_p.frequencies_hz(), red_s.frequencies_hz()) < 1e-8
+    assert _rel(par["frequencies_hz"], red_s.frequencies_hz()) < 1e-8
+    f = np.geomspace(10, 3000, 40)
+    assert _rel(frf_reduced(red_p, f), frf_reduced(red_s, f)) < 1e-8
+    assert par["band_error"] == pytest.approx(red_s.errors["band_error"], rel=1e-6)
+
+
+def _serial_reference(n):
+    sys.path.insert(0, str(HERE))
+    try:
+        import mpi_job
+    finally:
+        sys.path.remove(str(HERE))
+    from flexmor.models import cantilever
+
+    return mpi_job.run(cantilever(n), "scipy")
+
+
+def _compare(par, ref):
+    assert par["n_dof"] == ref["n_dof"]
+    for method, r in ref["jobs"].items():
+        p = par["jobs"][method]
+        assert _rel(p["frequencies_hz"], r["frequencies_hz"]) < 1e-8, method
+        Hp = np.array(p["H"][0]) + 1j * np.array(p["H"][1])
+        Hs = np.array(r["H"][0]) + 1j * np.array(r["H"][1])
+        assert _rel(Hp, Hs) < 1e-8, method
+        assert p["band_error"] == pytest.approx(r["band_error"], rel=1e-6), method
+
+
+@pytest.fixture(scope="module")
+def builtin_reference():
+    return _serial_reference(N_BUILTIN)
+
+
+@needs_mpi
+def test_two_ranks_builtin_model(builtin_reference, tmp_path):
+    par = json.loads(_mpirun([HERE / "mpi_job.py", N_BUILTIN], tmp_path))
+    assert par["ranks"] == 2
+    _compare(par, builtin_reference)
+
+
+@needs_mpi
+def test_two_ranks_partitioned_model(builtin_reference, tmp_path):
+    """The model is never assembled on one rank: each rank holds about half of K's entries."""
+    par = json.loads(_mpirun([HERE / "mpi_job.py", N_BUILTIN, "--partitioned"], tmp_path))
+    nnz = par["local_nnz_K"]
+    assert len(nnz) == 2 and max(nnz) < 0.6 * sum(nnz)
+    _compare(par, builtin_reference)
