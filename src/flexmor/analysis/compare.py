@@ -53,11 +53,10 @@ def _modes(model, fmax: float, backend: str, max_modes: int = 400):
     """
     sigma = default_shift(model.K, model.M)
     F = None
-    if model.n_dof > DENSE_LIMIT:
-        F = factorize((model.K - sigma * model.M).tocsr(), backend, positive=True)
     k = min(model.n_dof, 20)
-    if F is not None:
+    if model.n_dof > DENSE_LIMIT:  # count first: one large factorization alive at a time
         k = _count_below(model, fmax, backend) or k
+        F = factorize((model.K - sigma * model.M).tocsr(), backend, positive=True)
     while True:
         lam, phi = eigenmodes(model.K, model.M, k, sigma=sigma, factorization=F)
         f = frequencies_hz(lam)
@@ -117,6 +116,10 @@ class FullResponse:
         How H is evaluated on the grid (see :data:`PATHS`).
     surrogate_tol : float
         Largest pointwise relative error of the surrogate at its direct checks.
+    check_solver : {'auto', 'direct', 'iterative'}
+        How the surrogate's checks solve the full model (see
+        :class:`flexmor.analysis.surrogate.Surrogate`; ``auto``: iterative only when a complex
+        factorization would not fit into memory).
     cache : bool or path-like
         Use the disk cache (True: :func:`flexmor.analysis.cache.cache_dir`; a path: that
         directory; False: neither read nor write).
@@ -148,7 +151,7 @@ class FullResponse:
 
     def __init__(self, model, ports, band, *, n: int = 50, tol: float = DEFAULT_TOL, max_points: int = 3000,
                  backend: str = "auto", path: str = "auto", surrogate_tol: float = DEFAULT_SURROGATE_TOL,
-                 cache=True, progress: Callable | None = None):
+                 cache=True, progress: Callable | None = None, check_solver: str = "auto"):
         t0 = time.perf_counter()
         c0 = STATS["count"]
         if path not in PATHS:
@@ -178,7 +181,7 @@ class FullResponse:
             log.info("full FRF from the cache (%d frequencies)", self.freqs.size)
         else:
             self._compute(model, ports, n=n, tol=tol, max_points=max_points, backend=backend, progress=progress,
-                          surrogate_tol=surrogate_tol)
+                          surrogate_tol=surrogate_tol, check_solver=check_solver)
             if key:
                 t1 = time.perf_counter()
                 frf_cache.store(key, self.freqs, self.H, self.resonances, self.zeta, self.grid, directory)
@@ -189,7 +192,7 @@ class FullResponse:
         log.info("full FRF: %d frequencies in %.2f s (%s%s)", self.freqs.size, self.seconds, path,
                  ", cached" if self.cache_hit else "")
 
-    def _compute(self, model, ports, *, n, tol, max_points, backend, progress, surrogate_tol):
+    def _compute(self, model, ports, *, n, tol, max_points, backend, progress, surrogate_tol, check_solver):
         t0 = time.perf_counter()
         fmin, fmax = self.band
         damped = model.D is not None
@@ -205,7 +208,8 @@ class FullResponse:
             from .surrogate import Surrogate
 
             sur = Surrogate(model, ports, self.band, phi=phi, factorization=F0, sigma=sigma, backend=backend,
-                            tol=surrogate_tol, resonances=self.resonances, zeta=self.zeta)
+                            tol=surrogate_tol, resonances=self.resonances, zeta=self.zeta,
+                            check_solver=check_solver)
             evaluate = sur.frf
         else:
             sur = None
@@ -219,6 +223,7 @@ class FullResponse:
             max_points=max_points, refine=refine)
         if sur is not None:
             self.grid["surrogate"] = sur.verify(self.freqs)
+            sur.release()  # its factorization (GBs at scale) is not needed by the FRF
         self.surrogate = sur
         self.grid["path"] = self.path
         self.timings["sweep"] = time.perf_counter() - t1
