@@ -72,6 +72,15 @@ def test_serial_solves_match_scipy(clamped):
 
 
 @needs_petsc
+def test_singular_matrix_is_refused(free):
+    from flexmor.errors import SolverError
+    from flexmor.linalg import factorize
+
+    with pytest.raises(SolverError, match="singular"):
+        factorize(free.K, "petsc")  # free-free body: six rigid-body modes
+
+
+@needs_petsc
 def test_serial_slepc_modes_match_dense(clamped):
     from flexmor.linalg import eigenmodes
 

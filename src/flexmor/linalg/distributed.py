@@ -108,7 +108,12 @@ def on_root(fn, *args, **kwargs):
 
 def quiet_other_ranks() -> None:
     """Under MPI with several ranks: only rank 0 prints; the others drop stdout and log errors only."""
-    if not launched_by_mpi() or size() == 1 or is_root():
+    if not launched_by_mpi():
+        return
+    try:
+        if size() == 1 or is_root():
+            return
+    except SolverError:  # no mpi4py: every process runs alone; the petsc backend says what is missing
         return
     sys.stdout = open(os.devnull, "w")  # noqa: SIM115 - lives as long as the process
     logging.getLogger().setLevel(logging.ERROR)

@@ -161,9 +161,10 @@ class PetscFactorization:
         self.mat = petsc_matrix(rows, n, symmetric=symmetric, positive=positive)
         prefix = f"flexmor_{next(_PREFIX)}_"
         opts = PETSc.Options()
-        # ICNTL(13)=1: no ScaLAPACK root node, so that the inertia of LDL^T is exact in parallel
-        settings = {"mat_mumps_icntl_13": 1 if symmetric and not positive else 0,
-                    "mat_mumps_icntl_24": 1}  # null pivot detection: a clear error for singular matrices
+        # real symmetric indefinite: ICNTL(13)=1 (no ScaLAPACK root node), so that the inertia of LDL^T
+        # is exact in parallel, and ICNTL(24)=1 (null pivot detection), which PETSc needs for it
+        indefinite = symmetric and not positive and not self._split
+        settings = {"mat_mumps_icntl_13": int(indefinite), "mat_mumps_icntl_24": int(indefinite)}
         for key, val in settings.items():
             opts[prefix + key] = val
         ksp = PETSc.KSP().create(comm=PETSc.COMM_WORLD)
@@ -183,15 +184,17 @@ class PetscFactorization:
                 del opts[prefix + key]
         self.ksp = ksp
         self._factor = pc.getFactorMatrix()
-        info = self._factor.getMumpsInfog(1)
-        if info < 0:
+        if self._factor.getMumpsInfog(1) < 0:
             raise SolverError(self._mumps_failure(pc, None))
+        if indefinite and self._factor.getMumpsInfog(28) > 0:  # null pivots found
+            raise SolverError(f"MUMPS found {self._factor.getMumpsInfog(28)} null pivots in {n} equations: the matrix "
+                              "is singular (a free body needs a shift)")
         self.memory_per_rank = 1e6 * self._factor.getMumpsInfog(21)
         self.memory_total = 1e6 * self._factor.getMumpsInfog(22)
         self.memory_estimate = self.memory_total
         entries = self._factor.getMumpsInfog(29)
         self.factor_entries = entries if entries >= 0 else -entries * 1e6  # negative: millions
-        if symmetric and not positive and not self._split:
+        if indefinite:
             nneg, nzero, npos = self._factor.getInertia()
             if nzero == 0:
                 self.inertia = (int(npos), int(nneg))
@@ -221,6 +224,8 @@ class PetscFactorization:
         PETSc = _petsc()
         r0, r1 = self.rows
         k = b.shape[1]
+        if k == 0:
+            return np.zeros((self.shape[0], 0), dtype=np.result_type(b.dtype, self.dtype))
         if self._split:
             b = np.asarray(b, dtype=np.complex128)
             loc = np.empty((r1 - r0, k))
@@ -245,7 +250,7 @@ class PetscFactorization:
 
     def release(self) -> None:
         """Free the PETSc objects now (collective: call on all ranks)."""
-        for name in ("ksp", "mat"):
+        for name in ("_factor", "ksp", "mat"):
             obj = getattr(self, name, None)
             if obj is not None:
                 obj.destroy()
