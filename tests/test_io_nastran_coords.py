@@ -245,3 +245,34 @@ def test_fluid_grid_and_grdset_defaults(tmp_path):
     b = read_bulk(p)
     np.testing.assert_array_equal(b.cd, [0, 5, 0])  # -1 (fluid) has no displacement system; GRDSET CD=5
     np.testing.assert_allclose(b.xyz, [[2.0, 2.0, 3.0], [1.0, 0.0, 0.0], [0.0, 0.0, 0.0]])  # GRDSET CP=5
+
+
+def test_six_dof_grids_rotations_rotated_too(tmp_path):
+    """Grids with 6 DOFs (shells, beams) in a cylindrical CD system: rotations use the same frame."""
+    rng = np.random.default_rng(3)
+    A = rng.standard_normal((12, 12))
+    K = A @ A.T + 12 * np.eye(12)
+    (tmp_path / "s.bdf").write_text("CORD2C,3,,0.,0.,0.,1.,1.,1.,\n,1.,0.,0.\n"
+                                    "GRID,1,,0.5,0.2,0.1,3\nGRID,2,3,0.7,30.,0.4,3\n")
+    b = read_bulk(tmp_path / "s.bdf")
+    T = np.zeros((12, 12))
+    for k, g in enumerate((1, 2)):
+        Q = b.frame(g)
+        T[6 * k:6 * k + 3, 6 * k:6 * k + 3] = Q
+        T[6 * k + 3:6 * k + 6, 6 * k + 3:6 * k + 6] = Q
+    np.testing.assert_allclose(T.T @ T, np.eye(12), atol=1e-14)
+    L = T.T @ K @ T
+    dofs = [(g, c) for g in (1, 2) for c in range(1, 7)]
+    lines = []
+    for name, X in (("KAAX", L), ("MAAX", np.eye(12))):
+        lines.append(f"DMIG,{name},0,6,2,0,,12")
+        for j, (gj, cj) in enumerate(dofs):
+            lines.append(f"DMIG,{name},{gj},{cj}")
+            lines += [f",{gi},{ci},{float(X[i, j])!r}" for i, (gi, ci) in enumerate(dofs) if i <= j and X[i, j]]
+    (tmp_path / "s.pch").write_text("\n".join(lines) + "\n")
+    model = flexmor.io.read(tmp_path / "s.pch")
+    np.testing.assert_allclose(model.K.toarray(), K, rtol=1e-12, atol=1e-12 * abs(K).max())
+    np.testing.assert_allclose(model.M.toarray(), np.eye(12), atol=1e-14)
+    e_r = b.xyz[0] - b.systems[3].origin
+    e_r -= (e_r @ b.systems[3].R[:, 2]) * b.systems[3].R[:, 2]
+    np.testing.assert_allclose(b.frame(1)[:, 0], e_r / np.linalg.norm(e_r), atol=1e-12)  # radial direction
