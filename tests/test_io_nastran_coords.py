@@ -90,7 +90,7 @@ def _systems(nodes, xyz):
 
 
 def _small(*fields):
-    return "".join(f"{str(f):<8}"[:8] for f in fields)
+    return "".join(f"{f!s:<8}"[:8] for f in fields)
 
 
 def _write(tmp_path, model, *, drop=None):
@@ -142,7 +142,7 @@ def _write(tmp_path, model, *, drop=None):
 
 
 def test_grids_in_local_systems_give_the_beam(tmp_path, clamped, clamped_ref):
-    s, cd, T = _write(tmp_path, clamped)
+    s, cd, _ = _write(tmp_path, clamped)
     b = read_bulk(tmp_path / "beam.bdf")
     np.testing.assert_array_equal(b.grid_ids, np.sort(clamped.node_ids))
     order = np.argsort(clamped.node_ids)
@@ -174,7 +174,7 @@ def test_grids_in_local_systems_give_the_beam(tmp_path, clamped, clamped_ref):
 
 
 def test_incomplete_local_triplet(tmp_path, clamped):
-    s, cd, _ = _write(tmp_path, clamped)
+    _, cd, _ = _write(tmp_path, clamped)
     g = next(int(n) for n in clamped.dofs[:, 0] if cd[int(n)] == 2)
     _write(tmp_path, clamped, drop=(g, 3))
     with pytest.raises(ReadError, match=f"grid {g}: components 3 of its displacement system CD=2.*directions='local'"):
