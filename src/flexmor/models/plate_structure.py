@@ -29,6 +29,7 @@ Dissertation, Universität Stuttgart, Shaker Verlag (the plate-and-rods test str
 from __future__ import annotations
 
 import dataclasses
+import itertools
 import logging
 
 import numpy as np
@@ -38,7 +39,7 @@ from ..errors import OptionError
 from ..model import FEModel
 from .solid import _assemble, _check_choice, _finish, _material, _positive
 
-__all__ = ["plate_structure", "LOWER"]
+__all__ = ["LOWER", "plate_structure"]
 
 log = logging.getLogger(__name__)
 
@@ -49,7 +50,7 @@ LOWER = ("clamped", "mass")
 def _lines(breaks, h: float, minimum) -> np.ndarray:
     """Grid coordinates: each interval between sorted ``breaks`` cut into ``max(m, round(len/h))`` cells."""
     out = [np.array([breaks[0]])]
-    for (lo, hi), m in zip(zip(breaks[:-1], breaks[1:]), minimum):
+    for (lo, hi), m in zip(itertools.pairwise(breaks), minimum):
         k = max(int(m), round((hi - lo) / h))
         out.append(np.linspace(lo, hi, k + 1)[1:])
     return np.concatenate(out)
