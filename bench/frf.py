@@ -41,6 +41,20 @@ from flexmor.reduction import reduce
 from flexmor.workflow import apply_damping
 
 
+def _cpu() -> float:
+    """User + system CPU seconds of this process (all threads)."""
+    import resource
+
+    r = resource.getrusage(resource.RUSAGE_SELF)
+    return r.ru_utime + r.ru_stime
+
+
+def _peak_mb() -> float:
+    import resource
+
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
+
+
 def per_frequency(model, ports, backends, freqs):
     S = ShiftedMatrices(model.K, model.M, model.D)
     B = ports.B.toarray()
@@ -96,9 +110,9 @@ def main(argv=None):
 
     print("2. error evaluation: FullResponse (surrogate path, no cache) + band_error", flush=True)
     c0 = STATS["count"]
-    t0 = time.perf_counter()
+    t0, cpu0 = time.perf_counter(), _cpu()
     full = FullResponse(model, ports, band, path="surrogate", cache=False)
-    t_full = time.perf_counter() - t0
+    t_full, cpu_full = time.perf_counter() - t0, _cpu() - cpu0
     jobs = [(m, int(r), {"interface": ["TIP_CENTER"]} if m == "craig-bampton" else {})
             for m, r in (b.split(":") for b in args.bodies.split(","))]
     bodies, t_red = [], 0.0
@@ -116,9 +130,10 @@ def main(argv=None):
           f"({g['surrogate']['final_check']['solver']}), "
           f"max check error {g['surrogate']['max_check_error']:.1e}, verified {g['surrogate']['verified']}")
     print(f"  full FRF {t_full:.1f} s (pre-pass {full.timings['prepass']:.1f} s, surrogate + grid "
-          f"{full.timings['sweep']:.1f} s), {STATS['count'] - c0} factorizations; "
+          f"{full.timings['sweep']:.1f} s; CPU {cpu_full:.1f} s, peak RSS {_peak_mb():.0f} MB), "
+          f"{STATS['count'] - c0} factorizations; "
           f"band_error of {len(bodies)} bodies {t_eval:.2f} s", flush=True)
-    out["full"] = dict(g, seconds_total=t_full, seconds_evaluate=t_eval, seconds_reduce=t_red,
+    out["full"] = dict(g, seconds_total=t_full, cpu_seconds=cpu_full, peak_mb=_peak_mb(), seconds_evaluate=t_eval, seconds_reduce=t_red,
                        band_errors={f"{m}-{r}": e for (m, r, _), e in zip(jobs, errs)})
 
     if args.skip_direct:
