@@ -42,7 +42,7 @@ CASES = {
     "krylov": (6, {"band": BAND}),
     "irka": (4, {"band": BAND, "max_iter": 3}),
     "adaptive": (6, {"band": BAND, "max_points": 3, "n_candidates": 50}),
-    "sobt": (4, {"nodes": 1, "band": BAND}),
+    "sobt": (4, {"nodes": 1, "band": BAND, "cutoff": 200.0}),
     "fw-sobt": (4, {"nodes": 1, "band": BAND}),
     "pod": (4, {"nodes": 1, "band": BAND}),
     "two-step": (4, {"intermediate": 12, "band": BAND}),
@@ -96,8 +96,13 @@ def main(argv=None) -> int:
     print(f"{'method':>14} {'order':>5} {'seconds':>8} {'peak MB':>8} {'traced MB':>9} {'fact.':>5}  8N^2 MB",
           flush=True)
     for method in a.methods.split(","):
-        p = subprocess.run([sys.executable, __file__, "--size", str(a.size), "--case", method],
-                           check=False, capture_output=True, text=True, timeout=a.timeout)
+        try:
+            p = subprocess.run([sys.executable, __file__, "--size", str(a.size), "--case", method],
+                               check=False, capture_output=True, text=True, timeout=a.timeout)
+        except subprocess.TimeoutExpired:
+            print(f"{method:>14} timed out after {a.timeout:.0f} s", flush=True)
+            bad.append(method)
+            continue
         if p.returncode:
             print(f"{method:>14} failed: {p.stderr.strip().splitlines()[-1:]}", flush=True)
             bad.append(method)
