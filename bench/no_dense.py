@@ -5,7 +5,7 @@ The built-in clamped cantilever ``cantilever(size_for_dofs(size))`` (default 94,
 one dense ``N x N`` float64 array would take ``8 N^2`` = 71 GB), Rayleigh damped, inputs
 ``TIP:y``, ``TIP:z``, ``TIP_CENTER:x`` (collocated outputs). Each method of
 :data:`flexmor.reduction.METHODS` runs in a fresh process with a small order, cheap settings
-and the band 10-200 Hz (the first bending pair): the peak RSS is reset after the model is built
+(``CASES`` of ``tests/test_no_dense.py``) and the band 10-200 Hz (the first bending pair): the peak RSS is reset after the model is built
 (``/proc/self/clear_refs``), so *peak MB* is the largest RSS while the basis is built and
 projected (interpreter and model included) and *traced MB* the peak of NumPy/Python
 allocations (``tracemalloc``; the sparse factorizations' C memory is not traced).
@@ -31,25 +31,9 @@ import time
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT / "src"))
 sys.path.insert(0, str(ROOT / "bench"))
+sys.path.insert(0, str(ROOT / "tests"))
 
-BAND = (10.0, 200.0)
-
-#: method -> (order, options)
-CASES = {
-    "modal": (6, {}),
-    "guyan": (None, {"interface": ["TIP_CENTER"]}),
-    "craig-bampton": (9, {"interface": ["TIP_CENTER"]}),
-    "krylov": (6, {"band": BAND}),
-    "irka": (4, {"band": BAND, "max_iter": 3}),
-    "adaptive": (6, {"band": BAND, "max_points": 3, "n_candidates": 50}),
-    "sobt": (4, {"nodes": 1, "band": BAND, "cutoff": 200.0}),
-    "fw-sobt": (4, {"nodes": 1, "band": BAND}),
-    "pod": (4, {"nodes": 1, "band": BAND}),
-    "two-step": (4, {"intermediate": 12, "band": BAND}),
-    "cms-krylov": (7, {"interface": ["TIP_CENTER"], "band": BAND}),
-    "cms-gramian": (7, {"interface": ["TIP_CENTER"], "band": BAND, "nodes": 1}),
-    "svdmor": (4, {"band": BAND}),
-}
+from test_no_dense import CASES  # the same methods and settings as the 5,400-DOF test
 
 
 def run_case(size: int, method: str) -> dict:
