@@ -164,3 +164,20 @@ def test_iterative_checks_need_no_complex_factorization(beam):
     exact, _ = _exact_frf(model, ports)
     H = exact(sur.freqs)
     assert np.abs(H - sur.H).max() < 1e-6 * np.abs(H).max()
+
+
+def test_band_error_of_a_noisy_error_curve_on_a_graded_grid():
+    """On a strongly graded grid the parabolic rule has large negative weights; an error curve
+    at round-off level (spikes at random points) must still give a band_error between the
+    smallest and largest pointwise rel_error^2 (up to the factor 2 of the rule switch)."""
+    f = np.unique(np.concatenate([np.linspace(1, 100, 6), 100 + np.geomspace(1e-3, 1, 30), np.linspace(102, 200, 4)]))
+    assert quadrature_weights(f).min() < -1e3
+    H = np.ones((f.size, 1, 1), complex)
+    for seed in range(50):
+        rng = np.random.default_rng(seed)
+        spikes = rng.standard_normal(f.size) * (rng.random(f.size) < 0.2)
+        Hr = H + 1e-9 * spikes[:, None, None]
+        r2 = np.abs(spikes * 1e-9) ** 2
+        wt = np.r_[np.diff(f), 0] / 2 + np.r_[0, np.diff(f)] / 2
+        mean = wt @ r2 / wt.sum()
+        assert 0.5 * mean <= band_error(f, H, Hr) <= 2 * mean
