@@ -114,6 +114,13 @@ def test_partitioned_matrix_in_one_process():
 
 
 # -- two ranks under mpirun ---------------------------------------------------------------------
+#: band_error of both runs comes from the verified surrogate FRF (pointwise to 1e-6 of |H|); for
+#: a body with |H - Hr| ~ 1e-3 |H| that admits relative band_error differences far above 1e-6
+#: (1.6e-6 was seen when the two runs' surrogate checks took different solvers). The transfer
+#: functions themselves are compared to 1e-8.
+BAND_ERROR_RTOL = 1e-4
+
+
 def _mpirun(args, tmp_path, n=2, timeout=900):
     env = dict(os.environ, OMP_NUM_THREADS="1", OPENBLAS_NUM_THREADS="1", FLEXMOR_CACHE_DIR=str(tmp_path / "cache"),
                OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1", OMPI_MCA_rmaps_base_oversubscribe="1",
@@ -147,7 +154,7 @@ def test_cli_two_ranks_beam8(method, tmp_path):
     assert _rel(par["frequencies_hz"], red_s.frequencies_hz()) < 1e-8
     f = np.geomspace(10, 3000, 40)
     assert _rel(frf_reduced(red_p, f), frf_reduced(red_s, f)) < 1e-8
-    assert par["band_error"] == pytest.approx(red_s.errors["band_error"], rel=1e-6)
+    assert par["band_error"] == pytest.approx(red_s.errors["band_error"], rel=BAND_ERROR_RTOL)
 
 
 def _serial_reference(n):
@@ -169,7 +176,7 @@ def _compare(par, ref):
         Hp = np.array(p["H"][0]) + 1j * np.array(p["H"][1])
         Hs = np.array(r["H"][0]) + 1j * np.array(r["H"][1])
         assert _rel(Hp, Hs) < 1e-8, method
-        assert p["band_error"] == pytest.approx(r["band_error"], rel=1e-6), method
+        assert p["band_error"] == pytest.approx(r["band_error"], rel=BAND_ERROR_RTOL), method
 
 
 @pytest.fixture(scope="module")
