@@ -48,3 +48,14 @@ def free_ref():
 def _hermetic_frf_cache(tmp_path_factory, monkeypatch):
     """Every test writes the full-FRF disk cache into a temporary directory, never ~/.cache."""
     monkeypatch.setenv("FLEXMOR_CACHE_DIR", str(tmp_path_factory.getbasetemp() / "flexmor-cache"))
+
+
+def load_example(name: str):
+    """Import ``examples/NAME.py`` as a module (the examples are scripts, not a package)."""
+    import importlib.util
+
+    path = Path(__file__).parents[1] / "examples" / f"{name}.py"
+    spec = importlib.util.spec_from_file_location(name, path)
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod

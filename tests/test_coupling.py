@@ -3,13 +3,12 @@
 from __future__ import annotations
 
 import dataclasses
-import importlib.util
 import warnings
-from pathlib import Path
 
 import numpy as np
 import pytest
 import scipy.sparse as sp
+from conftest import load_example
 
 from flexmor.analysis.coupling import Assembly
 from flexmor.analysis.frequency import frf_full, frf_reduced
@@ -19,17 +18,7 @@ from flexmor.ports import make_ports
 from flexmor.projection import project
 from flexmor.reduction import reduce
 
-EXAMPLE = Path(__file__).parents[1] / "examples" / "coupled_beam.py"
-
-
-def _load_example():
-    spec = importlib.util.spec_from_file_location("coupled_beam", EXAMPLE)
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
-
-
-cb = _load_example()
+cb = load_example("coupled_beam")
 
 
 @pytest.fixture(scope="module")

@@ -2,23 +2,11 @@
 
 from __future__ import annotations
 
-import importlib.util
-from pathlib import Path
-
 import numpy as np
 import pytest
+from conftest import load_example
 
-EXAMPLE = Path(__file__).parents[1] / "examples" / "slide3_table.py"
-
-
-def _load_example():
-    spec = importlib.util.spec_from_file_location("slide3_table", EXAMPLE)
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
-
-
-s3 = _load_example()
+s3 = load_example("slide3_table")
 
 
 @pytest.fixture(scope="module")
