@@ -147,3 +147,22 @@ def test_fw_sobt_velocity_variant_and_undamped(beam):
     # the basis from the regularized Gramians, projected with the real damping, is as good
     red0d = project(model, Basis(red0.V, "fw-sobt"), ports)
     assert full.evaluate(red0d)["band_error"] < 1e-6
+
+
+def test_factor_compression_keeps_gramians_and_bounds_memory(clamped):
+    from flexmor.reduction.gramians import FACTOR_MEMORY, MIN_FACTOR_COLUMNS, factor_store_columns
+
+    model = clamped.with_rayleigh(0.0, 1e-6)
+    ports = make_ports(model, ["TIP:y", "TIP:z"])
+    once = gramian_factors(model, ports, (50.0, 700.0), nodes=2, max_columns=10 ** 6)  # compressed once, at the end
+    often = gramian_factors(model, ports, (50.0, 700.0), nodes=2, max_columns=16)  # limit raised to 32 (rank 12)
+    assert once.info["compressions"] == 0 and once.info["factor_columns_peak"] == 4 * once.info["n_nodes"]
+    assert often.info["compressions"] > 10 and often.info["factor_columns_peak"] < once.info["factor_columns_peak"] / 4
+    for a, b in ((often.R, once.R), (often.Rv, once.Rv), (often.L, once.L)):
+        # measured: 4e-15 to 7e-15 relative (the same Gramians to round-off)
+        assert _rel(a @ a.T, b @ b.T) < 1e-12
+    # the default limit keeps the three stores below 1 GiB and 1 % of one dense N x N array
+    assert factor_store_columns(5400) == MIN_FACTOR_COLUMNS and factor_store_columns(94500) == 315
+    for n in (10 ** 4, 10 ** 5, 10 ** 6, 10 ** 7):
+        cols = factor_store_columns(n)
+        assert cols == MIN_FACTOR_COLUMNS or 3 * 8 * n * cols <= min(FACTOR_MEMORY, 0.01 * 8 * n * n)

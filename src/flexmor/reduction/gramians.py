@@ -49,6 +49,7 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
+import scipy.linalg as sla
 
 from ..basis import orthonormalize
 from ..errors import OptionError, check_choice
@@ -68,6 +69,14 @@ UNDAMPED_ZETA = 1e-3
 
 #: Relative singular value below which factor columns are dropped by :func:`compress`.
 COMPRESS_TOL = 1e-13
+
+#: Memory (bytes) of the three factor stores of :func:`gramian_factors` together, and their
+#: largest share of one dense ``N x N`` float64 array: a store is column-compressed before it
+#: grows beyond ``min(FACTOR_MEMORY, FACTOR_SHARE * 8 N^2) / (3 * 8 N)`` columns (at least
+#: :data:`MIN_FACTOR_COLUMNS`), e.g. 64 columns at 5,400 DOF, 315 at 94,500, 64 at 1M.
+FACTOR_MEMORY = 2 ** 30
+FACTOR_SHARE = 0.01
+MIN_FACTOR_COLUMNS = 64
 
 
 @dataclass
@@ -98,17 +107,24 @@ class GramianFactors:
         return self.R if variant == "position" else self.Rv
 
 
-def compress(R: np.ndarray, tol: float = COMPRESS_TOL) -> np.ndarray:
-    """Column compression ``R -> R'`` with ``R' R'^T = R R^T`` up to ``tol`` (relative), fewer columns."""
+def compress(R: np.ndarray, tol: float = COMPRESS_TOL, *, overwrite: bool = False) -> np.ndarray:
+    """Column compression ``R -> R'`` with ``R' R'^T = R R^T`` up to ``tol`` (relative), fewer columns.
+
+    A thin QR of ``R`` (``overwrite``: in the memory of ``R`` when it is Fortran-ordered, which
+    ``R`` then loses) and an SVD of its triangular factor; columns with singular values below
+    ``tol`` times the largest are dropped. Memory: ``R`` and the result (plus ``R``'s copy
+    without ``overwrite``).
+    """
     if R.shape[1] == 0:
         return R
     if R.shape[1] >= R.shape[0]:  # wide (small model): one thin SVD
-        Q, T = np.eye(R.shape[0]), R
+        Q, T = None, R
     else:
-        Q, T = np.linalg.qr(R)
+        Q, T = sla.qr(R, mode="economic", overwrite_a=overwrite, check_finite=False)
     U, s, _ = np.linalg.svd(T, full_matrices=False)
     k = int(np.sum(s > tol * s[0])) if s.size and s[0] > 0 else 0
-    return Q @ (U[:, :k] * s[:k])
+    W = U[:, :k] * s[:k]
+    return W if Q is None else Q @ W
 
 
 def _gauss(a: float, b: float, n: int, panels: int):
@@ -271,9 +287,63 @@ def _regularized(model, band_hz, f_res):
     return reg, dict(reg.damping, regularization=True)
 
 
+def factor_store_columns(n_dof: int) -> int:
+    """Columns a factor store of :func:`gramian_factors` holds before it is compressed (see :data:`FACTOR_MEMORY`)."""
+    n = max(int(n_dof), 1)
+    return max(MIN_FACTOR_COLUMNS, int(min(FACTOR_MEMORY, FACTOR_SHARE * 8.0 * n * n) / (3 * 8 * n)))
+
+
+class _FactorStore:
+    """The columns of one Gramian factor in a Fortran-ordered buffer, compressed in place when full.
+
+    The buffer grows by doubling up to ``limit`` columns; a block that does not fit triggers
+    :func:`compress` of the columns held. Should the compressed rank and the next block
+    exceed half the limit (the factor's numerical rank is that large), the limit doubles, so
+    a compression (``O(N limit^2)``) is always followed by at least ``limit / 2`` new columns
+    and never dominates the solves.
+    """
+
+    def __init__(self, n: int, limit: int):
+        self.limit = int(limit)
+        self.buf = np.empty((n, 0), order="F")
+        self.k = 0
+        self.compressions = 0
+        self.peak = 0
+
+    def _resize(self, cols: int):
+        buf = np.empty((self.buf.shape[0], cols), order="F")
+        buf[:, :self.k] = self.buf[:, :self.k]
+        self.buf = buf
+
+    def _compress(self):
+        C = compress(self.buf[:, :self.k], overwrite=True)
+        self.k = C.shape[1]
+        self.buf[:, :self.k] = C
+        self.compressions += 1
+
+    def add(self, X: np.ndarray):
+        c = X.shape[1]
+        if self.k + c > self.limit:
+            self._compress()
+            if 2 * (self.k + c) > self.limit:
+                self.limit = 2 * (self.k + c)
+                log.info("Gramian factor of rank %d: compression limit raised to %d columns", self.k, self.limit)
+        if self.k + c > self.buf.shape[1]:
+            self._resize(min(self.limit, max(2 * self.buf.shape[1], self.k + c, 8 * c)))
+        self.buf[:, self.k:self.k + c] = X
+        self.k += c
+        self.peak = max(self.peak, self.k)
+
+    def result(self) -> np.ndarray:
+        """The compressed factor (the store is emptied)."""
+        C = compress(self.buf[:, :self.k], overwrite=True)
+        self.buf, self.k = self.buf[:, :0], 0
+        return C
+
+
 def gramian_factors(model, ports, band=(0.0, math.inf), *, side: str = "both", nodes: int = 4, panels: int = 1,
                     cutoff: float | None = None, backend: str = "auto", rigid_modes=None,
-                    max_columns: int = 2000) -> GramianFactors:
+                    max_columns: int | None = None) -> GramianFactors:
     """Low-rank factors of the (frequency-limited) second-order Gramians by quadrature.
 
     Parameters
@@ -294,8 +364,11 @@ def gramian_factors(model, ports, band=(0.0, math.inf), *, side: str = "both", n
         Backend of :func:`flexmor.linalg.factorize`.
     rigid_modes : ndarray, optional
         M-orthonormal rigid-body modes removed from every solution.
-    max_columns : int
-        Factors are column-compressed whenever they exceed this many columns.
+    max_columns : int, optional
+        Each factor is column-compressed (:func:`compress`) before it exceeds this many
+        columns; default :func:`factor_store_columns` of ``N``, so the three factors stay
+        below ``min(1 GiB, 1 % of 8 N^2)`` unless their numerical rank needs more (then the
+        limit doubles).
 
     Returns
     -------
@@ -326,11 +399,8 @@ def gramian_factors(model, ports, band=(0.0, math.inf), *, side: str = "both", n
     m = B.shape[1]
     rhs = np.hstack([B, ports.C.T.toarray()]) if side == "both" else B
     A = ShiftedMatrices(work.K, work.M, work.D)
-    R, Rv, L = [], [], []
-
-    def flush(parts):
-        return [compress(np.hstack(parts))] if parts else []
-
+    limit = int(max_columns) if max_columns is not None else factor_store_columns(model.n_dof)
+    stores = [_FactorStore(model.n_dof, limit) for _ in range(3 if side == "both" else 2)]
     for k, (w, weight) in enumerate(zip(wk, wt)):
         F = factorize(A(w), backend, symmetric=True, check=False)
         X = F.solve(rhs)
@@ -338,18 +408,20 @@ def gramian_factors(model, ports, band=(0.0, math.inf), *, side: str = "both", n
         if rigid_modes is not None and rigid_modes.shape[1]:
             X = X - rigid_modes @ (rigid_modes.T @ (work.M @ X))
         s = math.sqrt(weight / math.pi)
-        R.append(s * np.hstack([X[:, :m].real, X[:, :m].imag]))
-        Rv.append(w * R[-1])
+        Xr = s * np.hstack([X[:, :m].real, X[:, :m].imag])
+        stores[0].add(Xr)
+        stores[1].add(w * Xr)
         if side == "both":
-            L.append(s * np.hstack([X[:, m:].real, X[:, m:].imag]))
-        if sum(r.shape[1] for r in R) > max_columns:
-            R, Rv, L = flush(R), flush(Rv), flush(L)
-    R, Rv, L = flush(R), flush(Rv), flush(L)
+            stores[2].add(s * np.hstack([X[:, m:].real, X[:, m:].imag]))
+    R, Rv = stores[0].result(), stores[1].result()
+    L = stores[2].result() if side == "both" else None
     info = {"band_hz": [fmin, fmax], "n_nodes": int(wk.size), "nodes_per_panel": int(nodes), "panels": int(panels),
             "n_resonances": int(np.sum((f_res >= fmin) & (f_res <= fmax))), "cutoff_hz": float(fcut),
-            "gramian_damping": damping, "rank_R": int(R[0].shape[1])}
-    log.info("Gramian factors: %d quadrature nodes, rank %d", wk.size, R[0].shape[1])
-    return GramianFactors(R[0], Rv[0], L[0] if L else None, wk / (2 * math.pi), wt, info)
+            "gramian_damping": damping, "rank_R": int(R.shape[1]), "factor_columns_limit": limit,
+            "factor_columns_peak": max(st.peak for st in stores),
+            "compressions": sum(st.compressions for st in stores)}
+    log.info("Gramian factors: %d quadrature nodes, rank %d", wk.size, R.shape[1])
+    return GramianFactors(R, Rv, L, wk / (2 * math.pi), wt, info)
 
 
 def balance(R: np.ndarray, L: np.ndarray, M, order: int):
