@@ -109,3 +109,38 @@ def test_cli_options_of_gramian_methods(tmp_path, capsys):
     assert res["band_error"] < 1e-6  # measured 3.8e-8
     assert main(["reduce", str(sti), "--method", "pod", "--energy", "2", "--input", "TIP:y", "--no-error",
                  "-o", str(tmp_path / "p.h5")]) == 2
+
+
+def test_issue_comparison_on_the_cantilever():
+    # the Gramian/hybrid comparison at reduced size: the built-in clamped cantilever cantilever(4)
+    # (3,000 DOF), six ports at the tip (TIP and TIP_CENTER, x/y/z), 1 % Rayleigh damping at
+    # 10 and 2500 Hz, 11 resonances in the band
+    from flexmor.models import cantilever
+    from flexmor.workflow import apply_damping
+
+    band = (10.0, 2500.0)
+    model = apply_damping(cantilever(4), modal_damping=0.01, band=band)
+    ports = make_ports(model, [f"{s}:{d}" for s in ("TIP", "TIP_CENTER") for d in "xyz"])
+    full = FullResponse(model, ports, band, cache=False, path="surrogate")
+    assert model.n_dof == 3000 and full.resonances.size == 11
+
+    def err(method, order, **opts):
+        red, res = reduce_and_judge(model, method, order, ports, full=full, band=band, **opts)
+        return res["band_error"], red
+
+    # order 30: two-step and fw-sobt stop at order 20 (only 20 Hankel singular values of the band
+    # above 1e-14 sigma_1) and reach the floor of the error measure (~1e-15 here, measured
+    # two-step 1.2e-15, fw-sobt 1.4e-15, pod 1.1e-15, modal 4.7e-8), where "within 10x" says
+    # nothing; so that comparison is made at order 16, above the floor (measured two-step
+    # 2.3e-12, fw-sobt 2.8e-12, pod 2.2e-12, modal 7.1e-8)
+    e_modal30, _ = err("modal", 30)
+    e_two30, red = err("two-step", 30, intermediate=120)
+    e_pod30, _ = err("pod", 30, nodes=1)
+    assert red.info["intermediate"] == 120 and red.order >= 16
+    assert e_two30 < 1e-12 and e_two30 < 0.1 * e_modal30
+    assert e_pod30 < 1e-12 and e_pod30 < e_modal30
+    e_modal16, _ = err("modal", 16)
+    e_two16, _ = err("two-step", 16, intermediate=120)
+    e_fw16, red_fw = err("fw-sobt", 16, nodes=1)
+    assert red_fw.info["n_resonances"] == 11
+    assert 1e-13 < e_fw16 and e_two16 < 10 * e_fw16 and e_two16 < 0.1 * e_modal16
