@@ -79,3 +79,29 @@ def test_krylov_options_are_validated(clamped):
         reduce(clamped, "krylov", 4, ports, points="a,b")
     with pytest.raises(OptionError, match="order or --moments"):
         reduce(clamped, "krylov", None, ports)
+
+
+def test_arnoldi_stores_one_n_by_r_basis():
+    """Two-level Arnoldi: the 2n-vectors live as coefficients of one n x r basis (memory ~ n r)."""
+    import tracemalloc
+
+    from flexmor.models import cantilever
+    from flexmor.reduction.krylov import SecondOrderArnoldi, shifted_factorization, start_block
+
+    model = cantilever(4).with_rayleigh(5.0, 1e-6)
+    ports = make_ports(model, ["TIP:x", "TIP:y", "TIP:z"])
+    start = start_block(ports, "input")
+    F, s = shifted_factorization(model, 2 * np.pi * 300.0)
+    share = 20 * start.shape[1]
+    n = model.n_dof
+    tracemalloc.start()
+    seq = SecondOrderArnoldi(model, F, s, start, capacity=share + start.shape[1])
+    while seq.Q.k < share and seq.next_block() is not None:
+        pass
+    peak = tracemalloc.get_traced_memory()[1]
+    tracemalloc.stop()
+    assert seq.Q.k >= share
+    Q = seq.Q.view
+    assert np.linalg.norm(Q.T @ Q - np.eye(Q.shape[1])) < 1e-12
+    # the basis and a few n x b work blocks; 2n-vectors stored explicitly would need 3x the basis
+    assert peak < 1.5 * n * (share + start.shape[1]) * 8, (peak, n * share * 8)

@@ -42,6 +42,30 @@ def test_complex_shifted_matrix(clamped):
     assert np.linalg.norm(A @ x - b) / np.linalg.norm(b) < 1e-10
 
 
+@pytest.mark.skipif("pardiso" not in BACKENDS, reason="needs pardiso")
+def test_pardiso_reuses_the_ordering_of_a_pattern(clamped):
+    """Shifted matrices of one model share a pattern: METIS runs once, every factorization is exact."""
+    K, M, D = clamped.K, clamped.M, 1e-5 * clamped.K
+    b = np.ones(clamped.n_dof)
+    used = []
+    for f in (151.0, 377.0, 733.0):
+        w = 2 * np.pi * f
+        A = (K - w**2 * M + 1j * w * D).tocsr()
+        F = factorize(A, "pardiso", check=False)
+        used.append(F.reused_ordering)
+        x = F.solve(b)
+        assert np.linalg.norm(A @ x - b) / np.linalg.norm(b) < 1e-10
+        x0 = factorize(A, "scipy", check=False).solve(b)
+        assert np.linalg.norm(x - x0) / np.linalg.norm(x0) < 1e-10
+    assert used == [used[0], True, True]
+    n = K.shape[0]
+    E = sp.coo_matrix(([1.0, 1.0], ([0, n - 1], [n - 1, 0])), shape=(n, n))
+    A = (K - (2 * np.pi * 151.0) ** 2 * M + 1e-3 * abs(K).max() * E).tocsr()  # one more entry: another pattern
+    G = factorize(A, "pardiso", check=False)
+    assert not G.reused_ordering
+    assert np.linalg.norm(A @ G.solve(b) - b) / np.linalg.norm(b) < 1e-10
+
+
 @pytest.mark.parametrize("backend", BACKENDS)
 def test_singular_matrix_is_refused(free, backend):
     with pytest.raises(SolverError, match="singular"):

@@ -204,6 +204,30 @@ _PARDISO_ERRORS = {-1: "input inconsistent", -2: "not enough memory", -3: "reord
                    -9: "not enough memory for out-of-core", -10: "error opening out-of-core files"}
 
 
+#: Fill-reducing orderings of the last few sparsity patterns factorized by PARDISO, keyed by
+#: :func:`_pattern_key`. Shifted matrices ``K - w^2 M + i w D`` of one model share a pattern,
+#: so frequency sweeps, quadrature nodes and expansion points compute METIS' nested
+#: dissection once and reuse it (``iparm[4] = 1``); the symbolic factorization still runs.
+_ORDERINGS: dict = {}
+_ORDERINGS_KEPT = 4
+
+
+def _pattern_key(mtype: int, ia: np.ndarray, ja: np.ndarray) -> tuple:
+    """Identity of a sparsity pattern (and of the matrix class): size, nnz and a digest."""
+    import hashlib
+
+    h = hashlib.blake2b(ia.view(np.uint8), digest_size=16)
+    h.update(ja.view(np.uint8))
+    return (int(mtype), ia.size - 1, ja.size, h.hexdigest())
+
+
+def _remember_ordering(key: tuple, perm: np.ndarray) -> None:
+    _ORDERINGS.pop(key, None)
+    _ORDERINGS[key] = perm.copy()
+    while len(_ORDERINGS) > _ORDERINGS_KEPT:
+        _ORDERINGS.pop(next(iter(_ORDERINGS)))
+
+
 class _Pardiso(Factorization):
     """Intel MKL PARDISO called through ctypes on the upper triangle (symmetric) or the full matrix.
 
@@ -247,8 +271,18 @@ class _Pardiso(Factorization):
         ip[34] = 1  # zero-based indices
         self._ctypes = ctypes
         self._live = False
+        key = _pattern_key(self._mtype, self._ia, self._ja)
+        self._perm = _ORDERINGS.get(key)
+        ip[4] = 2 if self._perm is None else 1  # 2: return METIS' permutation, 1: reuse a stored one
+        if self._perm is None:
+            self._perm = np.zeros(self._n, dtype=np.int32)
+        self.reused_ordering = ip[4] == 1
         try:
+            t0 = time.perf_counter()
             self._call(11, None, None, 0)  # analysis: ordering, symbolic factorization, memory
+            self.analysis_seconds = time.perf_counter() - t0
+            if not self.reused_ordering:
+                _remember_ordering(key, self._perm)
             kb = max(int(self._iparm[14]), int(self._iparm[15]) + int(self._iparm[16]))
             self.memory_estimate = 1024.0 * kb
             check_memory(self.memory_estimate, "pardiso", self._n)
@@ -271,7 +305,7 @@ class _Pardiso(Factorization):
         self._fn(self._pt.ctypes.data_as(c.POINTER(c.c_int64)), one, one, c.byref(i32(self._mtype)),
                  c.byref(i32(phase)), c.byref(i32(self._n)), self._data.ctypes.data,
                  self._ia.ctypes.data_as(c.POINTER(i32)), self._ja.ctypes.data_as(c.POINTER(i32)),
-                 None, c.byref(i32(nrhs)), self._iparm.ctypes.data_as(c.POINTER(i32)), c.byref(i32(0)),
+                 self._perm.ctypes.data_as(c.POINTER(i32)), c.byref(i32(nrhs)), self._iparm.ctypes.data_as(c.POINTER(i32)), c.byref(i32(0)),
                  bp, xp, c.byref(err))
         if err.value != 0:
             what = _PARDISO_ERRORS.get(err.value, "unknown error")

@@ -115,7 +115,7 @@ def shifted_factorization(model, s: complex, backend: str = "auto"):
 
 
 class SecondOrderArnoldi:
-    """Block second-order Arnoldi sequence at one expansion point ``s``.
+    """Block second-order Arnoldi sequence at one expansion point ``s`` in two-level form (TOAR).
 
     Block Arnoldi on the linearization ``[[-A0^{-1} tau A1, -A0^{-1} tau^2 M], [I, 0]]``
     started with ``[A0^{-1} start; 0]``, with the Taylor variable scaled by ``tau`` (a
@@ -123,45 +123,73 @@ class SecondOrderArnoldi:
     upper halves of the first ``k`` blocks span ``{X_0 ... X_{k-1}}``; orthogonalizing the full
     vectors (twice, with deflation) keeps the process stable even when an upper half
     vanishes (e.g. ``s = 0`` with stiffness-proportional damping, where ``X_1 || X_0``).
-    Each call of :meth:`next_block` returns the next upper-half block (complex if ``s`` is,
-    not orthonormalized; the caller merges blocks with :func:`flexmor.basis.extend_orthonormal`)
-    or ``None`` when the sequence is exhausted.
+
+    The lower half of every Krylov vector is an upper half of an earlier one, so all
+    ``2n``-vectors are stored as ``[Q U1; Q U2]`` with one orthonormal ``n x eta`` basis ``Q``
+    of the upper halves and small coefficient matrices (two-level orthogonal Arnoldi): the
+    memory is that of ``Q``, the basis the method wants, instead of ``3x`` it for the
+    ``2n``-vectors and a separate basis; the orthogonalization of the ``2n``-vectors runs on
+    the ``2 eta``-long coefficients.
+
+    Each call of :meth:`next_block` returns the new columns of ``Q`` (orthonormal to the
+    earlier ones; complex if ``s`` is; none when a moment lies in the span already) or
+    ``None`` when the sequence is exhausted; :meth:`last_top` is the upper half of the
+    newest orthonormal ``2n``-block.
+
+    References
+    ----------
+    Lu, D., Su, Y., Bai, Z. (2016). Stability analysis of the two-level orthogonal Arnoldi
+    procedure. SIAM J. Matrix Anal. Appl. 37(1), 195-214.
     """
 
-    def __init__(self, model, F, s: complex, start: np.ndarray, *, tol: float = DEFLATION_TOL, project=None):
-        self.M, self.F, self.tol = model.M, F, tol
+    def __init__(self, model, F, s: complex, start: np.ndarray, *, tol: float = DEFLATION_TOL, project=None,
+                 capacity: int = 16):
+        self.M, self.D, self.F, self.tol = model.M, model.D, F, tol
         self._project = project if project is not None else (lambda X: X)
         s = complex(s).real if complex(s).imag == 0 else complex(s)
-        self.A1 = (2 * s) * model.M + model.D if model.D is not None else (2 * s) * model.M
-        self.s, self.W, self.n_solves, self.tau = s, None, 0, 1.0
+        self.s, self.n_solves, self.tau = s, 0, 1.0
         self._start = start
         self._K = model.K
-        self._last = None
+        dtype = np.result_type(start.dtype, float) if isinstance(s, float) else np.complex128
+        self.Q = Columns(model.M.shape[0], dtype, capacity=max(int(capacity), 1))
+        self.U = np.zeros((0, 0), dtype=dtype)  # coefficients [U1; U2] of the 2n-vectors, (2 eta, k)
+        self._last = None  # coefficients of the last orthonormal block
 
-    def _append(self, X: np.ndarray):
+    def _append(self, top: np.ndarray, bottom: np.ndarray):
+        """Add the 2n-vectors ``[top; Q bottom]`` (``top`` n-long, ``bottom`` coefficients)."""
+        Q = self.Q.view
+        new = extend_orthonormal(Q, top, tol=self.tol) if np.any(top) else np.zeros((top.shape[0], 0), top.dtype)
+        eta0, eta = Q.shape[1], Q.shape[1] + new.shape[1]
+        t = np.vstack([Q.conj().T @ top, new.conj().T @ top])
+        X = np.vstack([t, np.pad(bottom, ((0, eta - bottom.shape[0]), (0, 0)))])
+        U = self.U
+        if U.shape[1]:  # pad the earlier coefficients to the grown basis
+            U = np.vstack([np.pad(U[:eta0], ((0, eta - eta0), (0, 0))), np.pad(U[eta0:], ((0, eta - eta0), (0, 0)))])
         ref = np.linalg.norm(X, axis=0).max(initial=0.0)
         if ref == 0:
             return None
-        if self.W is not None:
-            W = self.W.view
-            for _ in range(2):
-                X -= W @ (W.conj().T @ X)
-        Q, R, _ = rank_revealing_qr(X)
+        for _ in range(2):
+            if U.shape[1]:
+                X -= U @ (U.conj().T @ X)
+        W, R, _ = rank_revealing_qr(X)
         k = int(np.sum(np.abs(np.diag(R)) > self.tol * ref))
         if k < X.shape[1]:
             log.debug("second-order Arnoldi: %d of %d directions deflated", X.shape[1] - k, X.shape[1])
         if k == 0:
             return None
-        Q = Q[:, :k]
-        if self.W is None:
-            self.W = Columns(Q.shape[0], Q.dtype)
-        self.W.append(Q)
-        self._last = Q
-        return Q[: Q.shape[0] // 2]
+        self.Q.append(new)
+        self.U = np.hstack([U, W[:, :k]]) if U.shape[1] else np.ascontiguousarray(W[:, :k])
+        self._last = W[:, :k]
+        return self.Q.view[:, eta0:]
+
+    def last_top(self) -> np.ndarray:
+        """Upper half ``Q U1`` of the newest orthonormal block of ``2n``-vectors (not orthonormal)."""
+        return self.Q.view @ self._last[: self._last.shape[0] // 2]
 
     def next_block(self):
-        n = self.M.shape[0]
-        if self.W is None:
+        if self._last is None and self.Q.k == 0:
+            if self.n_solves:
+                return None
             X0 = self._project(self.F.solve(self._start))
             self.n_solves += 1
             x = X0[:, 0]
@@ -169,18 +197,23 @@ class SecondOrderArnoldi:
             if mx > 0:  # tau^2 = Rayleigh quotient of |s|^2 M + K: the frequency scale of the point
                 kx = np.vdot(x, self._K @ x).real
                 self.tau = float(np.sqrt(abs(self.s) ** 2 + max(kx, 0.0) / mx)) or 1.0
-            return self._append(np.vstack([X0, np.zeros_like(X0)]))
+            return self._append(X0, np.zeros((0, X0.shape[1]), X0.dtype))
         if self._last is None:
             return None
-        V, L = self._last[:n], self._last[n:]
-        rhs = self.tau * (self.A1 @ V) + self.tau ** 2 * (self.M @ L)
+        c = self._last
+        u1, u2 = c[: c.shape[0] // 2], c[c.shape[0] // 2:]
         self._last = None
+        Q = self.Q.view
+        V = Q @ u1
+        # rhs = tau A1 V + tau^2 M L with A1 = 2 s M + D and L = Q u2: one product with M
+        rhs = self.M @ ((2 * self.s * self.tau) * V + self.tau ** 2 * (Q @ u2))
+        if self.D is not None:
+            rhs = rhs + self.tau * (self.D @ V)
         if not np.any(rhs):  # e.g. s = 0 without damping: odd moments vanish, no solve needed
-            self._append(np.vstack([np.zeros_like(V), V]))
-            return np.zeros((n, 0), dtype=V.dtype)
+            return self._append(np.zeros_like(V), u1)
         top = -self._project(self.F.solve(rhs))
         self.n_solves += 1
-        return self._append(np.vstack([top, V.astype(top.dtype)]))
+        return self._append(top, u1)
 
 
 def rigid_body_modes(model) -> np.ndarray:
@@ -244,23 +277,31 @@ def blocks_at_points(model, ports, points, n_moments: int, *, side: str = "input
 
 
 def _point_blocks(model, start, p, n_moments: int, backend: str, proj):
-    """The orthonormal blocks of one point (see :func:`blocks_at_points`) and its ``s``."""
+    """The orthonormal blocks of one point (see :func:`blocks_at_points`) and its ``s``.
+
+    A real point's blocks are views of its Arnoldi basis (no copy); a complex point's come
+    from the real and imaginary parts of the upper halves of its orthonormal Arnoldi blocks,
+    orthonormalized (a direction counts when its real or imaginary part is new).
+    """
     F, s = shifted_factorization(model, 2 * np.pi * complex(p), backend)
-    seq = SecondOrderArnoldi(model, F, s, start, project=proj)
     # the point's share: n_moments blocks of independent directions; vanishing moments
     # (matched for free) and deflated directions do not count, so no second pass is needed
-    share = n_moments * start.shape[1] * (1 if s.imag == 0 else 2)
-    T, out, empty = Columns(model.n_dof), [], 0
+    b = start.shape[1]
+    share = n_moments * b * (1 if s.imag == 0 else 2)
+    seq = SecondOrderArnoldi(model, F, s, start, project=proj, capacity=share + b)
+    T = seq.Q if s.imag == 0 else Columns(model.n_dof, capacity=share + 2 * b)
+    out, empty = [], 0
     while T.k < share and empty < 3:
         Vb = seq.next_block()
         if Vb is None:
             break
-        Q = extend_orthonormal(T.view, np.hstack([Vb.real, Vb.imag]) if s.imag != 0 else Vb.real,
-                               tol=DEFLATION_TOL) if Vb.shape[1] else Vb.real
-        empty = empty + 1 if Q.shape[1] == 0 else 0
-        if Q.shape[1]:
-            T.append(Q)
-            out.append(Q)
+        if s.imag != 0:
+            top = seq.last_top()
+            Vb = extend_orthonormal(T.view, np.hstack([top.real, top.imag]), tol=DEFLATION_TOL)
+            T.append(Vb)
+        empty = empty + 1 if Vb.shape[1] == 0 else 0
+        if Vb.shape[1]:
+            out.append(T.view[:, T.k - Vb.shape[1]:])
     return out, s
 
 
