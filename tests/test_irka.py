@@ -64,3 +64,12 @@ def test_irka_reports_nonconvergence(cant3, caplog):
     assert not ri.info["converged"] and ri.info["iterations"] == 1
     assert "did not converge" in caplog.text
     assert ri.order == 8 and np.isfinite(ri.frequencies_hz()).all()
+
+
+def test_undamped_body_gets_a_clear_error(clamped):
+    """Undamped: the points land on eigenfrequencies; the message says so instead of 'free-free body'."""
+    from flexmor.errors import SolverError
+
+    ports = make_ports(clamped, ["TIP:y"])
+    with pytest.raises(SolverError, match="undamped body.*--rayleigh"):
+        reduce(clamped, "irka", 6, ports)

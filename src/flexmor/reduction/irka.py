@@ -22,7 +22,7 @@ import numpy as np
 import scipy.linalg as sla
 
 from ..basis import Basis
-from ..errors import OptionError
+from ..errors import OptionError, SolverError
 from ..projection import project
 from . import register_method
 from .krylov import krylov, merge_blocks, shifted_factorization
@@ -114,8 +114,9 @@ def irka(model, ports, order, *, max_iter: int = 50, shift_tol: float = 1e-4, ba
     Parameters
     ----------
     model : FEModel
-        Needs damping (``D``) for the poles to leave the imaginary axis; undamped bodies
-        interpolate on it.
+        Needs damping (``D``) for the poles to leave the imaginary axis; on an undamped body
+        the points land on (nearly) its eigenfrequencies, and a singular shifted matrix is
+        reported as such (:class:`flexmor.errors.SolverError`).
     ports : Ports
         ``B`` gives the tangential interpolation data (``C`` enters through the residues).
     order : int
@@ -166,7 +167,15 @@ def irka(model, ports, order, *, max_iter: int = 50, shift_tol: float = 1e-4, ba
         log.debug("irka iteration %d: shift change %.2e", it, change)
         if change < shift_tol:
             break
-        V = tangential_basis(model, B, sigma, dirs, order, backend)
+        try:
+            V = tangential_basis(model, B, sigma, dirs, order, backend)
+        except SolverError:
+            if model.D is not None:
+                raise
+            raise SolverError(
+                "irka on an undamped body: the mirror images of the reduced poles lie on the frequency "
+                "axis at (nearly) the body's eigenfrequencies, where s^2 M + K is singular; give the body "
+                "damping (--rayleigh ALPHA:BETA or --modal-damping ZETA) or use krylov or modal") from None
         old = sigma
     converged = change < shift_tol
     if not converged:
