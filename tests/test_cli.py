@@ -46,6 +46,9 @@ def test_reduce_json_and_compare(capsys, tmp_path):
     for key in ("method", "order", "seconds", "band_hz", "band_error", "max_rel_error", "frequencies_hz", "timings"):
         assert key in out
     assert out["order"] == 33 and out["band_hz"] == [10, 3000]
+    from flexmor import __version__
+
+    assert out["flexmor_version"] == __version__
     assert 0 < out["band_error"] < 1
     assert set(out["timings"]) >= {"read", "factorize", "basis", "project", "error"}
     assert body.exists()

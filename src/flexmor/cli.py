@@ -27,6 +27,8 @@ __all__ = ["main"]
 
 
 def _emit_json(obj) -> None:
+    if isinstance(obj, dict):  # every JSON answer says which flexmor wrote it
+        obj = {**obj, "flexmor_version": __version__}
     print(json.dumps(jsonable(obj, finite=True)))
 
 
