@@ -121,22 +121,25 @@ def test_partitioned_matrix_in_one_process():
 BAND_ERROR_RTOL = 1e-4
 
 
-def _mpirun(args, tmp_path, n=2, timeout=900):
+def _mpirun(args, tmp_path, n=2, timeout=3600, returncode=0):
     env = dict(os.environ, OMP_NUM_THREADS="1", OPENBLAS_NUM_THREADS="1", FLEXMOR_CACHE_DIR=str(tmp_path / "cache"),
                OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1", OMPI_MCA_rmaps_base_oversubscribe="1",
                OMPI_MCA_mpi_yield_when_idle="1")
     cmd = [MPIRUN, "-n", str(n), sys.executable, *map(str, args)]
     proc = subprocess.run(cmd, check=False, capture_output=True, text=True, env=env, cwd=tmp_path, timeout=timeout)
-    assert proc.returncode == 0, proc.stderr[-3000:]
-    return proc.stdout
+    assert proc.returncode == returncode, proc.stderr[-3000:]
+    return proc.stdout if returncode == 0 else proc.stderr
 
 
 @needs_mpi
 @pytest.mark.parametrize("method", ["modal", "krylov"])
 def test_cli_two_ranks_beam8(method, tmp_path):
+    """A file model under mpirun: rank 0 reads it, each rank holds only its rows; same body as SciPy."""
     from flexmor.analysis.frequency import frf_reduced
     from flexmor.cli import main
+    from flexmor.io import read
     from flexmor.io.hdf5 import read_reduced
+    from flexmor.linalg.distributed import row_range
 
     common = ["reduce", str(BEAM), "--method", method, "--order", "8", "--input", "5:y", "--input", "5:z",
               "--band", "10:3000", "--rayleigh", "0:1e-6", "--full-frf", "surrogate", "--json", "--no-cache"]
@@ -144,6 +147,11 @@ def test_cli_two_ranks_beam8(method, tmp_path):
     lines = [ln for ln in out.splitlines() if ln.strip()]
     assert len(lines) == 1, out  # only rank 0 prints
     par = json.loads(lines[0])
+    K = read(BEAM).K
+    n = K.shape[0]
+    assert par["partition"]["rows"] == [list(row_range(n, 2, r)) for r in range(2)]
+    nnz = par["partition"]["local_nnz"]
+    assert sum(nnz) == K.nnz and max(nnz) < 0.6 * K.nnz
     os.environ["FLEXMOR_CACHE_DIR"] = str(tmp_path / "cache")
     try:
         assert main([*common, "--backend", "scipy", "-o", str(tmp_path / "serial.h5")]) == 0
@@ -155,6 +163,16 @@ def test_cli_two_ranks_beam8(method, tmp_path):
     f = np.geomspace(10, 3000, 40)
     assert _rel(frf_reduced(red_p, f), frf_reduced(red_s, f)) < 1e-8
     assert par["band_error"] == pytest.approx(red_s.errors["band_error"], rel=BAND_ERROR_RTOL)
+
+
+@needs_mpi
+def test_cli_two_ranks_unreadable_file(tmp_path):
+    """A file that rank 0 cannot read stops every rank with the reader's error (none waits for rows)."""
+    bad = tmp_path / "broken.sti"
+    bad.write_text("this is not a CalculiX matrix file\n")
+    err = _mpirun(["-m", "flexmor", "reduce", bad, "--method", "modal", "--order", "4", "--input", "5:y",
+                   "--backend", "petsc", "--no-cache"], tmp_path, timeout=120, returncode=2)
+    assert err.count("flexmor: error:") == 2 and err.count(f"{tmp_path / 'broken.mas'}: not found") == 2, err
 
 
 def _serial_reference(n):

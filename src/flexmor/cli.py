@@ -21,7 +21,7 @@ import numpy as np
 from . import __version__
 from .errors import ConvergenceError, FlexmorError, ModelError, PortError, SolverError
 from .jsonutil import jsonable
-from .linalg.distributed import on_root, quiet_other_ranks
+from .linalg.distributed import is_partitioned, on_root, quiet_other_ranks, row_blocks
 
 __all__ = ["main"]
 
@@ -71,13 +71,21 @@ def _read_model(args, couplings=()):
     from .io import read
     from .workflow import apply_damping, parse_band, parse_pair, prepare_model
 
-    t0 = time.perf_counter()
-    model = read(args.model, format=args.format)
-    if getattr(args, "select", None):
-        from .selection import with_selections
+    def load():
+        model = read(args.model, format=args.format)
+        if getattr(args, "select", None):
+            from .selection import with_selections
 
-        model = with_selections(model, args.select)
-    model = prepare_model(model, couplings)
+            model = with_selections(model, args.select)
+        return prepare_model(model, couplings)
+
+    t0 = time.perf_counter()
+    if getattr(args, "backend", None) == "petsc":  # under mpirun: rank 0 reads, each rank gets its rows
+        from .models.distributed import read_on_root
+
+        model = read_on_root(load)
+    else:
+        model = load()
     t_read = time.perf_counter() - t0
     band = parse_band(args.band) if getattr(args, "band", None) else None
     rayleigh = parse_pair(args.rayleigh, "--rayleigh") if getattr(args, "rayleigh", None) else None
@@ -136,7 +144,7 @@ def cmd_info(args) -> int:
         _emit_json(out)
         return 0
     print(f"model     {model.name}  ({model.source})")
-    print(f"DOF       {model.n_dof}    nodes {model.n_nodes}    nnz(K) {model.K.nnz}")
+    print(f"DOF       {model.n_dof}    nodes {model.n_nodes}    nnz(K) {out['nnz_K']}")
     print(f"damping   {model.damping}")
     if model.node_sets:
         print("node sets " + ", ".join(f"{k} ({v.size})" for k, v in model.node_sets.items()))
@@ -175,6 +183,8 @@ def cmd_reduce(args) -> int:
                                 energy=args.energy, snapshots=args.snapshots, gramian=args.gramian,
                                 directions=args.directions, nodes=args.nodes)
     res["timings"]["read"] = t_read
+    if is_partitioned(model.K):  # under mpirun with --backend petsc: the rows of K held by each rank
+        res["partition"] = row_blocks(model.K)
     if couplings:
         red.info["couplings"] = couplings
     if args.select:

@@ -245,6 +245,10 @@ def couple(model: FEModel, specs, *, weights: dict | None = None) -> Coupled:
             targets.append(t.strip())
     if not targets:
         raise PortError("no coupling SPEC (SET@rbe2 or SET@rbe3) given")
+    if getattr(model.K, "partitioned", False):  # T^T K T needs whole rows and columns of K
+        raise PortError(f"couplings ({', '.join(targets)}) need the whole model in one process, but its rows are "
+                        "spread over MPI ranks; flexmor reduce applies them while rank 0 reads the file, "
+                        "compare and report need a serial backend for bodies with couplings")
     n = model.n_dof
     dep_rows, dep_cols, dep_vals = [], [], []
     dependent = np.zeros(n, bool)

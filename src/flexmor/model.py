@@ -74,6 +74,11 @@ def _as_csr(name: str, A, n: int | None = None) -> sp.csr_matrix:
     return A
 
 
+def _nnz(A) -> int:
+    """Stored entries of ``A`` (summed over the MPI ranks for a partitioned matrix)."""
+    return A.global_nnz() if getattr(A, "partitioned", False) else int(A.nnz)
+
+
 def _check_square_symmetric(name: str, A: sp.csr_matrix, n: int) -> None:
     if A.shape != (n, n):
         raise ModelError(f"{name} has shape {A.shape}, expected ({n}, {n}) like M")
@@ -286,8 +291,8 @@ class FEModel:
             "source": self.source,
             "n_dof": self.n_dof,
             "n_nodes": self.n_nodes,
-            "nnz_M": int(self.M.nnz),
-            "nnz_K": int(self.K.nnz),
+            "nnz_M": _nnz(self.M),
+            "nnz_K": _nnz(self.K),
             "damping": self.damping,
             "node_sets": {k: int(v.size) for k, v in self.node_sets.items()},
             "inputs": list(self.input_names),

@@ -43,6 +43,15 @@ def _update_matrix(h, name: str, A) -> None:
     if A is None:
         h.update(b"none")
         return
+    if getattr(A, "partitioned", False):  # rows over MPI ranks: the ranks' digests in rank order (same key on all)
+        from ..linalg.distributed import comm
+
+        part = hashlib.blake2b(digest_size=20)
+        _update_matrix(part, name, sp.csr_matrix(A))
+        c = comm()
+        for d in ([part.digest()] if c is None else c.allgather(part.digest())):
+            h.update(d)
+        return
     A = sp.csr_matrix(A, copy=True)
     A.sum_duplicates()
     A.sort_indices()

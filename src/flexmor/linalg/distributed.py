@@ -5,15 +5,16 @@ bases, reduced matrices, frequency grids), while the sparse matrices and their f
 are distributed by rows. Two ways of holding a model's matrices are supported:
 
 *replicated*
-    Every rank has the whole ``scipy.sparse`` matrix (a model read from a file); the
-    ``petsc`` backend hands each rank's row block (:func:`row_range`) to PETSc, so the
+    Every rank has the whole ``scipy.sparse`` matrix (a model built or read in each process);
+    the ``petsc`` backend hands each rank's row block (:func:`row_range`) to PETSc, so the
     factor, which dominates the memory, is distributed.
 *partitioned*
     :class:`PartitionedCSR`: every rank holds only its own rows (zero elsewhere), the matrix
-    being the sum of the ranks' pieces. Products with dense blocks (``A @ X``, ``X.T @ A``),
-    the diagonal and dense copies are completed by an ``MPI_Allreduce``; sums, scalings,
-    transposes and submatrices ``A[i][:, i]`` of partitioned matrices stay partitioned. A
-    model built this way (:func:`flexmor.models.distributed.partitioned_cantilever`) is never
+    being the sum of the ranks' pieces. A file model read by rank 0 reaches the other ranks
+    this way (:func:`scatter_rows`, :func:`flexmor.models.distributed.read_on_root`). Products
+    with dense blocks (``A @ X``, ``X.T @ A``), the diagonal and dense copies are completed by
+    an ``MPI_Allreduce``; sums, scalings, transposes and submatrices ``A[i][:, i]`` of
+    partitioned matrices stay partitioned. A model built this way (:func:`flexmor.models.distributed.partitioned_cantilever`) is never
     assembled on one rank, and the methods above the solver layer run on it unchanged.
 
 Dense blocks (right-hand sides, solutions, bases) are replicated on every rank. Nothing here
@@ -43,7 +44,9 @@ __all__ = [
     "on_root",
     "quiet_other_ranks",
     "rank",
+    "row_blocks",
     "row_range",
+    "scatter_rows",
     "size",
 ]
 
@@ -156,6 +159,47 @@ def allgather_rows(local: np.ndarray, n: int) -> np.ndarray:
 
     c.Allgatherv(local, [out, counts, displs, MPI._typedict[local.dtype.char]])
     return out
+
+
+def scatter_rows(A, n: int) -> PartitionedCSR:
+    """Rank 0's whole sparse matrix ``A`` (``n`` rows; ignored on the other ranks) as a
+    :class:`PartitionedCSR`: every rank receives only its rows :func:`row_range`, by point-to-point
+    messages (no rank but 0 ever holds more). Collective over all ranks."""
+    c = comm()
+    nranks = 1 if c is None else c.Get_size()
+    me = 0 if c is None else c.Get_rank()
+    r0, r1 = row_range(n, nranks, me)
+    if me == 0:
+        A = sp.csr_matrix(A)
+        if A.shape[0] != n:
+            raise SolverError(f"scatter_rows: the matrix has {A.shape[0]} rows, expected {n}")
+        for r in range(1, nranks):
+            a, b = row_range(n, nranks, r)
+            blk = sp.csr_matrix(A[a:b])
+            arrays = (blk.indptr.astype(np.int64), blk.indices.astype(np.int64), blk.data.astype(np.float64))
+            c.send((blk.shape, blk.nnz), dest=r, tag=11)
+            for k, arr in enumerate(arrays):
+                c.Send(np.ascontiguousarray(arr), dest=r, tag=12 + k)
+        mine = sp.csr_matrix(A[r0:r1])
+        indptr, indices, data, ncols = mine.indptr, mine.indices, mine.data, A.shape[1]
+    else:
+        (m, ncols), nnz = c.recv(source=0, tag=11)
+        indptr, indices, data = np.empty(m + 1, np.int64), np.empty(nnz, np.int64), np.empty(nnz, np.float64)
+        for k, arr in enumerate((indptr, indices, data)):
+            c.Recv(arr, source=0, tag=12 + k)
+    # the local block as rows r0..r1-1 of the global matrix: empty rows above and below
+    full = np.concatenate([np.zeros(r0, np.int64), np.asarray(indptr, np.int64),
+                           np.full(n - r1, indptr[-1], np.int64)])
+    return PartitionedCSR((data, indices, full), shape=(n, ncols))
+
+
+def row_blocks(A) -> dict:
+    """Where the rows of a partitioned matrix ``A`` are: ``{"rows": [[start, stop] per rank],
+    "local_nnz": [entries held per rank]}``, the same on every rank (collective)."""
+    lo, hi, _ = A.local_rows()
+    c = comm()
+    spans, nnz = ([(lo, hi)], [int(A.nnz)]) if c is None else (c.allgather((lo, hi)), c.allgather(int(A.nnz)))
+    return {"rows": [[int(a), int(b)] for a, b in spans], "local_nnz": nnz}
 
 
 def is_partitioned(A) -> bool:

@@ -1,4 +1,4 @@
-"""Built-in models assembled in parts over MPI ranks: each rank builds only its own rows.
+"""Models held in parts over MPI ranks: each rank builds or receives only its own rows.
 
 :func:`partitioned_cantilever` is the solid beam of :func:`flexmor.models.cantilever`
 (same mesh, elements, material and node sets), numbered plane by plane along x so that a
@@ -11,10 +11,15 @@ node) are replicated.
 
 Run with ``mpirun -n P`` and ``backend="petsc"``; with one process it is an ordinary
 (differently numbered) cantilever.
+
+:func:`read_on_root` does the same for a model read from a file: rank 0 alone reads it and
+sends every other rank its rows of M, K (and D); the small data (node table, sets, equation
+map, B, C) is broadcast.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 
 import numpy as np
@@ -25,7 +30,7 @@ from ..linalg import distributed as dist
 from ..model import FEModel
 from .solid import ELEMENTS, _assemble, _check_choice, _count, _material, _positive
 
-__all__ = ["partitioned_cantilever"]
+__all__ = ["partitioned_cantilever", "read_on_root"]
 
 log = logging.getLogger(__name__)
 
@@ -99,6 +104,47 @@ def partitioned_cantilever(n: int = 4, *, length: float = 1.0, width: float = 0.
     log.info("rank %d: equations %d..%d of %d (node planes %d..%d), %d local entries of K", dist.rank(), r0,
              r1 - 1, n_eq, i0, i1 - 1, K.nnz)
     return FEModel(M=M, K=K, node_ids=node_ids, xyz=xyz, dofs=dofs, node_sets=sets, name=name, source="built-in")
+
+
+def read_on_root(load) -> FEModel:
+    """The model ``load()`` returns, read by rank 0 alone and held by rows over the MPI ranks.
+
+    ``load`` (no arguments) runs on rank 0 only, e.g. reading a file and applying node selections
+    and couplings; the model is validated there in full (symmetry included). Every rank then
+    receives only its rows :func:`flexmor.linalg.distributed.row_range` of ``M``, ``K`` and ``D``
+    (:func:`flexmor.linalg.distributed.scatter_rows`) and, by broadcast, the small data: node
+    table, node sets, equation map, ``B``, ``C``, names and damping. Collective over all ranks;
+    with one process it returns ``load()`` itself.
+
+    Raises
+    ------
+    Exception
+        Whatever ``load`` raised on rank 0, raised on every rank (same class and message), so that
+        no rank waits for data that will not come.
+    """
+    if dist.size() == 1:
+        return load()
+    model, failure, meta = None, None, None
+    if dist.is_root():
+        try:
+            model = load()
+            meta = {f.name: getattr(model, f.name) for f in dataclasses.fields(model) if f.name not in ("M", "K", "D")}
+            meta["_shape"], meta["_has_D"] = model.M.shape, model.D is not None
+        except Exception as exc:  # noqa: BLE001 - passed on to the other ranks, then raised here too
+            failure = exc
+    status = dist.comm().bcast(("error", type(failure), str(failure)) if failure is not None else ("ok", meta), root=0)
+    if failure is not None:
+        raise failure
+    if status[0] == "error":
+        exc = status[1].__new__(status[1])
+        Exception.__init__(exc, status[2])
+        raise exc
+    meta = dict(status[1])
+    (n, _), has_d = meta.pop("_shape"), meta.pop("_has_D")
+    mats = {k: dist.scatter_rows(getattr(model, k, None), n) for k in ("M", "K", "D") if k != "D" or has_d}
+    del model  # rank 0: the whole matrices go; each rank keeps its rows
+    log.info("rank %d: rows [%d, %d) of %d, %d local entries of K", dist.rank(), *dist.row_range(n), n, mats["K"].nnz)
+    return FEModel(**mats, **meta)
 
 
 def _assemble_slab(element, cols, divisions, extent, lam, mu, rho, q, rows, first, per_plane, n_eq):
