@@ -176,6 +176,19 @@ def test_cli_two_ranks_unreadable_file(tmp_path):
     assert err.count("flexmor: error:") == 2 and err.count(f"{tmp_path / 'broken.mas'}: not found") == 2, err
 
 
+@needs_mpi
+def test_cli_two_ranks_refuse_couplings_of_partitioned_model(tmp_path):
+    """compare of a body with an RBE2 coupling: the coupling needs the whole model, which no rank holds."""
+    from flexmor.cli import main
+
+    body = tmp_path / "cb.h5"
+    assert main(["reduce", str(BEAM), "--method", "craig-bampton", "--order", "12", "--interface", "TIP@rbe2",
+                 "--input", "TIP@rbe2:y", "--no-error", "-o", str(body)]) == 0
+    err = _mpirun(["-m", "flexmor", "compare", BEAM, body, "--band", "10:3000", "--backend", "petsc", "--no-cache"],
+                  tmp_path, timeout=120, returncode=2)
+    assert err.count("need the whole model in one process") == 2, err
+
+
 def _serial_reference(n):
     sys.path.insert(0, str(HERE))
     try:
