@@ -278,9 +278,7 @@ class _Pardiso(Factorization):
             self._perm = np.zeros(self._n, dtype=np.int32)
         self.reused_ordering = ip[4] == 1
         try:
-            t0 = time.perf_counter()
             self._call(11, None, None, 0)  # analysis: ordering, symbolic factorization, memory
-            self.analysis_seconds = time.perf_counter() - t0
             if not self.reused_ordering:
                 _remember_ordering(key, self._perm)
             kb = max(int(self._iparm[14]), int(self._iparm[15]) + int(self._iparm[16]))

@@ -187,9 +187,7 @@ class SecondOrderArnoldi:
         return self.Q.view @ self._last[: self._last.shape[0] // 2]
 
     def next_block(self):
-        if self._last is None and self.Q.k == 0:
-            if self.n_solves:
-                return None
+        if self.n_solves == 0:
             X0 = self._project(self.F.solve(self._start))
             self.n_solves += 1
             x = X0[:, 0]
