@@ -44,10 +44,16 @@ def free_ref():
     return calculix_frequencies(CCX / "beam8_free_freq.dat")
 
 
-@pytest.fixture(autouse=True)
-def _hermetic_frf_cache(tmp_path_factory, monkeypatch):
-    """Every test writes the full-FRF disk cache into a temporary directory, never ~/.cache."""
-    monkeypatch.setenv("FLEXMOR_CACHE_DIR", str(tmp_path_factory.getbasetemp() / "flexmor-cache"))
+@pytest.fixture(scope="session", autouse=True)
+def _hermetic_frf_cache(tmp_path_factory):
+    """Every test writes the full-FRF disk cache into a temporary directory, never ~/.cache.
+
+    Session-scoped, so that module- and session-scoped fixtures are covered too (a function-scoped
+    one is set up after them: their entries went to the user's cache and outlived the run).
+    """
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setenv("FLEXMOR_CACHE_DIR", str(tmp_path_factory.getbasetemp() / "flexmor-cache"))
+        yield
 
 
 def load_example(name: str):

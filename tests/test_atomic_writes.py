@@ -242,9 +242,13 @@ def test_cli_interrupted_while_writing_leaves_no_output(exc, code, tmp_path, mon
     assert list(tmp_path.iterdir()) == []
 
 
-# a real flexmor process whose HDF5 writer stalls mid-file; the test signals it there
+# a real flexmor process whose HDF5 writer stalls mid-file; the test signals it there. A process
+# started from a non-interactive shell's background job inherits SIGINT ignored, and Python then keeps
+# it ignored: the child restores the interactive default so that the test does not depend on how the
+# suite was started.
 _STALL = """
-import sys, time, h5py
+import signal, sys, time, h5py
+signal.signal(signal.SIGINT, signal.default_int_handler)
 orig = h5py.Group.create_dataset
 def slow(self, *a, **k):
     d = orig(self, *a, **k)

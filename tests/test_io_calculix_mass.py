@@ -13,6 +13,7 @@ import shutil
 import numpy as np
 import pytest
 import scipy.linalg as sla
+import scipy.sparse as sp
 from conftest import CCX
 
 import flexmor.io
@@ -88,3 +89,55 @@ def test_abaqus_massless_equation(tmp_path, block, ok):
     with pytest.warns(FlexmorWarning, match=r"blockC3D10.inp: mass matrix diagonal is not positive at 1 equation.*shift-invert"):
         model = flexmor.io.read(tmp_path / f"{block}.inp")
     assert model.M.diagonal()[0] == 0.0 and np.count_nonzero(model.M.diagonal() <= 0) == 1
+
+
+def _nearly_singular(M, delta_rel):
+    """``M`` with its two smallest eigenvalues replaced by ``delta_rel * ||M||_2`` (symmetric, PD)."""
+    mu, U = np.linalg.eigh(M)
+    delta = delta_rel * mu[-1]
+    Ms = M + (delta - mu[0]) * np.outer(U[:, 0], U[:, 0]) + (delta - mu[1]) * np.outer(U[:, 1], U[:, 1])
+    return 0.5 * (Ms + Ms.T)
+
+
+def test_dense_path_ignores_whether_cholesky_fails(clamped):
+    """Cholesky of M succeeds with tiny pivots, yet the dense path must not use ``L^-1 K L^-T``.
+
+    The two smallest eigenvalues of the mass are set to 1e-12 ||M||: far above the ~n eps ||M||
+    (6e-14 at 270 DOF) by which rounding could move them, so LAPACK's Cholesky succeeds on every
+    machine; ``eigh(K, M)`` through that factor loses ~12 digits (on one machine it gave 3.9519e5
+    instead of 3.9517e5). ``M phi = mu K phi`` (K positive definite: clamped) is well posed and
+    gives the reference ``lambda = 1 / mu`` to ~eps cond(K) / cond-free of M.
+    """
+    from flexmor.linalg.eigen import MASS_RCOND_MIN, _mass_rcond, dense_eigenmodes
+
+    K = clamped.K.toarray()
+    Ms = _nearly_singular(clamped.M.toarray(), 1e-12)
+    np.linalg.cholesky(Ms)  # succeeds: this is the branch the old code trusted
+    assert _mass_rcond(Ms) < MASS_RCOND_MIN
+    ref = np.sort(1.0 / sla.eigh(Ms, K, eigvals_only=True)[-4:])
+    for lam in (dense_eigenmodes(K, Ms, 4)[0], eigenmodes(clamped.K, sp.csr_matrix(Ms), 4, method="dense")[0]):
+        np.testing.assert_allclose(lam, ref, rtol=1e-9)
+    lam_all, phi_all = dense_eigenmodes(K, Ms)  # all finite ones, M-normalized
+    np.testing.assert_allclose(lam_all[:4], ref, rtol=1e-9)
+    np.testing.assert_allclose(phi_all[:, :4].T @ Ms @ phi_all[:, :4], np.eye(4), atol=1e-10)
+
+
+def test_dense_path_refuses_an_indefinite_mass(clamped):
+    """A mass matrix with a clearly negative eigenvalue: a ModelError, not eigenvalues."""
+    from flexmor.errors import ModelError
+    from flexmor.linalg.eigen import dense_eigenmodes
+
+    Mi = _nearly_singular(clamped.M.toarray(), -1e-3)
+    with pytest.raises(ModelError, match="not positive definite|indefinite"):
+        dense_eigenmodes(clamped.K.toarray(), Mi, 4)
+
+
+def test_dense_residual_check_rejects_a_nonsymmetric_pencil(clamped):
+    """A non-symmetric K is not a symmetric definite pencil: the residual check says so."""
+    from flexmor.errors import ModelError
+    from flexmor.linalg.eigen import dense_eigenmodes
+
+    K = clamped.K.toarray()
+    K[0, 1] += 1e-3 * np.abs(K).max()  # eigh reads one triangle: the returned pairs do not solve this K
+    with pytest.raises(ModelError, match="relative residual"):
+        dense_eigenmodes(K, clamped.M.toarray(), 4)

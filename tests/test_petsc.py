@@ -155,11 +155,9 @@ def test_cli_two_ranks_beam8(method, tmp_path):
     assert par["partition"]["rows"] == [list(row_range(n, 2, r)) for r in range(2)]
     nnz = par["partition"]["local_nnz"]
     assert sum(nnz) == K.nnz and max(nnz) < 0.6 * K.nnz
-    os.environ["FLEXMOR_CACHE_DIR"] = str(tmp_path / "cache")
-    try:
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setenv("FLEXMOR_CACHE_DIR", str(tmp_path / "cache"))
         assert main([*common, "--backend", "scipy", "-o", str(tmp_path / "serial.h5")]) == 0
-    finally:
-        os.environ.pop("FLEXMOR_CACHE_DIR")
     red_p, red_s = read_reduced(tmp_path / "mpi.h5"), read_reduced(tmp_path / "serial.h5")
     assert _rel(red_p.frequencies_hz(), red_s.frequencies_hz()) < 1e-8
     assert _rel(par["frequencies_hz"], red_s.frequencies_hz()) < 1e-8

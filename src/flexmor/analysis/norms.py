@@ -22,6 +22,7 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 
 from ..errors import OptionError, check_choice
+from ..linalg.eigen import dense_eigenmodes
 from .frequency import frf_full, frf_reduced
 
 __all__ = ["DENSE_H2_LIMIT", "h2_error", "hinf_norm"]
@@ -35,7 +36,7 @@ def _dense(A):
 
 
 def _modal_terms(M, K, B, C, alpha, beta):
-    lam, phi = sla.eigh(_dense(K), _dense(M))
+    lam, phi = dense_eigenmodes(K, M)
     lam = np.clip(lam, 0.0, None)
     R = np.einsum("pk,km->kpm", _dense(C) @ phi, phi.T @ _dense(B))  # residue matrices
     return alpha + beta * lam, lam, R
@@ -125,8 +126,7 @@ def h2_error(model, ports, reduced, *, method: str = "auto", omega=None, relativ
         err, full = _h2_lyapunov(model, ports, reduced)
     else:
         if omega is None:
-            lam = sla.eigh(_dense(model.K), _dense(model.M), eigvals_only=True) if model.n_dof <= DENSE_H2_LIMIT \
-                else None
+            lam = dense_eigenmodes(model.K, model.M)[0] if model.n_dof <= DENSE_H2_LIMIT else None
             if lam is None:
                 raise OptionError("give omega for quadrature on a large model")
             lam = lam[lam > 1e-12 * lam[-1]]

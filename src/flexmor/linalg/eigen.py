@@ -13,12 +13,24 @@ from ..errors import ConvergenceError, ModelError, OptionError
 from .block_eigen import block_lanczos
 from .factorize import factorize
 
-__all__ = ["eigenmodes", "default_shift", "rigid_body_threshold", "is_rigid", "frequencies_hz", "DENSE_LIMIT", "METHODS"]
+__all__ = ["eigenmodes", "dense_eigenmodes", "default_shift", "rigid_body_threshold", "is_rigid", "frequencies_hz",
+           "DENSE_LIMIT", "METHODS", "MASS_RCOND_MIN", "RESIDUAL_MAX"]
 
 log = logging.getLogger(__name__)
 
 #: Problems up to this size are solved densely (LAPACK), larger ones by shift-invert Lanczos.
 DENSE_LIMIT = 600
+
+#: Dense problems whose mass matrix has a reciprocal condition number (LAPACK ``dpocon``, 1-norm)
+#: below this are solved in the shift-inverted form ``M phi = mu (K - sigma M) phi``. The
+#: Cholesky-based ``eigh(K, M)`` forms ``L^-1 K L^-T`` and loses about ``log10(cond(M))`` digits;
+#: below 1e-6 that is more than the residual check accepts.
+MASS_RCOND_MIN = 1e-6
+
+#: Largest accepted relative residual ``||K phi - lam M phi|| / ((||K|| + |lam| ||M||) ||phi||)``
+#: of a dense eigenpair. Both dense paths are backward stable to a few ``n * eps`` (below 1e-11 up to
+#: 3,000 DOF); a larger residual means the pencil is not symmetric definite in the way assumed.
+RESIDUAL_MAX = 1e-8
 
 
 def default_shift(K, M) -> float:
@@ -117,11 +129,7 @@ def eigenmodes(K, M, k: int, *, sigma: float | None = None, backend: str = "auto
     if method != "dense" and k >= n:
         method = "dense"
     if method == "dense":
-        try:
-            lam, phi = sla.eigh(_dense(K), _dense(M))
-        except np.linalg.LinAlgError:
-            lam, phi = _dense_singular_mass(K, M, k, sigma)
-        lam, phi = lam[:k], phi[:, :k]
+        lam, phi = dense_eigenmodes(K, M, k, sigma=sigma)
     else:
         if sigma is None:
             if factorization is not None:
@@ -158,29 +166,100 @@ def eigenmodes(K, M, k: int, *, sigma: float | None = None, backend: str = "auto
     return lam, phi
 
 
-def _dense_singular_mass(K, M, k: int, sigma: float | None):
-    """Dense modes when ``M`` is only semi-definite (massless DOFs, reduced integration).
+def dense_eigenmodes(K, M, k: int | None = None, *, sigma: float | None = None):
+    """Lowest ``k`` (default: all finite) eigenpairs of a small problem ``K phi = lambda M phi``, densely.
 
-    ``M phi = mu (K - sigma M) phi`` with ``sigma < 0`` needs only ``K - sigma M`` positive
-    definite; the finite eigenvalues are ``lambda = sigma + 1/mu`` (``mu > 0``), the infinite
-    ones (``mu = 0``) are dropped.
+    The path is chosen by the conditioning of ``M``, not by whether LAPACK's Cholesky happens to
+    fail: a mass matrix with ``rcond(M) >= MASS_RCOND_MIN`` takes ``eigh(K, M)``; a singular or
+    nearly singular one (massless DOFs, reduced integration, rank-deficient consistent masses) the
+    shift-inverted form ``M phi = mu (K - sigma M) phi`` with ``sigma < 0``, which needs only
+    ``K - sigma M`` positive definite; its finite eigenvalues are ``lambda = sigma + 1/mu``
+    (``mu > 0``, refined by Rayleigh quotients), the infinite ones (``mu = 0``) are dropped. Every
+    returned pair is checked by its residual (:data:`RESIDUAL_MAX`).
+
+    Parameters
+    ----------
+    K, M : sparse matrix or ndarray, shape (n, n)
+        Symmetric stiffness (positive semi-definite) and mass (positive semi-definite).
+    k : int, optional
+        Number of eigenpairs; None for all finite ones.
+    sigma : float, optional
+        Negative shift of the shift-inverted form; default :func:`default_shift`.
+
+    Returns
+    -------
+    lam : ndarray, shape (k,)
+        Eigenvalues ``omega^2`` in ascending order.
+    phi : ndarray, shape (n, k)
+        Mass-normalized eigenvectors.
+
+    Raises
+    ------
+    ModelError
+        ``M`` is indefinite, has fewer than ``k`` finite eigenvalues, or an eigenpair's residual
+        exceeds :data:`RESIDUAL_MAX`.
     """
     Kd, Md = _dense(K), _dense(M)
-    sigma = default_shift(K, M) if sigma is None or sigma >= 0 else sigma
+    n = Kd.shape[0]
+    k = n if k is None else int(k)
+    rcond = _mass_rcond(Md)
+    if rcond >= MASS_RCOND_MIN:
+        lam, phi = sla.eigh(Kd, Md, subset_by_index=[0, k - 1])
+    else:
+        log.info("mass matrix singular or ill-conditioned (rcond %.1e): shift-inverted dense eigenproblem", rcond)
+        lam, phi = _shift_inverted(Kd, Md, None if k == n else k, sigma)
+    phi = phi / np.sqrt(np.einsum("ij,ij->j", phi, Md @ phi))
+    _check_residuals(Kd, Md, lam, phi)
+    return lam, phi
+
+
+def _mass_rcond(Md) -> float:
+    """LAPACK's estimate of ``1 / cond_1(M)`` from a Cholesky factor; 0 when Cholesky fails."""
+    c, info = sla.lapack.dpotrf(Md, lower=False, clean=False)
+    if info != 0:
+        return 0.0
+    rcond, info = sla.lapack.dpocon(c, float(np.abs(Md).sum(axis=0).max()))
+    return float(rcond) if info == 0 else 0.0
+
+
+def _shift_inverted(Kd, Md, k: int | None, sigma: float | None):
+    """Finite eigenpairs of ``(K, M)`` with ``M`` semi-definite from ``M phi = mu (K - sigma M) phi``."""
+    sigma = default_shift(Kd, Md) if sigma is None or sigma >= 0 else sigma
     try:
         mu, phi = sla.eigh(Md, Kd - sigma * Md)
     except np.linalg.LinAlgError:
-        mu = np.array([-1.0])
+        raise ModelError("K - sigma M is not positive definite: the mass matrix is indefinite, or K and M share "
+                         "a null space (a DOF with neither stiffness nor mass); no meaningful eigenmodes") from None
     if mu.min() < -1e-12 * max(abs(mu).max(), 1e-300):
         raise ModelError("the mass matrix is not positive definite: it is indefinite (negative eigenvalues of M "
                          "relative to K); no meaningful eigenmodes")
     finite = mu > 1e-12 * max(mu.max(), 1e-300)
-    if np.count_nonzero(finite) < k:
+    if k is not None and np.count_nonzero(finite) < k:
         raise ModelError(f"the mass matrix is singular: only {np.count_nonzero(finite)} finite eigenvalues, "
                          f"{k} requested")
+    if np.count_nonzero(~finite):
+        log.info("mass matrix singular: %d infinite eigenvalues dropped", int(np.count_nonzero(~finite)))
     mu, phi = mu[finite][::-1], phi[:, finite][:, ::-1]
-    log.info("mass matrix singular: %d infinite eigenvalues dropped", int(np.count_nonzero(~finite)))
-    return sigma + 1.0 / mu, phi
+    if k is not None:
+        mu, phi = mu[:k], phi[:, :k]
+    # Rayleigh quotients: accurate to the square of the eigenvector error, also far from sigma
+    lam = np.einsum("ij,ij->j", phi, Kd @ phi) / np.einsum("ij,ij->j", phi, Md @ phi)
+    order = np.argsort(lam, kind="stable")
+    return lam[order], phi[:, order]
+
+
+def _check_residuals(Kd, Md, lam, phi) -> None:
+    """Raise if an eigenpair's relative residual exceeds :data:`RESIDUAL_MAX`."""
+    if lam.size == 0:
+        return
+    nk, nm = float(np.abs(Kd).sum(axis=0).max()), float(np.abs(Md).sum(axis=0).max())
+    R = Kd @ phi - (Md @ phi) * lam
+    res = np.linalg.norm(R, axis=0) / ((nk + np.abs(lam) * nm) * np.linalg.norm(phi, axis=0))
+    worst = int(np.argmax(res))
+    if not res[worst] <= RESIDUAL_MAX:
+        raise ModelError(f"dense eigenpair {worst + 1} of {lam.size} has relative residual {res[worst]:.1e} "
+                         f"(> {RESIDUAL_MAX:g}): K and M do not form a symmetric definite pencil (check that both "
+                         "are symmetric and M is positive semi-definite)")
 
 
 def _dense(A):

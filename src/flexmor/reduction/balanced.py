@@ -15,7 +15,6 @@ import logging
 import math
 
 import numpy as np
-import scipy.linalg as sla
 
 from ..basis import Basis
 from ..errors import OptionError, check_choice
@@ -72,10 +71,10 @@ def balanced_basis(model, ports, order, band, *, method: str, variant: str = "po
 
 def _dense_factors(model, ports, variant):
     """Exact full-band Gramian factors of a small body (:func:`~flexmor.reduction.gramians.dense_gramians`)."""
-    from ..linalg.eigen import frequencies_hz
+    from ..linalg.eigen import dense_eigenmodes, frequencies_hz
 
+    work, damping = _regularized(model, (0.0, math.inf), frequencies_hz(dense_eigenmodes(model.K, model.M)[0]))
     M, K = model.M.toarray(), model.K.toarray()
-    work, damping = _regularized(model, (0.0, math.inf), frequencies_hz(sla.eigh(K, M, eigvals_only=True)))
     Pp, Pv, Qp, _ = dense_gramians(M, work.D.toarray(), K, ports.B.toarray(), ports.C.toarray())
     info = {"band_hz": [0.0, math.inf], "gramians": "dense Lyapunov (exact)", "gramian_damping": damping}
     return psd_factor(Pp if variant == "position" else Pv), psd_factor(Qp), info

@@ -34,7 +34,7 @@ import numpy as np
 import scipy.linalg as sla
 
 from ..errors import ModelError, OptionError
-from ..linalg.eigen import is_rigid
+from ..linalg.eigen import dense_eigenmodes, is_rigid
 
 __all__ = ["balanced_truncation", "dense_gramians", "hankel_singular_values", "psd_factor"]
 
@@ -68,7 +68,7 @@ def dense_gramians(M, D, K, B, C, band=None, *, rigid_tol=None):
     Phi_rigid : ndarray, shape (r, k)
         The rigid-body modes left out.
     """
-    lam, phi = sla.eigh(K, M)
+    lam, phi = dense_eigenmodes(K, M)
     rigid = is_rigid(lam, K, M) if rigid_tol is None else lam < rigid_tol
     pf, lf = phi[:, ~rigid], np.clip(lam[~rigid], 0, None)
     n = lf.size
