@@ -1,18 +1,39 @@
 # Two entry points: `make demo` and `make test`. Each creates .venv if missing and installs
-# the project with everything it needs.
+# the project with everything it needs, at the exact versions of the lock constraints.txt
+# (every package, transitive ones and the build backend included; `make lock` refreshes it).
 PYTHON ?= python3
 VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
+EXTRAS := full,fast,test,ansys,exudyn
+MPI_EXTRAS := full,test
 
-.PHONY: demo test test-mpi install bench clean
+.PHONY: demo test test-mpi install bench clean lock
 
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
 
-$(STAMP): $(BIN)/python pyproject.toml
-	$(BIN)/pip install -q -e ".[full,fast,test,ansys,exudyn]"
+# PIP_CONSTRAINT also reaches pip's isolated build environment (setuptools, wheel)
+$(STAMP): $(BIN)/python pyproject.toml constraints.txt
+	PIP_CONSTRAINT=constraints.txt $(BIN)/pip install -q -c constraints.txt -e ".[$(EXTRAS)]"
 	touch $(STAMP)
+
+# Refresh the locks from the pyproject.toml ranges: newest versions that install on this Python,
+# resolved in throw-away environments. Commit constraints*.txt after `make test` passes with them.
+lock:
+	rm -rf .venv-lock && $(PYTHON) -m venv .venv-lock
+	.venv-lock/bin/pip install -q --upgrade setuptools wheel
+	.venv-lock/bin/pip install -q -e ".[$(EXTRAS)]"
+	{ echo "# make lock: exact versions for make demo / make test ($$(.venv-lock/bin/python -V))"; \
+	  .venv-lock/bin/pip freeze --all --exclude-editable | grep -v -E '^pip=='; } > constraints.txt.tmp
+	mv constraints.txt.tmp constraints.txt
+	rm -rf .venv-lock && $(PYTHON) -m venv .venv-lock
+	.venv-lock/bin/pip install -q --upgrade setuptools wheel
+	.venv-lock/bin/pip install -q "numpy>=1.26,<2" -e ".[$(MPI_EXTRAS)]"
+	{ echo "# make lock: exact versions for make test-mpi (numpy 1.x for Debian's petsc4py)"; \
+	  .venv-lock/bin/pip freeze --all --exclude-editable | grep -v -E '^pip=='; } > constraints-mpi.txt.tmp
+	mv constraints-mpi.txt.tmp constraints-mpi.txt
+	rm -rf .venv-lock
 
 install: $(STAMP)
 
@@ -29,9 +50,9 @@ SYSTEM_PYTHON ?= /usr/bin/python3
 VENV_MPI := .venv-mpi
 MPI_STAMP := $(VENV_MPI)/.installed
 
-$(MPI_STAMP): pyproject.toml
+$(MPI_STAMP): pyproject.toml constraints-mpi.txt
 	$(SYSTEM_PYTHON) -m venv --system-site-packages $(VENV_MPI)
-	$(VENV_MPI)/bin/pip install -q "numpy>=1.26,<2" -e ".[full,test]"
+	PIP_CONSTRAINT=constraints-mpi.txt $(VENV_MPI)/bin/pip install -q -c constraints-mpi.txt "numpy>=1.26,<2" -e ".[$(MPI_EXTRAS)]"
 	@# Debian's petsc4py/slepc4py .pth files need PETSC_DIR/SLEPC_DIR unless the -dev packages are installed
 	ls -d /usr/lib/petscdir/petsc*/*-real/lib/python3/dist-packages /usr/lib/slepcdir/slepc*/*-real/lib/python3/dist-packages \
 		> "$$($(VENV_MPI)/bin/python -c 'import sysconfig; print(sysconfig.get_paths()["purelib"])')/debian-petsc-real.pth" \
@@ -45,4 +66,4 @@ bench: $(STAMP)
 	$(BIN)/python bench/solvers.py
 
 clean:
-	rm -rf $(VENV) $(VENV_MPI) demo-output
+	rm -rf $(VENV) $(VENV_MPI) .venv-lock demo-output
