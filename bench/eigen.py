@@ -40,7 +40,7 @@ def main(argv=None) -> int:
 
     import numpy as np
 
-    from flexmor.linalg import available_backends, factorize
+    from flexmor.linalg import SolverContext, available_backends, factorize
     from flexmor.linalg.eigen import default_shift, eigenmodes
     from flexmor.models import cantilever, size_for_dofs
 
@@ -50,7 +50,7 @@ def main(argv=None) -> int:
     K, M = model.K, model.M
     sigma = default_shift(K, M)
     t0 = time.perf_counter()
-    factorize((K - sigma * M).tocsr(), args.backend, positive=True, check=False)
+    factorize((K - sigma * M).tocsr(), solver=SolverContext(args.backend), positive=True, check=False)
     t_fact = time.perf_counter() - t0
     print(f"model {model.name}: {model.n_dof} DOF, nnz(K) {K.nnz}; factorization alone {t_fact:.2f} s")
     rows = []
@@ -61,7 +61,7 @@ def main(argv=None) -> int:
         base = None
         for method in args.methods.split(","):
             t0 = time.perf_counter()
-            lam, phi = eigenmodes(K, M, k, method=method, backend=args.backend)
+            lam, phi = eigenmodes(K, M, k, method=method, solver=SolverContext(args.backend))
             sec = time.perf_counter() - t0
             R = K @ phi - (M @ phi) * lam
             flex = lam > 1e-4 * abs(sigma)

@@ -33,8 +33,7 @@ import numpy as np
 from flexmor.analysis.compare import FullResponse
 from flexmor.analysis.frequency import ShiftedMatrices, band_error, frf_full, frf_reduced
 from flexmor.jsonutil import jsonable
-from flexmor.linalg import available_backends, factorize
-from flexmor.linalg.factorize import STATS
+from flexmor.linalg import SolverContext, available_backends, factorize
 from flexmor.models import cantilever, size_for_dofs
 from flexmor.ports import make_ports
 from flexmor.reduction import reduce
@@ -109,9 +108,9 @@ def main(argv=None):
                                          [band[1] * 0.05, band[1] * 0.5, band[1] * 0.95])
 
     print("2. error evaluation: FullResponse (surrogate path, no cache) + band_error", flush=True)
-    c0 = STATS["count"]
+    solver = SolverContext()
     t0, cpu0 = time.perf_counter(), _cpu()
-    full = FullResponse(model, ports, band, path="surrogate", cache=False)
+    full = FullResponse(model, ports, band, path="surrogate", cache=False, solver=solver)
     t_full, cpu_full = time.perf_counter() - t0, _cpu() - cpu0
     jobs = [(m, int(r), {"interface": ["TIP_CENTER"]} if m == "craig-bampton" else {})
             for m, r in (b.split(":") for b in args.bodies.split(","))]
@@ -131,7 +130,7 @@ def main(argv=None):
           f"max check error {g['surrogate']['max_check_error']:.1e}, verified {g['surrogate']['verified']}")
     print(f"  full FRF {t_full:.1f} s (pre-pass {full.timings['prepass']:.1f} s, surrogate + grid "
           f"{full.timings['sweep']:.1f} s; CPU {cpu_full:.1f} s, peak RSS {_peak_mb():.0f} MB), "
-          f"{STATS['count'] - c0} factorizations; "
+          f"{solver.stats.count} factorizations; "
           f"band_error of {len(bodies)} bodies {t_eval:.2f} s", flush=True)
     out["full"] = dict(g, seconds_total=t_full, cpu_seconds=cpu_full, peak_mb=_peak_mb(), seconds_evaluate=t_eval, seconds_reduce=t_red,
                        band_errors={f"{m}-{r}": e for (m, r, _), e in zip(jobs, errs)})

@@ -44,7 +44,7 @@ INPUTS = ["TIP:x", "TIP:y", "TIP:z", "TIP_CENTER:x", "TIP_CENTER:y", "TIP_CENTER
 
 
 def overhead(size: int, order: int, backend: str, repeat: int) -> dict:
-    from flexmor.linalg import factorize
+    from flexmor.linalg import SolverContext, factorize
     from flexmor.models import cantilever, size_for_dofs
     from flexmor.ports import make_ports
     from flexmor.reduction import reduce
@@ -57,17 +57,17 @@ def overhead(size: int, order: int, backend: str, repeat: int) -> dict:
     t_ref, t_kry, t_proj = [], [], []
     for _ in range(repeat):
         t0 = time.perf_counter()
-        F = factorize(model.K, backend, symmetric=True, positive=True, check=False)
+        F = factorize(model.K, solver=SolverContext(backend), symmetric=True, positive=True, check=False)
         t1 = time.perf_counter()
         for _ in range(n_blocks):
             F.solve(rng.standard_normal((model.n_dof, m)))
         t_ref.append((t1 - t0, time.perf_counter() - t1))
         del F
-        red, t = reduce(model, "krylov", order, ports, points="0", backend=backend)
+        red, t = reduce(model, "krylov", order, ports, points="0", solver=SolverContext(backend))
         t_kry.append(t["basis"])
         t_proj.append(t["project"])
     ref = min(a + b for a, b in t_ref)
-    red3, t3 = reduce(model, "krylov", order, ports, band=(1.0, 3000.0), backend=backend)
+    red3, t3 = reduce(model, "krylov", order, ports, band=(1.0, 3000.0), solver=SolverContext(backend))
     return {"n_dof": model.n_dof, "nnz_K": int(model.K.nnz), "inputs": INPUTS, "order": red.order,
             "block_solves": n_blocks, "backend": backend,
             "ref_factorize_s": min(a for a, _ in t_ref), "ref_solves_s": min(b for _, b in t_ref), "ref_s": ref,

@@ -41,7 +41,7 @@ def run_case(size: int, method: str) -> dict:
 
     from solvers import _proc_status, _reset_peak
 
-    from flexmor.linalg.factorize import STATS
+    from flexmor.linalg import SolverContext
     from flexmor.models import cantilever, size_for_dofs
     from flexmor.ports import make_ports
     from flexmor.reduction import reduce
@@ -51,10 +51,10 @@ def run_case(size: int, method: str) -> dict:
     order, opts = CASES[method]
     before = _proc_status().get("VmRSS")
     reset = _reset_peak()
-    c0 = STATS["count"]
     tracemalloc.start()
     t0 = time.perf_counter()
-    red, _ = reduce(model, method, order, ports, **opts)
+    solver = SolverContext()
+    red, _ = reduce(model, method, order, ports, solver=solver, **opts)
     seconds = time.perf_counter() - t0
     traced = tracemalloc.get_traced_memory()[1]
     tracemalloc.stop()
@@ -62,7 +62,7 @@ def run_case(size: int, method: str) -> dict:
     n = model.n_dof
     return {"method": method, "n_dof": n, "order": red.order, "seconds": seconds, "rss_before_mb": before,
             "peak_mb": st.get("VmHWM") if reset else None, "traced_mb": traced / 2 ** 20,
-            "dense_nn_mb": 8 * n * n / 2 ** 20, "factorizations": STATS["count"] - c0, "options": opts}
+            "dense_nn_mb": 8 * n * n / 2 ** 20, "factorizations": solver.stats.count, "options": opts}
 
 
 def main(argv=None) -> int:

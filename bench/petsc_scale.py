@@ -20,7 +20,7 @@ import sys
 import time
 
 from flexmor.linalg import distributed as dist
-from flexmor.linalg import factorize
+from flexmor.linalg import SolverContext, factorize
 from flexmor.linalg.eigen import default_shift
 from flexmor.models.distributed import partitioned_cantilever
 from flexmor.ports import make_ports
@@ -42,7 +42,7 @@ def one(n: int, modal: bool = True) -> dict:
     t_build = time.perf_counter() - t0
     sigma = default_shift(model.K, model.M)
     t0 = time.perf_counter()
-    F = factorize((model.K - sigma * model.M).tocsr(), "petsc", positive=True, check=False)
+    F = factorize((model.K - sigma * model.M).tocsr(), solver=SolverContext("petsc"), positive=True, check=False)
     t_fact = time.perf_counter() - t0
     row = {"n": n, "n_dof": model.n_dof, "ranks": dist.size(), "nnz_K": model.K.global_nnz(),
            "factor_entries": F.factor_entries, "mumps_mb_per_rank_max": F.memory_per_rank / 1e6,
@@ -50,7 +50,7 @@ def one(n: int, modal: bool = True) -> dict:
     del F
     if modal:
         t0 = time.perf_counter()
-        reduce(model, "modal", 20, make_ports(model, ["TIP:y"]), backend="petsc")
+        reduce(model, "modal", 20, make_ports(model, ["TIP:y"]), solver=SolverContext("petsc"))
         row["modal20_s"] = time.perf_counter() - t0
     peaks = dist.comm().allgather(peak_mb()) if dist.size() > 1 else [peak_mb()]
     row["peak_mb_per_rank"] = peaks

@@ -16,7 +16,7 @@ tip face, ``TIP_CENTER:x/y/z`` at its centre node):
 * ``krylov-1pt`` (not in the default list): ``krylov`` with one real expansion point at the
   band's geometric mean, i.e. one factorization and all moments there.
 
-For every method the solver layer's own counters (:data:`flexmor.linalg.factorize.STATS`)
+For every method the solver layer's own counters (``SolverContext.stats``)
 give the number and time of its factorizations and of its block solves. ``ratio`` is the
 method's wall time (basis + projection) over that bare solver time: what flexmor adds on top
 of factorizations and solves; ``cpu`` is the process's CPU time (user + system, all threads),
@@ -35,6 +35,7 @@ Writes ``bench/results/scale.json``.
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import pathlib
 import subprocess
@@ -75,9 +76,8 @@ def run_case(size: int, methods: list[str], order: int, order_krylov: int, band:
     import numpy as np
 
     from flexmor.couplings import couple
-    from flexmor.linalg import available_backends, factorize
+    from flexmor.linalg import SolverContext, available_backends, factorize
     from flexmor.linalg.eigen import default_shift
-    from flexmor.linalg.factorize import STATS
     from flexmor.models import cantilever, size_for_dofs
     from flexmor.ports import make_ports
     from flexmor.reduction import reduce
@@ -120,12 +120,12 @@ def run_case(size: int, methods: list[str], order: int, order_krylov: int, band:
         elif method == "two-step":
             opts["intermediate"] = order_krylov
             opts["band"] = band
-        before = dict(STATS)
+        ctx = SolverContext()
         _reset_peak()
         t0, c0 = time.perf_counter(), _cpu()
-        red, timings = reduce(body, method.removesuffix("-1pt"), r, p, **opts)
+        red, timings = reduce(body, method.removesuffix("-1pt"), r, p, solver=ctx, **opts)
         wall, cpu = time.perf_counter() - t0, _cpu() - c0
-        d = {k: STATS[k] - before[k] for k in STATS}
+        d = dataclasses.asdict(ctx.stats)
         solver = d["seconds"] + d["solve_seconds"]
         out["methods"][method] = {
             "order": red.order, "wall_s": wall, "cpu_s": cpu, "basis_s": timings["basis"], "project_s": timings["project"],

@@ -67,7 +67,7 @@ def run_case(size: int, backend: str, nrhs: int, seed: int) -> dict:
 
     import numpy as np
 
-    from flexmor.linalg import available_backends, factorize
+    from flexmor.linalg import SolverContext, available_backends, factorize
     from flexmor.linalg.eigen import default_shift
     from flexmor.models import cantilever, size_for_dofs
 
@@ -87,7 +87,7 @@ def run_case(size: int, backend: str, nrhs: int, seed: int) -> dict:
     reset = _reset_peak()
 
     t0 = time.perf_counter()
-    F = factorize(A, backend=backend, symmetric=True, positive=True, check=False)
+    F = factorize(A, solver=SolverContext(backend), symmetric=True, positive=True, check=False)
     t_factor = time.perf_counter() - t0
     t0 = time.perf_counter()
     X = F.solve(B)

@@ -70,7 +70,7 @@ def spring_stiffness(model, factor: float = 100.0) -> float:
     from flexmor.linalg import factorize
 
     b = make_ports(model, inputs=[MID]).B.toarray()[:, 0]
-    return factor / float(b @ factorize(model.K.tocsc(), "auto", symmetric=True).solve(b))
+    return factor / float(b @ factorize(model.K.tocsc(), symmetric=True).solve(b))
 
 
 def run(nx: int = 40, order: int = 8, band=(1.0, 1000.0), n_freq: int = 200, factor: float = 100.0,

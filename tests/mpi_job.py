@@ -14,6 +14,7 @@ import sys
 import numpy as np
 
 from flexmor.analysis.frequency import frf_reduced
+from flexmor.linalg import SolverContext
 from flexmor.linalg import distributed as dist
 from flexmor.models import cantilever
 from flexmor.models.distributed import partitioned_cantilever
@@ -32,7 +33,7 @@ def run(model, backend: str) -> dict:
     ports = make_ports(model, ["TIP:y", "TIP:z"])
     out = {"n_dof": model.n_dof, "jobs": {}}
     for method, order, opts in JOBS:
-        red, res = reduce_and_judge(model, method, order, ports, band=BAND, backend=backend, cache=False,
+        red, res = reduce_and_judge(model, method, order, ports, band=BAND, solver=SolverContext(backend), cache=False,
                                     full_frf="surrogate", **opts)
         H = frf_reduced(red, GRID)
         out["jobs"][method] = {"frequencies_hz": res["frequencies_hz"], "band_error": res["band_error"],

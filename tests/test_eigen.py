@@ -85,20 +85,20 @@ def test_blas_threads_restores_count():
 @pytest.mark.parametrize("backend", ["pardiso", "scipy"])
 def test_factorization_refused_when_memory_is_short(clamped, backend, monkeypatch):
     from flexmor.errors import SolverError
-    from flexmor.linalg import available_backends, factorize
+    from flexmor.linalg import SolverContext, available_backends, factorize
 
     if backend not in available_backends():
         pytest.skip(f"{backend} not available")
-    mod = sys.modules["flexmor.linalg.factorize"]
-    F = factorize(clamped.K, backend)
+    mod = sys.modules["flexmor.linalg.backends"]
+    F = factorize(clamped.K, solver=SolverContext(backend))
     assert F.memory_estimate > 1e4  # bytes: the factor of 270 equations needs more than 10 kB
     monkeypatch.setattr(mod, "memory_available", lambda: 2048.0)
     with pytest.raises(SolverError, match=r"needs about .* MB, but only 0 MB .* available; .*distributed backend"):
-        factorize(clamped.K, backend)
+        factorize(clamped.K, solver=SolverContext(backend))
 
 
 def test_describe_backends_lists_capabilities():
-    from flexmor.linalg.factorize import describe_backends
+    from flexmor.linalg.backends import describe_backends
 
     rows = {r["name"]: r for r in describe_backends()}
     assert rows["scipy"]["available"] and rows["scipy"]["complex"]

@@ -10,7 +10,7 @@ from flexmor.analysis import cache as frf_cache
 from flexmor.analysis.compare import FullResponse
 from flexmor.analysis.frequency import band_error, frf_full, frf_reduced
 from flexmor.analysis.grid import adaptive_grid, initial_grid, quadrature_weights
-from flexmor.linalg.factorize import STATS
+from flexmor.linalg import SolverContext
 from flexmor.models import cantilever
 from flexmor.ports import make_ports
 from flexmor.reduction import reduce
@@ -72,18 +72,18 @@ def test_adaptive_band_error_matches_brute_force(beam, full, reduced_bodies):
 
 def test_ten_compared_bodies_cost_one_sweep(beam, tmp_path):
     model, ports = beam
-    n0 = STATS["count"]
+    solver = SolverContext()
     band = (300.0, 1500.0)  # 6 resonances
-    fr = FullResponse(model, ports, band, cache=tmp_path)
-    sweep = STATS["count"] - n0
+    fr = FullResponse(model, ports, band, cache=tmp_path, solver=solver)
+    sweep = solver.stats.count
     assert sweep == fr.n_factorizations == fr.freqs.size  # dense pre-pass: one per grid point
-    bodies = [reduce(model, "modal", r, ports)[0] for r in range(1, 11)]
-    n1 = STATS["count"]
+    bodies = [reduce(model, "modal", r, ports, solver=solver)[0] for r in range(1, 11)]
+    n1 = solver.stats.count
     errs = [fr.evaluate(b)["band_error"] for b in bodies]
-    assert STATS["count"] == n1  # judging costs no factorization
+    assert solver.stats.count == n1  # judging costs no factorization
     assert errs[-1] < 1e-3 * errs[0]
-    again = FullResponse(model, ports, band, cache=tmp_path)  # next process: from the cache
-    assert again.cache_hit and again.n_factorizations == 0 and STATS["count"] == n1
+    again = FullResponse(model, ports, band, cache=tmp_path, solver=solver)  # next process: from the cache
+    assert again.cache_hit and again.n_factorizations == 0 and solver.stats.count == n1
     np.testing.assert_array_equal(again.H, fr.H)
 
 
@@ -155,10 +155,10 @@ def test_iterative_checks_need_no_complex_factorization(beam):
     """Checks by the deflated iterative solver (the path of models whose complex factorization
     does not fit into memory) verify the surrogate without any complex factorization."""
     model, ports = beam
-    c0 = STATS["count"]
-    sur = FullResponse(model, ports, BAND, path="surrogate", cache=False, check_solver="iterative")
+    solver = SolverContext()
+    sur = FullResponse(model, ports, BAND, path="surrogate", cache=False, check_solver="iterative", solver=solver)
     info = sur.grid["surrogate"]
-    assert sur.n_factorizations == STATS["count"] - c0 <= 2  # pre-pass only: inertia count + K - sigma M
+    assert sur.n_factorizations == solver.stats.count <= 2  # pre-pass only: inertia count + K - sigma M
     assert info["verified"] and info["max_check_error"] < 1e-6
     assert all(c["solver"] == "iterative" and c["solution_residual"] <= 1 for c in info["checks"])
     exact, _ = _exact_frf(model, ports)

@@ -4,8 +4,7 @@ import numpy as np
 import pytest
 
 from flexmor.analysis.frequency import ShiftedMatrices, frf_full
-from flexmor.linalg import available_backends, factorize
-from flexmor.linalg.factorize import STATS
+from flexmor.linalg import SolverContext, available_backends, factorize
 from flexmor.ports import make_ports
 
 needs_pardiso = pytest.mark.skipif("pardiso" not in available_backends(), reason="needs MKL PARDISO")
@@ -22,14 +21,15 @@ def test_complex_symmetric_pardiso_matches_scipy(clamped, f_hz):
     A = _shifted(clamped, f_hz)
     rng = np.random.default_rng(3)
     B = rng.standard_normal((clamped.n_dof, 4)) + 1j * rng.standard_normal((clamped.n_dof, 4))
-    F = factorize(A, "pardiso")
+    F = factorize(A, solver=SolverContext("pardiso"))
     assert F.backend == "pardiso" and F._mtype == 6 and F.dtype == np.complex128
     X = F.solve(B)  # one block solve for all columns
     assert np.linalg.norm(A @ X - B) / np.linalg.norm(B) < 1e-10
-    Xs = factorize(A, "scipy").solve(B)
+    scipy = SolverContext("scipy")
+    Xs = factorize(A, solver=scipy).solve(B)
     assert np.linalg.norm(X - Xs) / np.linalg.norm(Xs) < 1e-10
     x = F.solve(B[:, 0].real)  # real right-hand side of a complex matrix
-    np.testing.assert_allclose(x, factorize(A, "scipy").solve(B[:, 0].real), rtol=1e-9, atol=0)
+    np.testing.assert_allclose(x, factorize(A, solver=scipy).solve(B[:, 0].real), rtol=1e-9, atol=0)
 
 
 @needs_pardiso
@@ -45,7 +45,7 @@ def test_auto_picks_pardiso_for_complex_and_real_shift_stays_indefinite(clamped)
 
 @needs_pardiso
 def test_pardiso_memory_is_released(clamped):
-    F = factorize(_shifted(clamped, 100.0), "pardiso")
+    F = factorize(_shifted(clamped, 100.0), solver=SolverContext("pardiso"))
     assert np.any(F._pt)
     F._release()
     assert not np.any(F._pt)
@@ -68,12 +68,13 @@ def test_frf_full_one_factorization_per_frequency(clamped, backend):
     model = clamped.with_rayleigh(0.0, 1e-6)
     ports = make_ports(model, ["TIP:y", "TIP:z"])
     freqs = [20.0, 400.0, 1500.0]
-    n0 = STATS["count"]
-    H = frf_full(model, ports, freqs, backend=backend)
-    assert STATS["count"] - n0 == 3
+    solver = SolverContext(backend)
+    H = frf_full(model, ports, freqs, solver=solver)
+    assert solver.stats.count == 3 and solver.stats.solves == 3 and solver.stats.solve_columns == 6
     assert H.shape == (3, 2, 2)
     w = 2 * np.pi * 400.0
-    X = factorize((model.K - w**2 * model.M + 1j * w * model.D).tocsr(), "scipy").solve(ports.B.toarray())
+    A = (model.K - w**2 * model.M + 1j * w * model.D).tocsr()
+    X = factorize(A, solver=SolverContext("scipy")).solve(ports.B.toarray())
     ref = ports.C @ X
     assert np.abs(H[1] - ref).max() / np.abs(ref).max() < 1e-10
     assert np.abs(H[1] - H[1].T).max() < 1e-10 * np.abs(H[1]).max()  # collocated: reciprocity
@@ -83,5 +84,5 @@ def test_frf_full_one_factorization_per_frequency(clamped, backend):
 def test_pardiso_inertia_counts_modes_below_a_shift(clamped, clamped_ref):
     for f_hz in (100.0, 2000.0, 9000.0):
         w = 2 * np.pi * f_hz
-        F = factorize((clamped.K - w**2 * clamped.M).tocsr(), "pardiso", check=False)
+        F = factorize((clamped.K - w**2 * clamped.M).tocsr(), solver=SolverContext("pardiso"), check=False)
         assert F.inertia == (clamped.n_dof - np.sum(clamped_ref < f_hz), np.sum(clamped_ref < f_hz))

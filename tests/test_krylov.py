@@ -7,7 +7,7 @@ import pytest
 
 from flexmor.analysis.compare import FullResponse
 from flexmor.errors import OptionError
-from flexmor.linalg import factorize
+from flexmor.linalg import SolverContext, factorize
 from flexmor.ports import make_ports
 from flexmor.reduction import reduce
 from flexmor.reduction.krylov import parse_points
@@ -18,7 +18,7 @@ def taylor_moments(M, D, K, B, C, s, k):
     """Moments H_j of H(s + t) = sum_j H_j t^j from the exact recursion of solves (dense or sparse)."""
     A0, A1 = s * s * M + s * D + K, 2 * s * M + D
     if hasattr(A0, "tocsr"):
-        solve = factorize(A0.tocsr().astype(complex), "scipy", check=False).solve
+        solve = factorize(A0.tocsr().astype(complex), solver=SolverContext("scipy"), check=False).solve
     else:
         solve = lambda b: np.linalg.solve(A0, b)  # noqa: E731
     X = [solve(np.asarray(B, dtype=complex))]

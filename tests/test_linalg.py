@@ -5,8 +5,7 @@ import pytest
 import scipy.sparse as sp
 
 from flexmor.errors import OptionError, SolverError
-from flexmor.linalg import available_backends, eigenmodes, factorize
-from flexmor.linalg import eigen as eigen_mod
+from flexmor.linalg import EigenPolicy, SolverContext, available_backends, eigenmodes, factorize
 
 BACKENDS = available_backends()
 
@@ -16,7 +15,7 @@ def test_solve_block_and_vector(clamped, backend):
     K = clamped.K
     rng = np.random.default_rng(1)
     B = rng.standard_normal((K.shape[0], 7))
-    F = factorize(K, backend, positive=True)
+    F = factorize(K, solver=SolverContext(backend), positive=True)
     assert F.backend == backend
     X = F.solve(B)
     assert np.linalg.norm(K @ X - B) / np.linalg.norm(B) < 1e-10
@@ -29,7 +28,7 @@ def test_solve_block_and_vector(clamped, backend):
 
 def test_backends_agree(clamped):
     b = np.ones(clamped.n_dof)
-    xs = [factorize(clamped.K, name, positive=True).solve(b) for name in BACKENDS]
+    xs = [factorize(clamped.K, solver=SolverContext(name), positive=True).solve(b) for name in BACKENDS]
     for x in xs[1:]:
         assert np.linalg.norm(x - xs[0]) / np.linalg.norm(xs[0]) < 1e-10
 
@@ -48,20 +47,22 @@ def test_pardiso_reuses_the_ordering_of_a_pattern(clamped):
     K, M, D = clamped.K, clamped.M, 1e-5 * clamped.K
     b = np.ones(clamped.n_dof)
     used = []
+    pardiso, scipy = SolverContext("pardiso"), SolverContext("scipy")
     for f in (151.0, 377.0, 733.0):
         w = 2 * np.pi * f
         A = (K - w**2 * M + 1j * w * D).tocsr()
-        F = factorize(A, "pardiso", check=False)
+        F = factorize(A, solver=pardiso, check=False)
         used.append(F.reused_ordering)
         x = F.solve(b)
         assert np.linalg.norm(A @ x - b) / np.linalg.norm(b) < 1e-10
-        x0 = factorize(A, "scipy", check=False).solve(b)
+        x0 = factorize(A, solver=scipy, check=False).solve(b)
         assert np.linalg.norm(x - x0) / np.linalg.norm(x0) < 1e-10
-    assert used == [used[0], True, True]
+    assert used == [False, True, True] and len(pardiso.orderings) == 1
+    assert not factorize(A, solver=SolverContext("pardiso"), check=False).reused_ordering  # a context of its own
     n = K.shape[0]
     E = sp.coo_matrix(([1.0, 1.0], ([0, n - 1], [n - 1, 0])), shape=(n, n))
     A = (K - (2 * np.pi * 151.0) ** 2 * M + 1e-3 * abs(K).max() * E).tocsr()  # one more entry: another pattern
-    G = factorize(A, "pardiso", check=False)
+    G = factorize(A, solver=pardiso, check=False)
     assert not G.reused_ordering
     assert np.linalg.norm(A @ G.solve(b) - b) / np.linalg.norm(b) < 1e-10
 
@@ -69,18 +70,21 @@ def test_pardiso_reuses_the_ordering_of_a_pattern(clamped):
 @pytest.mark.parametrize("backend", BACKENDS)
 def test_singular_matrix_is_refused(free, backend):
     with pytest.raises(SolverError, match="singular"):
-        factorize(free.K, backend)
+        factorize(free.K, solver=SolverContext(backend))
 
 
 def test_unknown_backend_lists_choices():
     with pytest.raises(OptionError, match="pardiso"):
-        factorize(sp.identity(3, format="csr"), "nonsense")
+        SolverContext(backend="nonsense")
+    with pytest.raises(OptionError, match="SolverContext"):
+        factorize(sp.identity(3, format="csr"), solver="scipy")
 
 
-def test_lanczos_matches_dense(free, monkeypatch):
+def test_lanczos_matches_dense(free):
     lam_dense, _ = eigenmodes(free.K, free.M, 12)
-    monkeypatch.setattr(eigen_mod, "DENSE_LIMIT", 10)
-    lam, phi = eigenmodes(free.K, free.M, 12)
+    solver = SolverContext(eigen=EigenPolicy(dense_limit=10))
+    lam, phi = eigenmodes(free.K, free.M, 12, solver=solver)
+    assert solver.stats.count == 1  # the shift-invert path: one factorization of K - sigma M
     np.testing.assert_allclose(lam[6:], lam_dense[6:], rtol=1e-9)
     assert np.all(np.abs(lam[:6]) < 1e-6 * lam[6])  # rigid-body modes
     np.testing.assert_allclose(phi.T @ (free.M @ phi), np.eye(12), atol=1e-9)

@@ -5,7 +5,7 @@ import pytest
 
 from flexmor.analysis import frf_full, frf_reduced
 from flexmor.errors import OptionError
-from flexmor.linalg import available_backends, factorize
+from flexmor.linalg import SolverContext, available_backends, factorize
 from flexmor.linalg.eigen import eigenmodes, frequencies_hz
 from flexmor.ports import make_ports
 from flexmor.reduction import reduce
@@ -79,9 +79,11 @@ def test_same_results_with_every_backend(clamped, method, order, opts):
     freqs = np.array([50.0, 300.0, 1000.0])
     H = []
     for b in available_backends():
-        red, _ = reduce(clamped, method, order, ports, backend=b, **opts)
+        solver = SolverContext(b)
+        red, _ = reduce(clamped, method, order, ports, solver=solver, **opts)
         H.append(frf_reduced(red, freqs))
-        H.append(frf_full(clamped, ports, freqs, backend=b))
+        H.append(frf_full(clamped, ports, freqs, solver=solver))
+        assert red.info["options"]["backend"] == b and solver.stats.count >= 3
     for h in H[2::2]:
         assert np.abs(h - H[0]).max() / np.abs(H[0]).max() < 1e-8
     for h in H[3::2]:

@@ -40,55 +40,55 @@ def _rel(a, b) -> float:
 
 
 def test_missing_petsc_names_the_install_route(monkeypatch):
-    from flexmor.linalg import factorize, petsc
+    from flexmor.linalg import SolverContext, factorize, petsc
     from flexmor.models import cantilever
 
-    fz = importlib.import_module("flexmor.linalg.factorize")  # the module (the package exports the function)
     monkeypatch.setattr(petsc, "available", lambda: False)
-    monkeypatch.setitem(fz._AVAILABLE, "petsc", False)
     K = cantilever(2, divisions=(4, 1, 1)).K
     with pytest.raises(OptionError, match="python3-petsc4py"):
-        factorize(K, "petsc", positive=True)
+        factorize(K, solver=SolverContext("petsc"), positive=True)
 
 
 # -- one rank, in this process -------------------------------------------------------------------
 @needs_petsc
 def test_serial_solves_match_scipy(clamped):
-    from flexmor.linalg import factorize
+    from flexmor.linalg import SolverContext, factorize
 
     K, M = clamped.K, clamped.M
     b = np.random.default_rng(3).standard_normal((K.shape[0], 3))
-    spd = factorize(K, "petsc", positive=True)
-    assert _rel(spd.solve(b), factorize(K, "scipy").solve(b)) < 1e-10
+    petsc, scipy = SolverContext("petsc"), SolverContext("scipy")
+    spd = factorize(K, solver=petsc, positive=True)
+    assert _rel(spd.solve(b), factorize(K, solver=scipy).solve(b)) < 1e-10
     # complex symmetric K - w^2 M + i w D (real 2N form with a real PETSc) and a 1-D complex rhs
     A = (K - 4e7 * M + 1j * 2e3 * (1e-6 * K)).tocsr()
     bc = b[:, 0] + 1j * b[:, 1]
-    assert _rel(factorize(A, "petsc").solve(bc), factorize(A, "scipy").solve(bc)) < 1e-10
+    assert _rel(factorize(A, solver=petsc).solve(bc), factorize(A, solver=scipy).solve(bc)) < 1e-10
     # symmetric indefinite: the inertia counts the eigenvalues below the shift
     from flexmor.linalg import eigenmodes
 
     lam, _ = eigenmodes(K, M, 12, method="dense")
     shift = 0.5 * (lam[6] + lam[7])
-    F = factorize((K - shift * M).tocsr(), "petsc", check=False)
+    F = factorize((K - shift * M).tocsr(), solver=petsc, check=False)
     assert F.inertia is not None and F.inertia[1] == 7
     assert F.memory_per_rank > 0
+    assert petsc.stats.count == 3 and scipy.stats.count == 2
 
 
 @needs_petsc
 def test_singular_matrix_is_refused(free):
     from flexmor.errors import SolverError
-    from flexmor.linalg import factorize
+    from flexmor.linalg import SolverContext, factorize
 
     with pytest.raises(SolverError, match="singular"):
-        factorize(free.K, "petsc")  # free-free body: six rigid-body modes
+        factorize(free.K, solver=SolverContext("petsc"))  # free-free body: six rigid-body modes
 
 
 @needs_petsc
 def test_serial_slepc_modes_match_dense(clamped):
-    from flexmor.linalg import eigenmodes
+    from flexmor.linalg import SolverContext, eigenmodes
 
     lam0, phi0 = eigenmodes(clamped.K, clamped.M, 12, method="dense")
-    lam1, phi1 = eigenmodes(clamped.K, clamped.M, 10, backend="petsc", method="lanczos")
+    lam1, phi1 = eigenmodes(clamped.K, clamped.M, 10, solver=SolverContext("petsc"), method="lanczos")
     assert _rel(lam1, lam0[:10]) < 1e-8
     assert np.allclose(phi1.T @ clamped.M @ phi1, np.eye(10), atol=1e-10)
     # the square section has pairs of equal frequencies: compare the spanned subspaces

@@ -13,18 +13,16 @@ rigid-body modes).
 from __future__ import annotations
 
 import warnings
-import weakref
 
 import numpy as np
 
 from .errors import FlexmorWarning, ModelError
+from .linalg.context import SolverContext, as_solver
 
 __all__ = ["MAX_RIGID_BODY_MODES", "check_rigid_body_modes", "mechanism_error"]
 
 #: Zero-energy modes an elastic body can have (3 translations + 3 rotations).
 MAX_RIGID_BODY_MODES = 6
-
-_COUNTS: dict = {}  # id(K) -> (weak reference to K, M, count); sparse matrices are not hashable
 
 
 def mechanism_error(model, n_zero: int) -> ModelError:
@@ -35,12 +33,13 @@ def mechanism_error(model, n_zero: int) -> ModelError:
                       "missing elements or released DOFs")
 
 
-def check_rigid_body_modes(model, *, backend: str = "auto") -> int:
+def check_rigid_body_modes(model, *, solver: SolverContext | None = None) -> int:
     """Number of rigid-body (zero-energy) modes of ``model``; refuse a mechanism.
 
     The seven lowest eigenvalues of ``K phi = lam M phi`` (shift-invert at a negative shift, so
     a singular ``K`` needs no special care) are compared with
-    :func:`flexmor.linalg.eigen.rigid_body_threshold`. The count is cached per stiffness matrix.
+    :func:`flexmor.linalg.eigen.rigid_body_threshold`. The count is remembered by the ``solver``
+    context (:meth:`flexmor.linalg.context.SolverContext.remember`) per stiffness and mass matrix.
 
     Returns
     -------
@@ -55,19 +54,13 @@ def check_rigid_body_modes(model, *, backend: str = "auto") -> int:
     """
     from .linalg.eigen import eigenmodes, is_rigid
 
-    cached = _COUNTS.get(id(model.K))
-    if cached is not None and cached[0]() is model.K and cached[1]() is model.M:
-        n_zero = cached[2]
-    else:
-        k = min(MAX_RIGID_BODY_MODES + 1, model.n_dof)
-        lam, _ = eigenmodes(model.K, model.M, k, backend=backend)
-        n_zero = int(np.sum(is_rigid(lam, model.K, model.M)))
-        try:
-            key = id(model.K)
-            _COUNTS[key] = (weakref.ref(model.K, lambda _, key=key: _COUNTS.pop(key, None)), weakref.ref(model.M),
-                            n_zero)
-        except TypeError:  # not weak-referenceable: no cache
-            pass
+    solver = as_solver(solver)
+
+    def count() -> int:
+        lam, _ = eigenmodes(model.K, model.M, min(MAX_RIGID_BODY_MODES + 1, model.n_dof), solver=solver)
+        return int(np.sum(is_rigid(lam, model.K, model.M)))
+
+    n_zero = solver.remember("rigid_body_modes", (model.K, model.M), count)
     if n_zero > MAX_RIGID_BODY_MODES:
         raise mechanism_error(model, n_zero)
     if n_zero:

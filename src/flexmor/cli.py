@@ -63,6 +63,13 @@ def _check_new(path, args) -> Path:
     return path
 
 
+def _solver(args):
+    """The solver context of one command: the backend of ``--backend``."""
+    from .linalg.context import SolverContext
+
+    return SolverContext(backend=args.backend)
+
+
 def _fmt(x, spec=".3e"):
     return "-" if x is None else format(x, spec)
 
@@ -95,7 +102,7 @@ def _read_model(args, couplings=()):
 
 # -- info --------------------------------------------------------------------------------------
 def _info_backends(args) -> int:
-    from .linalg.factorize import describe_backends, memory_available
+    from .linalg.backends import describe_backends, memory_available
 
     rows = describe_backends()
     avail = memory_available()
@@ -125,9 +132,10 @@ def cmd_info(args) -> int:
     model, t_read, _ = _read_model(args)
     out = model.summary()
     out["backends"] = available_backends()
+    solver = _solver(args)
     if args.modes:
         k = min(args.modes, model.n_dof)
-        lam, _ = eigenmodes(model.K, model.M, min(max(k, 7), model.n_dof), backend=args.backend)
+        lam, _ = eigenmodes(model.K, model.M, min(max(k, 7), model.n_dof), solver=solver)
         n_zero = int(np.sum(is_rigid(lam, model.K, model.M)))
         if n_zero > MAX_RIGID_BODY_MODES:
             raise mechanism_error(model, n_zero)
@@ -137,7 +145,7 @@ def cmd_info(args) -> int:
     if args.reference:
         from .io.frd import compare_modes, read_frd
 
-        out["reference"] = dict(compare_modes(model, read_frd(args.reference), backend=args.backend),
+        out["reference"] = dict(compare_modes(model, read_frd(args.reference), solver=solver),
                                 file=str(args.reference))
     out["timings"] = {"read": t_read}
     if args.json:
@@ -176,7 +184,7 @@ def cmd_reduce(args) -> int:
     band = None if args.no_error else (given_band or DEFAULT_BAND)
     red, res = reduce_and_judge(model, args.method, args.order, ports, band=band, method_band=given_band,
                                 n_freq=args.n_freq, grid_tol=args.grid_tol, full_frf=args.full_frf,
-                                cache=not args.no_cache, backend=args.backend, progress=_progress(args, "full FRF"),
+                                cache=not args.no_cache, solver=_solver(args), progress=_progress(args, "full FRF"),
                                 interface=args.interface or None, tol=args.tol, points=args.points,
                                 moments=args.moments, side=args.side, rigid=args.rigid, max_iter=args.max_iter,
                                 shift_tol=args.shift_tol, intermediate=args.intermediate, variant=args.variant,
@@ -223,13 +231,14 @@ def cmd_compare(args) -> int:
     from .workflow import prepare_model
 
     model, t_read, band, reds = _model_and_bodies(args)
+    solver = _solver(args)
     fulls, rows = {}, []
     for path, red in zip(args.reduced, reds):
         couplings = tuple(red.info.get("couplings", ()))
         key = (tuple(red.input_names), tuple(red.output_names), couplings)
         if key not in fulls:
             body_model = prepare_model(model, couplings, red.damping)
-            fulls[key] = _full_response(args, body_model, make_ports(body_model, *key[:2]), band)
+            fulls[key] = _full_response(args, body_model, make_ports(body_model, *key[:2]), band, solver)
         t0 = time.perf_counter()
         err = fulls[key].evaluate(red)
         t_err = time.perf_counter() - t0
@@ -247,12 +256,12 @@ def cmd_compare(args) -> int:
     return 0
 
 
-def _full_response(args, model, ports, band):
+def _full_response(args, model, ports, band, solver):
     """The full FRF over ``band`` with the sweep options of the command line."""
     from .analysis.compare import FullResponse
 
     grid_opts = {} if args.grid_tol is None else {"tol": args.grid_tol}
-    return FullResponse(model, ports, band, n=args.n_freq, backend=args.backend, path=args.full_frf,
+    return FullResponse(model, ports, band, n=args.n_freq, solver=solver, path=args.full_frf,
                         cache=not args.no_cache, progress=_progress(args, "full FRF"), **grid_opts)
 
 
@@ -308,9 +317,10 @@ def cmd_report(args) -> int:
                           f"these differ: {', '.join(other)}")
     model = prepare_model(model, key[2], reds[0].damping)
     ports = make_ports(model, *key[:2])
-    full = _full_response(args, model, ports, band)
+    solver = _solver(args)
+    full = _full_response(args, model, ports, band, solver)
     rep = build_report(model, ports, reds, band=band, full=full, signal=args.signal, dt=args.dt, t_end=args.t_end,
-                       scheme=args.scheme, n_modes=args.modes, backend=args.backend,
+                       scheme=args.scheme, n_modes=args.modes, solver=solver,
                        time_progress=_progress(args, "time steps", unit="step"))
     write_report(rep, _check_new(args.output_file, args))
     if args.json:

@@ -17,6 +17,7 @@ from .basis import Basis
 from .errors import OptionError
 from .projection import project
 from .reduction import reduce
+from .linalg.context import SolverContext, as_solver
 
 __all__ = ["reduce_to_tolerance", "NESTED"]
 
@@ -27,7 +28,7 @@ NESTED = {"modal"}
 
 
 def reduce_to_tolerance(model, method: str, ports, *, tol: float, full, max_order: int | None = None,
-                        start: int | None = None, backend: str = "auto", **options):
+                        start: int | None = None, solver: SolverContext | None = None, **options):
     """Reduce with the smallest order (found by doubling and bisection) with ``band_error <= tol``.
 
     Parameters
@@ -54,6 +55,7 @@ def reduce_to_tolerance(model, method: str, ports, *, tol: float, full, max_orde
     search : dict
         ``tol``, ``tol_reached``, ``orders_tried`` with their band_error.
     """
+    solver = as_solver(solver)
     if tol is None or not tol > 0:
         raise OptionError(f"--tol must be a positive number, got {tol}")
     max_order = int(max_order or min(model.n_dof, 400))
@@ -66,13 +68,13 @@ def reduce_to_tolerance(model, method: str, ports, *, tol: float, full, max_orde
             if big is not None and (big.info.get("nested") or method in NESTED) and r <= big.order:
                 red = project(model, Basis(big.V[:, :r], method, dict(big.info)), ports)
             else:
-                red = reduce(model, method, r, ports, backend=backend, **options)[0]
+                red = reduce(model, method, r, ports, solver=solver, **options)[0]
             tried[r] = (full.evaluate(red)["band_error"], red)
         return tried[r][0]
 
     while True:
         R = min(R, max_order)
-        big = reduce(model, method, R, ports, backend=backend, **options)[0]
+        big = reduce(model, method, R, ports, solver=solver, **options)[0]
         tried[big.order] = (full.evaluate(big)["band_error"], big)
         if tried[big.order][0] <= tol or R >= max_order or big.order < R:
             break

@@ -11,9 +11,9 @@ import numpy as np
 from .analysis.compare import FullResponse
 from .checks import check_rigid_body_modes
 from .errors import OptionError
-from .linalg.factorize import STATS
 from .ports import make_ports
 from .reduction import reduce
+from .linalg.context import SolverContext, as_solver
 
 __all__ = ["coupling_specs", "prepare_model", "parse_band", "parse_pair", "apply_damping", "reduce_and_judge",
            "run_demo", "DEFAULT_BAND"]
@@ -92,7 +92,7 @@ def prepare_model(model, couplings=(), damping: dict | None = None):
 
 def reduce_and_judge(model, method: str, order, ports, *, band=None, full: FullResponse | None = None,
                      n_freq: int = 50, grid_tol: float | None = None, full_frf: str = "auto", cache=True,
-                     backend: str = "auto", progress=None, tol: float | None = None, method_band=None,
+                     solver: SolverContext | None = None, progress=None, tol: float | None = None, method_band=None,
                      **options):
     """Reduce ``model`` and evaluate the error measures over ``band``.
 
@@ -110,7 +110,8 @@ def reduce_and_judge(model, method: str, order, ports, *, band=None, full: FullR
     evaluation). A mechanism (more than six zero-energy modes) is refused first
     (:func:`flexmor.checks.check_rigid_body_modes`).
     """
-    check_rigid_body_modes(model, backend=backend)
+    solver = as_solver(solver)
+    check_rigid_body_modes(model, solver=solver)
     method_band = band if band is not None else method_band
     if method_band is not None and "band" in _method_options(method):
         options.setdefault("band", tuple(method_band))  # default expansion points of krylov, adaptive, irka
@@ -120,18 +121,18 @@ def reduce_and_judge(model, method: str, order, ports, *, band=None, full: FullR
             raise OptionError("--tol needs the error evaluation over a band (drop --no-error)")
         if full is None:
             grid_opts = {} if grid_tol is None else {"tol": grid_tol}
-            full = FullResponse(model, ports, band, n=n_freq, backend=backend, path=full_frf, cache=cache,
+            full = FullResponse(model, ports, band, n=n_freq, solver=solver, path=full_frf, cache=cache,
                                 progress=progress, **grid_opts)
             t_full = full.seconds
-    f0 = STATS["seconds"]
+    f0 = solver.stats.seconds
     if tol is not None:
         from .tolerance import reduce_to_tolerance
 
         red, t, _ = reduce_to_tolerance(model, method, ports, tol=tol, full=full, max_order=order,
-                                        backend=backend, **options)
+                                        solver=solver, **options)
     else:
-        red, t = reduce(model, method, order, ports, backend=backend, **options)
-    t["factorize"] = STATS["seconds"] - f0
+        red, t = reduce(model, method, order, ports, solver=solver, **options)
+    t["factorize"] = solver.stats.seconds - f0
     if t_full is not None:
         t["full_frf"] = t_full
     result = {
@@ -144,7 +145,7 @@ def reduce_and_judge(model, method: str, order, ports, *, band=None, full: FullR
     }
     if full is None and band is not None:
         grid_opts = {} if grid_tol is None else {"tol": grid_tol}
-        full = FullResponse(model, ports, band, n=n_freq, backend=backend, path=full_frf, cache=cache,
+        full = FullResponse(model, ports, band, n=n_freq, solver=solver, path=full_frf, cache=cache,
                             progress=progress, **grid_opts)
         t["full_frf"] = full.seconds
     if full is not None:
@@ -189,14 +190,15 @@ def run_demo(out, *, n: int = 4, band=(10.0, 3000.0), progress=None, on_result=N
     out = Path(out)
     model = cantilever(n=n).with_rayleigh(0.0, 1e-6)
     ports = make_ports(model, ["TIP:y", "TIP:z"])
-    full = FullResponse(model, ports, band, backend="auto", progress=progress)
+    solver = SolverContext()
+    full = FullResponse(model, ports, band, solver=solver, progress=progress)
     jobs = [("modal", 4, {}), ("modal", 8, {}), ("modal", 16, {}),
             ("craig-bampton", 8, {"interface": ["TIP_CENTER"]}),
             ("craig-bampton", 16, {"interface": ["TIP_CENTER"]}), ("krylov", 8, {"band": band}),
             ("fw-sobt", 8, {"band": band})]
     results, curves, reds = [], {}, []
     for method, order, opts in jobs:
-        red, res = reduce_and_judge(model, method, order, ports, full=full, **opts)
+        red, res = reduce_and_judge(model, method, order, ports, full=full, solver=solver, **opts)
         reds.append(red)
         path = out / f"{model.name}_{method}_{order}.h5"
         write_reduced(red, path)
@@ -210,7 +212,7 @@ def run_demo(out, *, n: int = 4, band=(10.0, 3000.0), progress=None, on_result=N
     from .report.html import build_report, write_report
 
     rep = build_report(model, ports, reds, band=band, full=full, seconds=[r["seconds"] for r in results],
-                       time_progress=time_progress)
+                       solver=solver, time_progress=time_progress)
     write_report(rep, out / "report.html")
     for res, row in zip(results, rep.rows):
         res.update(time_mean_error=row["time_mean_error"], time_max_error=row["time_max_error"])

@@ -10,12 +10,12 @@ import numpy as np
 
 from ..errors import OptionError
 from ..linalg import factorize
-from ..linalg.eigen import DENSE_LIMIT, default_shift, eigenmodes, frequencies_hz
-from ..linalg.factorize import STATS
+from ..linalg.eigen import default_shift, eigenmodes, frequencies_hz
 from . import cache as frf_cache
 from .frequency import error_measures, frf_full, frf_reduced, rel_error
 from .grid import DEFAULT_TOL, adaptive_grid
 from .surrogate import DEFAULT_SURROGATE_TOL
+from ..linalg.context import SolverContext, as_solver
 
 __all__ = ["FullResponse", "modal_damping_ratios", "PATHS"]
 
@@ -45,7 +45,7 @@ def modal_damping_ratios(damping: dict, freqs_hz, phi=None, D=None) -> np.ndarra
     return None
 
 
-def _modes(model, fmax: float, backend: str, max_modes: int = 400):
+def _modes(model, fmax: float, solver: SolverContext, max_modes: int = 400):
     """Modal pre-pass: eigenfrequencies (Hz) and mass-normalized modes up to ``fmax``.
 
     Returns ``(f, phi, F, sigma)``: ``F`` the factorization of ``K - sigma M`` (None for
@@ -54,11 +54,11 @@ def _modes(model, fmax: float, backend: str, max_modes: int = 400):
     sigma = default_shift(model.K, model.M)
     F = None
     k = min(model.n_dof, 20)
-    if model.n_dof > DENSE_LIMIT:  # count first: one large factorization alive at a time
-        k = _count_below(model, fmax, backend) or k
-        F = factorize((model.K - sigma * model.M).tocsr(), backend, positive=True)
+    if model.n_dof > solver.eigen.dense_limit:  # count first: one large factorization alive at a time
+        k = _count_below(model, fmax, solver) or k
+        F = factorize((model.K - sigma * model.M).tocsr(), solver=solver, positive=True)
     while True:
-        lam, phi = eigenmodes(model.K, model.M, k, sigma=sigma, factorization=F)
+        lam, phi = eigenmodes(model.K, model.M, k, sigma=sigma, factorization=F, solver=solver)
         f = frequencies_hz(lam)
         if f[-1] > fmax or k >= min(model.n_dof, max_modes):
             keep = f <= fmax
@@ -67,14 +67,14 @@ def _modes(model, fmax: float, backend: str, max_modes: int = 400):
         k = min(model.n_dof, max_modes, max(k + 8, int(np.ceil(1.15 * k * fmax / max(f[-1], 1e-30)))))
 
 
-def _count_below(model, fmax: float, backend: str) -> int | None:
+def _count_below(model, fmax: float, solver: SolverContext) -> int | None:
     """Number of eigenfrequencies below ``fmax`` plus 2 from the inertia of ``K - w^2 M``.
 
     One real symmetric indefinite factorization (Sylvester's law of inertia) replaces the
     guessing of the number of modes; None when the backend does not report the inertia.
     """
     try:
-        F = factorize((model.K - (2 * np.pi * fmax) ** 2 * model.M).tocsr(), backend, symmetric=True, check=False)
+        F = factorize((model.K - (2 * np.pi * fmax) ** 2 * model.M).tocsr(), solver=solver, symmetric=True, check=False)
     except Exception:  # noqa: BLE001 - e.g. fmax exactly at an eigenvalue: fall back to guessing
         return None
     if F.inertia is None:
@@ -82,9 +82,9 @@ def _count_below(model, fmax: float, backend: str) -> int | None:
     return min(model.n_dof, F.inertia[1] + 2)
 
 
-def _resonances(model, fmax: float, backend: str, max_modes: int = 400) -> np.ndarray:
+def _resonances(model, fmax: float, solver: SolverContext, max_modes: int = 400) -> np.ndarray:
     """Eigenfrequencies (Hz) of the full model up to ``fmax`` (modal pre-pass, one factorization)."""
-    return _modes(model, fmax, backend, max_modes)[0]
+    return _modes(model, fmax, solver, max_modes)[0]
 
 
 class FullResponse:
@@ -110,8 +110,8 @@ class FullResponse:
         Relative tolerance of the grid refinement (see :func:`adaptive_grid`).
     max_points : int
         Largest grid.
-    backend : str
-        Backend of :func:`flexmor.linalg.factorize`.
+    solver : SolverContext, optional
+        Solver (backend, statistics) of :func:`flexmor.linalg.factorize`.
     path : {'auto', 'direct', 'surrogate'}
         How H is evaluated on the grid (see :data:`PATHS`).
     surrogate_tol : float
@@ -150,10 +150,11 @@ class FullResponse:
     """
 
     def __init__(self, model, ports, band, *, n: int = 50, tol: float = DEFAULT_TOL, max_points: int = 3000,
-                 backend: str = "auto", path: str = "auto", surrogate_tol: float = DEFAULT_SURROGATE_TOL,
+                 solver: SolverContext | None = None, path: str = "auto", surrogate_tol: float = DEFAULT_SURROGATE_TOL,
                  cache=True, progress: Callable | None = None, check_solver: str = "auto"):
         t0 = time.perf_counter()
-        c0 = STATS["count"]
+        solver = as_solver(solver)
+        c0 = solver.stats.count
         if path not in PATHS:
             raise OptionError(f"path={path!r} is not allowed; choose one of: {', '.join(PATHS)}")
         self.band = (float(band[0]), float(band[1]))
@@ -180,24 +181,24 @@ class FullResponse:
             self.resonances, self.zeta, self.grid = entry["resonances"], entry["zeta"], entry["info"]
             log.info("full FRF from the cache (%d frequencies)", self.freqs.size)
         else:
-            self._compute(model, ports, n=n, tol=tol, max_points=max_points, backend=backend, progress=progress,
+            self._compute(model, ports, n=n, tol=tol, max_points=max_points, solver=solver, progress=progress,
                           surrogate_tol=surrogate_tol, check_solver=check_solver)
             if key:
                 t1 = time.perf_counter()
                 frf_cache.store(key, self.freqs, self.H, self.resonances, self.zeta, self.grid, directory)
                 self.timings["cache"] += time.perf_counter() - t1
         self.grid["cache_hit"] = self.cache_hit
-        self.n_factorizations = STATS["count"] - c0
+        self.n_factorizations = solver.stats.count - c0
         self.seconds = time.perf_counter() - t0
         log.info("full FRF: %d frequencies in %.2f s (%s%s)", self.freqs.size, self.seconds, path,
                  ", cached" if self.cache_hit else "")
 
-    def _compute(self, model, ports, *, n, tol, max_points, backend, progress, surrogate_tol, check_solver):
+    def _compute(self, model, ports, *, n, tol, max_points, solver, progress, surrogate_tol, check_solver):
         t0 = time.perf_counter()
         fmin, fmax = self.band
         damped = model.D is not None
         f_modes = fmax * (1.1 if self.path == "surrogate" else 1.0)
-        f_all, phi, F0, sigma = _modes(model, f_modes, backend)
+        f_all, phi, F0, sigma = _modes(model, f_modes, solver)
         z_all = modal_damping_ratios(model.damping, f_all, phi, model.D) if damped else None
         z_all = np.zeros(f_all.size) if z_all is None else np.maximum(z_all, 0.0)
         inband = (f_all >= fmin) & (f_all <= fmax)
@@ -207,7 +208,7 @@ class FullResponse:
         if self.path == "surrogate":
             from .surrogate import Surrogate
 
-            sur = Surrogate(model, ports, self.band, phi=phi, factorization=F0, sigma=sigma, backend=backend,
+            sur = Surrogate(model, ports, self.band, phi=phi, factorization=F0, sigma=sigma, solver=solver,
                             tol=surrogate_tol, resonances=self.resonances, zeta=self.zeta,
                             check_solver=check_solver)
             evaluate = sur.frf
@@ -215,7 +216,7 @@ class FullResponse:
             sur = None
 
             def evaluate(freqs):
-                return frf_full(model, ports, freqs, backend=backend, progress=progress)
+                return frf_full(model, ports, freqs, solver=solver, progress=progress)
 
         refine = damped and bool(np.all(self.zeta > 0))
         self.freqs, self.H, self.grid = adaptive_grid(

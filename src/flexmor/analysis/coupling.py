@@ -56,6 +56,7 @@ from ..linalg import factorize
 from ..model import FEModel
 from ..ports import Ports, make_ports
 from ..projection import ReducedModel
+from ..linalg.context import SolverContext, as_solver
 
 __all__ = ["Assembly", "Body", "coupling_warning"]
 
@@ -284,7 +285,7 @@ class Assembly:
         return list(body.ports.input_names if role == "input" else body.ports.output_names)
 
     # -- responses ----------------------------------------------------------------------
-    def transfer(self, s, *, inputs=None, outputs=None, backend: str = "auto") -> np.ndarray:
+    def transfer(self, s, *, inputs=None, outputs=None, solver: SolverContext | None = None) -> np.ndarray:
         """``H(s) = C (s^2 M + s D + K)^{-1} B`` at complex points ``s`` (rad/s).
 
         Parameters
@@ -293,13 +294,14 @@ class Assembly:
             Laplace variable values.
         inputs, outputs : list of (body, SPEC), optional
             Default: every body's own inputs / outputs.
-        backend : str
-            Backend of :func:`flexmor.linalg.factorize` (sparse assemblies only).
+        solver : SolverContext, optional
+            Solver (backend, statistics) of :func:`flexmor.linalg.factorize` (sparse assemblies only).
 
         Returns
         -------
         ndarray, shape (n_s, n_outputs, n_inputs), complex
         """
+        solver = as_solver(solver)
         s = np.atleast_1d(np.asarray(s, dtype=complex))
         M, D, K = self.matrices()
         B, C = self._io(inputs, outputs)
@@ -307,7 +309,7 @@ class Assembly:
         for k, sk in enumerate(s):
             if self.sparse:
                 A = (sk * sk) * M + K if D is None else (sk * sk) * M + sk * D + K
-                F = factorize(sp.csr_matrix(A), backend, symmetric=True, check=False)
+                F = factorize(sp.csr_matrix(A), solver=solver, symmetric=True, check=False)
                 H[k] = C @ F.solve(B.astype(complex))
                 del F
             else:
@@ -315,13 +317,14 @@ class Assembly:
                 H[k] = C @ np.linalg.solve(A, B.astype(complex))
         return H
 
-    def frf(self, freqs, *, inputs=None, outputs=None, backend: str = "auto") -> np.ndarray:
+    def frf(self, freqs, *, inputs=None, outputs=None, solver: SolverContext | None = None) -> np.ndarray:
         """Frequency response at ``freqs`` (Hz), shape (n_freq, n_outputs, n_inputs).
 
         Full assemblies are solved sparse, one :func:`flexmor.linalg.factorize` per
         frequency; all-reduced assemblies dense.
         """
+        solver = as_solver(solver)
         f = np.atleast_1d(np.asarray(freqs, dtype=float))
         if not np.all(np.isfinite(f)) or np.any(f < 0):
             raise OptionError("frequencies must be finite and >= 0 Hz")
-        return self.transfer(2j * np.pi * f, inputs=inputs, outputs=outputs, backend=backend)
+        return self.transfer(2j * np.pi * f, inputs=inputs, outputs=outputs, solver=solver)

@@ -26,6 +26,7 @@ import scipy.sparse as sp
 
 from ..errors import OptionError
 from ..linalg import factorize
+from ..linalg.context import SolverContext, as_solver
 
 __all__ = ["ShiftedMatrices", "frf_full", "frf_reduced", "rel_error", "band_error", "max_rel_error", "hinf_error",
            "band_grid", "error_measures"]
@@ -84,7 +85,8 @@ class ShiftedMatrices:
         return sp.csr_matrix((data, self.indices, self.indptr), shape=self.shape)
 
 
-def frf_full(model, ports, freqs, *, backend: str = "auto", progress: Callable | None = None) -> np.ndarray:
+def frf_full(model, ports, freqs, *, solver: SolverContext | None = None,
+             progress: Callable | None = None) -> np.ndarray:
     """Frequency response of the full sparse model, shape (n_freq, n_outputs, n_inputs).
 
     One factorization of ``K - w^2 M + i w D`` per frequency (complex symmetric when damped,
@@ -98,8 +100,8 @@ def frf_full(model, ports, freqs, *, backend: str = "auto", progress: Callable |
         Inputs ``B`` (n_dof, m) and outputs ``C`` (p, n_dof).
     freqs : array_like
         Frequencies in Hz.
-    backend : str
-        Backend of :func:`flexmor.linalg.factorize`.
+    solver : SolverContext, optional
+        Solver (backend, statistics) of :func:`flexmor.linalg.factorize`.
     progress : callable, optional
         Called as ``progress(iterable, total)`` and must return an iterable (e.g. tqdm).
 
@@ -107,6 +109,7 @@ def frf_full(model, ports, freqs, *, backend: str = "auto", progress: Callable |
     -------
     ndarray, shape (n_freq, n_outputs, n_inputs), complex
     """
+    solver = as_solver(solver)
     w = _omega(freqs)
     B = ports.B.toarray()
     C = ports.C
@@ -116,7 +119,7 @@ def frf_full(model, ports, freqs, *, backend: str = "auto", progress: Callable |
     A = ShiftedMatrices(model.K, model.M, model.D)
     it = range(w.size) if progress is None else progress(range(w.size), w.size)
     for k in it:
-        F = factorize(A(w[k]), backend, symmetric=True, check=False)
+        F = factorize(A(w[k]), solver=solver, symmetric=True, check=False)
         H[k] = C @ F.solve(B)
         del F  # release the factors before the next frequency
     return H

@@ -23,6 +23,7 @@ import scipy.linalg as sla
 
 from ..errors import ModelError, OptionError
 from ..linalg.eigen import eigenmodes, frequencies_hz, is_rigid
+from ..linalg.context import SolverContext, as_solver
 
 __all__ = ["DEGENERATE_RTOL", "PAIR_MAC_MIN", "full_modes", "mac", "modal_check"]
 
@@ -52,15 +53,16 @@ def mac(Phi, Psi) -> np.ndarray:
     return num / np.where(den > 0, den, np.finfo(float).tiny)
 
 
-def full_modes(model, n_modes: int, *, backend: str = "auto"):
+def full_modes(model, n_modes: int, *, solver: SolverContext | None = None):
     """Lowest ``n_modes`` flexible eigenpairs of the full model (rigid-body modes skipped).
 
     A repeated eigenvalue at the end is kept whole, so one more mode may be returned.
 
     Returns ``(f_hz, phi, n_rigid)`` with mass-normalized ``phi`` (n_dof, n_modes).
     """
+    solver = as_solver(solver)
     k = min(model.n_dof, int(n_modes) + 6 + 4)
-    lam, phi = eigenmodes(model.K, model.M, k, backend=backend)
+    lam, phi = eigenmodes(model.K, model.M, k, solver=solver)
     rigid = is_rigid(lam, model.K, model.M)
     flex = np.flatnonzero(~rigid)
     n = min(int(n_modes), flex.size)
@@ -93,7 +95,7 @@ def _align_clusters(f, phi, Psi, M) -> np.ndarray:
     return phi
 
 
-def modal_check(model, reduced, *, n_modes: int | None = None, full=None, backend: str = "auto") -> dict:
+def modal_check(model, reduced, *, n_modes: int | None = None, full=None, solver: SolverContext | None = None) -> dict:
     """Eigenfrequencies of ``reduced`` against the full model, and the MAC matrix.
 
     Parameters
@@ -106,8 +108,8 @@ def modal_check(model, reduced, *, n_modes: int | None = None, full=None, backen
         Number of full flexible modes compared; default ``min(r, 20)``.
     full : tuple, optional
         ``(f_hz, phi[, n_rigid])`` of :func:`full_modes`, to reuse for several bodies.
-    backend : str
-        Backend of :func:`flexmor.linalg.factorize` for the full eigenproblem.
+    solver : SolverContext, optional
+        Solver (backend, statistics) of :func:`flexmor.linalg.factorize` for the full eigenproblem.
 
     Returns
     -------
@@ -123,6 +125,7 @@ def modal_check(model, reduced, *, n_modes: int | None = None, full=None, backen
     Allemang, R. J. (2003). The modal assurance criterion - twenty years of use and abuse.
     Sound and Vibration 37(8), 14-23.
     """
+    solver = as_solver(solver)
     if reduced.V is None:
         raise ModelError("the reduced body has no basis V; the MAC needs the expanded mode shapes")
     V = np.asarray(reduced.V, float)
@@ -136,7 +139,7 @@ def modal_check(model, reduced, *, n_modes: int | None = None, full=None, backen
     f_r, Psi = frequencies_hz(lam_r[~rig_r]), V @ psi[:, ~rig_r]
     if full is None:
         n = min(reduced.order, 20) if n_modes is None else int(n_modes)
-        f, phi, n_rig = full_modes(model, n, backend=backend)
+        f, phi, n_rig = full_modes(model, n, solver=solver)
     else:
         f, phi, *rest = full
         n_rig = int(rest[0]) if rest else 0

@@ -48,9 +48,10 @@ import scipy.linalg as sla
 from ..basis import extend_orthonormal
 from ..errors import check_choice
 from ..linalg import factorize
-from ..linalg.factorize import MEMORY_FRACTION, memory_available
+from ..linalg.backends import MEMORY_FRACTION, memory_available
 from .frequency import ShiftedMatrices, _omega
 from .grid import initial_grid
+from ..linalg.context import SolverContext, as_solver
 
 __all__ = ["Surrogate", "DEFAULT_SURROGATE_TOL"]
 
@@ -88,8 +89,8 @@ class Surrogate:
         Factorization of ``K - sigma M`` (computed here when None).
     sigma : float
         Its shift.
-    backend : str
-        Backend of :func:`flexmor.linalg.factorize` for the direct checks.
+    solver : SolverContext, optional
+        Solver (backend, statistics) of :func:`flexmor.linalg.factorize` for the direct checks.
     tol : float
         Largest accepted pointwise relative error at the checks.
     n_krylov : int
@@ -104,15 +105,16 @@ class Surrogate:
         Resonances and damping ratios, for candidate points at the peaks.
     """
 
-    def __init__(self, model, ports, band, *, phi, factorization=None, sigma=0.0, backend="auto",
+    def __init__(self, model, ports, band, *, phi, factorization=None, sigma=0.0, solver: SolverContext | None = None,
                  tol: float = DEFAULT_SURROGATE_TOL, n_krylov: int = 3, max_checks: int = 10,
                  resonances=None, zeta=None, check_solver: str = "auto"):
         check_choice("check_solver", check_solver, CHECK_SOLVERS)
-        self.model, self.backend, self.tol = model, backend, float(tol)
+        solver = as_solver(solver)
+        self.model, self.solver, self.tol = model, solver, float(tol)
         self.B = ports.B.toarray()
         self.C = ports.C
         self.shifted = ShiftedMatrices(model.K, model.M, model.D)
-        F0 = factorization or factorize((model.K - sigma * model.M).tocsr(), backend, positive=sigma < 0)
+        F0 = factorization or factorize((model.K - sigma * model.M).tocsr(), solver=solver, positive=sigma < 0)
         self._F0 = F0
         if check_solver == "auto":
             est, avail = F0.memory_estimate, memory_available()
@@ -200,7 +202,7 @@ class Surrogate:
         w = 2 * np.pi * f_hz
         info = {"solver": self.check_solver}
         if self.check_solver == "direct":
-            F = factorize(self.shifted(w), self.backend, symmetric=True, check=False)
+            F = factorize(self.shifted(w), solver=self.solver, symmetric=True, check=False)
             X = F.solve(self.B)
             del F
         else:

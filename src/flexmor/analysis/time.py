@@ -51,6 +51,7 @@ import scipy.sparse as sp
 
 from ..errors import OptionError, check_choice
 from ..linalg import factorize
+from ..linalg.context import SolverContext, as_solver
 
 __all__ = [
     "QUANTITIES",
@@ -224,7 +225,7 @@ def _dense_solver(S):
 
 
 def simulate(system, u, *, dt: float, t_end: float, ports=None, scheme: str = "newmark", rho_inf: float = 0.9,
-             q0=None, v0=None, backend: str = "auto", progress: Callable | None = None) -> TimeResponse:
+             q0=None, v0=None, solver: SolverContext | None = None, progress: Callable | None = None) -> TimeResponse:
     """Integrate ``M q'' + D q' + K q = B u(t)`` from ``t = 0`` to ``t_end`` and record ``y = C q``.
 
     Parameters
@@ -244,8 +245,8 @@ def simulate(system, u, *, dt: float, t_end: float, ports=None, scheme: str = "n
         Spectral radius at infinity of ``generalized-alpha`` (0 ≤ ρ∞ ≤ 1).
     q0, v0 : array_like, optional
         Initial displacement and velocity, shape (n,) or (n, n_cases); default zero.
-    backend : str
-        Backend of :func:`flexmor.linalg.factorize` (full bodies).
+    solver : SolverContext, optional
+        Solver (backend, statistics) of :func:`flexmor.linalg.factorize` (full bodies).
     progress : callable, optional
         ``progress(iterable, total)`` wrapper of the step loop (e.g. tqdm).
 
@@ -262,6 +263,7 @@ def simulate(system, u, *, dt: float, t_end: float, ports=None, scheme: str = "n
     with improved numerical dissipation: the generalized-α method. Journal of Applied
     Mechanics 60(2), 371-375.
     """
+    solver = as_solver(solver)
     t_start = time.perf_counter()
     dt, t_end = float(dt), float(t_end)
     if not (np.isfinite(dt) and np.isfinite(t_end)) or dt <= 0 or t_end <= 0:
@@ -284,7 +286,7 @@ def simulate(system, u, *, dt: float, t_end: float, ports=None, scheme: str = "n
         S = S + (1 - af) * gamma * h * D
     n_fact = 0
     if sparse:
-        solve = factorize(sp.csr_matrix(S), backend, symmetric=True, positive=True).solve
+        solve = factorize(sp.csr_matrix(S), solver=solver, symmetric=True, positive=True).solve
         n_fact += 1
     else:
         solve = _dense_solver(S)
@@ -292,7 +294,7 @@ def simulate(system, u, *, dt: float, t_end: float, ports=None, scheme: str = "n
     f0 = F(0) - K @ q - (D @ v if D is not None else 0.0)
     if np.any(f0):
         if sparse:
-            a = factorize(M, backend, symmetric=True, positive=True).solve(f0)
+            a = factorize(M, solver=solver, symmetric=True, positive=True).solve(f0)
             n_fact += 1
         else:
             a = _dense_solver(M)(f0)

@@ -35,6 +35,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import ModelError, ReadError
+from ..linalg.context import SolverContext, as_solver
 
 __all__ = ["FrdResult", "compare_modes", "modes", "read_frd"]
 
@@ -290,7 +291,8 @@ def _frequency(block) -> float:
     return f
 
 
-def compare_modes(model, res: FrdResult, *, k: int | None = None, backend: str = "auto", cluster: float = 1e-3):
+def compare_modes(model, res: FrdResult, *, k: int | None = None, solver: SolverContext | None = None,
+                  cluster: float = 1e-3):
     """Compare ``model`` with the modes of an frd file.
 
     Each frd mode is mapped to the model's translational equations (its nodes and x y z) and
@@ -303,13 +305,14 @@ def compare_modes(model, res: FrdResult, *, k: int | None = None, backend: str =
     dict
         ``frequencies_hz`` (the frd's), ``model_frequencies_hz``, ``rel_diff`` and ``mac``.
     """
+    solver = as_solver(solver)
     from ..linalg.eigen import eigenmodes
 
     f_ref, nodes, shapes = modes(res)
     k = len(f_ref) if k is None else min(k, len(f_ref))
     if model.dofs is None:
         raise ModelError("the model has no equation map to compare mode shapes with")
-    lam, phi = eigenmodes(model.K, model.M, min(k + 2, model.n_dof), backend=backend)
+    lam, phi = eigenmodes(model.K, model.M, min(k + 2, model.n_dof), solver=solver)
     f_mod = np.sqrt(np.clip(lam, 0, None)) / (2 * np.pi)
     pos = {int(n): i for i, n in enumerate(nodes)}
     rows = [(e, pos.get(int(g)), d - 1) for e, (g, d) in enumerate(model.dofs) if d <= 3]

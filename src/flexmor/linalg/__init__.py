@@ -1,6 +1,9 @@
-"""Sparse linear algebra: one factorization layer and eigen solvers built on it."""
+"""Sparse linear algebra: one factorization layer, the solver context, and eigen solvers built on it."""
 
+from .backends import BACKENDS, Backend, Factorization, SolverStats, available_backends
+from .context import EigenPolicy, SolverContext
 from .eigen import eigenmodes
-from .factorize import BACKENDS, Factorization, available_backends, factorize
+from .factorize import factorize
 
-__all__ = ["factorize", "Factorization", "available_backends", "BACKENDS", "eigenmodes"]
+__all__ = ["factorize", "Factorization", "SolverContext", "SolverStats", "EigenPolicy", "available_backends",
+           "Backend", "BACKENDS", "eigenmodes"]

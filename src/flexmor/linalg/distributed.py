@@ -23,9 +23,11 @@ imports MPI unless the process was started by an MPI launcher (or a partitioned 
 
 from __future__ import annotations
 
+import functools
 import logging
 import os
 import sys
+from dataclasses import dataclass
 
 import numpy as np
 import scipy.sparse as sp
@@ -33,6 +35,7 @@ import scipy.sparse as sp
 from ..errors import SolverError
 
 __all__ = [
+    "MPILayout",
     "PartitionedCSR",
     "allgather_rows",
     "allreduce",
@@ -41,6 +44,7 @@ __all__ = [
     "is_partitioned",
     "is_root",
     "launched_by_mpi",
+    "layout",
     "on_root",
     "quiet_other_ranks",
     "rank",
@@ -55,39 +59,54 @@ log = logging.getLogger(__name__)
 #: Environment variables set by MPI launchers (Open MPI, MPICH/Hydra, PMIx, Slurm PMI).
 _LAUNCHER_VARS = ("OMPI_COMM_WORLD_SIZE", "PMI_SIZE", "PMIX_RANK", "MPI_LOCALNRANKS", "PMI_RANK")
 
-_COMM = None
-
-
 def launched_by_mpi() -> bool:
     """True if an MPI launcher (mpirun, mpiexec, srun with PMI/PMIx) started this process."""
     return any(v in os.environ for v in _LAUNCHER_VARS)
 
 
+@functools.cache
+def _world():
+    from mpi4py import MPI
+
+    return MPI.COMM_WORLD
+
+
 def comm():
     """The world communicator (mpi4py), or None when mpi4py is missing and no launcher is seen."""
-    global _COMM
-    if _COMM is None:
-        try:
-            from mpi4py import MPI
-        except ImportError:
-            if launched_by_mpi():
-                raise SolverError("this process was started by an MPI launcher but mpi4py is not installed; "
-                                  "install python3-mpi4py (Debian) or 'pip install flexmor[petsc]'") from None
-            return None
-        _COMM = MPI.COMM_WORLD
-    return _COMM
+    try:
+        return _world()
+    except ImportError:
+        if launched_by_mpi():
+            raise SolverError("this process was started by an MPI launcher but mpi4py is not installed; "
+                              "install python3-mpi4py (Debian) or 'pip install flexmor[petsc]'") from None
+        return None
 
 
 def rank() -> int:
-    """Rank of this process (0 without MPI)."""
-    c = comm() if (_COMM is not None or launched_by_mpi()) else None
-    return 0 if c is None else c.Get_rank()
+    """Rank of this process (0 without MPI; a process not started by a launcher is rank 0 of 1)."""
+    return comm().Get_rank() if launched_by_mpi() else 0
 
 
 def size() -> int:
     """Number of ranks (1 without MPI)."""
-    c = comm() if (_COMM is not None or launched_by_mpi()) else None
-    return 1 if c is None else c.Get_size()
+    return comm().Get_size() if launched_by_mpi() else 1
+
+
+@dataclass(frozen=True)
+class MPILayout:
+    """The ranks of a run: this process' ``rank`` of ``size``, and the row split of matrices over them."""
+
+    rank: int = 0
+    size: int = 1
+
+    def row_range(self, n: int) -> tuple[int, int]:
+        """Rows ``[start, stop)`` of this rank in PETSc's default split of ``n`` rows (:func:`row_range`)."""
+        return row_range(n, self.size, self.rank)
+
+
+def layout() -> MPILayout:
+    """The layout of this process (rank 0 of 1 unless an MPI launcher started it)."""
+    return MPILayout(rank(), size())
 
 
 def is_root() -> bool:

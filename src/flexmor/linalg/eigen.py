@@ -11,6 +11,7 @@ from scipy.sparse.linalg import ArpackNoConvergence, LinearOperator, eigsh
 
 from ..errors import ConvergenceError, ModelError, OptionError
 from .block_eigen import block_lanczos
+from .context import DENSE_LIMIT, EIGEN_METHODS, SolverContext, as_solver
 from .factorize import factorize
 
 __all__ = ["eigenmodes", "dense_eigenmodes", "default_shift", "rigid_body_threshold", "is_rigid", "frequencies_hz",
@@ -18,8 +19,8 @@ __all__ = ["eigenmodes", "dense_eigenmodes", "default_shift", "rigid_body_thresh
 
 log = logging.getLogger(__name__)
 
-#: Problems up to this size are solved densely (LAPACK), larger ones by shift-invert Lanczos.
-DENSE_LIMIT = 600
+#: Choices of ``eigenmodes(method=...)``.
+METHODS = EIGEN_METHODS
 
 #: Dense problems whose mass matrix has a reciprocal condition number (LAPACK ``dpocon``, 1-norm)
 #: below this are solved in the shift-inverted form ``M phi = mu (K - sigma M) phi``. The
@@ -59,15 +60,8 @@ def is_rigid(lam, K, M) -> np.ndarray:
     return np.asarray(lam) < rigid_body_threshold(K, M)
 
 
-#: ``method="auto"`` uses block Lanczos up to this many modes, ARPACK above (bench/eigen.py).
-LANCZOS_MAX_K = 32
-
-#: Choices of ``eigenmodes(method=...)``.
-METHODS = ("auto", "lanczos", "arpack", "dense")
-
-
-def eigenmodes(K, M, k: int, *, sigma: float | None = None, backend: str = "auto", tol: float = 0.0,
-               factorization=None, method: str = "auto", block: int | None = None):
+def eigenmodes(K, M, k: int, *, sigma: float | None = None, solver: SolverContext | None = None, tol: float = 0.0,
+               factorization=None, method: str | None = None, block: int | None = None):
     """Lowest ``k`` eigenpairs of ``K phi = lambda M phi`` (M positive definite).
 
     Parameters
@@ -79,25 +73,28 @@ def eigenmodes(K, M, k: int, *, sigma: float | None = None, backend: str = "auto
     sigma : float, optional
         Shift of the shift-invert Lanczos iteration; default :func:`default_shift`
         (negative, so rigid-body modes are found without a singular factorization).
-    backend : str
-        Backend of :func:`flexmor.linalg.factorize` for ``K - sigma M``. With ``petsc`` (or a
-        ``petsc`` factorization) the eigenpairs come from SLEPc's Krylov-Schur on the
-        distributed factorization (:func:`flexmor.linalg.petsc.slepc_eigenmodes`) instead of
+    solver : SolverContext, optional
+        Solver of :func:`flexmor.linalg.factorize` for ``K - sigma M`` and the eigen policy
+        (method, block size, dense limit). With the ``petsc`` backend (or a ``petsc``
+        factorization) the eigenpairs come from SLEPc's Krylov-Schur on the distributed
+        factorization (:func:`flexmor.linalg.petsc.slepc_eigenmodes`) instead of
         ``lanczos``/``arpack``.
     tol : float
         Convergence tolerance: ARPACK's (0 = machine precision) or the relative residual of
         the block Lanczos iteration (0 = its default 1e-8, eigenvalues to ~1e-14 relative).
     factorization : Factorization, optional
         An existing factorization of ``K - sigma M`` to reuse (``sigma`` must be given).
-    method : {'auto', 'lanczos', 'arpack', 'dense'}
+    method : {'auto', 'lanczos', 'arpack', 'dense'}, optional
+        Default: the ``solver``'s :class:`~flexmor.linalg.context.EigenPolicy` (``auto``).
         ``lanczos``: block shift-invert Lanczos (:func:`flexmor.linalg.block_eigen.block_lanczos`,
         one block solve of ``p`` right-hand sides per step); ``arpack``: SciPy's ``eigsh``
         in shift-invert mode (one single-vector solve per step); ``dense``: LAPACK on dense
         copies. ``auto``: dense up to :data:`DENSE_LIMIT` DOF or ``k >= n/2``, else lanczos
-        up to :data:`LANCZOS_MAX_K` modes and arpack above (measured in ``bench/eigen.py``:
-        at 94,500 DOF lanczos is 1.2x faster for k = 20, arpack 1.15x faster for k = 50).
+        up to :data:`~flexmor.linalg.context.LANCZOS_MAX_K` modes and arpack above (measured
+        in ``bench/eigen.py``: at 94,500 DOF lanczos is 1.2x faster for k = 20, arpack 1.15x
+        faster for k = 50).
     block : int, optional
-        Block size of ``lanczos`` (default ``min(max(6, k // 4), 16)``).
+        Block size of ``lanczos`` (default: the policy's, else ``min(max(6, k // 4), 16)``).
 
     Returns
     -------
@@ -115,19 +112,14 @@ def eigenmodes(K, M, k: int, *, sigma: float | None = None, backend: str = "auto
     solving sparse symmetric generalized eigenproblems. SIAM J. Matrix Anal. Appl. 15(1),
     228-272.
     """
-    if method not in METHODS:
-        raise OptionError(f"method={method!r} is not allowed; choose one of: {', '.join(METHODS)}")
+    solver = as_solver(solver)
+    policy = solver.eigen
     n = K.shape[0]
     k = int(k)
+    method = policy.choose(n, k, method)  # an OptionError for an unknown method, before the size check
     if k < 1 or k > n:
         raise OptionError(f"number of modes must be between 1 and {n}, got {k}")
-    if method == "auto":
-        if n <= DENSE_LIMIT or k >= n // 2:
-            method = "dense"
-        else:
-            method = "lanczos" if k <= LANCZOS_MAX_K else "arpack"
-    if method != "dense" and k >= n:
-        method = "dense"
+    block = policy.block if block is None else block
     if method == "dense":
         lam, phi = dense_eigenmodes(K, M, k, sigma=sigma)
     else:
@@ -137,7 +129,7 @@ def eigenmodes(K, M, k: int, *, sigma: float | None = None, backend: str = "auto
             sigma = default_shift(K, M)
         F = factorization
         if F is None:
-            F = factorize((K - sigma * M).tocsr(), backend, symmetric=True, positive=sigma < 0)
+            F = factorize((K - sigma * M).tocsr(), solver=solver, symmetric=True, positive=sigma < 0)
         if F.backend == "petsc":  # distributed: SLEPc Krylov-Schur on the same MUMPS factorization
             from .petsc import slepc_eigenmodes
 

@@ -1,25 +1,10 @@
 """One sparse direct solver interface for all of flexmor: :func:`factorize`.
 
-Every method obtains its solves from ``factorize(A)`` and never calls a solver library
-itself, so a faster backend speeds up every method at once. A factorization is computed
-once and reused for any number of right-hand sides (1-D or 2-D, real or complex).
-
-Backends (``backend=``):
-
-``scipy``
-    SuperLU from SciPy, always available; symmetric mode with minimum-degree ordering on
-    ``A + A^T``. Slow and memory hungry above ~50k DOF of a 3D solid.
-``pardiso``
-    Intel MKL PARDISO (the library located by *pypardiso*, ``pip install flexmor[fast]``),
-    called through ctypes: real symmetric positive definite (Cholesky), real symmetric
-    indefinite (Bunch-Kaufman) or complex symmetric (``K - w^2 M + i w D``, matrix type 6)
-    factorization of the upper triangle with nested-dissection ordering (METIS).
-``cholmod``
-    CHOLMOD through *scikit-sparse* when SuiteSparse is installed; real symmetric positive
-    definite matrices only.
-``auto``
-    The fastest available backend that supports the matrix (cholmod for real positive
-    definite, then pardiso for real or complex, then scipy).
+Every method obtains its solves from ``factorize(A, solver=...)`` and never calls a solver
+library itself, so a faster backend speeds up every method at once. A factorization is
+computed once and reused for any number of right-hand sides (1-D or 2-D, real or complex).
+The backends are listed in :mod:`flexmor.linalg.backends`; the
+:class:`~flexmor.linalg.context.SolverContext` chooses among them and counts the work.
 """
 
 from __future__ import annotations
@@ -30,390 +15,32 @@ import time
 import numpy as np
 import scipy.sparse as sp
 
-from ..errors import OptionError, SolverError
+from ..errors import SolverError
+from .backends import BACKENDS, Factorization
+from .context import SolverContext, as_solver
+from .distributed import is_partitioned
 
-__all__ = ["factorize", "Factorization", "available_backends", "BACKENDS", "memory_available",
-           "estimate_memory", "check_memory", "describe_backends"]
+__all__ = ["factorize", "RESIDUAL_TOL"]
 
 log = logging.getLogger(__name__)
 
 #: Relative residual above which a factorization is reported as singular.
 RESIDUAL_TOL = 1e-6
 
-#: Running totals of all factorizations in this process (``count``, ``seconds``) and of the
-#: solves with them (``solves``, ``solve_columns``, ``solve_seconds``), so that callers can
-#: report the solver share of a computation.
-STATS = {"count": 0, "seconds": 0.0, "solves": 0, "solve_columns": 0, "solve_seconds": 0.0}
 
-
-class Factorization:
-    """A factorized square matrix; call :meth:`solve` for any number of right-hand sides.
-
-    Attributes
-    ----------
-    backend : str
-        Name of the backend that computed it.
-    shape : tuple
-        Shape of the factorized matrix.
-    seconds : float
-        Wall time of the factorization.
-    memory_estimate : float or None
-        Bytes the backend expected to need for factor and solves (pardiso: from its analysis
-        phase; scipy: the heuristic of :func:`estimate_memory`), checked against the
-        available memory before the numerical factorization.
-    inertia : tuple of int or None
-        ``(n_positive, n_negative)`` eigenvalues of a real symmetric indefinite matrix when
-        the backend reports them (pardiso), else None. For ``K - s M`` the number of
-        negative eigenvalues is the number of eigenvalues of ``(K, M)`` below ``s``
-        (Sylvester's law of inertia).
-    """
-
-    backend = "none"
-
-    def __init__(self, A):
-        self.shape = A.shape
-        self.dtype = A.dtype
-        self.seconds = 0.0
-        self.inertia = None
-        self.memory_estimate = None
-
-    def _solve(self, b: np.ndarray) -> np.ndarray:  # pragma: no cover - abstract
-        raise NotImplementedError
-
-    def solve(self, b) -> np.ndarray:
-        """Solve ``A x = b``; ``b`` of shape (n,) or (n, k), real or complex."""
-        b = np.asarray(b)
-        if b.shape[0] != self.shape[0]:
-            raise SolverError(f"right-hand side has {b.shape[0]} rows, the matrix {self.shape[0]}")
-        t0 = time.perf_counter()
-        if np.iscomplexobj(b) and not np.iscomplexobj(np.empty(0, self.dtype)):
-            x = self._solve_real(b.real) + 1j * self._solve_real(b.imag)
-        else:
-            x = self._solve_real(b)
-        STATS["solves"] += 1
-        STATS["solve_columns"] += 1 if b.ndim == 1 else b.shape[1]
-        STATS["solve_seconds"] += time.perf_counter() - t0
-        return x
-
-    def _solve_real(self, b):
-        one = b.ndim == 1
-        x = self._solve(b.reshape(b.shape[0], -1))
-        return x.reshape(-1) if one else x
-
-    __call__ = solve
-
-
-class _ScipyLU(Factorization):
-    backend = "scipy"
-
-    def __init__(self, A, *, symmetric=True, positive=False):
-        super().__init__(A)
-        from scipy.sparse.linalg import splu
-
-        self.memory_estimate = estimate_memory(A, "scipy")
-        check_memory(self.memory_estimate, "scipy", A.shape[0])
-        opts = {}
-        if symmetric:
-            opts = dict(permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0, options={"SymmetricMode": True})
-        try:
-            self._lu = splu(sp.csc_matrix(A), **opts)
-        except RuntimeError as exc:
-            raise SolverError(f"SuperLU failed: {exc}; the matrix is singular (a free body needs a shift)") from None
-        except MemoryError:
-            raise SolverError("SuperLU ran out of memory; use a faster backend (--backend pardiso)") from None
-        self.dtype = self._lu.U.dtype
-
-    def _solve(self, b):
-        if np.iscomplexobj(b) and not np.iscomplexobj(self._lu.U.data):
-            return self._lu.solve(np.ascontiguousarray(b.real)) + 1j * self._lu.solve(np.ascontiguousarray(b.imag))
-        return self._lu.solve(np.asarray(b, dtype=np.result_type(b, self._lu.U.dtype)))
-
-
-#: Refuse a factorization whose estimate exceeds this share of the available memory.
-MEMORY_FRACTION = 0.9
-
-
-def memory_available() -> float | None:
-    """Bytes of memory available to new allocations (``MemAvailable`` of /proc/meminfo), or None."""
-    try:
-        with open("/proc/meminfo") as fh:
-            for line in fh:
-                if line.startswith("MemAvailable:"):
-                    return 1024.0 * int(line.split()[1])
-    except (OSError, ValueError, IndexError):
-        pass
-    return None
-
-
-def estimate_memory(A, backend: str) -> float | None:
-    """Heuristic bytes for factorizing ``A`` with a backend that reports nothing beforehand.
-
-    For SuperLU (``scipy``) an empirical fit to the fill of 3D solid FE matrices measured in
-    ``bench/solvers.py`` (0.52 GB at 27k DOF, 3.7 GB at 94.5k DOF, nested-dissection-free
-    minimum-degree ordering): ``3.7 GB * (n / 94500)**1.6 * (nnz / n / 73.5)``; it overestimates
-    shells and 2D meshes, whose fill grows more slowly. None for other backends.
-    """
-    if backend != "scipy":
-        return None
-    n = A.shape[0]
-    per_row = max(A.nnz / max(n, 1) / 73.5, 0.1)
-    itemsize = 2.0 if np.iscomplexobj(A.data) else 1.0
-    return 3.7e9 * (n / 94500.0) ** 1.6 * per_row * itemsize
-
-
-def check_memory(estimate: float | None, backend: str, n: int) -> None:
-    """Raise :class:`SolverError` when ``estimate`` bytes would not fit into the available memory."""
-    avail = memory_available()
-    if estimate is None or avail is None:
-        return
-    log.debug("factorization of n=%d with %s: estimate %.0f MB, available %.0f MB", n, backend,
-              estimate / 2**20, avail / 2**20)
-    if estimate > MEMORY_FRACTION * avail:
-        others = [b for b in available_backends() if b != backend]
-        hint = (f"try another backend ({', '.join(others)}), " if others else "") + \
-            "a distributed backend on a machine with more memory, or a smaller model"
-        raise SolverError(
-            f"factorizing {n} equations with {backend} needs about {estimate / 2**20:.0f} MB, "
-            f"but only {avail / 2**20:.0f} MB of memory are available; {hint}")
-
-
-_MKL_PARDISO = None
-
-
-def _mkl_pardiso():
-    """The MKL ``pardiso`` entry point (found through pypardiso's library search), typed once."""
-    global _MKL_PARDISO
-    if _MKL_PARDISO is None:
-        import ctypes
-
-        import pypardiso
-
-        fn = pypardiso.PyPardisoSolver().libmkl.pardiso
-        i32p = ctypes.POINTER(ctypes.c_int32)
-        fn.argtypes = [ctypes.POINTER(ctypes.c_int64), i32p, i32p, i32p, i32p, i32p, ctypes.c_void_p,
-                       i32p, i32p, i32p, i32p, i32p, i32p, ctypes.c_void_p, ctypes.c_void_p, i32p]
-        fn.restype = None
-        _MKL_PARDISO = fn
-    return _MKL_PARDISO
-
-
-#: PARDISO error codes (MKL reference) in the messages of :class:`SolverError`.
-_PARDISO_ERRORS = {-1: "input inconsistent", -2: "not enough memory", -3: "reordering problem",
-                   -4: "zero pivot (singular matrix)", -5: "unclassified internal error",
-                   -6: "reordering failed", -7: "diagonal matrix is singular", -8: "32-bit integer overflow",
-                   -9: "not enough memory for out-of-core", -10: "error opening out-of-core files"}
-
-
-#: Fill-reducing orderings of the last few sparsity patterns factorized by PARDISO, keyed by
-#: :func:`_pattern_key`. Shifted matrices ``K - w^2 M + i w D`` of one model share a pattern,
-#: so frequency sweeps, quadrature nodes and expansion points compute METIS' nested
-#: dissection once and reuse it (``iparm[4] = 1``); the symbolic factorization still runs.
-_ORDERINGS: dict = {}
-_ORDERINGS_KEPT = 4
-
-
-def _pattern_key(mtype: int, ia: np.ndarray, ja: np.ndarray) -> tuple:
-    """Identity of a sparsity pattern (and of the matrix class): size, nnz and a digest."""
-    import hashlib
-
-    h = hashlib.blake2b(ia.view(np.uint8), digest_size=16)
-    h.update(ja.view(np.uint8))
-    return (int(mtype), ia.size - 1, ja.size, h.hexdigest())
-
-
-def _remember_ordering(key: tuple, perm: np.ndarray) -> None:
-    _ORDERINGS.pop(key, None)
-    _ORDERINGS[key] = perm.copy()
-    while len(_ORDERINGS) > _ORDERINGS_KEPT:
-        _ORDERINGS.pop(next(iter(_ORDERINGS)))
-
-
-class _Pardiso(Factorization):
-    """Intel MKL PARDISO called through ctypes on the upper triangle (symmetric) or the full matrix.
-
-    Matrix types: real symmetric positive definite (2), real symmetric indefinite (-2,
-    Bunch-Kaufman), complex symmetric (6, e.g. ``K - w^2 M + i w D``), real (11) and complex
-    (13) unsymmetric. Symmetric indefinite types use symmetric weighted matching and scaling
-    (iparm 11/13), recommended by Intel for saddle-point-like and shifted matrices.
-    """
-
-    backend = "pardiso"
-
-    def __init__(self, A, *, symmetric=True, positive=False):
-        super().__init__(A)
-        import ctypes
-
-        self._fn = _mkl_pardiso()
-        cplx = np.iscomplexobj(A.data)
-        if cplx:
-            self._mtype = 6 if symmetric else 13
-        else:
-            self._mtype = (2 if positive else -2) if symmetric else 11
-        self.dtype = np.dtype(np.complex128 if cplx else np.float64)
-        U = sp.triu(A, format="csr") if symmetric else sp.csr_matrix(A)
-        U.sum_duplicates()
-        U.sort_indices()
-        if np.any(np.diff(U.indptr) == 0):
-            raise SolverError("matrix has an empty row: it is singular")
-        self._data = np.ascontiguousarray(U.data, dtype=self.dtype)
-        self._ia = np.ascontiguousarray(U.indptr, dtype=np.int32)
-        self._ja = np.ascontiguousarray(U.indices, dtype=np.int32)
-        self._n = U.shape[0]
-        self._pt = np.zeros(64, dtype=np.int64)
-        self._iparm = np.zeros(64, dtype=np.int32)
-        ip = self._iparm
-        ip[0] = 1  # user values below, zeros are MKL defaults
-        ip[1] = 2  # nested dissection (METIS)
-        ip[7] = 0  # iterative refinement (two steps) only after perturbed pivots
-        ip[9] = 13 if self._mtype in (11, 13) else 8  # pivot perturbation 1e-13 / 1e-8
-        indefinite = self._mtype in (-2, 6, 11, 13)
-        ip[10] = ip[12] = 1 if indefinite else 0  # scaling + weighted matching
-        ip[34] = 1  # zero-based indices
-        self._ctypes = ctypes
-        self._live = False
-        key = _pattern_key(self._mtype, self._ia, self._ja)
-        self._perm = _ORDERINGS.get(key)
-        ip[4] = 2 if self._perm is None else 1  # 2: return METIS' permutation, 1: reuse a stored one
-        if self._perm is None:
-            self._perm = np.zeros(self._n, dtype=np.int32)
-        self.reused_ordering = ip[4] == 1
-        try:
-            self._call(11, None, None, 0)  # analysis: ordering, symbolic factorization, memory
-            if not self.reused_ordering:
-                _remember_ordering(key, self._perm)
-            kb = max(int(self._iparm[14]), int(self._iparm[15]) + int(self._iparm[16]))
-            self.memory_estimate = 1024.0 * kb
-            check_memory(self.memory_estimate, "pardiso", self._n)
-            self._call(22, None, None, 0)  # numerical factorization
-        except SolverError:
-            self._release()
-            raise
-        self._live = True
-        if self._mtype == -2 and self._iparm[13] == 0:  # no perturbed pivots: exact inertia
-            self.inertia = (int(self._iparm[21]), int(self._iparm[22]))
-
-    def _call(self, phase, b, x, nrhs):
-        c = self._ctypes
-        i32 = c.c_int32
-        err = i32(0)
-        one = c.byref(i32(1))
-        dummy = np.zeros(1, self.dtype)
-        bp = (b if b is not None else dummy).ctypes.data
-        xp = (x if x is not None else dummy).ctypes.data
-        self._fn(self._pt.ctypes.data_as(c.POINTER(c.c_int64)), one, one, c.byref(i32(self._mtype)),
-                 c.byref(i32(phase)), c.byref(i32(self._n)), self._data.ctypes.data,
-                 self._ia.ctypes.data_as(c.POINTER(i32)), self._ja.ctypes.data_as(c.POINTER(i32)),
-                 self._perm.ctypes.data_as(c.POINTER(i32)), c.byref(i32(nrhs)), self._iparm.ctypes.data_as(c.POINTER(i32)), c.byref(i32(0)),
-                 bp, xp, c.byref(err))
-        if err.value != 0:
-            what = _PARDISO_ERRORS.get(err.value, "unknown error")
-            raise SolverError(f"PARDISO phase {phase} failed with error {err.value}: {what}")
-
-    def _solve(self, b):
-        b = np.asfortranarray(b, dtype=np.result_type(b.dtype, self.dtype))
-        if np.iscomplexobj(b) and self.dtype.kind != "c":  # handled by Factorization.solve
-            raise SolverError("complex right-hand side for a real PARDISO factorization")
-        x = np.zeros_like(b, order="F")
-        self._call(33, b, x, b.shape[1])
-        return x
-
-    def _release(self):
-        if np.any(self._pt):
-            self._call(-1, None, None, 0)  # free all internal memory of this handle
-            self._pt[:] = 0
-
-    def __del__(self):
-        try:
-            self._release()
-        except Exception:  # noqa: BLE001 - interpreter shutdown
-            pass
-
-
-class _Cholmod(Factorization):
-    backend = "cholmod"
-
-    def __init__(self, A, *, symmetric=True, positive=True):
-        super().__init__(A)
-        from sksparse.cholmod import CholmodNotPositiveDefiniteError, cholesky
-
-        if not (symmetric and positive):
-            raise SolverError("the cholmod backend needs a symmetric positive definite matrix")
-        try:
-            self._f = cholesky(sp.csc_matrix(A))
-        except CholmodNotPositiveDefiniteError as exc:
-            raise SolverError(f"CHOLMOD: matrix is not positive definite ({exc})") from None
-
-    def _solve(self, b):
-        return self._f(b)
-
-
-def _has(module: str) -> bool:
-    import importlib.util
-
-    try:
-        return importlib.util.find_spec(module) is not None
-    except (ImportError, ValueError):
-        return False
-
-
-def _pardiso_ok() -> bool:
-    if not _has("pypardiso"):
-        return False
-    try:
-        _mkl_pardiso()
-        return True
-    except Exception:  # noqa: BLE001 - missing MKL runtime
-        return False
-
-
-#: name -> (class, availability check, handles complex, needs positive definite)
-BACKENDS = {
-    "cholmod": (_Cholmod, lambda: _has("sksparse"), False, True),
-    "pardiso": (_Pardiso, _pardiso_ok, True, False),
-    "scipy": (_ScipyLU, lambda: True, True, False),
-}
-_AVAILABLE: dict[str, bool] = {}
-
-
-def available_backends() -> list[str]:
-    """Names of the backends that work on this machine, fastest first."""
-    for name, (_, ok, _, _) in BACKENDS.items():
-        if name not in _AVAILABLE:
-            _AVAILABLE[name] = bool(ok())
-    return [n for n in BACKENDS if _AVAILABLE[n]]
-
-
-def _pick(backend: str, is_complex: bool, positive: bool, symmetric: bool) -> str:
-    allowed = ["auto", *BACKENDS]
-    if backend not in allowed:
-        raise OptionError(f"backend={backend!r} is not allowed; choose one of: {', '.join(allowed)}")
-    avail = available_backends()
-    if backend != "auto":
-        if backend not in avail:
-            if backend == "petsc":
-                from .petsc import require
-
-                require()  # OptionError naming the install route
-            raise SolverError(f"backend {backend!r} is not available here; available: {', '.join(avail)}")
-        return backend
-    for name in avail:
-        _, _, cplx, needs_pos = BACKENDS[name]
-        if (is_complex and not cplx) or (needs_pos and not (positive and symmetric)):
-            continue
-        return name
-    return "scipy"
-
-
-def factorize(A, backend: str = "auto", *, symmetric: bool = True, positive: bool = False,
+def factorize(A, *, solver: SolverContext | None = None, symmetric: bool = True, positive: bool = False,
               check: bool = True) -> Factorization:
     """Factorize the sparse square matrix ``A`` once for repeated solves.
 
     Parameters
     ----------
     A : sparse matrix, shape (n, n)
-        Real or complex; stored in full (both triangles) when symmetric.
-    backend : {'auto', 'cholmod', 'pardiso', 'scipy'}
-        Solver library; ``auto`` picks the fastest available one that supports ``A``.
+        Real or complex; stored in full (both triangles) when symmetric. A matrix partitioned
+        over MPI ranks (:class:`flexmor.linalg.distributed.PartitionedMatrix`) is factorized by
+        the ``petsc`` backend.
+    solver : SolverContext, optional
+        The backend choice (``auto``: the fastest available one that supports ``A``), and
+        where the factorization and its solves are counted. None: a fresh default context.
     symmetric : bool
         ``A`` is (complex) symmetric; enables symmetric orderings and factorizations.
     positive : bool
@@ -427,24 +54,27 @@ def factorize(A, backend: str = "auto", *, symmetric: bool = True, positive: boo
     Factorization
         Object with ``solve(b)`` for b of shape (n,) or (n, k).
     """
-    if not sp.issparse(A):
+    solver = as_solver(solver)
+    partitioned = is_partitioned(A)
+    if not (partitioned or sp.issparse(A)):
         A = sp.csr_matrix(np.asarray(A))
     if A.shape[0] != A.shape[1]:
         raise SolverError(f"cannot factorize a non-square matrix of shape {A.shape}")
     is_complex = np.iscomplexobj(A.data)
-    if getattr(A, "partitioned", False):  # rows spread over MPI ranks (flexmor.linalg.distributed)
-        if backend not in ("auto", "petsc"):
-            raise SolverError(f"a matrix partitioned over MPI ranks needs --backend petsc, not {backend!r}")
-        backend = "petsc"
-    name = _pick(backend, is_complex, positive, symmetric)
-    if is_complex and not BACKENDS[name][2]:
+    if partitioned:  # rows spread over MPI ranks (flexmor.linalg.distributed)
+        if solver.backend not in ("auto", "petsc"):
+            raise SolverError(f"a matrix partitioned over MPI ranks needs the petsc backend, not {solver.backend!r}")
+        name = "petsc"  # which says what to install when it is missing
+    else:
+        name = solver.pick(is_complex=is_complex, positive=positive, symmetric=symmetric)
+    if is_complex and not BACKENDS[name].complex:
         log.info("backend %s has no complex support; using scipy", name)
         name = "scipy"
     t0 = time.perf_counter()
-    F = BACKENDS[name][0](A, symmetric=symmetric, positive=positive)
+    F = BACKENDS[name].factorize(A, solver, symmetric=symmetric, positive=positive)
     F.seconds = time.perf_counter() - t0
-    STATS["count"] += 1
-    STATS["seconds"] += F.seconds
+    solver.stats.count += 1
+    solver.stats.seconds += F.seconds
     log.debug("factorized n=%d nnz=%d with %s in %.3f s", A.shape[0], A.nnz, name, F.seconds)
     if check:
         rng = np.random.default_rng(0)
@@ -457,24 +87,3 @@ def factorize(A, backend: str = "auto", *, symmetric: bool = True, positive: boo
                 "a free-free body needs a shift or reference conditions"
             )
     return F
-
-
-#: What each backend does (for ``flexmor info --backends``).
-_DESCRIPTIONS = {
-    "cholmod": "CHOLMOD supernodal Cholesky (scikit-sparse); real symmetric positive definite only",
-    "pardiso": "Intel MKL PARDISO; real SPD (Cholesky), real symmetric indefinite (LDLT, inertia), "
-               "complex symmetric and unsymmetric; METIS ordering; memory estimate before factorizing",
-    "scipy": "SciPy SuperLU; real and complex, minimum-degree ordering; slow above ~50k DOF of a 3D solid",
-}
-
-
-from .petsc import register as _register_petsc  # noqa: E402 - distributed backend; imports petsc4py lazily
-
-_register_petsc(BACKENDS, _DESCRIPTIONS, Factorization)
-
-
-def describe_backends() -> list[dict]:
-    """One dict per known backend: ``name``, ``available``, ``complex``, ``positive_only``, ``description``."""
-    avail = set(available_backends())
-    return [{"name": name, "available": name in avail, "complex": cplx, "positive_only": pos,
-             "description": _DESCRIPTIONS.get(name, "")} for name, (_, _, cplx, pos) in BACKENDS.items()]

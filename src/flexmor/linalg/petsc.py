@@ -32,7 +32,6 @@ solution of eigenvalue problems. ACM Trans. Math. Software 31(3), 351-362.
 
 from __future__ import annotations
 
-import itertools
 import logging
 
 import numpy as np
@@ -40,8 +39,9 @@ import scipy.sparse as sp
 
 from ..errors import ConvergenceError, OptionError, SolverError
 from . import distributed as dist
+from .backends import Factorization
 
-__all__ = ["INSTALL_HINT", "PetscFactorization", "available", "register", "require", "slepc_eigenmodes"]
+__all__ = ["INSTALL_HINT", "PetscFactorization", "available", "require", "slepc_eigenmodes"]
 
 log = logging.getLogger(__name__)
 
@@ -56,8 +56,6 @@ _MUMPS_ERRORS = {-5: "not enough memory in analysis", -6: "matrix is structurall
                  -10: "numerically singular matrix", -13: "memory allocation failed",
                  -38: "parallel analysis requested but MUMPS has neither PT-Scotch nor ParMETIS",
                  -40: "matrix was declared positive definite but a negative or zero pivot was found"}
-
-_PREFIX = itertools.count()
 
 
 def _petsc():
@@ -104,11 +102,11 @@ def _real_form(A: sp.csr_matrix, symmetric: bool) -> sp.csr_matrix:
     return (sp.kron(A.real, re, format="csr") + sp.kron(A.imag, im, format="csr")).tocsr()
 
 
-def _local_rows(A):
+def _local_rows(A, layout: dist.MPILayout):
     """``(start, stop, rows)`` of this rank: its block of a partitioned matrix or a slice of a replicated one."""
     if dist.is_partitioned(A):
         return A.local_rows()
-    r0, r1 = dist.row_range(A.shape[0])
+    r0, r1 = layout.row_range(A.shape[0])
     return r0, r1, sp.csr_matrix(A[r0:r1])
 
 
@@ -131,18 +129,19 @@ def petsc_matrix(rows: sp.csr_matrix, n: int, *, symmetric: bool, positive: bool
     return A
 
 
-class PetscFactorization:
+class PetscFactorization(Factorization):
     """MUMPS factorization of a (possibly partitioned) sparse matrix on all ranks; see the module docs.
 
-    Mixed into :class:`flexmor.linalg.factorize.Factorization` by :func:`register` (``_Petsc``).
-    Attributes beyond the base class: ``mat`` (the PETSc matrix), ``ksp``, ``rows`` (this rank's
-    ``[start, stop)`` of the factorized matrix), ``memory_per_rank`` (MUMPS INFOG(21), bytes,
-    largest over ranks), ``memory_total`` (INFOG(22)), ``factor_entries`` (INFOG(29)).
+    The ``petsc`` entry of :data:`flexmor.linalg.backends.BACKENDS`. Attributes beyond
+    :class:`~flexmor.linalg.backends.Factorization`: ``mat`` (the PETSc matrix), ``ksp``, ``rows``
+    (this rank's ``[start, stop)`` of the factorized matrix), ``memory_per_rank`` (MUMPS
+    INFOG(21), bytes, largest over ranks), ``memory_total`` (INFOG(22)), ``factor_entries`` (INFOG(29)).
     """
 
     backend = "petsc"
 
-    def _factorize(self, A, *, symmetric=True, positive=False):
+    def __init__(self, A, solver, *, symmetric=True, positive=False):
+        super().__init__(A, solver.stats)
         PETSc = _petsc()
         require()
         # petsc4py defers the destruction of parallel objects dropped by Python (e.g. earlier
@@ -152,14 +151,14 @@ class PetscFactorization:
         cplx = np.iscomplexobj(A.data)
         self._split = cplx and not _complex_scalars(PETSc)
         self._sym_form = symmetric
-        r0, r1, rows = _local_rows(A)
+        r0, r1, rows = _local_rows(A, solver.mpi)
         if self._split:
             rows, r0, r1, n = _real_form(rows, symmetric), 2 * r0, 2 * r1, 2 * n
             positive = False
         self.rows, self._n = (r0, r1), n
         self.dtype = np.dtype(np.complex128 if cplx else np.float64)
         self.mat = petsc_matrix(rows, n, symmetric=symmetric, positive=positive)
-        prefix = f"flexmor_{next(_PREFIX)}_"
+        prefix = f"flexmor_{id(self):x}_"  # options of this factorization only, removed after setUp
         opts = PETSc.Options()
         # real symmetric indefinite: ICNTL(13)=1 (no ScaLAPACK root node), so that the inertia of LDL^T
         # is exact in parallel, and ICNTL(24)=1 (null pivot detection), which PETSc needs for it
@@ -270,7 +269,7 @@ def slepc_eigenmodes(K, M, k: int, F, sigma: float, *, tol: float = 0.0):
     n = K.shape[0]
     if F.mat.getSize()[0] != n:
         raise SolverError("the factorization does not belong to K - sigma M")
-    r0, r1, mrows = _local_rows(M) if dist.is_partitioned(M) else (*F.rows, sp.csr_matrix(M[F.rows[0]:F.rows[1]]))
+    r0, r1, mrows = M.local_rows() if dist.is_partitioned(M) else (*F.rows, sp.csr_matrix(M[F.rows[0]:F.rows[1]]))
     if (r0, r1) != tuple(F.rows):
         raise SolverError("M and K - sigma M are partitioned differently over the ranks")
     Mp = petsc_matrix(mrows, n, symmetric=True, positive=True)
@@ -309,16 +308,3 @@ def slepc_eigenmodes(K, M, k: int, F, sigma: float, *, tol: float = 0.0):
     Kr, Mr = phi.T @ (K @ phi), phi.T @ (M @ phi)
     lam, U = sla.eigh(0.5 * (Kr + Kr.T), 0.5 * (Mr + Mr.T))
     return lam, phi @ U
-
-
-def register(backends: dict, descriptions: dict, base) -> None:
-    """Add the ``petsc`` backend to :data:`flexmor.linalg.factorize.BACKENDS` (lazy: no import of petsc4py)."""
-
-    class _Petsc(PetscFactorization, base):
-        def __init__(self, A, *, symmetric=True, positive=False):
-            base.__init__(self, A)
-            self._factorize(A, symmetric=symmetric, positive=positive)
-
-    backends["petsc"] = (_Petsc, available, True, False)
-    descriptions["petsc"] = ("MUMPS through PETSc, distributed over MPI ranks (mpirun -n P ... --backend petsc); "
-                             "real SPD, symmetric indefinite (inertia) and complex (real 2N form); SLEPc eigenpairs")

@@ -4,7 +4,7 @@ A method is registered with :func:`register_method` and called through :func:`re
 which validates its options, builds the basis, and projects with the one
 :func:`flexmor.projection.project`. Every method has the signature::
 
-    method(model, ports, order, *, backend="auto", **options) -> Basis
+    method(model, ports, order, *, solver=None, **options) -> Basis
 """
 
 from __future__ import annotations
@@ -79,7 +79,7 @@ def reduce(model, method: str, order: int | None, ports, **options) -> tuple[Red
     ports : Ports
         Inputs and outputs of the reduced body.
     **options
-        Method options (e.g. ``interface``, ``backend``); unknown ones raise OptionError.
+        Method options (e.g. ``interface``, ``solver``); unknown ones raise OptionError.
 
     Returns
     -------
@@ -119,6 +119,8 @@ def _recorded(opts: dict) -> dict:
 
     out = {}
     for k, v in sorted(opts.items()):
+        if k == "solver":  # the body records the backend asked for, not the solver's caches
+            k, v = "backend", v.backend
         try:
             out[k] = json.loads(json.dumps(jsonable(v)))
         except (TypeError, ValueError):

@@ -22,6 +22,7 @@ from ..errors import OptionError, check_choice
 from ..projection import project
 from . import register_method
 from .krylov import DEFLATION_TOL, RIGID, SIDES, blocks_at_points, rigid_body_modes, start_block
+from ..linalg.context import SolverContext, as_solver
 
 __all__ = ["adaptive"]
 
@@ -38,7 +39,7 @@ def _band_estimate(freqs, Hk, Hprev) -> float:
 @register_method("adaptive", "greedy expansion points in the band from a cheap error estimate")
 def adaptive(model, ports, order, *, band=None, tol: float | None = None, moments: int = 1,
              side: str = "input", n_candidates: int = 400, max_points: int = 60, rigid: str = "include",
-             backend: str = "auto") -> Basis:
+             solver: SolverContext | None = None) -> Basis:
     """Krylov basis with greedily chosen expansion points in the band.
 
     Parameters
@@ -66,8 +67,8 @@ def adaptive(model, ports, order, *, band=None, tol: float | None = None, moment
         Free bodies, as in :func:`flexmor.reduction.krylov.krylov`: ``include`` puts the
         rigid-body modes the ports excite first, ``exclude`` leaves them out; the Krylov
         vectors are M-orthogonal to all rigid-body modes either way.
-    backend : str
-        Backend of :func:`flexmor.linalg.factorize` (one factorization per point).
+    solver : SolverContext, optional
+        Solver (backend, statistics) of :func:`flexmor.linalg.factorize` (one factorization per point).
 
     Returns
     -------
@@ -88,6 +89,7 @@ def adaptive(model, ports, order, *, band=None, tol: float | None = None, moment
     Arnoldi method for the model-order reduction of second-order MIMO systems with
     proportional damping. Math. Comput. Simul. 122, 1-19.
     """
+    solver = as_solver(solver)
     check_choice("side", side, SIDES)
     check_choice("rigid", rigid, RIGID)
     if order is None and tol is None:
@@ -110,7 +112,7 @@ def adaptive(model, ports, order, *, band=None, tol: float | None = None, moment
         V = extend_orthonormal(None, phi[:, w > 1e-8 * w.max()], tol=DEFLATION_TOL) if w.max() > 0 else V
     while points and len(chosen) < max_points:
         p = points.pop(0)
-        blocks, _ = blocks_at_points(model, ports, [p], int(moments), side=side, backend=backend,
+        blocks, _ = blocks_at_points(model, ports, [p], int(moments), side=side, solver=solver,
                                      rigid_modes=phi)
         for blk in blocks[0]:
             V = np.hstack([V, extend_orthonormal(V, blk, tol=DEFLATION_TOL)])

@@ -22,6 +22,7 @@ from ..linalg.eigen import DENSE_LIMIT
 from . import register_method
 from .dense_gramians import dense_gramians, psd_factor
 from .gramians import VARIANTS, _regularized, balance, gramian_factors, truncation_basis
+from ..linalg.context import SolverContext, as_solver
 
 __all__ = ["sobt", "fw_sobt", "balanced_basis"]
 
@@ -44,8 +45,9 @@ def _rigid(model, ports, rigid: str):
 
 
 def balanced_basis(model, ports, order, band, *, method: str, variant: str = "position", nodes: int = 4,
-                   cutoff=None, rigid: str = "include", backend: str = "auto") -> Basis:
+                   cutoff=None, rigid: str = "include", solver: SolverContext | None = None) -> Basis:
     """Shared body of ``sobt`` and ``fw-sobt``: Gramian factors over ``band``, balancing, basis."""
+    solver = as_solver(solver)
     check_choice("variant", variant, VARIANTS)
     if order is None:
         raise OptionError(f"{method} needs --order")
@@ -58,7 +60,7 @@ def balanced_basis(model, ports, order, band, *, method: str, variant: str = "po
     if math.isinf(band[1]) and band[0] == 0 and model.n_dof <= DENSE_LIMIT:
         R, L, ginfo = _dense_factors(model, ports, variant)  # small body: exact Lyapunov solutions
     else:
-        G = gramian_factors(model, ports, band, nodes=nodes, cutoff=cutoff, backend=backend, rigid_modes=phi)
+        G = gramian_factors(model, ports, band, nodes=nodes, cutoff=cutoff, solver=solver, rigid_modes=phi)
         R, L, ginfo = G.controllability(variant), G.L, G.info
     T, sigma = balance(R, L, model.M, n_flex)
     V = truncation_basis(np.hstack([head, T]), model.M)
@@ -82,7 +84,7 @@ def _dense_factors(model, ports, variant):
 
 @register_method("sobt", "second-order balanced truncation, full-band Gramians (low rank)", survives_coupling=False)
 def sobt(model, ports, order, *, variant: str = "position", nodes: int = 4, band=None, cutoff: float | None = None,
-         rigid: str = "include", backend: str = "auto") -> Basis:
+         rigid: str = "include", solver: SolverContext | None = None) -> Basis:
     """Second-order balanced truncation with full-band (``[0, inf)``) Gramians.
 
     Parameters
@@ -110,8 +112,8 @@ def sobt(model, ports, order, *, variant: str = "position", nodes: int = 4, band
     rigid : {'include', 'exclude'}
         Free bodies: the rigid-body modes excited by the inputs lead the basis (include) or
         are left to the floating frame (exclude); the Gramians are those of the flexible part.
-    backend : str
-        Backend of :func:`flexmor.linalg.factorize` (one complex factorization per node).
+    solver : SolverContext, optional
+        Solver (backend, statistics) of :func:`flexmor.linalg.factorize` (one complex factorization per node).
 
     Returns
     -------
@@ -127,16 +129,17 @@ def sobt(model, ports, order, *, variant: str = "position", nodes: int = 4, band
     Chahlaoui, Y., Lemonnier, D., Vandendorpe, A., Van Dooren, P. (2006). Second-order
     balanced truncation. Linear Algebra Appl. 415, 373-384.
     """
+    solver = as_solver(solver)
     if cutoff is None and model.n_dof > 600:
         cutoff = 10.0 * float((band or (1.0, 1000.0))[1])
     return balanced_basis(model, ports, order, (0.0, math.inf), method="sobt", variant=variant, nodes=nodes,
-                          cutoff=cutoff, rigid=rigid, backend=backend)
+                          cutoff=cutoff, rigid=rigid, solver=solver)
 
 
 @register_method("fw-sobt", "second-order balanced truncation, frequency-limited Gramians of the band",
                  survives_coupling=False)
 def fw_sobt(model, ports, order, *, band=None, variant: str = "position", nodes: int = 4, rigid: str = "include",
-            backend: str = "auto") -> Basis:
+            solver: SolverContext | None = None) -> Basis:
     """Frequency-limited second-order balanced truncation over the band of interest.
 
     The Gramians are the integrals of ``Re(X X^H)`` over ``band`` only (Gawronski & Juang),
@@ -157,8 +160,8 @@ def fw_sobt(model, ports, order, *, band=None, variant: str = "position", nodes:
         Gauss points per panel of the quadrature (see :func:`sobt`).
     rigid : {'include', 'exclude'}
         See :func:`sobt`.
-    backend : str
-        Backend of :func:`flexmor.linalg.factorize`.
+    solver : SolverContext, optional
+        Solver (backend, statistics) of :func:`flexmor.linalg.factorize`.
 
     Returns
     -------
@@ -176,6 +179,7 @@ def fw_sobt(model, ports, order, *, band=None, variant: str = "position", nodes:
     Reis, T., Stykel, T. (2008). Balanced truncation model reduction of second-order systems.
     Math. Comput. Model. Dyn. Syst. 14(5), 391-406.
     """
+    solver = as_solver(solver)
     band = tuple(float(b) for b in (band or (1.0, 1000.0)))
     return balanced_basis(model, ports, order, band, method="fw-sobt", variant=variant, nodes=nodes,
-                          rigid=rigid, backend=backend)
+                          rigid=rigid, solver=solver)

@@ -25,6 +25,7 @@ from ..model import FEModel
 from ..ports import Ports
 from . import register_method
 from .craig_bampton import cb_frame
+from ..linalg.context import SolverContext, as_solver
 
 __all__ = ["cms_krylov", "cms_gramian", "fixed_interface_body"]
 
@@ -63,8 +64,8 @@ def fixed_interface_body(model, ports, Psi, b, i, *, tol: float = 1e-8):
     return sub, Ports(B=Bs, C=Bs.T.tocsr(), input_names=names, output_names=names)
 
 
-def _cms(model, ports, order, interface, method, internal, backend):
-    V, b, i, _ = cb_frame(model, interface, order, method, backend)
+def _cms(model, ports, order, interface, method, internal, solver):
+    V, b, i, _ = cb_frame(model, interface, order, method, solver)
     Psi, n_int = V[:, : b.size], V.shape[1] - b.size
     info = {"n_interface_dofs": int(b.size), "n_internal": int(n_int)}
     if n_int:
@@ -77,7 +78,8 @@ def _cms(model, ports, order, interface, method, internal, backend):
 
 
 @register_method("cms-krylov", "constraint modes + Krylov vectors of the fixed-interface body")
-def cms_krylov(model, ports, order, *, interface=None, band=None, points=None, backend: str = "auto") -> Basis:
+def cms_krylov(model, ports, order, *, interface=None, band=None, points=None,
+               solver: SolverContext | None = None) -> Basis:
     """Craig-Bampton with second-order Krylov vectors of the fixed-interface body as internal vectors.
 
     Parameters
@@ -93,8 +95,8 @@ def cms_krylov(model, ports, order, *, interface=None, band=None, points=None, b
         Band (Hz) of the default Krylov points (three real points; default 1:1000).
     points : str, optional
         Krylov expansion points (Hz), see :func:`flexmor.reduction.krylov.parse_points`.
-    backend : str
-        Backend of :func:`flexmor.linalg.factorize`.
+    solver : SolverContext, optional
+        Solver (backend, statistics) of :func:`flexmor.linalg.factorize`.
 
     Returns
     -------
@@ -113,19 +115,20 @@ def cms_krylov(model, ports, order, *, interface=None, band=None, points=None, b
     Fehr, J. (2011). Automated and error-controlled model reduction in elastic multibody
     systems. Dissertation, Universität Stuttgart, Shaker Verlag.
     """
+    solver = as_solver(solver)
     from .krylov import krylov
 
     def internal(sub, sub_ports, n):
         return krylov(sub, sub_ports, n, points=points, band=band or (1.0, 1000.0), rigid="exclude",
-                      backend=backend)
+                      solver=solver)
 
-    return _cms(model, ports, order, interface, "cms-krylov", internal, backend)
+    return _cms(model, ports, order, interface, "cms-krylov", internal, solver)
 
 
 @register_method("cms-gramian", "constraint modes + balanced (frequency-limited Gramian) vectors of the "
                  "fixed-interface body", survives_coupling=False)
 def cms_gramian(model, ports, order, *, interface=None, band=None, variant: str = "position", nodes: int = 4,
-                backend: str = "auto") -> Basis:
+                solver: SolverContext | None = None) -> Basis:
     """Craig-Bampton with frequency-limited balanced vectors of the fixed-interface body.
 
     The internal vectors are the leading right balancing vectors of the fixed-interface body
@@ -145,8 +148,8 @@ def cms_gramian(model, ports, order, *, interface=None, band=None, variant: str 
         See :func:`flexmor.reduction.balanced.sobt`.
     nodes : int
         Gauss points per quadrature panel.
-    backend : str
-        Backend of :func:`flexmor.linalg.factorize`.
+    solver : SolverContext, optional
+        Solver (backend, statistics) of :func:`flexmor.linalg.factorize`.
 
     Returns
     -------
@@ -164,10 +167,11 @@ def cms_gramian(model, ports, order, *, interface=None, band=None, variant: str 
     Fehr, J. (2011). Automated and error-controlled model reduction in elastic multibody
     systems. Dissertation, Universität Stuttgart, Shaker Verlag.
     """
+    solver = as_solver(solver)
     from .balanced import balanced_basis
 
     def internal(sub, sub_ports, n):
         return balanced_basis(sub, sub_ports, n, tuple(band or (1.0, 1000.0)), method="cms-gramian",
-                              variant=variant, nodes=nodes, rigid="exclude", backend=backend)
+                              variant=variant, nodes=nodes, rigid="exclude", solver=solver)
 
-    return _cms(model, ports, order, interface, "cms-gramian", internal, backend)
+    return _cms(model, ports, order, interface, "cms-gramian", internal, solver)

@@ -9,16 +9,18 @@ from ..errors import OptionError
 from ..linalg.eigen import eigenmodes, frequencies_hz
 from . import register_method
 from .guyan import constraint_modes
+from ..linalg.context import SolverContext, as_solver
 
 
-def cb_frame(model, interface, order, method: str, backend: str = "auto"):
+def cb_frame(model, interface, order, method: str, solver: SolverContext | None = None):
     """The Craig-Bampton frame shared by the CMS methods.
 
     Returns ``(V, b, i, F)``: ``V`` (n_dof, order) with the constraint modes in its first
     ``n_b`` columns and zeros in the ``order - n_b`` internal columns (at most the number of
     interior DOFs), the interface and interior equations, and the factorization of ``K_ii``.
     """
-    V_c, b, i, F = constraint_modes(model, interface, backend)
+    solver = as_solver(solver)
+    V_c, b, i, F = constraint_modes(model, interface, solver)
     if order is None or order < b.size:
         raise OptionError(f"{method} needs --order >= number of interface DOFs ({b.size}), got {order}")
     V = np.zeros((model.n_dof, b.size + min(order - b.size, i.size)))
@@ -27,7 +29,7 @@ def cb_frame(model, interface, order, method: str, backend: str = "auto"):
 
 
 @register_method("craig-bampton", "constraint modes + fixed-interface normal modes")
-def craig_bampton(model, ports, order, *, interface=None, backend: str = "auto") -> Basis:
+def craig_bampton(model, ports, order, *, interface=None, solver: SolverContext | None = None) -> Basis:
     """Craig-Bampton basis ``[[I, 0], [Psi, Phi_i]]`` of total order r = n_b + n_modes.
 
     Parameters
@@ -40,8 +42,8 @@ def craig_bampton(model, ports, order, *, interface=None, backend: str = "auto")
         (``order - n_b`` modes; ``order == n_b`` is Guyan).
     interface : list of str
         Interface SPECs (``NODE``, ``SET``, ``NODE:DIR``, ``SET:DIR``).
-    backend : str
-        Backend of :func:`flexmor.linalg.factorize`; the factorization of ``K_ii`` serves
+    solver : SolverContext, optional
+        Solver (backend, statistics) of :func:`flexmor.linalg.factorize`; the factorization of ``K_ii`` serves
         both the constraint modes and the shift-invert eigen solver.
 
     Returns
@@ -55,13 +57,14 @@ def craig_bampton(model, ports, order, *, interface=None, backend: str = "auto")
     Craig, R. R., Bampton, M. C. C. (1968). Coupling of substructures for dynamic analyses.
     AIAA Journal 6(7), 1313-1319.
     """
-    V, b, i, F = cb_frame(model, interface, order, "craig-bampton", backend)
+    solver = as_solver(solver)
+    V, b, i, F = cb_frame(model, interface, order, "craig-bampton", solver)
     n_modes = V.shape[1] - b.size
     freqs = []
     if n_modes:
         Kii = model.K[i][:, i]
         Mii = model.M[i][:, i]
-        lam, phi = eigenmodes(Kii, Mii, n_modes, sigma=0.0, factorization=F, backend=backend)
+        lam, phi = eigenmodes(Kii, Mii, n_modes, sigma=0.0, factorization=F, solver=solver)
         V[i, b.size:] = phi
         freqs = frequencies_hz(lam).tolist()
     return Basis(V, "craig-bampton", {"n_interface_dofs": int(b.size), "n_modes": int(n_modes),

@@ -55,6 +55,7 @@ from ..basis import orthonormalize
 from ..errors import OptionError, check_choice
 from ..linalg import factorize
 from ..linalg.eigen import DENSE_LIMIT, eigenmodes, frequencies_hz, is_rigid
+from ..linalg.context import SolverContext, as_solver
 
 __all__ = ["GramianFactors", "quadrature_rule", "gramian_factors", "balance", "compress", "truncation_basis",
            "VARIANTS", "UNDAMPED_ZETA"]
@@ -249,7 +250,7 @@ def quadrature_rule(lo: float, hi: float, centres=(), widths=(), *, nodes: int =
     return np.concatenate([p[0] for p in parts]), np.concatenate([p[1] for p in parts])
 
 
-def _resonances(model, fmax: float, backend: str):
+def _resonances(model, fmax: float, solver: SolverContext):
     """Eigenfrequencies (Hz), damping ratios and rigid-body modes for the quadrature cells.
 
     Small models (``n_dof <= DENSE_LIMIT``): all modes. Larger: the modal pre-pass of
@@ -258,7 +259,7 @@ def _resonances(model, fmax: float, backend: str):
     from ..analysis.compare import _modes, modal_damping_ratios
 
     if model.n_dof <= DENSE_LIMIT:
-        lam, phi = eigenmodes(model.K, model.M, model.n_dof)
+        lam, phi = eigenmodes(model.K, model.M, model.n_dof, solver=solver)
         f = frequencies_hz(lam)
         rigid = is_rigid(lam, model.K, model.M)
         keep = ~rigid & (f <= fmax)
@@ -266,7 +267,7 @@ def _resonances(model, fmax: float, backend: str):
     else:
         if math.isinf(fmax):
             raise OptionError("the Gramian of a large model needs a finite cutoff frequency")
-        f_all, phi_all, _, _ = _modes(model, fmax, backend)
+        f_all, phi_all, _, _ = _modes(model, fmax, solver)
         f_all, phi_all = f_all[f_all > 0], phi_all[:, f_all > 0]
     z = modal_damping_ratios(model.damping, f_all, phi_all, model.D) if model.D is not None else None
     z = np.zeros(f_all.size) if z is None else np.asarray(z, float)
@@ -342,7 +343,7 @@ class _FactorStore:
 
 
 def gramian_factors(model, ports, band=(0.0, math.inf), *, side: str = "both", nodes: int = 4, panels: int = 1,
-                    cutoff: float | None = None, backend: str = "auto", rigid_modes=None,
+                    cutoff: float | None = None, solver: SolverContext | None = None, rigid_modes=None,
                     max_columns: int | None = None) -> GramianFactors:
     """Low-rank factors of the (frequency-limited) second-order Gramians by quadrature.
 
@@ -360,8 +361,8 @@ def gramian_factors(model, ports, band=(0.0, math.inf), *, side: str = "both", n
     cutoff : float, optional
         Highest resonance (Hz) resolved by its own cell for a large model; default ``fmax``
         (full band: ``10 fmin`` or 10 kHz). Small models resolve all resonances.
-    backend : str
-        Backend of :func:`flexmor.linalg.factorize`.
+    solver : SolverContext, optional
+        Solver (backend, statistics) of :func:`flexmor.linalg.factorize`.
     rigid_modes : ndarray, optional
         M-orthonormal rigid-body modes removed from every solution.
     max_columns : int, optional
@@ -374,6 +375,7 @@ def gramian_factors(model, ports, band=(0.0, math.inf), *, side: str = "both", n
     -------
     GramianFactors
     """
+    solver = as_solver(solver)
     from ..analysis.frequency import ShiftedMatrices
 
     check_choice("side", side, ("input", "both"))
@@ -383,7 +385,7 @@ def gramian_factors(model, ports, band=(0.0, math.inf), *, side: str = "both", n
     if int(nodes) < 1 or int(panels) < 1:
         raise OptionError(f"nodes and panels must be positive integers, got {nodes}, {panels}")
     fcut = cutoff if cutoff is not None else (fmax if math.isfinite(fmax) else max(10 * fmin, 1e4))
-    f_res, z = _resonances(model, max(fcut, fmin), backend)
+    f_res, z = _resonances(model, max(fcut, fmin), solver)
     work, damping = _regularized(model, (fmin, fmax), f_res)
     if model.D is None:
         from ..analysis.compare import modal_damping_ratios
@@ -402,7 +404,7 @@ def gramian_factors(model, ports, band=(0.0, math.inf), *, side: str = "both", n
     limit = int(max_columns) if max_columns is not None else factor_store_columns(model.n_dof)
     stores = [_FactorStore(model.n_dof, limit) for _ in range(3 if side == "both" else 2)]
     for k, (w, weight) in enumerate(zip(wk, wt)):
-        F = factorize(A(w), backend, symmetric=True, check=False)
+        F = factorize(A(w), solver=solver, symmetric=True, check=False)
         X = F.solve(rhs)
         del F
         if rigid_modes is not None and rigid_modes.shape[1]:

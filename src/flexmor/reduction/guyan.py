@@ -9,15 +9,17 @@ from ..errors import OptionError
 from ..linalg import factorize
 from ..ports import interface_dofs
 from . import register_method
+from ..linalg.context import SolverContext, as_solver
 
 
-def constraint_modes(model, interface, backend: str = "auto"):
+def constraint_modes(model, interface, solver: SolverContext | None = None):
     """Static constraint modes of the interface DOFs.
 
     Returns ``(V, b, i, F)``: the basis ``V`` (n_dof, n_b) with ``V[b] = I`` and
     ``V[i] = -K_ii^{-1} K_ib``, the interface and interior equation indices, and the
     factorization ``F`` of ``K_ii`` (for reuse, e.g. by fixed-interface modes).
     """
+    solver = as_solver(solver)
     if not interface:
         raise OptionError("this method needs an interface: --interface NODE, SET or SET:DIR")
     b = interface_dofs(model, interface)
@@ -29,7 +31,7 @@ def constraint_modes(model, interface, backend: str = "auto"):
     K = model.K.tocsr()
     Kii = K[i][:, i]
     Kib = K[i][:, b]
-    F = factorize(Kii, backend, symmetric=True, positive=True)
+    F = factorize(Kii, solver=solver, symmetric=True, positive=True)
     V = np.zeros((model.n_dof, b.size))
     V[b, np.arange(b.size)] = 1.0
     V[i] = -F.solve(Kib.toarray())
@@ -37,7 +39,7 @@ def constraint_modes(model, interface, backend: str = "auto"):
 
 
 @register_method("guyan", "static condensation onto the interface DOFs")
-def guyan(model, ports, order, *, interface=None, backend: str = "auto") -> Basis:
+def guyan(model, ports, order, *, interface=None, solver: SolverContext | None = None) -> Basis:
     """Guyan reduction: the static constraint modes of the interface DOFs.
 
     Parameters
@@ -49,8 +51,8 @@ def guyan(model, ports, order, *, interface=None, backend: str = "auto") -> Basi
         Must equal the number of interface DOFs if given.
     interface : list of str
         Interface SPECs (``NODE``, ``SET``, ``NODE:DIR``, ``SET:DIR``).
-    backend : str
-        Backend of :func:`flexmor.linalg.factorize` for ``K_ii``.
+    solver : SolverContext, optional
+        Solver (backend, statistics) of :func:`flexmor.linalg.factorize` for ``K_ii``.
 
     Returns
     -------
@@ -61,7 +63,8 @@ def guyan(model, ports, order, *, interface=None, backend: str = "auto") -> Basi
     ----------
     Guyan, R. J. (1965). Reduction of stiffness and mass matrices. AIAA Journal 3(2), 380.
     """
-    V, b, _, _ = constraint_modes(model, interface, backend)
+    solver = as_solver(solver)
+    V, b, _, _ = constraint_modes(model, interface, solver)
     if order is not None and order != b.size:
         raise OptionError(f"guyan's order is the number of interface DOFs ({b.size}), not {order}")
     return Basis(V, "guyan", {"n_interface_dofs": int(b.size)})

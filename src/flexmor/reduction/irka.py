@@ -26,6 +26,7 @@ from ..errors import OptionError, SolverError
 from ..projection import project
 from . import register_method
 from .krylov import krylov, merge_blocks, shifted_factorization
+from ..linalg.context import SolverContext, as_solver
 
 __all__ = ["irka", "reduced_poles", "select_shifts"]
 
@@ -95,11 +96,12 @@ def _shift_change(new, old) -> float:
     return float(np.max(d / np.maximum(np.abs(new), np.finfo(float).tiny)))
 
 
-def tangential_basis(model, B, sigma, dirs, order, backend="auto"):
+def tangential_basis(model, B, sigma, dirs, order, solver: SolverContext | None = None):
     """Orthonormal real basis of ``(s_j^2 M + s_j D + K)^{-1} B b_j`` (real and imaginary parts)."""
+    solver = as_solver(solver)
     blocks = []
     for s, b in zip(sigma, dirs):
-        F, s = shifted_factorization(model, s, backend)
+        F, s = shifted_factorization(model, s, solver)
         x = F.solve(B @ b)
         blocks.append([np.hstack([x.real, x.imag]) if s.imag != 0 else np.real(x)])
         del F
@@ -108,7 +110,7 @@ def tangential_basis(model, B, sigma, dirs, order, backend="auto"):
 
 @register_method("irka", "second-order IRKA: H2-type tangential interpolation at iterated points")
 def irka(model, ports, order, *, max_iter: int = 50, shift_tol: float = 1e-4, band=None,
-         backend: str = "auto") -> Basis:
+         solver: SolverContext | None = None) -> Basis:
     """Second-order IRKA basis (one-sided Galerkin, structure preserving).
 
     Parameters
@@ -128,8 +130,8 @@ def irka(model, ports, order, *, max_iter: int = 50, shift_tol: float = 1e-4, ba
     band : (float, float), optional
         Band (Hz) of the :func:`flexmor.reduction.krylov.krylov` start basis, whose
         reduced poles give the initial points; default (1, 1000).
-    backend : str
-        Backend of :func:`flexmor.linalg.factorize`.
+    solver : SolverContext, optional
+        Solver (backend, statistics) of :func:`flexmor.linalg.factorize`.
 
     Returns
     -------
@@ -149,6 +151,7 @@ def irka(model, ports, order, *, max_iter: int = 50, shift_tol: float = 1e-4, ba
     Beattie, C. A., Gugercin, S. (2009). Interpolatory projection methods for
     structure-preserving model reduction. Systems Control Lett. 58(3), 225-232.
     """
+    solver = as_solver(solver)
     if order is None:
         raise OptionError("irka needs --order")
     if int(max_iter) != max_iter or max_iter < 1:
@@ -156,7 +159,7 @@ def irka(model, ports, order, *, max_iter: int = 50, shift_tol: float = 1e-4, ba
     if not shift_tol > 0:
         raise OptionError(f"shift_tol must be positive, got {shift_tol}")
     B = ports.B.toarray()
-    basis = krylov(model, ports, order, band=band, backend=backend)
+    basis = krylov(model, ports, order, band=band, solver=solver)
     V = basis.V
     old, change, it, history = None, np.inf, 0, []
     for it in range(1, int(max_iter) + 1):
@@ -168,7 +171,7 @@ def irka(model, ports, order, *, max_iter: int = 50, shift_tol: float = 1e-4, ba
         if change < shift_tol:
             break
         try:
-            V = tangential_basis(model, B, sigma, dirs, order, backend)
+            V = tangential_basis(model, B, sigma, dirs, order, solver)
         except SolverError:
             if model.D is not None:
                 raise

@@ -31,6 +31,7 @@ from ..linalg import factorize
 from ..linalg.eigen import default_shift
 from ..linalg.threads import blas_threads
 from . import register_method
+from ..linalg.context import SolverContext, as_solver
 
 __all__ = ["krylov", "parse_points", "default_points", "SecondOrderArnoldi", "start_block",
            "rigid_body_modes"]
@@ -91,7 +92,7 @@ def start_block(ports, side: str) -> np.ndarray:
     return np.hstack(blocks)
 
 
-def shifted_factorization(model, s: complex, backend: str = "auto"):
+def shifted_factorization(model, s: complex, solver: SolverContext | None = None):
     """Factorize ``s^2 M + s D + K`` once; returns ``(F, s)``.
 
     For ``s = 0`` on a free-free body (singular ``K``) the point is moved to the real
@@ -99,19 +100,20 @@ def shifted_factorization(model, s: complex, backend: str = "auto"):
     eigen-shift ``lambda0`` of :func:`flexmor.linalg.eigen.default_shift`; a warning is logged
     and the point actually used is returned.
     """
+    solver = as_solver(solver)
     s = complex(s)
     real = s.imag == 0
     A = (s.real ** 2) * model.M + model.K if real else (s * s) * model.M + model.K
     if model.D is not None and s != 0:
         A = A + (s.real if real else s) * model.D
     try:
-        return factorize(A.tocsr(), backend, symmetric=True, positive=real and s.real >= 0), s
+        return factorize(A.tocsr(), solver=solver, symmetric=True, positive=real and s.real >= 0), s
     except SolverError:
         if s != 0:
             raise
     s0 = math.sqrt(-default_shift(model.K, model.M))
     log.warning("K is singular (free body?): expansion point 0 moved to the real point s = %.4g rad/s", s0)
-    return shifted_factorization(model, complex(s0), backend)
+    return shifted_factorization(model, complex(s0), solver)
 
 
 class SecondOrderArnoldi:
@@ -246,7 +248,7 @@ def rigid_body_modes(model) -> np.ndarray:
     return R @ (U[:, keep] / np.sqrt(w[keep]))
 
 
-def blocks_at_points(model, ports, points, n_moments: int, *, side: str = "input", backend: str = "auto",
+def blocks_at_points(model, ports, points, n_moments: int, *, side: str = "input", solver: SolverContext | None = None,
                      rigid_modes=None):
     """Krylov blocks for every point, ``n_moments`` per point, one factorization at a time.
 
@@ -258,6 +260,7 @@ def blocks_at_points(model, ports, points, n_moments: int, *, side: str = "input
     made M-orthogonal to them: the blocks span moments of the flexible part of ``H`` (exact
     for proportional damping), without rigid-body round-off from nearly singular shifts.
     """
+    solver = as_solver(solver)
     start = start_block(ports, side)
     proj = None
     if rigid_modes is not None and rigid_modes.shape[1]:
@@ -268,20 +271,20 @@ def blocks_at_points(model, ports, points, n_moments: int, *, side: str = "input
     blocks, used = [], []
     for p in points:
         with blas_threads(1):  # tall-skinny products between solves (see flexmor.linalg.threads)
-            out, s = _point_blocks(model, start, p, n_moments, backend, proj)
+            out, s = _point_blocks(model, start, p, n_moments, solver, proj)
         blocks.append(out)
         used.append(s)
     return blocks, used
 
 
-def _point_blocks(model, start, p, n_moments: int, backend: str, proj):
+def _point_blocks(model, start, p, n_moments: int, solver: SolverContext, proj):
     """The orthonormal blocks of one point (see :func:`blocks_at_points`) and its ``s``.
 
     A real point's blocks are views of its Arnoldi basis (no copy); a complex point's come
     from the real and imaginary parts of the upper halves of its orthonormal Arnoldi blocks,
     orthonormalized (a direction counts when its real or imaginary part is new).
     """
-    F, s = shifted_factorization(model, 2 * np.pi * complex(p), backend)
+    F, s = shifted_factorization(model, 2 * np.pi * complex(p), solver)
     # the point's share: n_moments blocks of independent directions; vanishing moments
     # (matched for free) and deflated directions do not count, so no second pass is needed
     b = start.shape[1]
@@ -328,7 +331,7 @@ def merge_blocks(blocks, order: int | None = None, *, orthonormal: bool = False)
 
 @register_method("krylov", "second-order block Krylov moment matching at expansion points")
 def krylov(model, ports, order, *, points=None, moments: int | None = None, side: str = "input",
-           band=None, rigid: str = "include", backend: str = "auto") -> Basis:
+           band=None, rigid: str = "include", solver: SolverContext | None = None) -> Basis:
     """Second-order block Krylov (moment matching) basis at one or several expansion points.
 
     Parameters
@@ -363,8 +366,8 @@ def krylov(model, ports, order, *, points=None, moments: int | None = None, side
         frame of reference wants (it describes rigid motion itself); then the moments of the
         flexible part are matched. A point 0 on a free body (singular ``K``) is moved to a
         small real shift.
-    backend : str
-        Backend of :func:`flexmor.linalg.factorize` (one factorization per point).
+    solver : SolverContext, optional
+        Solver (backend, statistics) of :func:`flexmor.linalg.factorize` (one factorization per point).
 
     Returns
     -------
@@ -383,6 +386,7 @@ def krylov(model, ports, order, *, points=None, moments: int | None = None, side
     Grimme, E. J. (1997). Krylov projection methods for model reduction. PhD thesis,
     University of Illinois at Urbana-Champaign (multiple expansion points).
     """
+    solver = as_solver(solver)
     check_choice("side", side, SIDES)
     check_choice("rigid", rigid, RIGID)
     pts = parse_points(points) if points is not None else default_points(band or (1.0, 1000.0))
@@ -401,7 +405,7 @@ def krylov(model, ports, order, *, points=None, moments: int | None = None, side
         w = np.linalg.norm(phi.T @ start_block(ports, side), axis=1)
         head = [[phi[:, w > 1e-8 * w.max(initial=0.0)]]] if w.max(initial=0.0) > 0 else []
     for _ in range(4):
-        blocks, used = blocks_at_points(model, ports, pts, k, side=side, backend=backend, rigid_modes=phi)
+        blocks, used = blocks_at_points(model, ports, pts, k, side=side, solver=solver, rigid_modes=phi)
         V = merge_blocks(head + blocks, order, orthonormal=not head)
         exhausted = all(len(b) < k for b in blocks)
         if moments is not None or V.shape[1] >= order or exhausted:

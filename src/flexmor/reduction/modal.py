@@ -11,12 +11,14 @@ from ..checks import MAX_RIGID_BODY_MODES, mechanism_error
 from ..errors import OptionError, check_choice
 from ..linalg.eigen import eigenmodes, frequencies_hz, is_rigid
 from . import register_method
+from ..linalg.context import SolverContext, as_solver
 
 log = logging.getLogger(__name__)
 
 
 @register_method("modal", "lowest eigenmodes (rigid-body modes excluded by default)", survives_coupling=False)
-def modal(model, ports, order, *, rigid: str = "exclude", sigma: float | None = None, backend: str = "auto") -> Basis:
+def modal(model, ports, order, *, rigid: str = "exclude", sigma: float | None = None,
+          solver: SolverContext | None = None) -> Basis:
     """Modal truncation basis: the ``order`` lowest mass-normalized eigenmodes.
 
     Parameters
@@ -33,8 +35,8 @@ def modal(model, ports, order, *, rigid: str = "exclude", sigma: float | None = 
         modes (a mechanism) raise :class:`~flexmor.errors.ModelError`.
     sigma : float, optional
         Shift of the shift-invert Lanczos solver (default: negative, model-scaled).
-    backend : str
-        Backend of :func:`flexmor.linalg.factorize`.
+    solver : SolverContext, optional
+        Solver (backend, statistics) of :func:`flexmor.linalg.factorize`.
 
     Returns
     -------
@@ -46,6 +48,7 @@ def modal(model, ports, order, *, rigid: str = "exclude", sigma: float | None = 
     Craig, R. R., Kurdila, A. J. (2006). Fundamentals of Structural Dynamics, 2nd ed.,
     Wiley, ch. 11 (modal truncation).
     """
+    solver = as_solver(solver)
     check_choice("rigid", rigid, ["exclude", "include"])
     if order is None:
         raise OptionError("modal needs --order")
@@ -55,7 +58,7 @@ def modal(model, ports, order, *, rigid: str = "exclude", sigma: float | None = 
     extra = 6 if rigid == "exclude" else 0
     while True:
         k = min(n, order + extra)
-        lam, phi = eigenmodes(model.K, model.M, k, sigma=sigma, backend=backend)
+        lam, phi = eigenmodes(model.K, model.M, k, sigma=sigma, solver=solver)
         is_rb = is_rigid(lam, model.K, model.M)
         n_rb = int(is_rb.sum())
         if rigid == "include" or k - n_rb >= order or k == n:

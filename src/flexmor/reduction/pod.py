@@ -11,6 +11,7 @@ from ..basis import Basis
 from ..errors import OptionError, check_choice
 from . import register_method
 from .gramians import compress, gramian_factors
+from ..linalg.context import SolverContext, as_solver
 
 __all__ = ["pod", "pod_modes", "SNAPSHOTS"]
 
@@ -52,7 +53,7 @@ def pod_modes(S: np.ndarray, M, order: int | None = None, energy: float | None =
     return Q @ np.linalg.solve(Lq.T, U[:, :r]), lam
 
 
-def _time_snapshots(model, ports, band, backend):
+def _time_snapshots(model, ports, band, solver):
     """States ``q(t)`` of the full body under a sine sweep over the band, one load case per input.
 
     Uses :func:`flexmor.analysis.time.simulate` (Newmark) with the identity as output matrix;
@@ -69,7 +70,7 @@ def _time_snapshots(model, ports, band, backend):
     t_end = min(5.0 / fmin, MAX_STEPS * dt)
     eye = sp.identity(model.n_dof, format="csr")
     snap = Ports(B=ports.B, C=eye, input_names=ports.input_names, output_names=[""] * model.n_dof)
-    res = simulate(model, sine_sweep(fmin, fmax, t_end), dt=dt, t_end=t_end, ports=snap, backend=backend)
+    res = simulate(model, sine_sweep(fmin, fmax, t_end), dt=dt, t_end=t_end, ports=snap, solver=solver)
     q = res.displacement  # (n_t, n_dof, m)
     S = np.transpose(q, (1, 0, 2)).reshape(model.n_dof, -1) * math.sqrt(dt)
     return compress(S), {"dt": dt, "t_end": t_end, "n_steps": int(q.shape[0]), "signal": "linear sine sweep"}
@@ -77,7 +78,7 @@ def _time_snapshots(model, ports, band, backend):
 
 @register_method("pod", "proper orthogonal decomposition of frequency (and time) snapshots", survives_coupling=False)
 def pod(model, ports, order, *, band=None, energy: float | None = None, snapshots: str = "frequency",
-        side: str = "input", nodes: int = 4, backend: str = "auto") -> Basis:
+        side: str = "input", nodes: int = 4, solver: SolverContext | None = None) -> Basis:
     """POD basis from snapshots of the full body's response.
 
     Frequency snapshots are the solutions ``X(w_k) = (K - w_k^2 M + i w_k D)^{-1} B`` at the
@@ -103,8 +104,8 @@ def pod(model, ports, order, *, band=None, energy: float | None = None, snapshot
         Snapshots of ``B`` only, or of ``B`` and ``C^T`` (the dual body).
     nodes : int
         Gauss points per quadrature panel (see :func:`flexmor.reduction.balanced.sobt`).
-    backend : str
-        Backend of :func:`flexmor.linalg.factorize`.
+    solver : SolverContext, optional
+        Solver (backend, statistics) of :func:`flexmor.linalg.factorize`.
 
     Returns
     -------
@@ -123,6 +124,7 @@ def pod(model, ports, order, *, band=None, energy: float | None = None, snapshot
     Willcox, K., Peraire, J. (2002). Balanced model reduction via the proper orthogonal
     decomposition. AIAA Journal 40(11), 2323-2330 (frequency-domain snapshots).
     """
+    solver = as_solver(solver)
     check_choice("snapshots", snapshots, SNAPSHOTS)
     check_choice("side", side, ("input", "both"))
     if order is None and energy is None:
@@ -133,12 +135,12 @@ def pod(model, ports, order, *, band=None, energy: float | None = None, snapshot
     parts, info = [], {"snapshots": snapshots, "band_hz": list(band)}
     if snapshots in ("frequency", "both"):
         G = gramian_factors(model, ports, band, side="both" if side == "both" else "input", nodes=nodes,
-                            backend=backend)
+                            solver=solver)
         S = G.R if side == "input" else np.hstack([G.R, G.L])
         parts.append(S)
         info.update(n_nodes=G.info["n_nodes"], gramian_damping=G.info["gramian_damping"])
     if snapshots in ("time", "both"):
-        S, tinfo = _time_snapshots(model, ports, band, backend)
+        S, tinfo = _time_snapshots(model, ports, band, solver)
         parts.append(S)
         info["time"] = tinfo
     if len(parts) > 1:

@@ -12,13 +12,14 @@ from ..errors import OptionError
 from ..ports import Ports
 from . import register_method
 from .krylov import default_points, krylov, parse_points, shifted_factorization
+from ..linalg.context import SolverContext, as_solver
 
 __all__ = ["svdmor", "port_directions"]
 
 log = logging.getLogger(__name__)
 
 
-def port_directions(model, ports, points, *, backend: str = "auto"):
+def port_directions(model, ports, points, *, solver: SolverContext | None = None):
     """Input and output directions from sampled transfer matrices ``H(s_k)``.
 
     ``H(s_k) = C (s_k^2 M + s_k D + K)^{-1} B`` at the points ``s_k`` (one factorization each,
@@ -36,10 +37,11 @@ def port_directions(model, ports, points, *, backend: str = "auto"):
     used : list of complex
         Points actually used (rad/s).
     """
+    solver = as_solver(solver)
     B, C = ports.B.toarray(), ports.C
     H, used = [], []
     for p in points:
-        F, s = shifted_factorization(model, 2 * np.pi * complex(p), backend)
+        F, s = shifted_factorization(model, 2 * np.pi * complex(p), solver)
         Hk = C @ F.solve(B)
         H += [Hk.real, Hk.imag] if np.iscomplexobj(Hk) and np.any(Hk.imag) else [np.real(Hk)]
         used.append(s)
@@ -52,7 +54,7 @@ def port_directions(model, ports, points, *, backend: str = "auto"):
 @register_method("svdmor", "SVD compression of many inputs/outputs from sampled transfer data, then krylov",
                  survives_coupling=False)
 def svdmor(model, ports, order, *, directions: int | None = None, band=None, points=None, side: str = "both",
-           rigid: str = "include", backend: str = "auto") -> Basis:
+           rigid: str = "include", solver: SolverContext | None = None) -> Basis:
     """SVDMOR: Krylov reduction of the body with its inputs and outputs compressed by an SVD.
 
     A body with many inputs (``m``) makes block Krylov spaces grow by ``m`` per moment. SVDMOR
@@ -81,8 +83,8 @@ def svdmor(model, ports, order, *, directions: int | None = None, band=None, poi
         Krylov space of the compressed ``B``, ``C^T`` or both.
     rigid : {'include', 'exclude'}
         See :func:`flexmor.reduction.krylov.krylov`.
-    backend : str
-        Backend of :func:`flexmor.linalg.factorize`.
+    solver : SolverContext, optional
+        Solver (backend, statistics) of :func:`flexmor.linalg.factorize`.
 
     Returns
     -------
@@ -99,10 +101,11 @@ def svdmor(model, ports, order, *, directions: int | None = None, band=None, poi
     matrix decomposition and low rank approximation. In: Scientific Computing in Electrical
     Engineering SCEE 2010, Springer, 523-530.
     """
+    solver = as_solver(solver)
     if order is None:
         raise OptionError("svdmor needs --order")
     pts = parse_points(points) if points is not None else default_points(band or (1.0, 1000.0))
-    W, s_in, U, s_out, used = port_directions(model, ports, pts, backend=backend)
+    W, s_in, U, s_out, used = port_directions(model, ports, pts, solver=solver)
     if directions is None:
         k_in = max(1, int(np.sum(s_in > 1e-3 * s_in[0])))
         k_out = max(1, int(np.sum(s_out > 1e-3 * s_out[0])))
@@ -114,7 +117,7 @@ def svdmor(model, ports, order, *, directions: int | None = None, band=None, poi
     Cc = sp.csr_matrix(U[:, :k_out].T @ ports.C)
     compressed = Ports(B=Bc, C=Cc, input_names=[f"w{j + 1}" for j in range(k_in)],
                        output_names=[f"v{j + 1}" for j in range(k_out)])
-    Kb = krylov(model, compressed, order, points=points, band=band, side=side, rigid=rigid, backend=backend)
+    Kb = krylov(model, compressed, order, points=points, band=band, side=side, rigid=rigid, solver=solver)
     info = {"directions": [k_in, k_out], "input_sv": s_in.tolist(), "output_sv": s_out.tolist(),
             "discarded_input_sv": s_in[k_in:].tolist(), "discarded_output_sv": s_out[k_out:].tolist(),
             "sample_points_rad_s": [str(s) for s in used], "krylov": Kb.info, "nested": True}

@@ -15,6 +15,7 @@ from . import register_method
 from .dense_gramians import dense_gramians, psd_factor
 from .gramians import UNDAMPED_ZETA, VARIANTS, balance
 from .krylov import krylov
+from ..linalg.context import SolverContext, as_solver
 
 __all__ = ["two_step", "GRAMIANS"]
 
@@ -26,7 +27,8 @@ GRAMIANS = ("band", "full")
 @register_method("two-step", "krylov to an intermediate order, then balanced truncation with exact Gramians",
                  survives_coupling=False)
 def two_step(model, ports, order, *, intermediate: int = 120, band=None, gramian: str = "band",
-             variant: str = "position", points=None, rigid: str = "include", backend: str = "auto") -> Basis:
+             variant: str = "position", points=None, rigid: str = "include",
+             solver: SolverContext | None = None) -> Basis:
     """Krylov reduction to ``intermediate`` (r1), then second-order balanced truncation to ``order`` (r2).
 
     The first step (:func:`flexmor.reduction.krylov.krylov`, input and output Krylov spaces at
@@ -54,8 +56,8 @@ def two_step(model, ports, order, *, intermediate: int = 120, band=None, gramian
     rigid : {'include', 'exclude'}
         Rigid-body modes of a free body (see :func:`flexmor.reduction.krylov.krylov`); the
         included ones are kept in front of the balanced vectors (they have no finite Gramian).
-    backend : str
-        Backend of :func:`flexmor.linalg.factorize`.
+    solver : SolverContext, optional
+        Solver (backend, statistics) of :func:`flexmor.linalg.factorize`.
 
     Returns
     -------
@@ -73,6 +75,7 @@ def two_step(model, ports, order, *, intermediate: int = 120, band=None, gramian
     Reis, T., Stykel, T. (2008). Balanced truncation model reduction of second-order systems.
     Math. Comput. Model. Dyn. Syst. 14(5), 391-406.
     """
+    solver = as_solver(solver)
     check_choice("gramian", gramian, GRAMIANS)
     check_choice("variant", variant, VARIANTS)
     if order is None:
@@ -81,7 +84,7 @@ def two_step(model, ports, order, *, intermediate: int = 120, band=None, gramian
     if r1 < order:
         raise OptionError(f"--intermediate ({intermediate}) must be at least --order ({order})")
     band = tuple(float(b) for b in (band or (1.0, 1000.0)))
-    K1 = krylov(model, ports, r1, points=points, side="both", band=band, rigid=rigid, backend=backend)
+    K1 = krylov(model, ports, r1, points=points, side="both", band=band, rigid=rigid, solver=solver)
     red = project(model, K1, ports)
     Dr = red.D
     if Dr is None:  # undamped: Gramians of the lightly damped body (see flexmor.reduction.gramians)

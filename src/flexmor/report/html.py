@@ -27,6 +27,7 @@ from .. import __version__
 from ..errors import FlexmorError, OptionError, check_choice
 from ..io import atomic_write
 from . import plots
+from ..linalg.context import SolverContext, as_solver
 
 __all__ = ["SIGNALS", "SINGULAR_VALUE_KEYS", "Report", "build_report", "render_html", "write_report"]
 
@@ -107,7 +108,8 @@ def _signal(name, dt: float, t_end: float, band):
 def build_report(model, ports, reduced, *, band, labels=None, seconds=None, full=None, signal="step",
                  dt: float | None = None, t_end: float | None = None, max_steps: int = 5000,
                  scheme: str = "newmark", rho_inf: float = 0.9, n_modes: int = 12, h2_max_dof: int = 1000,
-                 backend: str = "auto", progress=None, time_progress=None, title: str | None = None) -> Report:
+                 solver: SolverContext | None = None, progress=None, time_progress=None,
+                 title: str | None = None) -> Report:
     """Compute the contents of a report on ``reduced`` bodies of ``model``.
 
     Parameters
@@ -137,8 +139,8 @@ def build_report(model, ports, reduced, *, band, labels=None, seconds=None, full
     h2_max_dof : int
         The H2 error (:func:`flexmor.analysis.norms.h2_error`, dense) is computed for damped
         models up to this size.
-    backend : str
-        Backend of :func:`flexmor.linalg.factorize`.
+    solver : SolverContext, optional
+        Solver (backend, statistics) of :func:`flexmor.linalg.factorize`.
     progress, time_progress : callable, optional
         ``progress(iterable, total)`` wrappers of the FRF sweep and the full time integration.
     title : str, optional
@@ -147,6 +149,7 @@ def build_report(model, ports, reduced, *, band, labels=None, seconds=None, full
     -------
     Report
     """
+    solver = as_solver(solver)
     from ..analysis.compare import FullResponse
     from ..analysis.frequency import frf_reduced
     from ..analysis.modal_check import full_modes, modal_check
@@ -160,7 +163,7 @@ def build_report(model, ports, reduced, *, band, labels=None, seconds=None, full
     seconds = list(seconds) if seconds else [r.info.get("seconds") for r in reduced]
     band = (float(band[0]), float(band[1]))
     if full is None:
-        full = FullResponse(model, ports, band, backend=backend, progress=progress)
+        full = FullResponse(model, ports, band, solver=solver, progress=progress)
     notes = []
     rep = Report(title=title or f"flexmor report: {model.name}", model=model.summary(), band=band, rows=[],
                  notes=notes)
@@ -196,7 +199,7 @@ def build_report(model, ports, reduced, *, band, labels=None, seconds=None, full
         rep.figures["singular_values"] = plots.singular_values_png(svs)
 
     # eigenfrequencies and MAC
-    f, phi, n_rig = full_modes(model, n_modes, backend=backend)
+    f, phi, n_rig = full_modes(model, n_modes, solver=solver)
     rep.modal = {"full_hz": f, "n_rigid": n_rig, "bodies": {}}
     if n_rig:
         notes.append(f"free body ({n_rig} rigid-body modes): the time responses include rigid-body motion, which "
@@ -210,7 +213,7 @@ def build_report(model, ports, reduced, *, band, labels=None, seconds=None, full
     t_end = float(t_end) if t_end else 3.0 / f_lo
     dt = float(dt) if dt else max(1.0 / (20.0 * band[1]), t_end / max_steps)
     u, desc = _signal(signal, dt, t_end, band)
-    y_full = simulate(model, u, dt=dt, t_end=t_end, ports=ports, scheme=scheme, rho_inf=rho_inf, backend=backend,
+    y_full = simulate(model, u, dt=dt, t_end=t_end, ports=ports, scheme=scheme, rho_inf=rho_inf, solver=solver,
                       progress=time_progress)
     y_red = {}
     for lb, red, row in zip(labels, reduced, rep.rows):

@@ -1,0 +1,184 @@
+"""The solver context: which sparse solver, its caches and statistics, passed by value.
+
+Every function that factorizes or computes eigenpairs takes ``solver: SolverContext | None``
+(None: a fresh default context). One context carries
+
+* the backend (a name of :data:`flexmor.linalg.backends.BACKENDS` or ``auto``, validated when
+  the context is made; the backends available for ``auto`` are determined once per context),
+* the statistics of its factorizations and solves (:class:`SolverStats`), so that a caller
+  reads the solver share of its own computation from the context it passed,
+* the PARDISO ordering cache (:class:`OrderingCache`, reused across shifted matrices of one
+  sparsity pattern),
+* the MPI layout used by the ``petsc`` backend (:class:`flexmor.linalg.distributed.MPILayout`),
+* the eigen policy (:class:`EigenPolicy`) of :func:`flexmor.linalg.eigenmodes`,
+* a memo of facts about a model's matrices (e.g. the number of rigid-body modes), valid while
+  those matrices live.
+
+Nothing of this is kept at module level, so two computations in one process with two contexts
+neither share counts nor caches.
+"""
+
+from __future__ import annotations
+
+import weakref
+from dataclasses import dataclass, field
+from typing import Callable
+
+from ..errors import OptionError, SolverError
+from .backends import BACKENDS, OrderingCache, SolverStats
+from .distributed import MPILayout, layout
+
+__all__ = ["SolverContext", "SolverStats", "OrderingCache", "EigenPolicy", "DENSE_LIMIT", "LANCZOS_MAX_K",
+           "EIGEN_METHODS", "as_solver"]
+
+#: Problems up to this size are solved densely (LAPACK), larger ones by shift-invert Lanczos.
+DENSE_LIMIT = 600
+
+#: ``method="auto"`` uses block Lanczos up to this many modes, ARPACK above (bench/eigen.py).
+LANCZOS_MAX_K = 32
+
+#: Choices of the eigen method.
+EIGEN_METHODS = ("auto", "lanczos", "arpack", "dense")
+
+
+@dataclass(frozen=True)
+class EigenPolicy:
+    """How :func:`flexmor.linalg.eigenmodes` solves ``K phi = lambda M phi`` unless told otherwise.
+
+    Attributes
+    ----------
+    method : {'auto', 'lanczos', 'arpack', 'dense'}
+        ``auto``: dense up to ``dense_limit`` DOF or ``k >= n/2``, else lanczos up to
+        ``lanczos_max_k`` modes and arpack above.
+    dense_limit : int
+        Largest problem solved densely by ``auto``.
+    lanczos_max_k : int
+        Most modes for which ``auto`` takes block Lanczos.
+    block : int or None
+        Block size of ``lanczos`` (None: ``min(max(6, k // 4), 16)``).
+    """
+
+    method: str = "auto"
+    dense_limit: int = DENSE_LIMIT
+    lanczos_max_k: int = LANCZOS_MAX_K
+    block: int | None = None
+
+    def __post_init__(self):
+        if self.method not in EIGEN_METHODS:
+            raise OptionError(f"method={self.method!r} is not allowed; choose one of: {', '.join(EIGEN_METHODS)}")
+
+    def choose(self, n: int, k: int, method: str | None = None) -> str:
+        """The method for ``k`` modes of an ``n``-DOF problem (``method`` overrides the policy's)."""
+        method = self.method if method is None else method
+        if method not in EIGEN_METHODS:
+            raise OptionError(f"method={method!r} is not allowed; choose one of: {', '.join(EIGEN_METHODS)}")
+        if method == "auto":
+            if n <= self.dense_limit or k >= n // 2:
+                return "dense"
+            return "lanczos" if k <= self.lanczos_max_k else "arpack"
+        return "dense" if k >= n else method
+
+
+@dataclass
+class SolverContext:
+    """The sparse solver of a computation, with its caches and statistics.
+
+    Parameters
+    ----------
+    backend : str
+        ``auto`` or a name of :data:`~flexmor.linalg.backends.BACKENDS` (``cholmod``,
+        ``pardiso``, ``scipy``, ``petsc``); ``auto`` picks per matrix the fastest available
+        backend that supports it.
+    eigen : EigenPolicy
+        Defaults of :func:`flexmor.linalg.eigenmodes`.
+    mpi : MPILayout, optional
+        Rank and number of ranks of the ``petsc`` backend (default: those of this process).
+
+    Attributes
+    ----------
+    stats : SolverStats
+        Factorizations and solves done with this context.
+    orderings : OrderingCache
+        Fill-reducing orderings reused by PARDISO.
+
+    Raises
+    ------
+    OptionError
+        An unknown backend name (the message lists the allowed ones).
+    """
+
+    backend: str = "auto"
+    eigen: EigenPolicy = field(default_factory=EigenPolicy)
+    mpi: MPILayout | None = None
+    stats: SolverStats = field(default_factory=SolverStats, init=False)
+    orderings: OrderingCache = field(default_factory=OrderingCache, init=False, repr=False)
+    _available: tuple | None = field(default=None, init=False, repr=False)
+    _memo: dict = field(default_factory=dict, init=False, repr=False)
+
+    def __post_init__(self):
+        allowed = ["auto", *BACKENDS]
+        if self.backend not in allowed:
+            raise OptionError(f"backend={self.backend!r} is not allowed; choose one of: {', '.join(allowed)}")
+        if self.mpi is None:
+            self.mpi = layout()
+
+    def available(self) -> tuple[str, ...]:
+        """Names of the backends that work on this machine, fastest first (checked once per context)."""
+        if self._available is None:
+            self._available = tuple(name for name, b in BACKENDS.items() if b.available())
+        return self._available
+
+    def pick(self, *, is_complex: bool, positive: bool, symmetric: bool) -> str:
+        """The backend that factorizes a matrix of this kind.
+
+        Raises
+        ------
+        OptionError
+            ``petsc`` asked for but not installed (the message names the install route).
+        SolverError
+            Another backend asked for but not available here.
+        """
+        avail = self.available()
+        if self.backend != "auto":
+            if self.backend not in avail:
+                if self.backend == "petsc":
+                    from .petsc import require
+
+                    require()  # OptionError naming the install route
+                raise SolverError(f"backend {self.backend!r} is not available here; available: {', '.join(avail)}")
+            return self.backend
+        for name in avail:
+            b = BACKENDS[name]
+            if (is_complex and not b.complex) or (b.positive_only and not (positive and symmetric)):
+                continue
+            return name
+        return "scipy"
+
+    def remember(self, what: str, matrices: tuple, compute: Callable):
+        """``compute()``, computed once per ``what`` while the (weak-referenceable) ``matrices`` live.
+
+        Sparse matrices are not hashable, so the memo is keyed by their ids and guarded by weak
+        references: an entry whose matrices were collected (and whose ids may be reused) is
+        recomputed.
+        """
+        key = (what, *map(id, matrices))
+        hit = self._memo.get(key)
+        if hit is not None and all(ref() is m for ref, m in zip(hit[0], matrices)):
+            return hit[1]
+        value = compute()
+        try:
+            memo = self._memo
+            refs = tuple(weakref.ref(m, lambda _, key=key: memo.pop(key, None)) for m in matrices)
+        except TypeError:  # not weak-referenceable: not remembered
+            return value
+        self._memo[key] = (refs, value)
+        return value
+
+
+def as_solver(solver: SolverContext | None) -> SolverContext:
+    """``solver`` itself, or a fresh default context for None; an OptionError for anything else."""
+    if solver is None:
+        return SolverContext()
+    if not isinstance(solver, SolverContext):
+        raise OptionError(f"solver must be a SolverContext (e.g. SolverContext(backend='scipy')), got {solver!r}")
+    return solver
