@@ -19,8 +19,8 @@ import json
 import sys
 import time
 
-from flexmor.linalg import distributed as dist
 from flexmor.linalg import SolverContext, factorize
+from flexmor.linalg import distributed as dist
 from flexmor.linalg.eigen import default_shift
 from flexmor.models.distributed import partitioned_cantilever
 from flexmor.ports import make_ports

@@ -98,15 +98,15 @@ def test_serial_slepc_modes_match_dense(clamped):
 
 @needs_petsc
 def test_partitioned_matrix_in_one_process():
-    from flexmor.linalg.distributed import PartitionedCSR
+    from flexmor.linalg.distributed import PartitionedMatrix
     from flexmor.models import cantilever
     from flexmor.models.distributed import partitioned_cantilever
 
     p, s = partitioned_cantilever(2, divisions=(6, 2, 2)), cantilever(2, divisions=(6, 2, 2))
-    assert isinstance(p.K, PartitionedCSR) and p.n_dof == s.n_dof
+    assert isinstance(p.K, PartitionedMatrix) and p.n_dof == s.n_dof
     x = np.random.default_rng(0).standard_normal((p.n_dof, 2))
     A = p.K - 3.0 * p.M
-    assert isinstance(A, PartitionedCSR) and isinstance(A.T, PartitionedCSR)
+    assert isinstance(A, PartitionedMatrix) and isinstance(A.T, PartitionedMatrix)
     assert np.allclose(A @ x, (p.K @ x) - 3.0 * (p.M @ x))
     # same body, other numbering: same spectrum
     from flexmor.linalg import eigenmodes

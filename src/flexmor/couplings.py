@@ -46,6 +46,7 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 
 from .errors import ModelError, PortError
+from .linalg.distributed import is_partitioned
 from .model import FEModel
 
 __all__ = ["parse_coupling", "is_coupling", "rbe2_matrix", "rbe3_matrix", "couple", "Coupled", "port_row"]
@@ -245,7 +246,7 @@ def couple(model: FEModel, specs, *, weights: dict | None = None) -> Coupled:
             targets.append(t.strip())
     if not targets:
         raise PortError("no coupling SPEC (SET@rbe2 or SET@rbe3) given")
-    if getattr(model.K, "partitioned", False):  # T^T K T needs whole rows and columns of K
+    if is_partitioned(model.K):  # T^T K T needs whole rows and columns of K
         raise PortError(f"couplings ({', '.join(targets)}) need the whole model in one process, but its rows are "
                         "spread over MPI ranks; flexmor reduce applies them while rank 0 reads the file, "
                         "compare and report need a serial backend for bodies with couplings")

@@ -24,6 +24,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from .errors import FlexmorWarning, ModelError
+from .linalg.distributed import is_partitioned
 
 __all__ = ["FEModel", "DIRECTIONS", "direction_code", "direction_name"]
 
@@ -59,7 +60,7 @@ def direction_name(code: int) -> str:
 
 
 def _as_csr(name: str, A, n: int | None = None) -> sp.csr_matrix:
-    if A is None or getattr(A, "partitioned", False):  # rows spread over MPI ranks: kept as they are
+    if A is None or is_partitioned(A):  # rows spread over MPI ranks: kept as they are
         return A
     if not sp.issparse(A):
         A = np.asarray(A)
@@ -76,7 +77,7 @@ def _as_csr(name: str, A, n: int | None = None) -> sp.csr_matrix:
 
 def _nnz(A) -> int:
     """Stored entries of ``A`` (summed over the MPI ranks for a partitioned matrix)."""
-    return A.global_nnz() if getattr(A, "partitioned", False) else int(A.nnz)
+    return A.global_nnz() if is_partitioned(A) else int(A.nnz)
 
 
 def _check_square_symmetric(name: str, A: sp.csr_matrix, n: int) -> None:
@@ -85,7 +86,7 @@ def _check_square_symmetric(name: str, A: sp.csr_matrix, n: int) -> None:
     if not np.all(np.isfinite(A.data)):
         bad = int(np.count_nonzero(~np.isfinite(A.data)))
         raise ModelError(f"{name} contains {bad} non-finite entries (NaN or Inf)")
-    if getattr(A, "partitioned", False):  # each rank holds some rows: symmetric by construction
+    if is_partitioned(A):  # each rank holds some rows: symmetric by construction
         return
     scale = float(np.max(np.abs(A.data))) if A.nnz else 0.0
     if scale == 0.0:

@@ -15,9 +15,9 @@ import time
 
 from .basis import Basis
 from .errors import OptionError
+from .linalg.context import SolverContext, as_solver
 from .projection import project
 from .reduction import reduce
-from .linalg.context import SolverContext, as_solver
 
 __all__ = ["reduce_to_tolerance", "NESTED"]
 

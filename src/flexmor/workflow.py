@@ -11,9 +11,9 @@ import numpy as np
 from .analysis.compare import FullResponse
 from .checks import check_rigid_body_modes
 from .errors import OptionError
+from .linalg.context import SolverContext, as_solver
 from .ports import make_ports
 from .reduction import reduce
-from .linalg.context import SolverContext, as_solver
 
 __all__ = ["coupling_specs", "prepare_model", "parse_band", "parse_pair", "apply_damping", "reduce_and_judge",
            "run_demo", "DEFAULT_BAND"]

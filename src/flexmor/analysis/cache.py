@@ -21,6 +21,8 @@ from pathlib import Path
 import numpy as np
 import scipy.sparse as sp
 
+from ..linalg.distributed import comm, is_partitioned
+
 __all__ = ["cache_dir", "frf_key", "load", "store", "FORMAT_VERSION"]
 
 log = logging.getLogger(__name__)
@@ -43,11 +45,9 @@ def _update_matrix(h, name: str, A) -> None:
     if A is None:
         h.update(b"none")
         return
-    if getattr(A, "partitioned", False):  # rows over MPI ranks: the ranks' digests in rank order (same key on all)
-        from ..linalg.distributed import comm
-
+    if is_partitioned(A):  # rows over MPI ranks: the ranks' digests in rank order (same key on all)
         part = hashlib.blake2b(digest_size=20)
-        _update_matrix(part, name, sp.csr_matrix(A))
+        _update_matrix(part, name, A.local)
         c = comm()
         for d in ([part.digest()] if c is None else c.allgather(part.digest())):
             h.update(d)

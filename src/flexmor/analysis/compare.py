@@ -10,12 +10,12 @@ import numpy as np
 
 from ..errors import OptionError
 from ..linalg import factorize
+from ..linalg.context import SolverContext, as_solver
 from ..linalg.eigen import default_shift, eigenmodes, frequencies_hz
 from . import cache as frf_cache
 from .frequency import error_measures, frf_full, frf_reduced, rel_error
 from .grid import DEFAULT_TOL, adaptive_grid
 from .surrogate import DEFAULT_SURROGATE_TOL
-from ..linalg.context import SolverContext, as_solver
 
 __all__ = ["FullResponse", "modal_damping_ratios", "PATHS"]
 

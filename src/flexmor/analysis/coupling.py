@@ -53,10 +53,10 @@ import scipy.sparse as sp
 
 from ..errors import FlexmorWarning, ModelError, OptionError, PortError
 from ..linalg import factorize
+from ..linalg.context import SolverContext, as_solver
 from ..model import FEModel
 from ..ports import Ports, make_ports
 from ..projection import ReducedModel
-from ..linalg.context import SolverContext, as_solver
 
 __all__ = ["Assembly", "Body", "coupling_warning"]
 

@@ -27,6 +27,7 @@ import scipy.sparse as sp
 from ..errors import OptionError
 from ..linalg import factorize
 from ..linalg.context import SolverContext, as_solver
+from ..linalg.distributed import PartitionedMatrix, is_partitioned
 
 __all__ = ["ShiftedMatrices", "frf_full", "frf_reduced", "rel_error", "band_error", "max_rel_error", "hinf_error",
            "band_grid", "error_measures"]
@@ -51,10 +52,13 @@ class ShiftedMatrices:
     ----------
     K, M : sparse matrix, shape (n, n)
     D : sparse matrix, optional
+        Partitioned over MPI ranks (:class:`flexmor.linalg.distributed.PartitionedMatrix`) or
+        not; ``A(w)`` is partitioned like ``K``.
     """
 
     def __init__(self, K, M, D=None):
-        mats = [sp.csr_matrix(X) for X in (K, M, D) if X is not None]
+        self.partitioned = is_partitioned(K)
+        mats = [sp.csr_matrix(X.local if is_partitioned(X) else X) for X in (K, M, D) if X is not None]
         pattern = abs(mats[0])
         for X in mats[1:]:
             pattern = pattern + abs(X)
@@ -77,12 +81,13 @@ class ShiftedMatrices:
         rows = np.repeat(np.arange(X.shape[0], dtype=np.int64), np.diff(X.indptr))
         return rows * X.shape[1] + X.indices
 
-    def __call__(self, w: float) -> sp.csr_matrix:
+    def __call__(self, w: float):
         """The matrix at angular frequency ``w`` (rad/s); complex when damped."""
         data = self.data[0] - w ** 2 * self.data[1]
         if self.damped:
             data = data + 1j * w * self.data[2]
-        return sp.csr_matrix((data, self.indices, self.indptr), shape=self.shape)
+        A = sp.csr_matrix((data, self.indices, self.indptr), shape=self.shape)
+        return PartitionedMatrix(A) if self.partitioned else A
 
 
 def frf_full(model, ports, freqs, *, solver: SolverContext | None = None,

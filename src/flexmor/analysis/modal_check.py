@@ -22,8 +22,8 @@ import numpy as np
 import scipy.linalg as sla
 
 from ..errors import ModelError, OptionError
-from ..linalg.eigen import eigenmodes, frequencies_hz, is_rigid
 from ..linalg.context import SolverContext, as_solver
+from ..linalg.eigen import eigenmodes, frequencies_hz, is_rigid
 
 __all__ = ["DEGENERATE_RTOL", "PAIR_MAC_MIN", "full_modes", "mac", "modal_check"]
 

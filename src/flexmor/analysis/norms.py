@@ -22,6 +22,7 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 
 from ..errors import OptionError, check_choice
+from ..linalg.distributed import is_partitioned
 from ..linalg.eigen import dense_eigenmodes
 from .frequency import frf_full, frf_reduced
 
@@ -32,7 +33,7 @@ DENSE_H2_LIMIT = 3000
 
 
 def _dense(A):
-    return A.toarray() if sp.issparse(A) else np.asarray(A, dtype=float)
+    return A.toarray() if sp.issparse(A) or is_partitioned(A) else np.asarray(A, dtype=float)
 
 
 def _modal_terms(M, K, B, C, alpha, beta):

@@ -49,9 +49,9 @@ from ..basis import extend_orthonormal
 from ..errors import check_choice
 from ..linalg import factorize
 from ..linalg.backends import MEMORY_FRACTION, memory_available
+from ..linalg.context import SolverContext, as_solver
 from .frequency import ShiftedMatrices, _omega
 from .grid import initial_grid
-from ..linalg.context import SolverContext, as_solver
 
 __all__ = ["Surrogate", "DEFAULT_SURROGATE_TOL"]
 

@@ -52,6 +52,7 @@ import scipy.sparse as sp
 from ..errors import OptionError, check_choice
 from ..linalg import factorize
 from ..linalg.context import SolverContext, as_solver
+from ..linalg.distributed import is_partitioned
 
 __all__ = [
     "QUANTITIES",
@@ -202,10 +203,10 @@ def _matrices(system, B=None, C=None):
         C = system.C if C is None else C
     if B is None or C is None:
         raise OptionError("give the input and output matrices (ports) of the full model")
-    sparse = sp.issparse(M)
-    if sparse:
-        M, K = sp.csr_matrix(M), sp.csr_matrix(K)
-        D = None if D is None else sp.csr_matrix(D)
+    sparse = sp.issparse(M) or is_partitioned(M)
+    if sparse:  # partitioned matrices (rows over MPI ranks) stay as they are
+        M, K = (A if is_partitioned(A) else sp.csr_matrix(A) for A in (M, K))
+        D = D if D is None or is_partitioned(D) else sp.csr_matrix(D)
         B = B.toarray() if sp.issparse(B) else np.asarray(B, float)
         C = sp.csr_matrix(C)
     else:
@@ -286,7 +287,7 @@ def simulate(system, u, *, dt: float, t_end: float, ports=None, scheme: str = "n
         S = S + (1 - af) * gamma * h * D
     n_fact = 0
     if sparse:
-        solve = factorize(sp.csr_matrix(S), solver=solver, symmetric=True, positive=True).solve
+        solve = factorize(S.tocsr(), solver=solver, symmetric=True, positive=True).solve
         n_fact += 1
     else:
         solve = _dense_solver(S)

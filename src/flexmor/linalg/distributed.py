@@ -9,7 +9,7 @@ are distributed by rows. Two ways of holding a model's matrices are supported:
     the ``petsc`` backend hands each rank's row block (:func:`row_range`) to PETSc, so the
     factor, which dominates the memory, is distributed.
 *partitioned*
-    :class:`PartitionedCSR`: every rank holds only its own rows (zero elsewhere), the matrix
+    :class:`PartitionedMatrix`: every rank holds only its own rows (zero elsewhere), the matrix
     being the sum of the ranks' pieces. A file model read by rank 0 reaches the other ranks
     this way (:func:`scatter_rows`, :func:`flexmor.models.distributed.read_on_root`). Products
     with dense blocks (``A @ X``, ``X.T @ A``), the diagonal and dense copies are completed by
@@ -36,7 +36,7 @@ from ..errors import SolverError
 
 __all__ = [
     "MPILayout",
-    "PartitionedCSR",
+    "PartitionedMatrix",
     "allgather_rows",
     "allreduce",
     "barrier",
@@ -180,9 +180,9 @@ def allgather_rows(local: np.ndarray, n: int) -> np.ndarray:
     return out
 
 
-def scatter_rows(A, n: int) -> PartitionedCSR:
+def scatter_rows(A, n: int) -> PartitionedMatrix:
     """Rank 0's whole sparse matrix ``A`` (``n`` rows; ignored on the other ranks) as a
-    :class:`PartitionedCSR`: every rank receives only its rows :func:`row_range`, by point-to-point
+    :class:`PartitionedMatrix`: every rank receives only its rows :func:`row_range`, by point-to-point
     messages (no rank but 0 ever holds more). Collective over all ranks."""
     c = comm()
     nranks = 1 if c is None else c.Get_size()
@@ -209,7 +209,7 @@ def scatter_rows(A, n: int) -> PartitionedCSR:
     # the local block as rows r0..r1-1 of the global matrix: empty rows above and below
     full = np.concatenate([np.zeros(r0, np.int64), np.asarray(indptr, np.int64),
                            np.full(n - r1, indptr[-1], np.int64)])
-    return PartitionedCSR((data, indices, full), shape=(n, ncols))
+    return PartitionedMatrix(sp.csr_matrix((data, indices, full), shape=(n, ncols)))
 
 
 def row_blocks(A) -> dict:
@@ -222,87 +222,167 @@ def row_blocks(A) -> dict:
 
 
 def is_partitioned(A) -> bool:
-    """True for a matrix whose rows are spread over the ranks (:class:`PartitionedCSR`)."""
-    return bool(getattr(A, "partitioned", False))
+    """True for a matrix whose rows are spread over the ranks (:class:`PartitionedMatrix`)."""
+    return isinstance(A, PartitionedMatrix)
 
 
-def _require_partitioned(other, what: str):
-    if sp.issparse(other) and not is_partitioned(other):
-        raise SolverError(f"cannot {what} a partitioned and a replicated sparse matrix; "
-                          "build all matrices of a distributed model partitioned")
-    return other
+class PartitionedMatrix:
+    """A global sparse matrix of which this rank holds its own rows; the matrix is the sum over ranks.
 
+    Not a SciPy matrix: a small operator type with the operations flexmor's methods apply to a
+    model's matrices. Linear operations (sums and differences of partitioned matrices, scalings,
+    transposes, submatrices ``A[i][:, i]``, ``abs``, real and imaginary parts) keep the sum
+    structure and return partitioned matrices; the operations that need the whole matrix
+    (products with dense blocks ``A @ X`` and ``X @ A``, the diagonal, column or row sums,
+    ``toarray``) reduce over the ranks, so their results are the same on every rank. Products
+    with sparse matrices and sums with replicated or dense ones are refused
+    (:class:`~flexmor.errors.SolverError`).
 
-class PartitionedCSR(sp.csr_matrix):
-    """A global CSR matrix of which this rank holds its own rows; the matrix is the sum over ranks.
+    Parameters
+    ----------
+    local : scipy.sparse matrix
+        Of the global shape, holding this rank's entries only (zero elsewhere).
 
-    Construct it like a ``csr_matrix`` of the global shape with only this rank's entries.
-    Linear operations keep the sum structure; the operations that need the whole matrix
-    (products with dense blocks, the diagonal, ``toarray``) reduce over the ranks, so their
-    results are the same on every rank. ``nnz`` and ``data`` are the local ones.
+    Attributes
+    ----------
+    local : scipy.sparse.csr_matrix
+        This rank's piece; ``nnz`` and ``data`` are the local ones.
     """
 
-    partitioned = True
+    #: NumPy defers ``ndarray @ A`` and ``ndarray * A`` to this class (``__rmatmul__``).
+    __array_ufunc__ = None
 
-    # -- products and reductions over the ranks --------------------------------------------
-    def _matmul_vector(self, other):
-        return allreduce(super()._matmul_vector(other))
+    def __init__(self, local):
+        if not sp.issparse(local):
+            raise SolverError("a partitioned matrix is made from this rank's sparse piece")
+        self.local = sp.csr_matrix(local)
 
-    def _matmul_multivector(self, other):
-        return allreduce(super()._matmul_multivector(other))
+    def __repr__(self) -> str:
+        return f"<PartitionedMatrix {self.shape[0]}x{self.shape[1]}, {self.nnz} entries on this rank>"
 
-    def _matmul_sparse(self, other):
-        _require_partitioned(other, "multiply")  # A_r @ B summed over r is A @ B only for replicated B
-        if is_partitioned(other):
-            raise SolverError("the product of two partitioned sparse matrices is not supported")
-        return super()._matmul_sparse(other)
-
-    def diagonal(self, k=0):
-        return allreduce(super().diagonal(k))
-
-    def toarray(self, order=None, out=None):
-        return allreduce(super().toarray(order=order, out=out))
-
-    def todense(self, order=None, out=None):
-        return np.asmatrix(self.toarray(order=order, out=out))
-
-    def transpose(self, axes=None, copy=False):
-        return PartitionedCSR(sp.csr_matrix(self, copy=copy).transpose().tocsr())
+    # -- properties of the local piece -------------------------------------------------------
+    @property
+    def shape(self) -> tuple[int, int]:
+        return self.local.shape
 
     @property
-    def T(self):
-        return self.transpose()
+    def ndim(self) -> int:
+        return 2
+
+    @property
+    def dtype(self):
+        return self.local.dtype
+
+    @property
+    def nnz(self) -> int:
+        return self.local.nnz
+
+    @property
+    def data(self) -> np.ndarray:
+        return self.local.data
 
     def global_nnz(self) -> int:
         """Stored entries summed over the ranks."""
         return int(allreduce(np.array([self.nnz], dtype=np.int64))[0])
 
-    # -- sums with other matrices: both must be partitioned ---------------------------------
-    def _add_sparse(self, other):
-        return super()._add_sparse(_require_partitioned(other, "add"))
-
-    def _sub_sparse(self, other):
-        return super()._sub_sparse(_require_partitioned(other, "subtract"))
-
-    def __radd__(self, other):
+    # -- results that stay partitioned --------------------------------------------------------
+    def _other(self, other, what: str) -> sp.csr_matrix:
+        if isinstance(other, PartitionedMatrix):
+            return other.local
         if sp.issparse(other):
-            _require_partitioned(other, "add")
-        return super().__radd__(other)
+            raise SolverError(f"cannot {what} a partitioned and a replicated sparse matrix; "
+                              "build all matrices of a distributed model partitioned")
+        raise SolverError(f"cannot {what} a partitioned sparse matrix and {type(other).__name__!s}")
+
+    def __add__(self, other):
+        return PartitionedMatrix(self.local + self._other(other, "add"))
+
+    __radd__ = __add__
+
+    def __sub__(self, other):
+        return PartitionedMatrix(self.local - self._other(other, "subtract"))
 
     def __rsub__(self, other):
-        if sp.issparse(other):
-            _require_partitioned(other, "subtract")
-        return super().__rsub__(other)
+        return PartitionedMatrix(self._other(other, "subtract") - self.local)
 
-    def _add_dense(self, other):
-        raise SolverError("adding a dense array to a partitioned sparse matrix is not supported")
+    def __mul__(self, alpha):
+        if not np.isscalar(alpha):
+            raise SolverError("a partitioned matrix is multiplied by scalars only; use @ for products")
+        return PartitionedMatrix(self.local * alpha)
+
+    __rmul__ = __mul__
+
+    def __truediv__(self, alpha):
+        return self * (1.0 / alpha)
+
+    def __neg__(self):
+        return PartitionedMatrix(-self.local)
+
+    def __abs__(self):
+        return PartitionedMatrix(abs(self.local))
+
+    @property
+    def real(self):
+        return PartitionedMatrix(self.local.real)
+
+    @property
+    def imag(self):
+        return PartitionedMatrix(self.local.imag)
+
+    def astype(self, dtype):
+        return PartitionedMatrix(self.local.astype(dtype))
+
+    def copy(self):
+        return PartitionedMatrix(self.local.copy())
+
+    def tocsr(self):
+        """The matrix itself (its pieces are CSR)."""
+        return self
+
+    def transpose(self):
+        return PartitionedMatrix(self.local.transpose().tocsr())
+
+    @property
+    def T(self):
+        return self.transpose()
+
+    def __getitem__(self, key):
+        sub = self.local[key]
+        if not sp.issparse(sub):
+            raise SolverError("single entries of a partitioned matrix are not available; select rows and columns")
+        return PartitionedMatrix(sub)
+
+    # -- results reduced over the ranks -------------------------------------------------------
+    def __matmul__(self, other):
+        if sp.issparse(other) or isinstance(other, PartitionedMatrix):
+            raise SolverError("products of a partitioned matrix with sparse matrices are not supported")
+        return allreduce(np.asarray(self.local @ np.asarray(other)))
+
+    dot = __matmul__
+
+    def __rmatmul__(self, other):
+        if sp.issparse(other):
+            raise SolverError("products of a partitioned matrix with sparse matrices are not supported")
+        return allreduce(np.asarray(np.asarray(other) @ self.local))
+
+    def diagonal(self, k: int = 0) -> np.ndarray:
+        return allreduce(self.local.diagonal(k))
+
+    def sum(self, axis=None):
+        """Sum of all entries (a float) or along an axis (an ndarray of shape (1, n) or (n, 1))."""
+        if axis is None:
+            return float(allreduce(np.array([self.local.sum()]))[0])
+        return allreduce(np.asarray(self.local.sum(axis=axis)))
+
+    def toarray(self) -> np.ndarray:
+        return allreduce(self.local.toarray())
 
     def local_rows(self) -> tuple[int, int, sp.csr_matrix]:
         """``(start, stop, rows)``: the contiguous block of rows held here, as a plain CSR of shape
         ``(stop - start, n)``. Raises :class:`SolverError` if this rank's rows are not one block
         following those of the previous rank (e.g. a transposed partitioned matrix)."""
         n = self.shape[0]
-        filled = np.flatnonzero(np.diff(self.indptr))
+        filled = np.flatnonzero(np.diff(self.local.indptr))
         lo, hi = (int(filled[0]), int(filled[-1]) + 1) if filled.size else (-1, -1)
         c = comm()
         spans = [(lo, hi)] if c is None else c.allgather((lo, hi))
@@ -322,4 +402,4 @@ class PartitionedCSR(sp.csr_matrix):
             if a >= 0:
                 first = b
         lo, hi = (lo, hi) if lo >= 0 else (first, first)
-        return lo, hi, sp.csr_matrix(self[lo:hi])
+        return lo, hi, sp.csr_matrix(self.local[lo:hi])

@@ -12,6 +12,7 @@ from scipy.sparse.linalg import ArpackNoConvergence, LinearOperator, eigsh
 from ..errors import ConvergenceError, ModelError, OptionError
 from .block_eigen import block_lanczos
 from .context import DENSE_LIMIT, EIGEN_METHODS, SolverContext, as_solver
+from .distributed import is_partitioned
 from .factorize import factorize
 
 __all__ = ["eigenmodes", "dense_eigenmodes", "default_shift", "rigid_body_threshold", "is_rigid", "frequencies_hz",
@@ -255,7 +256,7 @@ def _check_residuals(Kd, Md, lam, phi) -> None:
 
 
 def _dense(A):
-    return A.toarray() if sp.issparse(A) else np.asarray(A)
+    return A.toarray() if sp.issparse(A) or is_partitioned(A) else np.asarray(A)
 
 
 def frequencies_hz(lam) -> np.ndarray:

@@ -5,11 +5,11 @@
 block of equations lies in a few neighbouring node planes. Rank ``r`` owns the equations of
 PETSc's default row split (:func:`flexmor.linalg.distributed.row_range`), assembles with
 scikit-fem only the elements that touch the node planes of its equations and keeps its rows,
-which are then complete. M and K are :class:`flexmor.linalg.distributed.PartitionedCSR`: the
+which are then complete. M and K are :class:`flexmor.linalg.distributed.PartitionedMatrix`: the
 whole matrices never exist on one rank. The node table and equation map (a few numbers per
 node) are replicated.
 
-Run with ``mpirun -n P`` and ``backend="petsc"``; with one process it is an ordinary
+Run with ``mpirun -n P`` and ``SolverContext(backend="petsc")``; with one process it is an ordinary
 (differently numbered) cantilever.
 
 :func:`read_on_root` does the same for a model read from a file: rank 0 alone reads it and
@@ -166,6 +166,6 @@ def _assemble_slab(element, cols, divisions, extent, lam, mu, rho, q, rows, firs
     def part(A):
         A = sp.coo_matrix(A)
         ok = keep_row[A.row] & (eq[A.col] >= 0)
-        return dist.PartitionedCSR((A.data[ok], (eq[A.row[ok]], eq[A.col[ok]])), shape=(n_eq, n_eq))
+        return dist.PartitionedMatrix(sp.csr_matrix((A.data[ok], (eq[A.row[ok]], eq[A.col[ok]])), shape=(n_eq, n_eq)))
 
     return part(Ks), part(Ms)

@@ -19,10 +19,10 @@ import numpy as np
 from ..analysis.frequency import frf_reduced, rel_error
 from ..basis import Basis, extend_orthonormal
 from ..errors import OptionError, check_choice
+from ..linalg.context import SolverContext, as_solver
 from ..projection import project
 from . import register_method
 from .krylov import DEFLATION_TOL, RIGID, SIDES, blocks_at_points, rigid_body_modes, start_block
-from ..linalg.context import SolverContext, as_solver
 
 __all__ = ["adaptive"]
 

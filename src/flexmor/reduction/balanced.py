@@ -18,11 +18,11 @@ import numpy as np
 
 from ..basis import Basis
 from ..errors import OptionError, check_choice
+from ..linalg.context import SolverContext, as_solver
 from ..linalg.eigen import DENSE_LIMIT
 from . import register_method
 from .dense_gramians import dense_gramians, psd_factor
 from .gramians import VARIANTS, _regularized, balance, gramian_factors, truncation_basis
-from ..linalg.context import SolverContext, as_solver
 
 __all__ = ["sobt", "fw_sobt", "balanced_basis"]
 

@@ -21,11 +21,11 @@ import numpy as np
 import scipy.sparse as sp
 
 from ..basis import Basis
+from ..linalg.context import SolverContext, as_solver
 from ..model import FEModel
 from ..ports import Ports
 from . import register_method
 from .craig_bampton import cb_frame
-from ..linalg.context import SolverContext, as_solver
 
 __all__ = ["cms_krylov", "cms_gramian", "fixed_interface_body"]
 

@@ -6,10 +6,10 @@ import numpy as np
 
 from ..basis import Basis
 from ..errors import OptionError
+from ..linalg.context import SolverContext, as_solver
 from ..linalg.eigen import eigenmodes, frequencies_hz
 from . import register_method
 from .guyan import constraint_modes
-from ..linalg.context import SolverContext, as_solver
 
 
 def cb_frame(model, interface, order, method: str, solver: SolverContext | None = None):

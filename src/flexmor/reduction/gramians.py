@@ -54,8 +54,8 @@ import scipy.linalg as sla
 from ..basis import orthonormalize
 from ..errors import OptionError, check_choice
 from ..linalg import factorize
-from ..linalg.eigen import DENSE_LIMIT, eigenmodes, frequencies_hz, is_rigid
 from ..linalg.context import SolverContext, as_solver
+from ..linalg.eigen import DENSE_LIMIT, eigenmodes, frequencies_hz, is_rigid
 
 __all__ = ["GramianFactors", "quadrature_rule", "gramian_factors", "balance", "compress", "truncation_basis",
            "VARIANTS", "UNDAMPED_ZETA"]

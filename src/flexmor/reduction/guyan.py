@@ -7,9 +7,9 @@ import numpy as np
 from ..basis import Basis
 from ..errors import OptionError
 from ..linalg import factorize
+from ..linalg.context import SolverContext, as_solver
 from ..ports import interface_dofs
 from . import register_method
-from ..linalg.context import SolverContext, as_solver
 
 
 def constraint_modes(model, interface, solver: SolverContext | None = None):

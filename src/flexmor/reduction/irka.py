@@ -23,10 +23,10 @@ import scipy.linalg as sla
 
 from ..basis import Basis
 from ..errors import OptionError, SolverError
+from ..linalg.context import SolverContext, as_solver
 from ..projection import project
 from . import register_method
 from .krylov import krylov, merge_blocks, shifted_factorization
-from ..linalg.context import SolverContext, as_solver
 
 __all__ = ["irka", "reduced_poles", "select_shifts"]
 

@@ -28,10 +28,10 @@ import numpy as np
 from ..basis import Basis, Columns, extend_orthonormal, rank_revealing_qr
 from ..errors import OptionError, SolverError, check_choice
 from ..linalg import factorize
+from ..linalg.context import SolverContext, as_solver
 from ..linalg.eigen import default_shift
 from ..linalg.threads import blas_threads
 from . import register_method
-from ..linalg.context import SolverContext, as_solver
 
 __all__ = ["krylov", "parse_points", "default_points", "SecondOrderArnoldi", "start_block",
            "rigid_body_modes"]

@@ -9,9 +9,9 @@ import numpy as np
 from ..basis import Basis
 from ..checks import MAX_RIGID_BODY_MODES, mechanism_error
 from ..errors import OptionError, check_choice
+from ..linalg.context import SolverContext, as_solver
 from ..linalg.eigen import eigenmodes, frequencies_hz, is_rigid
 from . import register_method
-from ..linalg.context import SolverContext, as_solver
 
 log = logging.getLogger(__name__)
 

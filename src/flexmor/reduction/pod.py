@@ -9,9 +9,9 @@ import numpy as np
 
 from ..basis import Basis
 from ..errors import OptionError, check_choice
+from ..linalg.context import SolverContext, as_solver
 from . import register_method
 from .gramians import compress, gramian_factors
-from ..linalg.context import SolverContext, as_solver
 
 __all__ = ["pod", "pod_modes", "SNAPSHOTS"]
 

@@ -9,10 +9,10 @@ import scipy.sparse as sp
 
 from ..basis import Basis
 from ..errors import OptionError
+from ..linalg.context import SolverContext, as_solver
 from ..ports import Ports
 from . import register_method
 from .krylov import default_points, krylov, parse_points, shifted_factorization
-from ..linalg.context import SolverContext, as_solver
 
 __all__ = ["svdmor", "port_directions"]
 

@@ -9,13 +9,13 @@ import numpy as np
 
 from ..basis import Basis, orthonormalize
 from ..errors import OptionError, check_choice
+from ..linalg.context import SolverContext, as_solver
 from ..linalg.threads import blas_threads
 from ..projection import project
 from . import register_method
 from .dense_gramians import dense_gramians, psd_factor
 from .gramians import UNDAMPED_ZETA, VARIANTS, balance
 from .krylov import krylov
-from ..linalg.context import SolverContext, as_solver
 
 __all__ = ["two_step", "GRAMIANS"]
 

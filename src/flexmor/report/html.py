@@ -26,8 +26,8 @@ import numpy as np
 from .. import __version__
 from ..errors import FlexmorError, OptionError, check_choice
 from ..io import atomic_write
-from . import plots
 from ..linalg.context import SolverContext, as_solver
+from . import plots
 
 __all__ = ["SIGNALS", "SINGULAR_VALUE_KEYS", "Report", "build_report", "render_html", "write_report"]
 
