@@ -116,6 +116,31 @@ def test_partitioned_matrix_in_one_process():
     assert _rel(la, lb) < 1e-10
 
 
+def test_partitioned_matrix_is_an_operator_of_its_own():
+    """Not a SciPy matrix: the operations the methods use, reduced over the ranks (one rank here)."""
+    import scipy.sparse as sp
+
+    from flexmor.errors import SolverError
+    from flexmor.linalg.distributed import PartitionedMatrix, is_partitioned
+
+    A0 = sp.random(8, 8, density=0.4, random_state=1, format="csr")
+    A0 = (A0 + A0.T + 4 * sp.identity(8)).tocsr()
+    A = PartitionedMatrix(A0)
+    assert not sp.issparse(A) and is_partitioned(A) and not is_partitioned(A0)
+    X = np.random.default_rng(0).standard_normal((8, 3))
+    assert np.allclose(A @ X, A0 @ X) and np.allclose(X.T @ A, X.T @ A0)  # ndarray @ A defers to A
+    B = 2.0 * A - A.T + abs(A) / 2
+    assert is_partitioned(B) and np.allclose(B.toarray(), 2 * A0.toarray() - A0.T.toarray() + abs(A0).toarray() / 2)
+    i = np.array([1, 4, 6])
+    assert np.allclose(A[i][:, i].toarray(), A0.toarray()[np.ix_(i, i)])
+    assert np.allclose(A.diagonal(), A0.diagonal()) and np.allclose(A.sum(axis=0), A0.sum(axis=0))
+    assert A.global_nnz() == A0.nnz and A.local_rows()[:2] == (0, 8)
+    with pytest.raises(SolverError, match="replicated"):
+        A + A0
+    with pytest.raises(SolverError, match="sparse"):
+        A @ A0
+
+
 # -- two ranks under mpirun ---------------------------------------------------------------------
 #: band_error of both runs comes from the verified surrogate FRF (pointwise to 1e-6 of |H|); for
 #: a body with |H - Hr| ~ 1e-3 |H| that admits relative band_error differences far above 1e-6

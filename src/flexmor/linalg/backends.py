@@ -31,7 +31,8 @@ import importlib.util
 import logging
 import time
 from dataclasses import dataclass
-from typing import Callable
+from types import MappingProxyType
+from typing import Callable, Mapping
 
 import numpy as np
 import scipy.sparse as sp
@@ -42,9 +43,6 @@ __all__ = ["Backend", "BACKENDS", "Factorization", "OrderingCache", "SolverStats
            "memory_available", "estimate_memory", "check_memory", "describe_backends"]
 
 log = logging.getLogger(__name__)
-
-#: Relative residual above which a factorization is reported as singular.
-RESIDUAL_TOL = 1e-6
 
 
 @dataclass
@@ -437,8 +435,8 @@ class Backend:
     positive_only: bool
 
 
-#: The backends, fastest first (the preference order of ``auto``).
-BACKENDS: dict[str, Backend] = {b.name: b for b in (
+#: The backends, fastest first (the preference order of ``auto``); read-only.
+BACKENDS: Mapping[str, Backend] = MappingProxyType({b.name: b for b in (
     Backend("cholmod", "CHOLMOD supernodal Cholesky (scikit-sparse); real symmetric positive definite only",
             _Cholmod, lambda: _has("sksparse"), complex=False, positive_only=True),
     Backend("pardiso", "Intel MKL PARDISO; real SPD (Cholesky), real symmetric indefinite (LDLT, inertia), "
@@ -449,7 +447,7 @@ BACKENDS: dict[str, Backend] = {b.name: b for b in (
     Backend("petsc", "MUMPS through PETSc, distributed over MPI ranks (mpirun -n P ... --backend petsc); "
             "real SPD, symmetric indefinite (inertia) and complex (real 2N form); SLEPc eigenpairs",
             _petsc, _petsc_ok, complex=True, positive_only=False),
-)}
+)})
 
 
 def available_backends() -> list[str]:

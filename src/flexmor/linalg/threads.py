@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import contextlib
 import ctypes
+import functools
 import logging
 
 __all__ = ["blas_threads"]
@@ -21,28 +22,25 @@ _SYMBOLS = (("scipy_openblas_set_num_threads64_", "scipy_openblas_get_num_thread
             ("scipy_openblas_set_num_threads", "scipy_openblas_get_num_threads"),
             ("openblas_set_num_threads64_", "openblas_get_num_threads64_"),
             ("openblas_set_num_threads", "openblas_get_num_threads"))
-_HANDLES = None
-
-
-def _handles():
-    global _HANDLES
-    if _HANDLES is None:
-        _HANDLES = []
+@functools.cache
+def _handles() -> tuple:
+    """``(set, get)`` thread-count functions of the OpenBLAS libraries loaded (found once per process)."""
+    try:
+        with open("/proc/self/maps") as fh:
+            paths = sorted({ln.split()[-1] for ln in fh if "openblas" in ln.lower() and ".so" in ln})
+    except OSError:
+        paths = []
+    handles = []
+    for path in paths:
         try:
-            with open("/proc/self/maps") as fh:
-                paths = sorted({ln.split()[-1] for ln in fh if "openblas" in ln.lower() and ".so" in ln})
+            lib = ctypes.CDLL(path)
         except OSError:
-            paths = []
-        for path in paths:
-            try:
-                lib = ctypes.CDLL(path)
-            except OSError:
-                continue
-            for set_name, get_name in _SYMBOLS:
-                if hasattr(lib, set_name) and hasattr(lib, get_name):
-                    _HANDLES.append((getattr(lib, set_name), getattr(lib, get_name)))
-                    break
-    return _HANDLES
+            continue
+        for set_name, get_name in _SYMBOLS:
+            if hasattr(lib, set_name) and hasattr(lib, get_name):
+                handles.append((getattr(lib, set_name), getattr(lib, get_name)))
+                break
+    return tuple(handles)
 
 
 @contextlib.contextmanager
