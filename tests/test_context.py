@@ -8,6 +8,7 @@ import pytest
 from flexmor.checks import check_rigid_body_modes
 from flexmor.errors import OptionError
 from flexmor.linalg import BACKENDS, EigenPolicy, SolverContext, eigenmodes, factorize
+from flexmor.linalg.distributed import MPILayout
 from flexmor.ports import make_ports
 from flexmor.reduction import reduce
 
@@ -72,4 +73,5 @@ def test_backend_table_and_validation():
         b.complex = False
     with pytest.raises(OptionError, match="auto, cholmod, pardiso, scipy, petsc"):
         SolverContext(backend="mumps")
-    assert SolverContext().mpi.size == 1 and SolverContext().mpi.row_range(10) == (0, 10)
+    assert SolverContext().layout().size == 1 and SolverContext().layout().row_range(10) == (0, 10)
+    assert SolverContext(mpi=MPILayout(rank=1, size=3)).layout().row_range(10) == (4, 7)

@@ -92,7 +92,8 @@ class SolverContext:
     eigen : EigenPolicy
         Defaults of :func:`flexmor.linalg.eigenmodes`.
     mpi : MPILayout, optional
-        Rank and number of ranks of the ``petsc`` backend (default: those of this process).
+        Rank and number of ranks of the ``petsc`` backend (default: those of this process,
+        determined on first use by :meth:`layout`).
 
     Attributes
     ----------
@@ -119,8 +120,12 @@ class SolverContext:
         allowed = ["auto", *BACKENDS]
         if self.backend not in allowed:
             raise OptionError(f"backend={self.backend!r} is not allowed; choose one of: {', '.join(allowed)}")
+
+    def layout(self) -> MPILayout:
+        """The MPI layout of the ``petsc`` backend (this process' rank and size unless given)."""
         if self.mpi is None:
             self.mpi = layout()
+        return self.mpi
 
     def available(self) -> tuple[str, ...]:
         """Names of the backends that work on this machine, fastest first (checked once per context)."""

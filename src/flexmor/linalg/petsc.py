@@ -151,7 +151,7 @@ class PetscFactorization(Factorization):
         cplx = np.iscomplexobj(A.data)
         self._split = cplx and not _complex_scalars(PETSc)
         self._sym_form = symmetric
-        r0, r1, rows = _local_rows(A, solver.mpi)
+        r0, r1, rows = _local_rows(A, solver.layout())
         if self._split:
             rows, r0, r1, n = _real_form(rows, symmetric), 2 * r0, 2 * r1, 2 * n
             positive = False
