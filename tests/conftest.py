@@ -56,6 +56,20 @@ def _hermetic_frf_cache(tmp_path_factory):
         yield
 
 
+def cond1(A) -> float:
+    """Estimate of the 1-norm condition number of a sparse symmetric ``A`` (Higham-Tisseur
+    ``onenormest`` of ``A`` and of ``A^-1`` applied through one factorization): the factor by
+    which a backward-stable solve may magnify round-off, used to justify solver tolerances."""
+    import scipy.sparse.linalg as spla
+
+    from flexmor.linalg import SolverContext, factorize
+
+    solve = factorize(A.tocsr(), solver=SolverContext("scipy"), check=False).solve
+    # A symmetric (real or complex): A^H x = conj(A^-1 conj(x))
+    inv = spla.LinearOperator(A.shape, matvec=solve, rmatvec=lambda x: np.conj(solve(np.conj(x))), dtype=A.dtype)
+    return float(spla.onenormest(A) * spla.onenormest(inv))
+
+
 def load_example(name: str):
     """Import ``examples/NAME.py`` as a module (the examples are scripts, not a package)."""
     import importlib.util

@@ -242,17 +242,19 @@ def test_cli_interrupted_while_writing_leaves_no_output(exc, code, tmp_path, mon
     assert list(tmp_path.iterdir()) == []
 
 
-# a real flexmor process whose HDF5 writer stalls mid-file; the test signals it there. A process
-# started from a non-interactive shell's background job inherits SIGINT ignored, and Python then keeps
-# it ignored: the child restores the interactive default so that the test does not depend on how the
+# a real flexmor process whose HDF5 writer stalls mid-file and says so (a marker file beside the
+# output folder), so that the test signals it there however slow the machine is. A process started
+# from a non-interactive shell's background job inherits SIGINT ignored, and Python then keeps it
+# ignored: the child restores the interactive default so that the test does not depend on how the
 # suite was started.
 _STALL = """
-import signal, sys, time, h5py
+import os, signal, sys, time, h5py
 signal.signal(signal.SIGINT, signal.default_int_handler)
 orig = h5py.Group.create_dataset
 def slow(self, *a, **k):
     d = orig(self, *a, **k)
     self.file.flush()
+    open(os.environ["STALLED_MARKER"], "w").close()
     time.sleep(60)
     return d
 h5py.Group.create_dataset = slow
@@ -263,17 +265,18 @@ sys.exit(main(sys.argv[1:]))
 
 @pytest.mark.parametrize("sig,code", [(signal.SIGINT, 130), (signal.SIGTERM, 143)], ids=["SIGINT", "SIGTERM"])
 def test_cli_process_signalled_mid_write_leaves_no_output(sig, code, tmp_path):
-    out = tmp_path / "body.h5"
-    env = dict(os.environ, PYTHONPATH=str(SRC.parent))
+    folder, marker = tmp_path / "out", tmp_path / "stalled"
+    folder.mkdir()
+    out = folder / "body.h5"
+    env = dict(os.environ, PYTHONPATH=str(SRC.parent), STALLED_MARKER=str(marker))
     proc = subprocess.Popen([sys.executable, "-c", _STALL, *_reduce_argv(out)], stderr=subprocess.PIPE,
                             stdout=subprocess.DEVNULL, env=env, text=True)
     try:
-        deadline = time.monotonic() + 120
-        while not any(p.name.endswith(".tmp") for p in tmp_path.iterdir()):
+        deadline = time.monotonic() + 120  # a loaded machine may take long to get there
+        while not marker.exists():
             assert proc.poll() is None and time.monotonic() < deadline, "the writer never started"
             time.sleep(0.05)
-        time.sleep(0.2)
-        assert any(p.stat().st_size > 0 for p in tmp_path.iterdir())  # a partial file exists now
+        assert any(p.stat().st_size > 0 for p in folder.iterdir())  # a partial file exists now
         proc.send_signal(sig)
         _, err = proc.communicate(timeout=60)
     finally:
@@ -281,4 +284,4 @@ def test_cli_process_signalled_mid_write_leaves_no_output(sig, code, tmp_path):
             proc.kill()
     assert proc.returncode == code, err
     assert err.strip().splitlines()[-1] == ("flexmor: interrupted" if code == 130 else "flexmor: terminated")
-    assert list(tmp_path.iterdir()) == []
+    assert list(folder.iterdir()) == []

@@ -54,7 +54,12 @@ def _exact_frf(model, ports):
 def test_adaptive_band_error_matches_brute_force(beam, full, reduced_bodies):
     model, ports = beam
     H, fk = _exact_frf(model, ports)
-    np.testing.assert_allclose(H(full.freqs[::50]), full.H[::50], rtol=1e-8, atol=1e-8 * np.abs(full.H).max())
+    # the modal reference is exact up to its eigenvalues (relative error ~eps lam_max / lam_k), which
+    # the first peak amplifies by 1 / (2 zeta_1): 2.1e-8 of max|H| (measured 2.5e-9 ... 4.4e-9)
+    w = 2 * np.pi * fk
+    zeta1 = ALPHA / (2 * w[0]) + BETA * w[0] / 2
+    tol = 2 * np.finfo(float).eps * (w[-1] / w[0]) ** 2 / (2 * zeta1)
+    assert np.abs(H(full.freqs[::50]) - full.H[::50]).max() <= tol * np.abs(full.H).max()
     # brute force: 100,001 uniform points plus 801 points across each resonance (±20 zeta f_k)
     fk = fk[(fk > BAND[0]) & (fk < BAND[1])]
     zeta = ALPHA / (4 * np.pi * fk) + BETA * np.pi * fk
@@ -64,10 +69,14 @@ def test_adaptive_band_error_matches_brute_force(beam, full, reduced_bodies):
     Hf = H(fine)
     assert full.grid["n_points"] < 1200 and full.grid["converged"]
     assert full.grid["n_resonances"] == 12 and full.resonances.size == 12
+    # the grid resolves the integral of ||H||^2 to its tol (3e-3), not that of ||H - Hr||^2, and which
+    # cells get bisected near that threshold depends on round-off (BLAS kernel, threads): band_error
+    # agrees to a few tol (measured 0.5 tol with one thread, 1.2 tol with Haswell kernels)
+    tol = 3 * full.grid["tol"]
     for red in reduced_bodies:
         ref = band_error(fine, Hf, frf_reduced(red, fine))
         got = full.evaluate(red)["band_error"]
-        assert abs(got / ref - 1) < 1e-3, (red.method, red.order, got, ref)
+        assert abs(got / ref - 1) < tol, (red.method, red.order, got, ref)
 
 
 def test_ten_compared_bodies_cost_one_sweep(beam, tmp_path):
@@ -128,9 +137,9 @@ def test_surrogate_agrees_with_direct_sweep(beam, full, reduced_bodies):
     assert sur.n_factorizations <= 15  # pre-pass + a few direct checks instead of ~500 solves
     H = frf_full(model, ports, sur.freqs[::40])
     assert np.abs(H - sur.H[::40]).max() < 1e-6 * np.abs(H).max()
-    for red in reduced_bodies:
+    for red in reduced_bodies:  # two grids, each resolved to the grid tolerance (see above)
         a, b = sur.evaluate(red)["band_error"], full.evaluate(red)["band_error"]
-        assert abs(a / b - 1) < 1e-3
+        assert abs(a / b - 1) < 3 * full.grid["tol"]
 
 
 def test_grid_rules():

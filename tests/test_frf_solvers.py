@@ -2,6 +2,7 @@
 
 import numpy as np
 import pytest
+from conftest import cond1
 
 from flexmor.analysis.frequency import ShiftedMatrices, frf_full
 from flexmor.linalg import SolverContext, available_backends, factorize
@@ -29,7 +30,9 @@ def test_complex_symmetric_pardiso_matches_scipy(clamped, f_hz):
     Xs = factorize(A, solver=scipy).solve(B)
     assert np.linalg.norm(X - Xs) / np.linalg.norm(Xs) < 1e-10
     x = F.solve(B[:, 0].real)  # real right-hand side of a complex matrix
-    np.testing.assert_allclose(x, factorize(A, solver=scipy).solve(B[:, 0].real), rtol=1e-9, atol=0)
+    xs = factorize(A, solver=scipy).solve(B[:, 0].real)
+    # two solvers: each within ~eps cond(A) of the solution (cond_1(A) 1.5e4 ... 8e5 over these shifts)
+    assert np.linalg.norm(x - xs) <= 4 * np.finfo(float).eps * cond1(A) * np.linalg.norm(xs)
 
 
 @needs_pardiso

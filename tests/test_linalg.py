@@ -3,6 +3,7 @@
 import numpy as np
 import pytest
 import scipy.sparse as sp
+from conftest import cond1
 
 from flexmor.errors import OptionError, SolverError
 from flexmor.linalg import EigenPolicy, SolverContext, available_backends, eigenmodes, factorize
@@ -21,11 +22,16 @@ def test_solve_block_and_vector(clamped, backend):
     assert np.linalg.norm(K @ X - B) / np.linalg.norm(B) < 1e-10
     x = F.solve(B[:, 0])
     assert x.shape == (K.shape[0],)
-    np.testing.assert_allclose(x, X[:, 0], rtol=1e-10, atol=0)
+    # a single and a block solve may round differently (PARDISO): each is within ~eps cond(K) of
+    # the solution (cond_1(K) ~ 8e5: 1.8e-10), measured 1e-12 apart; bit-equal for SuperLU
+    tol = 4 * np.finfo(float).eps * cond1(K)
+    assert np.linalg.norm(x - X[:, 0]) <= tol * np.linalg.norm(X[:, 0])
     z = F.solve(B[:, 0] + 1j * B[:, 1])
-    np.testing.assert_allclose(z.imag, X[:, 1], rtol=1e-10, atol=1e-20)
+    assert np.linalg.norm(z.real - X[:, 0]) <= tol * np.linalg.norm(X[:, 0])
+    assert np.linalg.norm(z.imag - X[:, 1]) <= tol * np.linalg.norm(X[:, 1])
 
 
+@pytest.mark.skipif(len(BACKENDS) < 2, reason="only one solver backend installed: nothing to compare")
 def test_backends_agree(clamped):
     b = np.ones(clamped.n_dof)
     xs = [factorize(clamped.K, solver=SolverContext(name), positive=True).solve(b) for name in BACKENDS]
