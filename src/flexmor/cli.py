@@ -487,7 +487,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("reduced", help="reduced body file (.h5)")
     p.add_argument("-o", "--output-file", required=True, metavar="FILE", help="file to write")
     p.add_argument("--force", action="store_true", help="overwrite an existing output file")
-    p.add_argument("--format", help="sid, exudyn, mat, statespace (ss); default from the suffix")
+    p.add_argument("--format", help="sid, exudyn, mat, statespace (ss), hdf5; default from the suffix "
+                   "(flexmor info --formats)")
     p.add_argument("--model", help="FE model the body was reduced from (required for sid and exudyn: the "
                    "inertia invariants integrate over its mass matrix)")
     p.add_argument("--model-format", help="override the format of --model chosen from its suffix")
