@@ -15,9 +15,9 @@ Quadratic elements (``C3D20R``, ``C3D20``, ``C3D15``, ``C3D10``, 8-node shells a
 elements, found in the ``*ELEMENT, TYPE=`` lines) can give a singular mass matrix (reduced
 integration) or one with zero or negative diagonal entries (row-sum lumping of serendipity
 elements). For such decks non-positive mass diagonals are a :class:`~flexmor.errors.FlexmorWarning`
-instead of an error, and :func:`check_mass` estimates the smallest eigenvalue of ``M`` and
-warns when it is (near) zero; the warning says which methods still work
-(:data:`flexmor.model.SINGULAR_MASS_NOTE`). For other element types a non-positive mass
+instead of an error, and :func:`~flexmor.io._mass.check_mass` estimates the smallest
+eigenvalue of ``M`` and warns when it is (near) zero; the warning says which methods still
+work (:data:`flexmor.model.SINGULAR_MASS_NOTE`). For other element types a non-positive mass
 diagonal remains an error.
 """
 
