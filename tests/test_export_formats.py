@@ -9,9 +9,9 @@ from conftest import CCX
 
 from flexmor.cli import main
 from flexmor.errors import OptionError
-from flexmor.io.export import export
+from flexmor.io import export
 from flexmor.io.hdf5 import write_reduced
-from flexmor.io.matlab_export import MAT_FIELDS
+from flexmor.io.matlab import MAT_FIELDS
 from flexmor.io.sid import read_sid
 from flexmor.io.statespace import state_space
 from flexmor.ports import make_ports

@@ -3,7 +3,7 @@ import numpy as np
 import pytest
 
 from flexmor.errors import ReadError
-from flexmor.io import read
+from flexmor.io import read_body
 from flexmor.io.hdf5 import read_reduced, write_reduced
 from flexmor.ports import make_ports
 from flexmor.workflow import reduce_and_judge
@@ -14,7 +14,7 @@ def test_round_trip(clamped, tmp_path):
     red, res = reduce_and_judge(clamped.with_rayleigh(1.0, 1e-6), "modal", 6, ports, band=(10, 2000))
     path = tmp_path / "body.h5"
     write_reduced(red, path)
-    back = read(path)
+    back = read_body(path)
     for name in ("M", "K", "D", "B", "C", "V", "dofs", "xyz", "node_ids"):
         np.testing.assert_array_equal(getattr(back, name), getattr(red, name))
     assert back.method == "modal" and back.input_names == ["TIP:y"]

@@ -13,7 +13,7 @@ from op4_writer import write_ascii
 
 import flexmor.io
 from flexmor.errors import ReadError
-from flexmor.io.op4 import read_op4
+from flexmor.io.nastran import read_op4
 
 MM = "%%MatrixMarket matrix coordinate real symmetric\n"
 PCH = "DMIG,KAAX,0,6,2,0,,2\nDMIG,KAAX,1,1\n,1,1,2.0,\nDMIG,KAAX,1,2\n,1,2,3.0,\n" \
@@ -72,4 +72,4 @@ def test_truncated_reduced_body(tmp_path, clamped):
     raw = (tmp_path / "r.h5").read_bytes()
     (tmp_path / "r.h5").write_bytes(raw[: len(raw) // 2])
     with pytest.raises(ReadError, match=r"r\.h5"):
-        flexmor.io.read(tmp_path / "r.h5")
+        flexmor.io.read_body(tmp_path / "r.h5")

@@ -66,7 +66,7 @@ def test_rank_deficient_consistent_mass(tmp_path, clamped, method):
 
 
 def test_regular_mass_with_quadratic_elements_is_quiet(tmp_path, clamped, recwarn):
-    from flexmor.io.calculix import check_mass
+    from flexmor.io._mass import check_mass
 
     model = flexmor.io.read(_job(tmp_path, clamped.M.toarray()))
     assert not [w for w in recwarn if issubclass(w.category, FlexmorWarning)]

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from flexmor.errors import ReadError
-from flexmor.io.frd import compare_modes, modes, read_frd
+from flexmor.io.calculix import compare_modes, modes, read_frd
 from flexmor.linalg import eigenmodes
 
 N_MODES = 6

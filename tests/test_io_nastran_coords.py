@@ -13,7 +13,7 @@ import scipy.linalg as sla
 
 import flexmor.io
 from flexmor.errors import PortError, ReadError
-from flexmor.io.nastran_bulk import cards, read_bulk
+from flexmor.io.nastran import cards, read_bulk
 
 # -- an independent statement of the Nastran definitions ------------------------------------
 

@@ -15,7 +15,7 @@ from op4_writer import write_ascii, write_binary
 
 from flexmor.errors import ReadError
 from flexmor.io.hdf5 import read_reduced, write_reduced
-from flexmor.io.nastran_se import read_superelement
+from flexmor.io.nastran import read_superelement
 
 N_MODES = 12
 SPOINT0 = 1001

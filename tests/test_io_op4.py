@@ -10,7 +10,7 @@ from op4_writer import write_ascii, write_binary
 
 import flexmor.io
 from flexmor.errors import ReadError
-from flexmor.io.op4 import read_op4
+from flexmor.io.nastran import read_op4
 
 RNG = np.random.default_rng(7)
 

@@ -1,4 +1,4 @@
-"""The structural MAT-file check in front of scipy's compiled reader (flexmor.io._mat5):
+"""The structural MAT-file check in front of scipy's compiled reader (flexmor.io.matlab._mat5):
 every legal file passes unchanged, every damaged one is a ReadError naming what is wrong."""
 
 from __future__ import annotations
@@ -13,7 +13,7 @@ import scipy.sparse as sp
 from conftest import DATA
 
 from flexmor.errors import ReadError
-from flexmor.io._mat5 import MAX_DEPTH, checked_v5_stream
+from flexmor.io.matlab._mat5 import MAX_DEPTH, checked_v5_stream
 
 VARIABLES = {
     "M": np.eye(3), "K": sp.random(30, 20, density=0.2, random_state=1, format="csc"),

@@ -118,6 +118,29 @@ def _info_backends(args) -> int:
     return 0
 
 
+_FORMAT_TITLES = {"model": "FE models (info, reduce, compare, report MODEL; --format NAME)",
+                  "body": "reduced bodies (compare, report, export BODY)",
+                  "export": "exports (export BODY -o FILE; --format NAME)"}
+
+
+def _info_formats(args) -> int:
+    from .io import describe_formats
+
+    table = describe_formats()
+    if args.json:
+        _emit_json({"formats": table})
+        return 0
+    lines = {kind: [(r["name"] + (f" ({', '.join(r['aliases'])})" if r["aliases"] else ""),
+                     " ".join(r["suffixes"] + ([r["claims"]] if r["claims"] else [])), r["description"])
+                    for r in rows] for kind, rows in table.items()}
+    w0, w1 = (max(len(line[i]) for rows in lines.values() for line in rows) for i in (0, 1))
+    for kind, rows in lines.items():
+        print(("\n" if kind != "model" else "") + _FORMAT_TITLES[kind])
+        for name, suffixes, description in rows:
+            print(f"  {name:<{w0}}  {suffixes:<{w1}}  {description}")
+    return 0
+
+
 def cmd_info(args) -> int:
     from .checks import MAX_RIGID_BODY_MODES, mechanism_error
     from .linalg import available_backends
@@ -125,10 +148,12 @@ def cmd_info(args) -> int:
 
     if args.backends:
         return _info_backends(args)
+    if args.formats:
+        return _info_formats(args)
     if args.model is None:
         from .errors import OptionError
 
-        raise OptionError("info needs a MODEL file (or --backends)")
+        raise OptionError("info needs a MODEL file (or --backends, --formats)")
     model, t_read, _ = _read_model(args)
     out = model.summary()
     out["backends"] = available_backends()
@@ -143,7 +168,7 @@ def cmd_info(args) -> int:
         out["frequencies_hz"] = frequencies_hz(lam).tolist()
         out["n_rigid"] = min(n_zero, k)
     if args.reference:
-        from .io.frd import compare_modes, read_frd
+        from .io.calculix import compare_modes, read_frd
 
         out["reference"] = dict(compare_modes(model, read_frd(args.reference), solver=solver),
                                 file=str(args.reference))
@@ -219,7 +244,7 @@ def cmd_reduce(args) -> int:
 # -- compare -----------------------------------------------------------------------------------
 def _model_and_bodies(args):
     """The full model (as read), the band (default DEFAULT_BAND) and the reduced bodies of ``args``."""
-    from .io.bodies import read_body
+    from .io import read_body
     from .workflow import DEFAULT_BAND
 
     model, t_read, band = _read_model(args)
@@ -274,9 +299,7 @@ def _table(rows) -> None:
 
 # -- export ------------------------------------------------------------------------------------
 def cmd_export(args) -> int:
-    from .io import read
-    from .io.export import export, export_format
-    from .io.bodies import read_body
+    from .io import export, export_format, read, read_body
     from .workflow import prepare_model
 
     _check_new(args.output_file, args)
@@ -400,9 +423,11 @@ def build_parser() -> argparse.ArgumentParser:
     _add_model_args(p, damping=False)
     p.add_argument("--modes", type=int, default=0, help="number of lowest eigenfrequencies to compute")
     p.add_argument("--backends", action="store_true", help="list the sparse solver backends and what each supports")
+    p.add_argument("--formats", action="store_true", help="list the file formats flexmor reads (FE models, reduced "
+                   "bodies) and exports, with their suffixes")
     p.add_argument("--reference", metavar="FRD", help="CalculiX .frd with the FE program's own modes: compare "
                    "frequencies and mode shapes (MAC) with the model's")
-    for action in p._actions:  # MODEL is optional with --backends
+    for action in p._actions:  # MODEL is optional with --backends and --formats
         if action.dest == "model":
             action.nargs, action.required = "?", False
     p.set_defaults(func=cmd_info)
@@ -462,7 +487,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("reduced", help="reduced body file (.h5)")
     p.add_argument("-o", "--output-file", required=True, metavar="FILE", help="file to write")
     p.add_argument("--force", action="store_true", help="overwrite an existing output file")
-    p.add_argument("--format", help="sid, exudyn, mat, statespace (ss); default from the suffix")
+    p.add_argument("--format", help="sid, exudyn, mat, statespace (ss), hdf5; default from the suffix "
+                   "(flexmor info --formats)")
     p.add_argument("--model", help="FE model the body was reduced from (required for sid and exudyn: the "
                    "inertia invariants integrate over its mass matrix)")
     p.add_argument("--model-format", help="override the format of --model chosen from its suffix")

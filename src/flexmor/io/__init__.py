@@ -1,65 +1,70 @@
-"""Readers and writers of FE files, in one registry.
+"""Files in and out: three format registries, one small entry point each.
 
-Each format lives in its own module that calls :func:`register_format` at import time
-(``register_format(name, extensions, reader=..., writer=...)``, like meshio). ``read(path)``
-chooses the reader by the file suffix; ``format=`` overrides.
+* :func:`read` — an FE model (:class:`~flexmor.model.FEModel`) from an FE program's export
+  (:data:`MODEL_FORMATS`: CalculiX, Abaqus, Ansys, Nastran, Matrix Market, MATLAB, SID);
+* :func:`read_body` — a reduced body (:class:`~flexmor.projection.ReducedModel`)
+  (:data:`BODY_FORMATS`: flexmor's own HDF5, Nastran superelements);
+* :func:`export` — a reduced body to a file for another program (:data:`EXPORT_FORMATS`:
+  SID, Exudyn, MATLAB, state space, HDF5).
 
-A reader takes a path and returns a :class:`flexmor.model.FEModel`; it raises
-:class:`flexmor.errors.ReadError` naming the file (and line) for anything malformed.
+The file's suffix chooses the format within the registry asked (``format=`` overrides), so
+the same suffix may mean different things to different registries (``.mat``: a model to read,
+a body to export). Each format family is a module or subpackage that registers itself
+(``MODEL_FORMATS.register(name, suffixes, reader, description=...)``); :func:`describe_formats`
+lists them all (``flexmor info --formats``). Readers raise :class:`flexmor.errors.ReadError`
+naming the file (and line) for anything malformed. Every file flexmor writes goes through
+:func:`atomic_write`.
 """
 
 from __future__ import annotations
 
 import os
 import secrets
-from dataclasses import dataclass
+from collections.abc import Callable
 from pathlib import Path
-from typing import Callable
 
 from ..errors import OptionError, ReadError
+from ._registry import Format, Registry
 
-__all__ = ["register_format", "read", "formats", "FORMATS", "atomic_write"]
+__all__ = ["BODY_FORMATS", "EXPORT_FORMATS", "MODEL_FORMATS", "Format", "Registry", "atomic_write",
+           "describe_formats", "export", "export_format", "read", "read_body"]
 
+#: FE model readers: ``reader(path, **options) -> FEModel``.
+MODEL_FORMATS = Registry("FE model", "an")
+#: Reduced-body readers: ``reader(path, **options) -> ReducedModel``.
+BODY_FORMATS = Registry("reduced body")
+#: Exporters of reduced bodies: ``writer(reduced, path, *, model=None, **options)``, atomic.
+EXPORT_FORMATS = Registry("export", "an")
 
-@dataclass(frozen=True)
-class Format:
-    """A registered file format."""
-
-    name: str
-    extensions: tuple
-    reader: Callable | None = None
-    writer: Callable | None = None
-    description: str = ""
-    match: Callable | None = None
-
-
-#: name -> Format
-FORMATS: dict[str, Format] = {}
+_REGISTRIES = {"model": MODEL_FORMATS, "body": BODY_FORMATS, "export": EXPORT_FORMATS}
 
 
-def register_format(name: str, extensions, reader=None, writer=None, description: str = "",
-                    match: Callable | None = None) -> None:
-    """Register a file format under ``name`` for the given suffixes (with dot, lower case).
-
-    ``match(path) -> bool`` optionally tells files of this format apart from other formats
-    with the same suffix (e.g. Abaqus ``<job>_STIF1.mtx`` among Matrix Market ``.mtx``): a
-    format whose ``match`` accepts the path wins; one whose ``match`` refuses it comes last.
-    """
-    FORMATS[name] = Format(name, tuple(e.lower() for e in extensions), reader, writer, description, match)
+def _checked(path: Path) -> Path:
+    if not path.exists():
+        raise ReadError(path, "file not found")
+    if path.is_dir():
+        raise ReadError(path, "is a directory, expected a file")
+    return path
 
 
-def formats() -> dict[str, Format]:
-    """All registered formats (importing the built-in modules first)."""
-    _load_builtin()
-    return dict(FORMATS)
+def _other_purpose(path, registry: Registry) -> str:
+    """``" ('.h5' is a reduced body file)"`` when another reader registry knows the suffix of ``path``."""
+    for other in (MODEL_FORMATS, BODY_FORMATS):
+        fmt = other.by_path(path) if other is not registry else None
+        if fmt is not None:
+            return f" ({Path(path).name} is {other.noun} file: {fmt.name})"
+    return ""
 
 
-def _load_builtin() -> None:
-    from . import abaqus, ansys, calculix, hdf5, matlab, matrix_market, nastran, sid  # noqa: F401  (they register themselves)
-
-
-def _suffix(path: Path) -> str:
-    return path.suffix.lower()
+def _choose_reader(registry: Registry, path: Path, format: str | None, hint: str = "") -> Format:
+    if format is not None:
+        return registry.by_name(format)
+    fmt = registry.by_path(path)
+    if fmt is None:
+        ext = path.suffix.lower() or "(none)"
+        raise ReadError(path, f"unknown {registry.purpose} file type {ext!r}{_other_purpose(path, registry)}; "
+                              f"known: {registry.known()}{hint}")
+    return fmt
 
 
 def read(path, format: str | None = None, **options):
@@ -71,7 +76,7 @@ def read(path, format: str | None = None, **options):
         The main file of the FE export (e.g. CalculiX ``.sti``); files that belong with it
         are found beside it.
     format : str, optional
-        Registered format name; by default chosen from the suffix.
+        A name from :data:`MODEL_FORMATS`; by default chosen from the file name.
     **options
         Passed to the reader.
 
@@ -83,29 +88,94 @@ def read(path, format: str | None = None, **options):
     ------
     ReadError
         Missing, unreadable or malformed file, or unknown suffix.
+    OptionError
+        Unknown ``format``.
     """
-    _load_builtin()
     path = Path(path)
-    if format is None:
-        ext = _suffix(path)
-        cands = [f for f in FORMATS.values() if ext in f.extensions and f.reader is not None]
-        if not cands:
-            known = sorted({e for f in FORMATS.values() if f.reader for e in f.extensions})
-            raise ReadError(path, f"unknown file type {ext!r}; known: {' '.join(known)} (or pass --format)")
-        cands.sort(key=lambda f: 1 if f.match is None else (0 if f.match(path) else 2))
-        fmt = cands[0]
-    else:
-        if format not in FORMATS or FORMATS[format].reader is None:
-            raise OptionError(
-                f"format={format!r} is not a known reader; choose one of: "
-                + ", ".join(sorted(k for k, f in FORMATS.items() if f.reader))
-            )
-        fmt = FORMATS[format]
-    if not path.exists():
-        raise ReadError(path, "file not found")
-    if path.is_dir():
-        raise ReadError(path, "is a directory, expected a file")
-    return fmt.reader(path, **options)
+    fmt = _choose_reader(MODEL_FORMATS, path, format, " (or pass --format)")
+    return fmt.function(_checked(path), **options)
+
+
+def read_body(path, format: str | None = None, **options):
+    """Read a reduced body: flexmor's own ``.h5`` or a Nastran superelement (``.op4``, ``.pch``).
+
+    Parameters
+    ----------
+    path : str or path-like
+        The body file.
+    format : str, optional
+        A name from :data:`BODY_FORMATS`; by default chosen from the suffix.
+    **options
+        Passed to the reader (e.g. ``geometry=`` for a superelement).
+
+    Returns
+    -------
+    ReducedModel
+
+    Raises
+    ------
+    ReadError
+        Missing or malformed file, or a suffix no body format has (the message lists them).
+    OptionError
+        Unknown ``format``.
+    """
+    path = Path(path)
+    fmt = _choose_reader(BODY_FORMATS, path, format)
+    return fmt.function(_checked(path), **options)
+
+
+def export_format(path, format: str | None = None) -> str:
+    """The export format name for ``path``: ``format`` (a name or alias) or the one its suffix names.
+
+    Raises
+    ------
+    OptionError
+        Unknown ``format``, or a suffix no export format has (the message lists the formats).
+    """
+    if format is not None:
+        return EXPORT_FORMATS.by_name(format).name
+    fmt = EXPORT_FORMATS.by_path(path)
+    if fmt is None:
+        ext = Path(path).suffix.lower() or "(none)"
+        raise OptionError(f"cannot tell the export format from the suffix {ext!r} (known: {EXPORT_FORMATS.known()}); "
+                          f"give --format ({', '.join(EXPORT_FORMATS.names())})")
+    return fmt.name
+
+
+def export(reduced, path, format: str | None = None, *, model=None, **options) -> str:
+    """Write ``reduced`` to ``path`` in an export format, atomically.
+
+    The inertia invariants of SID and Exudyn bodies are integrals over the full model's mass
+    matrix and node coordinates, which the reduced body does not store (it stores the basis
+    ``V``): those exports need the FE model the body was reduced from, and flexmor checks that
+    its equation count matches ``V``.
+
+    Parameters
+    ----------
+    reduced : ReducedModel
+    path : str or path-like
+    format : str, optional
+        A name or alias from :data:`EXPORT_FORMATS` (``sid``, ``exudyn``, ``mat``, ``statespace``
+        or ``ss``, ``hdf5``); default from the suffix (``.SID_FEM``, ``.mat``, ``.h5``, ...).
+    model : FEModel, optional
+        The full model the body was reduced from (required by ``sid`` and ``exudyn``).
+    **options
+        Passed to the writer (e.g. ``nodes=[...]`` frame nodes, ``m1_order=`` for SID).
+
+    Returns
+    -------
+    str
+        The format name used.
+    """
+    name = export_format(path, format)
+    EXPORT_FORMATS.by_name(name).function(reduced, path, model=model, **options)
+    return name
+
+
+def describe_formats() -> dict[str, list[dict]]:
+    """Every registered format: ``{"model": [...], "body": [...], "export": [...]}``, each a list of
+    ``{"name", "suffixes", "claims", "aliases", "description"}`` in registration order."""
+    return {kind: [f.row() for f in reg.formats().values()] for kind, reg in _REGISTRIES.items()}
 
 
 def atomic_write(path, write: Callable[[str], None]) -> None:
@@ -128,3 +198,7 @@ def atomic_write(path, write: Callable[[str], None]) -> None:
     finally:
         if tmp.exists():
             tmp.unlink()
+
+
+# The built-in formats register themselves (listings follow the order of registration).
+from . import hdf5, calculix, abaqus, matrix_market, ansys, nastran, sid, exudyn, matlab, statespace  # noqa: F401, I001

@@ -35,7 +35,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from ..errors import ModelError, OptionError
-from . import atomic_write, register_format
+from . import EXPORT_FORMATS, atomic_write
 
 __all__ = ["NODE_TYPES", "add_marker", "add_to_exudyn", "exudyn_data", "write_exudyn"]
 
@@ -223,5 +223,6 @@ def add_marker(mbs, body: dict, model, target) -> int:
                                                         weightingFactors=[1.0 / len(idx)] * len(idx)))
 
 
-register_format("exudyn", [".npz"], writer=write_exudyn,
-                description="Exudyn ObjectFFRFreducedOrderInterface data (.npz) of a reduced body")
+EXPORT_FORMATS.register("exudyn", [".exudyn.npz"], write_exudyn,
+                        description="Exudyn ObjectFFRFreducedOrderInterface data (.npz) of a reduced body "
+                                    "(needs the FE model)")

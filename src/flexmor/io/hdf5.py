@@ -14,7 +14,7 @@ import numpy as np
 
 from ..errors import ReadError
 from ..jsonutil import jsonable
-from . import atomic_write, register_format
+from . import BODY_FORMATS, EXPORT_FORMATS, atomic_write
 
 FORMAT_TAG = "flexmor-reduced"
 _ARRAYS = ("M", "K", "D", "B", "C", "V", "node_ids", "xyz", "dofs")
@@ -121,5 +121,12 @@ def read_reduced(path):
     return red
 
 
-register_format("flexmor", [".h5", ".hdf5"], reader=read_reduced, writer=write_reduced,
-                description="flexmor reduced body (HDF5)")
+def _export(reduced, path, *, model=None) -> None:
+    """:func:`write_reduced` as an exporter (``model`` is unused)."""
+    write_reduced(reduced, path)
+
+
+BODY_FORMATS.register("hdf5", [".h5", ".hdf5"], read_reduced, aliases=["flexmor"],
+                      description="flexmor reduced body (HDF5): M K D B C, basis V, nodes, ports, errors")
+EXPORT_FORMATS.register("hdf5", [".h5", ".hdf5"], _export, aliases=["flexmor"],
+                        description="flexmor reduced body (HDF5), e.g. of a Nastran superelement")

@@ -28,7 +28,7 @@ import scipy.io
 import scipy.sparse as sp
 
 from ..errors import ReadError
-from . import register_format
+from . import MODEL_FORMATS
 from ._text import build_model, entry_line, parse_triplets
 
 __all__ = ["read_matrix_market", "find_siblings"]
@@ -248,5 +248,5 @@ def read_matrix_market(path) -> "FEModel":  # noqa: F821
     )
 
 
-register_format("matrix-market", [".mtx", ".mm"], reader=read_matrix_market,
-                description="Matrix Market pair <base>_K.mtx + <base>_M.mtx (+ <base>_D.mtx)")
+MODEL_FORMATS.register("matrix-market", [".mtx", ".mm"], read_matrix_market,
+                       description="Matrix Market pair <base>_K.mtx + <base>_M.mtx (+ <base>_D.mtx)")

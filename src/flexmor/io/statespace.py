@@ -24,7 +24,7 @@ import numpy as np
 import scipy.linalg as sla
 
 from ..errors import ModelError
-from . import atomic_write, register_format
+from . import EXPORT_FORMATS, atomic_write
 
 __all__ = ["StateSpace", "state_space", "write_statespace"]
 
@@ -99,5 +99,6 @@ def write_statespace(reduced, path, *, model=None) -> None:
         atomic_write(path, write)
 
 
-register_format("statespace", [".npz"], writer=write_statespace,
-                description="first-order state space A B C D (and descriptor E Ae Be) of a reduced body")
+EXPORT_FORMATS.register("statespace", [".ss.npz", ".ss.mat"], write_statespace, aliases=["ss", "state-space"],
+                        description="first-order state space A B C D (and descriptor E Ae Be) of a reduced body, "
+                                    ".npz or .mat")

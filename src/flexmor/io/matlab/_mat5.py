@@ -21,7 +21,7 @@ import zlib
 
 import numpy as np
 
-from ..errors import ReadError
+from ...errors import ReadError
 
 __all__ = ["MAX_DEPTH", "MAX_EXPANDED", "checked_v5_stream"]
 

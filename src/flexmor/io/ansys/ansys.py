@@ -32,10 +32,10 @@ from pathlib import Path
 import numpy as np
 import scipy.sparse as sp
 
-from ..errors import ReadError
-from . import register_format
-from ._text import build_model, read_text
-from .matrix_market import _check_header, _read_one, find_siblings
+from ...errors import ReadError
+from .. import MODEL_FORMATS
+from .._text import build_model, read_text
+from ..matrix_market import _check_header, _read_one, find_siblings
 
 __all__ = ["read_ansys", "read_mapping", "read_coordinates"]
 
@@ -293,5 +293,5 @@ def read_ansys(path, *, coordinates=None) -> "FEModel":  # noqa: F821
     return _read_mmf(path)
 
 
-register_format("ansys", [".full", ".txt"], reader=read_ansys,
-                description="Ansys HBMAT/MMF export (stiffness, mass, mapping vector, coordinates) or binary .full")
+MODEL_FORMATS.register("ansys", [".full", ".txt"], read_ansys,
+                       description="Ansys HBMAT/MMF export (stiffness, mass, mapping vector, coordinates) or binary .full")

@@ -15,33 +15,29 @@ Quadratic elements (``C3D20R``, ``C3D20``, ``C3D15``, ``C3D10``, 8-node shells a
 elements, found in the ``*ELEMENT, TYPE=`` lines) can give a singular mass matrix (reduced
 integration) or one with zero or negative diagonal entries (row-sum lumping of serendipity
 elements). For such decks non-positive mass diagonals are a :class:`~flexmor.errors.FlexmorWarning`
-instead of an error, and :func:`check_mass` estimates the smallest eigenvalue of ``M`` and
-warns when it is (near) zero; the warning says which methods still work
-(:data:`flexmor.model.SINGULAR_MASS_NOTE`). For other element types a non-positive mass
+instead of an error, and :func:`~flexmor.io._mass.check_mass` estimates the smallest
+eigenvalue of ``M`` and warns when it is (near) zero; the warning says which methods still
+work (:data:`flexmor.model.SINGULAR_MASS_NOTE`). For other element types a non-positive mass
 diagonal remains an error.
 """
 
 from __future__ import annotations
 
 import logging
-import warnings
 from pathlib import Path
 
 import numpy as np
 import scipy.sparse as sp
 
-from ..errors import ReadError
-from . import register_format
-from ._text import build_model, entry_line, parse_triplets, read_text
-from .abaqus_inp import include_path, keyword_options
+from ...errors import ReadError
+from .. import MODEL_FORMATS
+from .._mass import QUADRATIC_TYPES, check_mass
+from .._text import build_model, entry_line, parse_triplets, read_text
+from ..abaqus.abaqus_inp import include_path, keyword_options
 
-__all__ = ["QUADRATIC_TYPES", "check_mass", "read_calculix", "read_dof", "read_inp"]
+__all__ = ["read_calculix", "read_dof", "read_inp"]
 
 log = logging.getLogger(__name__)
-
-#: Element types whose mass matrix may legitimately be singular or indefinite (quadratic
-#: serendipity / reduced-integration / row-sum-lumped): such decks get warnings, not errors.
-QUADRATIC_TYPES = ("C3D20", "C3D15", "C3D10", "S8", "CPS8", "CPE8", "CAX8")
 
 
 def _sibling(path: Path, suffix: str, what: str) -> Path:
@@ -306,38 +302,5 @@ def read_calculix(path) -> "FEModel":  # noqa: F821
     return model
 
 
-def check_mass(model, where, *, max_dof: int = 500_000, iterations: int = 12) -> float | None:
-    """Warn (FlexmorWarning) when the mass matrix is singular or indefinite; return ``lambda_min/lambda_max``.
-
-    One factorization of ``M`` and a few inverse iterations estimate its smallest eigenvalue;
-    a failed factorization, a ratio below 1e-12 or a negative Rayleigh quotient count as
-    singular. Skipped (None) above ``max_dof`` equations.
-    """
-    from ..errors import FlexmorWarning, SolverError
-    from ..linalg import factorize
-    from ..model import SINGULAR_MASS_NOTE
-
-    M = model.M
-    if M.shape[0] > max_dof:
-        return None
-    lam_max = float(abs(M).sum(axis=1).max())  # Gershgorin bound
-    try:
-        F = factorize(M, symmetric=True, positive=False, check=False)
-        x = np.random.default_rng(1).standard_normal(M.shape[0])
-        for _ in range(iterations):
-            x = F.solve(x)
-            nx = np.linalg.norm(x)
-            if not np.isfinite(nx) or nx == 0:
-                raise SolverError("inverse iteration broke down")
-            x /= nx
-        ratio = float(x @ (M @ x)) / lam_max
-    except (SolverError, RuntimeError, ValueError, np.linalg.LinAlgError):
-        ratio = 0.0
-    if ratio < 1e-12:
-        warnings.warn(f"{where}: the mass matrix is singular or indefinite (smallest eigenvalue / largest ~ "
-                      f"{ratio:.1e}); {SINGULAR_MASS_NOTE}", FlexmorWarning, stacklevel=3)
-    return ratio
-
-
-register_format("calculix", [".sti"], reader=read_calculix,
-                description="CalculiX *FREQUENCY, SOLVER=MATRIXSTORAGE export (.sti + .mas + .dof + .inp)")
+MODEL_FORMATS.register("calculix", [".sti"], read_calculix,
+                       description="CalculiX *FREQUENCY, SOLVER=MATRIXSTORAGE export (.sti + .mas + .dof + .inp)")

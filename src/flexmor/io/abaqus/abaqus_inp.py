@@ -27,8 +27,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import ReadError
-from ._text import read_text
+from ...errors import ReadError
+from .._text import read_text
 
 __all__ = ["AbaqusDeck", "read_deck"]
 

@@ -34,8 +34,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import ModelError, ReadError
-from ..linalg.context import SolverContext, as_solver
+from ...errors import ModelError, ReadError
+from ...linalg.context import SolverContext, as_solver
 
 __all__ = ["FrdResult", "compare_modes", "modes", "read_frd"]
 
@@ -306,7 +306,7 @@ def compare_modes(model, res: FrdResult, *, k: int | None = None, solver: Solver
         ``frequencies_hz`` (the frd's), ``model_frequencies_hz``, ``rel_diff`` and ``mac``.
     """
     solver = as_solver(solver)
-    from ..linalg.eigen import eigenmodes
+    from ...linalg.eigen import eigenmodes
 
     f_ref, nodes, shapes = modes(res)
     k = len(f_ref) if k is None else min(k, len(f_ref))

@@ -14,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import OptionError, ReadError
+from ...errors import OptionError, ReadError
 from .sid_types import BODY_OBJECTS, M1_ORDERS, NODE_OBJECTS, SIDFile, SIDNode, Taylor
 
 __all__ = ["read_sid"]

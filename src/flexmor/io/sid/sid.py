@@ -36,9 +36,9 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import __version__
-from ..errors import OptionError
-from . import atomic_write, register_format
+from ... import __version__
+from ...errors import OptionError
+from .. import EXPORT_FORMATS, MODEL_FORMATS, atomic_write
 from .sid_reader import read_sid
 from .sid_types import BODY_OBJECTS, M1_ORDERS, NODE_OBJECTS, SIDFile, SIDNode, Taylor
 
@@ -89,8 +89,8 @@ def sid_from_reduced(reduced, model, *, nodes=None) -> SIDFile:
     ModelError, PortError
         Basis missing or not matching the model; no frame nodes.
     """
-    from ..errors import ModelError
-    from ..invariants import compute_invariants, frame_nodes, rigid_content
+    from ...errors import ModelError
+    from ...invariants import compute_invariants, frame_nodes, rigid_content
 
     if reduced.V is None:
         raise ModelError("the reduced body holds no basis V; re-run flexmor reduce (it stores V)")
@@ -209,7 +209,7 @@ def write_sid(reduced, path, *, model=None, nodes=None, m1_order: str = "row-q-c
     ------
     ModelError, PortError, OptionError
     """
-    from ..errors import ModelError
+    from ...errors import ModelError
 
     if m1_order not in M1_ORDERS:
         raise OptionError(f"m1_order={m1_order!r} is not allowed; choose one of: {', '.join(M1_ORDERS)}")
@@ -226,7 +226,7 @@ def write_sid(reduced, path, *, model=None, nodes=None, m1_order: str = "row-q-c
 
 def _read_as_model(path, **options):
     """A SID file as an FE model with ``M = Me``, ``K = Ke``, ``D = De`` (for ``flexmor info``)."""
-    from ..model import FEModel
+    from ...model import FEModel
 
     sid = read_sid(path, **options)
     De = sid.objects["De"].m0
@@ -235,5 +235,8 @@ def _read_as_model(path, **options):
                    damping={"type": "given"} if np.any(De) else {"type": "none"})
 
 
-register_format("sid", [".sid_fem", ".sid"], reader=_read_as_model, writer=write_sid,
-                description="SID flexible body (Standard Input Data, Wallrapp 1994), .SID_FEM ASCII")
+MODEL_FORMATS.register("sid", [".sid_fem", ".sid"], _read_as_model,
+                       description="SID flexible body (Standard Input Data, Wallrapp 1994) as M = Me, K = Ke")
+EXPORT_FORMATS.register("sid", [".sid_fem", ".sid"], write_sid, aliases=["sid_fem"],
+                        description="SID flexible body (Standard Input Data, Wallrapp 1994), .SID_FEM ASCII, "
+                                    "with all inertia invariants (needs the FE model)")

@@ -25,8 +25,8 @@ from pathlib import Path
 import numpy as np
 import scipy.sparse as sp
 
-from ..errors import ReadError
-from ._text import read_text
+from ...errors import ReadError
+from .._text import read_text
 from .nastran_bulk import num
 
 __all__ = ["read_op4"]

@@ -12,7 +12,7 @@ absent. First-order files (``A``, ``B``, ``C`` with ``A = [0 I; -M^-1 K -M^-1 D]
 form) cannot be turned back into a mechanical model and are refused with a clear message.
 MATLAB v7.3 files are HDF5 containers; re-save them with ``save(file, '-v7')``.
 Reading uses :func:`scipy.io.loadmat`, which never unpickles, after a structural check of the
-file in pure Python (:mod:`flexmor.io._mat5`): scipy's compiled reader trusts byte counts and
+file in pure Python (:mod:`flexmor.io.matlab._mat5`): scipy's compiled reader trusts byte counts and
 dimensions, and a damaged file could crash the process.
 """
 
@@ -24,10 +24,10 @@ import numpy as np
 import scipy.io
 import scipy.sparse as sp
 
-from ..errors import ReadError
-from . import register_format
+from ...errors import ReadError
+from .. import MODEL_FORMATS
+from .._text import build_model
 from ._mat5 import checked_v5_stream
-from ._text import build_model
 
 __all__ = ["read_matlab"]
 
@@ -123,5 +123,5 @@ def read_matlab(path) -> "FEModel":  # noqa: F821
     )
 
 
-register_format("matlab", [".mat"], reader=read_matlab,
-                description="MATLAB .mat with M, K (D, B, C), e.g. SLICOT benchmarks")
+MODEL_FORMATS.register("matlab", [".mat"], read_matlab,
+                       description="MATLAB .mat with M, K (D, B, C), e.g. SLICOT benchmarks")

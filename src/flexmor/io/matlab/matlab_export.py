@@ -30,7 +30,7 @@ from __future__ import annotations
 import numpy as np
 import scipy.io
 
-from . import atomic_write, register_format
+from .. import EXPORT_FORMATS, atomic_write
 
 __all__ = ["MAT_FIELDS", "write_mat"]
 
@@ -64,7 +64,7 @@ def mat_variables(reduced, model=None, *, nodes=None) -> dict:
         "inv": np.zeros((0, 0)),
     }
     if model is not None and reduced.V is not None:
-        from ..invariants import compute_invariants, frame_nodes
+        from ...invariants import compute_invariants, frame_nodes
 
         try:
             fn = frame_nodes(model, reduced.V, nodes, reduced)
@@ -99,4 +99,6 @@ def write_mat(reduced, path, *, model=None, nodes=None) -> None:
     atomic_write(path, lambda tmp: scipy.io.savemat(tmp, data, do_compression=True, oned_as="column"))
 
 
-register_format("mat", [".mat"], writer=write_mat, description="reduced body as MATLAB .mat (Mr Kr Dr Br Cr V ...)")
+EXPORT_FORMATS.register("mat", [".mat"], write_mat, aliases=["matlab"],
+                        description="reduced body as MATLAB .mat (Mr Kr Dr Br Cr V ...; inertia invariants "
+                                    "with the FE model)")

@@ -40,8 +40,9 @@ from pathlib import Path
 import numpy as np
 import scipy.linalg as sla
 
-from ..errors import ReadError
-from ..model import direction_name
+from ...errors import ReadError
+from ...model import direction_name
+from .. import BODY_FORMATS
 from .nastran import SEQGP_REFUSED, bulk_of, dmig_matrices, dof_transform, load_matrices, op4_matrices
 
 __all__ = ["MAX_ORDER", "read_superelement"]
@@ -99,7 +100,7 @@ def read_superelement(path, *, bulk=None, stiffness=None, mass=None, damping=Non
         non-square, non-symmetric or complex matrices, a mass matrix that is not positive
         definite, no boundary DOF.
     """
-    from ..projection import ReducedModel
+    from ...projection import ReducedModel
 
     path = Path(path)
     op4, mats, names = load_matrices(path, stiffness, mass, damping)
@@ -161,3 +162,8 @@ def read_superelement(path, *, bulk=None, stiffness=None, mass=None, damping=Non
                         input_names=port_names, output_names=list(port_names), node_ids=gids, xyz=xyz,
                         dofs=None, model_name=path.stem,
                         damping={"type": "given"} if D is not None else {"type": "none"})
+
+
+BODY_FORMATS.register("nastran-se", [".op4", ".pch"], read_superelement,
+                      description="Nastran Craig-Bampton superelement: a-set K, M (B) as OP4 or DMIG punch "
+                                  "(boundary grids + modal scalar points)")

@@ -6,12 +6,12 @@ DMIG (``.pch``; ``PARAM,EXTOUT,DMIGPCH`` writes ``KAAX``, ``MAAX`` ...)
     occur, sorted by grid and component. Symmetric matrices (``IFO=6``) may store either
     triangle (or both); an entry given twice is refused, not summed. Scalar points
     (component 0, the modal DOFs of a superelement) are refused here: read such files with
-    :func:`flexmor.io.nastran_se.read_superelement`.
-OP4 (``.op4``, ASCII or binary, :mod:`flexmor.io.op4`)
+    :func:`flexmor.io.nastran.read_superelement`.
+OP4 (``.op4``, ASCII or binary, :mod:`flexmor.io.nastran.op4`)
     Without a bulk-data file the model has no nodes. With one, its ``ASET/ASET1/BSET/...``
     cards (else 6 DOFs per GRID, sorted by id) give the equation map, checked against the
     matrix size.
-Geometry (:mod:`flexmor.io.nastran_bulk`)
+Geometry (:mod:`flexmor.io.nastran.nastran_bulk`)
     ``<stem>.bdf``/``.dat``/``.nas``/``.asm`` beside the matrix file, or ``geometry=``:
     ``GRID`` positions in any ``CP`` system (``CORD1*``/``CORD2*``, chained) are converted
     to basic. Matrix rows and columns are in each grid's displacement system ``CD``: by
@@ -32,9 +32,9 @@ from pathlib import Path
 import numpy as np
 import scipy.sparse as sp
 
-from ..errors import ReadError
-from . import register_format
-from ._text import build_model
+from ...errors import ReadError
+from .. import MODEL_FORMATS
+from .._text import build_model
 from .nastran_bulk import Bulk, cards, num, read_bulk
 from .op4 import read_op4
 
@@ -262,7 +262,7 @@ def _model_dofs(path, out, pairs, bulk, geo, directions):
         g = pairs[pairs[:, 1] == 0][0]
         raise ReadError(path, f"DOF {g[0]}-0 is a scalar point (e.g. a superelement's modal coordinate); an FE "
                               "model needs grid DOFs 1..6 - read a Craig-Bampton superelement with "
-                              "flexmor.io.nastran_se.read_superelement")
+                              "flexmor.io.nastran.read_superelement")
     if bulk is None:
         return out, np.zeros(0, np.int64), np.zeros((0, 3)), {}
     miss = ~np.isin(pairs[:, 0], bulk.grid_ids)
@@ -340,7 +340,7 @@ def read_nastran(path, *, stiffness=None, mass=None, damping=None, geometry=None
         complex matrices, scalar points, duplicate entries, grids without coordinates,
         undefined or circular coordinate systems.
     """
-    from ..errors import check_choice
+    from ...errors import check_choice
 
     check_choice("directions", directions, ("basic", "local"))
     path = Path(path)
@@ -366,5 +366,5 @@ def read_nastran(path, *, stiffness=None, mass=None, damping=None, geometry=None
                        name=path.stem, source=str(path), **kw)
 
 
-register_format("nastran", [".pch", ".op4"], reader=read_nastran,
-                description="Nastran DMIG punch file (KAAX/MAAX ...) or OP4 (ASCII or binary), GRIDs from the .bdf")
+MODEL_FORMATS.register("nastran", [".pch", ".op4"], read_nastran,
+                       description="Nastran DMIG punch file (KAAX/MAAX ...) or OP4 (ASCII or binary), GRIDs from the .bdf")

@@ -15,7 +15,7 @@ number of columns of the first data line:
 COORDINATE, ``row, col, value``
     Global equation numbers, 1-based. Abaqus numbers the equations node by node in its
     internal node order (instances in deck order, labels ascending within an instance, see
-    :mod:`flexmor.io.abaqus_inp`) with the same number of DOFs per node, ``d``: equation
+    :mod:`flexmor.io.abaqus.abaqus_inp`) with the same number of DOFs per node, ``d``: equation
     ``(k - 1) * d + j`` is direction ``j`` of the ``k``-th node. ``d`` is 3 for continuum
     elements (``C3D*``), 2 for plane ones (``CPS* CPE* CAX*``), 6 for shells and beams; for
     mixed meshes pass ``dof_per_node=`` or use the LABELS form.
@@ -27,7 +27,7 @@ refused (a damaged file), never summed. Equations that have neither stiffness no
 direction no element uses) are removed and logged. Units are those of the deck.
 
 Decks with quadratic elements (``C3D20R``, ``C3D10`` ...) may have a singular or
-indefinite mass matrix: that is a FlexmorWarning (see :func:`flexmor.io.calculix.check_mass`),
+indefinite mass matrix: that is a FlexmorWarning (see :func:`flexmor.io._mass.check_mass`),
 not an error.
 
 ``.inp`` is shared with CalculiX: if ``<job>.sti`` lies beside the deck and no ``_STIF``
@@ -45,11 +45,11 @@ from pathlib import Path
 import numpy as np
 import scipy.sparse as sp
 
-from ..errors import ReadError
-from . import register_format
-from ._text import build_model, entry_line, parse_triplets, read_text
+from ...errors import ReadError
+from .. import MODEL_FORMATS
+from .._mass import QUADRATIC_TYPES, check_mass
+from .._text import build_model, entry_line, parse_triplets, read_text
 from .abaqus_inp import AbaqusDeck, read_deck
-from .calculix import QUADRATIC_TYPES, check_mass
 
 __all__ = ["read_abaqus", "read_deck", "AbaqusDeck", "MATRIX_FILE"]
 
@@ -256,9 +256,8 @@ def read_abaqus(path, *, dof_per_node: int | None = None) -> "FEModel":  # noqa:
     if not files:
         sti = deck_path.with_suffix(".sti")
         if sti.exists():
-            from .calculix import read_calculix
             log.info("%s: no Abaqus _STIF .mtx but %s beside it; reading as CalculiX", deck_path, sti.name)
-            return read_calculix(sti)
+            return MODEL_FORMATS.by_name("calculix").function(sti)
         raise ReadError(deck_path.parent / f"{deck_path.stem}_STIF1.mtx",
                         f"not found; Abaqus writes it for *MATRIX GENERATE, STIFFNESS, MASS in {deck_path.name} "
                         f"(a CalculiX job would have {deck_path.stem}.sti)")
@@ -301,5 +300,6 @@ def read_abaqus(path, *, dof_per_node: int | None = None) -> "FEModel":  # noqa:
     return model
 
 
-register_format("abaqus", [".inp", ".mtx"], reader=read_abaqus, match=_is_matrix_file,
-                description="Abaqus *MATRIX GENERATE export (.inp + <job>_STIF1.mtx + <job>_MASS1.mtx)")
+MODEL_FORMATS.register("abaqus", [".inp"], read_abaqus, claims=_is_matrix_file,
+                       claims_doc="<job>_{STIF,MASS,DMPV}<n>.mtx",
+                       description="Abaqus *MATRIX GENERATE export (.inp + <job>_STIF1.mtx + <job>_MASS1.mtx)")

@@ -1,0 +1,13 @@
+"""Nastran: DMIG punch and OP4 matrices with the bulk data's grids (an FE model), and
+Craig-Bampton superelements (a reduced body).
+
+Modules: :mod:`.nastran` (the FE-model reader), :mod:`.nastran_bulk` (GRID/CORD/SET cards),
+:mod:`.op4` (OUTPUT4 files), :mod:`.nastran_se` (superelements).
+"""
+
+from .nastran import read_dmig, read_nastran
+from .nastran_bulk import cards, read_bulk
+from .nastran_se import read_superelement
+from .op4 import read_op4
+
+__all__ = ["cards", "read_bulk", "read_dmig", "read_nastran", "read_op4", "read_superelement"]
