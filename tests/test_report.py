@@ -14,7 +14,7 @@ import pytest
 from flexmor.analysis.compare import FullResponse
 from flexmor.analysis.modal_check import mac, modal_check
 from flexmor.analysis.norms import h2_error
-from flexmor.analysis.time import simulate, step, time_errors
+from flexmor.dynamics.time import simulate, step, time_errors
 from flexmor.ports import make_ports
 from flexmor.reduction import reduce
 
