@@ -31,7 +31,8 @@ from pathlib import Path
 import numpy as np
 
 from flexmor.analysis.compare import FullResponse
-from flexmor.analysis.frequency import ShiftedMatrices, band_error, frf_full, frf_reduced
+from flexmor.analysis.frequency import band_error
+from flexmor.dynamics.frf import ShiftedMatrices, frf_full, frf_reduced
 from flexmor.jsonutil import jsonable
 from flexmor.linalg import SolverContext, available_backends, factorize
 from flexmor.models import cantilever, size_for_dofs

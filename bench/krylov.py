@@ -98,7 +98,8 @@ def _pymor_worker(inp: str, out: str) -> None:
 
 def compare(size: int, order: int, pymor_python: str | None, maxit: int) -> dict:
     from flexmor.analysis.compare import FullResponse
-    from flexmor.analysis.frequency import band_error, frf_reduced
+    from flexmor.analysis.frequency import band_error
+    from flexmor.dynamics.frf import frf_reduced
     from flexmor.models import cantilever, size_for_dofs
     from flexmor.ports import make_ports
     from flexmor.projection import ReducedModel

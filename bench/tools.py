@@ -225,8 +225,9 @@ def krylov_counts(info: dict, order: int, n_inputs: int) -> tuple[np.ndarray, np
 
 def judge_external(name: str, out: str, model, ports, full) -> dict:
     """Row of an external run that finished: its times and the band_error of its reduced body."""
-    from flexmor.analysis.frequency import band_error, frf_reduced
+    from flexmor.analysis.frequency import band_error
     from flexmor.basis import Basis
+    from flexmor.dynamics.frf import frf_reduced
     from flexmor.projection import ReducedModel, project
 
     d = np.load(out)

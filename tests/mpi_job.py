@@ -13,7 +13,7 @@ import sys
 
 import numpy as np
 
-from flexmor.analysis.frequency import frf_reduced
+from flexmor.dynamics.frf import frf_reduced
 from flexmor.linalg import SolverContext
 from flexmor.linalg import distributed as dist
 from flexmor.models import cantilever

@@ -11,8 +11,8 @@ import scipy.sparse as sp
 from conftest import load_example
 
 from flexmor.analysis.coupling import Assembly
-from flexmor.analysis.frequency import frf_full, frf_reduced
 from flexmor.basis import Basis
+from flexmor.dynamics.frf import frf_full, frf_reduced
 from flexmor.errors import FlexmorWarning, PortError
 from flexmor.ports import make_ports
 from flexmor.projection import project

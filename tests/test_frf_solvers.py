@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 from conftest import cond1
 
-from flexmor.analysis.frequency import ShiftedMatrices, frf_full
+from flexmor.dynamics.frf import ShiftedMatrices, frf_full
 from flexmor.linalg import SolverContext, available_backends, factorize
 from flexmor.ports import make_ports
 

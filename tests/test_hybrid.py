@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from flexmor.analysis.compare import FullResponse
-from flexmor.analysis.frequency import frf_full
+from flexmor.dynamics.frf import frf_full
 from flexmor.errors import OptionError
 from flexmor.ports import make_ports
 from flexmor.reduction import reduce
@@ -43,7 +43,7 @@ def test_pod_beats_modal_and_energy_truncation(beam):
 
 
 def test_pod_time_snapshots(beam):
-    pytest.importorskip("flexmor.analysis.time")
+    pytest.importorskip("flexmor.dynamics.time")
     e, red = _err(beam, "pod", 6, snapshots="time")
     assert red.info["time"]["n_steps"] > 100
     assert e < 1e-5  # the sweep over the band excites its bending modes (measured 1.8e-7)

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from flexmor.analysis import frf_full, frf_reduced
+from flexmor.dynamics import frf_full, frf_reduced
 from flexmor.errors import OptionError
 from flexmor.linalg import SolverContext, available_backends, factorize
 from flexmor.linalg.eigen import eigenmodes, frequencies_hz

@@ -163,8 +163,8 @@ def _mpirun(args, tmp_path, n=2, timeout=3600, returncode=0):
 @pytest.mark.parametrize("method", ["modal", "krylov"])
 def test_cli_two_ranks_beam8(method, tmp_path):
     """A file model under mpirun: rank 0 reads it, each rank holds only its rows; same body as SciPy."""
-    from flexmor.analysis.frequency import frf_reduced
     from flexmor.cli import main
+    from flexmor.dynamics.frf import frf_reduced
     from flexmor.io import read
     from flexmor.io.hdf5 import read_reduced
     from flexmor.linalg.distributed import row_range

@@ -15,7 +15,7 @@ import scipy.linalg as sla
 from flexmor.analysis.compare import FullResponse
 from flexmor.analysis.modal_check import mac, modal_check
 from flexmor.analysis.norms import h2_error
-from flexmor.analysis.time import simulate, step, time_errors
+from flexmor.dynamics.time import simulate, step, time_errors
 from flexmor.ports import make_ports
 from flexmor.reduction import reduce
 

@@ -8,7 +8,7 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 from conftest import cond1
 
-from flexmor.analysis.time import impulse, scheme_parameters, simulate, sine_sweep, step, time_errors
+from flexmor.dynamics.time import impulse, scheme_parameters, simulate, sine_sweep, step, time_errors
 from flexmor.errors import OptionError
 from flexmor.ports import make_ports
 from flexmor.reduction import reduce

@@ -404,9 +404,8 @@ def _add_model_args(p, damping=True):
 
 
 def build_parser() -> argparse.ArgumentParser:
-    from .reduction import METHODS, _load_builtin
+    from .reduction import methods
 
-    _load_builtin()
     ap = argparse.ArgumentParser(prog="flexmor", description="Model order reduction of elastic bodies for EMBS.")
     ap.add_argument("--version", action="version", version=f"flexmor {__version__}")
     ap.add_argument("-v", "--verbose", action="count", default=0, help="log more (-vv: debug)")
@@ -434,7 +433,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("reduce", help="reduce a model and write the reduced body (.h5)")
     _add_model_args(p)
-    p.add_argument("--method", required=True, choices=sorted(METHODS), help="reduction method")
+    p.add_argument("--method", required=True, choices=sorted(methods()), help="reduction method")
     p.add_argument("--order", type=int, help="reduced order r")
     p.add_argument("--input", action="append", default=[], metavar="SPEC", help="input NODE:DIR or SET:DIR")
     p.add_argument("--output", action="append", default=[], metavar="SPEC", help="output NODE:DIR or SET:DIR")

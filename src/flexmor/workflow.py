@@ -165,10 +165,10 @@ def reduce_and_judge(model, method: str, order, ports, *, band=None, full: FullR
 
 
 def _method_options(method: str) -> list:
-    from .reduction import METHODS, _load_builtin
+    from .reduction import methods
 
-    _load_builtin()
-    return METHODS[method].options if method in METHODS else []
+    registry = methods()
+    return registry[method].options if method in registry else []
 
 
 def run_demo(out, *, n: int = 4, band=(10.0, 3000.0), progress=None, on_result=None, time_progress=None):

@@ -8,16 +8,16 @@ from typing import Callable
 
 import numpy as np
 
+from ..dynamics.frf import frf_full, frf_reduced, rel_error
+from ..dynamics.modes import modal_damping_ratios, modes_below
 from ..errors import OptionError
-from ..linalg import factorize
 from ..linalg.context import SolverContext, as_solver
-from ..linalg.eigen import default_shift, eigenmodes, frequencies_hz
 from . import cache as frf_cache
-from .frequency import error_measures, frf_full, frf_reduced, rel_error
+from .frequency import error_measures
 from .grid import DEFAULT_TOL, adaptive_grid
 from .surrogate import DEFAULT_SURROGATE_TOL
 
-__all__ = ["FullResponse", "modal_damping_ratios", "PATHS"]
+__all__ = ["FullResponse", "PATHS"]
 
 log = logging.getLogger(__name__)
 
@@ -28,63 +28,6 @@ PATHS = ("auto", "direct", "surrogate")
 
 #: Models with at least this many DOF use the verified surrogate under ``path="auto"``.
 SURROGATE_MIN_DOF = 20000
-
-
-def modal_damping_ratios(damping: dict, freqs_hz, phi=None, D=None) -> np.ndarray | None:
-    """Modal damping ratios of the modes with eigenfrequencies ``freqs_hz``.
-
-    Rayleigh damping gives ``zeta = alpha/(2w) + beta w/2``; another damping matrix ``D``
-    with mass-normalized modes ``phi`` gives ``zeta_k = phi_k^T D phi_k / (2 w_k)`` (exact
-    for proportional damping, the diagonal approximation otherwise); else None.
-    """
-    w = 2 * np.pi * np.maximum(np.asarray(freqs_hz, float), 1e-30)
-    if damping.get("type") == "rayleigh":
-        return damping["alpha"] / (2 * w) + damping["beta"] * w / 2
-    if D is not None and phi is not None:
-        return np.einsum("ij,ij->j", phi, D @ phi) / (2 * w)
-    return None
-
-
-def _modes(model, fmax: float, solver: SolverContext, max_modes: int = 400):
-    """Modal pre-pass: eigenfrequencies (Hz) and mass-normalized modes up to ``fmax``.
-
-    Returns ``(f, phi, F, sigma)``: ``F`` the factorization of ``K - sigma M`` (None for
-    small dense problems), reused by the surrogate.
-    """
-    sigma = default_shift(model.K, model.M)
-    F = None
-    k = min(model.n_dof, 20)
-    if model.n_dof > solver.eigen.dense_limit:  # count first: one large factorization alive at a time
-        k = _count_below(model, fmax, solver) or k
-        F = factorize((model.K - sigma * model.M).tocsr(), solver=solver, positive=True)
-    while True:
-        lam, phi = eigenmodes(model.K, model.M, k, sigma=sigma, factorization=F, solver=solver)
-        f = frequencies_hz(lam)
-        if f[-1] > fmax or k >= min(model.n_dof, max_modes):
-            keep = f <= fmax
-            return f[keep], phi[:, keep], F, sigma
-        # the next k from the density of modes found so far (+15 %), at least 8 more
-        k = min(model.n_dof, max_modes, max(k + 8, int(np.ceil(1.15 * k * fmax / max(f[-1], 1e-30)))))
-
-
-def _count_below(model, fmax: float, solver: SolverContext) -> int | None:
-    """Number of eigenfrequencies below ``fmax`` plus 2 from the inertia of ``K - w^2 M``.
-
-    One real symmetric indefinite factorization (Sylvester's law of inertia) replaces the
-    guessing of the number of modes; None when the backend does not report the inertia.
-    """
-    try:
-        F = factorize((model.K - (2 * np.pi * fmax) ** 2 * model.M).tocsr(), solver=solver, symmetric=True, check=False)
-    except Exception:  # noqa: BLE001 - e.g. fmax exactly at an eigenvalue: fall back to guessing
-        return None
-    if F.inertia is None:
-        return None
-    return min(model.n_dof, F.inertia[1] + 2)
-
-
-def _resonances(model, fmax: float, solver: SolverContext, max_modes: int = 400) -> np.ndarray:
-    """Eigenfrequencies (Hz) of the full model up to ``fmax`` (modal pre-pass, one factorization)."""
-    return _modes(model, fmax, solver, max_modes)[0]
 
 
 class FullResponse:
@@ -198,7 +141,7 @@ class FullResponse:
         fmin, fmax = self.band
         damped = model.D is not None
         f_modes = fmax * (1.1 if self.path == "surrogate" else 1.0)
-        f_all, phi, F0, sigma = _modes(model, f_modes, solver)
+        f_all, phi, F0, sigma = modes_below(model, f_modes, solver)
         z_all = modal_damping_ratios(model.damping, f_all, phi, model.D) if damped else None
         z_all = np.zeros(f_all.size) if z_all is None else np.maximum(z_all, 0.0)
         inband = (f_all >= fmin) & (f_all <= fmax)

@@ -26,7 +26,7 @@ moments at ``s0`` after any coupling through those inputs (the input Krylov spac
 under feedback ``K -> K + B F B^T``); error bounds of truncation methods (balanced truncation,
 modal truncation, POD ...) hold for the uncoupled body only. Adding such a body to an
 assembly issues a :class:`~flexmor.errors.FlexmorWarning` naming the method
-(``METHODS[name].survives_coupling``).
+(``flexmor.reduction.methods()[name].survives_coupling``).
 
 References
 ----------
@@ -57,6 +57,7 @@ from ..linalg.context import SolverContext, as_solver
 from ..model import FEModel
 from ..ports import Ports, make_ports
 from ..projection import ReducedModel
+from ..reduction import methods
 
 __all__ = ["Assembly", "Body", "coupling_warning"]
 
@@ -65,10 +66,7 @@ log = logging.getLogger(__name__)
 
 def coupling_warning(method: str) -> str | None:
     """The warning text for a body reduced by ``method``, or None if its guarantee survives coupling."""
-    from ..reduction import METHODS, _load_builtin
-
-    _load_builtin()
-    m = METHODS.get(method)
+    m = methods().get(method)
     if m is None or m.survives_coupling:
         return None
     return (f"body reduced with method {method!r}: its error guarantee holds for the uncoupled body only and "

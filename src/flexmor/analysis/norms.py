@@ -21,10 +21,10 @@ import numpy as np
 import scipy.linalg as sla
 import scipy.sparse as sp
 
+from ..dynamics.frf import frf_full, frf_reduced
 from ..errors import OptionError, check_choice
 from ..linalg.distributed import is_partitioned
 from ..linalg.eigen import dense_eigenmodes
-from .frequency import frf_full, frf_reduced
 
 __all__ = ["DENSE_H2_LIMIT", "h2_error", "hinf_norm"]
 

@@ -46,11 +46,11 @@ import numpy as np
 import scipy.linalg as sla
 
 from ..basis import extend_orthonormal
+from ..dynamics.frf import ShiftedMatrices, angular_frequency
 from ..errors import check_choice
 from ..linalg import factorize
 from ..linalg.backends import MEMORY_FRACTION, memory_available
 from ..linalg.context import SolverContext, as_solver
-from .frequency import ShiftedMatrices, _omega
 from .grid import initial_grid
 
 __all__ = ["Surrogate", "DEFAULT_SURROGATE_TOL"]
@@ -177,7 +177,7 @@ class Surrogate:
 
     def frf(self, freqs) -> np.ndarray:
         """Surrogate FRF, shape (n_freq, n_outputs, n_inputs)."""
-        w = _omega(freqs)
+        w = angular_frequency(freqs)
         if self._modal is not None:  # proportional damping: diagonal in the reduced modes
             lam, d, CP, PB = self._modal
             out = np.empty((w.size, CP.shape[0], PB.shape[1]), complex)
@@ -190,7 +190,7 @@ class Surrogate:
 
     def residual(self, freqs) -> np.ndarray:
         """Relative residual ``||A(w) V x(w) - B||_F / ||B||_F`` of the surrogate, per frequency."""
-        w = _omega(freqs)
+        w = angular_frequency(freqs)
         X = self._reduced_solution(w)
         m = self.B.shape[1]
         c = np.concatenate([X, -(w ** 2)[:, None, None] * X, (1j * w)[:, None, None] * X,

@@ -17,7 +17,7 @@ from typing import Callable
 from ..errors import OptionError
 from ..projection import ReducedModel, project
 
-__all__ = ["register_method", "METHODS", "reduce", "Method"]
+__all__ = ["register_method", "METHODS", "methods", "reduce", "Method"]
 
 
 @dataclass(frozen=True)
@@ -48,6 +48,12 @@ def register_method(name: str, description: str, *, survives_coupling: bool = Tr
         return fn
 
     return deco
+
+
+def methods() -> dict[str, Method]:
+    """All registered methods (importing the built-in modules first)."""
+    _load_builtin()
+    return dict(METHODS)
 
 
 def _load_builtin():

@@ -4,7 +4,7 @@ Start with a real point at the lower band edge and a point on the frequency axis
 upper edge; then repeatedly add the point ``s = i 2 pi f*`` where a cheap error estimate is
 largest. The estimate is the difference between the two latest reduced bodies,
 ``est(f) = ||H_k(f) - H_{k-1}(f)||_F / ||H_k(f)||_F`` on a fine candidate grid: it costs only
-small dense solves (:func:`flexmor.analysis.frequency.frf_reduced`), never a full-model
+small dense solves (:func:`flexmor.dynamics.frf.frf_reduced`), never a full-model
 frequency sweep, and it is large where the reduced body has not settled yet. Each new point
 costs one factorization and ``moments`` block solves
 (:func:`flexmor.reduction.krylov.blocks_at_points`).
@@ -16,8 +16,8 @@ import logging
 
 import numpy as np
 
-from ..analysis.frequency import frf_reduced, rel_error
 from ..basis import Basis, extend_orthonormal
+from ..dynamics.frf import frf_reduced, rel_error
 from ..errors import OptionError, check_choice
 from ..linalg.context import SolverContext, as_solver
 from ..projection import project

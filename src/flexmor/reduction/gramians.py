@@ -18,7 +18,7 @@ width of the peak) turns the Lorentzian peak into a smooth integrand, integrated
 composite Gauss-Legendre in ``theta``; an unbounded last cell ends at ``theta = pi/2``. The
 rule converges exponentially: doubling ``nodes`` changes the Gramian by round-off once the
 peaks are resolved. Resonances and damping ratios come from the modal pre-pass of
-:mod:`flexmor.analysis.compare`. Each node costs one complex symmetric factorization of
+:mod:`flexmor.dynamics.modes`. Each node costs one complex symmetric factorization of
 ``K - w^2 M + i w D`` (:func:`flexmor.linalg.factorize`) and one block solve with
 ``[B, C^T]``; the factors ``P ≈ R R^T`` have ``2 (m + p)`` columns per node before column
 compression and no N x N matrix is ever formed.
@@ -52,6 +52,8 @@ import numpy as np
 import scipy.linalg as sla
 
 from ..basis import orthonormalize
+from ..dynamics.frf import ShiftedMatrices
+from ..dynamics.modes import modal_damping_ratios, modes_below
 from ..errors import OptionError, check_choice
 from ..linalg import factorize
 from ..linalg.context import SolverContext, as_solver
@@ -254,10 +256,8 @@ def _resonances(model, fmax: float, solver: SolverContext):
     """Eigenfrequencies (Hz), damping ratios and rigid-body modes for the quadrature cells.
 
     Small models (``n_dof <= DENSE_LIMIT``): all modes. Larger: the modal pre-pass of
-    :func:`flexmor.analysis.compare._modes` up to ``fmax`` (finite).
+    :func:`flexmor.dynamics.modes.modes_below` up to ``fmax`` (finite).
     """
-    from ..analysis.compare import _modes, modal_damping_ratios
-
     if model.n_dof <= DENSE_LIMIT:
         lam, phi = eigenmodes(model.K, model.M, model.n_dof, solver=solver)
         f = frequencies_hz(lam)
@@ -267,7 +267,7 @@ def _resonances(model, fmax: float, solver: SolverContext):
     else:
         if math.isinf(fmax):
             raise OptionError("the Gramian of a large model needs a finite cutoff frequency")
-        f_all, phi_all, _, _ = _modes(model, fmax, solver)
+        f_all, phi_all, _, _ = modes_below(model, fmax, solver)
         f_all, phi_all = f_all[f_all > 0], phi_all[:, f_all > 0]
     z = modal_damping_ratios(model.damping, f_all, phi_all, model.D) if model.D is not None else None
     z = np.zeros(f_all.size) if z is None else np.asarray(z, float)
@@ -376,8 +376,6 @@ def gramian_factors(model, ports, band=(0.0, math.inf), *, side: str = "both", n
     GramianFactors
     """
     solver = as_solver(solver)
-    from ..analysis.frequency import ShiftedMatrices
-
     check_choice("side", side, ("input", "both"))
     fmin, fmax = float(band[0]), float(band[1])
     if not (0 <= fmin < fmax) or math.isnan(fmax):
@@ -388,8 +386,6 @@ def gramian_factors(model, ports, band=(0.0, math.inf), *, side: str = "both", n
     f_res, z = _resonances(model, max(fcut, fmin), solver)
     work, damping = _regularized(model, (fmin, fmax), f_res)
     if model.D is None:
-        from ..analysis.compare import modal_damping_ratios
-
         z = modal_damping_ratios(work.damping, f_res)
     lo = 2 * math.pi * fmin
     if rigid_modes is not None and rigid_modes.shape[1] and lo == 0:

@@ -56,13 +56,13 @@ def pod_modes(S: np.ndarray, M, order: int | None = None, energy: float | None =
 def _time_snapshots(model, ports, band, solver):
     """States ``q(t)`` of the full body under a sine sweep over the band, one load case per input.
 
-    Uses :func:`flexmor.analysis.time.simulate` (Newmark) with the identity as output matrix;
+    Uses :func:`flexmor.dynamics.time.simulate` (Newmark) with the identity as output matrix;
     ``dt = 1/(20 fmax)``, ``t_end = min(5/fmin, MAX_STEPS dt)``. Columns are scaled by
     ``sqrt(dt)`` (the snapshot quadrature weight).
     """
     import scipy.sparse as sp
 
-    from ..analysis.time import simulate, sine_sweep
+    from ..dynamics.time import simulate, sine_sweep
     from ..ports import Ports
 
     fmin, fmax = band
@@ -86,7 +86,7 @@ def pod(model, ports, order, *, band=None, energy: float | None = None, snapshot
     frequency-limited Gramian (:func:`flexmor.reduction.gramians.gramian_factors`), whose
     dominant eigenvectors in the M inner product are then the POD modes. Time snapshots are
     the states of a Newmark simulation under a linear sine sweep over the band
-    (:mod:`flexmor.analysis.time`).
+    (:mod:`flexmor.dynamics.time`).
 
     Parameters
     ----------

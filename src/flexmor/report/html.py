@@ -92,7 +92,7 @@ def _interface_nodes(model, red) -> np.ndarray:
 
 
 def _signal(name, dt: float, t_end: float, band):
-    from ..analysis import time as tm
+    from ..dynamics import time as tm
 
     if callable(name):
         return name, getattr(name, "__name__", "custom")
@@ -128,12 +128,12 @@ def build_report(model, ports, reduced, *, band, labels=None, seconds=None, full
     full : FullResponse, optional
         The full FRF on the band, reused when given.
     signal : {'step', 'impulse', 'sweep'} or callable
-        Input of the time-domain comparison (see :mod:`flexmor.analysis.time`).
+        Input of the time-domain comparison (see :mod:`flexmor.dynamics.time`).
     dt, t_end : float, optional
         Time step and end time; default ``t_end = 3 / f1`` (lowest full eigenfrequency) and
         ``dt = 1 / (20 fmax)``, at most ``max_steps`` steps.
     scheme, rho_inf
-        Integrator of :func:`flexmor.analysis.time.simulate`.
+        Integrator of :func:`flexmor.dynamics.time.simulate`.
     n_modes : int
         Full flexible modes in the eigenfrequency/MAC table.
     h2_max_dof : int
@@ -151,9 +151,9 @@ def build_report(model, ports, reduced, *, band, labels=None, seconds=None, full
     """
     solver = as_solver(solver)
     from ..analysis.compare import FullResponse
-    from ..analysis.frequency import frf_reduced
     from ..analysis.modal_check import full_modes, modal_check
-    from ..analysis.time import simulate, time_errors
+    from ..dynamics.frf import frf_reduced
+    from ..dynamics.time import simulate, time_errors
 
     reduced = list(reduced)
     if not reduced:

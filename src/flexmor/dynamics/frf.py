@@ -1,0 +1,141 @@
+"""Frequency responses of full and reduced second-order bodies.
+
+Conventions (the same everywhere in flexmor):
+
+* frequencies ``f`` in **Hz**, ``s = i 2 pi f``;
+* transfer matrix ``H(s) = C (s^2 M + s D + K)^{-1} B``;
+* an FRF array has shape **(n_freq, n_outputs, n_inputs)**, complex.
+
+Both reduction methods (greedy point selection, Gramian quadrature) and the error analysis
+(:mod:`flexmor.analysis`) evaluate responses here. The pointwise ``rel_error`` of two FRF
+arrays lives here too, since a greedy method uses it as its estimate; the band measures
+built on it are in :mod:`flexmor.analysis.frequency`.
+"""
+
+from __future__ import annotations
+
+from typing import Callable
+
+import numpy as np
+import scipy.sparse as sp
+
+from ..errors import OptionError
+from ..linalg import factorize
+from ..linalg.context import SolverContext, as_solver
+from ..linalg.distributed import PartitionedMatrix, is_partitioned
+
+__all__ = ["ShiftedMatrices", "angular_frequency", "frf_full", "frf_reduced", "rel_error"]
+
+
+def angular_frequency(freqs) -> np.ndarray:
+    """``2 pi f`` (rad/s) of frequencies ``f`` in Hz, checked to be finite and >= 0, shape (n_freq,)."""
+    f = np.atleast_1d(np.asarray(freqs, dtype=float))
+    if f.ndim != 1 or not np.all(np.isfinite(f)) or np.any(f < 0):
+        raise OptionError("frequencies must be finite and >= 0 Hz")
+    return 2 * np.pi * f
+
+
+class ShiftedMatrices:
+    """``A(w) = K - w^2 M + i w D`` for many ``w`` on one sparsity pattern.
+
+    The data of ``K``, ``M`` and ``D`` are aligned once on the union of their patterns, so
+    each frequency costs one vector operation over the non-zeros instead of sparse additions.
+
+    Parameters
+    ----------
+    K, M : sparse matrix, shape (n, n)
+    D : sparse matrix, optional
+        Partitioned over MPI ranks (:class:`flexmor.linalg.distributed.PartitionedMatrix`) or
+        not; ``A(w)`` is partitioned like ``K``.
+    """
+
+    def __init__(self, K, M, D=None):
+        self.partitioned = is_partitioned(K)
+        mats = [sp.csr_matrix(X.local if is_partitioned(X) else X) for X in (K, M, D) if X is not None]
+        pattern = abs(mats[0])
+        for X in mats[1:]:
+            pattern = pattern + abs(X)
+        pattern = sp.csr_matrix(pattern)
+        pattern.sum_duplicates()
+        pattern.sort_indices()
+        self.indptr, self.indices, self.shape = pattern.indptr, pattern.indices, pattern.shape
+        keys = self._keys(pattern)
+        self.data = []
+        for X in mats:
+            X = X.copy()
+            X.sum_duplicates()
+            vals = np.zeros(pattern.nnz)
+            vals[np.searchsorted(keys, self._keys(X))] = X.data
+            self.data.append(vals)
+        self.damped = D is not None
+
+    @staticmethod
+    def _keys(X) -> np.ndarray:
+        rows = np.repeat(np.arange(X.shape[0], dtype=np.int64), np.diff(X.indptr))
+        return rows * X.shape[1] + X.indices
+
+    def __call__(self, w: float):
+        """The matrix at angular frequency ``w`` (rad/s); complex when damped."""
+        data = self.data[0] - w ** 2 * self.data[1]
+        if self.damped:
+            data = data + 1j * w * self.data[2]
+        A = sp.csr_matrix((data, self.indices, self.indptr), shape=self.shape)
+        return PartitionedMatrix(A) if self.partitioned else A
+
+
+def frf_full(model, ports, freqs, *, solver: SolverContext | None = None,
+             progress: Callable | None = None) -> np.ndarray:
+    """Frequency response of the full sparse model, shape (n_freq, n_outputs, n_inputs).
+
+    One factorization of ``K - w^2 M + i w D`` per frequency (complex symmetric when damped,
+    real symmetric indefinite when ``D`` is None) and one block solve for all inputs.
+
+    Parameters
+    ----------
+    model : FEModel
+        The full model (``K``, ``M``, optional ``D``).
+    ports : Ports
+        Inputs ``B`` (n_dof, m) and outputs ``C`` (p, n_dof).
+    freqs : array_like
+        Frequencies in Hz.
+    solver : SolverContext, optional
+        Solver (backend, statistics) of :func:`flexmor.linalg.factorize`.
+    progress : callable, optional
+        Called as ``progress(iterable, total)`` and must return an iterable (e.g. tqdm).
+
+    Returns
+    -------
+    ndarray, shape (n_freq, n_outputs, n_inputs), complex
+    """
+    solver = as_solver(solver)
+    w = angular_frequency(freqs)
+    B = ports.B.toarray()
+    C = ports.C
+    H = np.empty((w.size, C.shape[0], B.shape[1]), dtype=complex)
+    if w.size == 0:
+        return H
+    A = ShiftedMatrices(model.K, model.M, model.D)
+    it = range(w.size) if progress is None else progress(range(w.size), w.size)
+    for k in it:
+        F = factorize(A(w[k]), solver=solver, symmetric=True, check=False)
+        H[k] = C @ F.solve(B)
+        del F  # release the factors before the next frequency
+    return H
+
+
+def frf_reduced(red, freqs) -> np.ndarray:
+    """Frequency response of a reduced body (dense, batched), shape (n_freq, n_outputs, n_inputs)."""
+    w = angular_frequency(freqs)
+    A = red.K[None, :, :] - (w ** 2)[:, None, None] * red.M[None, :, :]
+    A = A.astype(complex)
+    if red.D is not None:
+        A = A + (1j * w)[:, None, None] * red.D[None, :, :]
+    X = np.linalg.solve(A, np.broadcast_to(red.B.astype(complex), (w.size, *red.B.shape)))
+    return np.einsum("pr,frm->fpm", red.C, X)
+
+
+def rel_error(H, Hr) -> np.ndarray:
+    """Pointwise ``||H - Hr||_F / ||H||_F`` per frequency, shape (n_freq,)."""
+    num = np.linalg.norm((H - Hr).reshape(H.shape[0], -1), axis=1)
+    den = np.linalg.norm(H.reshape(H.shape[0], -1), axis=1)
+    return num / np.where(den > 0, den, np.finfo(float).tiny)

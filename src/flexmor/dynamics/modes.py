@@ -1,0 +1,93 @@
+"""The modal pre-pass: eigenfrequencies and modes of a full model up to a frequency.
+
+The error grid (:class:`flexmor.analysis.compare.FullResponse`) places points at the
+resonances it finds, and the band-limited Gramians (:mod:`flexmor.reduction.gramians`) put
+one quadrature cell at each; both use :func:`modes_below` and the damping ratios of
+:func:`modal_damping_ratios`.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..linalg import factorize
+from ..linalg.context import SolverContext
+from ..linalg.eigen import default_shift, eigenmodes, frequencies_hz
+
+__all__ = ["modal_damping_ratios", "modes_below"]
+
+
+def modal_damping_ratios(damping: dict, freqs_hz, phi=None, D=None) -> np.ndarray | None:
+    """Modal damping ratios of the modes with eigenfrequencies ``freqs_hz``.
+
+    Rayleigh damping gives ``zeta = alpha/(2w) + beta w/2``; another damping matrix ``D``
+    with mass-normalized modes ``phi`` gives ``zeta_k = phi_k^T D phi_k / (2 w_k)`` (exact
+    for proportional damping, the diagonal approximation otherwise); else None.
+    """
+    w = 2 * np.pi * np.maximum(np.asarray(freqs_hz, float), 1e-30)
+    if damping.get("type") == "rayleigh":
+        return damping["alpha"] / (2 * w) + damping["beta"] * w / 2
+    if D is not None and phi is not None:
+        return np.einsum("ij,ij->j", phi, D @ phi) / (2 * w)
+    return None
+
+
+def modes_below(model, fmax: float, solver: SolverContext, max_modes: int = 400):
+    """Modal pre-pass: eigenfrequencies (Hz) and mass-normalized modes up to ``fmax``.
+
+    Above the solver's dense limit (``solver.eigen.dense_limit``) the number of modes below
+    ``fmax`` is counted first (inertia of one factorization), then the modes come from one
+    shift-invert factorization of ``K - sigma M``.
+
+    Parameters
+    ----------
+    model : FEModel
+        The full model (``K``, ``M``).
+    fmax : float
+        Highest eigenfrequency (Hz) wanted.
+    solver : SolverContext
+        Solver (backend, statistics, eigen policy) of :func:`flexmor.linalg.factorize`.
+    max_modes : int
+        Upper limit of the number of modes computed.
+
+    Returns
+    -------
+    f : ndarray
+        Eigenfrequencies (Hz) up to ``fmax``, ascending (rigid-body modes included, at about 0 Hz).
+    phi : ndarray, shape (n_dof, len(f))
+        Mass-normalized modes.
+    F : Factorization or None
+        The factorization of ``K - sigma M`` (None for small dense problems), reused by the
+        surrogate of :mod:`flexmor.analysis.surrogate`.
+    sigma : float
+        Its shift.
+    """
+    sigma = default_shift(model.K, model.M)
+    F = None
+    k = min(model.n_dof, 20)
+    if model.n_dof > solver.eigen.dense_limit:  # count first: one large factorization alive at a time
+        k = _count_below(model, fmax, solver) or k
+        F = factorize((model.K - sigma * model.M).tocsr(), solver=solver, positive=True)
+    while True:
+        lam, phi = eigenmodes(model.K, model.M, k, sigma=sigma, factorization=F, solver=solver)
+        f = frequencies_hz(lam)
+        if f[-1] > fmax or k >= min(model.n_dof, max_modes):
+            keep = f <= fmax
+            return f[keep], phi[:, keep], F, sigma
+        # the next k from the density of modes found so far (+15 %), at least 8 more
+        k = min(model.n_dof, max_modes, max(k + 8, int(np.ceil(1.15 * k * fmax / max(f[-1], 1e-30)))))
+
+
+def _count_below(model, fmax: float, solver: SolverContext) -> int | None:
+    """Number of eigenfrequencies below ``fmax`` plus 2 from the inertia of ``K - w^2 M``.
+
+    One real symmetric indefinite factorization (Sylvester's law of inertia) replaces the
+    guessing of the number of modes; None when the backend does not report the inertia.
+    """
+    try:
+        F = factorize((model.K - (2 * np.pi * fmax) ** 2 * model.M).tocsr(), solver=solver, symmetric=True, check=False)
+    except Exception:  # noqa: BLE001 - e.g. fmax exactly at an eigenvalue: fall back to guessing
+        return None
+    if F.inertia is None:
+        return None
+    return min(model.n_dof, F.inertia[1] + 2)
