@@ -20,7 +20,31 @@ __all__ = [
 
 
 class FlexmorError(Exception):
-    """Base class of all errors raised by flexmor for bad input or failed computations."""
+    """Base class of all errors raised by flexmor for bad input or failed computations.
+
+    Parameters
+    ----------
+    *args
+        The message (as for :class:`Exception`).
+    params : sequence of str, optional
+        The parameters the message names (``inputs``, ``order``, ``band`` ...), each written
+        in the message as the bare parameter name; the command line shows them as its flags
+        (:meth:`message`).
+    """
+
+    def __init__(self, *args, params=()):
+        super().__init__(*args)
+        self.params = tuple(params)
+
+    def message(self, names=None) -> str:
+        """The message with each parameter in ``params`` renamed by ``names`` (e.g. ``{"inputs": "--input"}``)."""
+        import re
+
+        text = str(self)
+        for p in self.params:
+            if names and p in names:
+                text = re.sub(rf"(?<![\w.-]){re.escape(p)}(?![\w-])", lambda _, f=names[p]: f, text)
+        return text
 
 
 class ReadError(FlexmorError):
@@ -67,8 +91,8 @@ class ConvergenceError(FlexmorError):
         solver), for callers that can use an approximate answer; None when there is none.
     """
 
-    def __init__(self, message: str, result=None):
-        super().__init__(message)
+    def __init__(self, message: str, result=None, *, params=()):
+        super().__init__(message, params=params)
         self.result = result
 
 
@@ -84,5 +108,6 @@ def check_choice(name: str, value: str, allowed) -> str:
     """Return `value` if it is one of `allowed`, else raise :class:`OptionError` listing them."""
     allowed = list(allowed)
     if value not in allowed:
-        raise OptionError(f"{name}={value!r} is not allowed; choose one of: {', '.join(map(str, allowed))}")
+        raise OptionError(f"{name}={value!r} is not allowed; choose one of: {', '.join(map(str, allowed))}",
+                          params=(name,))
     return value

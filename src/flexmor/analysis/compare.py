@@ -8,6 +8,7 @@ from typing import Callable
 
 import numpy as np
 
+from ..damping import Damping
 from ..errors import OptionError
 from ..linalg import factorize
 from ..linalg.context import SolverContext, as_solver
@@ -30,16 +31,17 @@ PATHS = ("auto", "direct", "surrogate")
 SURROGATE_MIN_DOF = 20000
 
 
-def modal_damping_ratios(damping: dict, freqs_hz, phi=None, D=None) -> np.ndarray | None:
+def modal_damping_ratios(damping: Damping, freqs_hz, phi=None, D=None) -> np.ndarray | None:
     """Modal damping ratios of the modes with eigenfrequencies ``freqs_hz``.
 
     Rayleigh damping gives ``zeta = alpha/(2w) + beta w/2``; another damping matrix ``D``
     with mass-normalized modes ``phi`` gives ``zeta_k = phi_k^T D phi_k / (2 w_k)`` (exact
     for proportional damping, the diagonal approximation otherwise); else None.
     """
+    z = damping.ratios(freqs_hz)
+    if z is not None:
+        return z
     w = 2 * np.pi * np.maximum(np.asarray(freqs_hz, float), 1e-30)
-    if damping.get("type") == "rayleigh":
-        return damping["alpha"] / (2 * w) + damping["beta"] * w / 2
     if D is not None and phi is not None:
         return np.einsum("ij,ij->j", phi, D @ phi) / (2 * w)
     return None
@@ -164,7 +166,8 @@ class FullResponse:
         if path == "auto":
             path = "surrogate" if damped and model.n_dof >= SURROGATE_MIN_DOF else "direct"
         if path == "surrogate" and not damped:
-            raise OptionError("the surrogate path needs a damped model (--rayleigh or --modal-damping)")
+            raise OptionError("the surrogate path needs a damped model (rayleigh or modal_damping)",
+                              params=("rayleigh", "modal_damping"))
         self.path = path
         params = {"band": self.band, "n": int(n), "tol": float(tol), "max_points": int(max_points), "path": path}
         if path == "surrogate":
