@@ -190,3 +190,16 @@ def test_reduce_help_has_a_group_per_method(capsys):
     for flag in ("--order", "--input", "--output", "--interface", "--band", "--rayleigh", "--modal-damping", "--tol",
                  "--backend", "--json"):
         assert flag in text
+
+
+def test_cli_names_format_and_model_flags(capsys, tmp_path):
+    odd = tmp_path / "beam.xyz"
+    odd.write_text("1 1 1.0\n")
+    assert "(or give --format)" in _err(capsys, "info", str(odd))
+    body = tmp_path / "m.h5"
+    assert main(["reduce", CLAMPED, "--method", "modal", "--order", "4", "--input", "TIP:y", "--no-error",
+                 "-o", str(body)]) == 0
+    capsys.readouterr()
+    err = _err(capsys, "export", str(body), "-o", str(tmp_path / "body.txt"))
+    assert "cannot tell the export type from the suffix '.txt'; give --format (sid" in err
+    assert "given as --model: the inertia" in _err(capsys, "export", str(body), "-o", str(tmp_path / "b.sid"))

@@ -7,6 +7,8 @@ the file (and line) where there is one. The command line turns these into exit c
 
 from __future__ import annotations
 
+import re
+
 __all__ = [
     "FlexmorError",
     "ReadError",
@@ -38,8 +40,6 @@ class FlexmorError(Exception):
 
     def message(self, names=None) -> str:
         """The message with each parameter in ``params`` renamed by ``names`` (e.g. ``{"inputs": "--input"}``)."""
-        import re
-
         text = str(self)
         for p in self.params:
             if names and p in names:
@@ -58,14 +58,16 @@ class ReadError(FlexmorError):
         What is wrong (and, where possible, what to do).
     line : int, optional
         1-based line number in the file, when the problem is on a line.
+    params : sequence of str, optional
+        Parameters the message names (see :class:`FlexmorError`).
     """
 
-    def __init__(self, path, message: str, line: int | None = None):
+    def __init__(self, path, message: str, line: int | None = None, *, params=()):
         self.path = str(path)
         self.line = line
         self.reason = message
         where = f"{self.path}:{line}" if line is not None else self.path
-        super().__init__(f"{where}: {message}")
+        super().__init__(f"{where}: {message}", params=params)
 
 
 class ModelError(FlexmorError):

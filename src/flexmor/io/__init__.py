@@ -91,7 +91,8 @@ def read(path, format: str | None = None, **options):
         cands = [f for f in FORMATS.values() if ext in f.extensions and f.reader is not None]
         if not cands:
             known = sorted({e for f in FORMATS.values() if f.reader for e in f.extensions})
-            raise ReadError(path, f"unknown file type {ext!r}; known: {' '.join(known)} (or pass --format)")
+            raise ReadError(path, f"unknown file type {ext!r}; known: {' '.join(known)} (or give format)",
+                            params=("format",))
         cands.sort(key=lambda f: 1 if f.match is None else (0 if f.match(path) else 2))
         fmt = cands[0]
     else:

@@ -42,15 +42,15 @@ def export_format(path, format: str | None = None) -> str:
     if format is not None:
         name = ALIASES.get(format.lower(), format.lower())
         if name not in EXPORT_FORMATS:
-            raise OptionError(f"format={format!r} is not an export format; choose one of: "
-                              + ", ".join(EXPORT_FORMATS + tuple(ALIASES)))
+            raise OptionError(f"format={format!r} is not allowed; choose one of the export formats: "
+                              + ", ".join(EXPORT_FORMATS + tuple(ALIASES)), params=("format",))
         return name
     ext = Path(path).suffix.lower()
     cands = [n for n in EXPORT_FORMATS if ext in FORMATS[n].extensions]
     if len(cands) != 1:
-        raise OptionError(f"cannot tell the export format from the suffix {ext or '(none)'!r}"
+        raise OptionError(f"cannot tell the export type from the suffix {ext or '(none)'!r}"
                           + (f" (it fits {' and '.join(cands)})" if cands else "")
-                          + f"; give --format ({', '.join(EXPORT_FORMATS)})")
+                          + f"; give format ({', '.join(EXPORT_FORMATS)})", params=("format",))
     return cands[0]
 
 

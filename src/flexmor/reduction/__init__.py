@@ -134,7 +134,8 @@ def reduce(model, method: str, order: int | None, ports, **options) -> tuple[Red
     """
     _load_builtin()
     if method not in METHODS:
-        raise OptionError(f"method={method!r} is not allowed; choose one of: {', '.join(sorted(METHODS))}")
+        raise OptionError(f"method={method!r} is not allowed; choose one of: {', '.join(sorted(METHODS))}",
+                          params=("method",))
     m = METHODS[method]
     check_keywords(method, options, m.keywords)
     opts = {k: v for k, v in options.items() if v is not None}

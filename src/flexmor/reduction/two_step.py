@@ -93,7 +93,7 @@ def two_step(model, ports, order, *, intermediate: int = 120, band=None, gramian
     check_choice("gramian", gramian, GRAMIANS)
     check_choice("variant", variant, VARIANTS)
     if order is None:
-        raise OptionError("two-step needs order (the final order r2)", params=("order",))
+        raise OptionError("two-step needs order (the final dimension r2)", params=("order",))
     r1 = min(int(intermediate), model.n_dof)
     if r1 < order:
         raise OptionError(f"intermediate ({intermediate}) must be at least order ({order})",
