@@ -93,8 +93,8 @@ class BandMatched(Rayleigh):
     with :func:`band_matched`.
     """
 
-    zeta: float = 0.0
-    band: tuple = (1.0, 1000.0)
+    zeta: float
+    band: tuple
 
 
 def band_matched(zeta, band) -> BandMatched:

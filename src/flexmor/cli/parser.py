@@ -13,7 +13,7 @@ from __future__ import annotations
 import argparse
 
 from .. import __version__
-from ..options import option_fields
+from ..options import DEFAULT_BAND, option_fields
 from .commands import cmd_compare, cmd_demo, cmd_export, cmd_info, cmd_reduce, cmd_report
 from .options import COMMON, all_options, flag
 
@@ -69,7 +69,8 @@ def _add_model_args(p, damping=True):
                    help="add node set NAME: set:OTHER, box:x0,y0,z0,x1,y1,z1, plane:x0,y0,z0,nx,ny,nz[,tol], "
                         "cylinder:x0,y0,z0,dx,dy,dz,r[,tol[,s0,s1]] (a hole), sphere:x,y,z,r[,tol], nearest:x,y,z")
     if damping:
-        p.add_argument("--band", metavar="FMIN:FMAX", help="frequency band in Hz (default 1:1000)")
+        p.add_argument("--band", metavar="FMIN:FMAX",
+                       help=f"frequency band in Hz (default {DEFAULT_BAND[0]:g}:{DEFAULT_BAND[1]:g})")
         p.add_argument("--rayleigh", metavar="ALPHA:BETA", help="Rayleigh damping D = alpha M + beta K (1/s, s)")
         p.add_argument("--modal-damping", metavar="ZETA", type=float,
                        help="damping ratio; realized as Rayleigh damping with this ratio at both band ends")
