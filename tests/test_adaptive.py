@@ -51,7 +51,7 @@ def test_adaptive_estimate_costs_no_full_sweep(cant):
 
 def test_adaptive_stops_on_its_estimate(cant):
     model, ports, full = cant
-    red, _ = reduce(model, "adaptive", None, ports, band=BAND, tol=1e-8)
+    red, _ = reduce(model, "adaptive", None, ports, band=BAND, estimate_tol=1e-8)
     assert red.info["estimates"][-1] < 1e-8
     assert full.evaluate(red)["band_error"] < 1e-6
 

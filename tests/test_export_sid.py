@@ -123,7 +123,7 @@ def test_default_frame_nodes_are_the_ports(block, modal):
 
 
 def test_errors(tmp_path, block, modal):
-    with pytest.raises(ModelError, match="--model"):
+    with pytest.raises(ModelError, match="given as model"):
         write_sid(modal, tmp_path / "x.SID_FEM")
     with pytest.raises(PortError, match="no nodes for the SID frame"):
         write_sid(dataclasses.replace(modal, input_names=["u1"], output_names=["y1"]), tmp_path / "x.SID_FEM",

@@ -19,7 +19,7 @@ def test_round_trip(clamped, tmp_path):
         np.testing.assert_array_equal(getattr(back, name), getattr(red, name))
     assert back.method == "modal" and back.input_names == ["TIP:y"]
     assert back.errors["band_error"] == pytest.approx(res["band_error"], rel=1e-14)
-    assert back.damping["beta"] == 1e-6
+    assert back.damping.beta == 1e-6
     assert list(tmp_path.iterdir()) == [path]  # no temporary file left
 
 

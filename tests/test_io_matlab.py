@@ -10,6 +10,7 @@ import scipy.io
 import scipy.sparse as sp
 
 import flexmor.io
+from flexmor.damping import GivenDamping
 from flexmor.errors import ReadError
 
 DATA = Path(__file__).parent / "data"
@@ -39,7 +40,7 @@ def test_lf10_symmetric_and_rayleigh_damped(lf10):
     # LF10's damping is exactly Rayleigh: D = 100 M + 0.01 K
     R = lf10.D - (100.0 * lf10.M + 0.01 * lf10.K)
     assert abs(R).max() < 1e-12 * abs(lf10.D).max()
-    assert lf10.damping == {"type": "given"}
+    assert lf10.damping == GivenDamping()
 
 
 def test_lower_case_names_and_dense(tmp_path):

@@ -11,6 +11,7 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 
 import flexmor.io
+from flexmor.damping import GivenDamping, NoDamping
 from flexmor.errors import ReadError
 from flexmor.io.matrix_market import find_siblings
 
@@ -52,7 +53,7 @@ def test_spring_mass_chain_frequencies(tmp_path, names):
         assert model.K[N - 1, N - 1] == STIFF and model.K[0, 1] == model.K[1, 0] == -STIFF
         w = sla.eigh(model.K.toarray(), model.M.toarray(), eigvals_only=True)
         np.testing.assert_allclose(np.sqrt(w), _chain_omega(), rtol=1e-12)
-        assert model.D is None and model.damping == {"type": "none"}
+        assert model.D is None and model.damping == NoDamping()
     assert model.name in ("chain", tmp_path.name)
 
 
@@ -62,7 +63,7 @@ def test_damping_file_and_general_storage(tmp_path):
     _write(tmp_path, ("rotor_K.mtx", "rotor_M.mtx", "rotor_D.mtx"), D=D, symmetry="general")
     model = flexmor.io.read(tmp_path / "rotor_M.mtx")
     assert model.name == "rotor"
-    assert model.damping == {"type": "given"}
+    assert model.damping == GivenDamping()
     np.testing.assert_allclose(model.D.toarray(), D.toarray(), rtol=1e-15)
     assert set(find_siblings(tmp_path / "rotor_K.mtx")) == {"K", "M", "D"}
 

@@ -71,5 +71,5 @@ def test_undamped_body_gets_a_clear_error(clamped):
     from flexmor.errors import SolverError
 
     ports = make_ports(clamped, ["TIP:y"])
-    with pytest.raises(SolverError, match="undamped body.*--rayleigh"):
+    with pytest.raises(SolverError, match="undamped body.*rayleigh"):
         reduce(clamped, "irka", 6, ports)

@@ -77,7 +77,7 @@ def test_krylov_options_are_validated(clamped):
         reduce(clamped, "krylov", 4, ports, rigid="drop")
     with pytest.raises(OptionError, match="points"):
         reduce(clamped, "krylov", 4, ports, points="a,b")
-    with pytest.raises(OptionError, match="order or --moments"):
+    with pytest.raises(OptionError, match="order or moments"):
         reduce(clamped, "krylov", None, ports)
 
 

@@ -7,6 +7,8 @@ the file (and line) where there is one. The command line turns these into exit c
 
 from __future__ import annotations
 
+import re
+
 __all__ = [
     "FlexmorError",
     "ReadError",
@@ -20,7 +22,29 @@ __all__ = [
 
 
 class FlexmorError(Exception):
-    """Base class of all errors raised by flexmor for bad input or failed computations."""
+    """Base class of all errors raised by flexmor for bad input or failed computations.
+
+    Parameters
+    ----------
+    *args
+        The message (as for :class:`Exception`).
+    params : sequence of str, optional
+        The parameters the message names (``inputs``, ``order``, ``band`` ...), each written
+        in the message as the bare parameter name; the command line shows them as its flags
+        (:meth:`message`).
+    """
+
+    def __init__(self, *args, params=()):
+        super().__init__(*args)
+        self.params = tuple(params)
+
+    def message(self, names=None) -> str:
+        """The message with each parameter in ``params`` renamed by ``names`` (e.g. ``{"inputs": "--input"}``)."""
+        text = str(self)
+        for p in self.params:
+            if names and p in names:
+                text = re.sub(rf"(?<![\w.-]){re.escape(p)}(?![\w-])", lambda _, f=names[p]: f, text)
+        return text
 
 
 class ReadError(FlexmorError):
@@ -34,14 +58,16 @@ class ReadError(FlexmorError):
         What is wrong (and, where possible, what to do).
     line : int, optional
         1-based line number in the file, when the problem is on a line.
+    params : sequence of str, optional
+        Parameters the message names (see :class:`FlexmorError`).
     """
 
-    def __init__(self, path, message: str, line: int | None = None):
+    def __init__(self, path, message: str, line: int | None = None, *, params=()):
         self.path = str(path)
         self.line = line
         self.reason = message
         where = f"{self.path}:{line}" if line is not None else self.path
-        super().__init__(f"{where}: {message}")
+        super().__init__(f"{where}: {message}", params=params)
 
 
 class ModelError(FlexmorError):
@@ -67,8 +93,8 @@ class ConvergenceError(FlexmorError):
         solver), for callers that can use an approximate answer; None when there is none.
     """
 
-    def __init__(self, message: str, result=None):
-        super().__init__(message)
+    def __init__(self, message: str, result=None, *, params=()):
+        super().__init__(message, params=params)
         self.result = result
 
 
@@ -84,5 +110,6 @@ def check_choice(name: str, value: str, allowed) -> str:
     """Return `value` if it is one of `allowed`, else raise :class:`OptionError` listing them."""
     allowed = list(allowed)
     if value not in allowed:
-        raise OptionError(f"{name}={value!r} is not allowed; choose one of: {', '.join(map(str, allowed))}")
+        raise OptionError(f"{name}={value!r} is not allowed; choose one of: {', '.join(map(str, allowed))}",
+                          params=(name,))
     return value

@@ -314,7 +314,7 @@ def frame_nodes(model, V, specs=None, reduced=None) -> list[FrameNode]:
         specs = [s for s in specs if not _is_generic(s)]
     if not specs:
         raise PortError("no nodes for the SID frame: the reduced body names no port or interface nodes; "
-                        "give them, e.g. --node TIP --node 12 (node ids or node sets)")
+                        "give them as nodes (node ids or node sets, e.g. TIP and 12)", params=("nodes",))
     trans, rot = node_triples(model)
     index = {int(k): i for i, k in enumerate(model.node_ids)}
     next_id = int(model.node_ids.max()) + 1

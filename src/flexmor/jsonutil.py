@@ -14,6 +14,8 @@ def jsonable(x, *, finite: bool = False):
 
     With ``finite=True`` NaN and Inf become ``None`` (strict JSON has no NaN).
     """
+    if hasattr(x, "to_dict"):  # typed values stored in their dict form (e.g. flexmor.damping.Damping)
+        x = x.to_dict()
     if isinstance(x, dict):
         return {str(k): jsonable(v, finite=finite) for k, v in x.items()}
     if isinstance(x, (list, tuple)):

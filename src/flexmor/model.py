@@ -23,6 +23,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import scipy.sparse as sp
 
+from .damping import Damping, NoDamping, Rayleigh, damping_from_dict
 from .errors import FlexmorWarning, ModelError
 from .linalg.distributed import is_partitioned
 
@@ -127,8 +128,9 @@ class FEModel:
         Names of the columns of ``B`` and rows of ``C``.
     name : str
         Short model name. ``source`` is the file it was read from.
-    damping : dict
-        How ``D`` was obtained, e.g. ``{"type": "rayleigh", "alpha": .., "beta": ..}``.
+    damping : Damping
+        How ``D`` was obtained (:mod:`flexmor.damping`), e.g. ``Rayleigh(alpha, beta)``; a
+        stored form (``{"type": "given"}``) is converted.
     node_frames : dict of int to ndarray (3, 3)
         Nodes whose direction codes are not the global x y z (Nastran grids with a local
         displacement system): the columns are the node's directions 1-3 (and 4-6) in
@@ -159,11 +161,13 @@ class FEModel:
     output_names: list = field(default_factory=list)
     name: str = "model"
     source: str = ""
-    damping: dict = field(default_factory=lambda: {"type": "none"})
+    damping: Damping = field(default_factory=NoDamping)
     node_frames: dict = field(default_factory=dict)
     singular_mass_ok: bool = False
 
     def __post_init__(self):
+        if not isinstance(self.damping, Damping):
+            self.damping = damping_from_dict(self.damping)
         self.M = _as_csr("M", self.M)
         self.K = _as_csr("K", self.K)
         self.D = _as_csr("D", self.D)
@@ -294,7 +298,7 @@ class FEModel:
             "n_nodes": self.n_nodes,
             "nnz_M": _nnz(self.M),
             "nnz_K": _nnz(self.K),
-            "damping": self.damping,
+            "damping": self.damping.to_dict(),
             "node_sets": {k: int(v.size) for k, v in self.node_sets.items()},
             "inputs": list(self.input_names),
             "outputs": list(self.output_names),
@@ -303,8 +307,16 @@ class FEModel:
     # -- derived models ---------------------------------------------------------------------
     def with_rayleigh(self, alpha: float, beta: float) -> "FEModel":
         """Return a copy with Rayleigh damping ``D = alpha M + beta K`` (alpha in 1/s, beta in s)."""
-        alpha, beta = float(alpha), float(beta)
+        return self.with_damping(Rayleigh(float(alpha), float(beta)))
+
+    def with_damping(self, damping: Damping) -> "FEModel":
+        """Return a copy with the damping matrix of ``damping`` (a :class:`~flexmor.damping.Rayleigh`,
+        e.g. :func:`~flexmor.damping.band_matched`); :class:`~flexmor.damping.NoDamping` returns the model."""
+        if isinstance(damping, NoDamping):
+            return self
+        if not isinstance(damping, Rayleigh):
+            raise ModelError(f"damping {damping} has no matrix to build; give Rayleigh damping")
+        alpha, beta = damping.alpha, damping.beta
         if not (np.isfinite(alpha) and np.isfinite(beta)) or alpha < 0 or beta < 0:
             raise ModelError(f"Rayleigh coefficients must be finite and >= 0, got alpha={alpha}, beta={beta}")
-        D = (alpha * self.M + beta * self.K).tocsr()
-        return dataclasses.replace(self, D=D, damping={"type": "rayleigh", "alpha": alpha, "beta": beta})
+        return dataclasses.replace(self, D=damping.matrix(self.M, self.K), damping=damping)

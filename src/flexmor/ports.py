@@ -147,7 +147,7 @@ def make_ports(model: FEModel, inputs=(), outputs=()) -> Ports:
     elif model.B is not None:
         B, in_names = model.B, list(model.input_names)
     else:
-        raise PortError("no inputs: give at least one --input NODE:DIR or SET:DIR")
+        raise PortError("no input ports: inputs must name at least one NODE:DIR or SET:DIR", params=("inputs",))
     if outputs:
         C, out_names = _matrix(model, outputs).T.tocsr(), outputs
     elif model.C is not None:
@@ -155,7 +155,7 @@ def make_ports(model: FEModel, inputs=(), outputs=()) -> Ports:
     elif inputs:
         C, out_names = B.T.tocsr(), list(in_names)
     else:
-        raise PortError("no outputs: give at least one --output NODE:DIR or SET:DIR")
+        raise PortError("no output ports: outputs must name at least one NODE:DIR or SET:DIR", params=("outputs",))
     return Ports(B=sp.csr_matrix(B), C=sp.csr_matrix(C), input_names=list(in_names), output_names=list(out_names))
 
 
@@ -175,5 +175,5 @@ def interface_dofs(model: FEModel, specs) -> np.ndarray:
             raise PortError(f"interface {spec!r} has no free equations (all constrained?)")
         out.update(found.tolist())
     if not out:
-        raise PortError("no interface given: use --interface NODE, SET or SET:DIR")
+        raise PortError("interface names no DOF: give NODE, SET or SET:DIR", params=("interface",))
     return np.array(sorted(out), dtype=np.int64)

@@ -15,6 +15,7 @@ import scipy.linalg as sla
 
 from . import __version__
 from .basis import Basis
+from .damping import Damping, NoDamping, damping_from_dict
 from .errors import ModelError
 from .model import FEModel
 from .ports import Ports
@@ -64,9 +65,13 @@ class ReducedModel:
     xyz: np.ndarray | None = None
     dofs: np.ndarray | None = None
     model_name: str = ""
-    damping: dict = field(default_factory=lambda: {"type": "none"})
+    damping: Damping = field(default_factory=NoDamping)
     errors: dict = field(default_factory=dict)
     version: str = __version__
+
+    def __post_init__(self):
+        if not isinstance(self.damping, Damping):  # the stored form, e.g. {"type": "rayleigh", ...}
+            self.damping = damping_from_dict(self.damping)
 
     @property
     def order(self) -> int:
@@ -115,5 +120,5 @@ def project(model: FEModel, basis: Basis, ports: Ports) -> ReducedModel:
         M=Mr, K=Kr, D=Dr, B=Br, C=Cr, V=V, method=basis.method, info=dict(basis.info),
         input_names=list(ports.input_names), output_names=list(ports.output_names),
         node_ids=model.node_ids, xyz=model.xyz, dofs=model.dofs, model_name=model.name,
-        damping=dict(model.damping),
+        damping=model.damping,
     )

@@ -164,7 +164,8 @@ def parse_selection(text: str) -> tuple[str, str]:
     """Split ``NAME=KIND:NUMBERS`` into ``(NAME, 'KIND:NUMBERS')``."""
     m = re.match(r"^\s*([A-Za-z_][\w\-.]*)\s*=\s*(\S.*)$", str(text))
     if not m:
-        raise PortError(f"--select {text!r}: expected NAME=KIND:NUMBERS, e.g. HOLE=cylinder:0,0,0,0,0,1,0.01")
+        raise PortError(f"selections {text!r}: expected NAME=KIND:NUMBERS, e.g. HOLE=cylinder:0,0,0,0,0,1,0.01",
+                        params=("selections",))
     return m.group(1).upper(), m.group(2).strip()
 
 

@@ -57,7 +57,7 @@ def reduce_to_tolerance(model, method: str, ports, *, tol: float, full, max_orde
     """
     solver = as_solver(solver)
     if tol is None or not tol > 0:
-        raise OptionError(f"--tol must be a positive number, got {tol}")
+        raise OptionError(f"tol must be a positive number, got {tol}", params=("tol",))
     max_order = int(max_order or min(model.n_dof, 400))
     R = int(start or max(4, 2 * ports.n_inputs))
     t0 = time.perf_counter()
@@ -89,7 +89,7 @@ def reduce_to_tolerance(model, method: str, ports, *, tol: float, full, max_orde
             else:
                 lo = mid
     else:
-        log.warning("%s: band_error %.2e at order %d misses --tol %.1e", method, tried[hi][0], hi, tol)
+        log.warning("%s: band_error %.2e at order %d misses the target (tol) %.1e", method, tried[hi][0], hi, tol)
     red = tried[hi][1]
     search = {"tol": tol, "tol_reached": reached,
               "orders_tried": {str(k): v[0] for k, v in sorted(tried.items())}}

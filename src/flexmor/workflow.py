@@ -6,60 +6,42 @@ import logging
 import time
 from pathlib import Path
 
-import numpy as np
-
 from .analysis.compare import FullResponse
 from .checks import check_rigid_body_modes
+from .damping import Damping, NoDamping, Rayleigh, band_matched
 from .errors import OptionError
 from .linalg.context import SolverContext, as_solver
+from .options import DEFAULT_BAND, Band, parse_pair
 from .ports import make_ports
 from .reduction import reduce
 
-__all__ = ["coupling_specs", "prepare_model", "parse_band", "parse_pair", "apply_damping", "reduce_and_judge",
-           "run_demo", "DEFAULT_BAND"]
+__all__ = ["coupling_specs", "prepare_model", "parse_band", "parse_pair", "apply_damping", "damping_of",
+           "reduce_and_judge", "run_demo", "DEFAULT_BAND"]
 
 log = logging.getLogger(__name__)
 
-#: Band (Hz) used when none is given.
-DEFAULT_BAND = (1.0, 1000.0)
+def parse_band(text) -> Band:
+    """Parse ``FMIN:FMAX`` (Hz) (or check a pair) and check ``0 < FMIN < FMAX``."""
+    return Band.of(text)
 
 
-def parse_pair(text: str, what: str) -> tuple[float, float]:
-    """Parse ``A:B`` into two floats; a clear :class:`OptionError` otherwise."""
-    try:
-        a, b = (float(x) for x in str(text).split(":"))
-    except ValueError:
-        raise OptionError(f"{what} must look like A:B with two numbers, got {text!r}") from None
-    return a, b
-
-
-def parse_band(text) -> tuple[float, float]:
-    """Parse ``FMIN:FMAX`` (Hz) and check ``0 < FMIN < FMAX``."""
-    fmin, fmax = text if isinstance(text, tuple) else parse_pair(text, "--band")
-    if not (np.isfinite(fmin) and np.isfinite(fmax)) or not 0 < fmin < fmax:
-        raise OptionError(f"--band needs 0 < FMIN < FMAX in Hz, got {fmin}:{fmax}")
-    return fmin, fmax
+def damping_of(*, rayleigh=None, modal_damping=None, band=None) -> Damping:
+    """The damping asked for: ``rayleigh=(alpha, beta)`` (``D = alpha M + beta K``) or
+    ``modal_damping=zeta``, realized as the Rayleigh damping whose ratio equals ``zeta`` at
+    both ends of ``band`` (default :data:`DEFAULT_BAND`; :func:`flexmor.damping.band_matched`);
+    :class:`~flexmor.damping.NoDamping` when neither is given."""
+    if rayleigh is not None and modal_damping is not None:
+        raise OptionError("give either rayleigh or modal_damping, not both", params=("rayleigh", "modal_damping"))
+    if rayleigh is not None:
+        return Rayleigh(*(float(x) for x in rayleigh))
+    if modal_damping is not None:
+        return band_matched(modal_damping, Band.of(band))
+    return NoDamping()
 
 
 def apply_damping(model, *, rayleigh=None, modal_damping=None, band=None):
-    """Return ``model`` with damping.
-
-    ``rayleigh=(alpha, beta)`` gives ``D = alpha M + beta K``. ``modal_damping=zeta`` is
-    realized as the Rayleigh damping whose ratio equals ``zeta`` at both ends of ``band``
-    (``alpha = 2 zeta w1 w2/(w1+w2)``, ``beta = 2 zeta/(w1+w2)``); between them the ratio
-    is slightly lower, outside higher.
-    """
-    if rayleigh is not None and modal_damping is not None:
-        raise OptionError("give either --rayleigh or --modal-damping, not both")
-    if rayleigh is not None:
-        return model.with_rayleigh(*rayleigh)
-    if modal_damping is not None:
-        z = float(modal_damping)
-        if not 0 <= z < 1:
-            raise OptionError(f"--modal-damping must be in [0, 1), got {z}")
-        w1, w2 = (2 * np.pi * f for f in (band or DEFAULT_BAND))
-        return model.with_rayleigh(2 * z * w1 * w2 / (w1 + w2), 2 * z / (w1 + w2))
-    return model
+    """Return ``model`` with the damping of :func:`damping_of` (the model itself when none is given)."""
+    return model.with_damping(damping_of(rayleigh=rayleigh, modal_damping=modal_damping, band=band))
 
 
 def coupling_specs(interfaces=(), ports=()) -> list[str]:
@@ -78,15 +60,15 @@ def coupling_specs(interfaces=(), ports=()) -> list[str]:
     return out
 
 
-def prepare_model(model, couplings=(), damping: dict | None = None):
+def prepare_model(model, couplings=(), damping: Damping | None = None):
     """The model a reduced body belongs to: ``couplings`` applied (:func:`flexmor.couplings.couple`)
     and, when the model has no damping of its own, the body's Rayleigh ``damping``."""
     if couplings:
         from .couplings import couple
 
         model = couple(model, list(couplings)).model
-    if damping and model.D is None and damping.get("type") == "rayleigh":
-        model = model.with_rayleigh(damping["alpha"], damping["beta"])
+    if isinstance(damping, Rayleigh) and model.D is None:
+        model = model.with_damping(damping)
     return model
 
 
@@ -118,7 +100,7 @@ def reduce_and_judge(model, method: str, order, ports, *, band=None, full: FullR
     t_full = None
     if tol is not None:  # target-error mode: the order is chosen against the full FRF
         if full is None and band is None:
-            raise OptionError("--tol needs the error evaluation over a band (drop --no-error)")
+            raise OptionError("tol needs the error evaluation over a band (band is None)", params=("tol",))
         if full is None:
             grid_opts = {} if grid_tol is None else {"tol": grid_tol}
             full = FullResponse(model, ports, band, n=n_freq, solver=solver, path=full_frf, cache=cache,

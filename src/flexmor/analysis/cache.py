@@ -74,7 +74,7 @@ def frf_key(model, ports, params: dict) -> str:
     h.update(f"flexmor-frf-v{FORMAT_VERSION}".encode())
     for name, A in (("K", model.K), ("M", model.M), ("D", model.D), ("B", ports.B), ("C", ports.C)):
         _update_matrix(h, name, A)
-    h.update(json.dumps(model.damping, sort_keys=True, default=str).encode())
+    h.update(json.dumps(model.damping.to_dict(), sort_keys=True, default=str).encode())
     h.update(json.dumps(params, sort_keys=True, default=str).encode())
     return h.hexdigest()
 

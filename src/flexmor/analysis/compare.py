@@ -107,7 +107,8 @@ class FullResponse:
         if path == "auto":
             path = "surrogate" if damped and model.n_dof >= SURROGATE_MIN_DOF else "direct"
         if path == "surrogate" and not damped:
-            raise OptionError("the surrogate path needs a damped model (--rayleigh or --modal-damping)")
+            raise OptionError("the surrogate path needs a damped model (rayleigh or modal_damping)",
+                              params=("rayleigh", "modal_damping"))
         self.path = path
         params = {"band": self.band, "n": int(n), "tol": float(tol), "max_points": int(max_points), "path": path}
         if path == "surrogate":

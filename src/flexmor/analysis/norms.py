@@ -22,6 +22,7 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 
 from ..dynamics.frf import frf_full, frf_reduced
+from ..damping import Rayleigh
 from ..errors import OptionError, check_choice
 from ..linalg.distributed import is_partitioned
 from ..linalg.eigen import dense_eigenmodes
@@ -45,10 +46,10 @@ def _modal_terms(M, K, B, C, alpha, beta):
 
 def _h2_modal(model, ports, red):
     d = model.damping
-    if d.get("type") != "rayleigh":
+    if not isinstance(d, Rayleigh):
         raise OptionError("h2_error(method='modal') needs Rayleigh damping")
-    a1, b1, R1 = _modal_terms(model.M, model.K, ports.B, ports.C, d["alpha"], d["beta"])
-    a2, b2, R2 = _modal_terms(red.M, red.K, red.B, red.C, d["alpha"], d["beta"])
+    a1, b1, R1 = _modal_terms(model.M, model.K, ports.B, ports.C, d.alpha, d.beta)
+    a2, b2, R2 = _modal_terms(red.M, red.K, red.B, red.C, d.alpha, d.beta)
     a, b = np.concatenate([a1, a2]), np.concatenate([b1, b2])
     R = np.concatenate([R1, -R2]).reshape(a.size, -1)
     if np.any(a <= 0):
@@ -118,7 +119,7 @@ def h2_error(model, ports, reduced, *, method: str = "auto", omega=None, relativ
     """
     check_choice("method", method, ["auto", "modal", "quadrature", "lyapunov"])
     if method == "auto":
-        method = "modal" if model.damping.get("type") == "rayleigh" else "quadrature"
+        method = "modal" if isinstance(model.damping, Rayleigh) else "quadrature"
     if method in ("modal", "lyapunov") and model.n_dof > DENSE_H2_LIMIT:
         raise OptionError(f"h2_error method {method!r} is dense; the model has {model.n_dof} > {DENSE_H2_LIMIT} DOF")
     if method == "modal":

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..damping import Damping
 from ..linalg import factorize
 from ..linalg.context import SolverContext
 from ..linalg.eigen import default_shift, eigenmodes, frequencies_hz
@@ -17,16 +18,17 @@ from ..linalg.eigen import default_shift, eigenmodes, frequencies_hz
 __all__ = ["modal_damping_ratios", "modes_below"]
 
 
-def modal_damping_ratios(damping: dict, freqs_hz, phi=None, D=None) -> np.ndarray | None:
+def modal_damping_ratios(damping: Damping, freqs_hz, phi=None, D=None) -> np.ndarray | None:
     """Modal damping ratios of the modes with eigenfrequencies ``freqs_hz``.
 
     Rayleigh damping gives ``zeta = alpha/(2w) + beta w/2``; another damping matrix ``D``
     with mass-normalized modes ``phi`` gives ``zeta_k = phi_k^T D phi_k / (2 w_k)`` (exact
     for proportional damping, the diagonal approximation otherwise); else None.
     """
+    z = damping.ratios(freqs_hz)
+    if z is not None:
+        return z
     w = 2 * np.pi * np.maximum(np.asarray(freqs_hz, float), 1e-30)
-    if damping.get("type") == "rayleigh":
-        return damping["alpha"] / (2 * w) + damping["beta"] * w / 2
     if D is not None and phi is not None:
         return np.einsum("ij,ij->j", phi, D @ phi) / (2 * w)
     return None

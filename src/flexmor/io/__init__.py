@@ -63,7 +63,7 @@ def _choose_reader(registry: Registry, path: Path, format: str | None, hint: str
     if fmt is None:
         ext = path.suffix.lower() or "(none)"
         raise ReadError(path, f"unknown {registry.purpose} file type {ext!r}{_other_purpose(path, registry)}; "
-                              f"known: {registry.known()}{hint}")
+                              f"known: {registry.known()}{hint}", params=("format",) if hint else ())
     return fmt
 
 
@@ -92,7 +92,7 @@ def read(path, format: str | None = None, **options):
         Unknown ``format``.
     """
     path = Path(path)
-    fmt = _choose_reader(MODEL_FORMATS, path, format, " (or pass --format)")
+    fmt = _choose_reader(MODEL_FORMATS, path, format, " (or give format)")
     return fmt.function(_checked(path), **options)
 
 
@@ -137,8 +137,8 @@ def export_format(path, format: str | None = None) -> str:
     fmt = EXPORT_FORMATS.by_path(path)
     if fmt is None:
         ext = Path(path).suffix.lower() or "(none)"
-        raise OptionError(f"cannot tell the export format from the suffix {ext!r} (known: {EXPORT_FORMATS.known()}); "
-                          f"give --format ({', '.join(EXPORT_FORMATS.names())})")
+        raise OptionError(f"cannot tell the export type from the suffix {ext!r} (known: {EXPORT_FORMATS.known()}); "
+                          f"give format ({', '.join(EXPORT_FORMATS.names())})", params=("format",))
     return fmt.name
 
 

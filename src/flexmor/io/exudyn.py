@@ -136,8 +136,8 @@ def write_exudyn(reduced, path, *, model=None, node_type: str = NODE_TYPES[0]) -
         Without ``model`` (the inertia terms need the FE mass matrix), or see :func:`exudyn_data`.
     """
     if model is None:
-        raise ModelError("Exudyn export needs the FE model the body was reduced from (--model MODEL): "
-                         "the inertia terms are integrals over its mass matrix")
+        raise ModelError("Exudyn export needs the FE data the body was reduced from, given as model: "
+                         "the inertia terms are integrals over its mass matrix", params=("model",))
     data = exudyn_data(reduced, model, node_type=node_type)
 
     def write(tmp):

@@ -110,12 +110,12 @@ def read_reduced(path):
             if "errors" in h:
                 meta["errors"]["freqs_hz"] = h["errors/freqs_hz"][()]
                 meta["errors"]["rel_error"] = h["errors/rel_error"][()]
+            if not all(isinstance(meta[n], dict) for n in ("info", "damping", "errors")):
+                raise ReadError(path, "attributes info, damping and errors must be JSON objects")
             red = ReducedModel(**arrays, **meta, method=str(h.attrs["method"]),
                                model_name=str(h.attrs["model_name"]), version=str(h.attrs["version"]))
-        except (KeyError, ValueError, TypeError, OSError) as exc:
+        except (KeyError, ValueError, TypeError, OSError) as exc:  # an unknown damping type is an OptionError
             raise ReadError(path, f"incomplete or corrupt reduced body ({exc})") from None
-    if not isinstance(red.info, dict) or not isinstance(red.damping, dict) or not isinstance(red.errors, dict):
-        raise ReadError(path, "attributes info, damping and errors must be JSON objects")
     if not all(np.all(np.isfinite(a)) for a in (red.M, red.K, red.B, red.C) + ((red.D,) if red.D is not None else ())):
         raise ReadError(path, "the reduced matrices contain NaN or Inf")
     return red

@@ -117,7 +117,7 @@ def _check_header(path: Path) -> None:
     if not words or words[0] != "%%matrixmarket":
         raise ReadError(path, "not a Matrix Market file (first line must start with %%MatrixMarket); "
                               "plain 'row col value' files (Abaqus *MATRIX GENERATE, <job>_STIF1.mtx) are "
-                              "read with --format abaqus from the .inp beside them", 1)
+                              "read with format abaqus from the .inp beside them", 1, params=("format",))
     if len(words) < 5 or words[1] != "matrix" or words[2] not in ("coordinate", "array"):
         raise ReadError(path, f"unsupported Matrix Market header {head.strip()[:80]!r}; expected "
                               "'%%MatrixMarket matrix coordinate|array real|integer general|symmetric'", 1)

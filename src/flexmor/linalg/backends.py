@@ -139,7 +139,8 @@ class _ScipyLU(Factorization):
         except RuntimeError as exc:
             raise SolverError(f"SuperLU failed: {exc}; the matrix is singular (a free body needs a shift)") from None
         except MemoryError:
-            raise SolverError("SuperLU ran out of memory; use a faster backend (--backend pardiso)") from None
+            raise SolverError("SuperLU ran out of memory; use a faster solver (backend pardiso)",
+                              params=("backend",)) from None
         self.dtype = self._lu.U.dtype
 
     def _solve(self, b):

@@ -66,7 +66,7 @@ def _petsc():
         petsc4py.init()
         from petsc4py import PETSc
     except ImportError:
-        raise OptionError(f"--backend petsc is not installed: {INSTALL_HINT}") from None
+        raise OptionError(f"backend petsc is not installed: {INSTALL_HINT}", params=("backend",)) from None
     return PETSc
 
 
@@ -83,10 +83,10 @@ def available() -> bool:
 def require() -> None:
     """Raise :class:`OptionError` with the install route unless the backend works here (MUMPS included)."""
     if not available():
-        raise OptionError(f"--backend petsc is not available: {INSTALL_HINT}")
+        raise OptionError(f"backend petsc is not available: {INSTALL_HINT}", params=("backend",))
     if not _petsc().Sys.hasExternalPackage("mumps"):
-        raise OptionError("--backend petsc needs a PETSc built with MUMPS (Debian's is; from source: "
-                          "--download-mumps --download-scalapack --download-ptscotch)")
+        raise OptionError("backend petsc needs a PETSc built with MUMPS (Debian's is; from source: "
+                          "--download-mumps --download-scalapack --download-ptscotch)", params=("backend",))
 
 
 def _complex_scalars(PETSc) -> bool:

@@ -1,37 +1,59 @@
 """Reduction methods, one family per module, each a function returning a :class:`Basis`.
 
-A method is registered with :func:`register_method` and called through :func:`reduce`,
-which validates its options, builds the basis, and projects with the one
+A method is registered with :func:`register_method` together with the dataclass of its
+options (defaults and documentation, :func:`flexmor.options.option`), and called through
+:func:`reduce`, which validates its options, builds the basis, and projects with the one
 :func:`flexmor.projection.project`. Every method has the signature::
 
-    method(model, ports, order, *, solver=None, **options) -> Basis
+    method(model, ports, order, *, <one keyword per options field>, solver=None) -> Basis
+
+and raises :class:`~flexmor.errors.OptionError` for a keyword it does not take.
 """
 
 from __future__ import annotations
 
+import functools
 import inspect
 import time
 from dataclasses import dataclass
 from typing import Callable
 
 from ..errors import OptionError
+from ..options import option_fields
 from ..projection import ReducedModel, project
 
-__all__ = ["register_method", "METHODS", "methods", "reduce", "Method"]
+__all__ = ["register_method", "METHODS", "methods", "reduce", "Method", "check_keywords"]
 
 
 @dataclass(frozen=True)
 class Method:
-    """A registered reduction method."""
+    """A registered reduction method.
+
+    Attributes
+    ----------
+    name, description : str
+    function : callable
+        ``function(model, ports, order, **options) -> Basis``.
+    survives_coupling : bool
+        Whether the method's guarantee (moment matching) holds for an assembly of bodies.
+    options_class : type
+        The dataclass of the method's options (:func:`flexmor.options.option` fields).
+    """
 
     name: str
     function: Callable
     description: str
     survives_coupling: bool
+    options_class: type
 
     @property
     def options(self) -> list[str]:
-        """Keyword options the method accepts (besides model, ports, order)."""
+        """Names of the method options (the fields of ``options_class``)."""
+        return list(option_fields(self.options_class))
+
+    @property
+    def keywords(self) -> list[str]:
+        """Keyword options the function accepts: the method options and the solver one."""
         sig = inspect.signature(self.function)
         return [p.name for p in sig.parameters.values() if p.kind is p.KEYWORD_ONLY]
 
@@ -40,12 +62,31 @@ class Method:
 METHODS: dict[str, Method] = {}
 
 
-def register_method(name: str, description: str, *, survives_coupling: bool = True):
-    """Decorator registering a basis function under ``name``."""
+def check_keywords(method: str, given, allowed) -> None:
+    """An :class:`OptionError` naming the keywords of ``given`` that are not in ``allowed`` (all listed)."""
+    unknown = [k for k in given if k not in allowed]
+    if unknown:
+        raise OptionError(f"method {method!r} does not take option(s) {', '.join(unknown)}; "
+                          f"it takes: {', '.join(allowed)}", params=tuple(unknown) + tuple(allowed))
+
+
+def register_method(name: str, description: str, *, options: type, survives_coupling: bool = True):
+    """Decorator registering a basis function under ``name`` with its options dataclass ``options``.
+
+    The function returned raises :class:`OptionError` (not ``TypeError``) for keywords the
+    method does not take, listing those it takes.
+    """
 
     def deco(fn):
-        METHODS[name] = Method(name, fn, description, survives_coupling)
-        return fn
+        allowed = [p.name for p in inspect.signature(fn).parameters.values() if p.kind is p.KEYWORD_ONLY]
+
+        @functools.wraps(fn)
+        def method(model, ports, order=None, **kwargs):
+            check_keywords(name, kwargs, allowed)
+            return fn(model, ports, order, **kwargs)
+
+        METHODS[name] = Method(name, method, description, survives_coupling, options)
+        return method
 
     return deco
 
@@ -57,7 +98,7 @@ def methods() -> dict[str, Method]:
 
 
 def _load_builtin():
-    from . import (  # noqa: F401  # noqa: F401
+    from . import (  # noqa: F401
         adaptive,
         balanced,  # noqa: F401  (sobt, fw-sobt; gramians.py holds the Gramians)
         cms,
@@ -85,7 +126,9 @@ def reduce(model, method: str, order: int | None, ports, **options) -> tuple[Red
     ports : Ports
         Inputs and outputs of the reduced body.
     **options
-        Method options (e.g. ``interface``, ``solver``); unknown ones raise OptionError.
+        Method options (the fields of the method's ``options_class``, e.g. ``interface``) and
+        ``solver``; any other keyword raises OptionError listing the allowed ones. Options
+        not given take their defaults.
 
     Returns
     -------
@@ -97,16 +140,13 @@ def reduce(model, method: str, order: int | None, ports, **options) -> tuple[Red
     """
     _load_builtin()
     if method not in METHODS:
-        raise OptionError(f"method={method!r} is not allowed; choose one of: {', '.join(sorted(METHODS))}")
+        raise OptionError(f"method={method!r} is not allowed; choose one of: {', '.join(sorted(METHODS))}",
+                          params=("method",))
     m = METHODS[method]
-    allowed = m.options
-    unknown = [k for k, v in options.items() if k not in allowed and v is not None]
-    if unknown:
-        raise OptionError(
-            f"method {method!r} does not take option(s) {', '.join(unknown)}; it takes: {', '.join(allowed)}")
-    opts = {k: v for k, v in options.items() if k in allowed and v is not None}
+    check_keywords(method, options, m.keywords)
+    opts = {k: v for k, v in options.items() if v is not None}
     if order is not None and (int(order) != order or order < 1):
-        raise OptionError(f"order must be a positive integer, got {order}")
+        raise OptionError(f"order must be a positive integer, got {order}", params=("order",))
     t0 = time.perf_counter()
     basis = m.function(model, ports, order, **opts)
     t1 = time.perf_counter()

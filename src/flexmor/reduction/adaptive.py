@@ -13,6 +13,7 @@ costs one factorization and ``moments`` block solves
 from __future__ import annotations
 
 import logging
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -20,11 +21,21 @@ from ..basis import Basis, extend_orthonormal
 from ..dynamics.frf import frf_reduced, rel_error
 from ..errors import OptionError, check_choice
 from ..linalg.context import SolverContext, as_solver
+from ..options import Band, band_option, option
 from ..projection import project
 from . import register_method
-from .krylov import DEFLATION_TOL, RIGID, SIDES, blocks_at_points, rigid_body_modes, start_block
+from .krylov import (
+    DEFLATION_TOL,
+    RIGID,
+    SIDES,
+    blocks_at_points,
+    rigid_body_modes,
+    rigid_option,
+    side_option,
+    start_block,
+)
 
-__all__ = ["adaptive"]
+__all__ = ["adaptive", "AdaptiveOptions"]
 
 log = logging.getLogger(__name__)
 
@@ -36,8 +47,22 @@ def _band_estimate(freqs, Hk, Hprev) -> float:
     return float(num / den) if den > 0 else np.inf
 
 
-@register_method("adaptive", "greedy expansion points in the band from a cheap error estimate")
-def adaptive(model, ports, order, *, band=None, tol: float | None = None, moments: int = 1,
+@dataclass(frozen=True)
+class AdaptiveOptions:
+    """Options of :func:`adaptive`."""
+
+    band: Band | None = band_option("the candidate points")
+    estimate_tol: float | None = option(None, "stop when the estimated band error (previous vs. latest reduced body) "
+                                        "falls below this; not verified (the verified target is --tol)", parse=float)
+    moments: int = option(1, "moments (blocks) per expansion point")
+    side: str = side_option()
+    n_candidates: int = option(400, "log-spaced candidate frequencies in the band")
+    max_points: int = option(60, "upper limit of expansion points")
+    rigid: str = rigid_option()
+
+
+@register_method("adaptive", "greedy expansion points in the band from a cheap error estimate", options=AdaptiveOptions)
+def adaptive(model, ports, order, *, band=None, estimate_tol: float | None = None, moments: int = 1,
              side: str = "input", n_candidates: int = 400, max_points: int = 60, rigid: str = "include",
              solver: SolverContext | None = None) -> Basis:
     """Krylov basis with greedily chosen expansion points in the band.
@@ -47,14 +72,15 @@ def adaptive(model, ports, order, *, band=None, tol: float | None = None, moment
     model : FEModel
     ports : Ports
     order : int or None
-        Reduced dimension r (the basis is truncated to r columns). None: stop on ``tol``.
-    band : (float, float), optional
-        Band (Hz) of the candidate points; default (1, 1000).
-    tol : float, optional
+        Reduced dimension r (the basis is truncated to r columns). None: stop on ``estimate_tol``.
+    band : Band or (float, float), optional
+        Band (Hz) of the candidate points; default :data:`flexmor.options.DEFAULT_BAND`.
+    estimate_tol : float, optional
         Stop when the estimated band error (the ``band_error`` of the previous reduced body
-        against the latest on the candidate grid) falls below ``tol``. Needs ``order`` or
-        ``tol``. The estimate is not a bound; ``flexmor reduce --tol`` verifies against
-        the full model.
+        against the latest on the candidate grid) falls below ``estimate_tol``. Needs ``order``
+        or ``estimate_tol``. The estimate is not a bound; the target-error mode
+        (``tol`` of :func:`flexmor.workflow.reduce_and_judge`, ``flexmor reduce --tol``)
+        verifies against the full model.
     moments : int
         Moments (blocks) per point.
     side : {'input', 'output', 'both'}
@@ -92,16 +118,14 @@ def adaptive(model, ports, order, *, band=None, tol: float | None = None, moment
     solver = as_solver(solver)
     check_choice("side", side, SIDES)
     check_choice("rigid", rigid, RIGID)
-    if order is None and tol is None:
-        raise OptionError("adaptive needs --order or --tol")
-    if tol is not None and not tol > 0:
-        raise OptionError(f"tol must be positive, got {tol}")
+    if order is None and estimate_tol is None:
+        raise OptionError("adaptive needs order or estimate_tol", params=("order", "estimate_tol"))
+    if estimate_tol is not None and not estimate_tol > 0:
+        raise OptionError(f"estimate_tol must be positive, got {estimate_tol}", params=("estimate_tol",))
     for name, v in (("moments", moments), ("n_candidates", n_candidates), ("max_points", max_points)):
         if int(v) != v or v < 1:
-            raise OptionError(f"{name} must be a positive integer, got {v}")
-    fmin, fmax = (float(b) for b in (band or (1.0, 1000.0)))
-    if not 0 < fmin < fmax:
-        raise OptionError(f"band must satisfy 0 < FMIN < FMAX (Hz), got {fmin}:{fmax}")
+            raise OptionError(f"{name} must be a positive integer, got {v}", params=(name,))
+    fmin, fmax = Band.of(band)
     cand = np.geomspace(fmin, fmax, int(n_candidates))
     limit = model.n_dof if order is None else int(order)
     points = [complex(fmin), 1j * fmax]
@@ -125,7 +149,7 @@ def adaptive(model, ports, order, *, band=None, tol: float | None = None, moment
             estimates.append(_band_estimate(cand, Hk, H_prev))
             log.debug("adaptive: %d points, order %d, estimated band error %.2e", len(chosen), V.shape[1],
                       estimates[-1])
-            if tol is not None and estimates[-1] < tol:
+            if estimate_tol is not None and estimates[-1] < estimate_tol:
                 break
             if not points:
                 points.append(1j * cand[int(np.argmax(est))])

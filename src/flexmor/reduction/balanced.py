@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import logging
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -20,11 +21,13 @@ from ..basis import Basis
 from ..errors import OptionError, check_choice
 from ..linalg.context import SolverContext, as_solver
 from ..linalg.eigen import DENSE_LIMIT
+from ..options import Band, band_option, option
 from . import register_method
 from .dense_gramians import dense_gramians, psd_factor
-from .gramians import VARIANTS, _regularized, balance, gramian_factors, truncation_basis
+from .gramians import VARIANTS, _regularized, balance, gramian_factors, nodes_option, truncation_basis, variant_option
+from .krylov import rigid_option
 
-__all__ = ["sobt", "fw_sobt", "balanced_basis"]
+__all__ = ["sobt", "fw_sobt", "balanced_basis", "SobtOptions", "FwSobtOptions"]
 
 log = logging.getLogger(__name__)
 
@@ -50,13 +53,13 @@ def balanced_basis(model, ports, order, band, *, method: str, variant: str = "po
     solver = as_solver(solver)
     check_choice("variant", variant, VARIANTS)
     if order is None:
-        raise OptionError(f"{method} needs --order")
+        raise OptionError(f"{method} needs order", params=("order",))
     if order > model.n_dof:
-        raise OptionError(f"order {order} exceeds the number of DOF {model.n_dof}")
+        raise OptionError(f"order {order} exceeds the number of DOF {model.n_dof}", params=("order",))
     phi, head = _rigid(model, ports, rigid)
     n_flex = order - head.shape[1]
     if n_flex < 1:
-        raise OptionError(f"order {order} leaves no room next to {head.shape[1]} rigid-body modes")
+        raise OptionError(f"order {order} leaves no room next to {head.shape[1]} rigid-body modes", params=("order",))
     if math.isinf(band[1]) and band[0] == 0 and model.n_dof <= DENSE_LIMIT:
         R, L, ginfo = _dense_factors(model, ports, variant)  # small body: exact Lyapunov solutions
     else:
@@ -82,7 +85,20 @@ def _dense_factors(model, ports, variant):
     return psd_factor(Pp if variant == "position" else Pv), psd_factor(Qp), info
 
 
-@register_method("sobt", "second-order balanced truncation, full-band Gramians (low rank)", survives_coupling=False)
+@dataclass(frozen=True)
+class SobtOptions:
+    """Options of :func:`sobt`."""
+
+    variant: str = variant_option()
+    nodes: int = nodes_option()
+    band: Band | None = band_option("interest: large models resolve resonances up to 10 FMAX")
+    cutoff: float | None = option(None, "large models: resonances up to CUTOFF Hz get their own quadrature cell "
+                                  "(default 10 FMAX)", parse=float)
+    rigid: str = rigid_option()
+
+
+@register_method("sobt", "second-order balanced truncation, full-band Gramians (low rank)", options=SobtOptions,
+                 survives_coupling=False)
 def sobt(model, ports, order, *, variant: str = "position", nodes: int = 4, band=None, cutoff: float | None = None,
          rigid: str = "include", solver: SolverContext | None = None) -> Basis:
     """Second-order balanced truncation with full-band (``[0, inf)``) Gramians.
@@ -131,13 +147,23 @@ def sobt(model, ports, order, *, variant: str = "position", nodes: int = 4, band
     """
     solver = as_solver(solver)
     if cutoff is None and model.n_dof > 600:
-        cutoff = 10.0 * float((band or (1.0, 1000.0))[1])
+        cutoff = 10.0 * Band.of(band).fmax
     return balanced_basis(model, ports, order, (0.0, math.inf), method="sobt", variant=variant, nodes=nodes,
                           cutoff=cutoff, rigid=rigid, solver=solver)
 
 
+@dataclass(frozen=True)
+class FwSobtOptions:
+    """Options of :func:`fw_sobt`."""
+
+    band: Band | None = band_option("the frequency-limited Gramians")
+    variant: str = variant_option()
+    nodes: int = nodes_option()
+    rigid: str = rigid_option()
+
+
 @register_method("fw-sobt", "second-order balanced truncation, frequency-limited Gramians of the band",
-                 survives_coupling=False)
+                 options=FwSobtOptions, survives_coupling=False)
 def fw_sobt(model, ports, order, *, band=None, variant: str = "position", nodes: int = 4, rigid: str = "include",
             solver: SolverContext | None = None) -> Basis:
     """Frequency-limited second-order balanced truncation over the band of interest.
@@ -152,8 +178,8 @@ def fw_sobt(model, ports, order, *, band=None, variant: str = "position", nodes:
     ports : Ports
     order : int
         Reduced dimension r.
-    band : (float, float)
-        Band in Hz (default 1:1000, the error band of ``flexmor reduce``).
+    band : Band or (float, float), optional
+        Band in Hz (default :data:`flexmor.options.DEFAULT_BAND`, the error band of ``flexmor reduce``).
     variant : {'position', 'velocity'}
         See :func:`sobt`.
     nodes : int
@@ -180,6 +206,5 @@ def fw_sobt(model, ports, order, *, band=None, variant: str = "position", nodes:
     Math. Comput. Model. Dyn. Syst. 14(5), 391-406.
     """
     solver = as_solver(solver)
-    band = tuple(float(b) for b in (band or (1.0, 1000.0)))
-    return balanced_basis(model, ports, order, band, method="fw-sobt", variant=variant, nodes=nodes,
+    return balanced_basis(model, ports, order, Band.of(band), method="fw-sobt", variant=variant, nodes=nodes,
                           rigid=rigid, solver=solver)

@@ -16,6 +16,7 @@ frequency-limited balancing (:func:`flexmor.reduction.balanced.balanced_basis`) 
 from __future__ import annotations
 
 import logging
+from dataclasses import dataclass
 
 import numpy as np
 import scipy.sparse as sp
@@ -23,11 +24,15 @@ import scipy.sparse as sp
 from ..basis import Basis
 from ..linalg.context import SolverContext, as_solver
 from ..model import FEModel
+from ..options import Band, band_option
 from ..ports import Ports
 from . import register_method
 from .craig_bampton import cb_frame
+from .gramians import nodes_option, variant_option
+from .guyan import interface_option
+from .krylov import points_option
 
-__all__ = ["cms_krylov", "cms_gramian", "fixed_interface_body"]
+__all__ = ["cms_krylov", "cms_gramian", "fixed_interface_body", "CmsKrylovOptions", "CmsGramianOptions"]
 
 log = logging.getLogger(__name__)
 
@@ -58,7 +63,7 @@ def fixed_interface_body(model, ports, Psi, b, i, *, tol: float = 1e-8):
     U, s, _ = np.linalg.svd(L, full_matrices=False)
     U = U[:, s > tol * s[0]]
     sub = FEModel(M=Mii, K=K[i][:, i], D=None if D is None else D[i][:, i], name=f"{model.name}-interior",
-                  damping=dict(model.damping))
+                  damping=model.damping)
     Bs = sp.csr_matrix(U)
     names = [f"load{k + 1}" for k in range(U.shape[1])]
     return sub, Ports(B=Bs, C=Bs.T.tocsr(), input_names=names, output_names=names)
@@ -77,7 +82,17 @@ def _cms(model, ports, order, interface, method, internal, solver):
     return Basis(V, method, info)
 
 
-@register_method("cms-krylov", "constraint modes + Krylov vectors of the fixed-interface body")
+@dataclass(frozen=True)
+class CmsKrylovOptions:
+    """Options of :func:`cms_krylov`."""
+
+    interface: list | None = interface_option()
+    band: Band | None = band_option("the default Krylov points of the fixed-interface body")
+    points: str | None = points_option("Krylov points of the fixed-interface body")
+
+
+@register_method("cms-krylov", "constraint modes + Krylov vectors of the fixed-interface body",
+                 options=CmsKrylovOptions)
 def cms_krylov(model, ports, order, *, interface=None, band=None, points=None,
                solver: SolverContext | None = None) -> Basis:
     """Craig-Bampton with second-order Krylov vectors of the fixed-interface body as internal vectors.
@@ -119,14 +134,24 @@ def cms_krylov(model, ports, order, *, interface=None, band=None, points=None,
     from .krylov import krylov
 
     def internal(sub, sub_ports, n):
-        return krylov(sub, sub_ports, n, points=points, band=band or (1.0, 1000.0), rigid="exclude",
+        return krylov(sub, sub_ports, n, points=points, band=Band.of(band), rigid="exclude",
                       solver=solver)
 
     return _cms(model, ports, order, interface, "cms-krylov", internal, solver)
 
 
+@dataclass(frozen=True)
+class CmsGramianOptions:
+    """Options of :func:`cms_gramian`."""
+
+    interface: list | None = interface_option()
+    band: Band | None = band_option("the frequency-limited Gramians of the fixed-interface body")
+    variant: str = variant_option()
+    nodes: int = nodes_option()
+
+
 @register_method("cms-gramian", "constraint modes + balanced (frequency-limited Gramian) vectors of the "
-                 "fixed-interface body", survives_coupling=False)
+                 "fixed-interface body", options=CmsGramianOptions, survives_coupling=False)
 def cms_gramian(model, ports, order, *, interface=None, band=None, variant: str = "position", nodes: int = 4,
                 solver: SolverContext | None = None) -> Basis:
     """Craig-Bampton with frequency-limited balanced vectors of the fixed-interface body.
@@ -171,7 +196,7 @@ def cms_gramian(model, ports, order, *, interface=None, band=None, variant: str 
     from .balanced import balanced_basis
 
     def internal(sub, sub_ports, n):
-        return balanced_basis(sub, sub_ports, n, tuple(band or (1.0, 1000.0)), method="cms-gramian",
+        return balanced_basis(sub, sub_ports, n, Band.of(band), method="cms-gramian",
                               variant=variant, nodes=nodes, rigid="exclude", solver=solver)
 
     return _cms(model, ports, order, interface, "cms-gramian", internal, solver)

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from ..basis import Basis
@@ -9,7 +11,7 @@ from ..errors import OptionError
 from ..linalg.context import SolverContext, as_solver
 from ..linalg.eigen import eigenmodes, frequencies_hz
 from . import register_method
-from .guyan import constraint_modes
+from .guyan import constraint_modes, interface_option
 
 
 def cb_frame(model, interface, order, method: str, solver: SolverContext | None = None):
@@ -22,13 +24,21 @@ def cb_frame(model, interface, order, method: str, solver: SolverContext | None 
     solver = as_solver(solver)
     V_c, b, i, F = constraint_modes(model, interface, solver)
     if order is None or order < b.size:
-        raise OptionError(f"{method} needs --order >= number of interface DOFs ({b.size}), got {order}")
+        raise OptionError(f"{method} needs order >= number of interface DOFs ({b.size}), got {order}",
+                          params=("order",))
     V = np.zeros((model.n_dof, b.size + min(order - b.size, i.size)))
     V[:, : b.size] = V_c
     return V, b, i, F
 
 
-@register_method("craig-bampton", "constraint modes + fixed-interface normal modes")
+@dataclass(frozen=True)
+class CraigBamptonOptions:
+    """Options of :func:`craig_bampton`."""
+
+    interface: list | None = interface_option()
+
+
+@register_method("craig-bampton", "constraint modes + fixed-interface normal modes", options=CraigBamptonOptions)
 def craig_bampton(model, ports, order, *, interface=None, solver: SolverContext | None = None) -> Basis:
     """Craig-Bampton basis ``[[I, 0], [Psi, Phi_i]]`` of total order r = n_b + n_modes.
 

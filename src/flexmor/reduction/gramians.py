@@ -54,18 +54,30 @@ import scipy.linalg as sla
 from ..basis import orthonormalize
 from ..dynamics.frf import ShiftedMatrices
 from ..dynamics.modes import modal_damping_ratios, modes_below
+from ..damping import band_matched
 from ..errors import OptionError, check_choice
 from ..linalg import factorize
 from ..linalg.context import SolverContext, as_solver
 from ..linalg.eigen import DENSE_LIMIT, eigenmodes, frequencies_hz, is_rigid
+from ..options import option
 
 __all__ = ["GramianFactors", "quadrature_rule", "gramian_factors", "balance", "compress", "truncation_basis",
-           "VARIANTS", "UNDAMPED_ZETA"]
+           "VARIANTS", "UNDAMPED_ZETA", "variant_option", "nodes_option"]
 
 log = logging.getLogger(__name__)
 
 #: Variants of second-order balancing: the controllability Gramian of positions or velocities.
 VARIANTS = ("position", "velocity")
+
+
+def variant_option():
+    """The ``variant`` option: balance the position or the velocity controllability Gramian."""
+    return option("position", "balance position or velocity Gramians", choices=VARIANTS)
+
+
+def nodes_option():
+    """The ``nodes`` option: Gauss points per panel of the Gramian quadrature."""
+    return option(4, "Gauss points per panel of the Gramian quadrature")
 
 #: Damping ratio given to undamped models for their Gramians (see module docstring).
 UNDAMPED_ZETA = 1e-3
@@ -277,15 +289,14 @@ def _resonances(model, fmax: float, solver: SolverContext):
 def _regularized(model, band_hz, f_res):
     """``model`` itself when damped, else with Rayleigh damping of ratio UNDAMPED_ZETA at the band ends."""
     if model.D is not None:
-        return model, dict(model.damping)
+        return model, model.damping.to_dict()
     lo = band_hz[0] if band_hz[0] > 0 else (f_res[0] / 2 if f_res.size else 1.0)
     hi = band_hz[1] if math.isfinite(band_hz[1]) else (f_res[-1] * 2 if f_res.size else 10 * lo)
-    w1, w2 = 2 * math.pi * lo, 2 * math.pi * max(hi, 1.01 * lo)
     z = UNDAMPED_ZETA
-    reg = model.with_rayleigh(2 * z * w1 * w2 / (w1 + w2), 2 * z / (w1 + w2))
+    reg = model.with_damping(band_matched(z, (lo, max(hi, 1.01 * lo))))
     log.warning("undamped model: Gramians computed with Rayleigh damping of ratio %g (alpha=%.3g, beta=%.3g)",
-                z, reg.damping["alpha"], reg.damping["beta"])
-    return reg, dict(reg.damping, regularization=True)
+                z, reg.damping.alpha, reg.damping.beta)
+    return reg, dict(reg.damping.to_dict(), regularization=True)
 
 
 def factor_store_columns(n_dof: int) -> int:

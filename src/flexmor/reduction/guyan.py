@@ -2,14 +2,23 @@
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from ..basis import Basis
 from ..errors import OptionError
 from ..linalg import factorize
 from ..linalg.context import SolverContext, as_solver
+from ..options import option
 from ..ports import interface_dofs
 from . import register_method
+
+
+def interface_option():
+    """The ``interface`` option of the component-mode methods: a list of interface SPECs."""
+    return option(None, "interface NODE, SET, SET:DIR, or SET@rbe2 / SET@rbe3 (6-DOF master node at the centroid)",
+                  metavar="SPEC")
 
 
 def constraint_modes(model, interface, solver: SolverContext | None = None):
@@ -21,7 +30,7 @@ def constraint_modes(model, interface, solver: SolverContext | None = None):
     """
     solver = as_solver(solver)
     if not interface:
-        raise OptionError("this method needs an interface: --interface NODE, SET or SET:DIR")
+        raise OptionError("this method needs interface SPECs (NODE, SET or SET:DIR)", params=("interface",))
     b = interface_dofs(model, interface)
     mask = np.ones(model.n_dof, bool)
     mask[b] = False
@@ -38,7 +47,14 @@ def constraint_modes(model, interface, solver: SolverContext | None = None):
     return V, b, i, F
 
 
-@register_method("guyan", "static condensation onto the interface DOFs")
+@dataclass(frozen=True)
+class GuyanOptions:
+    """Options of :func:`guyan`."""
+
+    interface: list | None = interface_option()
+
+
+@register_method("guyan", "static condensation onto the interface DOFs", options=GuyanOptions)
 def guyan(model, ports, order, *, interface=None, solver: SolverContext | None = None) -> Basis:
     """Guyan reduction: the static constraint modes of the interface DOFs.
 
@@ -66,5 +82,6 @@ def guyan(model, ports, order, *, interface=None, solver: SolverContext | None =
     solver = as_solver(solver)
     V, b, _, _ = constraint_modes(model, interface, solver)
     if order is not None and order != b.size:
-        raise OptionError(f"guyan's order is the number of interface DOFs ({b.size}), not {order}")
+        raise OptionError(f"guyan's order is the number of interface DOFs ({b.size}), not {order}",
+                          params=("order",))
     return Basis(V, "guyan", {"n_interface_dofs": int(b.size)})

@@ -17,6 +17,7 @@ solids; the smallest-magnitude choice converged in all our tests.
 from __future__ import annotations
 
 import logging
+from dataclasses import dataclass
 
 import numpy as np
 import scipy.linalg as sla
@@ -24,11 +25,12 @@ import scipy.linalg as sla
 from ..basis import Basis
 from ..errors import OptionError, SolverError
 from ..linalg.context import SolverContext, as_solver
+from ..options import Band, band_option, option
 from ..projection import project
 from . import register_method
 from .krylov import krylov, merge_blocks, shifted_factorization
 
-__all__ = ["irka", "reduced_poles", "select_shifts"]
+__all__ = ["irka", "IrkaOptions", "reduced_poles", "select_shifts"]
 
 log = logging.getLogger(__name__)
 
@@ -108,7 +110,16 @@ def tangential_basis(model, B, sigma, dirs, order, solver: SolverContext | None 
     return merge_blocks(blocks, order)
 
 
-@register_method("irka", "second-order IRKA: H2-type tangential interpolation at iterated points")
+@dataclass(frozen=True)
+class IrkaOptions:
+    """Options of :func:`irka`."""
+
+    max_iter: int = option(50, "maximum iterations")
+    shift_tol: float = option(1e-4, "relative change of the points for convergence")
+    band: Band | None = band_option("the krylov start basis (its reduced poles give the initial points)")
+
+
+@register_method("irka", "second-order IRKA: H2-type tangential interpolation at iterated points", options=IrkaOptions)
 def irka(model, ports, order, *, max_iter: int = 50, shift_tol: float = 1e-4, band=None,
          solver: SolverContext | None = None) -> Basis:
     """Second-order IRKA basis (one-sided Galerkin, structure preserving).
@@ -153,11 +164,11 @@ def irka(model, ports, order, *, max_iter: int = 50, shift_tol: float = 1e-4, ba
     """
     solver = as_solver(solver)
     if order is None:
-        raise OptionError("irka needs --order")
+        raise OptionError("irka needs order", params=("order",))
     if int(max_iter) != max_iter or max_iter < 1:
-        raise OptionError(f"max_iter must be a positive integer, got {max_iter}")
+        raise OptionError(f"max_iter must be a positive integer, got {max_iter}", params=("max_iter",))
     if not shift_tol > 0:
-        raise OptionError(f"shift_tol must be positive, got {shift_tol}")
+        raise OptionError(f"shift_tol must be positive, got {shift_tol}", params=("shift_tol",))
     B = ports.B.toarray()
     basis = krylov(model, ports, order, band=band, solver=solver)
     V = basis.V
@@ -178,7 +189,8 @@ def irka(model, ports, order, *, max_iter: int = 50, shift_tol: float = 1e-4, ba
             raise SolverError(
                 "irka on an undamped body: the mirror images of the reduced poles lie on the frequency "
                 "axis at (nearly) the body's eigenfrequencies, where s^2 M + K is singular; give the body "
-                "damping (--rayleigh ALPHA:BETA or --modal-damping ZETA) or use krylov or modal") from None
+                "damping (rayleigh or modal_damping) or use krylov or modal",
+                params=("rayleigh", "modal_damping")) from None
         old = sigma
     converged = change < shift_tol
     if not converged:

@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import logging
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -31,10 +32,11 @@ from ..linalg import factorize
 from ..linalg.context import SolverContext, as_solver
 from ..linalg.eigen import default_shift
 from ..linalg.threads import blas_threads
+from ..options import Band, band_option, option
 from . import register_method
 
-__all__ = ["krylov", "parse_points", "default_points", "SecondOrderArnoldi", "start_block",
-           "rigid_body_modes"]
+__all__ = ["krylov", "KrylovOptions", "parse_points", "default_points", "SecondOrderArnoldi", "start_block",
+           "rigid_body_modes", "points_option", "side_option", "rigid_option"]
 
 log = logging.getLogger(__name__)
 
@@ -43,6 +45,22 @@ RIGID = ("include", "exclude")
 
 #: Relative size below which a new Krylov direction counts as dependent (deflated).
 DEFLATION_TOL = 1e-10
+
+
+def points_option(what: str = "expansion points"):
+    """The ``points`` option (text or numbers in Hz, :func:`parse_points`) of the Krylov-based methods."""
+    return option(None, f"{what} in Hz, s = 2 pi p: 0, 300j (frequency axis), -5 (real); default three real "
+                  "points over the band", metavar="P1,P2")
+
+
+def side_option(default: str = "input", choices=SIDES):
+    """The ``side`` option: Krylov (or snapshot) space of ``B``, ``C^T`` or both."""
+    return option(default, "space of the inputs B, the outputs C^T or both", choices=choices)
+
+
+def rigid_option(default: str = "include"):
+    """The ``rigid`` option: the rigid-body modes of a free body in the basis or not."""
+    return option(default, "rigid-body modes of a free body in the basis", choices=RIGID)
 
 
 def parse_points(points) -> np.ndarray:
@@ -56,13 +74,14 @@ def parse_points(points) -> np.ndarray:
         try:
             vals = [complex(t.strip().replace(" ", "")) for t in points.split(",") if t.strip()]
         except ValueError:
-            raise OptionError(f"points must be numbers in Hz like 0,300j,-5 (j marks imaginary), got {points!r}") \
-                from None
+            raise OptionError(f"points must be numbers in Hz like 0,300j,-5 (j marks imaginary), got {points!r}",
+                              params=("points",)) from None
     else:
         vals = list(np.atleast_1d(np.asarray(points, dtype=complex)))
     p = np.asarray(vals, dtype=complex)
     if p.size == 0 or not np.all(np.isfinite(p)):
-        raise OptionError(f"points must be a non-empty list of finite numbers (Hz), got {points!r}")
+        raise OptionError(f"points must be a non-empty list of finite numbers (Hz), got {points!r}",
+                          params=("points",))
     return p
 
 
@@ -73,9 +92,7 @@ def default_points(band, n: int = 3) -> np.ndarray:
     Cholesky-type solvers, no singularity for free-free bodies) and each contributes one real
     vector per moment and input, half the cost of a complex point.
     """
-    fmin, fmax = (float(b) for b in band)
-    if not 0 < fmin < fmax:
-        raise OptionError(f"band must satisfy 0 < FMIN < FMAX (Hz), got {fmin}:{fmax}")
+    fmin, fmax = Band.of(band)
     if n == 1:
         return np.array([np.sqrt(fmin * fmax) + 0j])
     return np.geomspace(max(fmin, fmax / 100), fmax, n).astype(complex)
@@ -329,7 +346,19 @@ def merge_blocks(blocks, order: int | None = None, *, orthonormal: bool = False)
     return np.ascontiguousarray(V.view)
 
 
-@register_method("krylov", "second-order block Krylov moment matching at expansion points")
+@dataclass(frozen=True)
+class KrylovOptions:
+    """Options of :func:`krylov`."""
+
+    points: str | None = points_option()
+    moments: int | None = option(None, "moments (blocks) per expansion point (default: as many as the order needs)",
+                                 parse=int)
+    side: str = side_option()
+    band: Band | None = band_option("the default expansion points")
+    rigid: str = rigid_option()
+
+
+@register_method("krylov", "second-order block Krylov moment matching at expansion points", options=KrylovOptions)
 def krylov(model, ports, order, *, points=None, moments: int | None = None, side: str = "input",
            band=None, rigid: str = "include", solver: SolverContext | None = None) -> Basis:
     """Second-order block Krylov (moment matching) basis at one or several expansion points.
@@ -389,13 +418,13 @@ def krylov(model, ports, order, *, points=None, moments: int | None = None, side
     solver = as_solver(solver)
     check_choice("side", side, SIDES)
     check_choice("rigid", rigid, RIGID)
-    pts = parse_points(points) if points is not None else default_points(band or (1.0, 1000.0))
+    pts = parse_points(points) if points is not None else default_points(Band.of(band))
     if order is None and moments is None:
-        raise OptionError("krylov needs --order or --moments")
+        raise OptionError("krylov needs order or moments", params=("order", "moments"))
     if moments is not None and (int(moments) != moments or moments < 1):
-        raise OptionError(f"moments must be a positive integer, got {moments}")
+        raise OptionError(f"moments must be a positive integer, got {moments}", params=("moments",))
     if order is not None and order > model.n_dof:
-        raise OptionError(f"order {order} exceeds the number of DOF {model.n_dof}")
+        raise OptionError(f"order {order} exceeds the number of DOF {model.n_dof}", params=("order",))
     b = start_block(ports, side).shape[1]
     per_round = sum(b * (1 if p.imag == 0 else 2) for p in pts)
     k = int(moments) if moments is not None else math.ceil(order / per_round)

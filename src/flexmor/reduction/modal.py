@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import logging
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -11,12 +12,24 @@ from ..checks import MAX_RIGID_BODY_MODES, mechanism_error
 from ..errors import OptionError, check_choice
 from ..linalg.context import SolverContext, as_solver
 from ..linalg.eigen import eigenmodes, frequencies_hz, is_rigid
+from ..options import option
 from . import register_method
+from .krylov import rigid_option
 
 log = logging.getLogger(__name__)
 
 
-@register_method("modal", "lowest eigenmodes (rigid-body modes excluded by default)", survives_coupling=False)
+@dataclass(frozen=True)
+class ModalOptions:
+    """Options of :func:`modal`."""
+
+    rigid: str = rigid_option("exclude")
+    sigma: float | None = option(None, "shift of the shift-invert Lanczos solver (default: negative, model-scaled)",
+                                 parse=float)
+
+
+@register_method("modal", "lowest eigenmodes (rigid-body modes excluded by default)", options=ModalOptions,
+                 survives_coupling=False)
 def modal(model, ports, order, *, rigid: str = "exclude", sigma: float | None = None,
           solver: SolverContext | None = None) -> Basis:
     """Modal truncation basis: the ``order`` lowest mass-normalized eigenmodes.
@@ -51,10 +64,10 @@ def modal(model, ports, order, *, rigid: str = "exclude", sigma: float | None = 
     solver = as_solver(solver)
     check_choice("rigid", rigid, ["exclude", "include"])
     if order is None:
-        raise OptionError("modal needs --order")
+        raise OptionError("modal needs order", params=("order",))
     n = model.n_dof
     if order > n:
-        raise OptionError(f"order {order} exceeds the number of DOF {n}")
+        raise OptionError(f"order {order} exceeds the number of DOF {n}", params=("order",))
     extra = 6 if rigid == "exclude" else 0
     while True:
         k = min(n, order + extra)

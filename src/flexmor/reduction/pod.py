@@ -4,16 +4,19 @@ from __future__ import annotations
 
 import logging
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
 from ..basis import Basis
 from ..errors import OptionError, check_choice
 from ..linalg.context import SolverContext, as_solver
+from ..options import Band, band_option, option
 from . import register_method
-from .gramians import compress, gramian_factors
+from .gramians import compress, gramian_factors, nodes_option
+from .krylov import side_option
 
-__all__ = ["pod", "pod_modes", "SNAPSHOTS"]
+__all__ = ["pod", "PodOptions", "pod_modes", "SNAPSHOTS"]
 
 log = logging.getLogger(__name__)
 
@@ -76,7 +79,20 @@ def _time_snapshots(model, ports, band, solver):
     return compress(S), {"dt": dt, "t_end": t_end, "n_steps": int(q.shape[0]), "signal": "linear sine sweep"}
 
 
-@register_method("pod", "proper orthogonal decomposition of frequency (and time) snapshots", survives_coupling=False)
+@dataclass(frozen=True)
+class PodOptions:
+    """Options of :func:`pod`."""
+
+    band: Band | None = band_option("the snapshots")
+    energy: float | None = option(None, "keep the fewest modes with this share (0, 1] of the snapshot energy",
+                                  parse=float)
+    snapshots: str = option("frequency", "snapshot source", choices=SNAPSHOTS)
+    side: str = side_option("input", choices=("input", "both"))
+    nodes: int = nodes_option()
+
+
+@register_method("pod", "proper orthogonal decomposition of frequency (and time) snapshots", options=PodOptions,
+                 survives_coupling=False)
 def pod(model, ports, order, *, band=None, energy: float | None = None, snapshots: str = "frequency",
         side: str = "input", nodes: int = 4, solver: SolverContext | None = None) -> Basis:
     """POD basis from snapshots of the full body's response.
@@ -128,10 +144,10 @@ def pod(model, ports, order, *, band=None, energy: float | None = None, snapshot
     check_choice("snapshots", snapshots, SNAPSHOTS)
     check_choice("side", side, ("input", "both"))
     if order is None and energy is None:
-        raise OptionError("pod needs --order or --energy")
+        raise OptionError("pod needs order or energy", params=("order", "energy"))
     if energy is not None and not 0 < float(energy) <= 1:
-        raise OptionError(f"energy must be in (0, 1], got {energy}")
-    band = tuple(float(b) for b in (band or (1.0, 1000.0)))
+        raise OptionError(f"energy must be in (0, 1], got {energy}", params=("energy",))
+    band = Band.of(band)
     parts, info = [], {"snapshots": snapshots, "band_hz": list(band)}
     if snapshots in ("frequency", "both"):
         G = gramian_factors(model, ports, band, side="both" if side == "both" else "input", nodes=nodes,

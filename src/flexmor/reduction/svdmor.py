@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import logging
+from dataclasses import dataclass
 
 import numpy as np
 import scipy.sparse as sp
@@ -10,11 +11,20 @@ import scipy.sparse as sp
 from ..basis import Basis
 from ..errors import OptionError
 from ..linalg.context import SolverContext, as_solver
+from ..options import Band, band_option, option
 from ..ports import Ports
 from . import register_method
-from .krylov import default_points, krylov, parse_points, shifted_factorization
+from .krylov import (
+    default_points,
+    krylov,
+    parse_points,
+    points_option,
+    rigid_option,
+    shifted_factorization,
+    side_option,
+)
 
-__all__ = ["svdmor", "port_directions"]
+__all__ = ["svdmor", "SvdmorOptions", "port_directions"]
 
 log = logging.getLogger(__name__)
 
@@ -51,8 +61,20 @@ def port_directions(model, ports, points, *, solver: SolverContext | None = None
     return Wt.T, s_in, U, s_out, used
 
 
+@dataclass(frozen=True)
+class SvdmorOptions:
+    """Options of :func:`svdmor`."""
+
+    directions: int | None = option(None, "input/output directions kept (default: singular values above 1e-3 of "
+                                    "the largest)", parse=int)
+    band: Band | None = band_option("the sampling and Krylov points")
+    points: str | None = points_option("sampling and Krylov points")
+    side: str = side_option("both")
+    rigid: str = rigid_option()
+
+
 @register_method("svdmor", "SVD compression of many inputs/outputs from sampled transfer data, then krylov",
-                 survives_coupling=False)
+                 options=SvdmorOptions, survives_coupling=False)
 def svdmor(model, ports, order, *, directions: int | None = None, band=None, points=None, side: str = "both",
            rigid: str = "include", solver: SolverContext | None = None) -> Basis:
     """SVDMOR: Krylov reduction of the body with its inputs and outputs compressed by an SVD.
@@ -103,15 +125,15 @@ def svdmor(model, ports, order, *, directions: int | None = None, band=None, poi
     """
     solver = as_solver(solver)
     if order is None:
-        raise OptionError("svdmor needs --order")
-    pts = parse_points(points) if points is not None else default_points(band or (1.0, 1000.0))
+        raise OptionError("svdmor needs order", params=("order",))
+    pts = parse_points(points) if points is not None else default_points(Band.of(band))
     W, s_in, U, s_out, used = port_directions(model, ports, pts, solver=solver)
     if directions is None:
         k_in = max(1, int(np.sum(s_in > 1e-3 * s_in[0])))
         k_out = max(1, int(np.sum(s_out > 1e-3 * s_out[0])))
     else:
         if int(directions) != directions or directions < 1:
-            raise OptionError(f"directions must be a positive integer, got {directions}")
+            raise OptionError(f"directions must be a positive integer, got {directions}", params=("directions",))
         k_in, k_out = min(int(directions), W.shape[1]), min(int(directions), U.shape[1])
     Bc = sp.csr_matrix(ports.B @ W[:, :k_in])
     Cc = sp.csr_matrix(U[:, :k_out].T @ ports.C)

@@ -3,29 +3,43 @@
 from __future__ import annotations
 
 import logging
-import math
+from dataclasses import dataclass
 
 import numpy as np
 
 from ..basis import Basis, orthonormalize
+from ..damping import band_matched
 from ..errors import OptionError, check_choice
 from ..linalg.context import SolverContext, as_solver
 from ..linalg.threads import blas_threads
+from ..options import Band, band_option, option
 from ..projection import project
 from . import register_method
 from .dense_gramians import dense_gramians, psd_factor
-from .gramians import UNDAMPED_ZETA, VARIANTS, balance
-from .krylov import krylov
+from .gramians import UNDAMPED_ZETA, VARIANTS, balance, variant_option
+from .krylov import krylov, points_option, rigid_option
 
-__all__ = ["two_step", "GRAMIANS"]
+__all__ = ["two_step", "TwoStepOptions", "GRAMIANS"]
 
 log = logging.getLogger(__name__)
 
 GRAMIANS = ("band", "full")
 
 
+@dataclass(frozen=True)
+class TwoStepOptions:
+    """Options of :func:`two_step`."""
+
+    intermediate: int = option(120, "intermediate Krylov order r1 (at least the final order)", metavar="R1")
+    band: Band | None = band_option("the Krylov points and the frequency-limited Gramians")
+    gramian: str = option("band", "frequency-limited (band) or full-band Gramians", choices=GRAMIANS)
+    variant: str = variant_option()
+    points: str | None = points_option("Krylov expansion points of the first step")
+    rigid: str = rigid_option()
+
+
 @register_method("two-step", "krylov to an intermediate order, then balanced truncation with exact Gramians",
-                 survives_coupling=False)
+                 options=TwoStepOptions, survives_coupling=False)
 def two_step(model, ports, order, *, intermediate: int = 120, band=None, gramian: str = "band",
              variant: str = "position", points=None, rigid: str = "include",
              solver: SolverContext | None = None) -> Basis:
@@ -79,23 +93,24 @@ def two_step(model, ports, order, *, intermediate: int = 120, band=None, gramian
     check_choice("gramian", gramian, GRAMIANS)
     check_choice("variant", variant, VARIANTS)
     if order is None:
-        raise OptionError("two-step needs --order (the final order r2)")
+        raise OptionError("two-step needs order (the final dimension r2)", params=("order",))
     r1 = min(int(intermediate), model.n_dof)
     if r1 < order:
-        raise OptionError(f"--intermediate ({intermediate}) must be at least --order ({order})")
-    band = tuple(float(b) for b in (band or (1.0, 1000.0)))
+        raise OptionError(f"intermediate ({intermediate}) must be at least order ({order})",
+                          params=("intermediate", "order"))
+    band = Band.of(band)
     K1 = krylov(model, ports, r1, points=points, side="both", band=band, rigid=rigid, solver=solver)
     red = project(model, K1, ports)
     Dr = red.D
     if Dr is None:  # undamped: Gramians of the lightly damped body (see flexmor.reduction.gramians)
-        w1, w2 = (2 * math.pi * f for f in band)
-        Dr = (2 * UNDAMPED_ZETA * w1 * w2 / (w1 + w2)) * red.M + (2 * UNDAMPED_ZETA / (w1 + w2)) * red.K
+        reg = band_matched(UNDAMPED_ZETA, band)
+        Dr = reg.alpha * red.M + reg.beta * red.K
     with blas_threads(1):  # small dense matrices: a second OpenBLAS thread only adds contention
         Pp, Pv, Qp, phi_rb = dense_gramians(red.M, Dr, red.K, red.B, red.C, band if gramian == "band" else None)
     head = phi_rb if rigid == "include" else phi_rb[:, :0]
     n_flex = order - head.shape[1]
     if n_flex < 1:
-        raise OptionError(f"order {order} leaves no room next to {head.shape[1]} rigid-body modes")
+        raise OptionError(f"order {order} leaves no room next to {head.shape[1]} rigid-body modes", params=("order",))
     T, sigma = balance(psd_factor(Pp if variant == "position" else Pv), psd_factor(Qp), red.M, n_flex)
     V = orthonormalize(K1.V @ np.hstack([head, T]), model.M)
     info = {"intermediate": int(K1.order), "gramian": gramian, "variant": variant, "band_hz": list(band),

@@ -217,8 +217,8 @@ def write_sid(reduced, path, *, model=None, nodes=None, m1_order: str = "row-q-c
         sid = reduced
     else:
         if model is None:
-            raise ModelError("SID export needs the FE model the body was reduced from (--model MODEL): "
-                             "the inertia invariants are integrals over its mass matrix")
+            raise ModelError("SID export needs the FE data the body was reduced from, given as model: "
+                             "the inertia invariants are integrals over its mass matrix", params=("model",))
         sid = sid_from_reduced(reduced, model, nodes=nodes)
     text = sid_text(sid, m1_order=m1_order)
     atomic_write(path, lambda tmp: Path(tmp).write_text(text))

@@ -1,0 +1,360 @@
+"""The subcommands of the ``flexmor`` command line: ``cmd_NAME(args) -> exit code``."""
+
+from __future__ import annotations
+
+import json
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+from .. import __version__
+from ..errors import OptionError
+from ..jsonutil import jsonable
+from ..linalg.distributed import is_partitioned, on_root, row_blocks
+from .options import method_options
+
+__all__ = ["cmd_info", "cmd_reduce", "cmd_compare", "cmd_export", "cmd_report", "cmd_demo"]
+
+
+def _emit_json(obj) -> None:
+    if isinstance(obj, dict):  # every JSON answer says which flexmor wrote it
+        obj = {**obj, "flexmor_version": __version__}
+    print(json.dumps(jsonable(obj, finite=True)))
+
+
+def _progress(args, desc: str, unit: str = "freq"):
+    """A ``progress(iterable, total)`` wrapper: tqdm on a terminal, nothing under --json."""
+    if getattr(args, "json", False) or not sys.stderr.isatty():
+        return None
+    try:
+        from tqdm import tqdm
+    except ImportError:
+        return None
+    return lambda it, total: tqdm(it, total=total, desc=desc, unit=unit, leave=False)
+
+
+def _check_new(path, args) -> Path:
+    """``path`` as a Path; an OptionError if it exists and ``--force`` was not given."""
+    path = Path(path)
+    if path.is_dir():
+        raise OptionError(f"{path} is a directory; give a file name with -o")
+    if path.exists() and not getattr(args, "force", False):
+        raise OptionError(f"{path} exists; pass --force to overwrite it")
+    return path
+
+
+def _solver(args):
+    """The solver context of one command: the backend of ``--backend``."""
+    from ..linalg.context import SolverContext
+
+    return SolverContext(backend=args.backend)
+
+
+def _fmt(x, spec=".3e"):
+    return "-" if x is None else format(x, spec)
+
+
+def _read_model(args, couplings=()):
+    from ..io import read
+    from ..options import Band, parse_pair
+    from ..workflow import apply_damping, prepare_model
+
+    def load():
+        model = read(args.model, format=args.format)
+        if getattr(args, "select", None):
+            from ..selection import with_selections
+
+            model = with_selections(model, args.select)
+        return prepare_model(model, couplings)
+
+    t0 = time.perf_counter()
+    if getattr(args, "backend", None) == "petsc":  # under mpirun: rank 0 reads, each rank gets its rows
+        from ..models.distributed import read_on_root
+
+        model = read_on_root(load)
+    else:
+        model = load()
+    t_read = time.perf_counter() - t0
+    band = Band.parse(args.band) if getattr(args, "band", None) else None
+    rayleigh = parse_pair(args.rayleigh, "rayleigh") if getattr(args, "rayleigh", None) else None
+    model = apply_damping(model, rayleigh=rayleigh, modal_damping=getattr(args, "modal_damping", None), band=band)
+    return model, t_read, band
+
+
+# -- info --------------------------------------------------------------------------------------
+def _info_backends(args) -> int:
+    from ..linalg.backends import describe_backends, memory_available
+
+    rows = describe_backends()
+    avail = memory_available()
+    if args.json:
+        print(json.dumps({"backends": rows, "memory_available_mb": None if avail is None else avail / 2**20}))
+        return 0
+    for r in rows:
+        flags = ("available" if r["available"] else "not installed") + (", complex" if r["complex"] else "") + \
+            (", SPD only" if r["positive_only"] else "")
+        print(f"{r['name']:<8} {flags:<32} {r['description']}")
+    if avail is not None:
+        print(f"memory available: {avail / 2**20:.0f} MB (factorizations that would not fit are refused)")
+    return 0
+
+
+_FORMAT_TITLES = {"model": "FE models (info, reduce, compare, report MODEL; --format NAME)",
+                  "body": "reduced bodies (compare, report, export BODY)",
+                  "export": "exports (export BODY -o FILE; --format NAME)"}
+
+
+def _info_formats(args) -> int:
+    from ..io import describe_formats
+
+    table = describe_formats()
+    if args.json:
+        _emit_json({"formats": table})
+        return 0
+    lines = {kind: [(r["name"] + (f" ({', '.join(r['aliases'])})" if r["aliases"] else ""),
+                     " ".join(r["suffixes"] + ([r["claims"]] if r["claims"] else [])), r["description"])
+                    for r in rows] for kind, rows in table.items()}
+    w0, w1 = (max(len(line[i]) for rows in lines.values() for line in rows) for i in (0, 1))
+    for kind, rows in lines.items():
+        print(("\n" if kind != "model" else "") + _FORMAT_TITLES[kind])
+        for name, suffixes, description in rows:
+            print(f"  {name:<{w0}}  {suffixes:<{w1}}  {description}")
+    return 0
+
+
+def cmd_info(args) -> int:
+    from ..checks import MAX_RIGID_BODY_MODES, mechanism_error
+    from ..linalg import available_backends
+    from ..linalg.eigen import eigenmodes, frequencies_hz, is_rigid
+
+    if args.backends:
+        return _info_backends(args)
+    if args.formats:
+        return _info_formats(args)
+    if args.model is None:
+            raise OptionError("info needs a MODEL file (or --backends, --formats)")
+    model, t_read, _ = _read_model(args)
+    out = model.summary()
+    out["backends"] = available_backends()
+    solver = _solver(args)
+    if args.modes:
+        k = min(args.modes, model.n_dof)
+        lam, _ = eigenmodes(model.K, model.M, min(max(k, 7), model.n_dof), solver=solver)
+        n_zero = int(np.sum(is_rigid(lam, model.K, model.M)))
+        if n_zero > MAX_RIGID_BODY_MODES:
+            raise mechanism_error(model, n_zero)
+        lam = lam[:k]
+        out["frequencies_hz"] = frequencies_hz(lam).tolist()
+        out["n_rigid"] = min(n_zero, k)
+    if args.reference:
+        from ..io.calculix import compare_modes, read_frd
+
+        out["reference"] = dict(compare_modes(model, read_frd(args.reference), solver=solver),
+                                file=str(args.reference))
+    out["timings"] = {"read": t_read}
+    if args.json:
+        _emit_json(out)
+        return 0
+    print(f"model     {model.name}  ({model.source})")
+    print(f"DOF       {model.n_dof}    nodes {model.n_nodes}    nnz(K) {out['nnz_K']}")
+    print(f"damping   {model.damping}")
+    if model.node_sets:
+        print("node sets " + ", ".join(f"{k} ({v.size})" for k, v in model.node_sets.items()))
+    print(f"backends  {', '.join(out['backends'])}")
+    if args.modes:
+        print(f"\n mode   frequency [Hz]   ({out['n_rigid']} rigid-body modes)")
+        for i, f in enumerate(out["frequencies_hz"], 1):
+            tag = "  rigid" if i <= out["n_rigid"] else ""
+            print(f"{i:5d}   {f:14.6f}{tag}")
+    if args.reference:
+        ref = out["reference"]
+        print(f"\n mode   {args.reference} [Hz]   model [Hz]   rel. diff   MAC")
+        for i, row in enumerate(zip(ref["frequencies_hz"], ref["model_frequencies_hz"], ref["rel_diff"], ref["mac"]), 1):
+            print(f"{i:5d}   {row[0]:14.6f}   {row[1]:14.6f}   {row[2]:9.2e}   {row[3]:.6f}")
+    return 0
+
+
+# -- reduce ------------------------------------------------------------------------------------
+def cmd_reduce(args) -> int:
+    from ..io.hdf5 import write_reduced
+    from ..ports import make_ports
+    from ..workflow import DEFAULT_BAND, coupling_specs, reduce_and_judge
+
+    options = method_options(args, args.method)  # before any work: flags the method does not take
+    if args.tol is not None and args.no_error:
+        raise OptionError("--tol needs the error evaluation over a band (drop --no-error)")
+    if args.output_file:
+        _check_new(args.output_file, args)
+    couplings = coupling_specs(args.interface, args.input + args.output)
+    model, t_read, given_band = _read_model(args, couplings)
+    ports = make_ports(model, args.input, args.output)
+    band = None if args.no_error else (given_band or DEFAULT_BAND)
+    red, res = reduce_and_judge(model, args.method, args.order, ports, band=band, method_band=given_band,
+                                n_freq=args.n_freq, grid_tol=args.grid_tol, full_frf=args.full_frf,
+                                cache=not args.no_cache, solver=_solver(args), progress=_progress(args, "full FRF"),
+                                tol=args.tol, **options)
+    res["timings"]["read"] = t_read
+    if is_partitioned(model.K):  # under mpirun with --backend petsc: the rows of K held by each rank
+        res["partition"] = row_blocks(model.K)
+    if couplings:
+        red.info["couplings"] = couplings
+    if args.select:
+        red.info["selections"] = list(args.select)
+    path = _check_new(args.output_file or f"{model.name}_{args.method}_{red.order}.h5", args)
+    on_root(write_reduced, red, path)  # under MPI: written once, by rank 0
+    res["file"] = str(path)
+    if args.json:
+        _emit_json(res)
+        return 0
+    print(f"{args.method}: order {red.order}, {res['seconds']:.3f} s (basis + projection)")
+    if res.get("tol") is not None:
+        print(f"--tol {res['tol']:g}: order {red.order} chosen, verified band_error {_fmt(res['band_error'])} "
+              + ("meets it" if res["tol_reached"] else "MISSES it (largest order tried)"))
+    if res["band_hz"]:
+        print(f"band {res['band_hz'][0]:g}-{res['band_hz'][1]:g} Hz: band_error {_fmt(res['band_error'])}, "
+              f"max_rel_error {_fmt(res['max_rel_error'])}")
+    fr = res["frequencies_hz"]
+    print("reduced frequencies [Hz]: " + " ".join(f"{f:.4g}" for f in fr[:12]) + (" ..." if len(fr) > 12 else ""))
+    print(f"written {path}")
+    return 0
+
+
+# -- compare -----------------------------------------------------------------------------------
+def _model_and_bodies(args):
+    """The full model (as read), the band (default DEFAULT_BAND) and the reduced bodies of ``args``."""
+    from ..io import read_body
+    from ..workflow import DEFAULT_BAND
+
+    model, t_read, band = _read_model(args)
+    return model, t_read, band or DEFAULT_BAND, [read_body(p) for p in args.reduced]
+
+
+def cmd_compare(args) -> int:
+    from ..ports import make_ports
+    from ..workflow import prepare_model
+
+    model, t_read, band, reds = _model_and_bodies(args)
+    solver = _solver(args)
+    fulls, rows = {}, []
+    for path, red in zip(args.reduced, reds):
+        couplings = tuple(red.info.get("couplings", ()))
+        key = (tuple(red.input_names), tuple(red.output_names), couplings)
+        if key not in fulls:
+            body_model = prepare_model(model, couplings, red.damping)
+            fulls[key] = _full_response(args, body_model, make_ports(body_model, *key[:2]), band, solver)
+        t0 = time.perf_counter()
+        err = fulls[key].evaluate(red)
+        t_err = time.perf_counter() - t0
+        rows.append({"file": str(path), "method": red.method, "order": red.order, "band_hz": list(band),
+                     "band_error": err["band_error"], "max_rel_error": err["max_rel_error"],
+                     "hinf_error": err["hinf_error"],
+                     "timings": {"error": t_err}})
+    if args.json:
+        grids = [dict(f.summary(), inputs=list(k[0]), outputs=list(k[1]), couplings=list(k[2]))
+                 for k, f in fulls.items()]
+        _emit_json({"model": model.name, "band_hz": list(band), "results": rows, "grids": grids,
+                    "timings": {"read": t_read, "full_frf": sum(f.seconds for f in fulls.values())}})
+        return 0
+    _table(rows)
+    return 0
+
+
+def _full_response(args, model, ports, band, solver):
+    """The full FRF over ``band`` with the sweep options of the command line."""
+    from ..analysis.compare import FullResponse
+
+    grid_opts = {} if args.grid_tol is None else {"tol": args.grid_tol}
+    return FullResponse(model, ports, band, n=args.n_freq, solver=solver, path=args.full_frf,
+                        cache=not args.no_cache, progress=_progress(args, "full FRF"), **grid_opts)
+
+
+def _table(rows) -> None:
+    print(f"{'method':<16}{'order':>6}{'band_error':>13}{'max_rel_error':>15}{'seconds':>10}")
+    for r in rows:
+        print(f"{r['method']:<16}{r['order']:>6}{_fmt(r['band_error']):>13}{_fmt(r['max_rel_error']):>15}"
+              f"{_fmt(r.get('seconds'), '.3f'):>10}")
+
+
+# -- export ------------------------------------------------------------------------------------
+def cmd_export(args) -> int:
+    from ..io import export, export_format, read, read_body
+    from ..workflow import prepare_model
+
+    _check_new(args.output_file, args)
+    red = read_body(args.reduced)
+    fmt = export_format(args.output_file, args.format)
+    model = read(args.model, format=args.model_format) if args.model else None
+    if model is not None:
+        model = prepare_model(model, red.info.get("couplings", ()))
+    opts = {"nodes": args.node or None} if fmt in ("sid", "mat") else {}
+    if fmt == "sid":
+        opts["m1_order"] = args.m1_order
+    export(red, args.output_file, fmt, model=model, **opts)
+    out = {"file": str(args.output_file), "format": fmt, "order": red.order, "method": red.method}
+    if args.json:
+        _emit_json(out)
+    else:
+        print(f"exported {args.reduced} ({red.method}, order {red.order}) as {fmt}: {args.output_file}")
+    return 0
+
+
+# -- report ------------------------------------------------------------------------------------
+def cmd_report(args) -> int:
+    from ..ports import make_ports
+    from ..report.html import build_report, write_report
+    from ..workflow import prepare_model
+
+    _check_new(args.output_file, args)
+    model, t_read, band, reds = _model_and_bodies(args)
+
+    def key_of(r):
+        return list(r.input_names), list(r.output_names), list(r.info.get("couplings", []))
+
+    key = key_of(reds[0])
+    other = [str(p) for p, r in zip(args.reduced, reds) if key_of(r) != key]
+    if other:
+        raise OptionError(f"a report needs bodies with the same inputs/outputs/couplings as {args.reduced[0]}; "
+                          f"these differ: {', '.join(other)}")
+    model = prepare_model(model, key[2], reds[0].damping)
+    ports = make_ports(model, *key[:2])
+    solver = _solver(args)
+    full = _full_response(args, model, ports, band, solver)
+    rep = build_report(model, ports, reds, band=band, full=full, signal=args.signal, dt=args.dt, t_end=args.t_end,
+                       scheme=args.scheme, n_modes=args.modes, solver=solver,
+                       time_progress=_progress(args, "time steps", unit="step"))
+    write_report(rep, _check_new(args.output_file, args))
+    if args.json:
+        _emit_json({"file": str(args.output_file), "model": model.name, "band_hz": list(band), "results": rep.rows,
+                    "time": rep.time, "notes": rep.notes, "timings": {"read": t_read, "full_frf": full.seconds}})
+        return 0
+    print(f"{'body':<22}{'band_error':>13}{'max_rel_error':>15}{'time_max_error':>16}")
+    for r in rep.rows:
+        print(f"{r['label']:<22}{_fmt(r['band_error']):>13}{_fmt(r['max_rel_error']):>15}"
+              f"{_fmt(r['time_max_error']):>16}")
+    print(f"written {args.output_file}")
+    return 0
+
+
+# -- demo --------------------------------------------------------------------------------------
+def cmd_demo(args) -> int:
+    from ..workflow import run_demo
+
+    if not args.json:
+        print("flexmor demo: built-in steel cantilever 1 x 0.1 x 0.1 m, clamped at x = 0")
+    res = run_demo(args.out, n=args.n, progress=_progress(args, "full FRF"),
+                   time_progress=_progress(args, "time steps", unit="step"),
+                   on_result=None if args.json else (lambda r: print(f"  reduced {r['method']} r={r['order']}")))
+    if args.json:
+        _emit_json(res)
+        return 0
+    m = res["model"]
+    print(f"model {m['name']}: {m['n_dof']} DOF; band {res['band_hz'][0]:g}-{res['band_hz'][1]:g} Hz, "
+          f"{res['n_freq']} frequencies, full FRF {res['full_frf_seconds']:.2f} s"
+          + (" (from cache)" if res["grid"].get("cache_hit") else "") + "\n")
+    _table(res["results"])
+    print(f"\nreduced bodies and {res['plot']} written to {args.out}/")
+    if res.get("report"):
+        print(f"report: {res['report']}")
+    return 0

@@ -1,0 +1,166 @@
+"""The argument parser of the ``flexmor`` command line.
+
+The per-method options of ``flexmor reduce`` are generated from the options dataclasses of
+the registered methods (:attr:`flexmor.reduction.Method.options_class`): one flag per option
+name (``max_iter`` -> ``--max-iter``), and in ``--help`` one group per method listing its
+options with their defaults (:mod:`.options` collects the ones given and refuses a flag the
+chosen method does not take). :func:`flag_names` maps the parameters that library errors
+name (:attr:`flexmor.errors.FlexmorError.params`) to the flags of a command.
+"""
+
+from __future__ import annotations
+
+import argparse
+
+from .. import __version__
+from ..options import DEFAULT_BAND, option_fields
+from .commands import cmd_compare, cmd_demo, cmd_export, cmd_info, cmd_reduce, cmd_report
+from .options import COMMON, all_options, flag
+
+__all__ = ["build_parser", "flag_names"]
+
+#: Library parameter -> the argparse ``dest`` of its flag, where the names differ.
+PARAM_DESTS = {"inputs": "input", "outputs": "output", "selections": "select", "nodes": "node"}
+
+_INTERFACE_HELP = "interface NODE, SET, SET:DIR, or SET@rbe2 / SET@rbe3 (6-DOF master node at the centroid)"
+
+
+def _help(f) -> str:
+    if f.default is None:
+        return f.metadata["help"]
+    return f"{f.metadata['help']} (default {f.default})"
+
+
+def _add_method_options(p) -> None:
+    """One flag per method option name (parsed once), and one ``--help`` group per method."""
+    from ..reduction import METHODS
+
+    for name, f in all_options().items():
+        if name not in COMMON:
+            md = f.metadata
+            p.add_argument(flag(name), dest=name, type=md["parse"], choices=md["choices"] or None,
+                           metavar=md["metavar"], help=argparse.SUPPRESS)
+    for method in sorted(METHODS):
+        m = METHODS[method]
+        g = p.add_argument_group(f"--method {method}", m.description)
+        for name, f in option_fields(m.options_class).items():
+            md = f.metadata
+            # shown in this group only; the flag itself was added above
+            g._group_actions.append(argparse.Action([flag(name)], dest=name, metavar=md["metavar"],
+                                                    choices=md["choices"] or None, help=_help(f)))
+
+
+def flag_names(p) -> dict:
+    """Parameter name -> flag for the parser ``p`` of one command (``inputs`` -> ``--input``)."""
+    names = {a.dest: max(a.option_strings, key=len) for a in p._actions if a.option_strings}
+    for param, dest in PARAM_DESTS.items():
+        if dest in names and param not in names:
+            names[param] = names[dest]
+    return names
+
+
+def _add_model_args(p, damping=True):
+    p.add_argument("model", help="main file of the FE export (format from the suffix)")
+    p.add_argument("--format", help="override the format chosen from the suffix")
+    p.add_argument("--backend", default="auto",
+                   help="sparse solver: auto, pardiso, cholmod, scipy, petsc (MPI: mpirun -n P flexmor ...)")
+    p.add_argument("--json", action="store_true", help="print one JSON object on stdout")
+    p.add_argument("--select", action="append", default=[], metavar="NAME=KIND:NUMBERS",
+                   help="add node set NAME: set:OTHER, box:x0,y0,z0,x1,y1,z1, plane:x0,y0,z0,nx,ny,nz[,tol], "
+                        "cylinder:x0,y0,z0,dx,dy,dz,r[,tol[,s0,s1]] (a hole), sphere:x,y,z,r[,tol], nearest:x,y,z")
+    if damping:
+        p.add_argument("--band", metavar="FMIN:FMAX",
+                       help=f"frequency band in Hz (default {DEFAULT_BAND[0]:g}:{DEFAULT_BAND[1]:g})")
+        p.add_argument("--rayleigh", metavar="ALPHA:BETA", help="Rayleigh damping D = alpha M + beta K (1/s, s)")
+        p.add_argument("--modal-damping", metavar="ZETA", type=float,
+                       help="damping ratio; realized as Rayleigh damping with this ratio at both band ends")
+        p.add_argument("--n-freq", type=int, default=50, help="log-spaced base points of the error grid")
+        p.add_argument("--grid-tol", type=float, help="relative tolerance of the adaptive error grid (default 3e-3)")
+        p.add_argument("--full-frf", choices=["auto", "direct", "surrogate"], default="auto",
+                       help="full FRF by direct solves or a verified surrogate (auto: surrogate from 20k DOF)")
+        p.add_argument("--no-cache", action="store_true", help="neither read nor write the full-FRF disk cache")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    from ..reduction import METHODS, methods
+
+    methods()
+    ap = argparse.ArgumentParser(prog="flexmor", description="Model order reduction of elastic bodies for EMBS.")
+    ap.add_argument("--version", action="version", version=f"flexmor {__version__}")
+    ap.add_argument("-v", "--verbose", action="count", default=0, help="log more (-vv: debug)")
+    sub = ap.add_subparsers(dest="command", required=True)
+
+    p = sub.add_parser("demo", help="reduce the built-in cantilever with several methods")
+    p.add_argument("--out", default="demo-output",
+                   help="output directory (default demo-output); the demo owns it and replaces its own files there")
+    p.add_argument("--n", type=int, default=4, help="elements through the beam height (model size)")
+    p.add_argument("--json", action="store_true", help="print one JSON object on stdout")
+    p.set_defaults(func=cmd_demo)
+
+    p = sub.add_parser("info", help="sizes, checks and lowest eigenfrequencies of a model")
+    _add_model_args(p, damping=False)
+    p.add_argument("--modes", type=int, default=0, help="number of lowest eigenfrequencies to compute")
+    p.add_argument("--backends", action="store_true", help="list the sparse solver backends and what each supports")
+    p.add_argument("--formats", action="store_true", help="list the file formats flexmor reads (FE models, reduced "
+                   "bodies) and exports, with their suffixes")
+    p.add_argument("--reference", metavar="FRD", help="CalculiX .frd with the FE program's own modes: compare "
+                   "frequencies and mode shapes (MAC) with the model's")
+    for action in p._actions:  # MODEL is optional with --backends and --formats
+        if action.dest == "model":
+            action.nargs, action.required = "?", False
+    p.set_defaults(func=cmd_info)
+
+    p = sub.add_parser("reduce", help="reduce a model and write the reduced body (.h5)",
+                       epilog="A method option given to a method that does not take it is an error.")
+    _add_model_args(p)
+    p.add_argument("--method", required=True, choices=sorted(METHODS), help="reduction method")
+    p.add_argument("--order", type=int, help="reduced order r")
+    p.add_argument("--input", action="append", default=[], metavar="SPEC", help="input NODE:DIR or SET:DIR")
+    p.add_argument("--output", action="append", default=[], metavar="SPEC", help="output NODE:DIR or SET:DIR")
+    p.add_argument("--interface", action="append", default=[], metavar="SPEC", help=_INTERFACE_HELP)
+    p.add_argument("-o", "--output-file", metavar="FILE", help="reduced body file (.h5)")
+    p.add_argument("--force", action="store_true", help="overwrite an existing output file")
+    p.add_argument("--no-error", action="store_true", help="skip the error evaluation against the full model")
+    p.add_argument("--tol", type=float, help="target band_error: choose the smallest order meeting it (verified)")
+    _add_method_options(p)
+    p.set_defaults(func=cmd_reduce)
+
+    p = sub.add_parser("compare", help="error measures of reduced bodies against the full model")
+    _add_model_args(p)
+    p.add_argument("reduced", nargs="+", help="reduced body files (.h5)")
+    p.set_defaults(func=cmd_compare)
+
+    p = sub.add_parser("report", help="self-contained HTML report: FRFs, errors, MAC, time responses")
+    _add_model_args(p)
+    p.add_argument("reduced", nargs="+", help="reduced body files (.h5) with the same inputs and outputs")
+    p.add_argument("-o", "--output-file", default="report.html", metavar="FILE", help="HTML file (report.html)")
+    p.add_argument("--force", action="store_true", help="overwrite an existing output file")
+    p.add_argument("--signal", choices=["step", "impulse", "sweep"], default="step",
+                   help="input of the time-domain comparison, applied to each input in turn (default step)")
+    p.add_argument("--dt", type=float, help="time step in s (default 1/(20 FMAX))")
+    p.add_argument("--t-end", type=float, help="end time in s (default 3 periods of the lowest mode)")
+    p.add_argument("--scheme", choices=["newmark", "generalized-alpha"], default="newmark",
+                   help="time integrator (default newmark, average acceleration)")
+    p.add_argument("--modes", type=int, default=12, help="full flexible modes in the eigenfrequency/MAC table")
+    p.set_defaults(func=cmd_report)
+
+    p = sub.add_parser("export", help="export a reduced body to an MBS code (SID, Exudyn) or MATLAB/state space")
+    p.add_argument("reduced", help="reduced body file (.h5)")
+    p.add_argument("-o", "--output-file", required=True, metavar="FILE", help="file to write")
+    p.add_argument("--force", action="store_true", help="overwrite an existing output file")
+    p.add_argument("--format", help="sid, exudyn, mat, statespace (ss), hdf5; default from the suffix "
+                   "(flexmor info --formats)")
+    p.add_argument("--model", help="FE model the body was reduced from (required for sid and exudyn: the "
+                   "inertia invariants integrate over its mass matrix)")
+    p.add_argument("--model-format", help="override the format of --model chosen from its suffix")
+    p.add_argument("--node", action="append", default=[], metavar="NODE|SET",
+                   help="SID frame node (node id or set; a set gives an RBE3 master); default the port nodes")
+    p.add_argument("--m1-order", choices=["row-q-col", "row-col-q"], default="row-q-col",
+                   help="index order of SID m1(i,j,k) entries (default row-q-col, as PY_SID/EMBS)")
+    p.add_argument("--json", action="store_true", help="print one JSON object on stdout")
+    p.set_defaults(func=cmd_export)
+    for p in sub.choices.values():  # each command maps the parameters named by library errors to its flags
+        p.set_defaults(flag_names=flag_names(p))
+    return ap
+
+
