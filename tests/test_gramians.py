@@ -129,8 +129,10 @@ def test_fw_sobt_beats_modal_and_krylov_and_decreases(beam):
             red, res = reduce_and_judge(model, method, r, ports, full=full, band=BAND)
             err[method, r] = res["band_error"]
     assert err["fw-sobt", 2] < 1e-3 * err["fw-sobt", 1]
-    for r in (1, 2):
-        assert err["fw-sobt", r] < 1e-2 * err["modal", r]
+    # modal r=1 takes one vector of the double 100 Hz eigenvalue (y/z bending of the square section),
+    # an orientation round-off chooses (band_error 0.24 with SkylakeX kernels, 0.013 with Haswell):
+    # compared at r=2, where the pair is complete
+    assert err["fw-sobt", 2] < 1e-2 * err["modal", 2]
     assert err["fw-sobt", 2] < 1e-2 * err["krylov", 2]
     hsv = red.info["hankel_sv"]
     assert hsv[0] > 1e3 * hsv[2] and red.info["n_nodes"] > 50
