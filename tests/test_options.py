@@ -201,5 +201,5 @@ def test_cli_names_format_and_model_flags(capsys, tmp_path):
                  "-o", str(body)]) == 0
     capsys.readouterr()
     err = _err(capsys, "export", str(body), "-o", str(tmp_path / "body.txt"))
-    assert "cannot tell the export type from the suffix '.txt'; give --format (sid" in err
+    assert "cannot tell the export type from the suffix '.txt' (known: .h5" in err and "give --format (hdf5, sid" in err
     assert "given as --model: the inertia" in _err(capsys, "export", str(body), "-o", str(tmp_path / "b.sid"))
