@@ -10,7 +10,9 @@ CalculiX writes, for the job ``<job>.inp``:
 The main file is the ``.sti``; ``.mas``, ``.dof`` and the input deck ``.inp`` (node table
 from ``*NODE``, node sets from ``*NSET`` and ``*NODE, NSET=...``) must lie beside it. Without
 the deck, the node block of the job's result file ``<job>.frd`` gives the nodes (a warning is
-logged; there are no node sets then): this is how a job is often shipped (``.sti/.mas/.dof/.frd``). The full
+logged; there are no node sets then): this is how a job is often shipped (``.sti/.mas/.dof/.frd``).
+Shell and beam elements, which CalculiX expands to solids, need both the deck and the ``.frd``
+(:mod:`flexmor.io.calculix.expanded`). The full
 symmetric matrices are rebuilt as ``A = U + U^T - diag(U)``.
 
 Quadratic elements (``C3D20R``, ``C3D20``, ``C3D15``, ``C3D10``, 8-node shells and plane
@@ -36,6 +38,7 @@ from .. import MODEL_FORMATS
 from .._mass import QUADRATIC_TYPES, check_mass
 from .._text import build_model, entry_line, parse_triplets, read_text
 from ..abaqus.abaqus_inp import include_path, keyword_options
+from .expanded import expanded_dofs
 from .frd import read_frd
 
 __all__ = ["read_calculix", "read_dof", "read_inp"]
@@ -304,6 +307,15 @@ def read_calculix(path) -> "FEModel":  # noqa: F821
         node_ids, xyz, sets, types = res.node_ids, res.xyz, {}, res.element_types
         log.warning("%s: no input deck %s beside it; nodes read from the node block of %s (no node sets)",
                     path, path.with_suffix(".inp").name, geo.name)
+    if np.unique(dofs[:, 0] * 8 + dofs[:, 1]).size < n:  # shells or beams expanded to solids
+        frd = path.with_suffix(".frd")
+        if geo.suffix.lower() != ".inp" or not frd.exists():
+            raise ReadError(dof_path, "equations name nodes repeatedly, as when CalculiX expands shell or beam "
+                                      f"elements to solids: {path.stem}.inp and {path.stem}.frd (with the expanded "
+                                      "nodes, from *NODE FILE output) must both lie beside it")
+        res = read_frd(frd, results=False)
+        dofs, node_ids, xyz, sets = expanded_dofs(dof_path, dofs, node_ids, xyz, res.node_ids, res.xyz, sets)
+        types |= res.element_types
     quadratic = sorted(t for t in types if t.startswith(QUADRATIC_TYPES))
     known = np.isin(dofs[:, 0], node_ids)
     if not np.all(known):
