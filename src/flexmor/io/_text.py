@@ -62,12 +62,12 @@ def _to_index(tok: str) -> int:
         return int(v)
 
 
-def _loadtxt(src):
+def _loadtxt(src, skiprows: int = 0):
     """``np.loadtxt`` into an (k, 3) float array, or None on any parse problem."""
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            a = np.loadtxt(src, dtype=np.float64, ndmin=2, comments=None)
+            a = np.loadtxt(src, dtype=np.float64, ndmin=2, comments=None, skiprows=skiprows)
     except (ValueError, OverflowError):
         return None
     if a.shape[0] == 0 or a.shape[1] != 3:
@@ -99,7 +99,7 @@ def _fast_triplets(path: Path, text: str):
         return None  # loadtxt would also strip comments in mid-line; let the scanner decide
     if "," in body or "d" in body or "D" in body:
         return _loadtxt(io.StringIO(body.replace(",", " ").replace("D", "E").replace("d", "e")))
-    return _loadtxt(io.StringIO(body) if start else path)
+    return _loadtxt(path, skiprows=text.count("\n", 0, start))
 
 
 def _valid(a: np.ndarray, base: int, n: int | None) -> bool:
