@@ -202,3 +202,40 @@ def test_mas_given_as_main_file(tmp_path):
     job = _job(tmp_path)
     with pytest.raises(ReadError, match=r"pass the stiffness file job\.sti"):
         flexmor.io.read(job.with_suffix(".mas"), format="calculix")
+
+
+def test_nodes_from_frd_without_deck(tmp_path, free, caplog):
+    """A job shipped as .sti/.mas/.dof/.frd without its .inp: the nodes come from the .frd.
+
+    ``beam8_free_mat.frd`` was written by CalculiX 2.20 for ``beam8_free_mat.inp`` with an
+    ordinary ``*FREQUENCY`` step (8 modes, ``*NODE FILE``) before the ``MATRIXSTORAGE`` step;
+    that job's ``.sti/.mas/.dof`` are byte for byte the ones in tests/data.
+    """
+    import logging
+    import shutil
+
+    from flexmor.io import read
+    from flexmor.io.calculix import compare_modes, read_frd
+
+    for suf in (".sti", ".mas", ".dof", ".frd"):
+        shutil.copy(FREE.with_suffix(suf), tmp_path / f"job{suf}")
+    with caplog.at_level(logging.WARNING, logger="flexmor"):
+        m = read(tmp_path / "job.sti")
+    assert "no input deck job.inp beside it; nodes read from the node block of job.frd" in caplog.text
+    np.testing.assert_array_equal(m.node_ids, free.node_ids)
+    np.testing.assert_allclose(m.xyz, free.xyz, rtol=1e-5, atol=1e-9)  # frd coordinates: E12.5
+    assert m.node_sets == {}
+    assert (m.M != free.M).nnz == 0 and (m.K != free.K).nnz == 0
+    res = read_frd(tmp_path / "job.frd")
+    assert res.element_types == {"C3D8"} and len(res.blocks) == 8
+    cmp = compare_modes(m, res)  # CalculiX's own modes of the same job: 620.67 Hz (x2), 1610.4 Hz
+    assert cmp["frequencies_hz"][6] == pytest.approx(620.6715, rel=1e-6)
+    assert np.max(np.abs(cmp["rel_diff"][6:])) < 1e-6 and np.min(cmp["mac"][6:]) > 0.999
+    # with the deck beside it, nodes and node sets come from the deck
+    shutil.copy(FREE.with_suffix(".inp"), tmp_path / "job.inp")
+    m2 = read(tmp_path / "job.sti")
+    assert set(m2.node_sets) == set(free.node_sets) and "TIP" in m2.node_sets
+    (tmp_path / "job.inp").unlink()
+    (tmp_path / "job.frd").unlink()
+    with pytest.raises(ReadError, match=r"job.inp: not found; .* the job's job.frd"):
+        read(tmp_path / "job.sti")

@@ -21,15 +21,15 @@ N_MODES = 12
 SPOINT0 = 1001
 
 
-def _cb(model):
+def _cb(model, n_modes=N_MODES):
     tip = model.node_sets["TIP"]
     b = np.flatnonzero(np.isin(model.dofs[:, 0], tip))
     b = b[np.lexsort((model.dofs[b, 1], model.dofs[b, 0]))]  # Nastran a-set order: grid, component
     i = np.setdiff1d(np.arange(model.n_dof), b)
     K, M = model.K.toarray(), model.M.toarray()
     Phi = -np.linalg.solve(K[np.ix_(i, i)], K[np.ix_(i, b)])
-    lam, Psi = sla.eigh(K[np.ix_(i, i)], M[np.ix_(i, i)], subset_by_index=[0, N_MODES - 1])
-    T = np.zeros((model.n_dof, b.size + N_MODES))
+    lam, Psi = sla.eigh(K[np.ix_(i, i)], M[np.ix_(i, i)], subset_by_index=[0, n_modes - 1])
+    T = np.zeros((model.n_dof, b.size + n_modes))
     T[b, :b.size] = np.eye(b.size)
     T[np.ix_(i, np.arange(b.size))] = Phi
     T[i, b.size:] = Psi
@@ -142,3 +142,44 @@ def test_cli_compare_and_export_superelement(tmp_path, clamped, capsys):
     assert main(["export", se, "-o", str(tmp_path / "se.mat"), "--json"]) == 0
     m = scipy.io.loadmat(tmp_path / "se.mat")
     np.testing.assert_allclose(m["Kr"], read_superelement(se).K, rtol=1e-12)
+
+
+@pytest.mark.parametrize("fmt", ["ascii", "binary"])
+def test_extseout_null_damping(tmp_path, free, free_ref, fmt):
+    """EXTSEOUT-style output: KXX/MXX (46, 46) beside a 1 x 1 null BXX1 ("no damping") and a
+    null K4XX; the boundary grids, SPOINTs and a-set in the input deck (.dat) beside it.
+
+    The superelement is the free-free CalculiX beam reduced to its 9 tip grids (27 boundary
+    DOFs) and 19 fixed-interface modes: 6 rigid modes, then the beam's elastic modes.
+    """
+    n_modes = 19
+    b, Kr, Mr, _ = _cb(free, n_modes)
+    assert Kr.shape == (46, 46)
+    tip = np.unique(free.dofs[b, 0])
+    deck = ["SOL 103", "CEND", "EXTSEOUT(ASMBULK,EXTID=100,DMIGOP4=30)", "METHOD = 10", "BEGIN BULK",
+            "EIGRL,10,,,20", "MAT1,1,2.1+11,,.3,7850.", "PSOLID,1,1"]
+    for g, x in zip(free.node_ids, free.xyz):
+        deck.append(f"GRID,{g},," + ",".join(f"{v:.6g}" for v in x))
+    deck += [f"ASET1,123,{g}" for g in tip]
+    deck += [f"SPOINT,{SPOINT0},THRU,{SPOINT0 + n_modes - 1}", f"QSET1,0,{SPOINT0},THRU,{SPOINT0 + n_modes - 1}",
+             "ENDDATA"]
+    (tmp_path / "se.dat").write_text("\n".join(deck) + "\n")
+    mats = {"KXX": Kr, "MXX": Mr, "BXX1": np.zeros((1, 1)), "K4XX": np.zeros((1, 1))}
+    (write_ascii if fmt == "ascii" else write_binary)(tmp_path / "se.op4", mats)
+    red = read_superelement(tmp_path / "se.op4")
+    assert red.D is None and red.damping == {"type": "none"}
+    assert red.info["matrices"] == {"K": "KXX", "M": "MXX"}
+    assert red.info["n_boundary"] == 27 and red.info["n_modal"] == n_modes
+    np.testing.assert_array_equal(red.node_ids, tip)
+    np.testing.assert_allclose(red.xyz, free.node_xyz(tip), atol=1e-9)
+    f = red.frequencies_hz()
+    np.testing.assert_allclose(f, np.sqrt(np.clip(sla.eigh(Kr, Mr, eigvals_only=True), 0, None)) / (2 * np.pi),
+                               rtol=1e-8, atol=1e-3)
+    assert np.all(f[:6] < 1e-2 * f[6])  # 6 rigid modes
+    np.testing.assert_allclose(f[6:10], free_ref[6:10], rtol=2e-3)  # 620.67 Hz (x2), ... of CalculiX
+    # the same matrices read as an FE model (without the deck): zero damping, not "differ in size"
+    from flexmor.io.nastran import read_nastran
+
+    (tmp_path / "se.dat").unlink()
+    model = read_nastran(tmp_path / "se.op4")
+    assert model.D is None and model.n_dof == 46

@@ -62,12 +62,12 @@ def _to_index(tok: str) -> int:
         return int(v)
 
 
-def _loadtxt(src):
+def _loadtxt(src, skiprows: int = 0):
     """``np.loadtxt`` into an (k, 3) float array, or None on any parse problem."""
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            a = np.loadtxt(src, dtype=np.float64, ndmin=2, comments=None)
+            a = np.loadtxt(src, dtype=np.float64, ndmin=2, comments=None, skiprows=skiprows)
     except (ValueError, OverflowError):
         return None
     if a.shape[0] == 0 or a.shape[1] != 3:
@@ -75,13 +75,31 @@ def _loadtxt(src):
     return a
 
 
+def _header_end(text: str) -> int:
+    """Offset of the first line after the leading blank and comment lines (a Matrix Market header)."""
+    pos = 0
+    while pos < len(text):
+        end = text.find("\n", pos)
+        end = len(text) if end < 0 else end + 1
+        s = text[pos:end].strip()
+        if s and s[0] not in _COMMENT_CHARS:
+            break
+        pos = end
+    return pos
+
+
 def _fast_triplets(path: Path, text: str):
-    """Vectorized parse into an (k, 3) float array, or None when the text needs the scanner."""
-    if any(ch in text for ch in _COMMENT_CHARS):
+    """Vectorized parse into an (k, 3) float array, or None when the text needs the scanner.
+
+    Leading comment lines (a header) are skipped; comments further down go to the scanner.
+    """
+    start = _header_end(text)
+    body = text[start:] if start else text
+    if any(ch in body for ch in _COMMENT_CHARS):
         return None  # loadtxt would also strip comments in mid-line; let the scanner decide
-    if "," in text or "d" in text or "D" in text:
-        return _loadtxt(io.StringIO(text.replace(",", " ").replace("D", "E").replace("d", "e")))
-    return _loadtxt(path)
+    if "," in body or "d" in body or "D" in body:
+        return _loadtxt(io.StringIO(body.replace(",", " ").replace("D", "E").replace("d", "e")))
+    return _loadtxt(path, skiprows=text.count("\n", 0, start))
 
 
 def _valid(a: np.ndarray, base: int, n: int | None) -> bool:

@@ -1,5 +1,6 @@
 """CalculiX: matrix exports of ``*FREQUENCY, SOLVER=MATRIXSTORAGE`` (:mod:`.calculix`) and
-``.frd`` result files with the program's own modes (:mod:`.frd`)."""
+``.frd`` result files with the program's own modes (:mod:`.frd`); equation maps of jobs whose
+shells and beams CalculiX expanded to solids (:mod:`.expanded`)."""
 
 from .calculix import read_calculix, read_dof, read_inp
 from .frd import FrdResult, compare_modes, modes, read_frd

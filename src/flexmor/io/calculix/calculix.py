@@ -8,7 +8,11 @@ CalculiX writes, for the job ``<job>.inp``:
   node 12, z).
 
 The main file is the ``.sti``; ``.mas``, ``.dof`` and the input deck ``.inp`` (node table
-from ``*NODE``, node sets from ``*NSET`` and ``*NODE, NSET=...``) must lie beside it. The full
+from ``*NODE``, node sets from ``*NSET`` and ``*NODE, NSET=...``) must lie beside it. Without
+the deck, the node block of the job's result file ``<job>.frd`` gives the nodes (a warning is
+logged; there are no node sets then): this is how a job is often shipped (``.sti/.mas/.dof/.frd``).
+Shell and beam elements, which CalculiX expands to solids, need both the deck and the ``.frd``
+(:mod:`flexmor.io.calculix.expanded`). The full
 symmetric matrices are rebuilt as ``A = U + U^T - diag(U)``.
 
 Quadratic elements (``C3D20R``, ``C3D20``, ``C3D15``, ``C3D10``, 8-node shells and plane
@@ -34,6 +38,8 @@ from .. import MODEL_FORMATS
 from .._mass import QUADRATIC_TYPES, check_mass
 from .._text import build_model, entry_line, parse_triplets, read_text
 from ..abaqus.abaqus_inp import include_path, keyword_options
+from .expanded import expanded_dofs
+from .frd import read_frd
 
 __all__ = ["read_calculix", "read_dof", "read_inp"]
 
@@ -249,6 +255,17 @@ def _read_upper(path: Path, n: int) -> sp.csr_matrix:
     return sp.csr_matrix((vals, (rows, cols)), shape=(n, n))
 
 
+def _geometry_file(path: Path) -> Path:
+    """The input deck ``<job>.inp`` beside ``path``, else the result file ``<job>.frd`` (its node block)."""
+    for suf in (".inp", ".INP", ".frd", ".FRD"):
+        p = path.with_suffix(suf)
+        if p.exists():
+            return p
+    raise ReadError(path.with_suffix(".inp"), f"not found; the input deck with the nodes (*NODE) must lie beside "
+                                              f"{path.name} (or, without it, the job's {path.stem}.frd with its "
+                                              "node block)")
+
+
 def read_calculix(path) -> "FEModel":  # noqa: F821
     """Read a CalculiX ``.sti`` file with its ``.mas``, ``.dof`` and ``.inp`` siblings.
 
@@ -260,8 +277,9 @@ def read_calculix(path) -> "FEModel":  # noqa: F821
     Returns
     -------
     FEModel
-        Full symmetric ``M`` and ``K``, node table and node sets from the ``.inp``, the
-        equation map from the ``.dof``; ``name`` is the file stem.
+        Full symmetric ``M`` and ``K``, node table and node sets from the ``.inp`` (without
+        it: node table from the ``.frd``, no node sets), the equation map from the ``.dof``;
+        ``name`` is the file stem.
 
     Raises
     ------
@@ -275,22 +293,35 @@ def read_calculix(path) -> "FEModel":  # noqa: F821
     _sniff(path)
     mas = _sibling(path, ".mas", "mass matrix")
     dof_path = _sibling(path, ".dof", "equation map")
-    inp = path.with_suffix(".inp")
-    if not inp.exists():
-        raise ReadError(inp, f"not found; the input deck with the nodes (*NODE) must lie beside {path.name}")
+    geo = _geometry_file(path)
     dofs = read_dof(dof_path)
     n = dofs.shape[0]
     _sniff(mas)
     K = _read_upper(path, n)
     M = _read_upper(mas, n)
     types: set = set()
-    node_ids, xyz, sets = read_inp(inp, element_types=types)
+    if geo.suffix.lower() == ".inp":
+        node_ids, xyz, sets = read_inp(geo, element_types=types)
+    else:
+        res = read_frd(geo, results=False)
+        node_ids, xyz, sets, types = res.node_ids, res.xyz, {}, res.element_types
+        log.warning("%s: no input deck %s beside it; nodes read from the node block of %s (no node sets)",
+                    path, path.with_suffix(".inp").name, geo.name)
+    if np.unique(dofs[:, 0] * 8 + dofs[:, 1]).size < n:  # shells or beams expanded to solids
+        frd = path.with_suffix(".frd")
+        if geo.suffix.lower() != ".inp" or not frd.exists():
+            raise ReadError(dof_path, "equations name nodes repeatedly, as when CalculiX expands shell or beam "
+                                      f"elements to solids: {path.stem}.inp and {path.stem}.frd (with the expanded "
+                                      "nodes, from *NODE FILE output) must both lie beside it")
+        res = read_frd(frd, results=False)
+        dofs, node_ids, xyz, sets = expanded_dofs(dof_path, dofs, node_ids, xyz, res.node_ids, res.xyz, sets)
+        types |= res.element_types
     quadratic = sorted(t for t in types if t.startswith(QUADRATIC_TYPES))
     known = np.isin(dofs[:, 0], node_ids)
     if not np.all(known):
         i = int(np.flatnonzero(~known)[0])
-        raise ReadError(dof_path, f"equation {i + 1} is on node {dofs[i, 0]}, which {inp.name} does not define; "
-                                  "are the .dof and .inp from the same job?", i + 1)
+        raise ReadError(dof_path, f"equation {i + 1} is on node {dofs[i, 0]}, which {geo.name} does not define; "
+                                  f"are the .dof and {geo.suffix} from the same job?", i + 1)
     model = build_model(
         path,
         roles={"M": mas, "K": path},
@@ -303,4 +334,4 @@ def read_calculix(path) -> "FEModel":  # noqa: F821
 
 
 MODEL_FORMATS.register("calculix", [".sti"], read_calculix,
-                       description="CalculiX *FREQUENCY, SOLVER=MATRIXSTORAGE export (.sti + .mas + .dof + .inp)")
+                       description="CalculiX *FREQUENCY, SOLVER=MATRIXSTORAGE export (.sti + .mas + .dof + .inp or .frd)")

@@ -37,7 +37,7 @@ import numpy as np
 from ...errors import ModelError, ReadError
 from ...linalg.context import SolverContext, as_solver
 
-__all__ = ["FrdResult", "compare_modes", "modes", "read_frd"]
+__all__ = ["ELEMENT_TYPES", "FrdResult", "compare_modes", "modes", "read_frd"]
 
 
 @dataclass
@@ -52,11 +52,15 @@ class FrdResult:
         Result blocks in file order: ``name`` (e.g. ``DISP``), ``step``, ``value``
         (frequency of a ``MODAL`` step, else time), ``analysis``, ``components`` (names),
         ``nodes`` (k,), ``values`` (k, ncomp), ``params`` (the ``1P`` records before it).
+    element_types : set of str
+        CalculiX names of the element shapes in the element block (``C3D8``, ``C3D20``,
+        ``C3D10``, ``S8``, ``B32`` ...; :data:`ELEMENT_TYPES`).
     """
 
     node_ids: np.ndarray
     xyz: np.ndarray
     blocks: list = field(default_factory=list)
+    element_types: set = field(default_factory=set)
 
 
 class _Reader:
@@ -133,19 +137,28 @@ def _nodes(r: _Reader, head: str):
 
 
 _ELEM_NODES = {1: 8, 2: 6, 3: 4, 4: 20, 5: 15, 6: 10, 7: 3, 8: 6, 9: 4, 10: 8, 11: 2, 12: 3}
+#: Element shape codes of the frd format and the CalculiX element name they stand for.
+ELEMENT_TYPES = {1: "C3D8", 2: "C3D6", 3: "C3D4", 4: "C3D20", 5: "C3D15", 6: "C3D10", 7: "S3", 8: "S6",
+                 9: "S4", 10: "S8", 11: "B31", 12: "B32"}
 
 
-def _skip_elements(r: _Reader, head: str):
+def _elements(r: _Reader, head: str) -> set:
+    """Skip an element block; return the CalculiX names of its element shapes."""
     n, fmt = _int(r, head[24:36], "element count"), _int(r, head[36:].strip()[-1:] or "x", "format flag")
+    codes = set()
     if fmt >= 2:
         for _ in range(n):
             _, etype, _, _ = struct.unpack("<4i", r.read(16))
             if etype not in _ELEM_NODES:
                 raise ReadError(r.path, f"binary element of unknown type {etype}")
+            codes.add(etype)
             r.read(4 * _ELEM_NODES[etype])
-        return
-    while r.readline()[:3].strip() != "-3":
-        pass
+    else:
+        w = 5 if fmt == 0 else 10
+        while (s := r.readline())[:3].strip() != "-3":
+            if s[:3].strip() == "-1":
+                codes.add(_int(r, s[3 + w:3 + w + 5], "element type"))
+    return {ELEMENT_TYPES.get(c, f"frd type {c}") for c in codes}
 
 
 def _results(r: _Reader, head: str, params: dict):
@@ -204,8 +217,14 @@ def _results(r: _Reader, head: str, params: dict):
             "components": comps, "nodes": nodes, "values": vals, "params": dict(params)}
 
 
-def read_frd(path) -> FrdResult:
+def read_frd(path, *, results: bool = True) -> FrdResult:
     """Read nodes and nodal result blocks of a CalculiX ``.frd`` file (ASCII or binary blocks).
+
+    Parameters
+    ----------
+    path : str or path-like
+    results : bool
+        False: stop before the first result block (nodes and element types only).
 
     Raises
     ------
@@ -219,7 +238,7 @@ def read_frd(path) -> FrdResult:
     r = _Reader(path)
     if not r.raw.strip():
         raise ReadError(path, "file is empty")
-    ids, xyz, blocks, params = None, None, [], {}
+    ids, xyz, blocks, params, types = None, None, [], {}, set()
     while True:
         if r.eof():
             raise ReadError(path, "no end record 9999: the file was cut off (or CalculiX stopped early)", r.line)
@@ -240,8 +259,10 @@ def read_frd(path) -> FrdResult:
                 raise r.error("a second node block")
             ids, xyz = _nodes(r, s)
         elif key == "3" and code == "C":
-            _skip_elements(r, s)
+            types |= _elements(r, s)
         elif key == "100" and code == "C":
+            if not results:
+                break
             blocks.append(_results(r, s, params))
             params = {}
         else:
@@ -250,7 +271,7 @@ def read_frd(path) -> FrdResult:
         raise ReadError(path, "no node block (    2C) found")
     if np.unique(ids).size != ids.size:
         raise ReadError(path, "node numbers in the node block are not unique")
-    return FrdResult(ids, xyz, blocks)
+    return FrdResult(ids, xyz, blocks, types)
 
 
 def modes(res: FrdResult):

@@ -292,10 +292,19 @@ def load_matrices(path: Path, stiffness, mass, damping):
 
 
 def op4_matrices(path, mats, names) -> dict:
-    """The named OP4 matrices as CSR by role; refuses complex, non-square or differently sized ones."""
+    """The named OP4 matrices as CSR by role; refuses complex, non-square or differently sized ones.
+
+    A damping matrix without any non-zero entry (Nastran writes "no damping" as a 1 x 1 null
+    matrix, e.g. ``BXX`` of ``EXTSEOUT`` beside 46 x 46 ``KXX``/``MXX``) is read as zero
+    damping: it is dropped from ``names`` and the result.
+    """
     out = {}
-    for role, nm in names.items():
+    for role, nm in list(names.items()):
         A = mats[nm]
+        if role == "D" and A.count_nonzero() == 0:
+            log.info("%s: damping matrix %s %s is null: read as zero damping", path, nm, A.shape)
+            del names[role]
+            continue
         if np.iscomplexobj(A.data):
             raise ReadError(path, f"matrix {nm} is complex; flexmor needs real matrices")
         if A.shape[0] != A.shape[1]:

@@ -1,0 +1,89 @@
+"""CalculiX in the loop: small bars meshed here, run through ``ccx``, read back by flexmor.
+
+Each job has an ordinary ``*FREQUENCY`` step (CalculiX's own eigenfrequencies and total mass
+``EMAS`` in the ``.dat``) and a ``*FREQUENCY, SOLVER=MATRIXSTORAGE`` step (the ``.sti/.mas/.dof``
+flexmor reads); the clamped jobs also a ``*STATIC`` step with a unit tip force. flexmor's
+frequencies must agree to 1e-6 (CalculiX prints 7 digits), its total mass to 1e-6, and a
+Craig-Bampton body with the loaded node as interface must give CalculiX's static displacement.
+
+Shells (S8R) and beams (B32R) are expanded to C3D20R solids by CalculiX; only the free bodies
+are read (constraints on their nodes are refused, see :mod:`flexmor.io.calculix.expanded`).
+"""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from ccx_models import CCX, dat_displacement, dat_frequencies, dat_mass, deck, run
+
+from flexmor.io import read
+from flexmor.linalg import eigenmodes
+
+pytestmark = pytest.mark.skipif(CCX is None, reason="CalculiX (ccx) is not installed; Debian: apt-get install "
+                                                    "calculix-ccx (.ci/run installs it in CI)")
+
+SOLIDS = ["C3D8", "C3D20R", "C3D10"]
+
+
+def _freqs(model, k):
+    lam, _ = eigenmodes(model.K, model.M, k)
+    return np.sqrt(np.clip(lam, 0, None)) / (2 * np.pi)
+
+
+@pytest.mark.parametrize("etype", SOLIDS + ["S8R", "B32R"])
+def test_free_frequencies_and_mass(tmp_path, etype):
+    text, _ = deck(etype, clamped=False)
+    sti = run(tmp_path, "free", text)
+    with pytest.warns(Warning) if etype in ("C3D20R", "C3D10", "S8R", "B32R") else _nothing():
+        model = read(sti)
+    ref = dat_frequencies(sti.with_suffix(".dat"))
+    np.testing.assert_allclose(_freqs(model, 10)[6:], ref[6:10], rtol=1e-6)
+    assert ref[6] > 1e3 * ref[5]  # 6 rigid modes, then the elastic ones
+    ux = (model.dofs[:, 1] == 1).astype(float)
+    assert ux @ model.M @ ux == pytest.approx(dat_mass(sti.with_suffix(".dat")), rel=1e-6)
+    assert ux @ model.M @ ux == pytest.approx(7850.0 * 0.6 * 0.1 * 0.1, rel=1e-12)
+    assert model.node_sets["TIP"].size > 0 and np.allclose(model.node_xyz(model.node_sets["TIP"])[:, 0], 0.6)
+
+
+@pytest.mark.parametrize("etype", SOLIDS)
+def test_clamped_frequencies_and_static_response(tmp_path, etype, capsys):
+    from flexmor.cli import main
+    from flexmor.io.hdf5 import read_reduced
+
+    _, ids = deck(etype, clamped=True)
+    node = int(ids[-1])  # the corner x = L, y = B, z = H
+    text, _ = deck(etype, clamped=True, load_node=node, modes=6)
+    sti = run(tmp_path, "clamped", text)
+    model = read(sti)
+    np.testing.assert_allclose(_freqs(model, 6), dat_frequencies(sti.with_suffix(".dat")), rtol=1e-6)
+    body = tmp_path / "body.h5"
+    assert main(["reduce", str(sti), "--method", "craig-bampton", "--order", "7", "--interface", "LOADED",
+                 "--input", f"{node}:z", "--output", f"{node}:x", "--output", f"{node}:y", "--output", f"{node}:z",
+                 "-o", str(body), "--no-error", "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["order"] == 7
+    red = read_reduced(body)
+    u = red.C @ np.linalg.solve(red.K, red.B)[:, 0]
+    ref = dat_displacement(sti.with_suffix(".dat"), node)
+    np.testing.assert_allclose(u, ref, rtol=1e-6, atol=1e-6 * abs(ref[2]))
+
+
+def test_clamped_shell_refused(tmp_path):
+    from flexmor.errors import ReadError
+
+    text, _ = deck("S8R", clamped=True)
+    sti = run(tmp_path, "shell", text)
+    with pytest.raises(ReadError, match="expanded shell or beam elements to solids"):
+        read(sti)
+    sti.with_suffix(".frd").unlink()
+    with pytest.raises(ReadError, match=r"shell.inp and shell.frd \(with the expanded nodes"):
+        read(sti)
+
+
+class _nothing:
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        return False
