@@ -12,8 +12,8 @@ from ..dynamics.dense_frf import DenseResolvent, dense_applicable
 from ..dynamics.frf import angular_frequency, frf_full, frf_reduced, rel_error
 from ..dynamics.modes import modal_damping_ratios, modes_below
 from ..errors import ModelError, OptionError
-from ..linalg.eigen import frequencies_hz
 from ..linalg.context import SolverContext, as_solver
+from ..linalg.eigen import frequencies_hz
 from . import cache as frf_cache
 from .frequency import error_measures
 from .grid import DEFAULT_TOL, adaptive_grid

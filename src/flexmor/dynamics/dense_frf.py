@@ -31,7 +31,7 @@ from ..errors import ModelError
 from ..linalg.distributed import is_partitioned
 from ..linalg.eigen import dense_eigenmodes
 
-__all__ = ["DenseResolvent", "DENSE_FRF_MAX_DOF", "PROPORTIONAL_TOL", "STATE_COND_MAX", "dense_applicable"]
+__all__ = ["DENSE_FRF_MAX_DOF", "PROPORTIONAL_TOL", "STATE_COND_MAX", "DenseResolvent", "dense_applicable"]
 
 log = logging.getLogger(__name__)
 
