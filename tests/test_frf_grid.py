@@ -84,7 +84,7 @@ def test_ten_compared_bodies_cost_one_sweep(beam, tmp_path):
     model, ports = beam
     solver = SolverContext()
     band = (300.0, 1500.0)  # 6 resonances
-    fr = FullResponse(model, ports, band, cache=tmp_path, solver=solver)
+    fr = FullResponse(model, ports, band, path="direct", cache=tmp_path, solver=solver)
     sweep = solver.stats.count
     assert sweep == fr.n_factorizations == fr.freqs.size  # dense pre-pass: one per grid point
     bodies = [reduce(model, "modal", r, ports, solver=solver)[0] for r in range(1, 11)]
@@ -92,7 +92,7 @@ def test_ten_compared_bodies_cost_one_sweep(beam, tmp_path):
     errs = [fr.evaluate(b)["band_error"] for b in bodies]
     assert solver.stats.count == n1  # judging costs no factorization
     assert errs[-1] < 1e-3 * errs[0]
-    again = FullResponse(model, ports, band, cache=tmp_path, solver=solver)  # next process: from the cache
+    again = FullResponse(model, ports, band, path="direct", cache=tmp_path, solver=solver)  # next process: from the cache
     assert again.cache_hit and again.n_factorizations == 0 and solver.stats.count == n1
     np.testing.assert_array_equal(again.H, fr.H)
 

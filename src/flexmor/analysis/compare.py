@@ -8,10 +8,12 @@ from typing import Callable
 
 import numpy as np
 
-from ..dynamics.frf import frf_full, frf_reduced, rel_error
+from ..dynamics.dense_frf import DenseResolvent, dense_applicable
+from ..dynamics.frf import angular_frequency, frf_full, frf_reduced, rel_error
 from ..dynamics.modes import modal_damping_ratios, modes_below
-from ..errors import OptionError
+from ..errors import ModelError, OptionError
 from ..linalg.context import SolverContext, as_solver
+from ..linalg.eigen import frequencies_hz
 from . import cache as frf_cache
 from .frequency import error_measures
 from .grid import DEFAULT_TOL, adaptive_grid
@@ -22,9 +24,12 @@ __all__ = ["FullResponse", "PATHS"]
 log = logging.getLogger(__name__)
 
 #: How the full FRF on the grid is obtained: ``direct`` sparse solves at every grid point,
+#: ``dense`` one dense eigendecomposition, exact at every point (:mod:`flexmor.dynamics.dense_frf`;
+#: a singular mass matrix or an ill-conditioned non-proportional damping falls back to ``direct``),
 #: ``surrogate`` a verified large projection model (see :mod:`flexmor.analysis.surrogate`),
-#: ``auto`` the surrogate above :data:`SURROGATE_MIN_DOF` DOF for damped models.
-PATHS = ("auto", "direct", "surrogate")
+#: ``auto`` dense up to :data:`~flexmor.dynamics.dense_frf.DENSE_FRF_MAX_DOF` DOF, the surrogate
+#: above :data:`SURROGATE_MIN_DOF` DOF for damped models, else direct.
+PATHS = ("auto", "direct", "dense", "surrogate")
 
 #: Models with at least this many DOF use the verified surrogate under ``path="auto"``.
 SURROGATE_MIN_DOF = 20000
@@ -55,8 +60,8 @@ class FullResponse:
         Largest grid.
     solver : SolverContext, optional
         Solver (backend, statistics) of :func:`flexmor.linalg.factorize`.
-    path : {'auto', 'direct', 'surrogate'}
-        How H is evaluated on the grid (see :data:`PATHS`).
+    path : {'auto', 'direct', 'dense', 'surrogate'}
+        How H is evaluated on the grid (see :data:`PATHS`); ``grid["path"]`` tells the one used.
     surrogate_tol : float
         Largest pointwise relative error of the surrogate at its direct checks.
     check_solver : {'auto', 'direct', 'iterative'}
@@ -105,7 +110,8 @@ class FullResponse:
             raise OptionError(f"band must satisfy 0 < FMIN < FMAX (Hz), got {band[0]}:{band[1]}")
         damped = model.D is not None
         if path == "auto":
-            path = "surrogate" if damped and model.n_dof >= SURROGATE_MIN_DOF else "direct"
+            path = ("dense" if dense_applicable(model) else
+                    "surrogate" if damped and model.n_dof >= SURROGATE_MIN_DOF else "direct")
         if path == "surrogate" and not damped:
             raise OptionError("the surrogate path needs a damped model (rayleigh or modal_damping)",
                               params=("rayleigh", "modal_damping"))
@@ -141,8 +147,14 @@ class FullResponse:
         t0 = time.perf_counter()
         fmin, fmax = self.band
         damped = model.D is not None
-        f_modes = fmax * (1.1 if self.path == "surrogate" else 1.0)
-        f_all, phi, F0, sigma = modes_below(model, f_modes, solver)
+        dense = self._dense_resolvent(model) if self.path == "dense" else None
+        if dense is not None:  # all modes are known: the pre-pass is a selection
+            f_all = frequencies_hz(dense.lam)
+            phi = dense.phi[:, f_all <= fmax]
+            f_all = f_all[f_all <= fmax]
+        else:
+            f_modes = fmax * (1.1 if self.path == "surrogate" else 1.0)
+            f_all, phi, F0, sigma = modes_below(model, f_modes, solver)
         z_all = modal_damping_ratios(model.damping, f_all, phi, model.D) if damped else None
         z_all = np.zeros(f_all.size) if z_all is None else np.maximum(z_all, 0.0)
         inband = (f_all >= fmin) & (f_all <= fmax)
@@ -156,6 +168,12 @@ class FullResponse:
                             tol=surrogate_tol, resonances=self.resonances, zeta=self.zeta,
                             check_solver=check_solver)
             evaluate = sur.frf
+        elif dense is not None:
+            sur = None
+            B, C = ports.B.toarray(), ports.C
+
+            def evaluate(freqs):
+                return dense.frf(angular_frequency(freqs), B, C)
         else:
             sur = None
 
@@ -171,7 +189,18 @@ class FullResponse:
             sur.release()  # its factorization (GBs at scale) is not needed by the FRF
         self.surrogate = sur
         self.grid["path"] = self.path
+        if dense is not None:
+            self.grid["dense_kind"] = dense.kind
         self.timings["sweep"] = time.perf_counter() - t1
+
+    def _dense_resolvent(self, model):
+        """The dense resolvent, or None (and ``path`` set to ``direct``) where the dense path does not apply."""
+        try:
+            return DenseResolvent(model.K, model.M, model.D)
+        except ModelError as exc:
+            log.info("dense full FRF not applicable (%s): sparse direct sweep", exc)
+            self.path = "direct"
+            return None
 
     def summary(self) -> dict:
         """JSON-ready description of the grid: ``n_points, tol, n_resonances, path, cache_hit,

@@ -76,8 +76,9 @@ def _add_model_args(p, damping=True):
                        help="damping ratio; realized as Rayleigh damping with this ratio at both band ends")
         p.add_argument("--n-freq", type=int, default=50, help="log-spaced base points of the error grid")
         p.add_argument("--grid-tol", type=float, help="relative tolerance of the adaptive error grid (default 3e-3)")
-        p.add_argument("--full-frf", choices=["auto", "direct", "surrogate"], default="auto",
-                       help="full FRF by direct solves or a verified surrogate (auto: surrogate from 20k DOF)")
+        p.add_argument("--full-frf", choices=["auto", "direct", "dense", "surrogate"], default="auto",
+                       help="full FRF by direct solves, one dense eigendecomposition or a verified surrogate "
+                            "(auto: dense up to 5k DOF, surrogate from 20k DOF)")
         p.add_argument("--no-cache", action="store_true", help="neither read nor write the full-FRF disk cache")
 
 

@@ -197,7 +197,8 @@ def dense_eigenmodes(K, M, k: int | None = None, *, sigma: float | None = None):
     k = n if k is None else int(k)
     rcond = _mass_rcond(Md)
     if rcond >= MASS_RCOND_MIN:
-        lam, phi = sla.eigh(Kd, Md, subset_by_index=[0, k - 1])
+        # all pairs: the divide-and-conquer driver (gvd), ~2.5x faster than the subset driver (gvx)
+        lam, phi = sla.eigh(Kd, Md, subset_by_index=None if k == n else [0, k - 1])
     else:
         log.info("mass matrix singular or ill-conditioned (rcond %.1e): shift-inverted dense eigenproblem", rcond)
         lam, phi = _shift_inverted(Kd, Md, None if k == n else k, sigma)
