@@ -34,6 +34,10 @@ class FlexmorError(Exception):
         (:meth:`message`).
     """
 
+    #: Kept by the class too: an error rebuilt from its message alone (unpickled, e.g. sent from
+    #: MPI rank 0 to the others) names no parameter.
+    params: tuple = ()
+
     def __init__(self, *args, params=()):
         super().__init__(*args)
         self.params = tuple(params)
