@@ -26,6 +26,7 @@ import scipy.sparse as sp
 from .damping import Damping, NoDamping, Rayleigh, damping_from_dict
 from .errors import FlexmorWarning, ModelError
 from .linalg.distributed import is_partitioned
+from .mesh import Mesh
 
 __all__ = ["FEModel", "DIRECTIONS", "direction_code", "direction_name"]
 
@@ -135,6 +136,9 @@ class FEModel:
         Nodes whose direction codes are not the global x y z (Nastran grids with a local
         displacement system): the columns are the node's directions 1-3 (and 4-6) in
         global components. Empty for almost all models.
+    mesh : Mesh, optional
+        Element connectivity (:mod:`flexmor.mesh`), for the visualization and meshio; None
+        where the file has no elements.
     singular_mass_ok : bool
         The element formulation legitimately gives a singular or indefinite mass matrix
         (20-node hexahedra with reduced integration or row-sum lumping, e.g. CalculiX
@@ -164,6 +168,7 @@ class FEModel:
     damping: Damping = field(default_factory=NoDamping)
     node_frames: dict = field(default_factory=dict)
     singular_mass_ok: bool = False
+    mesh: Mesh | None = None
 
     def __post_init__(self):
         if not isinstance(self.damping, Damping):
@@ -193,6 +198,8 @@ class FEModel:
             raise ModelError(f"stiffness matrix has a negative diagonal entry at {self.describe_dof(i)}")
         self._check_geometry(n)
         self._check_io(n)
+        if self.mesh is not None and self.node_ids.size:
+            self.mesh.check_nodes(self.node_ids)
 
     # -- validation -------------------------------------------------------------------------
     def _check_geometry(self, n: int) -> None:
