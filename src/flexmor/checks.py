@@ -19,7 +19,7 @@ import numpy as np
 from .errors import FlexmorWarning, ModelError
 from .linalg.context import SolverContext, as_solver
 
-__all__ = ["MAX_RIGID_BODY_MODES", "check_rigid_body_modes", "mechanism_error"]
+__all__ = ["MAX_RIGID_BODY_MODES", "check_rigid_body_modes", "first_elastic_hz", "mechanism_error"]
 
 #: Zero-energy modes an elastic body can have (3 translations + 3 rotations).
 MAX_RIGID_BODY_MODES = 6
@@ -52,18 +52,32 @@ def check_rigid_body_modes(model, *, solver: SolverContext | None = None) -> int
     ModelError
         More than six zero-energy modes (a mechanism).
     """
-    from .linalg.eigen import eigenmodes, is_rigid
+    from .linalg.eigen import is_rigid
 
-    solver = as_solver(solver)
-
-    def count() -> int:
-        lam, _ = eigenmodes(model.K, model.M, min(MAX_RIGID_BODY_MODES + 1, model.n_dof), solver=solver)
-        return int(np.sum(is_rigid(lam, model.K, model.M)))
-
-    n_zero = solver.remember("rigid_body_modes", (model.K, model.M), count)
+    n_zero = int(np.sum(is_rigid(_lowest_eigenvalues(model, as_solver(solver)), model.K, model.M)))
     if n_zero > MAX_RIGID_BODY_MODES:
         raise mechanism_error(model, n_zero)
     if n_zero:
         warnings.warn(f"{model.source or model.name}: {n_zero} rigid-body modes (free or partly supported body); "
                       "methods exclude them or use shifted expansion points", FlexmorWarning, stacklevel=2)
     return n_zero
+
+
+def _lowest_eigenvalues(model, solver: SolverContext) -> np.ndarray:
+    """The seven lowest eigenvalues of ``(K, M)``, remembered by ``solver`` per matrix pair."""
+    from .linalg.eigen import eigenmodes
+
+    def compute():
+        return eigenmodes(model.K, model.M, min(MAX_RIGID_BODY_MODES + 1, model.n_dof), solver=solver)[0]
+
+    return solver.remember("lowest_eigenvalues", (model.K, model.M), compute)
+
+
+def first_elastic_hz(model, *, solver: SolverContext | None = None) -> float:
+    """The full model's first elastic (non rigid-body) eigenfrequency in Hz; ``inf`` if none is
+    among the seven lowest (a mechanism). Reuses the eigenvalues of :func:`check_rigid_body_modes`."""
+    from .linalg.eigen import frequencies_hz, is_rigid
+
+    lam = _lowest_eigenvalues(model, as_solver(solver))
+    flex = lam[~is_rigid(lam, model.K, model.M)]
+    return float(frequencies_hz(flex[:1])[0]) if flex.size else float("inf")

@@ -50,7 +50,7 @@ import numpy as np
 
 from .errors import ModelError, PortError
 
-__all__ = ["FrameNode", "Invariants", "compute_invariants", "frame_nodes", "node_triples"]
+__all__ = ["FrameNode", "Invariants", "compute_invariants", "frame_nodes", "node_triples", "check_free_model"]
 
 log = logging.getLogger(__name__)
 
@@ -250,6 +250,32 @@ def compute_invariants(model, V, *, K=None, D=None, nodes=()) -> Invariants:
         Gr=Gr_t.transpose(1, 0, 2).reshape(3, 3 * r),  # column 3a + l
         Ge=2.0 * Cr1.reshape(r, 3 * r),  # column 3b + k
         Oe0=Oe0, Oe1=Oe1, Me=sym(Me), Ke=sym(Ke), De=sym(D), nodes=list(nodes))
+
+
+def check_free_model(model, *, allow_clamped: bool = False) -> int:
+    """Refuse a supported (clamped) model for a floating-frame export; return its rigid-body mode count.
+
+    A model with boundary conditions has lost the equations of its supported nodes, and with
+    them their mass: the body's mass, centre of mass and inertia tensor in the floating frame
+    would be those of the unsupported part only. ``allow_clamped=True`` is the explicit choice
+    for a body whose frame does not move (fixed to the ground), where the inertia terms do not act.
+
+    Raises
+    ------
+    ModelError
+        The model has fewer than six rigid-body modes and ``allow_clamped`` is False.
+    """
+    from .reduction.free_body import rigid_body_modes
+
+    n = int(rigid_body_modes(model).shape[1])
+    if n < 6 and not allow_clamped:
+        raise ModelError(
+            f"{model.source or model.name} is supported ({n} of 6 rigid-body modes): the nodes held by its boundary "
+            "conditions and their mass are not in the model, so the floating-frame body would carry a wrong mass, "
+            "centre of mass and inertia; reduce the free model (no boundary conditions; rigid-body modes "
+            "excluded) for FFRF export, or pass --allow-clamped (allow_clamped=True) for a body whose frame "
+            "does not move")
+    return n
 
 
 def rigid_content(model, V) -> float:

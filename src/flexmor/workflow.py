@@ -7,13 +7,14 @@ import time
 from pathlib import Path
 
 from .analysis.compare import FullResponse
-from .checks import check_rigid_body_modes
+from .checks import check_rigid_body_modes, first_elastic_hz
 from .damping import Damping, NoDamping, Rayleigh, band_matched
 from .errors import OptionError
 from .linalg.context import SolverContext, as_solver
 from .options import DEFAULT_BAND, Band, parse_pair
 from .ports import make_ports
 from .reduction import reduce
+from .reduction.free_body import check_body
 
 __all__ = ["coupling_specs", "prepare_model", "parse_band", "parse_pair", "apply_damping", "damping_of",
            "reduce_and_judge", "run_demo", "DEFAULT_BAND"]
@@ -90,7 +91,10 @@ def reduce_and_judge(model, method: str, order, ports, *, band=None, full: FullR
     largest order tried; ``result`` gets ``tol`` and ``tol_reached``. ``method_band`` is the band
     the method itself uses (expansion points, Gramian band) when ``band`` is None (no error
     evaluation). A mechanism (more than six zero-energy modes) is refused first
-    (:func:`flexmor.checks.check_rigid_body_modes`).
+    (:func:`flexmor.checks.check_rigid_body_modes`). A body with modes below the full model's
+    first elastic frequency that the full model does not have, or with band_error above 1, is
+    reported by a :class:`~flexmor.errors.FlexmorWarning` (:func:`flexmor.reduction.free_body.check_body`);
+    ``result["warnings"]`` lists them.
     """
     solver = as_solver(solver)
     check_rigid_body_modes(model, solver=solver)
@@ -139,6 +143,8 @@ def reduce_and_judge(model, method: str, order, ports, *, band=None, full: FullR
         result["grid"] = full.summary()
         red.errors = {"band_hz": list(full.band), "band_error": err["band_error"],
                       "max_rel_error": err["max_rel_error"], "freqs_hz": full.freqs, "rel_error": err["rel_error"]}
+    result["warnings"] = check_body(model, red, f1_hz=first_elastic_hz(model, solver=solver),
+                                    band_error=result["band_error"])
     if tol is not None:
         result["tol"] = tol
         result["tol_reached"] = red.info["tol_search"]["tol_reached"]

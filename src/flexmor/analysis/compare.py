@@ -138,6 +138,7 @@ class FullResponse:
                 frf_cache.store(key, self.freqs, self.H, self.resonances, self.zeta, self.grid, directory)
                 self.timings["cache"] += time.perf_counter() - t1
         self.grid["cache_hit"] = self.cache_hit
+        self._model, self._ports = model, ports  # for the rigid part of bodies without rigid motion
         self.n_factorizations = solver.stats.count - c0
         self.seconds = time.perf_counter() - t0
         log.info("full FRF: %d frequencies in %.2f s (%s%s)", self.freqs.size, self.seconds, path,
@@ -213,8 +214,31 @@ class FullResponse:
         return out
 
     def evaluate(self, reduced) -> dict:
-        """Error measures of ``reduced`` (dict with ``band_error``, ``max_rel_error``, ``rel_error``)."""
+        """Error measures of ``reduced`` (dict with ``band_error``, ``max_rel_error``, ``rel_error``).
+
+        A free body whose basis excludes the rigid-body modes (``info['n_rigid_excluded']``, the
+        floating-frame case: the frame carries the rigid motion) is judged on the elastic part
+        of ``H``: the response of the rigid-body modes alone, ``C Φ (s² I + s Φᵀ D Φ)⁻¹ Φᵀ B``,
+        is taken from the full FRF first (exact for proportional damping).
+        """
         Hr = frf_reduced(reduced, self.freqs)
-        out = error_measures(self.freqs, self.H, Hr)
-        out["rel_error"] = rel_error(self.H, Hr)
+        H = self.H
+        if reduced.info.get("n_rigid_excluded"):
+            H = H - self._rigid_part()
+        out = error_measures(self.freqs, H, Hr)
+        out["rel_error"] = rel_error(H, Hr)
+        return out
+
+    def _rigid_part(self) -> np.ndarray:
+        """FRF of the rigid-body modes alone on :attr:`freqs`, shape like :attr:`H`."""
+        from ..reduction.free_body import rigid_body_modes
+
+        model, ports = self._model, self._ports
+        phi = rigid_body_modes(model)
+        Cp, Bp = np.asarray(ports.C @ phi), np.asarray((ports.B.T @ phi).T)
+        Dp = phi.T @ (model.D @ phi) if model.D is not None else np.zeros((phi.shape[1],) * 2)
+        s = 2j * np.pi * self.freqs
+        out = np.empty(self.H.shape, dtype=complex)
+        for k, sk in enumerate(s):
+            out[k] = Cp @ np.linalg.solve(sk * sk * np.eye(phi.shape[1]) + sk * Dp, Bp)
         return out

@@ -15,8 +15,9 @@ from __future__ import annotations
 import logging
 import signal
 import sys
+import warnings
 
-from ..errors import ConvergenceError, FlexmorError, ModelError, PortError, SolverError
+from ..errors import ConvergenceError, FlexmorError, FlexmorWarning, ModelError, PortError, SolverError
 from ..linalg.distributed import quiet_other_ranks
 from .parser import build_parser
 
@@ -31,6 +32,16 @@ def _on_sigterm(signum, frame):
     raise _Terminated
 
 
+_python_format_warning = warnings.formatwarning
+
+
+def _format_warning(message, category, filename, lineno, line=None):
+    """A :class:`FlexmorWarning` as its one-line message (no source path); others as Python does."""
+    if issubclass(category, FlexmorWarning):
+        return str(message)
+    return _python_format_warning(message, category, filename, lineno, line)
+
+
 def main(argv=None) -> int:
     """Run the command line; returns the exit code."""
     parser = build_parser()
@@ -38,6 +49,7 @@ def main(argv=None) -> int:
     level = [logging.WARNING, logging.INFO, logging.DEBUG][min(args.verbose, 2)]
     logging.basicConfig(level=level, format="%(levelname)s %(name)s: %(message)s")
     logging.captureWarnings(True)
+    warnings.formatwarning = _format_warning
     quiet_other_ranks()  # mpirun -n P: only rank 0 prints
     previous = None
     try:

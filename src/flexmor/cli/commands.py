@@ -291,6 +291,8 @@ def cmd_export(args) -> int:
     opts = {"nodes": args.node or None} if fmt in ("sid", "mat") else {}
     if fmt == "sid":
         opts["m1_order"] = args.m1_order
+    if args.allow_clamped:
+        opts["allow_clamped"] = True
     export(red, args.output_file, fmt, model=model, **opts)
     out = {"file": str(args.output_file), "format": fmt, "order": red.order, "method": red.method}
     if args.json:

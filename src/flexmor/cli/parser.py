@@ -156,6 +156,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--model-format", help="override the format of --model chosen from its suffix")
     p.add_argument("--node", action="append", default=[], metavar="NODE|SET",
                    help="SID frame node (node id or set; a set gives an RBE3 master); default the port nodes")
+    p.add_argument("--allow-clamped", action="store_true", help="sid/exudyn: export a body of a supported "
+                   "(clamped) model, whose mass properties miss the supported nodes (for a frame that does not move)")
     p.add_argument("--m1-order", choices=["row-q-col", "row-col-q"], default="row-q-col",
                    help="index order of SID m1(i,j,k) entries (default row-q-col, as PY_SID/EMBS)")
     p.add_argument("--json", action="store_true", help="print one JSON object on stdout")

@@ -79,7 +79,7 @@ def exudyn_data(reduced, model, *, node_type: str = NODE_TYPES[0]) -> dict:
     ModelError
         No basis, a basis that does not match the model, no node table.
     """
-    from ..invariants import node_triples, rigid_content
+    from ..invariants import _rigid_fields, node_triples, rigid_content
 
     if node_type not in NODE_TYPES:
         raise OptionError(f"node_type={node_type!r} is not allowed; choose one of: {', '.join(NODE_TYPES)}")
@@ -105,39 +105,50 @@ def exudyn_data(reduced, model, *, node_type: str = NODE_TYPES[0]) -> dict:
     Phit = np.tile(np.eye(3), (n, 1))
     xt = _skew_rows(x[:, None])
     Pt = _skew_rows(Psi)
-    F = np.hstack([Phit, xt, Psi, Pt])
-    MF = np.asarray(Me @ F)
-    MPhit, Mxt, MPsi, MPt = MF[:, :3], MF[:, 3:6], MF[:, 6:6 + r], MF[:, 6 + r:]
-    Mtt = Phit.T @ MPhit
-    mass = float(Mtt[0, 0])
-    chi = (MPhit.T @ x) / mass
+    MF = np.asarray(Me @ np.hstack([Psi, Pt]))
+    MPsi, MPt = MF[:, :r], MF[:, r:]
+    # the terms of the rigid fields are taken from the full mass matrix (rotational DOFs included,
+    # e.g. the master nodes of RBE2 couplings that carry the mass of their faces): exact rigid-body
+    # mass, centre of mass and inertia tensor, and the exact first-order coupling terms
+    St, Sr, X = _rigid_fields(model, trans, rot)
+    MR = np.asarray(model.M @ np.hstack([St, Sr, X[:, None]]))
+    Mtt = St.T @ MR[:, :3]
+    mass = float(np.trace(Mtt) / 3)
+    chi = (St.T @ MR[:, 6]) / mass
+    inertia = Sr.T @ MR[:, 3:6]
     rot_dofs = 4 if node_type.endswith("EulerParameters") else 3
     return {
         "modeBasis": Psi, "trigList": np.zeros((0, 3), dtype=np.int64), "postProcessingModes": {},
         "massMatrixReduced": np.asarray(reduced.M, float), "stiffnessMatrixReduced": np.asarray(reduced.K, float),
         "infoList": np.array([r, n, 3, rot_dofs, 3 + rot_dofs, 3 + rot_dofs + r]),
-        "rigidBodyNodeType": node_type, "xRef": x, "inertiaLocal": xt.T @ Mxt, "Mtt": Mtt,
+        "rigidBodyNodeType": node_type, "xRef": x, "inertiaLocal": 0.5 * (inertia + inertia.T), "Mtt": Mtt,
         "totalMass": mass, "chiU": chi, "chiUtilde": _skew_rows(chi[:, None]),
-        "mPsiTildePsi": Pt.T @ MPsi, "mPsiTildePsiTilde": Pt.T @ MPt, "mPhitTPsi": Phit.T @ MPsi,
-        "mPhitTPsiTilde": Phit.T @ MPt, "mXRefTildePsi": xt.T @ MPsi, "mXRefTildePsiTilde": xt.T @ MPt,
+        "mPsiTildePsi": Pt.T @ MPsi, "mPsiTildePsiTilde": Pt.T @ MPt, "mPhitTPsi": MR[:, :3].T @ V,
+        "mPhitTPsiTilde": Phit.T @ MPt, "mXRefTildePsi": -(MR[:, 3:6].T @ V), "mXRefTildePsiTilde": xt.T @ MPt,
         "fileVersion": 1, "type": "ObjectFFRFreducedOrderInterface", "nodeIds": model.node_ids.copy(),
     }
 
 
-def write_exudyn(reduced, path, *, model=None, node_type: str = NODE_TYPES[0]) -> None:
+def write_exudyn(reduced, path, *, model=None, node_type: str = NODE_TYPES[0], allow_clamped: bool = False) -> None:
     """Write the Exudyn data of a reduced body to ``path`` (``.npz``), atomically.
 
     Load it in Exudyn with ``cms = exudyn.FEM.ObjectFFRFreducedOrderInterface();
-    cms.LoadFromFile(path)``, then ``cms.AddObjectFFRFreducedOrder(mbs, ...)``.
+    cms.LoadFromFile(path)``, then ``cms.AddObjectFFRFreducedOrder(mbs, ...)``. A body of a
+    supported (clamped) model is refused unless ``allow_clamped`` (its mass properties miss the
+    supported nodes, :func:`flexmor.invariants.check_free_model`).
 
     Raises
     ------
     ModelError
-        Without ``model`` (the inertia terms need the FE mass matrix), or see :func:`exudyn_data`.
+        Without ``model`` (the inertia terms need the FE mass matrix), a clamped model, or see
+        :func:`exudyn_data`.
     """
     if model is None:
         raise ModelError("Exudyn export needs the FE data the body was reduced from, given as model: "
                          "the inertia terms are integrals over its mass matrix", params=("model",))
+    from ..invariants import check_free_model
+
+    check_free_model(model, allow_clamped=allow_clamped)
     data = exudyn_data(reduced, model, node_type=node_type)
 
     def write(tmp):

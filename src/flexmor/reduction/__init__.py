@@ -21,6 +21,7 @@ from typing import Callable
 from ..errors import OptionError
 from ..options import option_fields
 from ..projection import ReducedModel, project
+from .free_body import exclude_rigid
 
 __all__ = ["register_method", "METHODS", "methods", "reduce", "Method", "check_keywords"]
 
@@ -129,6 +130,8 @@ def reduce(model, method: str, order: int | None, ports, **options) -> tuple[Red
         Method options (the fields of the method's ``options_class``, e.g. ``interface``) and
         ``solver``; any other keyword raises OptionError listing the allowed ones. Options
         not given take their defaults.
+        A basis that excludes rigid-body modes (``info['rigid'] == 'exclude'``) is made
+        mass-orthogonal to them (:func:`flexmor.reduction.free_body.exclude_rigid`).
 
     Returns
     -------
@@ -148,7 +151,7 @@ def reduce(model, method: str, order: int | None, ports, **options) -> tuple[Red
     if order is not None and (int(order) != order or order < 1):
         raise OptionError(f"order must be a positive integer, got {order}", params=("order",))
     t0 = time.perf_counter()
-    basis = m.function(model, ports, order, **opts)
+    basis = exclude_rigid(model, m.function(model, ports, order, **opts))
     t1 = time.perf_counter()
     red = project(model, basis, ports)
     t2 = time.perf_counter()

@@ -7,11 +7,13 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..basis import Basis
-from ..errors import OptionError
+from ..errors import OptionError, check_choice
 from ..linalg.context import SolverContext, as_solver
 from ..linalg.eigen import eigenmodes, frequencies_hz
 from . import register_method
+from .free_body import rigid_body_modes
 from .guyan import constraint_modes, interface_option
+from .krylov import rigid_option
 
 
 def cb_frame(model, interface, order, method: str, solver: SolverContext | None = None):
@@ -36,10 +38,12 @@ class CraigBamptonOptions:
     """Options of :func:`craig_bampton`."""
 
     interface: list | None = interface_option()
+    rigid: str = rigid_option("exclude")
 
 
 @register_method("craig-bampton", "constraint modes + fixed-interface normal modes", options=CraigBamptonOptions)
-def craig_bampton(model, ports, order, *, interface=None, solver: SolverContext | None = None) -> Basis:
+def craig_bampton(model, ports, order, *, interface=None, rigid: str = "exclude",
+                  solver: SolverContext | None = None) -> Basis:
     """Craig-Bampton basis ``[[I, 0], [Psi, Phi_i]]`` of total order r = n_b + n_modes.
 
     Parameters
@@ -52,6 +56,16 @@ def craig_bampton(model, ports, order, *, interface=None, solver: SolverContext 
         (``order - n_b`` modes; ``order == n_b`` is Guyan).
     interface : list of str
         Interface SPECs (``NODE``, ``SET``, ``NODE:DIR``, ``SET:DIR``).
+    rigid : {'exclude', 'include'}
+        Free bodies: the constraint modes of an interface that holds the body span its
+        rigid-body motions. ``exclude`` (default) removes them, as the floating frame of
+        reference wants (:func:`flexmor.reduction.free_body.exclude_rigid`: the basis is made
+        mass-orthogonal to the rigid-body modes; the reduced coordinates are then no longer the
+        interface displacements); the fixed-interface modes are computed for
+        ``order - n_b + n_rigid`` so that the body keeps the requested order. Its frequencies
+        are upper bounds of the free-free elastic ones (Rayleigh-Ritz). ``include`` keeps the
+        classic basis (interface coordinates, zero-frequency rigid-body modes). No effect on a
+        supported body.
     solver : SolverContext, optional
         Solver (backend, statistics) of :func:`flexmor.linalg.factorize`; the factorization of ``K_ii`` serves
         both the constraint modes and the shift-invert eigen solver.
@@ -68,6 +82,10 @@ def craig_bampton(model, ports, order, *, interface=None, solver: SolverContext 
     AIAA Journal 6(7), 1313-1319.
     """
     solver = as_solver(solver)
+    check_choice("rigid", rigid, ("exclude", "include"))
+    n_rb = rigid_body_modes(model).shape[1] if rigid == "exclude" else 0
+    if order is not None and n_rb:  # the rigid motions leave the constraint modes' span
+        order = order + n_rb
     V, b, i, F = cb_frame(model, interface, order, "craig-bampton", solver)
     n_modes = V.shape[1] - b.size
     freqs = []
@@ -77,5 +95,7 @@ def craig_bampton(model, ports, order, *, interface=None, solver: SolverContext 
         lam, phi = eigenmodes(Kii, Mii, n_modes, sigma=0.0, factorization=F, solver=solver)
         V[i, b.size:] = phi
         freqs = frequencies_hz(lam).tolist()
-    return Basis(V, "craig-bampton", {"n_interface_dofs": int(b.size), "n_modes": int(n_modes),
-                                       "fixed_interface_hz": freqs})
+    info = {"n_interface_dofs": int(b.size), "n_modes": int(n_modes), "fixed_interface_hz": freqs}
+    if n_rb:
+        info.update(rigid="exclude", n_rigid=int(n_rb))
+    return Basis(V, "craig-bampton", info)

@@ -34,6 +34,7 @@ from ..linalg.eigen import default_shift
 from ..linalg.threads import blas_threads
 from ..options import Band, band_option, option
 from . import register_method
+from .free_body import rigid_body_modes
 
 __all__ = ["krylov", "KrylovOptions", "parse_points", "default_points", "SecondOrderArnoldi", "start_block",
            "rigid_body_modes", "points_option", "side_option", "rigid_option"]
@@ -233,38 +234,6 @@ class SecondOrderArnoldi:
         return self._append(top, u1)
 
 
-def rigid_body_modes(model) -> np.ndarray:
-    """M-orthonormal rigid-body modes of a free body from its geometry, (n_dof, k), k <= 6.
-
-    The six rigid motions (translations; rotations ``e_a x (x - x_c)`` on translational
-    and ``1`` on rotational DOF) are built from the node coordinates and the equation map; those
-    with ``||K phi|| <= 1e-8 ||K||_1 ||phi||`` are rigid-body modes of the model (none for a
-    supported body or a model without geometry). Costs six sparse products, no eigen solve.
-    """
-    if model.dofs is None or model.n_nodes == 0:
-        return np.zeros((model.n_dof, 0))
-    xyz = model.node_xyz(model.dofs[:, 0])
-    xyz = xyz - xyz.mean(axis=0)
-    d = model.dofs[:, 1]
-    R = np.zeros((model.n_dof, 6))
-    for a in range(3):
-        R[d == a + 1, a] = 1.0
-        e = np.eye(3)[a]
-        for j in range(3):  # (e_a x x)_j on translations
-            R[d == j + 1, 3 + a] = np.cross(e, xyz[d == j + 1])[:, j]
-        R[d == a + 4, 3 + a] = 1.0
-    nrm = np.linalg.norm(R, axis=0)
-    R = R[:, nrm > 0] / nrm[nrm > 0]
-    kn = abs(model.K).sum(axis=0).max()
-    R = R[:, np.linalg.norm(model.K @ R, axis=0) <= 1e-8 * kn]
-    if R.shape[1] == 0:
-        return R
-    G = R.T @ (model.M @ R)
-    w, U = np.linalg.eigh(0.5 * (G + G.T))
-    keep = w > 1e-12 * w[-1]
-    return R @ (U[:, keep] / np.sqrt(w[keep]))
-
-
 def blocks_at_points(model, ports, points, n_moments: int, *, side: str = "input", solver: SolverContext | None = None,
                      rigid_modes=None):
     """Krylov blocks for every point, ``n_moments`` per point, one factorization at a time.
@@ -447,5 +416,5 @@ def krylov(model, ports, order, *, points=None, moments: int | None = None, side
         log.warning("krylov: only %d independent directions for order %d (deflation)", V.shape[1], order)
     info = {"points_hz": [str(p) for p in pts], "points_rad_s": [str(s) for s in used], "moments": k,
             "side": side, "rigid": rigid, "n_rigid": int(phi.shape[1]), "n_rigid_excluded": n_rb,
-            "nested": True}
+            "n_rigid_included": int(head[0][0].shape[1]) if head else 0, "nested": True}
     return Basis(V, "krylov", info)

@@ -190,7 +190,8 @@ def sid_text(sid: SIDFile, *, m1_order: str = "row-q-col") -> str:
     return "\n".join(L)
 
 
-def write_sid(reduced, path, *, model=None, nodes=None, m1_order: str = "row-q-col") -> None:
+def write_sid(reduced, path, *, model=None, nodes=None, m1_order: str = "row-q-col",
+              allow_clamped: bool = False) -> None:
     """Write a reduced body as a ``.SID_FEM`` file, atomically.
 
     Parameters
@@ -204,6 +205,9 @@ def write_sid(reduced, path, *, model=None, nodes=None, m1_order: str = "row-q-c
         Frame nodes (node ids or node sets); default the body's port/interface nodes.
     m1_order : {'row-q-col', 'row-col-q'}
         Index order of the ``m1(i, j, k)`` entries.
+    allow_clamped : bool
+        Export a body of a supported (clamped) model, whose mass properties miss the supported
+        nodes (:func:`flexmor.invariants.check_free_model`); refused by default.
 
     Raises
     ------
@@ -219,6 +223,9 @@ def write_sid(reduced, path, *, model=None, nodes=None, m1_order: str = "row-q-c
         if model is None:
             raise ModelError("SID export needs the FE data the body was reduced from, given as model: "
                              "the inertia invariants are integrals over its mass matrix", params=("model",))
+        from ...invariants import check_free_model
+
+        check_free_model(model, allow_clamped=allow_clamped)
         sid = sid_from_reduced(reduced, model, nodes=nodes)
     text = sid_text(sid, m1_order=m1_order)
     atomic_write(path, lambda tmp: Path(tmp).write_text(text))

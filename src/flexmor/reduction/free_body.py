@@ -1,0 +1,215 @@
+"""Free bodies for the floating frame of reference: the one place where rigid motion leaves a basis.
+
+In the floating frame of reference (FFRF) the rigid motion of a free body belongs to the
+frame; the elastic coordinates must not contain it, or ``Ke = Vᵀ K V`` is singular and the
+frame and the modes are redundant. Whatever the method, a basis whose method records
+``info['rigid'] == 'exclude'`` is made mass-orthogonal to the model's rigid-body modes by
+:func:`exclude_rigid`, which :func:`flexmor.reduction.reduce` applies before the projection:
+
+    V  <-  (I - Φ Φᵀ M) V,   Φ the M-orthonormal rigid-body modes (:func:`rigid_body_modes`),
+
+twice, then an order-preserving orthonormalization that drops the directions that were rigid
+(the constraint modes of a Craig-Bampton basis span the rigid motions: they leave as many
+columns), and a last projection so that the kept columns are clean to round-off of their own
+size. Since ``span(V)`` then lies in the M-orthogonal complement of the rigid modes, the
+reduced frequencies are Rayleigh-Ritz upper bounds of the full model's free-free elastic
+ones, and moments of the flexible part that ``span(V)`` matched stay matched (the projector
+leaves flexible vectors unchanged).
+
+:func:`check_body` is the guard against bodies that are written but wrong: a reduced mode
+below the full model's first elastic frequency that is not a rigid-body mode (a Galerkin
+body whose basis holds no rigid motion cannot have one), or a band_error above 1, is
+reported with a one-line :class:`~flexmor.errors.FlexmorWarning` that says why and what to do.
+
+References
+----------
+Craig, R. R., Kurdila, A. J. (2006). Fundamentals of Structural Dynamics, 2nd ed., Wiley,
+ch. 18-19 (free-interface and fixed-interface CMS of free components).
+
+Schwertassek, R., Wallrapp, O. (1999). Dynamik flexibler Mehrkörpersysteme. Vieweg, ch. 6
+(reference conditions of the elastic coordinates).
+"""
+
+from __future__ import annotations
+
+import logging
+import warnings
+
+import numpy as np
+
+from ..basis import Basis
+from ..errors import FlexmorWarning
+from ..linalg.eigen import rigid_body_threshold
+
+__all__ = ["rigid_body_modes", "exclude_rigid", "rigid_residual", "check_body", "spurious_modes_hz"]
+
+log = logging.getLogger(__name__)
+
+#: Relative norm below which a column made M-orthogonal to the rigid modes counts as rigid (dropped).
+RIGID_DEFLATION_TOL = 1e-8
+
+
+def rigid_body_modes(model) -> np.ndarray:
+    """M-orthonormal rigid-body modes of a free body from its geometry, (n_dof, k), k <= 6.
+
+    The six rigid motions (translations; rotations ``e_a x (x - x_c)`` on translational
+    and ``1`` on rotational DOF) are built from the node coordinates and the equation map; those
+    with ``||K phi|| <= 1e-8 ||K||_1 ||phi||`` are rigid-body modes of the model (none for a
+    supported body or a model without geometry). Costs six sparse products, no eigen solve.
+    """
+    if model.dofs is None or model.n_nodes == 0:
+        return np.zeros((model.n_dof, 0))
+    xyz = model.node_xyz(model.dofs[:, 0])
+    xyz = xyz - xyz.mean(axis=0)
+    d = model.dofs[:, 1]
+    R = np.zeros((model.n_dof, 6))
+    for a in range(3):
+        R[d == a + 1, a] = 1.0
+        e = np.eye(3)[a]
+        for j in range(3):  # (e_a x x)_j on translations
+            R[d == j + 1, 3 + a] = np.cross(e, xyz[d == j + 1])[:, j]
+        R[d == a + 4, 3 + a] = 1.0
+    nrm = np.linalg.norm(R, axis=0)
+    R = R[:, nrm > 0] / nrm[nrm > 0]
+    kn = abs(model.K).sum(axis=0).max()
+    R = R[:, np.linalg.norm(model.K @ R, axis=0) <= 1e-8 * kn]
+    if R.shape[1] == 0:
+        return R
+    G = R.T @ (model.M @ R)
+    w, U = np.linalg.eigh(0.5 * (G + G.T))
+    keep = w > 1e-12 * w[-1]
+    return R @ (U[:, keep] / np.sqrt(w[keep]))
+
+
+def rigid_residual(model, V, phi=None) -> float:
+    """Largest relative rigid content of a column of ``V``: ``max_j ‖Φᵀ M v_j‖ / ‖v_j‖_M`` (0 if clean)."""
+    phi = rigid_body_modes(model) if phi is None else phi
+    if phi.shape[1] == 0 or V.shape[1] == 0:
+        return 0.0
+    MV = model.M @ V
+    nrm = np.sqrt(np.clip(np.einsum("ij,ij->j", V, MV), 0.0, None))
+    c = np.linalg.norm(phi.T @ MV, axis=0)
+    return float(np.max(c / np.where(nrm > 0, nrm, 1.0)))
+
+
+def _m_project(model, phi, V):
+    return V - phi @ (phi.T @ (model.M @ V))
+
+
+def _orthonormal_in_order(X, tol: float):
+    """Orthonormal columns spanning ``X`` built column by column (Gram-Schmidt order kept:
+    the first ``k`` results span the leading columns), dropping those whose part outside the
+    earlier ones is below ``tol`` times their norm."""
+    nrm = np.linalg.norm(X, axis=0)
+    keep = []
+    Q = np.zeros_like(X)
+    k = 0
+    for j in range(X.shape[1]):
+        if nrm[j] == 0:
+            continue
+        x = X[:, j] / nrm[j]
+        for _ in range(2):  # twice is enough
+            x = x - Q[:, :k] @ (Q[:, :k].T @ x)
+        s = np.linalg.norm(x)
+        if s > tol:
+            Q[:, k] = x / s
+            keep.append(j)
+            k += 1
+    return Q[:, :k], keep
+
+
+def exclude_rigid(model, basis: Basis) -> Basis:
+    """``basis`` made mass-orthogonal to the rigid-body modes of ``model`` (when it excludes them).
+
+    Acts when ``basis.info['rigid'] == 'exclude'`` and the model has rigid-body modes (a free
+    or partly supported body). With ``rigid == 'include'`` and ``info['n_rigid_included'] = h``
+    (the leading ``h`` columns are rigid-body modes) the columns after them are cleaned the same
+    way, so that the body holds exactly those rigid motions. Otherwise ``basis`` is returned
+    unchanged.
+
+    Parameters
+    ----------
+    model : FEModel
+    basis : Basis
+
+    Returns
+    -------
+    Basis
+        The cleaned columns orthonormal (Euclidean), M-orthogonal to the rigid-body modes to
+        round-off (``info['rigid_residual']``, relative), in the order of the method's columns
+        (a nested basis stays nested); for ``exclude`` ``info['n_rigid_excluded']`` the number of
+        rigid-body modes and ``info['n_rigid_dropped']`` the columns that were rigid motion.
+    """
+    rigid = basis.info.get("rigid")
+    head = int(basis.info.get("n_rigid_included", 0)) if rigid == "include" else 0
+    if rigid not in ("exclude", "include") or (rigid == "include" and not head):
+        return basis
+    phi = rigid_body_modes(model)
+    if phi.shape[1] == 0:
+        return basis
+    V0 = np.asarray(basis.V, dtype=float)[:, head:]
+    X = V0
+    for _ in range(2):
+        X = _m_project(model, phi, X)
+    # relative to the method's columns: a column that was rigid motion leaves only round-off
+    scale = np.linalg.norm(V0, axis=0)
+    X = X / np.where(scale > 0, scale, 1.0)
+    Q, _ = _orthonormal_in_order(X, RIGID_DEFLATION_TOL)
+    Q = _m_project(model, phi, Q)  # clean to round-off of unit columns
+    Q, _ = _orthonormal_in_order(Q, RIGID_DEFLATION_TOL)
+    info = dict(basis.info, rigid_residual=rigid_residual(model, Q, phi))
+    if rigid == "exclude":
+        info.update(n_rigid_excluded=int(phi.shape[1]), n_rigid_dropped=int(X.shape[1] - Q.shape[1]))
+    if Q.shape[1] < X.shape[1]:
+        log.info("%s: %d columns were rigid-body motion and are dropped", basis.method, X.shape[1] - Q.shape[1])
+    return Basis(np.hstack([np.asarray(basis.V, dtype=float)[:, :head], Q]), basis.method, info)
+
+
+def spurious_modes_hz(model, reduced, f1_hz: float) -> np.ndarray:
+    """Reduced frequencies (Hz) that are neither rigid-body modes nor at or above ``f1_hz``.
+
+    ``f1_hz`` is the full model's first elastic frequency. A Galerkin body's Ritz values are
+    upper bounds of the full model's eigenvalues, so a mode between the rigid-body threshold
+    (:func:`flexmor.linalg.eigen.rigid_body_threshold`) and ``f1_hz`` (less a relative 1e-6)
+    is a mixture of rigid and elastic motion that the full model does not have.
+    """
+    lam = reduced.eigenvalues()
+    lo = rigid_body_threshold(model.K, model.M)
+    hi = (2 * np.pi * f1_hz) ** 2 * (1 - 2e-6)
+    bad = (lam > lo) & (lam < hi)
+    return np.sqrt(lam[bad]) / (2 * np.pi)
+
+
+def check_body(model, reduced, *, f1_hz: float | None = None, band_error: float | None = None) -> list[str]:
+    """Warn (one-line :class:`FlexmorWarning` each) about a reduced body that would be wrong.
+
+    Parameters
+    ----------
+    model : FEModel
+        The full model.
+    reduced : ReducedModel
+    f1_hz : float, optional
+        The full model's first elastic frequency; without it the spectrum is not checked.
+    band_error : float, optional
+        The body's band_error; above 1 the body is worse than no body at all.
+
+    Returns
+    -------
+    list of str
+        The warnings issued (empty for a sound body).
+    """
+    msgs = []
+    if f1_hz is not None and np.isfinite(f1_hz):
+        bad = spurious_modes_hz(model, reduced, f1_hz)
+        if bad.size:
+            hint = ("reduce with rigid-body modes excluded (--rigid exclude) so that the floating frame carries "
+                    "the rigid motion")
+            msgs.append(f"{reduced.method} body has {bad.size} mode(s) at {', '.join(f'{f:.4g}' for f in bad[:4])} Hz "
+                        f"below the full model's first elastic frequency {f1_hz:.4g} Hz that the full model does not "
+                        f"have (rigid motion mixed into the elastic coordinates); {hint}")
+    if band_error is not None and np.isfinite(band_error) and band_error > 1:
+        msgs.append(f"{reduced.method} body has band_error {band_error:.3g} > 1: it is worse than no body over the "
+                    "band; raise the order, widen the expansion points or band, or use another method")
+    for m in msgs:
+        warnings.warn(m, FlexmorWarning, stacklevel=2)
+    return msgs

@@ -1,0 +1,210 @@
+"""Free bodies for the floating frame: no rigid motion in the elastic coordinates, whatever the method.
+
+Regression tests of the failures of a free body on its way to an MBS code: Craig-Bampton gave a
+singular body, ``krylov --rigid exclude`` a body with modes at 44 and 73 Hz below the first
+elastic one (620.7 Hz), clamped bodies exported without their supported nodes' mass.
+"""
+
+import json
+import warnings
+
+import numpy as np
+import pytest
+import scipy.linalg as sla
+
+from conftest import CCX
+from flexmor.cli import main
+from flexmor.couplings import couple
+from flexmor.errors import FlexmorWarning, ModelError
+from flexmor.io.exudyn import exudyn_data, write_exudyn
+from flexmor.io.sid import read_sid, write_sid
+from flexmor.linalg.eigen import eigenmodes, frequencies_hz
+from flexmor.models import cantilever
+from flexmor.ports import make_ports
+from flexmor.projection import project
+from flexmor.basis import Basis
+from flexmor.reduction import reduce
+from flexmor.reduction.free_body import check_body, rigid_body_modes, rigid_residual
+from flexmor.workflow import apply_damping, reduce_and_judge
+
+FREE = str(CCX / "beam8_free_mat.sti")
+CLAMPED = str(CCX / "beam8_clamped_mat.sti")
+IFACES = ["FIX@rbe2", "TIP@rbe2"]
+
+
+def run_json(capsys, *argv):
+    assert main(list(argv)) == 0
+    return json.loads(capsys.readouterr().out)
+
+
+def elastic_hz(model, k):
+    """The k lowest elastic eigenfrequencies of the full model (rigid-body modes skipped)."""
+    lam, _ = eigenmodes(model.K, model.M, k + 6)
+    return frequencies_hz(lam[6:])
+
+
+def mass_properties(model):
+    """Mass, centre of mass and inertia tensor about the origin, from M and the rigid fields."""
+    d, xyz = model.dofs[:, 1], model.node_xyz(model.dofs[:, 0])
+    T = np.zeros((model.n_dof, 3))
+    R = np.zeros((model.n_dof, 3))
+    for a in range(3):
+        T[d == a + 1, a] = 1.0
+        R[d == a + 4, a] = 1.0
+        for j in range(3):
+            R[d == j + 1, a] = np.cross(np.eye(3)[a], xyz[d == j + 1])[:, j]
+    mass = (T.T @ (model.M @ T))[0, 0]
+    com = np.array([T[:, a] @ (model.M @ (xyz[:, a] * (d == a + 1))) for a in range(3)]) / mass
+    return mass, com, R.T @ (model.M @ R)
+
+
+@pytest.fixture(scope="module")
+def coupled(free):
+    return couple(free, IFACES).model
+
+
+@pytest.fixture(scope="module")
+def solid():
+    return cantilever(divisions=(12, 2, 2), clamped=False)
+
+
+def _no_zero_mode(red, f1):
+    lam = sla.eigh(red.K, red.M, eigvals_only=True)
+    assert lam[0] > 0.99 * (2 * np.pi * f1) ** 2  # no zero eigenvalue in (Me, Ke): Ke non-singular
+
+
+@pytest.mark.parametrize("name", ["beam8", "solid"])
+def test_craig_bampton_free_body_upper_bounds_converging(name, coupled, solid):
+    model = coupled if name == "beam8" else couple(solid, ["FIX@rbe2", "TIP@rbe2"]).model
+    ports = make_ports(model, ["TIP@rbe2:y"])
+    ref = elastic_hz(model, 4)
+    errs = []
+    for r in (16, 24, 36):
+        red, _ = reduce(model, "craig-bampton", r, ports, interface=IFACES)
+        assert red.order == r and red.info["n_rigid_dropped"] == 6
+        assert rigid_residual(model, red.V) < 1e-12
+        f = red.frequencies_hz()[:4]
+        assert np.all(f >= ref * (1 - 1e-9))  # Rayleigh-Ritz: upper bounds of the free-free ones
+        errs.append(np.max(f / ref - 1))
+        _no_zero_mode(red, ref[0])
+    assert errs[0] > errs[1] > errs[2] and errs[2] < 1e-3, errs
+
+
+def test_craig_bampton_rigid_include_keeps_the_classic_basis(coupled):
+    red, _ = reduce(coupled, "craig-bampton", 20, make_ports(coupled, ["TIP@rbe2:y"]), interface=IFACES,
+                    rigid="include")
+    assert np.sum(red.frequencies_hz() < 1.0) == 6 and red.order == 20
+
+
+def test_krylov_rigid_exclude_matches_in_band_modes(free, free_ref):
+    model = apply_damping(free, modal_damping=0.01, band=(10.0, 2000.0))
+    ports = make_ports(model, ["TIP:y", "TIP:z"])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", FlexmorWarning)  # no warning about this body ...
+        warnings.filterwarnings("ignore", ".*6 rigid-body modes", FlexmorWarning)  # ... but the model's note
+        red, res = reduce_and_judge(model, "krylov", 24, ports, band=(10.0, 2000.0), rigid="exclude")
+    assert res["warnings"] == []
+    assert rigid_residual(model, red.V) < 1e-12
+    f = red.frequencies_hz()
+    ref = elastic_hz(model, 2)
+    np.testing.assert_allclose(f[:2], ref, rtol=1e-6)  # the in-band bending pair, 620.67 Hz
+    np.testing.assert_allclose(f[:2], free_ref[6:8], rtol=1e-5)  # CalculiX's
+    _no_zero_mode(red, ref[0])
+    assert res["band_error"] < 1e-8  # the elastic part of H (the frame carries the rigid part)
+
+
+def test_krylov_rigid_exclude_cli(capsys, tmp_path):
+    """The issue's command: modes at 44 and 73 Hz and band_error 1.14, written without a warning."""
+    out = run_json(capsys, "reduce", FREE, "--method", "krylov", "--order", "24", "--input", "TIP:y", "--input",
+                   "TIP:z", "--modal-damping", "0.01", "--band", "10:2000", "--rigid", "exclude",
+                   "-o", str(tmp_path / "k.h5"), "--json")
+    assert out["frequencies_hz"][0] == pytest.approx(620.6715, rel=1e-5)
+    assert out["band_error"] < 1e-8 and out["warnings"] == []
+    assert out["info"]["n_rigid_excluded"] == 6 and out["info"]["rigid_residual"] < 1e-12
+
+
+def test_krylov_rigid_include_has_no_spurious_mode(free):
+    model = apply_damping(free, modal_damping=0.01, band=(10.0, 2000.0))
+    red, _ = reduce(model, "krylov", 24, make_ports(model, ["TIP:y", "TIP:z"]), band=(10.0, 2000.0))
+    f = red.frequencies_hz()
+    n = red.info["n_rigid_included"]
+    assert n == 4 and np.all(f[:n] < 1e-2) and f[n] == pytest.approx(620.6715, rel=1e-5)  # once a 290 Hz mode
+
+
+def test_craig_bampton_free_body_cli_and_exports(capsys, tmp_path, coupled):
+    """The issue's command gave 0 0 0.0005 ... 621.1 Hz and a singular SID body."""
+    body = tmp_path / "cb.h5"
+    out = run_json(capsys, "reduce", FREE, "--method", "craig-bampton", "--order", "20", "--interface", "FIX@rbe2",
+                   "--interface", "TIP@rbe2", "--input", "TIP@rbe2:y", "--rayleigh", "0:1e-6", "-o", str(body),
+                   "--json")
+    assert out["order"] == 20 and out["frequencies_hz"][0] > 620.0
+    mass, com, J = mass_properties(coupled)
+    assert mass == pytest.approx(78.5, rel=1e-12)
+    sid_path = tmp_path / "cb.SID_FEM"
+    assert main(["export", str(body), "--model", FREE, "--format", "sid", "-o", str(sid_path)]) == 0
+    sid = read_sid(sid_path)
+    assert sid.mass == pytest.approx(mass, rel=1e-12)
+    np.testing.assert_allclose(sid.objects["mdCM"].m0[:, 0], mass * com, rtol=1e-10, atol=1e-12 * mass)
+    Jv = sid.objects["J"].m0[:, 0]
+    np.testing.assert_allclose(Jv, [J[0, 0], J[1, 1], J[2, 2], J[0, 1], J[0, 2], J[1, 2]], rtol=1e-10,
+                               atol=1e-12 * np.abs(J).max())
+    assert np.all(sid.frequencies_hz() > 620.0)  # no zero eigenvalue in (Me, Ke)
+    npz = tmp_path / "cb.npz"
+    assert main(["export", str(body), "--model", FREE, "--format", "exudyn", "-o", str(npz)]) == 0
+    with np.load(npz) as z:
+        assert float(z["totalMass"]) == pytest.approx(mass, rel=1e-12)
+        np.testing.assert_allclose(z["chiU"], com, rtol=1e-10, atol=1e-12)
+        np.testing.assert_allclose(z["inertiaLocal"], J, rtol=1e-10, atol=1e-12 * np.abs(J).max())
+        assert sla.eigh(z["stiffnessMatrixReduced"], z["massMatrixReduced"], eigvals_only=True)[0] > 1e6
+
+
+def test_krylov_free_solid_exports_exact_mass_properties(solid, tmp_path):
+    model = solid.with_rayleigh(0.0, 1e-6)
+    ports = make_ports(model, ["TIP_CENTER:y", "TIP_CENTER:z"])
+    red, _ = reduce(model, "krylov", 16, ports, band=(10.0, 3000.0), rigid="exclude")
+    ref = elastic_hz(model, 2)
+    np.testing.assert_allclose(red.frequencies_hz()[:2], ref, rtol=1e-6)
+    mass, com, J = mass_properties(model)
+    data = exudyn_data(red, model)
+    assert data["totalMass"] == pytest.approx(mass, rel=1e-12)
+    np.testing.assert_allclose(data["chiU"], com, rtol=1e-10)
+    np.testing.assert_allclose(data["inertiaLocal"], J, rtol=1e-10, atol=1e-12 * np.abs(J).max())
+    write_sid(red, tmp_path / "k.SID_FEM", model=model)
+    assert read_sid(tmp_path / "k.SID_FEM").mass == pytest.approx(mass, rel=1e-12)
+
+
+def test_spurious_mode_and_bad_band_error_warn_in_one_line(free):
+    ports = make_ports(free, ["TIP:y"])
+    lam, phi = eigenmodes(free.K, free.M, 10)
+    mixed = phi[:, :1] + 1e-3 * phi[:, 6:7]  # rigid motion with a little elastic content
+    red = project(free, Basis(np.hstack([mixed, phi[:, 7:10]]), "test"), ports)
+    f1 = frequencies_hz(lam[6:7])[0]
+    with pytest.warns(FlexmorWarning, match=r"below the full model's first elastic frequency") as rec:
+        msgs = check_body(free, red, f1_hz=f1, band_error=1.5)
+    assert len(msgs) == 2 and "band_error 1.5 > 1" in msgs[1]
+    assert all("\n" not in str(w.message) for w in rec)
+    clean = project(free, Basis(phi[:, 6:10], "modal"), ports)
+    assert check_body(free, clean, f1_hz=f1, band_error=0.5) == []
+
+
+def test_rigid_body_modes_are_exact(coupled):
+    phi = rigid_body_modes(coupled)
+    assert phi.shape[1] == 6
+    np.testing.assert_allclose(phi.T @ (coupled.M @ phi), np.eye(6), atol=1e-12)
+
+
+def test_clamped_body_is_refused_for_ffrf_export(clamped, tmp_path, capsys):
+    red, _ = reduce(clamped, "modal", 4, make_ports(clamped, ["TIP:y"]))
+    with pytest.raises(ModelError, match="supported.*mass"):
+        write_exudyn(red, tmp_path / "c.npz", model=clamped)
+    with pytest.raises(ModelError, match="--allow-clamped"):
+        write_sid(red, tmp_path / "c.SID_FEM", model=clamped)
+    assert not (tmp_path / "c.npz").exists() and not (tmp_path / "c.SID_FEM").exists()
+    from flexmor.io.hdf5 import write_reduced
+
+    write_reduced(red, tmp_path / "c.h5")
+    assert main(["export", str(tmp_path / "c.h5"), "--model", CLAMPED, "-o", str(tmp_path / "c.SID_FEM")]) == 2
+    err = capsys.readouterr().err
+    assert "supported (0 of 6 rigid-body modes)" in err and "Traceback" not in err
+    assert main(["export", str(tmp_path / "c.h5"), "--model", CLAMPED, "-o", str(tmp_path / "c.SID_FEM"),
+                 "--allow-clamped"]) == 0
