@@ -153,5 +153,8 @@ def test_rbe2_interface_reduce_compare_export(capsys, tmp_path):
     cmp = run_json(capsys, "compare", CLAMPED, str(body), "--band", "10:3000", "--json")
     assert cmp["results"][0]["band_error"] == pytest.approx(out["band_error"], rel=1e-10)
     sid = tmp_path / "cb.SID_FEM"
-    assert main(["export", str(body), "--model", CLAMPED, "--format", "sid", "-o", str(sid)]) == 0
+    # a clamped body misses its supported nodes' mass: refused for the floating frame unless asked for
+    assert main(["export", str(body), "--model", CLAMPED, "--format", "sid", "-o", str(sid)]) == 2
+    assert "supported" in capsys.readouterr().err and not sid.exists()
+    assert main(["export", str(body), "--model", CLAMPED, "--format", "sid", "-o", str(sid), "--allow-clamped"]) == 0
     assert sid.exists()

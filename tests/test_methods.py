@@ -55,10 +55,14 @@ def test_guyan_exact_at_zero_frequency(clamped):
 def test_craig_bampton_free_body(free, free_ref):
     # the tip face holds the free body: K_ii is regular and the fixed-interface modes exist
     ports = make_ports(free, ["TIP:y"])
-    red, _ = reduce(free, "craig-bampton", 40, ports, interface=["TIP"])
+    red, _ = reduce(free, "craig-bampton", 40, ports, interface=["TIP"], rigid="include")
     f = red.frequencies_hz()
     assert np.sum(f < 1.0) == 6  # rigid-body modes are in the CB space
     assert abs(f[6] / free_ref[6] - 1) < 1e-2  # and the first flexible mode is close
+    # by default the rigid motion leaves the basis (floating frame): same order, same elastic modes
+    ex, _ = reduce(free, "craig-bampton", 40, ports, interface=["TIP"])
+    assert ex.order == 40 and ex.info["n_rigid_excluded"] == 6
+    assert abs(ex.frequencies_hz()[0] / free_ref[6] - 1) < 1e-2 and ex.frequencies_hz()[0] >= free_ref[6] * (1 - 1e-5)
 
 
 def test_modal_band_error_decreases(clamped):

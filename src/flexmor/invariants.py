@@ -50,7 +50,8 @@ import numpy as np
 
 from .errors import ModelError, PortError
 
-__all__ = ["FrameNode", "Invariants", "compute_invariants", "frame_nodes", "node_triples", "check_free_model"]
+__all__ = ["FrameNode", "Invariants", "compute_invariants", "frame_nodes", "node_triples", "check_free_model",
+           "rigid_fields"]
 
 log = logging.getLogger(__name__)
 
@@ -164,7 +165,7 @@ def _cross_fields(W, trans, rot, n):
     return np.hstack(out)
 
 
-def _rigid_fields(model, trans, rot):
+def rigid_fields(model, trans, rot):
     """Translations St (n, 3), rotations Sr (n, 3) and position X (n,) as nodal vectors."""
     n = model.n_dof
     St, Sr, X = np.zeros((n, 3)), np.zeros((n, 3)), np.zeros(n)
@@ -213,7 +214,7 @@ def compute_invariants(model, V, *, K=None, D=None, nodes=()) -> Invariants:
                          "export needs the model the body was reduced from")
     trans, rot = node_triples(model)
     n, r = model.n_dof, V.shape[1]
-    St, Sr, X = _rigid_fields(model, trans, rot)
+    St, Sr, X = rigid_fields(model, trans, rot)
     Y = _cross_fields(V, trans, rot, n)  # (n, 3r): columns k*r + b = e_k × Φ_b
     F = np.hstack([St, Sr, X[:, None], V, Y])
     MF = np.asarray(model.M @ F)
@@ -282,7 +283,7 @@ def rigid_content(model, V) -> float:
     """How well ``span(V)`` contains a rigid-body motion: the smallest relative M-norm of the
     part of a rigid motion outside ``span(V)`` (0: ``V`` contains one; 1: M-orthogonal)."""
     trans, rot = node_triples(model)
-    St, Sr, _ = _rigid_fields(model, trans, rot)
+    St, Sr, _ = rigid_fields(model, trans, rot)
     R = np.hstack([St, Sr])
     MR = model.M @ R
     Grr = R.T @ MR

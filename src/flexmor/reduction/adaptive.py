@@ -134,6 +134,7 @@ def adaptive(model, ports, order, *, band=None, estimate_tol: float | None = Non
     if phi.shape[1] and rigid == "include":  # the rigid motion the ports excite, first
         w = np.linalg.norm(phi.T @ start_block(ports, side), axis=1)
         V = extend_orthonormal(None, phi[:, w > 1e-8 * w.max()], tol=DEFLATION_TOL) if w.max() > 0 else V
+    n_head = int(V.shape[1])
     while points and len(chosen) < max_points:
         p = points.pop(0)
         blocks, _ = blocks_at_points(model, ports, [p], int(moments), side=side, solver=solver,
@@ -157,5 +158,6 @@ def adaptive(model, ports, order, *, band=None, estimate_tol: float | None = Non
     V = V[:, :limit]
     n_rb = int(phi.shape[1]) if rigid == "exclude" else 0
     info = {"points_hz": [str(p) for p in chosen], "estimates": estimates, "moments": int(moments),
-            "side": side, "rigid": rigid, "n_rigid": int(phi.shape[1]), "n_rigid_excluded": n_rb, "nested": True}
+            "side": side, "rigid": rigid, "n_rigid": int(phi.shape[1]), "n_rigid_excluded": n_rb,
+            "n_rigid_included": n_head, "nested": True}
     return Basis(V, "adaptive", info)

@@ -69,7 +69,7 @@ def balanced_basis(model, ports, order, band, *, method: str, variant: str = "po
     V = truncation_basis(np.hstack([head, T]), model.M)
     k = max(N_REPORTED, 2 * order)
     info = {"variant": variant, "hankel_sv": sigma[:k].tolist(),
-            "truncated_sv_sum": float(np.sum(sigma[n_flex:])), "n_rigid_included": int(head.shape[1]),
+            "truncated_sv_sum": float(np.sum(sigma[n_flex:])), "rigid": rigid, "n_rigid_included": int(head.shape[1]),
             "nested": False, **ginfo}
     return Basis(V, method, info)
 

@@ -48,6 +48,9 @@ log = logging.getLogger(__name__)
 #: Relative norm below which a column made M-orthogonal to the rigid modes counts as rigid (dropped).
 RIGID_DEFLATION_TOL = 1e-8
 
+#: Relative norm a column may lose to the projection and still be kept as the method made it (polished).
+POLISH_TOL = 1e-6
+
 
 def rigid_body_modes(model) -> np.ndarray:
     """M-orthonormal rigid-body modes of a free body from its geometry, (n_dof, k), k <= 6.
@@ -135,8 +138,9 @@ def exclude_rigid(model, basis: Basis) -> Basis:
     Returns
     -------
     Basis
-        The cleaned columns orthonormal (Euclidean), M-orthogonal to the rigid-body modes to
-        round-off (``info['rigid_residual']``, relative), in the order of the method's columns
+        The method's columns, only projected, when none loses more than :data:`POLISH_TOL` of its
+        norm (a basis clean up to round-off, e.g. eigenmodes); else the cleaned columns,
+        orthonormal (Euclidean). Either way M-orthogonal to the rigid-body modes to round-off (``info['rigid_residual']``, relative), in the order of the method's columns
         (a nested basis stays nested); for ``exclude`` ``info['n_rigid_excluded']`` the number of
         rigid-body modes and ``info['n_rigid_dropped']`` the columns that were rigid motion.
     """
@@ -153,10 +157,13 @@ def exclude_rigid(model, basis: Basis) -> Basis:
         X = _m_project(model, phi, X)
     # relative to the method's columns: a column that was rigid motion leaves only round-off
     scale = np.linalg.norm(V0, axis=0)
-    X = X / np.where(scale > 0, scale, 1.0)
-    Q, _ = _orthonormal_in_order(X, RIGID_DEFLATION_TOL)
-    Q = _m_project(model, phi, Q)  # clean to round-off of unit columns
-    Q, _ = _orthonormal_in_order(Q, RIGID_DEFLATION_TOL)
+    kept = np.linalg.norm(X, axis=0) / np.where(scale > 0, scale, 1.0)
+    if np.all(kept > 1 - POLISH_TOL):  # (nearly) clean already, e.g. eigenmodes: the method's columns, polished
+        Q = X
+    else:
+        Q, _ = _orthonormal_in_order(X / np.where(scale > 0, scale, 1.0), RIGID_DEFLATION_TOL)
+        Q = _m_project(model, phi, Q)  # clean to round-off of unit columns
+        Q, _ = _orthonormal_in_order(Q, RIGID_DEFLATION_TOL)
     info = dict(basis.info, rigid_residual=rigid_residual(model, Q, phi))
     if rigid == "exclude":
         info.update(n_rigid_excluded=int(phi.shape[1]), n_rigid_dropped=int(X.shape[1] - Q.shape[1]))

@@ -142,5 +142,6 @@ def svdmor(model, ports, order, *, directions: int | None = None, band=None, poi
     Kb = krylov(model, compressed, order, points=points, band=band, side=side, rigid=rigid, solver=solver)
     info = {"directions": [k_in, k_out], "input_sv": s_in.tolist(), "output_sv": s_out.tolist(),
             "discarded_input_sv": s_in[k_in:].tolist(), "discarded_output_sv": s_out[k_out:].tolist(),
-            "sample_points_rad_s": [str(s) for s in used], "krylov": Kb.info, "nested": True}
+            "sample_points_rad_s": [str(s) for s in used], "krylov": Kb.info, "nested": True,
+            "rigid": rigid, "n_rigid_included": Kb.info["n_rigid_included"]}
     return Basis(Kb.V, "svdmor", info)

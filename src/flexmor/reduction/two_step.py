@@ -16,6 +16,7 @@ from ..options import Band, band_option, option
 from ..projection import project
 from . import register_method
 from .dense_gramians import dense_gramians, psd_factor
+from .free_body import exclude_rigid
 from .gramians import UNDAMPED_ZETA, VARIANTS, balance, variant_option
 from .krylov import krylov, points_option, rigid_option
 
@@ -99,7 +100,9 @@ def two_step(model, ports, order, *, intermediate: int = 120, band=None, gramian
         raise OptionError(f"intermediate ({intermediate}) must be at least order ({order})",
                           params=("intermediate", "order"))
     band = Band.of(band)
-    K1 = krylov(model, ports, r1, points=points, side="both", band=band, rigid=rigid, solver=solver)
+    # the intermediate basis without rigid round-off, so that the intermediate body has no spurious modes
+    K1 = exclude_rigid(model, krylov(model, ports, r1, points=points, side="both", band=band, rigid=rigid,
+                                     solver=solver))
     red = project(model, K1, ports)
     Dr = red.D
     if Dr is None:  # undamped: Gramians of the lightly damped body (see flexmor.reduction.gramians)
@@ -116,4 +119,6 @@ def two_step(model, ports, order, *, intermediate: int = 120, band=None, gramian
     info = {"intermediate": int(K1.order), "gramian": gramian, "variant": variant, "band_hz": list(band),
             "hankel_sv": sigma[: max(40, 2 * order)].tolist(), "truncated_sv_sum": float(sigma[n_flex:].sum()),
             "n_rigid_included": int(head.shape[1]), "krylov": K1.info, "nested": False}
+    if rigid == "exclude":  # (an included head is mixed into the M-orthonormal columns: nothing to keep apart)
+        info["rigid"] = rigid
     return Basis(V, "two-step", info)
