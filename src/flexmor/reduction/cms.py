@@ -30,7 +30,7 @@ from . import register_method
 from .craig_bampton import cb_frame
 from .gramians import nodes_option, variant_option
 from .guyan import interface_option
-from .krylov import points_option
+from .krylov import points_option, rigid_option
 
 __all__ = ["cms_krylov", "cms_gramian", "fixed_interface_body", "CmsKrylovOptions", "CmsGramianOptions"]
 
@@ -69,10 +69,10 @@ def fixed_interface_body(model, ports, Psi, b, i, *, tol: float = 1e-8):
     return sub, Ports(B=Bs, C=Bs.T.tocsr(), input_names=names, output_names=names)
 
 
-def _cms(model, ports, order, interface, method, internal, solver):
-    V, b, i, _ = cb_frame(model, interface, order, method, solver)
+def _cms(model, ports, order, interface, method, internal, solver, rigid):
+    V, b, i, _, info = cb_frame(model, interface, order, method, solver, rigid)
     Psi, n_int = V[:, : b.size], V.shape[1] - b.size
-    info = {"n_interface_dofs": int(b.size), "n_internal": int(n_int)}
+    info["n_internal"] = int(n_int)
     if n_int:
         sub, sub_ports = fixed_interface_body(model, ports, Psi, b, i)
         Bi = internal(sub, sub_ports, n_int)
@@ -89,11 +89,12 @@ class CmsKrylovOptions:
     interface: list | None = interface_option()
     band: Band | None = band_option("the default Krylov points of the fixed-interface body")
     points: str | None = points_option("Krylov points of the fixed-interface body")
+    rigid: str = rigid_option("exclude")
 
 
 @register_method("cms-krylov", "constraint modes + Krylov vectors of the fixed-interface body",
                  options=CmsKrylovOptions)
-def cms_krylov(model, ports, order, *, interface=None, band=None, points=None,
+def cms_krylov(model, ports, order, *, interface=None, band=None, points=None, rigid: str = "exclude",
                solver: SolverContext | None = None) -> Basis:
     """Craig-Bampton with second-order Krylov vectors of the fixed-interface body as internal vectors.
 
@@ -110,6 +111,9 @@ def cms_krylov(model, ports, order, *, interface=None, band=None, points=None,
         Band (Hz) of the default Krylov points (three real points; default 1:1000).
     points : str, optional
         Krylov expansion points (Hz), see :func:`flexmor.reduction.krylov.parse_points`.
+    rigid : {'exclude', 'include'}
+        Free bodies: remove the rigid motions that the constraint modes span (default), as for
+        :func:`flexmor.reduction.craig_bampton.craig_bampton`.
     solver : SolverContext, optional
         Solver (backend, statistics) of :func:`flexmor.linalg.factorize`.
 
@@ -137,7 +141,7 @@ def cms_krylov(model, ports, order, *, interface=None, band=None, points=None,
         return krylov(sub, sub_ports, n, points=points, band=Band.of(band), rigid="exclude",
                       solver=solver)
 
-    return _cms(model, ports, order, interface, "cms-krylov", internal, solver)
+    return _cms(model, ports, order, interface, "cms-krylov", internal, solver, rigid)
 
 
 @dataclass(frozen=True)
@@ -148,12 +152,13 @@ class CmsGramianOptions:
     band: Band | None = band_option("the frequency-limited Gramians of the fixed-interface body")
     variant: str = variant_option()
     nodes: int = nodes_option()
+    rigid: str = rigid_option("exclude")
 
 
 @register_method("cms-gramian", "constraint modes + balanced (frequency-limited Gramian) vectors of the "
                  "fixed-interface body", options=CmsGramianOptions, survives_coupling=False)
 def cms_gramian(model, ports, order, *, interface=None, band=None, variant: str = "position", nodes: int = 4,
-                solver: SolverContext | None = None) -> Basis:
+                rigid: str = "exclude", solver: SolverContext | None = None) -> Basis:
     """Craig-Bampton with frequency-limited balanced vectors of the fixed-interface body.
 
     The internal vectors are the leading right balancing vectors of the fixed-interface body
@@ -173,6 +178,9 @@ def cms_gramian(model, ports, order, *, interface=None, band=None, variant: str 
         See :func:`flexmor.reduction.balanced.sobt`.
     nodes : int
         Gauss points per quadrature panel.
+    rigid : {'exclude', 'include'}
+        Free bodies: remove the rigid motions that the constraint modes span (default), as for
+        :func:`flexmor.reduction.craig_bampton.craig_bampton`.
     solver : SolverContext, optional
         Solver (backend, statistics) of :func:`flexmor.linalg.factorize`.
 
@@ -199,4 +207,4 @@ def cms_gramian(model, ports, order, *, interface=None, band=None, variant: str 
         return balanced_basis(sub, sub_ports, n, Band.of(band), method="cms-gramian",
                               variant=variant, nodes=nodes, rigid="exclude", solver=solver)
 
-    return _cms(model, ports, order, interface, "cms-gramian", internal, solver)
+    return _cms(model, ports, order, interface, "cms-gramian", internal, solver, rigid)

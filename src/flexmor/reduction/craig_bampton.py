@@ -16,21 +16,30 @@ from .guyan import constraint_modes, interface_option
 from .krylov import rigid_option
 
 
-def cb_frame(model, interface, order, method: str, solver: SolverContext | None = None):
+def cb_frame(model, interface, order, method: str, solver: SolverContext | None = None, rigid: str = "include"):
     """The Craig-Bampton frame shared by the CMS methods.
 
-    Returns ``(V, b, i, F)``: ``V`` (n_dof, order) with the constraint modes in its first
+    Returns ``(V, b, i, F, info)``: ``V`` (n_dof, order) with the constraint modes in its first
     ``n_b`` columns and zeros in the ``order - n_b`` internal columns (at most the number of
-    interior DOFs), the interface and interior equations, and the factorization of ``K_ii``.
+    interior DOFs), the interface and interior equations, the factorization of ``K_ii``, and the
+    basis ``info`` to start from. With ``rigid='exclude'`` on a free body the constraint modes
+    span its ``n_rigid`` rigid motions (the interface holds the body), which
+    :func:`flexmor.reduction.free_body.exclude_rigid` removes afterwards: ``n_rigid`` more
+    internal columns keep the requested order, and ``info`` asks for the removal.
     """
     solver = as_solver(solver)
+    check_choice("rigid", rigid, ("exclude", "include"))
+    n_rb = rigid_body_modes(model).shape[1] if rigid == "exclude" else 0
     V_c, b, i, F = constraint_modes(model, interface, solver)
-    if order is None or order < b.size:
-        raise OptionError(f"{method} needs order >= number of interface DOFs ({b.size}), got {order}",
+    if order is None or order < b.size - n_rb:
+        raise OptionError(f"{method} needs order >= number of interface DOFs ({b.size - n_rb}), got {order}",
                           params=("order",))
-    V = np.zeros((model.n_dof, b.size + min(order - b.size, i.size)))
+    V = np.zeros((model.n_dof, b.size + min(order + n_rb - b.size, i.size)))
     V[:, : b.size] = V_c
-    return V, b, i, F
+    info = {"n_interface_dofs": int(b.size)}
+    if n_rb:
+        info.update(rigid="exclude", n_rigid=int(n_rb))
+    return V, b, i, F, info
 
 
 @dataclass(frozen=True)
@@ -82,11 +91,7 @@ def craig_bampton(model, ports, order, *, interface=None, rigid: str = "exclude"
     AIAA Journal 6(7), 1313-1319.
     """
     solver = as_solver(solver)
-    check_choice("rigid", rigid, ("exclude", "include"))
-    n_rb = rigid_body_modes(model).shape[1] if rigid == "exclude" else 0
-    if order is not None and n_rb:  # the rigid motions leave the constraint modes' span
-        order = order + n_rb
-    V, b, i, F = cb_frame(model, interface, order, "craig-bampton", solver)
+    V, b, i, F, info = cb_frame(model, interface, order, "craig-bampton", solver, rigid)
     n_modes = V.shape[1] - b.size
     freqs = []
     if n_modes:
@@ -95,7 +100,5 @@ def craig_bampton(model, ports, order, *, interface=None, rigid: str = "exclude"
         lam, phi = eigenmodes(Kii, Mii, n_modes, sigma=0.0, factorization=F, solver=solver)
         V[i, b.size:] = phi
         freqs = frequencies_hz(lam).tolist()
-    info = {"n_interface_dofs": int(b.size), "n_modes": int(n_modes), "fixed_interface_hz": freqs}
-    if n_rb:
-        info.update(rigid="exclude", n_rigid=int(n_rb))
+    info.update(n_modes=int(n_modes), fixed_interface_hz=freqs)
     return Basis(V, "craig-bampton", info)
