@@ -222,7 +222,7 @@ def test_cli_refuses_to_overwrite_without_force(tmp_path, capsys):
     assert read_reduced(out).order == 4
     sid = tmp_path / "body.SID_FEM"
     sid.write_text("old")
-    argv = ["export", str(out), "--model", CLAMPED, "-o", str(sid)]
+    argv = ["export", str(out), "--model", CLAMPED, "-o", str(sid), "--allow-clamped"]  # (a clamped body)
     assert main(argv) == 2 and "pass --force" in capsys.readouterr().err
     assert sid.read_text() == "old"
     assert main(argv + ["--force"]) == 0 and sid.stat().st_size > 1000
