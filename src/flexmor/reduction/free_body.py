@@ -99,22 +99,21 @@ def _m_project(model, phi, V):
     return V - phi @ (phi.T @ (model.M @ V))
 
 
-def _orthonormal_in_order(X, tol: float):
+def _orthonormal_in_order(X, tol: float, ref=None):
     """Orthonormal columns spanning ``X`` built column by column (Gram-Schmidt order kept:
     the first ``k`` results span the leading columns), dropping those whose part outside the
-    earlier ones is below ``tol`` times their norm."""
-    nrm = np.linalg.norm(X, axis=0)
+    earlier ones is at most ``tol * ref[j]`` (``ref`` defaults to the columns' own norms; pass
+    the norms the columns had before a projection to drop columns that the projection emptied)."""
+    ref = np.linalg.norm(X, axis=0) if ref is None else np.asarray(ref, dtype=float)
     keep = []
     Q = np.zeros_like(X)
     k = 0
     for j in range(X.shape[1]):
-        if nrm[j] == 0:
-            continue
-        x = X[:, j] / nrm[j]
+        x = X[:, j]
         for _ in range(2):  # twice is enough
             x = x - Q[:, :k] @ (Q[:, :k].T @ x)
         s = np.linalg.norm(x)
-        if s > tol:
+        if s > tol * ref[j] and s > 0:
             Q[:, k] = x / s
             keep.append(j)
             k += 1
@@ -161,7 +160,8 @@ def exclude_rigid(model, basis: Basis) -> Basis:
     if np.all(kept > 1 - POLISH_TOL):  # (nearly) clean already, e.g. eigenmodes: the method's columns, polished
         Q = X
     else:
-        Q, _ = _orthonormal_in_order(X / np.where(scale > 0, scale, 1.0), RIGID_DEFLATION_TOL)
+        # a column that was rigid motion keeps only round-off of the method's column: dropped
+        Q, _ = _orthonormal_in_order(X, RIGID_DEFLATION_TOL, ref=scale)
         Q = _m_project(model, phi, Q)  # clean to round-off of unit columns
         Q, _ = _orthonormal_in_order(Q, RIGID_DEFLATION_TOL)
     info = dict(basis.info, rigid_residual=rigid_residual(model, Q, phi))
