@@ -221,3 +221,21 @@ def test_cms_methods_on_a_free_body(method, coupled):
     assert red.order == 24 or method == "cms-gramian"  # (its Hankel rank may end the internal vectors)
     assert rigid_residual(model, red.V) < 1e-12
     assert ref[0] * (1 - 1e-9) <= red.frequencies_hz()[0] < 1.01 * ref[0]
+
+
+def test_body_of_a_selection_exports_with_its_selection(capsys, tmp_path):
+    """A body that uses --select carries its selections; export applies them (no --select there)."""
+    ring = "RING=cylinder:0,0.05,0.05,1,0,0,0.05,1e-9,0.45,0.55"
+    body = tmp_path / "ring.h5"
+    out = run_json(capsys, "reduce", FREE, "--method", "craig-bampton", "--order", "10", "--select", ring,
+                   "--interface", "RING@rbe2", "--input", "RING@rbe2:y", "--no-error", "-o", str(body), "--json")
+    # the 6 constraint modes of the single interface are pure rigid motion: all of them leave
+    assert out["order"] == 10 and out["info"]["n_rigid_dropped"] == 6 and out["frequencies_hz"][0] > 620.0
+    sid_path = tmp_path / "ring.SID_FEM"
+    assert main(["export", str(body), "--model", FREE, "-o", str(sid_path)]) == 0, capsys.readouterr().err
+    sid = read_sid(sid_path)
+    assert sid.mass == pytest.approx(78.5, rel=1e-12) and np.all(sid.frequencies_hz() > 620.0)
+    npz = tmp_path / "ring.exudyn.npz"
+    assert main(["export", str(body), "--model", FREE, "-o", str(npz)]) == 0, capsys.readouterr().err
+    with np.load(npz) as z:
+        assert float(z["totalMass"]) == pytest.approx(78.5, rel=1e-12)

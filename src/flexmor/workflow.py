@@ -16,7 +16,7 @@ from .ports import make_ports
 from .reduction import reduce
 from .reduction.free_body import check_body
 
-__all__ = ["coupling_specs", "prepare_model", "parse_band", "parse_pair", "apply_damping", "damping_of",
+__all__ = ["coupling_specs", "prepare_model", "body_model", "parse_band", "parse_pair", "apply_damping", "damping_of",
            "reduce_and_judge", "run_demo", "DEFAULT_BAND"]
 
 log = logging.getLogger(__name__)
@@ -71,6 +71,17 @@ def prepare_model(model, couplings=(), damping: Damping | None = None):
     if isinstance(damping, Rayleigh) and model.D is None:
         model = model.with_damping(damping)
     return model
+
+
+def body_model(model, reduced):
+    """The full model ``reduced`` was made from: the body's node selections (``info['selections']``,
+    the ``--select`` of ``flexmor reduce``), couplings and damping applied to ``model`` as read."""
+    selections = reduced.info.get("selections", ())
+    if selections:
+        from .selection import with_selections
+
+        model = with_selections(model, selections)
+    return prepare_model(model, reduced.info.get("couplings", ()), reduced.damping)
 
 
 def reduce_and_judge(model, method: str, order, ports, *, band=None, full: FullResponse | None = None,

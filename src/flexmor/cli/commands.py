@@ -233,16 +233,17 @@ def _model_and_bodies(args):
 
 def cmd_compare(args) -> int:
     from ..ports import make_ports
-    from ..workflow import prepare_model
+    from ..workflow import body_model as model_for_body
 
     model, t_read, band, reds = _model_and_bodies(args)
     solver = _solver(args)
     fulls, rows = {}, []
     for path, red in zip(args.reduced, reds):
         couplings = tuple(red.info.get("couplings", ()))
-        key = (tuple(red.input_names), tuple(red.output_names), couplings)
+        key = (tuple(red.input_names), tuple(red.output_names), couplings,
+               tuple(red.info.get("selections", ())))
         if key not in fulls:
-            body_model = prepare_model(model, couplings, red.damping)
+            body_model = model_for_body(model, red)
             fulls[key] = _full_response(args, body_model, make_ports(body_model, *key[:2]), band, solver)
         t0 = time.perf_counter()
         err = fulls[key].evaluate(red)
@@ -280,14 +281,14 @@ def _table(rows) -> None:
 # -- export ------------------------------------------------------------------------------------
 def cmd_export(args) -> int:
     from ..io import export, export_format, read, read_body
-    from ..workflow import prepare_model
+    from ..workflow import body_model
 
     _check_new(args.output_file, args)
     red = read_body(args.reduced)
     fmt = export_format(args.output_file, args.format)
     model = read(args.model, format=args.model_format) if args.model else None
     if model is not None:
-        model = prepare_model(model, red.info.get("couplings", ()))
+        model = body_model(model, red)
     opts = {"nodes": args.node or None} if fmt in ("sid", "mat") else {}
     if fmt == "sid":
         opts["m1_order"] = args.m1_order
@@ -306,20 +307,21 @@ def cmd_export(args) -> int:
 def cmd_report(args) -> int:
     from ..ports import make_ports
     from ..report.html import build_report, write_report
-    from ..workflow import prepare_model
+    from ..workflow import body_model
 
     _check_new(args.output_file, args)
     model, t_read, band, reds = _model_and_bodies(args)
 
     def key_of(r):
-        return list(r.input_names), list(r.output_names), list(r.info.get("couplings", []))
+        return (list(r.input_names), list(r.output_names), list(r.info.get("couplings", [])),
+                list(r.info.get("selections", [])))
 
     key = key_of(reds[0])
     other = [str(p) for p, r in zip(args.reduced, reds) if key_of(r) != key]
     if other:
-        raise OptionError(f"a report needs bodies with the same inputs/outputs/couplings as {args.reduced[0]}; "
-                          f"these differ: {', '.join(other)}")
-    model = prepare_model(model, key[2], reds[0].damping)
+        raise OptionError(f"a report needs bodies with the same inputs/outputs/couplings/selections as "
+                          f"{args.reduced[0]}; these differ: {', '.join(other)}")
+    model = body_model(model, reds[0])
     ports = make_ports(model, *key[:2])
     solver = _solver(args)
     full = _full_response(args, model, ports, band, solver)
