@@ -121,6 +121,7 @@ def test_krylov_rigid_exclude_cli(capsys, tmp_path):
     assert out["frequencies_hz"][0] == pytest.approx(620.6715, rel=1e-5)
     assert out["band_error"] < 1e-8 and out["warnings"] == []
     assert out["info"]["n_rigid_excluded"] == 6 and out["info"]["rigid_residual"] < 1e-12
+    assert out["info"]["inertia_loads"] == "auto" and out["info"]["n_inertia_loads"] == 0  # the CLI default
 
 
 def test_krylov_rigid_include_has_no_spurious_mode(free):
@@ -239,3 +240,40 @@ def test_body_of_a_selection_exports_with_its_selection(capsys, tmp_path):
     assert main(["export", str(body), "--model", FREE, "-o", str(npz)]) == 0, capsys.readouterr().err
     with np.load(npz) as z:
         assert float(z["totalMass"]) == pytest.approx(78.5, rel=1e-12)
+
+
+def _quasi_static_error(model, red, load, C):
+    """Relative error at the outputs C of the reduced body's static response to ``load``."""
+    from flexmor.linalg import factorize
+
+    u = factorize(model.K.tocsc()).solve(load)
+    ur = red.V @ np.linalg.solve(red.K, red.V.T @ load)
+    return np.linalg.norm(C @ (ur - u)) / np.linalg.norm(C @ u)
+
+
+@pytest.mark.parametrize("method, off_min, on_max", [("krylov", 0.5, 1e-6), ("fw-sobt", 0.5, 0.05)])
+def test_inertia_loads_make_a_supported_body_see_its_frame_acceleration(clamped, method, off_min, on_max):
+    """A clamped beam loaded at the tip in y, its support accelerating along the axis (x):
+    without the inertia-load inputs the body cannot stretch; with them the quasi-static
+    axial response of the tip matches the full model."""
+    from flexmor.reduction.free_body import rigid_motions
+
+    ports = make_ports(clamped, ["TIP:y"])
+    C = make_ports(clamped, ["TIP:x"]).C
+    load = clamped.M @ rigid_motions(clamped)[:, 0]  # uniform acceleration along x
+    off, _ = reduce(clamped, method, 12, ports, band=(10.0, 3000.0), inertia_loads="off")
+    on, _ = reduce(clamped, method, 12, ports, band=(10.0, 3000.0), inertia_loads="on")
+    assert off.info["n_inertia_loads"] == 0 and on.info["n_inertia_loads"] == 6
+    assert on.input_names == ["TIP:y"] and on.B.shape[1] == 1  # the body keeps the user's ports
+    assert _quasi_static_error(clamped, off, load, C) > off_min
+    assert _quasi_static_error(clamped, on, load, C) < on_max
+
+
+def test_inertia_loads_have_no_elastic_part_on_a_free_body(free):
+    """M R lies in M span(rigid modes): a uniform acceleration only moves a free body rigidly."""
+    model = free.with_rayleigh(0.0, 1e-6)
+    ports = make_ports(model, ["TIP:y", "TIP:z"])
+    a, _ = reduce(model, "krylov", 12, ports, band=(10.0, 2000.0), rigid="exclude", inertia_loads="auto")
+    b, _ = reduce(model, "krylov", 12, ports, band=(10.0, 2000.0), rigid="exclude", inertia_loads="off")
+    assert a.info["inertia_loads"] == "auto" and a.info["n_inertia_loads"] == 0
+    np.testing.assert_array_equal(a.V, b.V)

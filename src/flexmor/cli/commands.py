@@ -194,7 +194,7 @@ def cmd_reduce(args) -> int:
     red, res = reduce_and_judge(model, args.method, args.order, ports, band=band, method_band=given_band,
                                 n_freq=args.n_freq, grid_tol=args.grid_tol, full_frf=args.full_frf,
                                 cache=not args.no_cache, solver=_solver(args), progress=_progress(args, "full FRF"),
-                                tol=args.tol, **options)
+                                tol=args.tol, inertia_loads=args.inertia_loads, **options)
     res["timings"]["read"] = t_read
     if is_partitioned(model.K):  # under mpirun with --backend petsc: the rows of K held by each rank
         res["partition"] = row_blocks(model.K)

@@ -123,6 +123,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--force", action="store_true", help="overwrite an existing output file")
     p.add_argument("--no-error", action="store_true", help="skip the error evaluation against the full model")
     p.add_argument("--tol", type=float, help="target band_error: choose the smallest order meeting it (verified)")
+    p.add_argument("--inertia-loads", choices=["auto", "on", "off"], default="auto",
+                   help="add the frame's inertia loads M R (6 unit accelerations, gravity among them) to the inputs "
+                   "the basis is built for; auto: on for a free body (no effect on the elastic coordinates of a "
+                   "free body with rigid motion excluded; use on for a supported body whose support moves). "
+                   "Methods whose basis ignores the inputs (modal, guyan, craig-bampton) are not affected")
     _add_method_options(p)
     p.set_defaults(func=cmd_reduce)
 

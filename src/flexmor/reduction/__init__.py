@@ -21,7 +21,7 @@ from typing import Callable
 from ..errors import OptionError
 from ..options import option_fields
 from ..projection import ReducedModel, project
-from .free_body import exclude_rigid
+from .free_body import exclude_rigid, with_inertia_loads
 
 __all__ = ["register_method", "METHODS", "methods", "reduce", "Method", "check_keywords"]
 
@@ -39,6 +39,9 @@ class Method:
         Whether the method's guarantee (moment matching) holds for an assembly of bodies.
     options_class : type
         The dataclass of the method's options (:func:`flexmor.options.option` fields).
+    uses_inputs : bool
+        Whether the basis depends on the inputs (and outputs); False for modal, guyan and
+        craig-bampton, whose bases inertia-load inputs cannot change.
     """
 
     name: str
@@ -46,6 +49,7 @@ class Method:
     description: str
     survives_coupling: bool
     options_class: type
+    uses_inputs: bool = True
 
     @property
     def options(self) -> list[str]:
@@ -71,7 +75,8 @@ def check_keywords(method: str, given, allowed) -> None:
                           f"it takes: {', '.join(allowed)}", params=tuple(unknown) + tuple(allowed))
 
 
-def register_method(name: str, description: str, *, options: type, survives_coupling: bool = True):
+def register_method(name: str, description: str, *, options: type, survives_coupling: bool = True,
+                    uses_inputs: bool = True):
     """Decorator registering a basis function under ``name`` with its options dataclass ``options``.
 
     The function returned raises :class:`OptionError` (not ``TypeError``) for keywords the
@@ -86,7 +91,7 @@ def register_method(name: str, description: str, *, options: type, survives_coup
             check_keywords(name, kwargs, allowed)
             return fn(model, ports, order, **kwargs)
 
-        METHODS[name] = Method(name, method, description, survives_coupling, options)
+        METHODS[name] = Method(name, method, description, survives_coupling, options, uses_inputs)
         return method
 
     return deco
@@ -114,7 +119,8 @@ def _load_builtin():
     )
 
 
-def reduce(model, method: str, order: int | None, ports, **options) -> tuple[ReducedModel, dict]:
+def reduce(model, method: str, order: int | None, ports, *, inertia_loads: str = "off",
+           **options) -> tuple[ReducedModel, dict]:
     """Reduce ``model`` with the registered ``method`` and project it.
 
     Parameters
@@ -126,6 +132,11 @@ def reduce(model, method: str, order: int | None, ports, **options) -> tuple[Red
         Reduced dimension r (for ``guyan`` the interface size; may be None).
     ports : Ports
         Inputs and outputs of the reduced body.
+    inertia_loads : {'off', 'on', 'auto'}
+        Add the frame's inertia loads ``M R`` (six unit accelerations, gravity among them) to
+        the inputs the basis is built for (:func:`flexmor.reduction.free_body.with_inertia_loads`;
+        ``auto``: for a free body). The reduced body keeps ``ports``. No effect on methods
+        whose basis does not use the inputs (modal, guyan, craig-bampton).
     **options
         Method options (the fields of the method's ``options_class``, e.g. ``interface``) and
         ``solver``; any other keyword raises OptionError listing the allowed ones. Options
@@ -151,10 +162,12 @@ def reduce(model, method: str, order: int | None, ports, **options) -> tuple[Red
     if order is not None and (int(order) != order or order < 1):
         raise OptionError(f"order must be a positive integer, got {order}", params=("order",))
     t0 = time.perf_counter()
-    basis = exclude_rigid(model, m.function(model, ports, order, **opts))
+    basis_ports, inertia = with_inertia_loads(model, ports, inertia_loads if m.uses_inputs else "off")
+    basis = exclude_rigid(model, m.function(model, basis_ports, order, **opts))
     t1 = time.perf_counter()
     red = project(model, basis, ports)
     t2 = time.perf_counter()
+    red.info.update(inertia)
     red.info.setdefault("order_requested", order)
     red.info.setdefault("options", _recorded(opts))
     return red, {"basis": t1 - t0, "project": t2 - t1}

@@ -50,7 +50,8 @@ class CraigBamptonOptions:
     rigid: str = rigid_option("exclude")
 
 
-@register_method("craig-bampton", "constraint modes + fixed-interface normal modes", options=CraigBamptonOptions)
+@register_method("craig-bampton", "constraint modes + fixed-interface normal modes", options=CraigBamptonOptions,
+                 uses_inputs=False)
 def craig_bampton(model, ports, order, *, interface=None, rigid: str = "exclude",
                   solver: SolverContext | None = None) -> Basis:
     """Craig-Bampton basis ``[[I, 0], [Psi, Phi_i]]`` of total order r = n_b + n_modes.

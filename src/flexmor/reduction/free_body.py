@@ -36,12 +36,15 @@ import logging
 import warnings
 
 import numpy as np
+import scipy.sparse as sp
+import scipy.sparse.linalg  # noqa: F401  (sp.linalg.norm)
 
 from ..basis import Basis
 from ..errors import FlexmorWarning
 from ..linalg.eigen import rigid_body_threshold
 
-__all__ = ["rigid_body_modes", "exclude_rigid", "rigid_residual", "check_body", "spurious_modes_hz"]
+__all__ = ["rigid_motions", "rigid_body_modes", "with_inertia_loads", "INERTIA_LOAD_NAMES", "exclude_rigid",
+           "rigid_residual", "check_body", "spurious_modes_hz"]
 
 log = logging.getLogger(__name__)
 
@@ -52,28 +55,40 @@ RIGID_DEFLATION_TOL = 1e-8
 POLISH_TOL = 1e-6
 
 
-def rigid_body_modes(model) -> np.ndarray:
-    """M-orthonormal rigid-body modes of a free body from its geometry, (n_dof, k), k <= 6.
+def rigid_motions(model) -> np.ndarray:
+    """The six rigid motions of the model's geometry as nodal fields, (n_dof, 6), unnormalized.
 
-    The six rigid motions (translations; rotations ``e_a x (x - x_c)`` on translational
-    and ``1`` on rotational DOF) are built from the node coordinates and the equation map; those
-    with ``||K phi|| <= 1e-8 ||K||_1 ||phi||`` are rigid-body modes of the model (none for a
-    supported body or a model without geometry). Costs six sparse products, no eigen solve.
+    Columns: unit translations x, y, z, then unit rotations about x, y, z through the centroid
+    of the nodes (``e_a x (x - x_c)`` on translational DOF, ``1`` on rotational DOF). A column
+    is zero where the model has no DOF in that direction; all are zero without geometry.
     """
+    R = np.zeros((model.n_dof, 6))
     if model.dofs is None or model.n_nodes == 0:
-        return np.zeros((model.n_dof, 0))
+        return R
     xyz = model.node_xyz(model.dofs[:, 0])
     xyz = xyz - xyz.mean(axis=0)
     d = model.dofs[:, 1]
-    R = np.zeros((model.n_dof, 6))
     for a in range(3):
         R[d == a + 1, a] = 1.0
         e = np.eye(3)[a]
         for j in range(3):  # (e_a x x)_j on translations
             R[d == j + 1, 3 + a] = np.cross(e, xyz[d == j + 1])[:, j]
         R[d == a + 4, 3 + a] = 1.0
+    return R
+
+
+def rigid_body_modes(model) -> np.ndarray:
+    """M-orthonormal rigid-body modes of a free body from its geometry, (n_dof, k), k <= 6.
+
+    The six rigid motions (:func:`rigid_motions`) with ``||K phi|| <= 1e-8 ||K||_1 ||phi||``
+    are rigid-body modes of the model (none for a supported body or a model without
+    geometry). Costs six sparse products, no eigen solve.
+    """
+    R = rigid_motions(model)
     nrm = np.linalg.norm(R, axis=0)
     R = R[:, nrm > 0] / nrm[nrm > 0]
+    if R.shape[1] == 0:
+        return R
     kn = abs(model.K).sum(axis=0).max()
     R = R[:, np.linalg.norm(model.K @ R, axis=0) <= 1e-8 * kn]
     if R.shape[1] == 0:
@@ -82,6 +97,67 @@ def rigid_body_modes(model) -> np.ndarray:
     w, U = np.linalg.eigh(0.5 * (G + G.T))
     keep = w > 1e-12 * w[-1]
     return R @ (U[:, keep] / np.sqrt(w[keep]))
+
+
+#: Names of the inertia-load inputs (unit accelerations of the frame: translations, rotations).
+INERTIA_LOAD_NAMES = ("inertia:ax", "inertia:ay", "inertia:az", "inertia:arx", "inertia:ary", "inertia:arz")
+
+
+def with_inertia_loads(model, ports, mode: str = "off"):
+    """The ports a basis is built for, with the frame's inertia loads ``M R`` added as inputs.
+
+    A body in the floating frame is loaded by its joints and by the inertia of its moving
+    frame: a frame acceleration ``a`` (gravity among them) loads the nodes with ``-M R a``,
+    ``R`` the six rigid motions (:func:`rigid_motions`). ``mode='on'`` adds the elastic part
+    of those six columns (scaled to the mean norm of the port inputs, so that Gramian methods
+    weigh them like a port) to the inputs and, transposed, to the outputs; ``'auto'`` is ``on``
+    for a free body (where it adds nothing, see below) and records a note for a supported
+    one, ``'off'`` never adds them. The reduced
+    body keeps the user's ports: only the basis sees the extra columns.
+
+    The elastic part of a load ``f`` is ``(I - M Φ Φᵀ) f`` (Φ the M-orthonormal rigid-body
+    modes; ``f`` itself for a supported body). For a free body ``M R`` lies in ``M span(Φ)``:
+    a uniform frame acceleration only accelerates the body rigidly and has no elastic part,
+    so no column is added (``n_inertia_loads = 0``); the joint forces carry the inertia relief.
+    The loads matter for a supported body whose support moves with the frame (base
+    excitation, gravity on a clamped body).
+
+    Returns
+    -------
+    ports : Ports
+        ``ports`` itself, or a copy with the inertia loads appended.
+    record : dict
+        ``inertia_loads`` (the mode asked for) and ``n_inertia_loads`` (columns added).
+    """
+    from ..errors import check_choice
+    from ..ports import Ports
+
+    check_choice("inertia_loads", mode, ("auto", "on", "off"))
+    record = {"inertia_loads": mode, "n_inertia_loads": 0}
+    if mode == "off":
+        return ports, record
+    phi = rigid_body_modes(model)
+    if mode == "auto" and not phi.shape[1]:
+        record["inertia_loads_note"] = ("supported body: not reduced for the inertia loads of a moving support; "
+                                        "use inertia_loads='on' (--inertia-loads on) if its support accelerates")
+        return ports, record
+    R = rigid_motions(model)
+    keep = np.linalg.norm(R, axis=0) > 0
+    L = model.M @ R[:, keep]
+    if phi.shape[1]:  # the elastic part: nothing is left of a uniform field on a free body
+        L0 = np.linalg.norm(L, axis=0)
+        for _ in range(2):
+            L = L - model.M @ (phi @ (phi.T @ L))
+        keep[keep] = np.linalg.norm(L, axis=0) > RIGID_DEFLATION_TOL * L0
+        L = L[:, np.linalg.norm(L, axis=0) > RIGID_DEFLATION_TOL * L0]
+    if not L.shape[1]:
+        return ports, record
+    scale = np.mean(sp.linalg.norm(ports.B, axis=0)) if ports.n_inputs else 1.0
+    L = sp.csr_matrix(L * (scale / np.linalg.norm(L, axis=0)))
+    names = [n for n, k in zip(INERTIA_LOAD_NAMES, keep) if k]
+    aug = Ports(B=sp.hstack([ports.B, L]).tocsr(), C=sp.vstack([ports.C, L.T]).tocsr(),
+                input_names=list(ports.input_names) + names, output_names=list(ports.output_names) + names)
+    return aug, dict(record, n_inertia_loads=int(L.shape[1]))
 
 
 def rigid_residual(model, V, phi=None) -> float:

@@ -54,7 +54,8 @@ class GuyanOptions:
     interface: list | None = interface_option()
 
 
-@register_method("guyan", "static condensation onto the interface DOFs", options=GuyanOptions)
+@register_method("guyan", "static condensation onto the interface DOFs", options=GuyanOptions,
+                 uses_inputs=False)
 def guyan(model, ports, order, *, interface=None, solver: SolverContext | None = None) -> Basis:
     """Guyan reduction: the static constraint modes of the interface DOFs.
 

@@ -29,7 +29,7 @@ class ModalOptions:
 
 
 @register_method("modal", "lowest eigenmodes (rigid-body modes excluded by default)", options=ModalOptions,
-                 survives_coupling=False)
+                 survives_coupling=False, uses_inputs=False)
 def modal(model, ports, order, *, rigid: str = "exclude", sigma: float | None = None,
           solver: SolverContext | None = None) -> Basis:
     """Modal truncation basis: the ``order`` lowest mass-normalized eigenmodes.
