@@ -115,11 +115,11 @@ def test_issue_comparison_on_the_cantilever():
     # the Gramian/hybrid comparison at reduced size: the built-in clamped cantilever cantilever(4)
     # (3,000 DOF), six ports at the tip (TIP and TIP_CENTER, x/y/z), 1 % Rayleigh damping at
     # 10 and 2500 Hz, 11 resonances in the band
+    from flexmor.damping import band_matched
     from flexmor.models import cantilever
-    from flexmor.workflow import apply_damping
 
     band = (10.0, 2500.0)
-    model = apply_damping(cantilever(4), modal_damping=0.01, band=band)
+    model = cantilever(4).with_damping(band_matched(0.01, band))
     ports = make_ports(model, [f"{s}:{d}" for s in ("TIP", "TIP_CENTER") for d in "xyz"])
     full = FullResponse(model, ports, band, cache=False, path="surrogate")
     assert model.n_dof == 3000 and full.resonances.size == 11

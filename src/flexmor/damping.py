@@ -1,8 +1,9 @@
 """How a model's damping matrix ``D`` was obtained, as typed values.
 
 :class:`NoDamping`, :class:`Rayleigh` (``D = alpha M + beta K``), :class:`BandMatched` (the
-``--modal-damping ZETA`` realization: the Rayleigh damping with ratio ``zeta`` at both band
-ends) and :class:`GivenDamping` (a matrix read from the FE files). The dictionary form
+Rayleigh damping with ratio ``zeta`` at both band ends), :class:`ModalDamping`
+(``--modal-damping ZETA``: the ratio ``zeta`` in every mode) and :class:`GivenDamping` (a matrix
+read from the FE files). The dictionary form
 (``{"type": "rayleigh", "alpha": .., "beta": ..}``) exists only where damping is stored
 (HDF5 attributes, JSON): :meth:`Damping.to_dict` and :func:`damping_from_dict`. A new kind
 subclasses :class:`Damping` with its own ``kind`` and registers itself in :data:`KINDS`.
@@ -18,8 +19,8 @@ import numpy as np
 
 from .errors import OptionError
 
-__all__ = ["Damping", "NoDamping", "Rayleigh", "BandMatched", "GivenDamping", "KINDS", "damping_from_dict",
-           "band_matched"]
+__all__ = ["Damping", "NoDamping", "Rayleigh", "BandMatched", "ModalDamping", "GivenDamping", "KINDS",
+           "damping_from_dict", "band_matched", "modal_damping"]
 
 
 @dataclass(frozen=True)
@@ -106,8 +107,58 @@ def band_matched(zeta, band) -> BandMatched:
     return BandMatched(2 * z * w1 * w2 / (w1 + w2), 2 * z / (w1 + w2), zeta=z, band=tuple(band))
 
 
+@dataclass(frozen=True)
+class ModalDamping(BandMatched):
+    """Modal damping: the ratio ``zeta`` in every mode (``--modal-damping ZETA``).
+
+    Wherever the modes are known, each has exactly the ratio ``zeta``: the reduced body
+    (:meth:`reduced_matrix`, ``Dr = Mr Psi diag(2 zeta w) Psi^T Mr`` in its own modes, what the
+    MBS code receives), the full FRF of the dense path, and the modes below the band's top on
+    the sparse paths (:class:`flexmor.analysis.compare.FullResponse` corrects their share).
+    A sparse matrix of the full model, needed where ``s^2 M + s D + K`` is factorized (the
+    methods' expansion points, the sparse FRF before the correction), is the Rayleigh
+    realization matched at the band ends (:class:`BandMatched`: ``alpha``, ``beta``). Rigid-body
+    modes are undamped.
+    """
+
+    kind: ClassVar[str] = "modal"
+
+    def __post_init__(self):
+        object.__setattr__(self, "band", tuple(float(b) for b in self.band))
+
+    def to_dict(self) -> dict:
+        return {"type": "modal", "zeta": self.zeta, "band": list(self.band), "alpha": self.alpha,
+                "beta": self.beta}
+
+    def ratios(self, freqs_hz) -> np.ndarray:
+        """``zeta`` for every elastic mode, 0 for rigid-body modes (``f`` below 1e-6 of the largest)."""
+        f = np.asarray(freqs_hz, float)
+        z = np.full(f.shape, self.zeta)
+        z[f <= 1e-6 * max(float(f.max(initial=0.0)), 1e-300)] = 0.0
+        return z
+
+    def reduced_matrix(self, Mr, Kr) -> np.ndarray:
+        """``Dr = Mr Psi diag(2 zeta w) Psi^T Mr`` from the body's own modes (``Psi^T Mr Psi = I``)."""
+        from .linalg.eigen import dense_eigenmodes
+
+        lam, psi = dense_eigenmodes(np.asarray(Kr), np.asarray(Mr))
+        if lam.size < Mr.shape[0]:
+            raise OptionError("modal damping needs a reduced mass matrix that is positive definite")
+        w = np.sqrt(np.maximum(lam, 0.0))
+        f = w / (2 * np.pi)
+        G = Mr @ psi
+        D = (G * (2 * self.ratios(f) * w)) @ G.T
+        return (D + D.T) / 2
+
+
+def modal_damping(zeta, band) -> ModalDamping:
+    """The :class:`ModalDamping` of ratio ``zeta`` (in ``[0, 1)``); ``band`` (Hz) places its Rayleigh realization."""
+    r = band_matched(zeta, band)
+    return ModalDamping(r.alpha, r.beta, zeta=r.zeta, band=r.band)
+
+
 #: ``type`` of the stored form -> class
-KINDS: dict[str, type] = {c.kind: c for c in (NoDamping, GivenDamping, Rayleigh)}
+KINDS: dict[str, type] = {c.kind: c for c in (NoDamping, GivenDamping, Rayleigh, ModalDamping)}
 
 
 def damping_from_dict(record: dict) -> Damping:

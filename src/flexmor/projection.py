@@ -15,7 +15,7 @@ import scipy.linalg as sla
 
 from . import __version__
 from .basis import Basis
-from .damping import Damping, NoDamping, damping_from_dict
+from .damping import Damping, ModalDamping, NoDamping, damping_from_dict
 from .errors import ModelError
 from .model import FEModel
 from .ports import Ports
@@ -114,6 +114,8 @@ def project(model: FEModel, basis: Basis, ports: Ports) -> ReducedModel:
     Mr = _sym(V.T @ (model.M @ V))
     Kr = _sym(V.T @ (model.K @ V))
     Dr = _sym(V.T @ (model.D @ V)) if model.D is not None else None
+    if Dr is not None and isinstance(model.damping, ModalDamping):  # modal damping: zeta in the body's own modes
+        Dr = model.damping.reduced_matrix(Mr, Kr)
     Br = np.asarray((ports.B.T @ V).T)
     Cr = np.asarray(ports.C @ V)
     return ReducedModel(

@@ -8,7 +8,7 @@ from pathlib import Path
 
 from .analysis.compare import FullResponse
 from .checks import check_rigid_body_modes, first_elastic_hz
-from .damping import Damping, NoDamping, Rayleigh, band_matched
+from .damping import Damping, NoDamping, Rayleigh, modal_damping as _modal_damping
 from .errors import OptionError
 from .linalg.context import SolverContext, as_solver
 from .options import DEFAULT_BAND, Band, parse_pair
@@ -28,15 +28,15 @@ def parse_band(text) -> Band:
 
 def damping_of(*, rayleigh=None, modal_damping=None, band=None) -> Damping:
     """The damping asked for: ``rayleigh=(alpha, beta)`` (``D = alpha M + beta K``) or
-    ``modal_damping=zeta``, realized as the Rayleigh damping whose ratio equals ``zeta`` at
-    both ends of ``band`` (default :data:`DEFAULT_BAND`; :func:`flexmor.damping.band_matched`);
+    ``modal_damping=zeta``, the ratio ``zeta`` in every mode (:class:`flexmor.damping.ModalDamping`,
+    its sparse realization matched at the ends of ``band``, default :data:`DEFAULT_BAND`);
     :class:`~flexmor.damping.NoDamping` when neither is given."""
     if rayleigh is not None and modal_damping is not None:
         raise OptionError("give either rayleigh or modal_damping, not both", params=("rayleigh", "modal_damping"))
     if rayleigh is not None:
         return Rayleigh(*(float(x) for x in rayleigh))
     if modal_damping is not None:
-        return band_matched(modal_damping, Band.of(band))
+        return _modal_damping(modal_damping, Band.of(band))
     return NoDamping()
 
 

@@ -8,6 +8,7 @@ from typing import Callable
 
 import numpy as np
 
+from ..damping import ModalDamping
 from ..dynamics.dense_frf import DenseResolvent, dense_applicable
 from ..dynamics.frf import angular_frequency, frf_full, frf_reduced, rel_error
 from ..dynamics.modes import modal_damping_ratios, modes_below
@@ -181,6 +182,15 @@ class FullResponse:
             def evaluate(freqs):
                 return frf_full(model, ports, freqs, solver=solver, progress=progress)
 
+        if dense is None and isinstance(model.damping, ModalDamping):
+            evaluate = _modal_correction(evaluate, model.damping, f_all, phi, ports)
+            damping_note = (f"modal damping: ratio {model.damping.zeta:g} exact in the {f_all.size} modes up to "
+                            f"{f_all.max(initial=0):.4g} Hz; higher modes (quasi-static in the band) with the "
+                            "Rayleigh realization")
+        elif isinstance(model.damping, ModalDamping):
+            damping_note = f"modal damping: ratio {model.damping.zeta:g} exact in every mode (dense path)"
+        else:
+            damping_note = None
         refine = damped and bool(np.all(self.zeta > 0))
         self.freqs, self.H, self.grid = adaptive_grid(
             evaluate, fmin, fmax, n=n, resonances=self.resonances, zeta=self.zeta, tol=tol,
@@ -190,6 +200,8 @@ class FullResponse:
             sur.release()  # its factorization (GBs at scale) is not needed by the FRF
         self.surrogate = sur
         self.grid["path"] = self.path
+        if damping_note:
+            self.grid["damping_note"] = damping_note
         if dense is not None:
             self.grid["dense_kind"] = dense.kind
         self.timings["sweep"] = time.perf_counter() - t1
@@ -197,7 +209,7 @@ class FullResponse:
     def _dense_resolvent(self, model):
         """The dense resolvent, or None (and ``path`` set to ``direct``) where the dense path does not apply."""
         try:
-            return DenseResolvent(model.K, model.M, model.D)
+            return DenseResolvent(model.K, model.M, model.D, damping=model.damping)
         except ModelError as exc:
             log.info("dense full FRF not applicable (%s): sparse direct sweep", exc)
             self.path = "direct"
@@ -236,9 +248,30 @@ class FullResponse:
         model, ports = self._model, self._ports
         phi = rigid_body_modes(model)
         Cp, Bp = np.asarray(ports.C @ phi), np.asarray((ports.B.T @ phi).T)
-        Dp = phi.T @ (model.D @ phi) if model.D is not None else np.zeros((phi.shape[1],) * 2)
+        undamped = model.D is None or isinstance(model.damping, ModalDamping)  # modal: rigid modes undamped
+        Dp = np.zeros((phi.shape[1],) * 2) if undamped else phi.T @ (model.D @ phi)
         s = 2j * np.pi * self.freqs
         out = np.empty(self.H.shape, dtype=complex)
         for k, sk in enumerate(s):
             out[k] = Cp @ np.linalg.solve(sk * sk * np.eye(phi.shape[1]) + sk * Dp, Bp)
         return out
+
+
+def _modal_correction(evaluate, damping, f_modes, phi, ports):
+    """``evaluate`` (the FRF of the sparse Rayleigh realization of modal damping) with the share of
+    the modes ``phi`` (mass-normalized, frequencies ``f_modes`` Hz) moved to the ratio of ``damping``:
+    ``H += sum_k c_k b_k^T (1/(w_k^2 - w^2 + 2i zeta w_k w) - 1/(w_k^2 - w^2 + i w d_k))``, ``d_k`` the
+    Rayleigh value ``alpha + beta w_k^2`` (exact for these modes: the realization is proportional)."""
+    wk = 2 * np.pi * np.asarray(f_modes, float)
+    d_modal = 2 * damping.ratios(f_modes) * wk
+    d_rayleigh = damping.alpha + damping.beta * wk ** 2
+    Cp = np.asarray(ports.C @ phi)
+    Bp = np.asarray(ports.B.T @ phi)
+
+    def corrected(freqs):
+        H = evaluate(freqs)
+        w = 2 * np.pi * np.asarray(freqs, float)[:, None]
+        g = 1 / (wk ** 2 - w ** 2 + 1j * w * d_modal) - 1 / (wk ** 2 - w ** 2 + 1j * w * d_rayleigh)
+        return H + np.einsum("pk,fk,mk->fpm", Cp, g, Bp)
+
+    return corrected

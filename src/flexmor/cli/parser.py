@@ -73,7 +73,8 @@ def _add_model_args(p, damping=True):
                        help=f"frequency band in Hz (default {DEFAULT_BAND[0]:g}:{DEFAULT_BAND[1]:g})")
         p.add_argument("--rayleigh", metavar="ALPHA:BETA", help="Rayleigh damping D = alpha M + beta K (1/s, s)")
         p.add_argument("--modal-damping", metavar="ZETA", type=float,
-                       help="damping ratio; realized as Rayleigh damping with this ratio at both band ends")
+                       help="modal damping: this ratio in every mode (exact in the reduced body and the dense full "
+                       "FRF; the sparse full FRF has it below the band's top)")
         p.add_argument("--n-freq", type=int, default=50, help="log-spaced base points of the error grid")
         p.add_argument("--grid-tol", type=float, help="relative tolerance of the adaptive error grid (default 3e-3)")
         p.add_argument("--full-frf", choices=["auto", "direct", "dense", "surrogate"], default="auto",

@@ -27,6 +27,7 @@ import numpy as np
 import scipy.linalg as sla
 import scipy.sparse as sp
 
+from ..damping import ModalDamping
 from ..errors import ModelError
 from ..linalg.distributed import is_partitioned
 from ..linalg.eigen import dense_eigenmodes
@@ -72,6 +73,9 @@ class DenseResolvent:
         Symmetric stiffness and mass.
     D : sparse matrix or ndarray, optional
         Damping; None for an undamped model.
+    damping : Damping, optional
+        The model's damping description; :class:`~flexmor.damping.ModalDamping` puts its ratio
+        in every mode exactly (``D`` is then not used).
 
     Attributes
     ----------
@@ -89,12 +93,16 @@ class DenseResolvent:
         ill-conditioned companion eigenbasis: use the sparse path.
     """
 
-    def __init__(self, K, M, D=None):
+    def __init__(self, K, M, D=None, damping=None):
         n = K.shape[0]
         self.lam, self.phi = dense_eigenmodes(K, M)
         if self.lam.size < n:
             raise ModelError(f"the mass matrix is singular ({n - self.lam.size} infinite eigenvalues): the modal "
                              "sum misses a static term")
+        if isinstance(damping, ModalDamping):  # modal damping: its ratio in every mode, exactly
+            w = np.sqrt(np.maximum(self.lam, 0.0))
+            self.kind, self._d = "modal", 2 * damping.ratios(w / (2 * np.pi)) * w
+            return
         if D is None:
             self.kind, self._d = "modal", np.zeros(n)
             return
