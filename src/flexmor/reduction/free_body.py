@@ -291,8 +291,14 @@ def check_body(model, reduced, *, f1_hz: float | None = None, band_error: float 
                         f"below the full model's first elastic frequency {f1_hz:.4g} Hz that the full model does not "
                         f"have (rigid motion mixed into the elastic coordinates); {hint}")
     if band_error is not None and np.isfinite(band_error) and band_error > 1:
+        if model.D is None:
+            why = ("the model is undamped, so the error at its resonances in the band dominates (a small frequency "
+                   "shift gives an unbounded relative error there): add damping (rayleigh or modal_damping) to judge "
+                   "the body, or raise the order")
+        else:
+            why = "raise the order, widen the expansion points or band, or use another method"
         msgs.append(f"{reduced.method} body has band_error {band_error:.3g} > 1: it is worse than no body over the "
-                    "band; raise the order, widen the expansion points or band, or use another method")
+                    f"band; {why}")
     for m in msgs:
         warnings.warn(m, FlexmorWarning, stacklevel=2)
     return msgs
