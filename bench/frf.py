@@ -32,13 +32,13 @@ import numpy as np
 
 from flexmor.analysis.compare import FullResponse
 from flexmor.analysis.frequency import band_error
+from flexmor.damping import band_matched
 from flexmor.dynamics.frf import ShiftedMatrices, frf_full, frf_reduced
 from flexmor.jsonutil import jsonable
 from flexmor.linalg import SolverContext, available_backends, factorize
 from flexmor.models import cantilever, size_for_dofs
 from flexmor.ports import make_ports
 from flexmor.reduction import reduce
-from flexmor.workflow import apply_damping
 
 
 def _cpu() -> float:
@@ -96,7 +96,7 @@ def main(argv=None):
     n = size_for_dofs(args.dofs, element=args.element)
     model = cantilever(n, element=args.element)
     band = (args.fmin, args.fmax)
-    model = apply_damping(model, modal_damping=args.zeta, band=band)
+    model = model.with_damping(band_matched(args.zeta, band))
     ports = make_ports(model, ["TIP:y", "TIP:z"])
     t_build = time.perf_counter() - t0
     print(f"{model.name}: {model.n_dof} DOF, nnz(K) {model.K.nnz}, band {band[0]:g}-{band[1]:g} Hz, "

@@ -38,9 +38,10 @@ ROOT = pathlib.Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT / "src"))
 
 from flexmor.analysis.compare import FullResponse
+from flexmor.damping import band_matched
 from flexmor.models import cantilever, size_for_dofs
 from flexmor.ports import make_ports
-from flexmor.workflow import apply_damping, reduce_and_judge
+from flexmor.workflow import reduce_and_judge
 
 CASES = [("modal", 30, {}), ("krylov", 30, {}), ("two-step", 30, {"intermediate": 120}), ("fw-sobt", 30, {}),
          ("pod", 30, {})]
@@ -53,7 +54,7 @@ def beam(size: int, zeta: float, band):
     while model.n_dof < size:
         n += 1
         model = cantilever(n)
-    model = apply_damping(model, modal_damping=zeta, band=band)
+    model = model.with_damping(band_matched(zeta, band))
     return model, make_ports(model, [f"{s}:{d}" for s in ("TIP", "TIP_CENTER") for d in "xyz"]), n
 
 

@@ -50,10 +50,10 @@ from pathlib import Path
 import numpy as np
 
 from flexmor.analysis.compare import FullResponse
+from flexmor.damping import band_matched
 from flexmor.models import plate_structure
 from flexmor.ports import make_ports
 from flexmor.reduction import reduce
-from flexmor.workflow import apply_damping
 
 #: The hole interface: a force/moment at the hole's centre spread over the wall (RBE3).
 INTERFACE = [f"HOLE@rbe3:{d}" for d in ("x", "y", "z", "rx", "ry", "rz")]
@@ -69,7 +69,7 @@ SLIDES = {
 
 def structure(n: int = 56, *, band=(1.0, 2000.0), zeta: float = 0.01):
     """The plate-and-rods structure at resolution ``n`` with Rayleigh damping ``zeta`` at the band ends."""
-    return apply_damping(plate_structure(n), modal_damping=zeta, band=band)
+    return plate_structure(n).with_damping(band_matched(zeta, band))
 
 
 def run(n: int = 56, *, band=(1.0, 2000.0), zeta: float = 0.01, pod_nodes: int = 1, grid_tol: float | None = None,

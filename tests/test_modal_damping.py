@@ -71,3 +71,25 @@ def test_stored_and_reported(capsys, tmp_path):
     assert damping_from_dict(red.damping.to_dict()) == red.damping
     np.testing.assert_allclose(_body_ratios(red)[1], 0.02, rtol=1e-9)
     assert res["band_error"] < 1e-3
+
+
+def test_exudyn_body_gets_the_modal_damping(free, tmp_path):
+    exu = pytest.importorskip("exudyn", reason="Exudyn is not installed (optional extra 'exudyn')")
+    from exudyn.FEM import ObjectFFRFreducedOrderInterface
+
+    from flexmor.io.exudyn import add_to_exudyn, write_exudyn
+
+    model = apply_damping(free, modal_damping=0.02, band=BAND)
+    red, _ = reduce(model, "krylov", 12, make_ports(model, ["TIP:y", "TIP:z"]), band=BAND, rigid="exclude")
+    mbs = exu.SystemContainer().AddSystem()
+    body = add_to_exudyn(mbs, red, model)
+    D = mbs.GetObjectParameter(body["oFFRFreducedOrder"], "dampingMatrixReduced")
+    D = np.asarray(D.GetPythonObject() if hasattr(D, "GetPythonObject") else D)
+    np.testing.assert_allclose(D, red.D, rtol=1e-12, atol=1e-12 * np.abs(red.D).max())
+    np.testing.assert_allclose(_body_ratios(red)[1], 0.02, rtol=1e-9)
+    path = tmp_path / "k.exudyn.npz"
+    write_exudyn(red, path, model=model)
+    cms = ObjectFFRFreducedOrderInterface()
+    cms.LoadFromFile(str(path))  # the extra array does not disturb Exudyn's reader
+    with np.load(path) as z:
+        np.testing.assert_array_equal(z["dampingMatrixReduced"], red.D)

@@ -17,7 +17,8 @@ import pytest
 from conftest import CCX
 
 from flexmor.cli import main
-from flexmor.damping import BandMatched, GivenDamping, NoDamping, Rayleigh, band_matched, damping_from_dict
+from flexmor.damping import (BandMatched, GivenDamping, NoDamping, Rayleigh, band_matched, damping_from_dict,
+                             modal_damping)
 from flexmor.errors import FlexmorError, OptionError, PortError
 from flexmor.options import DEFAULT_BAND, Band
 from flexmor.ports import make_ports
@@ -90,8 +91,13 @@ def test_damping_types_and_their_stored_form(clamped):
     assert NoDamping().to_dict() == {"type": "none"} and GivenDamping().to_dict() == {"type": "given"}
     with pytest.raises(OptionError, match="'viscous' is not known"):
         damping_from_dict({"type": "viscous"})
-    with pytest.raises(OptionError, match=r"modal_damping must be in \[0, 1\)"):
+    with pytest.raises(OptionError, match=r"band_rayleigh must be in \[0, 1\)"):
         band_matched(1.5, DEFAULT_BAND)
+    with pytest.raises(OptionError, match=r"modal_damping must be in \[0, 1\)"):
+        modal_damping(1.5, DEFAULT_BAND)
+    md = modal_damping(0.02, (10.0, 3000.0))
+    assert damping_from_dict(md.to_dict()) == md and md.to_dict()["type"] == "modal"
+    np.testing.assert_allclose(md.ratios([0.0, 10.0, 500.0, 3000.0]), [0.0, 0.02, 0.02, 0.02])
     damped = clamped.with_damping(bm)
     assert isinstance(damped.damping, BandMatched) and damped.summary()["damping"]["type"] == "rayleigh"
     np.testing.assert_allclose((damped.D - clamped.with_rayleigh(bm.alpha, bm.beta).D).toarray(), 0.0)

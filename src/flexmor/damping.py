@@ -87,7 +87,7 @@ class Rayleigh(Damping):
 
 @dataclass(frozen=True)
 class BandMatched(Rayleigh):
-    """The Rayleigh damping whose ratio equals ``zeta`` at both ends of ``band`` (``--modal-damping``).
+    """The Rayleigh damping whose ratio equals ``zeta`` at both ends of ``band`` (``--band-rayleigh``).
 
     ``alpha = 2 zeta w1 w2/(w1+w2)``, ``beta = 2 zeta/(w1+w2)``; between the band ends the
     ratio is slightly lower, outside higher. Stored as its Rayleigh coefficients. Build it
@@ -98,11 +98,12 @@ class BandMatched(Rayleigh):
     band: tuple
 
 
-def band_matched(zeta, band) -> BandMatched:
-    """The :class:`BandMatched` damping of ratio ``zeta`` (in ``[0, 1)``) at the ends of ``band`` (Hz)."""
+def band_matched(zeta, band, *, name: str = "band_rayleigh") -> BandMatched:
+    """The :class:`BandMatched` damping of ratio ``zeta`` (in ``[0, 1)``) at the ends of ``band`` (Hz);
+    ``name`` is the parameter an error names."""
     z = float(zeta)
     if not 0 <= z < 1:
-        raise OptionError(f"modal_damping must be in [0, 1), got {z}", params=("modal_damping",))
+        raise OptionError(f"{name} must be in [0, 1), got {z}", params=(name,))
     w1, w2 = (2 * math.pi * float(f) for f in band)
     return BandMatched(2 * z * w1 * w2 / (w1 + w2), 2 * z / (w1 + w2), zeta=z, band=tuple(band))
 
@@ -153,7 +154,7 @@ class ModalDamping(BandMatched):
 
 def modal_damping(zeta, band) -> ModalDamping:
     """The :class:`ModalDamping` of ratio ``zeta`` (in ``[0, 1)``); ``band`` (Hz) places its Rayleigh realization."""
-    r = band_matched(zeta, band)
+    r = band_matched(zeta, band, name="modal_damping")
     return ModalDamping(r.alpha, r.beta, zeta=r.zeta, band=r.band)
 
 

@@ -8,7 +8,8 @@ from pathlib import Path
 
 from .analysis.compare import FullResponse
 from .checks import check_rigid_body_modes, first_elastic_hz
-from .damping import Damping, NoDamping, Rayleigh, modal_damping as _modal_damping
+from .damping import Damping, NoDamping, Rayleigh, band_matched
+from .damping import modal_damping as _modal_damping
 from .errors import OptionError
 from .linalg.context import SolverContext, as_solver
 from .options import DEFAULT_BAND, Band, parse_pair
@@ -26,23 +27,33 @@ def parse_band(text) -> Band:
     return Band.of(text)
 
 
-def damping_of(*, rayleigh=None, modal_damping=None, band=None) -> Damping:
-    """The damping asked for: ``rayleigh=(alpha, beta)`` (``D = alpha M + beta K``) or
-    ``modal_damping=zeta``, the ratio ``zeta`` in every mode (:class:`flexmor.damping.ModalDamping`,
-    its sparse realization matched at the ends of ``band``, default :data:`DEFAULT_BAND`);
-    :class:`~flexmor.damping.NoDamping` when neither is given."""
-    if rayleigh is not None and modal_damping is not None:
-        raise OptionError("give either rayleigh or modal_damping, not both", params=("rayleigh", "modal_damping"))
+def damping_of(*, rayleigh=None, modal_damping=None, band_rayleigh=None, band=None) -> Damping:
+    """The damping asked for (at most one of the three):
+
+    * ``rayleigh=(alpha, beta)``: ``D = alpha M + beta K``;
+    * ``modal_damping=zeta``: the ratio ``zeta`` in every mode (:class:`flexmor.damping.ModalDamping`,
+      its sparse realization matched at the ends of ``band``, default :data:`DEFAULT_BAND`);
+    * ``band_rayleigh=zeta``: the Rayleigh damping whose ratio is ``zeta`` at both ends of ``band``
+      (:func:`flexmor.damping.band_matched`; lower in between, higher outside).
+
+    :class:`~flexmor.damping.NoDamping` when none is given."""
+    given = {k: v for k, v in (("rayleigh", rayleigh), ("modal_damping", modal_damping),
+                               ("band_rayleigh", band_rayleigh)) if v is not None}
+    if len(given) > 1:
+        raise OptionError(f"give either {' or '.join(given)}, not both", params=tuple(given))
     if rayleigh is not None:
         return Rayleigh(*(float(x) for x in rayleigh))
     if modal_damping is not None:
         return _modal_damping(modal_damping, Band.of(band))
+    if band_rayleigh is not None:
+        return band_matched(band_rayleigh, Band.of(band))
     return NoDamping()
 
 
-def apply_damping(model, *, rayleigh=None, modal_damping=None, band=None):
+def apply_damping(model, *, rayleigh=None, modal_damping=None, band_rayleigh=None, band=None):
     """Return ``model`` with the damping of :func:`damping_of` (the model itself when none is given)."""
-    return model.with_damping(damping_of(rayleigh=rayleigh, modal_damping=modal_damping, band=band))
+    return model.with_damping(damping_of(rayleigh=rayleigh, modal_damping=modal_damping,
+                                         band_rayleigh=band_rayleigh, band=band))
 
 
 def coupling_specs(interfaces=(), ports=()) -> list[str]:

@@ -79,7 +79,8 @@ def _read_model(args, couplings=()):
     t_read = time.perf_counter() - t0
     band = Band.parse(args.band) if getattr(args, "band", None) else None
     rayleigh = parse_pair(args.rayleigh, "rayleigh") if getattr(args, "rayleigh", None) else None
-    model = apply_damping(model, rayleigh=rayleigh, modal_damping=getattr(args, "modal_damping", None), band=band)
+    model = apply_damping(model, rayleigh=rayleigh, modal_damping=getattr(args, "modal_damping", None),
+                          band_rayleigh=getattr(args, "band_rayleigh", None), band=band)
     return model, t_read, band
 
 

@@ -72,6 +72,9 @@ def _add_model_args(p, damping=True):
         p.add_argument("--band", metavar="FMIN:FMAX",
                        help=f"frequency band in Hz (default {DEFAULT_BAND[0]:g}:{DEFAULT_BAND[1]:g})")
         p.add_argument("--rayleigh", metavar="ALPHA:BETA", help="Rayleigh damping D = alpha M + beta K (1/s, s)")
+        p.add_argument("--band-rayleigh", metavar="ZETA", type=float,
+                       help="Rayleigh damping D = alpha M + beta K with ratio ZETA at both band ends (lower in "
+                       "between, higher outside)")
         p.add_argument("--modal-damping", metavar="ZETA", type=float,
                        help="modal damping: this ratio in every mode (exact in the reduced body and the dense full "
                        "FRF; the sparse full FRF has it below the band's top)")

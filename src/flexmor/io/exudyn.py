@@ -72,7 +72,8 @@ def exudyn_data(reduced, model, *, node_type: str = NODE_TYPES[0]) -> dict:
     -------
     dict
         Keys of ``ObjectFFRFreducedOrderInterface.GetDictionary()``; ``nodeIds`` (the FE node
-        id of each Exudyn mesh node) in addition.
+        id of each Exudyn mesh node) and ``dampingMatrixReduced`` (the body's damping, to set on
+        the ``ObjectFFRFreducedOrder``) in addition.
 
     Raises
     ------
@@ -120,6 +121,7 @@ def exudyn_data(reduced, model, *, node_type: str = NODE_TYPES[0]) -> dict:
     return {
         "modeBasis": Psi, "trigList": np.zeros((0, 3), dtype=np.int64), "postProcessingModes": {},
         "massMatrixReduced": np.asarray(reduced.M, float), "stiffnessMatrixReduced": np.asarray(reduced.K, float),
+        "dampingMatrixReduced": np.zeros((r, r)) if reduced.D is None else np.asarray(reduced.D, float),
         "infoList": np.array([r, n, 3, rot_dofs, 3 + rot_dofs, 3 + rot_dofs + r]),
         "rigidBodyNodeType": node_type, "xRef": x, "inertiaLocal": 0.5 * (inertia + inertia.T), "Mtt": Mtt,
         "totalMass": mass, "chiU": chi, "chiUtilde": _skew_rows(chi[:, None]),
@@ -177,7 +179,8 @@ def add_to_exudyn(mbs, reduced, model, *, position=(0.0, 0.0, 0.0), velocity=(0.
     gravity : sequence of 3 float
         Gravity vector (mass-proportional load) or zeros.
     rayleigh : (alpha, beta)
-        Damping ``alpha Mr + beta Kr`` of the modal coordinates.
+        Damping ``alpha Mr + beta Kr`` of the modal coordinates; with (0, 0) (default) the body's
+        own damping matrix ``reduced.D`` (e.g. modal damping, its ratio in each mode) is used.
     node_type : str
         Rigid-body node of the frame, one of :data:`NODE_TYPES`.
     name : str
@@ -193,6 +196,7 @@ def add_to_exudyn(mbs, reduced, model, *, position=(0.0, 0.0, 0.0), velocity=(0.
 
     data = exudyn_data(reduced, model, node_type=node_type)
     data.pop("nodeIds")
+    D = data.pop("dampingMatrixReduced")
     cms = ObjectFFRFreducedOrderInterface()
     cms.SetWithDictionary(data)
     res = cms.AddObjectFFRFreducedOrder(
@@ -201,6 +205,8 @@ def add_to_exudyn(mbs, reduced, model, *, position=(0.0, 0.0, 0.0), velocity=(0.
         massProportionalDamping=float(rayleigh[0]), stiffnessProportionalDamping=float(rayleigh[1]),
         gravity=list(gravity), color=list(color), name=name)
     res = dict(res)
+    if not any(rayleigh) and np.any(D):  # the body's own damping (e.g. modal: its ratio in every mode)
+        mbs.SetObjectParameter(res["oFFRFreducedOrder"], "dampingMatrixReduced", D)
     res["cms"] = cms
     res["node_index"] = {int(k): i for i, k in enumerate(model.node_ids)}
     return res
