@@ -118,7 +118,9 @@ def modal_check(model, reduced, *, n_modes: int | None = None, full=None, solver
         (n, n_reduced), ``pair`` (index of the best-matching reduced mode per full mode,
         -1 when its MAC is below :data:`PAIR_MAC_MIN`), ``pair_hz`` and ``freq_rel_error``
         (``(f_pair - f) / f``, NaN when unpaired), ``pair_mac`` (the largest MAC of each full mode),
-        ``n_rigid_full``, ``n_rigid_reduced``.
+        ``n_rigid_full``, ``n_rigid_reduced``; ``full_shapes`` (n_dof, n) the full modes (aligned
+        within clusters of repeated eigenfrequencies to the reduced ones) and ``reduced_shapes``
+        (n_dof, n_reduced) the flexible reduced modes expanded with ``V``, as the MAC compares them.
 
     References
     ----------
@@ -155,7 +157,7 @@ def modal_check(model, reduced, *, n_modes: int | None = None, full=None, solver
     pair_mac = best
     out = {"full_hz": np.asarray(f, float), "reduced_hz": f_r, "mac": A, "pair": pair, "pair_hz": pair_hz,
            "pair_mac": pair_mac, "freq_rel_error": (pair_hz - f) / np.where(f > 0, f, 1.0),
-           "n_rigid_full": n_rig, "n_rigid_reduced": int(rig_r.sum())}
+           "n_rigid_full": n_rig, "n_rigid_reduced": int(rig_r.sum()), "full_shapes": phi, "reduced_shapes": Psi}
     log.info("modal check of %s r=%d: %d full modes, min paired MAC %.3f", reduced.method, reduced.order, f.size,
              float(np.nanmin(pair_mac)) if f.size else float("nan"))
     return out

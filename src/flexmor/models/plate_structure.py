@@ -37,7 +37,7 @@ import scipy.sparse as sp
 
 from ..errors import OptionError
 from ..model import FEModel
-from .solid import _assemble, _check_choice, _finish, _material, _positive
+from .solid import _assemble, _check_choice, _finish, _material, _positive, cell_mesh
 
 __all__ = ["LOWER", "plate_structure"]
 
@@ -160,7 +160,7 @@ def plate_structure(n: int = 56, *, a: float = 0.5, t: float = 0.02, hole: float
     K, M, xyz = _assemble(mesh, "hex", lam, mu, rho)
     sets = {name: idx.astype(np.int64) + 1 for name, idx in sets.items()}
     name = f"plate-structure-n{int(n)}" + ("" if lower == "clamped" else "-mass")
-    model = _finish(name, K, M, xyz, sets, "BOTTOM" if lower == "clamped" else None)
+    model = _finish(name, K, M, xyz, sets, "BOTTOM" if lower == "clamped" else None, cells=cell_mesh(mesh))
     if lower == "mass":
         model = _hang_lower_plate(model, a, lower_thickness, rod_length, rho)
     log.info("%s: %d hexahedra, %d nodes, %d DOF, hole wall %d nodes", name, n_cells, model.n_nodes,

@@ -37,6 +37,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from ..errors import ModelError, OptionError
+from ..mesh import CellBlock, Mesh
 from ..model import FEModel
 
 __all__ = ["ELEMENTS", "KINDS", "cantilever", "plate", "size_for_dofs"]
@@ -154,6 +155,22 @@ def _assemble(mesh, element: str, lam: float, mu: float, rho: float):
     return K, M, xyz
 
 
+#: meshio node k of a hexahedron is scikit-fem's local node HEX_TO_MESHIO[k] (as skfem.io.meshio).
+HEX_TO_MESHIO = [0, 3, 6, 2, 1, 5, 7, 4]
+
+
+def cell_mesh(mesh) -> Mesh:
+    """The connectivity of a scikit-fem hexahedral or tetrahedral mesh as a :class:`Mesh`.
+
+    The cells are the mesh's (corner) cells in meshio's node order; node ids are the point
+    indices + 1 (the numbering of the built-in models; corners come first also for ``hex27``).
+    """
+    t = np.asarray(mesh.t, dtype=np.int64) + 1
+    if t.shape[0] == 8:
+        return Mesh([CellBlock("hexahedron", t[HEX_TO_MESHIO].T)])
+    return Mesh([CellBlock("tetra", t.T)])
+
+
 def _interleave(indptr, indices, ns: int, blocks) -> sp.csr_matrix:
     """Vector CSR matrix with rows/columns ``3 s + d`` from 3x3 blocks on one scalar pattern.
 
@@ -201,11 +218,12 @@ def _build(name: str, element: str, divisions, extent, E, nu, rho, fixed_set: st
     node_ids = np.arange(1, xyz.shape[0] + 1, dtype=np.int64)
     scale = max(extent)
     sets = {set_name: node_ids[_on(xyz[:, axis], value, scale)] for set_name, (axis, value) in set_defs.items()}
-    return _finish(name, K, M, xyz, sets, fixed_set)
+    return _finish(name, K, M, xyz, sets, fixed_set, cells=cell_mesh(mesh))
 
 
-def _finish(name: str, K, M, xyz: np.ndarray, sets: dict, fixed_set: str | None) -> FEModel:
-    """The FEModel of assembled matrices: node ids ``s + 1``, set ``ALL`` added, ``fixed_set`` removed."""
+def _finish(name: str, K, M, xyz: np.ndarray, sets: dict, fixed_set: str | None, cells: Mesh | None = None) -> FEModel:
+    """The FEModel of assembled matrices: node ids ``s + 1``, set ``ALL`` added, ``fixed_set`` removed,
+    element connectivity ``cells``."""
     ns = xyz.shape[0]
     node_ids = np.arange(1, ns + 1, dtype=np.int64)
     sets = {"ALL": node_ids, **sets}
@@ -218,7 +236,7 @@ def _finish(name: str, K, M, xyz: np.ndarray, sets: dict, fixed_set: str | None)
         M = M[free][:, free]
         dofs = dofs[free]
     model = FEModel(M=M, K=K, node_ids=node_ids, xyz=xyz, dofs=dofs, node_sets=sets,
-                    name=name, source="built-in")
+                    name=name, source="built-in", mesh=cells)
     return model
 
 

@@ -58,6 +58,7 @@ class Report:
     modal: dict = field(default_factory=dict)
     time: dict = field(default_factory=dict)
     notes: list = field(default_factory=list)
+    scene: dict = field(default_factory=dict)
 
 
 def fmt(value, spec: str) -> str:
@@ -71,7 +72,9 @@ def _spec_nodes(model, specs) -> np.ndarray:
     """Node ids addressed by port SPECs (``NODE:DIR``, ``SET:DIR``, ``SET@rbe3:DIR``)."""
     nodes = []
     for spec in specs:
-        target = str(spec).rsplit(":", 1)[0].split("@")[0].strip()
+        target = str(spec).rsplit(":", 1)[0].strip()
+        if target.upper() not in model.node_sets:  # a coupled port is its master node (set NAME@RBE2)
+            target = target.split("@")[0].strip()
         if target.upper() in model.node_sets:
             nodes.extend(model.node_sets[target.upper()].tolist())
         elif target.lstrip("-").isdigit() and model.has_node(int(target)):
@@ -109,7 +112,7 @@ def build_report(model, ports, reduced, *, band, labels=None, seconds=None, full
                  dt: float | None = None, t_end: float | None = None, max_steps: int = 5000,
                  scheme: str = "newmark", rho_inf: float = 0.9, n_modes: int = 12, h2_max_dof: int = 1000,
                  solver: SolverContext | None = None, progress=None, time_progress=None,
-                 title: str | None = None) -> Report:
+                 title: str | None = None, view3d: bool = True) -> Report:
     """Compute the contents of a report on ``reduced`` bodies of ``model``.
 
     Parameters
@@ -144,6 +147,9 @@ def build_report(model, ports, reduced, *, band, labels=None, seconds=None, full
     progress, time_progress : callable, optional
         ``progress(iterable, total)`` wrappers of the FRF sweep and the full time integration.
     title : str, optional
+    view3d : bool
+        Add the interactive 3D view (:mod:`flexmor.report.view3d`): surface, couplings, modes
+        with MAC pairs, full vs reduced deformation.
 
     Returns
     -------
@@ -237,6 +243,13 @@ def build_report(model, ports, reduced, *, band, labels=None, seconds=None, full
         rep.figures["body"] = plots.body_png(model.xyz, marks, title=f"{model.name}: {model.n_nodes} nodes")
     else:
         notes.append("the model has no node coordinates: no picture of the body")
+    if view3d and model.n_nodes and model.dofs is not None:
+        from .view3d import build_scene
+
+        rep.scene = build_scene(model, ports, reduced, labels, band=band, modal=rep.modal["bodies"],
+                                full_modes=(f, phi, n_rig), solver=solver,
+                                nodes={"inputs": _spec_nodes(model, ports.input_names),
+                                       "outputs": _spec_nodes(model, ports.output_names), "interface": iface})
     log.info("report on %d bodies: %d figures", len(reduced), len(rep.figures))
     return rep
 
@@ -278,6 +291,10 @@ def render_html(rep: Report) -> str:
     out += [f"<p class=note>{e(n)}</p>" for n in rep.notes]
     if "body" in rep.figures:
         out += ['<h2 id="body">The body</h2>', _img(rep.figures["body"], "nodes with ports and interface")]
+    if rep.scene:
+        from .view3d import render_section
+
+        out.append(render_section(rep.scene))
     out += ['<h2 id="frf">Transfer functions |H|</h2>', _img(rep.figures["frf"], "|H| full vs reduced"),
             '<h2 id="rel-error">rel_error(f)</h2>', _img(rep.figures["rel_error"], "rel_error per method")]
     if "singular_values" in rep.figures:
