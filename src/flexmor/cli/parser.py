@@ -16,6 +16,7 @@ from .. import __version__
 from ..options import DEFAULT_BAND, option_fields
 from .commands import cmd_compare, cmd_demo, cmd_export, cmd_info, cmd_reduce, cmd_report
 from .options import COMMON, all_options, flag
+from .ui import add_ui_parser
 
 __all__ = ["build_parser", "flag_names"]
 
@@ -171,6 +172,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help="index order of SID m1(i,j,k) entries (default row-q-col, as PY_SID/EMBS)")
     p.add_argument("--json", action="store_true", help="print one JSON object on stdout")
     p.set_defaults(func=cmd_export)
+
+    add_ui_parser(sub)
     for p in sub.choices.values():  # each command maps the parameters named by library errors to its flags
         p.set_defaults(flag_names=flag_names(p))
     return ap

@@ -1,5 +1,5 @@
 /* flexmor 3D viewer: a small WebGL program for the report and the web app (no library, offline).
- * Scene JSON from flexmor.report.view3d: vertices (float32), triangles/lines (uint32), marks,
+ * Scene JSON from flexmor.report.view3d: vertices (float64), triangles/lines (uint32), marks,
  * spiders, and shapes (int16 scaled by "amp", real and imaginary parts) at the vertices. */
 "use strict";
 var FlexmorView = (function () {
@@ -23,7 +23,7 @@ var FlexmorView = (function () {
     return {re: r, im: im, amp: item.amp};
   }
   function decodeBody(scene) {
-    return {xyz: new Float32Array(bytes(scene.xyz)), tris: new Uint32Array(bytes(scene.tris)),
+    return {xyz: new Float64Array(bytes(scene.xyz)), tris: new Uint32Array(bytes(scene.tris)),
             lines: new Uint32Array(bytes(scene.lines)), n: scene.n_vertices, marks: scene.marks || {},
             spiders: scene.spiders || [], ids: scene.node_ids || []};
   }

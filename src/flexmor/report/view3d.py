@@ -142,7 +142,7 @@ def body_scene(model, *, inputs=(), outputs=(), interface=(), max_nodes: int = M
     Returns
     -------
     scene : dict
-        JSON-ready: ``xyz`` (float32, base64), ``tris``/``lines`` (uint32 vertex indices,
+        JSON-ready: ``xyz`` (float64, base64; exact coordinates for selections), ``tris``/``lines`` (uint32 vertex indices,
         base64), ``node_ids``, ``marks`` (name -> vertex coordinates), ``spiders``
         (segments master-node), ``notes``.
     S : sparse matrix
@@ -173,7 +173,7 @@ def body_scene(model, *, inputs=(), outputs=(), interface=(), max_nodes: int = M
         xm = model.node_xyz(master)[0].tolist()
         segs += [[xm, p] for p in model.node_xyz(nodes).tolist()]
         marks.setdefault("masters", []).append(xm)
-    scene = {"xyz": _b64(xyz.astype("<f4")), "n_vertices": int(ids.size), "tris": _b64(tris.astype("<u4")),
+    scene = {"xyz": _b64(xyz.astype("<f8")), "n_vertices": int(ids.size), "tris": _b64(tris.astype("<u4")),
              "lines": _b64(lines.astype("<u4")), "points_only": not tris.size and not lines.size, "kind": kind,
              "marks": marks, "spiders": segs, "couplings": [f"{k}: master node {m}, {n.size} nodes"
                                                             for k, m, n in spiders], "notes": notes,

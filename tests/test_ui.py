@@ -1,0 +1,150 @@
+"""``flexmor ui``: the folder confinement, the token, the commands it composes, and one workflow in Chromium."""
+
+from __future__ import annotations
+
+import json
+import shutil
+import threading
+import urllib.error
+import urllib.request
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from flexmor.cli import build_parser, main
+from flexmor.errors import OptionError
+from flexmor.ui import App, Workspace, make_server
+
+from browser import Browser, canvas_pixels, find_chromium
+
+DATA = Path(__file__).parent / "data" / "calculix"
+
+
+@pytest.fixture()
+def folder(tmp_path):
+    for p in DATA.glob("beam8_free_mat.*"):
+        shutil.copy(p, tmp_path / p.name)
+    return tmp_path
+
+
+def test_paths_stay_inside_the_folder(folder, tmp_path_factory):
+    ws = Workspace(folder)
+    assert ws.path("beam8_free_mat.sti") == folder.resolve() / "beam8_free_mat.sti"
+    outside = tmp_path_factory.mktemp("outside")
+    (outside / "secret.sti").write_text("x")
+    (folder / "link").symlink_to(outside)
+    for bad in ("/etc/passwd", "../outside/secret.sti", "sub/../../x", "link/secret.sti", "C:/x", ""):
+        with pytest.raises(OptionError):
+            ws.path(bad)
+    with pytest.raises(OptionError, match="is not a file"):
+        ws.path("missing.sti")
+    assert ws.path("new/body.h5", exists=False).parent == folder.resolve() / "new"
+    assert ws.files() == {"model": ["beam8_free_mat.inp", "beam8_free_mat.sti"], "body": []}  # by the registries
+
+
+def test_commands_are_the_cli_ones(folder):
+    app = App(folder)
+    argv = app.argv({"command": "reduce", "file": "beam8_free_mat.sti", "select": ["B=box:1,0,0,1,1,1"],
+                     "method": "krylov", "order": "8", "interface": [], "input": ["B@rbe3:y"], "output": [],
+                     "band": "1:500", "modal_damping": "0.02", "options": {"max_iter": "", "points": "3"},
+                     "out": "k.h5"})
+    root = str(folder.resolve())
+    assert argv == ["reduce", f"{root}/beam8_free_mat.sti", "--select", "B=box:1,0,0,1,1,1", "--method", "krylov",
+                    "--order", "8", "--input", "B@rbe3:y", "--band", "1:500", "--modal-damping", "0.02",
+                    "--points", "3", "-o", f"{root}/k.h5", "--force", "--json"]
+    build_parser().parse_args(argv)  # the CLI's own parser takes it
+    with pytest.raises(OptionError, match="leaves the working folder|without '..'"):
+        app.argv({"command": "export", "body": "../x.h5", "out": "y.SID_FEM"})
+    with pytest.raises(OptionError, match="unknown command"):
+        app.argv({"command": "rm"})
+    # the method options offered are the registered ones, without the common band/interface
+    opts = {o["name"] for o in app.state()["methods"]["krylov"]["options"]}
+    assert "band" not in opts and opts
+
+
+@pytest.fixture()
+def server(folder):
+    srv, app, url = make_server(folder, 0)
+    t = threading.Thread(target=srv.serve_forever, daemon=True)
+    t.start()
+    yield app, url
+    srv.shutdown()
+    srv.server_close()
+
+
+def test_requests_need_the_token(server):
+    app, url = server
+    base = url.split("?")[0]
+    with pytest.raises(urllib.error.HTTPError) as exc:
+        urllib.request.urlopen(base + "api/state", timeout=30)
+    assert exc.value.code == 403
+    req = urllib.request.Request(base + "api/state", headers={"X-Flexmor-Token": app.token})
+    state = json.load(urllib.request.urlopen(req, timeout=30))
+    assert "beam8_free_mat.sti" in state["files"]["model"] and "craig-bampton" in state["methods"]
+    bad = urllib.request.Request(base + "api/open", data=json.dumps({"file": "../../etc/passwd"}).encode(),
+                                 headers={"X-Flexmor-Token": app.token}, method="POST")
+    with pytest.raises(urllib.error.HTTPError) as exc:
+        urllib.request.urlopen(bad, timeout=30)
+    assert exc.value.code == 400 and "without '..'" in json.load(exc.value)["error"]
+
+
+def test_workflow_in_chromium_equals_the_cli(server, folder, tmp_path_factory):
+    exe = find_chromium()
+    if exe is None:
+        pytest.skip("no chromium/chrome on PATH (CI installs Debian's chromium): the app is not driven here")
+    app, url = server
+    with Browser(exe, 1400, 1000) as b:
+        b.open(url)
+        b.wait_for("document.getElementById('file').options.length > 0")
+        b.js("document.getElementById('file').value = 'beam8_free_mat.sti'; document.getElementById('open').click()")
+        b.wait_for("!!(window.flexmorApp && window.flexmorApp.viewer)")
+        b.js("document.querySelector('[data-view=y]').click()")  # side view: the tip face is the right edge
+        rect = b.js("JSON.parse(JSON.stringify(window.flexmorApp.viewer.canvas.getBoundingClientRect()))")
+        png = b.screenshot()
+        (folder / "shot-open.png").write_bytes(png)
+        px = canvas_pixels(png, rect)
+        points = b.js("window.flexmorApp.scene.points_only")  # a file without elements: its nodes as dots
+        assert np.mean(np.any(px < 240, axis=2)) > (0.001 if points else 0.02)  # the body is drawn
+        # a box around the projected nodes at x = 1 (the TIP set), dragged with shift held
+        box = b.js("""(function () {
+            var v = window.flexmorApp.viewer, p = v.project(), x = v.body.xyz, r = v.canvas.getBoundingClientRect();
+            var lo = [1e9, 1e9], hi = [-1e9, -1e9];
+            for (var i = 0; i < v.body.n; i++) if (x[3 * i] > 0.999) {
+                lo = [Math.min(lo[0], p[2 * i]), Math.min(lo[1], p[2 * i + 1])];
+                hi = [Math.max(hi[0], p[2 * i]), Math.max(hi[1], p[2 * i + 1])]; }
+            return [r.left + lo[0] - 6, r.top + lo[1] - 6, r.left + hi[0] + 6, r.top + hi[1] + 6]; })()""")
+        b.mouse("mousePressed", box[0], box[1], shift=True)
+        b.mouse("mouseMoved", (box[0] + box[2]) / 2, (box[1] + box[3]) / 2, shift=True)
+        b.mouse("mouseMoved", box[2], box[3], shift=True)
+        b.mouse("mouseReleased", box[2], box[3], shift=True)
+        status = b.wait_for("(document.getElementById('status').textContent.match(/nodes selected/) || [''])[0] && "
+                            "document.getElementById('status').textContent")
+        assert status == "BOX1: 9 nodes selected"
+        spec = b.js("window.flexmorApp.selects[0]")
+        assert spec.startswith("BOX1=box:1,")
+        b.js("""document.getElementById('asrbe2').click();
+                document.getElementById('inputs').value = 'BOX1@rbe2:y, BOX1@rbe2:z';
+                document.getElementById('method').value = 'craig-bampton';
+                document.getElementById('method').dispatchEvent(new Event('change'));
+                document.getElementById('order').value = '12';
+                document.getElementById('out').value = 'cb.h5';
+                document.getElementById('run').click();""")
+        assert b.js("document.getElementById('interface').value") == "BOX1@rbe2"
+        b.wait_for("document.getElementById('errplot').src.startsWith('data:image/png') && "
+                   "document.getElementById('errplot').naturalWidth > 0", timeout=600)
+        assert "band_error" in b.js("document.getElementById('errtable').textContent")
+        command = b.js("document.getElementById('cmd').textContent")
+        assert command.startswith("flexmor reduce beam8_free_mat.sti --select BOX1=box:")
+        b.js("document.getElementById('expout').value = 'ui.SID_FEM'; document.getElementById('export').click()")
+        b.wait_for("document.getElementById('links').textContent.startsWith('exported')", timeout=300)
+        (folder / "shot-done.png").write_bytes(b.screenshot())
+    # the same choices on the command line give the same SID file
+    cli = tmp_path_factory.mktemp("cli")
+    sti = str(folder / "beam8_free_mat.sti")
+    assert main(["reduce", sti, "--select", spec, "--method", "craig-bampton", "--order", "12",
+                 "--interface", "BOX1@rbe2", "--input", "BOX1@rbe2:y", "--input", "BOX1@rbe2:z",
+                 "-o", str(cli / "cb.h5"), "--json"]) == 0
+    assert main(["export", str(cli / "cb.h5"), "--format", "sid", "-o", str(cli / "cli.SID_FEM"), "--model", sti]) == 0
+    ui_sid = (folder / "ui.SID_FEM").read_bytes()
+    assert ui_sid == (cli / "cli.SID_FEM").read_bytes() and b"BOX1@RBE2" in ui_sid
