@@ -44,7 +44,7 @@ def test_paths_stay_inside_the_folder(folder, tmp_path_factory):
 
 
 def test_commands_are_the_cli_ones(folder):
-    app = App(folder)
+    app = App(folder, main)
     argv = app.argv({"command": "reduce", "file": "beam8_free_mat.sti", "select": ["B=box:1,0,0,1,1,1"],
                      "method": "krylov", "order": "8", "interface": [], "input": ["B@rbe3:y"], "output": [],
                      "band": "1:500", "modal_damping": "0.02", "options": {"max_iter": "", "points": "3"},
@@ -65,7 +65,7 @@ def test_commands_are_the_cli_ones(folder):
 
 @pytest.fixture()
 def server(folder):
-    srv, app, url = make_server(folder, 0)
+    srv, app, url = make_server(folder, main, 0)
     t = threading.Thread(target=srv.serve_forever, daemon=True)
     t.start()
     yield app, url

@@ -20,8 +20,9 @@ def add_ui_parser(sub) -> None:
 
 def cmd_ui(args) -> int:
     from ..ui import make_server
+    from . import main
 
-    server, app, url = make_server(args.folder, args.port)
+    server, app, url = make_server(args.folder, main, args.port)
     print(f"flexmor ui: serving {app.ws.root} at {url}  (Ctrl-C stops)", flush=True)
     if not args.no_browser:
         webbrowser.open(url)

@@ -2,8 +2,8 @@
 
 The page (``app.html``) shows the body in the report's 3D viewer (:mod:`flexmor.report.view3d`)
 and composes the command lines of ``flexmor reduce``, ``compare``, ``report`` and ``export``;
-the server runs them in-process through :func:`flexmor.cli.main` (same parser, same
-validation, same library calls and files as typed in a shell) and shows each command so that
+the server runs them in-process through the command line's ``main`` (handed in by
+``flexmor ui``: same parser, same validation, same library calls and files as typed in a shell) and shows each command so that
 it can be repeated. Long runs go to a background thread; the page polls their log (the
 library's ``logging`` records) and elapsed time.
 
@@ -90,10 +90,9 @@ class _Capture(logging.Handler):
         self.lines.append(f"{time.strftime('%H:%M:%S')} {record.getMessage()}")
 
 
-def run_cli(argv, log_lines) -> dict:
-    """Run ``flexmor ARGV`` in-process; returns ``code``, ``result`` (its --json object), ``error``."""
-    from ..cli import main
-
+def run_cli(main, argv, log_lines) -> dict:
+    """Run ``main(argv)`` (the command line) in-process; returns ``code``, ``result`` (its --json
+    object) and ``error`` (its error lines), the library's log records going to ``log_lines``."""
     out, err = io.StringIO(), io.StringIO()
     handler, logger = _Capture(log_lines), logging.getLogger("flexmor")
     level = logger.level
@@ -119,10 +118,14 @@ def run_cli(argv, log_lines) -> dict:
 
 
 class App:
-    """State of the one user: the folder, the models read, the running or last job."""
+    """State of the one user: the folder, the models read, the running or last job.
 
-    def __init__(self, folder):
+    ``main`` is the command line's ``main(argv) -> exit code`` that runs the commands.
+    """
+
+    def __init__(self, folder, main):
         self.ws = Workspace(folder)
+        self.main = main
         self.token = secrets.token_urlsafe(16)
         self.lock = threading.Lock()
         self.job = None
@@ -228,7 +231,7 @@ class App:
 
         def work():
             try:
-                job.update(run_cli(argv, job["log"]))
+                job.update(run_cli(self.main, argv, job["log"]))
                 job["state"] = "done" if job["code"] == 0 else "failed"
             except Exception as exc:  # noqa: BLE001 - shown in the page, the server keeps running
                 log.exception("ui job failed")
@@ -338,9 +341,10 @@ def _handler(app: App):
     return Handler
 
 
-def make_server(folder, port: int = 0, host: str = "127.0.0.1"):
-    """The HTTP server of the app on ``host:port`` (0: a free port); returns ``(server, app, url)``."""
-    app = App(folder)
+def make_server(folder, main, port: int = 0, host: str = "127.0.0.1"):
+    """The HTTP server of the app on ``host:port`` (0: a free port) running commands with the command
+    line's ``main``; returns ``(server, app, url)``."""
+    app = App(folder, main)
     server = ThreadingHTTPServer((host, int(port)), _handler(app))
     server.daemon_threads = True
     url = f"http://{host}:{server.server_address[1]}/?token={app.token}"
