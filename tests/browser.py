@@ -18,7 +18,7 @@ import subprocess
 import tempfile
 import time
 
-__all__ = ["find_chromium", "Browser", "canvas_pixels"]
+__all__ = ["Browser", "canvas_pixels", "find_chromium"]
 
 
 def find_chromium() -> str | None:
@@ -158,5 +158,5 @@ def canvas_pixels(png: bytes, rect: dict):
     from PIL import Image
 
     img = np.asarray(Image.open(io.BytesIO(png)).convert("RGB"))
-    x, y, w, h = (int(round(rect[k])) for k in ("x", "y", "width", "height"))
+    x, y, w, h = (round(rect[k]) for k in ("x", "y", "width", "height"))
     return img[y + 2:y + h - 2, x + 2:x + w - 2]

@@ -11,12 +11,11 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from browser import Browser, canvas_pixels, find_chromium
 
 from flexmor.cli import build_parser, main
 from flexmor.errors import OptionError
 from flexmor.ui import App, Workspace, make_server
-
-from browser import Browser, canvas_pixels, find_chromium
 
 DATA = Path(__file__).parent / "data" / "calculix"
 
@@ -93,7 +92,7 @@ def test_workflow_in_chromium_equals_the_cli(server, folder, tmp_path_factory):
     exe = find_chromium()
     if exe is None:
         pytest.skip("no chromium/chrome on PATH (CI installs Debian's chromium): the app is not driven here")
-    app, url = server
+    _, url = server
     with Browser(exe, 1400, 1000) as b:
         b.open(url)
         b.wait_for("document.getElementById('file').options.length > 0")

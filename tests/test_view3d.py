@@ -6,6 +6,7 @@ import base64
 
 import numpy as np
 import pytest
+from browser import Browser, canvas_pixels, find_chromium
 
 from flexmor.couplings import couple
 from flexmor.mesh import CellBlock, Mesh
@@ -14,8 +15,6 @@ from flexmor.ports import make_ports
 from flexmor.reduction import reduce
 from flexmor.report.surface import decimate, outer_surface
 from flexmor.report.view3d import body_scene, display_map
-
-from browser import Browser, canvas_pixels, find_chromium
 
 BAND = (10.0, 3000.0)
 

@@ -27,6 +27,7 @@ from .. import __version__
 from ..errors import FlexmorError, OptionError, check_choice
 from ..io import atomic_write
 from ..linalg.context import SolverContext, as_solver
+from ..linalg.distributed import is_partitioned
 from . import plots
 
 __all__ = ["SIGNALS", "SINGULAR_VALUE_KEYS", "Report", "build_report", "render_html", "write_report"]
@@ -243,7 +244,9 @@ def build_report(model, ports, reduced, *, band, labels=None, seconds=None, full
         rep.figures["body"] = plots.body_png(model.xyz, marks, title=f"{model.name}: {model.n_nodes} nodes")
     else:
         notes.append("the model has no node coordinates: no picture of the body")
-    if view3d and model.n_nodes and model.dofs is not None:
+    if view3d and is_partitioned(model.K):
+        notes.append("no 3D view: the model's rows are spread over MPI ranks")
+    elif view3d and model.n_nodes and model.dofs is not None:
         from .view3d import build_scene
 
         rep.scene = build_scene(model, ports, reduced, labels, band=band, modal=rep.modal["bodies"],

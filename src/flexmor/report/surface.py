@@ -20,7 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["Surface", "outer_surface", "decimate", "FACES"]
+__all__ = ["FACES", "Surface", "decimate", "outer_surface"]
 
 #: Faces of the volume cells by corner index in meshio's (= VTK's) node order.
 FACES = {

@@ -28,11 +28,12 @@ import scipy.sparse as sp
 
 from ..couplings import parse_coupling
 from ..dynamics.frf import ShiftedMatrices, angular_frequency
+from ..errors import FlexmorError
 from ..linalg import factorize
 from ..linalg.context import as_solver
 from .surface import decimate, outer_surface
 
-__all__ = ["body_scene", "build_scene", "render_section", "viewer_js", "MAX_NODES", "N_FREQS"]
+__all__ = ["MAX_NODES", "N_FREQS", "body_scene", "build_scene", "render_section", "viewer_js"]
 
 log = logging.getLogger(__name__)
 
@@ -65,7 +66,7 @@ def _spiders(model) -> list:
             continue
         try:
             name, _, _ = parse_coupling(key)
-        except Exception:  # noqa: BLE001 - a set name with '@' that is no coupling
+        except FlexmorError:  # a set name with '@' that is no coupling
             continue
         nodes = model.node_sets.get(name.upper())
         if nodes is None and name.strip().lstrip("-").isdigit():

@@ -30,7 +30,7 @@ from urllib.parse import parse_qs, urlparse
 
 from ..errors import FlexmorError, OptionError
 
-__all__ = ["Workspace", "App", "make_server"]
+__all__ = ["App", "Workspace", "make_server"]
 
 log = logging.getLogger(__name__)
 
@@ -233,7 +233,7 @@ class App:
             try:
                 job.update(run_cli(self.main, argv, job["log"]))
                 job["state"] = "done" if job["code"] == 0 else "failed"
-            except Exception as exc:  # noqa: BLE001 - shown in the page, the server keeps running
+            except Exception as exc:  # shown in the page; the server keeps running
                 log.exception("ui job failed")
                 job.update(state="failed", error=f"{type(exc).__name__}: {exc}")
             finally:
