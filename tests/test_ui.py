@@ -122,6 +122,18 @@ def test_workflow_in_chromium_equals_the_cli(server, folder, tmp_path_factory):
         assert status == "BOX1: 9 nodes selected"
         spec = b.js("window.flexmorApp.selects[0]")
         assert spec.startswith("BOX1=box:1,")
+        # a shift+click on the node at the origin gives the nearest-node form
+        at = b.js("""(function () { var v = window.flexmorApp.viewer, p = v.project(), x = v.body.xyz,
+            r = v.canvas.getBoundingClientRect();
+            for (var i = 0; i < v.body.n; i++) if (x[3 * i] === 0 && x[3 * i + 1] === 0 && x[3 * i + 2] === 0)
+                return [r.left + p[2 * i] + 2, r.top + p[2 * i + 1] + 1]; })()""")
+        b.mouse("mousePressed", *at, shift=True)
+        b.mouse("mouseReleased", *at, shift=True)
+        b.wait_for("window.flexmorApp.selects.length === 2")
+        assert b.js("window.flexmorApp.selects[1]") == "BOX2=nearest:0,0,0"
+        b.js("document.getElementById('clearsel').click(); document.getElementById('selspec').value = "
+             f"{json.dumps(spec)}; document.getElementById('addsel').click()")
+        b.wait_for("window.flexmorApp.selects.length === 1 && window.flexmorApp.lastSet === 'BOX1'")
         b.js("""document.getElementById('asrbe2').click();
                 document.getElementById('inputs').value = 'BOX1@rbe2:y, BOX1@rbe2:z';
                 document.getElementById('method').value = 'craig-bampton';

@@ -187,3 +187,12 @@ def test_report_3d_view_draws_and_follows_the_controls(report, chromium):
     _set(b, "v3d-view", "1")
     caps = b.js("document.getElementById('v3d-right-cap').textContent")
     assert "same input and frequency" in caps
+
+
+def test_rbe3_ports_draw_their_spiders():
+    model = cantilever(2)
+    scene, _ = body_scene(model, ports=["TIP@rbe3:y", "TIP@rbe3:rz", "TIP:z"])
+    tip = model.node_xyz(model.node_sets["TIP"])
+    assert len(scene["spiders"]) == len(tip) and scene["couplings"] == [
+        f"TIP@RBE3 (port): master point {np.round(tip.mean(axis=0), 6).tolist()}, {len(tip)} nodes"]
+    assert np.allclose(scene["marks"]["masters"], [tip.mean(axis=0)])

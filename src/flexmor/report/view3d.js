@@ -5,6 +5,7 @@
 var FlexmorView = (function () {
   var MARK_COLORS = {inputs: [0.85, 0.1, 0.1], outputs: [0.1, 0.35, 0.9], interface: [0.0, 0.65, 0.2],
                      masters: [0.6, 0.0, 0.75], selection: [1.0, 0.55, 0.0]};
+  var MARK_SIZES = {inputs: 11, outputs: 7, interface: 9, masters: 8, selection: 7};
 
   function bytes(s) {
     var bin = atob(s), out = new Uint8Array(bin.length);
@@ -193,16 +194,16 @@ var FlexmorView = (function () {
       attr(this.ppt, "p", this.buf.mp, new Float32Array(sp)); attr(this.ppt, "col", this.buf.mc, new Float32Array(sc));
       gl.drawArrays(gl.LINES, 0, sp.length / 3);
     }
-    var mp = [], mc = [], marks = Object.assign({}, b.marks);
+    var marks = Object.assign({}, b.marks), self2 = this;
     if (this.selected.length) marks.selection = this.selected;
-    Object.keys(marks).forEach(function (k) {
+    Object.keys(marks).forEach(function (k) {  // one call per kind, so coinciding kinds stay visible
+      var mp = [], mc = [];
       marks[k].forEach(function (q) { mp.push(q[0], q[1], q[2]); mc.push.apply(mc, MARK_COLORS[k] || [0, 0, 0]); });
-    });
-    if (mp.length) {
-      gl.uniform1f(psLoc, 7 * dpr);
-      attr(this.ppt, "p", this.buf.mp, new Float32Array(mp)); attr(this.ppt, "col", this.buf.mc, new Float32Array(mc));
+      if (!mp.length) return;
+      gl.uniform1f(psLoc, (MARK_SIZES[k] || 7) * dpr);
+      attr(self2.ppt, "p", self2.buf.mp, new Float32Array(mp)); attr(self2.ppt, "col", self2.buf.mc, new Float32Array(mc));
       gl.drawArrays(gl.POINTS, 0, mp.length / 3);
-    }
+    });
     this.listeners.forEach(function (f) { f(self); });
   };
   Viewer.prototype.redrawAll = function () { this.cam.views.forEach(function (v) { v.draw(); }); };
@@ -256,9 +257,18 @@ var FlexmorView = (function () {
     c.addEventListener("pointerup", function (e) {
       if (box) {
         var r = c.getBoundingClientRect();
-        var idx = self.boxSelect(box.x0, box.y0, e.clientX - r.left, e.clientY - r.top);
+        var x1 = e.clientX - r.left, y1 = e.clientY - r.top, idx;
+        var click = Math.abs(x1 - box.x0) < 4 && Math.abs(y1 - box.y0) < 4;
+        if (click) {  // a shift+click: the nearest vertex within 10 px
+          var p = self.project(), best = -1, d2 = 100;
+          for (var v = 0; v < self.body.n; v++) {
+            var q = (p[2 * v] - x1) * (p[2 * v] - x1) + (p[2 * v + 1] - y1) * (p[2 * v + 1] - y1);
+            if (q < d2) { d2 = q; best = v; }
+          }
+          idx = best < 0 ? [] : [best];
+        } else idx = self.boxSelect(box.x0, box.y0, x1, y1);
         document.body.removeChild(rect); rect = null; box = null;
-        self.onBox(idx);
+        self.onBox(idx, click);
       }
       last = null;
     });

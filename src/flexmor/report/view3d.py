@@ -58,6 +58,21 @@ def _ids_of(model, spec_nodes) -> np.ndarray:
     return np.asarray([n for n in np.atleast_1d(spec_nodes) if model.has_node(int(n))], dtype=np.int64)
 
 
+def _port_spiders(model, specs) -> list:
+    """``[(target, master xyz, node ids)]`` of RBE3 ports on the unchanged model (``SET@rbe3:DIR``)."""
+    out = {}
+    for spec in specs:
+        target = str(spec).rsplit(":", 1)[0].strip()
+        if "@" not in target or target.upper() in model.node_sets or target.upper() in out:
+            continue
+        name, _, pt = parse_coupling(target)
+        nodes = _ids_of(model, model.node_sets.get(name.upper(), []))
+        if nodes.size:
+            xm = model.node_xyz(nodes).mean(axis=0) if pt is None else np.asarray(pt, float)
+            out[target.upper()] = (target.upper(), xm, nodes)
+    return list(out.values())
+
+
 def _spiders(model) -> list:
     """``[(set name, master id, node ids)]`` of the couplings applied to ``model`` (sets ``NAME@RBE2`` ...)."""
     out = []
@@ -129,7 +144,7 @@ class _Shapes:
         return len(self.items) - 1
 
 
-def body_scene(model, *, inputs=(), outputs=(), interface=(), max_nodes: int = MAX_NODES):
+def body_scene(model, *, inputs=(), outputs=(), interface=(), ports=(), max_nodes: int = MAX_NODES):
     """What the viewer draws of ``model`` and the display map of its vertices.
 
     Parameters
@@ -137,6 +152,9 @@ def body_scene(model, *, inputs=(), outputs=(), interface=(), max_nodes: int = M
     model : FEModel
     inputs, outputs, interface : array_like of int
         Node ids to mark.
+    ports : list of str
+        Port SPECs; those of RBE3 couplings on the unchanged model (``SET@rbe3:DIR``) are drawn
+        as spiders to their master point.
     max_nodes : int
         Surfaces (and point clouds) with more vertices are decimated for display.
 
@@ -170,15 +188,16 @@ def body_scene(model, *, inputs=(), outputs=(), interface=(), max_nodes: int = M
     marks = {k: model.node_xyz(_ids_of(model, v)).tolist() for k, v in
              (("inputs", inputs), ("outputs", outputs), ("interface", interface)) if len(_ids_of(model, v))}
     segs = []
-    for _, master, nodes in spiders:
-        xm = model.node_xyz(master)[0].tolist()
+    virtual = _port_spiders(model, ports)
+    for _, master, nodes in spiders + virtual:
+        xm = (model.node_xyz(master)[0] if np.isscalar(master) else master).tolist()
         segs += [[xm, p] for p in model.node_xyz(nodes).tolist()]
         marks.setdefault("masters", []).append(xm)
+    couplings = [f"{k}: master node {m}, {n.size} nodes" for k, m, n in spiders]
+    couplings += [f"{k} (port): master point {np.round(m, 6).tolist()}, {n.size} nodes" for k, m, n in virtual]
     scene = {"xyz": _b64(xyz.astype("<f8")), "n_vertices": int(ids.size), "tris": _b64(tris.astype("<u4")),
              "lines": _b64(lines.astype("<u4")), "points_only": not tris.size and not lines.size, "kind": kind,
-             "marks": marks, "spiders": segs, "couplings": [f"{k}: master node {m}, {n.size} nodes"
-                                                            for k, m, n in spiders], "notes": notes,
-             "node_ids": ids.tolist()}
+             "marks": marks, "spiders": segs, "couplings": couplings, "notes": notes, "node_ids": ids.tolist()}
     return scene, display_map(model, ids, spiders)
 
 
@@ -208,7 +227,8 @@ def build_scene(model, ports, reduced, labels, *, band, modal, full_modes, nodes
     full_modes : tuple
         ``(f_hz, phi, n_rigid)`` of :func:`flexmor.analysis.modal_check.full_modes`.
     nodes : dict, optional
-        Node ids to mark: ``inputs``, ``outputs``, ``interface``.
+        Node ids to mark: ``inputs``, ``outputs``, ``interface`` (the port SPECs of ``ports``
+        draw their RBE3 spiders).
     solver : SolverContext, optional
     max_nodes : int
 
@@ -218,7 +238,8 @@ def build_scene(model, ports, reduced, labels, *, band, modal, full_modes, nodes
         JSON-ready scene (:func:`body_scene` plus ``shapes``, ``full``, ``bodies``, ``deform``).
     """
     solver = as_solver(solver)
-    scene, S = body_scene(model, **(nodes or {}), max_nodes=max_nodes)
+    scene, S = body_scene(model, **(nodes or {}), ports=[*ports.input_names, *ports.output_names],
+                          max_nodes=max_nodes)
     shapes = _Shapes(S)
     f, phi, _ = full_modes
     scene["full"] = [{"hz": float(fi), "shape": shapes.add(phi[:, i])} for i, fi in enumerate(f)]
