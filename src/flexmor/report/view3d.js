@@ -5,7 +5,7 @@
 var FlexmorView = (function () {
   var MARK_COLORS = {inputs: [0.85, 0.1, 0.1], outputs: [0.1, 0.35, 0.9], interface: [0.0, 0.65, 0.2],
                      masters: [0.6, 0.0, 0.75], selection: [1.0, 0.55, 0.0]};
-  var MARK_SIZES = {inputs: 11, outputs: 7, interface: 9, masters: 8, selection: 7};
+  var MARK_SIZES = {inputs: 14, interface: 11, masters: 8, outputs: 5, selection: 7};
 
   function bytes(s) {
     var bin = atob(s), out = new Uint8Array(bin.length);
@@ -196,7 +196,8 @@ var FlexmorView = (function () {
     }
     var marks = Object.assign({}, b.marks), self2 = this;
     if (this.selected.length) marks.selection = this.selected;
-    Object.keys(marks).forEach(function (k) {  // one call per kind, so coinciding kinds stay visible
+    var kinds = Object.keys(marks).sort(function (a, b) { return (MARK_SIZES[b] || 7) - (MARK_SIZES[a] || 7); });
+    kinds.forEach(function (k) {  // largest first, one call per kind: coinciding kinds show as rings
       var mp = [], mc = [];
       marks[k].forEach(function (q) { mp.push(q[0], q[1], q[2]); mc.push.apply(mc, MARK_COLORS[k] || [0, 0, 0]); });
       if (!mp.length) return;
