@@ -159,3 +159,25 @@ def test_workflow_in_chromium_equals_the_cli(server, folder, tmp_path_factory):
     assert main(["export", str(cli / "cb.h5"), "--format", "sid", "-o", str(cli / "cli.SID_FEM"), "--model", sti]) == 0
     ui_sid = (folder / "ui.SID_FEM").read_bytes()
     assert ui_sid == (cli / "cli.SID_FEM").read_bytes() and b"BOX1@RBE2" in ui_sid
+
+
+def test_cli_ui_serves_until_terminated(folder):
+    import os
+    import subprocess
+    import sys
+
+    proc = subprocess.Popen([sys.executable, "-m", "flexmor", "ui", str(folder), "--no-browser", "--port", "0"],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=os.environ.copy())
+    try:
+        line = proc.stdout.readline()
+        assert line.startswith(f"flexmor ui: serving {folder.resolve()} at http://127.0.0.1:")
+        url = line.split(" at ", 1)[1].split()[0]
+        base, token = url.split("?token=")
+        req = urllib.request.Request(base + "api/state", headers={"X-Flexmor-Token": token})
+        assert "beam8_free_mat.sti" in json.load(urllib.request.urlopen(req, timeout=60))["files"]["model"]
+    finally:
+        proc.terminate()
+        assert proc.wait(timeout=60) == 143
+    bad = subprocess.run([sys.executable, "-m", "flexmor", "ui", str(folder / "missing"), "--no-browser"],
+                         capture_output=True, text=True, timeout=120)
+    assert bad.returncode == 2 and "is not a folder" in bad.stderr

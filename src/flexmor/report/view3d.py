@@ -272,8 +272,8 @@ def _deformations(model, ports, reduced, labels, band, f_modes, shapes, solver) 
     m = min(ports.n_inputs, MAX_INPUTS)
     B = ports.B[:, :m].toarray()
     A = ShiftedMatrices(model.K, model.M, model.D)
-    out = {"freqs": fs.tolist(), "inputs": list(ports.input_names[:m]), "full": [], "bodies": {lb: [] for lb in labels
-                                                                                       if reduced[labels.index(lb)].V is not None}}
+    out = {"freqs": fs.tolist(), "inputs": list(ports.input_names[:m]), "full": [],
+           "bodies": {lb: [] for lb, red in zip(labels, reduced) if red.V is not None}}
     for w in angular_frequency(fs):
         Q = factorize(A(w), solver=solver, symmetric=True, check=False).solve(B.astype(complex))
         Q = Q.reshape(model.n_dof, m)
