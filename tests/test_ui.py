@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import re
 import shutil
 import threading
 import urllib.error
@@ -147,6 +148,16 @@ def test_workflow_in_chromium_equals_the_cli(server, folder, tmp_path_factory):
         assert "band_error" in b.js("document.getElementById('errtable').textContent")
         command = b.js("document.getElementById('cmd').textContent")
         assert command.startswith("flexmor reduce beam8_free_mat.sti --select BOX1=box:")
+        # the body's modes beside the full ones, with the MAC (same viewer as the report)
+        b.js("document.getElementById('modes').click()")
+        b.wait_for("document.getElementById('macplot').naturalWidth > 0 && "
+                   "document.getElementById('v3d-left-cap').textContent.startsWith('full model: mode 1')", timeout=300)
+        b.js("document.getElementById('v3d-anim').click(); document.getElementById('modesview').scrollIntoView()")
+        caps = b.js("document.getElementById('v3d-right-cap').textContent")
+        assert caps.startswith("cb: mode 1, ")
+        right = b.js("JSON.parse(JSON.stringify(document.getElementById('v3d-right').getBoundingClientRect()))")
+        assert np.mean(np.any(canvas_pixels(b.screenshot(), right) < 240, axis=2)) > 0.001
+        b.js("window.scrollTo(0, 0)")
         b.js("document.getElementById('expout').value = 'ui.SID_FEM'; document.getElementById('export').click()")
         b.wait_for("document.getElementById('links').textContent.startsWith('exported')", timeout=300)
         (folder / "shot-done.png").write_bytes(b.screenshot())
@@ -157,6 +168,18 @@ def test_workflow_in_chromium_equals_the_cli(server, folder, tmp_path_factory):
                  "--interface", "BOX1@rbe2", "--input", "BOX1@rbe2:y", "--input", "BOX1@rbe2:z",
                  "-o", str(cli / "cb.h5"), "--json"]) == 0
     assert main(["export", str(cli / "cb.h5"), "--format", "sid", "-o", str(cli / "cli.SID_FEM"), "--model", sti]) == 0
+    # the MAC shown is the one of the library's modal check on the body's own model
+    from flexmor.analysis.modal_check import modal_check
+    from flexmor.io import read, read_body
+    from flexmor.selection import with_selections
+    from flexmor.workflow import prepare_model
+
+    red = read_body(folder / "cb.h5")
+    model = prepare_model(with_selections(read(sti), [spec]), ["BOX1@rbe2"])
+    c = modal_check(model, red, n_modes=12)
+    hz, mac_shown = (float(v) for v in re.match(r"cb: mode 1, (\S+) Hz, MAC (\S+)$", caps).groups())
+    assert hz == pytest.approx(c["reduced_hz"][0], rel=1e-4) and mac_shown == pytest.approx(c["pair_mac"][0], abs=1e-4)
+    assert c["pair_mac"][0] > 0.99
     ui_sid = (folder / "ui.SID_FEM").read_bytes()
     assert ui_sid == (cli / "cli.SID_FEM").read_bytes() and b"BOX1@RBE2" in ui_sid
 
@@ -179,5 +202,5 @@ def test_cli_ui_serves_until_terminated(folder):
         proc.terminate()
         assert proc.wait(timeout=60) == 143
     bad = subprocess.run([sys.executable, "-m", "flexmor", "ui", str(folder / "missing"), "--no-browser"],
-                         capture_output=True, text=True, timeout=120)
+                         check=False, capture_output=True, text=True, timeout=120)
     assert bad.returncode == 2 and "is not a folder" in bad.stderr

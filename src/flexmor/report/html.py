@@ -29,6 +29,7 @@ from ..io import atomic_write
 from ..linalg.context import SolverContext, as_solver
 from ..linalg.distributed import is_partitioned
 from . import plots
+from .view3d import interface_nodes, port_nodes
 
 __all__ = ["SIGNALS", "SINGULAR_VALUE_KEYS", "Report", "build_report", "render_html", "write_report"]
 
@@ -67,32 +68,6 @@ def fmt(value, spec: str) -> str:
     if value is None or (isinstance(value, float) and not np.isfinite(value)):
         return "-"
     return format(value, spec)
-
-
-def _spec_nodes(model, specs) -> np.ndarray:
-    """Node ids addressed by port SPECs (``NODE:DIR``, ``SET:DIR``, ``SET@rbe3:DIR``)."""
-    nodes = []
-    for spec in specs:
-        target = str(spec).rsplit(":", 1)[0].strip()
-        if target.upper() not in model.node_sets:  # a coupled port is its master node (set NAME@RBE2)
-            target = target.split("@")[0].strip()
-        if target.upper() in model.node_sets:
-            nodes.extend(model.node_sets[target.upper()].tolist())
-        elif target.lstrip("-").isdigit() and model.has_node(int(target)):
-            nodes.append(int(target))
-    return np.unique(np.asarray(nodes, dtype=np.int64))
-
-
-def _interface_nodes(model, red) -> np.ndarray:
-    """Interface nodes of a Guyan/Craig-Bampton body: its physical DOFs are the unit rows of ``V``."""
-    if "interface" in red.info:
-        return _spec_nodes(model, red.info["interface"])
-    nb = red.info.get("n_interface_dofs")
-    if not nb or red.V is None or model.dofs is None:
-        return np.zeros(0, dtype=np.int64)
-    A = np.abs(red.V)
-    unit = (np.abs(A.max(axis=1) - 1) < 1e-9) & (np.abs(A.sum(axis=1) - 1) < 1e-9)
-    return np.unique(model.dofs[unit, 0])
 
 
 def _signal(name, dt: float, t_end: float, band):
@@ -235,9 +210,9 @@ def build_report(model, ports, reduced, *, band, labels=None, seconds=None, full
     rep.figures["time"] = plots.time_png(y_full.t, y_full.displacement, y_red, chan)
 
     # the body
-    marks = {"inputs": model.node_xyz(_spec_nodes(model, ports.input_names)) if model.n_nodes else [],
-             "outputs": model.node_xyz(_spec_nodes(model, ports.output_names)) if model.n_nodes else []}
-    iface = np.unique(np.concatenate([_interface_nodes(model, r) for r in reduced]))
+    marks = {"inputs": model.node_xyz(port_nodes(model, ports.input_names)) if model.n_nodes else [],
+             "outputs": model.node_xyz(port_nodes(model, ports.output_names)) if model.n_nodes else []}
+    iface = np.unique(np.concatenate([interface_nodes(model, r) for r in reduced]))
     if iface.size and model.n_nodes:
         marks["interface"] = model.node_xyz(iface)
     if model.n_nodes:
@@ -251,8 +226,8 @@ def build_report(model, ports, reduced, *, band, labels=None, seconds=None, full
 
         rep.scene = build_scene(model, ports, reduced, labels, band=band, modal=rep.modal["bodies"],
                                 full_modes=(f, phi, n_rig), solver=solver,
-                                nodes={"inputs": _spec_nodes(model, ports.input_names),
-                                       "outputs": _spec_nodes(model, ports.output_names), "interface": iface})
+                                nodes={"inputs": port_nodes(model, ports.input_names),
+                                       "outputs": port_nodes(model, ports.output_names), "interface": iface})
     log.info("report on %d bodies: %d figures", len(reduced), len(rep.figures))
     return rep
 

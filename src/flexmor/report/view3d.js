@@ -370,14 +370,15 @@ var FlexmorView = (function () {
     ["v3d-view", "v3d-body", "v3d-side"].forEach(function (id) { $(id).addEventListener("change", function () { fillModes(); update(); }); });
     ["v3d-mode", "v3d-input", "v3d-freq"].forEach(function (id) { $(id).addEventListener("change", update); });
     slider.addEventListener("input", update);
-    var t0 = performance.now();
+    var t0 = performance.now(), running = true;
     function tick(t) {
+      if (!running) return;
       if (anim.checked) { left.phase = right.phase = ((t - t0) / 1500) * 2 * Math.PI; left.redrawAll(); }
       requestAnimationFrame(tick);
     }
     anim.addEventListener("change", function () { if (!anim.checked) { left.phase = right.phase = 0; left.redrawAll(); } });
     fillModes(); update(); requestAnimationFrame(tick);
-    window.flexmorReportView = {left: left, right: right, update: update};
+    window.flexmorReportView = {left: left, right: right, update: update, stop: function () { running = false; }};
     return window.flexmorReportView;
   }
   return {Viewer: Viewer, decodeBody: decodeBody, decodeShape: decodeShape, report: report, colormap: colormap};

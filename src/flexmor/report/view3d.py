@@ -126,6 +126,32 @@ def display_map(model, ids: np.ndarray, spiders=()) -> sp.csr_matrix:
     return sp.csr_matrix((vals, (rows, cols)), shape=(3 * ids.size, model.n_dof))
 
 
+def port_nodes(model, specs) -> np.ndarray:
+    """Node ids addressed by port SPECs (``NODE:DIR``, ``SET:DIR``, ``SET@rbe3:DIR``)."""
+    nodes = []
+    for spec in specs:
+        target = str(spec).rsplit(":", 1)[0].strip()
+        if target.upper() not in model.node_sets:  # a coupled port is its master node (set NAME@RBE2)
+            target = target.split("@")[0].strip()
+        if target.upper() in model.node_sets:
+            nodes.extend(model.node_sets[target.upper()].tolist())
+        elif target.lstrip("-").isdigit() and model.has_node(int(target)):
+            nodes.append(int(target))
+    return np.unique(np.asarray(nodes, dtype=np.int64))
+
+
+def interface_nodes(model, red) -> np.ndarray:
+    """Interface nodes of a Guyan/Craig-Bampton body: its physical DOFs are the unit rows of ``V``."""
+    if "interface" in red.info:
+        return port_nodes(model, red.info["interface"])
+    nb = red.info.get("n_interface_dofs")
+    if not nb or red.V is None or model.dofs is None:
+        return np.zeros(0, dtype=np.int64)
+    A = np.abs(red.V)
+    unit = (np.abs(A.max(axis=1) - 1) < 1e-9) & (np.abs(A.sum(axis=1) - 1) < 1e-9)
+    return np.unique(model.dofs[unit, 0])
+
+
 class _Shapes:
     """Shapes at the displayed vertices, stored once each: int16 scaled by the largest component."""
 
@@ -264,6 +290,25 @@ def build_scene(model, ports, reduced, labels, *, band, modal, full_modes, nodes
     scene["deform"] = _deformations(model, ports, reduced, labels, band, f, shapes, solver)
     scene["shapes"] = shapes.items
     return scene
+
+
+def modes_scene(model, ports, reduced, labels, *, band, n_modes: int = 12, solver=None,
+                max_nodes: int = MAX_NODES):
+    """:func:`build_scene` with the full modes and the MAC checks computed here (``flexmor ui``).
+
+    Returns ``(scene, modal)``, ``modal`` mapping each label to its
+    :func:`flexmor.analysis.modal_check.modal_check` result.
+    """
+    from ..analysis.modal_check import full_modes, modal_check
+
+    full = full_modes(model, n_modes, solver=solver)
+    modal = {lb: modal_check(model, red, full=full, solver=solver) for lb, red in zip(labels, reduced)}
+    iface = np.unique(np.concatenate([interface_nodes(model, r) for r in reduced]))
+    nodes = {"inputs": port_nodes(model, ports.input_names), "outputs": port_nodes(model, ports.output_names),
+             "interface": iface}
+    scene = build_scene(model, ports, reduced, labels, band=band, modal=modal, full_modes=full, nodes=nodes,
+                        solver=solver, max_nodes=max_nodes)
+    return scene, modal
 
 
 def _deformations(model, ports, reduced, labels, band, f_modes, shapes, solver) -> dict:

@@ -180,6 +180,36 @@ class App:
         png = plots.rel_error_png(None, curves, title="rel_error(f) over the band") if curves else None
         return {"rows": rows, "png": base64.b64encode(png).decode("ascii") if png else None}
 
+    def modes(self, req) -> dict:
+        """The 3D scene of one body: full modes beside their MAC pairs, deformations; and its MAC matrix.
+
+        The model is the one the body was reduced from: its ``--select`` sets and couplings
+        applied (as ``flexmor export --model`` does), with the body's damping.
+        """
+        import base64
+
+        from ..io import read_body
+        from ..options import Band
+        from ..ports import make_ports
+        from ..report import plots
+        from ..report.view3d import modes_scene
+        from ..workflow import prepare_model
+
+        red = read_body(self.ws.path(req["body"]))
+        if not self.lock.acquire(blocking=False):
+            raise OptionError("another run is in progress; wait for it to finish")
+        try:
+            model = prepare_model(self.model(req["file"], red.info.get("selections", ())),
+                                  red.info.get("couplings", ()), red.damping)
+            ports = make_ports(model, red.input_names, red.output_names)
+            label = Path(req["body"]).stem
+            scene, modal = modes_scene(model, ports, [red], [label], band=Band.of((red.errors or {}).get("band_hz")),
+                                       n_modes=int(req.get("n_modes") or 12))
+        finally:
+            self.lock.release()
+        png = plots.mac_png({label: modal[label]["mac"]})
+        return {"scene": scene, "mac_png": base64.b64encode(png).decode("ascii")}
+
     # -- commands ---------------------------------------------------------------------------------
     def argv(self, req) -> list:
         """The ``flexmor`` command line of a request, every file confined to the folder."""
@@ -271,7 +301,8 @@ class App:
                 "default_band": list(DEFAULT_BAND)}
 
 
-_ROUTES_POST = {"/api/open": "open", "/api/preview": "preview", "/api/run": "start", "/api/errors": "errors"}
+_ROUTES_POST = {"/api/open": "open", "/api/preview": "preview", "/api/run": "start", "/api/errors": "errors",
+                "/api/modes": "modes"}
 
 
 def _handler(app: App):
