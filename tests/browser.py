@@ -15,6 +15,7 @@ import json
 import os
 import shutil
 import subprocess
+import sys
 import tempfile
 import time
 
@@ -42,15 +43,17 @@ class Browser:
                 f"--user-data-dir={self.profile}", f"--window-size={width},{height}",
                 "--remote-debugging-pipe", "about:blank"]
 
-        def fds():  # the child's descriptors 3 (commands in) and 4 (answers out)
-            a, b = (fcntl.fcntl(fd, fcntl.F_DUPFD, 10) for fd in (to_child_r, from_child_w))
-            os.dup2(a, 3)
-            os.dup2(b, 4)
-
-        self.proc = subprocess.Popen(args, pass_fds=(3, 4), preexec_fn=fds,
-                                     stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        # a fresh single-threaded interpreter moves the pipe ends to the browser's descriptors
+        # 3 (commands in) and 4 (answers out) and executes it (no preexec_fn in this threaded process)
+        r, w = (fcntl.fcntl(fd, fcntl.F_DUPFD, 10) for fd in (to_child_r, from_child_w))  # clear of 3 and 4
         os.close(to_child_r)
         os.close(from_child_w)
+        move = ("import os, sys; r, w = int(sys.argv[1]), int(sys.argv[2]); os.dup2(r, 3); os.dup2(w, 4); "
+                "os.close(r); os.close(w); os.execv(sys.argv[3], sys.argv[3:])")
+        self.proc = subprocess.Popen([sys.executable, "-c", move, str(r), str(w), *args], pass_fds=(r, w),
+                                     stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        os.close(r)
+        os.close(w)
         self._buf, self._id, self.events = b"", 0, []
         targets = self.call("Target.getTargets")["targetInfos"]
         page = next(t for t in targets if t["type"] == "page")
