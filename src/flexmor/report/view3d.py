@@ -27,6 +27,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from ..couplings import parse_coupling
+from ..damping import ModalDamping
 from ..dynamics.frf import ShiftedMatrices, angular_frequency
 from ..errors import FlexmorError
 from ..linalg import factorize
@@ -288,6 +289,10 @@ def build_scene(model, ports, reduced, labels, *, band, modal, full_modes, nodes
                  for i in range(f.size)]
         scene["bodies"][lb] = {"modes": modes, "full_shapes": full_idx, "pairs": pairs}
     scene["deform"] = _deformations(model, ports, reduced, labels, band, f, shapes, solver)
+    if isinstance(model.damping, ModalDamping):
+        scene["notes"].append("deformation of the full model with the sparse Rayleigh realization of the modal "
+                              f"damping (ratio {model.damping.zeta:g} exact at the band ends only); the reduced "
+                              "bodies carry the ratio in each of their modes")
     scene["shapes"] = shapes.items
     return scene
 

@@ -183,8 +183,8 @@ class App:
     def modes(self, req) -> dict:
         """The 3D scene of one body: full modes beside their MAC pairs, deformations; and its MAC matrix.
 
-        The model is the one the body was reduced from: its ``--select`` sets and couplings
-        applied (as ``flexmor export --model`` does), with the body's damping.
+        The model is the one the body was reduced from (:func:`flexmor.workflow.body_model`: its
+        ``--select`` sets, couplings and damping, as ``flexmor export --model`` uses it).
         """
         import base64
 
@@ -193,14 +193,13 @@ class App:
         from ..ports import make_ports
         from ..report import plots
         from ..report.view3d import modes_scene
-        from ..workflow import prepare_model
+        from ..workflow import body_model
 
         red = read_body(self.ws.path(req["body"]))
         if not self.lock.acquire(blocking=False):
             raise OptionError("another run is in progress; wait for it to finish")
         try:
-            model = prepare_model(self.model(req["file"], red.info.get("selections", ())),
-                                  red.info.get("couplings", ()), red.damping)
+            model = body_model(self.model(req["file"]), red)
             ports = make_ports(model, red.input_names, red.output_names)
             label = Path(req["body"]).stem
             scene, modal = modes_scene(model, ports, [red], [label], band=Band.of((red.errors or {}).get("band_hz")),
