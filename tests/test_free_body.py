@@ -15,7 +15,7 @@ import scipy.linalg as sla
 from conftest import CCX
 from flexmor.cli import main
 from flexmor.couplings import couple
-from flexmor.errors import FlexmorWarning, ModelError
+from flexmor.errors import FlexmorWarning, ModelError, OptionError
 from flexmor.io.exudyn import exudyn_data, write_exudyn
 from flexmor.io.sid import read_sid, write_sid
 from flexmor.linalg.eigen import eigenmodes, frequencies_hz
@@ -277,3 +277,39 @@ def test_inertia_loads_have_no_elastic_part_on_a_free_body(free):
     b, _ = reduce(model, "krylov", 12, ports, band=(10.0, 2000.0), rigid="exclude", inertia_loads="off")
     assert a.info["inertia_loads"] == "auto" and a.info["n_inertia_loads"] == 0
     np.testing.assert_array_equal(a.V, b.V)
+
+
+def test_a_body_with_rigid_motion_is_exported_elastic(free, tmp_path):
+    """krylov's default (rigid='include') puts the rigid motion the ports excite into the basis; the
+    floating frame carries it, so SID and Exudyn export the basis made M-orthogonal to it (with a warning)."""
+    model = apply_damping(free, modal_damping=0.01, band=(10.0, 2000.0))
+    red, _ = reduce(model, "krylov", 16, make_ports(model, ["TIP:y", "TIP:z"]), band=(10.0, 2000.0))
+    assert red.info["n_rigid_included"] == 4 and red.frequencies_hz()[3] < 1.0
+    with pytest.warns(FlexmorWarning, match=r"order 16 -> 12"):
+        write_sid(red, tmp_path / "k.SID_FEM", model=model)
+    sid = read_sid(tmp_path / "k.SID_FEM")
+    np.testing.assert_allclose(sid.frequencies_hz()[:2], elastic_hz(model, 2), rtol=1e-6)
+    assert sid.mass == pytest.approx(78.5, rel=1e-12)
+    with pytest.warns(FlexmorWarning, match="rigid-body motion"):
+        data = exudyn_data(red, model)
+    assert data["massMatrixReduced"].shape == (12, 12)
+    assert sla.eigh(data["stiffnessMatrixReduced"], data["massMatrixReduced"], eigvals_only=True)[0] > 1e6
+
+
+@pytest.mark.parametrize("rigid, n_head", [("include", 4), ("exclude", 0)])
+def test_pod_on_a_free_body_has_no_spurious_mode(free, rigid, n_head):
+    """POD snapshots mixed rigid and elastic motion: modes at 147 and 307 Hz below the first
+    elastic one (620.7 Hz). They are now snapshots of the flexible part, behind the rigid-body
+    modes the inputs excite (include) or without them (exclude)."""
+    model = apply_damping(free, modal_damping=0.01, band=(10.0, 2000.0))
+    ports = make_ports(model, ["TIP:y", "TIP:z"])
+    red, _ = reduce(model, "pod", 16, ports, band=(10.0, 2000.0), rigid=rigid)
+    f = red.frequencies_hz()
+    assert red.order == 16 and red.info["n_rigid_included"] == n_head
+    assert np.all(f[:n_head] < 1e-2)
+    np.testing.assert_allclose(f[n_head:n_head + 2], elastic_hz(model, 2), rtol=1e-6)
+
+
+def test_irka_refuses_a_free_body_clearly(free):
+    with pytest.raises(OptionError, match="irka does not reduce a free body"):
+        reduce(free, "irka", 8, make_ports(free, ["TIP:y"]))

@@ -279,25 +279,6 @@ def check_free_model(model, *, allow_clamped: bool = False) -> int:
     return n
 
 
-def rigid_content(model, V) -> float:
-    """How well ``span(V)`` contains a rigid-body motion: the smallest relative M-norm of the
-    part of a rigid motion outside ``span(V)`` (0: ``V`` contains one; 1: M-orthogonal)."""
-    trans, rot = node_triples(model)
-    St, Sr, _ = rigid_fields(model, trans, rot)
-    R = np.hstack([St, Sr])
-    MR = model.M @ R
-    Grr = R.T @ MR
-    Gvv = V.T @ (model.M @ V)
-    Gvr = V.T @ MR
-    P = Grr - Gvr.T @ np.linalg.solve(Gvv, Gvr)
-    import scipy.linalg as sla
-
-    if not np.all(np.linalg.eigvalsh(Grr) > 0):
-        return 1.0
-    lam = sla.eigh(0.5 * (P + P.T), 0.5 * (Grr + Grr.T), eigvals_only=True)
-    return float(np.sqrt(max(lam[0], 0.0)))
-
-
 def _spec_targets(reduced) -> list[str]:
     out = []
     specs = list(reduced.input_names) + list(reduced.output_names)

@@ -80,7 +80,8 @@ def exudyn_data(reduced, model, *, node_type: str = NODE_TYPES[0]) -> dict:
     ModelError
         No basis, a basis that does not match the model, no node table.
     """
-    from ..invariants import rigid_fields, node_triples, rigid_content
+    from ..invariants import node_triples, rigid_fields
+    from ..reduction.free_body import elastic_body
 
     if node_type not in NODE_TYPES:
         raise OptionError(f"node_type={node_type!r} is not allowed; choose one of: {', '.join(NODE_TYPES)}")
@@ -90,11 +91,11 @@ def exudyn_data(reduced, model, *, node_type: str = NODE_TYPES[0]) -> dict:
     if V.shape[0] != model.n_dof:
         raise ModelError(f"basis has {V.shape[0]} rows, but the model {model.name!r} has {model.n_dof} equations; "
                          "export needs the model the body was reduced from")
+    reduced = elastic_body(model, reduced)  # the floating frame carries the rigid motion
+    V = np.asarray(reduced.V, dtype=float)
     trans, rot = node_triples(model)
     if np.any(rot >= 0):
         log.warning("%s: rotational DOFs are not part of Exudyn's 3-DOF mesh and are dropped", model.name)
-    if rigid_content(model, V) < 1e-6:
-        log.warning("the basis contains a rigid-body motion: Exudyn's floating frame and the modes are redundant")
     n, r = model.n_nodes, V.shape[1]
     ok = (trans >= 0).reshape(-1)
     rows = np.flatnonzero(ok)

@@ -25,6 +25,7 @@ from ..options import Band, band_option, option
 from . import register_method
 from .dense_gramians import dense_gramians, psd_factor
 from .gramians import VARIANTS, _regularized, balance, gramian_factors, nodes_option, truncation_basis, variant_option
+from .free_body import rigid_head
 from .krylov import rigid_option
 
 __all__ = ["sobt", "fw_sobt", "balanced_basis", "SobtOptions", "FwSobtOptions"]
@@ -33,18 +34,6 @@ log = logging.getLogger(__name__)
 
 #: Number of singular values reported in ``info['hankel_sv']`` (at least 2 * order).
 N_REPORTED = 40
-
-
-def _rigid(model, ports, rigid: str):
-    from .krylov import rigid_body_modes
-
-    check_choice("rigid", rigid, ("include", "exclude"))
-    phi = rigid_body_modes(model)
-    head = np.zeros((model.n_dof, 0))
-    if phi.shape[1] and rigid == "include":  # the rigid motion the ports excite goes first
-        w = np.linalg.norm(phi.T @ ports.B.toarray(), axis=1)
-        head = phi[:, w > 1e-8 * w.max(initial=0.0)] if w.max(initial=0.0) > 0 else head
-    return phi, head
 
 
 def balanced_basis(model, ports, order, band, *, method: str, variant: str = "position", nodes: int = 4,
@@ -56,7 +45,7 @@ def balanced_basis(model, ports, order, band, *, method: str, variant: str = "po
         raise OptionError(f"{method} needs order", params=("order",))
     if order > model.n_dof:
         raise OptionError(f"order {order} exceeds the number of DOF {model.n_dof}", params=("order",))
-    phi, head = _rigid(model, ports, rigid)
+    phi, head = rigid_head(model, ports, rigid)  # the rigid motion the ports excite goes first
     n_flex = order - head.shape[1]
     if n_flex < 1:
         raise OptionError(f"order {order} leaves no room next to {head.shape[1]} rigid-body modes", params=("order",))

@@ -36,6 +36,7 @@ import logging
 import warnings
 
 import numpy as np
+import scipy.linalg as sla
 import scipy.sparse as sp
 import scipy.sparse.linalg  # noqa: F401  (sp.linalg.norm)
 
@@ -43,8 +44,8 @@ from ..basis import Basis
 from ..errors import FlexmorWarning
 from ..linalg.eigen import rigid_body_threshold
 
-__all__ = ["rigid_motions", "rigid_body_modes", "with_inertia_loads", "INERTIA_LOAD_NAMES", "exclude_rigid",
-           "rigid_residual", "check_body", "spurious_modes_hz"]
+__all__ = ["rigid_motions", "rigid_body_modes", "rigid_head", "with_inertia_loads", "INERTIA_LOAD_NAMES", "exclude_rigid",
+           "elastic_body", "rigid_content", "rigid_residual", "check_body", "spurious_modes_hz"]
 
 log = logging.getLogger(__name__)
 
@@ -97,6 +98,21 @@ def rigid_body_modes(model) -> np.ndarray:
     w, U = np.linalg.eigh(0.5 * (G + G.T))
     keep = w > 1e-12 * w[-1]
     return R @ (U[:, keep] / np.sqrt(w[keep]))
+
+
+def rigid_head(model, ports, rigid: str):
+    """``(phi, head)``: the rigid-body modes of ``model`` and, for ``rigid='include'``, those the
+    inputs excite (the leading columns of a basis that keeps the rigid motion); ``head`` is empty
+    for ``'exclude'`` or a supported body."""
+    from ..errors import check_choice
+
+    check_choice("rigid", rigid, ("include", "exclude"))
+    phi = rigid_body_modes(model)
+    head = np.zeros((model.n_dof, 0))
+    if phi.shape[1] and rigid == "include":
+        w = np.linalg.norm(phi.T @ ports.B.toarray(), axis=1)
+        head = phi[:, w > 1e-8 * w.max(initial=0.0)] if w.max(initial=0.0) > 0 else head
+    return phi, head
 
 
 #: Names of the inertia-load inputs (unit accelerations of the frame: translations, rotations).
@@ -246,6 +262,66 @@ def exclude_rigid(model, basis: Basis) -> Basis:
     if Q.shape[1] < X.shape[1]:
         log.info("%s: %d columns were rigid-body motion and are dropped", basis.method, X.shape[1] - Q.shape[1])
     return Basis(np.hstack([np.asarray(basis.V, dtype=float)[:, :head], Q]), basis.method, info)
+
+
+def rigid_content(model, V) -> float:
+    """How well ``span(V)`` contains a rigid motion: the smallest relative M-norm of the part of
+    a rigid motion (:func:`rigid_motions`) outside ``span(V)`` (0: ``V`` contains one; 1: ``V`` is
+    M-orthogonal to all of them; 1 also for a model without geometry)."""
+    R = rigid_motions(model)
+    R = R[:, np.linalg.norm(R, axis=0) > 0]
+    MR = model.M @ R
+    Grr = R.T @ MR
+    if R.shape[1] == 0 or not np.all(np.linalg.eigvalsh(Grr) > 0):
+        return 1.0
+    Gvv = V.T @ (model.M @ V)
+    Gvr = V.T @ MR
+    P = Grr - Gvr.T @ np.linalg.solve(Gvv, Gvr)
+    lam = sla.eigh(0.5 * (P + P.T), 0.5 * (Grr + Grr.T), eigvals_only=True)
+    return float(np.sqrt(max(lam[0], 0.0)))
+
+
+#: :func:`rigid_content` below which a basis contains a rigid-body motion.
+RIGID_CONTENT_TOL = 1e-6
+
+
+def elastic_body(model, reduced):
+    """The body for a floating-frame export: its basis without rigid-body motion.
+
+    In the floating frame the rigid motion belongs to the frame. A body whose basis contains
+    a rigid-body motion (``rigid='include'``, or a method that does not separate it; measured
+    by :func:`rigid_content`) would be singular there (``Ke`` has zero
+    eigenvalues, the frame and the modes are redundant). Its basis is made mass-orthogonal to
+    the rigid-body modes (:func:`exclude_rigid`) and projected again, with the body's ports
+    and the model's damping, and a one-line :class:`~flexmor.errors.FlexmorWarning` says so.
+    A basis that only couples with the frame motion without containing any rigid motion (an
+    attached frame: modes held at a node set, ``Ct, Cr != 0``) is a valid choice of reference
+    conditions and is kept, as is a model without rigid-body modes.
+
+    Raises
+    ------
+    ModelError
+        When the body's ports cannot be rebuilt on ``model`` (they are needed for the projection).
+    """
+    from ..errors import FlexmorError, ModelError
+    from ..ports import make_ports
+    from ..projection import project
+
+    phi = rigid_body_modes(model)
+    if reduced.V is None or phi.shape[1] == 0 or rigid_content(model, reduced.V) >= RIGID_CONTENT_TOL:
+        return reduced
+    try:
+        ports = make_ports(model, reduced.input_names, reduced.output_names)
+    except FlexmorError as exc:
+        raise ModelError(f"the {reduced.method} body holds rigid-body motion, which the floating frame carries; "
+                         f"removing it needs the body's ports on the model: {exc}") from None
+    basis = exclude_rigid(model, Basis(reduced.V, reduced.method, dict(reduced.info, rigid="exclude")))
+    body = project(model, basis, ports)
+    warnings.warn(f"{reduced.method} body: its basis holds rigid-body motion, which the floating frame carries; "
+                  f"exported with the basis made mass-orthogonal to the {phi.shape[1]} rigid-body modes (order "
+                  f"{reduced.order} -> {body.order}); reduce with rigid='exclude' (--rigid exclude) to judge that body",
+                  FlexmorWarning, stacklevel=2)
+    return body
 
 
 def spurious_modes_hz(model, reduced, f1_hz: float) -> np.ndarray:

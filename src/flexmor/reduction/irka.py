@@ -28,6 +28,7 @@ from ..linalg.context import SolverContext, as_solver
 from ..options import Band, band_option, option
 from ..projection import project
 from . import register_method
+from .free_body import rigid_body_modes
 from .krylov import krylov, merge_blocks, shifted_factorization
 
 __all__ = ["irka", "IrkaOptions", "reduced_poles", "select_shifts"]
@@ -163,6 +164,10 @@ def irka(model, ports, order, *, max_iter: int = 50, shift_tol: float = 1e-4, ba
     structure-preserving model reduction. Systems Control Lett. 58(3), 225-232.
     """
     solver = as_solver(solver)
+    if rigid_body_modes(model).shape[1]:
+        raise OptionError("irka does not reduce a free body: the mirror images of its rigid-body poles at s = 0 "
+                          "make s^2 M + K singular; use krylov, pod, two-step or craig-bampton (rigid-body modes "
+                          "excluded for the floating frame)", params=("method",))
     if order is None:
         raise OptionError("irka needs order", params=("order",))
     if int(max_iter) != max_iter or max_iter < 1:

@@ -14,7 +14,8 @@ from ..linalg.context import SolverContext, as_solver
 from ..options import Band, band_option, option
 from . import register_method
 from .gramians import compress, gramian_factors, nodes_option
-from .krylov import side_option
+from .free_body import rigid_head
+from .krylov import rigid_option, side_option
 
 __all__ = ["pod", "PodOptions", "pod_modes", "SNAPSHOTS"]
 
@@ -89,12 +90,13 @@ class PodOptions:
     snapshots: str = option("frequency", "snapshot source", choices=SNAPSHOTS)
     side: str = side_option("input", choices=("input", "both"))
     nodes: int = nodes_option()
+    rigid: str = rigid_option()
 
 
 @register_method("pod", "proper orthogonal decomposition of frequency (and time) snapshots", options=PodOptions,
                  survives_coupling=False)
 def pod(model, ports, order, *, band=None, energy: float | None = None, snapshots: str = "frequency",
-        side: str = "input", nodes: int = 4, solver: SolverContext | None = None) -> Basis:
+        side: str = "input", nodes: int = 4, rigid: str = "include", solver: SolverContext | None = None) -> Basis:
     """POD basis from snapshots of the full body's response.
 
     Frequency snapshots are the solutions ``X(w_k) = (K - w_k^2 M + i w_k D)^{-1} B`` at the
@@ -120,6 +122,10 @@ def pod(model, ports, order, *, band=None, energy: float | None = None, snapshot
         Snapshots of ``B`` only, or of ``B`` and ``C^T`` (the dual body).
     nodes : int
         Gauss points per quadrature panel (see :func:`flexmor.reduction.balanced.sobt`).
+    rigid : {'include', 'exclude'}
+        Free bodies: the snapshots are those of the flexible part (M-orthogonal to the rigid-body
+        modes); ``include`` puts the rigid-body modes the inputs excite first, ``exclude`` leaves
+        them to the floating frame.
     solver : SolverContext, optional
         Solver (backend, statistics) of :func:`flexmor.linalg.factorize`.
 
@@ -148,20 +154,25 @@ def pod(model, ports, order, *, band=None, energy: float | None = None, snapshot
     if energy is not None and not 0 < float(energy) <= 1:
         raise OptionError(f"energy must be in (0, 1], got {energy}", params=("energy",))
     band = Band.of(band)
+    phi, head = rigid_head(model, ports, rigid)
     parts, info = [], {"snapshots": snapshots, "band_hz": list(band)}
     if snapshots in ("frequency", "both"):
         G = gramian_factors(model, ports, band, side="both" if side == "both" else "input", nodes=nodes,
-                            solver=solver)
+                            solver=solver, rigid_modes=phi)
         S = G.R if side == "input" else np.hstack([G.R, G.L])
         parts.append(S)
         info.update(n_nodes=G.info["n_nodes"], gramian_damping=G.info["gramian_damping"])
     if snapshots in ("time", "both"):
         S, tinfo = _time_snapshots(model, ports, band, solver)
-        parts.append(S)
+        parts.append(S - phi @ (phi.T @ (model.M @ S)) if phi.shape[1] else S)
         info["time"] = tinfo
     if len(parts) > 1:
         parts = [P / math.sqrt(max(np.einsum("ij,ij->", P, model.M @ P), 1e-300)) for P in parts]
-    V, lam = pod_modes(np.hstack(parts), model.M, order, energy)
+    if order is not None and order <= head.shape[1]:
+        raise OptionError(f"order {order} leaves no room next to {head.shape[1]} rigid-body modes", params=("order",))
+    V, lam = pod_modes(np.hstack(parts), model.M, None if order is None else order - head.shape[1], energy)
     info.update(pod_energy=lam[: max(40, 2 * V.shape[1])].tolist(),
                 energy_captured=float(lam[: V.shape[1]].sum() / lam[lam > 0].sum()), nested=True)
-    return Basis(V, "pod", info)
+    if phi.shape[1]:
+        info.update(rigid=rigid, n_rigid_included=int(head.shape[1]))
+    return Basis(np.hstack([head, V]) if head.shape[1] else V, "pod", info)

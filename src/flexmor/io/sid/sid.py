@@ -90,17 +90,16 @@ def sid_from_reduced(reduced, model, *, nodes=None) -> SIDFile:
         Basis missing or not matching the model; no frame nodes.
     """
     from ...errors import ModelError
-    from ...invariants import compute_invariants, frame_nodes, rigid_content
+    from ...invariants import compute_invariants, frame_nodes
+    from ...reduction.free_body import elastic_body
 
     if reduced.V is None:
         raise ModelError("the reduced body holds no basis V; re-run flexmor reduce (it stores V)")
+    if np.shape(reduced.V)[0] == model.n_dof:
+        reduced = elastic_body(model, reduced)  # the floating frame carries the rigid motion
     V = reduced.V
     fn = frame_nodes(model, V, nodes, reduced)
     inv = compute_invariants(model, V, K=reduced.K, D=reduced.D, nodes=fn)
-    rc = rigid_content(model, V)
-    if rc < 1e-6:
-        log.warning("the basis contains a rigid-body motion (residual %.1e): with the floating frame the body "
-                    "is singular; reduce with rigid-body modes excluded or a fixed-interface basis", rc)
     r = V.shape[1]
     sid_nodes = []
     for nd in fn:
