@@ -14,7 +14,7 @@ import numpy as np
 
 from .errors import ModelError
 
-__all__ = ["CellBlock", "Mesh", "NODES_PER_CELL"]
+__all__ = ["FACES", "NODES_PER_CELL", "CellBlock", "Mesh", "Surface", "outer_surface"]
 
 #: Nodes per cell of each supported cell type (meshio's names).
 NODES_PER_CELL = {
@@ -76,3 +76,94 @@ class Mesh:
         if missing.size:
             raise ModelError(f"{missing.size} node(s) used by elements are not in the node table, "
                              f"first: {int(missing[0])}")
+
+
+#: Faces of the volume cells by corner index in meshio's (= VTK's) node order.
+FACES = {
+    "tetra": [(0, 2, 1), (0, 1, 3), (1, 2, 3), (0, 3, 2)],
+    "pyramid": [(0, 3, 2, 1), (0, 1, 4), (1, 2, 4), (2, 3, 4), (3, 0, 4)],
+    "wedge": [(0, 1, 2), (3, 5, 4), (0, 3, 4, 1), (1, 4, 5, 2), (2, 5, 3, 0)],
+    "hexahedron": [(0, 3, 2, 1), (4, 5, 6, 7), (0, 1, 5, 4), (1, 2, 6, 5), (2, 3, 7, 6), (3, 0, 4, 7)],
+}
+#: Corner nodes of each cell type (quadratic cells shown by their corners).
+_CORNERS = {"tetra10": "tetra", "pyramid13": "pyramid", "wedge15": "wedge", "hexahedron20": "hexahedron",
+            "hexahedron27": "hexahedron", "triangle6": "triangle", "quad8": "quad", "quad9": "quad",
+            "line3": "line"}
+_N_CORNERS = {"tetra": 4, "pyramid": 5, "wedge": 6, "hexahedron": 8, "triangle": 3, "quad": 4, "line": 2,
+              "vertex": 1}
+
+
+@dataclass
+class Surface:
+    """Triangles and segments over node ids.
+
+    Attributes
+    ----------
+    triangles : ndarray of int, shape (n_tri, 3)
+    lines : ndarray of int, shape (n_lines, 2)
+    n_faces : int
+        Outer faces (quads count once) before any decimation.
+    decimated : str
+        Empty, or how the surface was thinned for display.
+    """
+
+    triangles: np.ndarray
+    lines: np.ndarray
+    n_faces: int = 0
+    decimated: str = ""
+
+    def node_ids(self) -> np.ndarray:
+        """Sorted unique node ids of the triangles and segments."""
+        return np.unique(np.concatenate([self.triangles.ravel(), self.lines.ravel()]))
+
+
+def _split(faces: np.ndarray) -> np.ndarray:
+    """Triangles of polygons with 3 or 4 corners (quads cut along their 0-2 diagonal)."""
+    if faces.shape[1] == 3:
+        return faces
+    return np.concatenate([faces[:, [0, 1, 2]], faces[:, [0, 2, 3]]])
+
+
+def _boundary(faces: np.ndarray) -> np.ndarray:
+    """The rows of ``faces`` whose node set occurs once."""
+    if not faces.size:
+        return faces
+    key = np.sort(faces, axis=1)
+    _, inverse, counts = np.unique(key, axis=0, return_inverse=True, return_counts=True)
+    return faces[counts[inverse.ravel()] == 1]
+
+
+def outer_surface(mesh) -> Surface:
+    """The outer surface of ``mesh`` (a :class:`flexmor.mesh.Mesh`).
+
+    Returns
+    -------
+    Surface
+        Outer faces of the volume cells (those of exactly one cell), shells, and beams as
+        segments; vertices of isolated ``vertex`` cells are left out.
+    """
+    polys = {3: [], 4: []}
+    shells, lines = {3: [], 4: []}, []
+    for block in mesh.blocks:
+        kind = _CORNERS.get(block.type, block.type)
+        cells = block.nodes[:, :_N_CORNERS[kind]]
+        if kind in FACES:
+            for face in FACES[kind]:
+                polys[len(face)].append(cells[:, face])
+        elif kind in ("triangle", "quad"):
+            shells[cells.shape[1]].append(cells)
+        elif kind == "line":
+            lines.append(cells)
+    tris, n_faces = [], 0
+    for k in (3, 4):
+        if polys[k]:
+            outer = _boundary(np.concatenate(polys[k]))
+            n_faces += len(outer)
+            tris.append(_split(outer))
+        if shells[k]:
+            sh = np.concatenate(shells[k])
+            n_faces += len(sh)
+            tris.append(_split(sh))
+    triangles = np.concatenate(tris) if tris else np.zeros((0, 3), np.int64)
+    segs = np.concatenate(lines) if lines else np.zeros((0, 2), np.int64)
+    return Surface(triangles.astype(np.int64), segs.astype(np.int64), n_faces)

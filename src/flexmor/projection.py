@@ -17,6 +17,7 @@ from . import __version__
 from .basis import Basis
 from .damping import Damping, ModalDamping, NoDamping, damping_from_dict
 from .errors import ModelError
+from .mesh import outer_surface
 from .model import FEModel
 from .ports import Ports
 
@@ -47,6 +48,10 @@ class ReducedModel:
         Port SPECs (or names) of the inputs and outputs.
     node_ids, xyz, dofs
         Node table and equation map of the full model.
+    triangles : ndarray of int, shape (n_tri, 3), or None
+        Outer surface of the full model's mesh as triangles over node ids
+        (:func:`flexmor.mesh.outer_surface`), for drawing the body (Exudyn's ``trigList``); None
+        where the model has no elements.
     model_name : str
         Name of the full model; ``errors`` holds error measures once evaluated.
     """
@@ -64,6 +69,7 @@ class ReducedModel:
     node_ids: np.ndarray | None = None
     xyz: np.ndarray | None = None
     dofs: np.ndarray | None = None
+    triangles: np.ndarray | None = None
     model_name: str = ""
     damping: Damping = field(default_factory=NoDamping)
     errors: dict = field(default_factory=dict)
@@ -122,5 +128,5 @@ def project(model: FEModel, basis: Basis, ports: Ports) -> ReducedModel:
         M=Mr, K=Kr, D=Dr, B=Br, C=Cr, V=V, method=basis.method, info=dict(basis.info),
         input_names=list(ports.input_names), output_names=list(ports.output_names),
         node_ids=model.node_ids, xyz=model.xyz, dofs=model.dofs, model_name=model.name,
-        damping=model.damping,
+        damping=model.damping, triangles=None if model.mesh is None else outer_surface(model.mesh).triangles,
     )

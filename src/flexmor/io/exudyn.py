@@ -120,7 +120,7 @@ def exudyn_data(reduced, model, *, node_type: str = NODE_TYPES[0]) -> dict:
     inertia = Sr.T @ MR[:, 3:6]
     rot_dofs = 4 if node_type.endswith("EulerParameters") else 3
     return {
-        "modeBasis": Psi, "trigList": np.zeros((0, 3), dtype=np.int64), "postProcessingModes": {},
+        "modeBasis": Psi, "trigList": _trig_list(reduced, model), "postProcessingModes": {},
         "massMatrixReduced": np.asarray(reduced.M, float), "stiffnessMatrixReduced": np.asarray(reduced.K, float),
         "dampingMatrixReduced": np.zeros((r, r)) if reduced.D is None else np.asarray(reduced.D, float),
         "infoList": np.array([r, n, 3, rot_dofs, 3 + rot_dofs, 3 + rot_dofs + r]),
@@ -130,6 +130,25 @@ def exudyn_data(reduced, model, *, node_type: str = NODE_TYPES[0]) -> dict:
         "mPhitTPsiTilde": Phit.T @ MPt, "mXRefTildePsi": -(MR[:, 3:6].T @ V), "mXRefTildePsiTilde": xt.T @ MPt,
         "fileVersion": 1, "type": "ObjectFFRFreducedOrderInterface", "nodeIds": model.node_ids.copy(),
     }
+
+
+def _trig_list(reduced, model) -> np.ndarray:
+    """Exudyn's ``trigList``: the body's outer surface triangles (:attr:`ReducedModel.triangles`, else
+    those of ``model.mesh``) as indices of Exudyn's mesh nodes (the model's nodes in order)."""
+    from ..mesh import outer_surface
+
+    tri = reduced.triangles
+    if tri is None and model.mesh is not None:
+        tri = outer_surface(model.mesh).triangles
+    if tri is None or not np.size(tri):
+        return np.zeros((0, 3), dtype=np.int64)
+    order = np.argsort(model.node_ids)
+    pos = np.searchsorted(model.node_ids, np.asarray(tri), sorter=order)
+    pos = np.minimum(pos, model.node_ids.size - 1)
+    if not np.array_equal(model.node_ids[order[pos]], tri):
+        raise ModelError("the body's surface uses nodes that are not in the model: export needs the model the body "
+                         "was reduced from")
+    return order[pos].astype(np.int64)
 
 
 def write_exudyn(reduced, path, *, model=None, node_type: str = NODE_TYPES[0], allow_clamped: bool = False) -> None:

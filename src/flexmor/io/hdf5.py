@@ -17,7 +17,7 @@ from ..jsonutil import jsonable
 from . import BODY_FORMATS, EXPORT_FORMATS, atomic_write
 
 FORMAT_TAG = "flexmor-reduced"
-_ARRAYS = ("M", "K", "D", "B", "C", "V", "node_ids", "xyz", "dofs")
+_ARRAYS = ("M", "K", "D", "B", "C", "V", "node_ids", "xyz", "dofs", "triangles")
 _JSON = ("info", "damping", "errors", "input_names", "output_names")
 
 
