@@ -236,7 +236,7 @@ class FEModel:
             key = self.dofs[:, 0] * 8 + self.dofs[:, 1]
             if np.unique(key).size != n:
                 raise ModelError("the equation map names a (node, direction) pair twice")
-            self._dof_index = {(int(a), int(b)): i for i, (a, b) in enumerate(self.dofs)}
+            self._dof_index = {ab: i for i, ab in enumerate(zip(self.dofs[:, 0].tolist(), self.dofs[:, 1].tolist()))}
         else:
             self._dof_index = {}
         sets = {}
