@@ -36,8 +36,9 @@ import scipy.sparse as sp
 from ...errors import ReadError
 from .. import MODEL_FORMATS
 from .._mass import QUADRATIC_TYPES, check_mass
-from .._text import build_model, entry_line, parse_triplets, read_text
-from ..abaqus.abaqus_inp import include_path, keyword_options
+from .._cells import build_mesh
+from .._text import build_model, entry_line, parse_triplets, read_bytes, read_text
+from .deck import read_inp
 from .expanded import expanded_dofs
 from .frd import read_frd
 
@@ -98,7 +99,11 @@ def read_dof(path) -> np.ndarray:
         For a line that is not ``node.direction`` or a direction outside 1..6.
     """
     path = Path(path)
-    lines = read_text(path).rstrip().splitlines()
+    raw = read_bytes(path).rstrip()
+    out = _dof_fast(raw)
+    if out is not None:
+        return out
+    lines = raw.decode("latin-1").splitlines()
     out = np.empty((len(lines), 2), dtype=np.int64)
     for i, line in enumerate(lines):
         s = line.strip()
@@ -112,122 +117,25 @@ def read_dof(path) -> np.ndarray:
     return out
 
 
-def read_inp(path, _depth: int = 0, _state: dict | None = None, *, element_types: set | None = None):
-    """Read the node table and node sets of a CalculiX/Abaqus-style input deck.
+_DOF_BYTES = np.zeros(256, dtype=bool)
+_DOF_BYTES[list(b"0123456789. \t\r\n")] = True
 
-    Only ``*NODE`` and ``*NSET`` (with ``GENERATE`` and set names as members) and
-    ``*INCLUDE, INPUT=...`` are interpreted; everything else is skipped.
 
-    ``element_types``, when given, receives the ``TYPE=`` of every ``*ELEMENT`` keyword.
-
-    Returns
-    -------
-    node_ids : ndarray of int64, shape (n_nodes,)
-    xyz : ndarray of float64, shape (n_nodes, 3)
-    node_sets : dict of str to ndarray of int64
-        Upper-case names.
-
-    Raises
-    ------
-    ReadError
-        For malformed node lines, duplicate node ids, unreadable includes or set members
-        that are no node.
-    """
-    path = Path(path)
-    top = _state is None
-    st = _state if _state is not None else {"ids": [], "xyz": [], "where": {}, "sets": {}, "set_lines": []}
-    text = read_text(path)
-    block, opts, cur_set = None, {}, None
-    for lineno, raw in enumerate(text.splitlines(), 1):
-        s = raw.strip()
-        if not s or s.startswith("**"):
-            continue
-        if s.startswith("*"):
-            block, opts = keyword_options(s)
-            cur_set = None
-            if block == "NODE" and opts.get("NSET"):
-                cur_set = opts["NSET"].upper()
-                st["sets"].setdefault(cur_set, [])
-            elif block == "NSET":
-                if not opts.get("NSET"):
-                    raise ReadError(path, "*NSET without NSET=name", lineno)
-                cur_set = opts["NSET"].upper()
-                st["sets"].setdefault(cur_set, [])
-            elif block == "INCLUDE":
-                read_inp(include_path(path, opts, _depth, lineno), _depth + 1, st, element_types=element_types)
-            elif block == "ELEMENT" and element_types is not None:
-                element_types.add(opts.get("TYPE", "").upper())
-            continue
-        if block == "NODE":
-            _node_line(path, lineno, s, st, cur_set)
-        elif block == "NSET":
-            _nset_line(path, lineno, s, st, cur_set, "GENERATE" in opts)
-    if not top:
+def _dof_fast(raw: bytes):
+    """The equation map of a well-formed ``.dof`` text, vectorized; None when a line needs a closer look."""
+    lines = raw.count(b"\n") + 1
+    if raw.count(b".") != lines or not _DOF_BYTES[np.frombuffer(raw, dtype=np.uint8)].all():
         return None
-    ids = np.asarray(st["ids"], dtype=np.int64)
-    xyz = np.asarray(st["xyz"], dtype=np.float64).reshape(-1, 3)
-    known = np.sort(ids)
-    for name, lp, lno, members in st["set_lines"]:
-        bad = members[~np.isin(members, known)]
-        if bad.size:
-            raise ReadError(lp, f"node set {name} names node {bad[0]}, which no *NODE line defines", lno)
-    sets = {}
-    for name, members in st["sets"].items():
-        arr = np.unique(np.asarray(members, dtype=np.int64))
-        if arr.size == 0:
-            log.warning("%s: node set %s is empty", path, name)
-        sets[name] = arr
-    return ids, xyz, sets
-
-
-def _node_line(path, lineno, s, st, cur_set):
-    parts = [p.strip() for p in s.split(",")]
-    if parts and parts[-1] == "":
-        parts.pop()
-    if not 2 <= len(parts) <= 4:
-        raise ReadError(path, f"expected 'id, x, y, z' in *NODE, got {s[:60]!r}", lineno)
     try:
-        nid = int(parts[0])
-        c = [float(p.replace("D", "E").replace("d", "e")) for p in parts[1:]]
+        a = np.fromstring(raw.replace(b".", b" "), dtype=np.int64, sep=" ")
     except ValueError:
-        raise ReadError(path, f"non-numeric node line {s[:60]!r}", lineno) from None
-    if not np.all(np.isfinite(c)):
-        raise ReadError(path, f"node {nid} has a non-finite coordinate", lineno)
-    if nid in st["where"]:
-        p0, l0 = st["where"][nid]
-        raise ReadError(path, f"node {nid} defined twice (first at {Path(p0).name}:{l0})", lineno)
-    st["where"][nid] = (str(path), lineno)
-    st["ids"].append(nid)
-    st["xyz"].append(c + [0.0] * (3 - len(c)))
-    if cur_set is not None:
-        st["sets"][cur_set].append(nid)
-
-
-def _nset_line(path, lineno, s, st, cur_set, generate):
-    toks = [t.strip() for t in s.split(",") if t.strip()]
-    if generate:
-        try:
-            vals = [int(t) for t in toks]
-        except ValueError:
-            raise ReadError(path, f"GENERATE expects 'first, last, step', got {s[:60]!r}", lineno) from None
-        if len(vals) == 2:
-            vals.append(1)
-        if len(vals) != 3 or vals[2] <= 0 or vals[1] < vals[0]:
-            raise ReadError(path, "GENERATE expects 'first, last, step' with first <= last and step > 0, "
-                                  f"got {s[:60]!r}", lineno)
-        members = np.arange(vals[0], vals[1] + 1, vals[2], dtype=np.int64)
-    else:
-        ids = []
-        for t in toks:
-            if t.lstrip("-").isdigit():
-                ids.append(int(t))
-            elif t.upper() in st["sets"] and t.upper() != cur_set:
-                ids.extend(st["sets"][t.upper()])
-            else:
-                raise ReadError(path, f"*NSET member {t!r} is neither a node number nor a known node set", lineno)
-        members = np.asarray(ids, dtype=np.int64)
-    st["sets"][cur_set].extend(members.tolist())
-    st["set_lines"].append((cur_set, path, lineno, members))
+        return None
+    if a.size != 2 * lines:
+        return None
+    a = a.reshape(-1, 2)
+    if np.any((a[:, 1] < 1) | (a[:, 1] > 6)) or len(raw.split()) != lines:
+        return None
+    return a
 
 
 def _read_upper(path: Path, n: int) -> sp.csr_matrix:
@@ -240,19 +148,50 @@ def _read_upper(path: Path, n: int) -> sp.csr_matrix:
                               "writes the upper triangle only, so the file is damaged or not from CalculiX",
                         entry_line(path, k))
     key = c * np.int64(n) + r
-    if not np.all(key[1:] > key[:-1]):  # CalculiX writes column by column; other orders are checked by sorting
-        order = np.argsort(key, kind="stable")
-        dup = np.flatnonzero(key[order][1:] == key[order][:-1])
-        if dup.size:
-            k = int(order[dup[0] + 1])
-            first = int(order[dup[0]])
-            raise ReadError(path, f"entry ({r[k] + 1}, {c[k] + 1}) appears twice (also on line "
-                                  f"{entry_line(path, first)}); the file is damaged", entry_line(path, k))
+    if np.all(key[1:] > key[:-1]):  # column by column, as CalculiX writes: the lower triangle in CSR order
+        del key
+        return _symmetric(r, c, v, n)
+    order = np.argsort(key, kind="stable")
+    dup = np.flatnonzero(key[order][1:] == key[order][:-1])
+    if dup.size:
+        k = int(order[dup[0] + 1])
+        first = int(order[dup[0]])
+        raise ReadError(path, f"entry ({r[k] + 1}, {c[k] + 1}) appears twice (also on line "
+                              f"{entry_line(path, first)}); the file is damaged", entry_line(path, k))
     off = r != c
     rows = np.concatenate([r, c[off]])
     cols = np.concatenate([c, r[off]])
     vals = np.concatenate([v, v[off]])
     return sp.csr_matrix((vals, (rows, cols)), shape=(n, n))
+
+
+def _symmetric(r, c, v, n) -> sp.csr_matrix:
+    """The full symmetric CSR matrix of upper-triangle entries ``(r, c, v)`` sorted by column, then row.
+
+    Read as rows ``c``, the entries are the lower triangle in CSR order; its transpose (the
+    strict upper part, by SciPy's linear-time conversion) is merged row by row behind it.
+    Explicit zeros stay stored.
+    """
+    idx = np.int32 if n < 2**31 - 1 else np.int64
+    r, c = r.astype(idx), c.astype(idx)
+    count = np.bincount(c, minlength=n)
+    lptr = np.zeros(n + 1, dtype=np.int64)
+    np.cumsum(count, out=lptr[1:])
+    off = r != c
+    sptr = np.zeros(n + 1, dtype=np.int64)
+    np.cumsum(np.bincount(c[off], minlength=n), out=sptr[1:])
+    upper = sp.csr_matrix((v[off], r[off], sptr), shape=(n, n)).tocsc()  # CSR arrays of the strict upper part
+    del off, sptr
+    indptr = lptr + upper.indptr
+    indices = np.empty(indptr[-1], dtype=idx)
+    data = np.empty(indptr[-1], dtype=np.float64)
+    dest = np.arange(r.size, dtype=np.int64) + np.repeat(indptr[:-1] - lptr[:-1], count)
+    indices[dest], data[dest] = r, v
+    del dest
+    ucount = np.diff(upper.indptr)
+    dest = np.arange(upper.indices.size, dtype=np.int64) + np.repeat(indptr[:-1] + count - upper.indptr[:-1], ucount)
+    indices[dest], data[dest] = upper.indices, upper.data
+    return sp.csr_matrix((data, indices, indptr), shape=(n, n))
 
 
 def _geometry_file(path: Path) -> Path:
@@ -277,8 +216,9 @@ def read_calculix(path) -> "FEModel":  # noqa: F821
     Returns
     -------
     FEModel
-        Full symmetric ``M`` and ``K``, node table and node sets from the ``.inp`` (without
-        it: node table from the ``.frd``, no node sets), the equation map from the ``.dof``;
+        Full symmetric ``M`` and ``K``, node table, node sets and element connectivity
+        (``mesh``, elements as written in the deck) from the ``.inp`` (without it: node table
+        from the ``.frd``, no node sets, no mesh), the equation map from the ``.dof``;
         ``name`` is the file stem.
 
     Raises
@@ -300,8 +240,9 @@ def read_calculix(path) -> "FEModel":  # noqa: F821
     K = _read_upper(path, n)
     M = _read_upper(mas, n)
     types: set = set()
+    cells: list = []
     if geo.suffix.lower() == ".inp":
-        node_ids, xyz, sets = read_inp(geo, element_types=types)
+        node_ids, xyz, sets = read_inp(geo, element_types=types, cells=cells)
     else:
         res = read_frd(geo, results=False)
         node_ids, xyz, sets, types = res.node_ids, res.xyz, {}, res.element_types
@@ -314,8 +255,12 @@ def read_calculix(path) -> "FEModel":  # noqa: F821
                                       f"elements to solids: {path.stem}.inp and {path.stem}.frd (with the expanded "
                                       "nodes, from *NODE FILE output) must both lie beside it")
         res = read_frd(frd, results=False)
+        deck_ids, deck_xyz = node_ids, xyz
         dofs, node_ids, xyz, sets = expanded_dofs(dof_path, dofs, node_ids, xyz, res.node_ids, res.xyz, sets)
         types |= res.element_types
+        if cells:  # the mesh shows the shells and beams as written: keep their (equation-less) deck nodes
+            used = np.isin(deck_ids, np.concatenate([c.ravel() for _, c in cells]))
+            node_ids, xyz = np.concatenate([node_ids, deck_ids[used]]), np.concatenate([xyz, deck_xyz[used]])
     quadratic = sorted(t for t in types if t.startswith(QUADRATIC_TYPES))
     known = np.isin(dofs[:, 0], node_ids)
     if not np.all(known):
@@ -325,7 +270,7 @@ def read_calculix(path) -> "FEModel":  # noqa: F821
     model = build_model(
         path,
         roles={"M": mas, "K": path},
-        M=M, K=K, node_ids=node_ids, xyz=xyz, dofs=dofs, node_sets=sets,
+        M=M, K=K, node_ids=node_ids, xyz=xyz, dofs=dofs, node_sets=sets, mesh=build_mesh(cells, "abaqus"),
         name=path.stem, source=str(path), singular_mass_ok=bool(quadratic),
     )
     if quadratic and np.all(M.diagonal() > 0):

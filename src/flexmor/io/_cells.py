@@ -1,0 +1,102 @@
+"""Element types of the FE decks as meshio cell types, with the node permutation to meshio's (VTK's) order.
+
+The node order of CalculiX/Abaqus (``C3D20``: corners, bottom edges, top edges, vertical
+edges), of Nastran (``CHEXA`` 20: corners, bottom edges, *vertical* edges, top edges) and of
+Ansys differ from VTK's, which :class:`flexmor.mesh.CellBlock` uses:
+
+* wedges: in VTK the normal of the triangle (0, 1, 2) points away from (3, 4, 5); in the FE
+  programs it points towards it, so each triangle is reversed;
+* quadratic beams (Abaqus ``B32``): middle node second in the deck, last in VTK;
+* 20-node bricks and 15-node wedges of Nastran and Ansys: vertical edges before top edges.
+
+``PERMUTATIONS[(convention, cell type)]`` gives ``vtk_nodes = deck_nodes[:, perm]``.
+"""
+
+from __future__ import annotations
+
+import logging
+import re
+
+import numpy as np
+
+from ..mesh import NODES_PER_CELL, CellBlock, Mesh
+
+__all__ = ["abaqus_cell", "nastran_cell", "to_vtk", "build_mesh"]
+
+log = logging.getLogger(__name__)
+
+_WEDGE = [0, 2, 1, 3, 5, 4]
+_WEDGE15_ABAQUS = _WEDGE + [8, 7, 6, 11, 10, 9, 12, 14, 13]
+_HEX20_NASTRAN = list(range(12)) + [16, 17, 18, 19, 12, 13, 14, 15]
+_WEDGE15_NASTRAN = _WEDGE + [8, 7, 6, 14, 13, 12, 9, 11, 10]
+
+#: Node permutation deck -> VTK by (convention, meshio cell type); absent means identity.
+PERMUTATIONS = {
+    ("abaqus", "wedge"): _WEDGE,
+    ("abaqus", "wedge15"): _WEDGE15_ABAQUS,
+    ("abaqus", "line3"): [0, 2, 1],
+    ("nastran", "wedge"): _WEDGE,
+    ("nastran", "hexahedron20"): _HEX20_NASTRAN,
+    ("nastran", "wedge15"): _WEDGE15_NASTRAN,
+}
+
+_SOLID = {4: "tetra", 5: "pyramid", 6: "wedge", 8: "hexahedron", 10: "tetra10", 13: "pyramid13",
+          15: "wedge15", 20: "hexahedron20", 27: "hexahedron27"}
+_SURFACE = {3: "triangle", 4: "quad", 6: "triangle6", 8: "quad8", 9: "quad9"}
+_ABQ = re.compile(r"^(C3D|DC3D|CPS|CPE|CPEG|CAX|DC2D|S|SC|M3D|STRI|R3D|T3D|T2D|B3|B2|PIPE3|PIPE2)(\d+)")
+
+
+def abaqus_cell(etype: str) -> str | None:
+    """The meshio cell type of a CalculiX/Abaqus element type (``C3D20R`` -> ``hexahedron20``), or None."""
+    m = _ABQ.match(etype.upper())
+    if not m:
+        return None
+    family, digits = m.group(1), m.group(2)
+    if family in ("B3", "B2", "PIPE3", "PIPE2"):  # B31 linear, B32 quadratic, B33 cubic (2 nodes)
+        return {"1": "line", "2": "line3", "3": "line"}.get(digits[:1])
+    if family in ("T3D", "T2D"):
+        return {"2": "line", "3": "line3"}.get(digits[:1])
+    if family == "STRI":
+        return {"3": "triangle", "65": "triangle6"}.get(digits)
+    if family in ("C3D", "DC3D", "SC"):
+        return _SOLID.get(int(digits[:2]) if digits[:2] in ("10", "13", "15", "20", "27") else int(digits[:1]))
+    return _SURFACE.get(int(digits[:1]))
+
+
+_NASTRAN = {"CHEXA": {8: "hexahedron", 20: "hexahedron20"}, "CTETRA": {4: "tetra", 10: "tetra10"},
+            "CPENTA": {6: "wedge", 15: "wedge15"}, "CPYRAM": {5: "pyramid", 13: "pyramid13"},
+            "CQUAD4": {4: "quad"}, "CQUAD8": {8: "quad8"}, "CQUADR": {4: "quad"}, "CTRIA3": {3: "triangle"},
+            "CTRIA6": {6: "triangle6"}, "CTRIAR": {3: "triangle"}, "CBAR": {2: "line"}, "CBEAM": {2: "line"},
+            "CROD": {2: "line"}, "CONROD": {2: "line"}}
+
+
+def nastran_cell(card: str, n_nodes: int) -> str | None:
+    """The meshio cell type of a Nastran element card with ``n_nodes`` nodes given, or None."""
+    return _NASTRAN.get(card, {}).get(n_nodes)
+
+
+def to_vtk(convention: str, cell_type: str, nodes: np.ndarray) -> np.ndarray:
+    """``nodes`` (n_cells, k) in the deck's order -> meshio's (VTK's) order."""
+    perm = PERMUTATIONS.get((convention, cell_type))
+    return nodes if perm is None else nodes[:, perm]
+
+
+def build_mesh(blocks, convention: str) -> Mesh | None:
+    """A :class:`~flexmor.mesh.Mesh` from ``(cell type, nodes)`` pairs in deck order (same types merged).
+
+    Cells whose node count does not match their type (e.g. degenerate or incomplete
+    quadratic elements written with fewer nodes) are left out with a log message. None when
+    there are no cells.
+    """
+    merged: dict[str, list] = {}
+    for cell_type, nodes in blocks:
+        nodes = np.asarray(nodes, dtype=np.int64)
+        k = NODES_PER_CELL[cell_type]
+        if nodes.ndim != 2 or nodes.shape[1] != k:
+            log.info("%d %s cells with %s nodes instead of %d left out of the mesh", len(nodes), cell_type,
+                     nodes.shape[1:] or "no", k)
+            continue
+        merged.setdefault(cell_type, []).append(to_vtk(convention, cell_type, nodes))
+    if not merged:
+        return None
+    return Mesh(tuple(CellBlock(t, np.concatenate(parts)) for t, parts in merged.items()))

@@ -1,0 +1,251 @@
+"""The parts of a CalculiX (Abaqus-style) input deck that a matrix export needs: nodes, node sets, elements.
+
+``*NODE`` and ``*ELEMENT`` data are parsed a block at a time with NumPy (a deck of a million
+nodes in about a second); a block that does not fit the plain ``id, x, y, z`` (or ``id,
+n1, n2, ...``) form is parsed line by line, which names the offending line.
+"""
+
+from __future__ import annotations
+
+import logging
+from pathlib import Path
+
+import numpy as np
+
+from ...errors import ReadError
+from ...mesh import NODES_PER_CELL
+from .._cells import abaqus_cell
+from .._text import read_text
+from ..abaqus.abaqus_inp import include_path, keyword_options
+
+__all__ = ["read_inp"]
+
+log = logging.getLogger(__name__)
+
+
+def read_inp(path, _depth: int = 0, _state: dict | None = None, *, element_types: set | None = None,
+             cells: list | None = None):
+    """Read the node table, node sets and elements of a CalculiX/Abaqus-style input deck.
+
+    Only ``*NODE``, ``*NSET`` (with ``GENERATE`` and set names as members), ``*ELEMENT`` and
+    ``*INCLUDE, INPUT=...`` are interpreted; everything else is skipped.
+
+    Parameters
+    ----------
+    path : str or path-like
+    element_types : set, optional
+        Receives the ``TYPE=`` of every ``*ELEMENT`` keyword.
+    cells : list, optional
+        Receives ``(meshio cell type, node ids (n_cells, k))`` per ``*ELEMENT`` block of a
+        known type, nodes in the deck's order (:func:`flexmor.io._cells.to_vtk` maps them).
+
+    Returns
+    -------
+    node_ids : ndarray of int64, shape (n_nodes,)
+    xyz : ndarray of float64, shape (n_nodes, 3)
+    node_sets : dict of str to ndarray of int64
+        Upper-case names.
+
+    Raises
+    ------
+    ReadError
+        For malformed node or element lines, duplicate node ids, unreadable includes or set
+        members that are no node.
+    """
+    path = Path(path)
+    top = _state is None
+    st = _state if _state is not None else {"ids": [], "xyz": [], "src": [], "sets": {}, "set_lines": []}
+    lines = read_text(path).splitlines()
+    block, opts, cur_set = None, {}, None
+    i, n = 0, len(lines)
+    while i < n:
+        s = lines[i].strip()
+        if not s or s.startswith("**"):
+            i += 1
+            continue
+        if s.startswith("*"):
+            block, opts = keyword_options(s)
+            cur_set = None
+            if block == "NODE" and opts.get("NSET"):
+                cur_set = opts["NSET"].upper()
+                st["sets"].setdefault(cur_set, [])
+            elif block == "NSET":
+                if not opts.get("NSET"):
+                    raise ReadError(path, "*NSET without NSET=name", i + 1)
+                cur_set = opts["NSET"].upper()
+                st["sets"].setdefault(cur_set, [])
+            elif block == "INCLUDE":
+                read_inp(include_path(path, opts, _depth, i + 1), _depth + 1, st, element_types=element_types,
+                         cells=cells)
+            elif block == "ELEMENT" and element_types is not None:
+                element_types.add(opts.get("TYPE", "").upper())
+            i += 1
+            continue
+        data, linenos = [], []
+        while i < n:
+            t = lines[i].strip()
+            if t.startswith("*") and not t.startswith("**"):
+                break
+            if t and not t.startswith("**"):
+                data.append(t)
+                linenos.append(i + 1)
+            i += 1
+        if block == "NODE":
+            _node_block(path, data, linenos, st, cur_set)
+        elif block == "NSET":
+            for lineno, t in zip(linenos, data):
+                _nset_line(path, lineno, t, st, cur_set, "GENERATE" in opts)
+        elif block == "ELEMENT" and cells is not None:
+            _element_block(path, data, linenos, opts.get("TYPE", "").upper(), cells)
+    if not top:
+        return None
+    ids = np.concatenate(st["ids"]) if st["ids"] else np.zeros(0, np.int64)
+    xyz = np.concatenate(st["xyz"]) if st["xyz"] else np.zeros((0, 3))
+    _check_unique(ids, st["src"])
+    known = np.sort(ids)
+    for name, lp, lno, members in st["set_lines"]:
+        bad = members[~np.isin(members, known)]
+        if bad.size:
+            raise ReadError(lp, f"node set {name} names node {bad[0]}, which no *NODE line defines", lno)
+    sets = {}
+    for name, members in st["sets"].items():
+        arr = np.unique(np.asarray(members, dtype=np.int64))
+        if arr.size == 0:
+            log.warning("%s: node set %s is empty", path, name)
+        sets[name] = arr
+    return ids, xyz, sets
+
+
+def _check_unique(ids: np.ndarray, src: list) -> None:
+    """Refuse a node id defined twice, naming the second definition's line and the first's."""
+    order = np.argsort(ids, kind="stable")
+    dup = np.flatnonzero(ids[order][1:] == ids[order][:-1])
+    if not dup.size:
+        return
+    second = order[dup + 1]
+    j = int(np.argmin(second))
+    k, first = int(second[j]), int(order[dup[j]])
+    paths = [p for p, linenos in src for _ in range(len(linenos))] if len(src) > 1 else None
+    where = np.concatenate([linenos for _, linenos in src])
+    p_first = paths[first] if paths else src[0][0]
+    p_second = paths[k] if paths else src[0][0]
+    raise ReadError(p_second, f"node {ids[k]} defined twice (first at {Path(p_first).name}:{where[first]})",
+                    int(where[k]))
+
+
+def _node_block(path, data, linenos, st, cur_set):
+    """The nodes of consecutive ``*NODE`` data lines, vectorized when all are ``id, x, y, z``."""
+    k = len(data)
+    text = "\n".join(data)
+    a = None
+    if text.count(",") == 3 * k:
+        try:
+            a = np.fromstring(text.replace(",", " "), sep=" ")
+        except ValueError:
+            a = None
+        if a is not None and a.size == 4 * k:
+            a = a.reshape(k, 4)
+            if not (np.all(np.isfinite(a)) and np.all(a[:, 0] == np.floor(a[:, 0]))
+                    and np.abs(a[:, 0]).max() < 2**53):
+                a = None
+        else:
+            a = None
+    if a is not None:
+        ids, xyz = a[:, 0].astype(np.int64), a[:, 1:]
+    else:
+        rows = [_node_line(path, lineno, t) for lineno, t in zip(linenos, data)]
+        ids = np.array([r[0] for r in rows], dtype=np.int64)
+        xyz = np.array([r[1] for r in rows], dtype=np.float64).reshape(-1, 3)
+    st["ids"].append(ids)
+    st["xyz"].append(xyz)
+    st["src"].append((str(path), np.asarray(linenos, dtype=np.int64)))
+    if cur_set is not None:
+        st["sets"][cur_set].extend(ids.tolist())
+
+
+def _node_line(path, lineno, s):
+    parts = [p.strip() for p in s.split(",")]
+    if parts and parts[-1] == "":
+        parts.pop()
+    if not 2 <= len(parts) <= 4:
+        raise ReadError(path, f"expected 'id, x, y, z' in *NODE, got {s[:60]!r}", lineno)
+    try:
+        nid = int(parts[0])
+        c = [float(p.replace("D", "E").replace("d", "e")) for p in parts[1:]]
+    except ValueError:
+        raise ReadError(path, f"non-numeric node line {s[:60]!r}", lineno) from None
+    if not np.all(np.isfinite(c)):
+        raise ReadError(path, f"node {nid} has a non-finite coordinate", lineno)
+    return nid, c + [0.0] * (3 - len(c))
+
+
+def _element_block(path, data, linenos, etype, cells):
+    """The cells of consecutive ``*ELEMENT`` data lines (an element may continue on lines ending in a comma)."""
+    cell_type = abaqus_cell(etype)
+    if cell_type is None:
+        log.info("%s: element type %s is not kept in the mesh", path, etype or "(none)")
+        return
+    nn = NODES_PER_CELL[cell_type]
+    n_el = sum(1 for t in data if not t.endswith(","))
+    text = "\n".join(data)
+    try:
+        a = np.fromstring(text.replace(",", " "), dtype=np.int64, sep=" ")
+    except ValueError:
+        a = None
+    if a is None or a.size != n_el * (1 + nn) or (data and data[-1].endswith(",")):
+        a = _element_lines(path, data, linenos, etype, nn)
+    if a is not None:
+        cells.append((cell_type, a.reshape(-1, 1 + nn)[:, 1:]))
+
+
+def _element_lines(path, data, linenos, etype, nn):
+    """Line-by-line parse of element data, naming the line of a defect.
+
+    Elements with another node count than their type has (the mesh is only for display)
+    leave the block out of the mesh with a warning (None).
+    """
+    out, cur, start = [], [], 0
+    for lineno, t in zip(linenos, data):
+        try:
+            vals = [int(x) for x in t.split(",") if x.strip()]
+        except ValueError:
+            raise ReadError(path, f"non-integer *ELEMENT line {t[:60]!r}", lineno) from None
+        if not cur:
+            start = lineno
+        cur.extend(vals)
+        if t.endswith(",") and lineno != linenos[-1]:
+            continue
+        if len(cur) != 1 + nn:
+            log.warning("%s:%d: element %s of type %s has %d nodes, expected %d; its *ELEMENT block is left out "
+                        "of the mesh", path, start, cur[0] if cur else "?", etype, len(cur) - 1, nn)
+            return None
+        out.extend(cur)
+        cur = []
+    return np.asarray(out, dtype=np.int64)
+
+
+def _nset_line(path, lineno, s, st, cur_set, generate):
+    toks = [t.strip() for t in s.split(",") if t.strip()]
+    if generate:
+        try:
+            vals = [int(t) for t in toks]
+        except ValueError:
+            raise ReadError(path, f"GENERATE expects 'first, last, step', got {s[:60]!r}", lineno) from None
+        if len(vals) == 2:
+            vals.append(1)
+        if len(vals) != 3 or vals[2] <= 0 or vals[1] < vals[0]:
+            raise ReadError(path, "GENERATE expects 'first, last, step' with first <= last and step > 0, "
+                                  f"got {s[:60]!r}", lineno)
+        members = np.arange(vals[0], vals[1] + 1, vals[2], dtype=np.int64)
+    else:
+        ids = []
+        for t in toks:
+            if t.lstrip("-").isdigit():
+                ids.append(int(t))
+            elif t.upper() in st["sets"] and t.upper() != cur_set:
+                ids.extend(st["sets"][t.upper()])
+            else:
+                raise ReadError(path, f"*NSET member {t!r} is neither a node number nor a known node set", lineno)
+        members = np.asarray(ids, dtype=np.int64)
+    st["sets"][cur_set].extend(members.tolist())
+    st["set_lines"].append((cur_set, path, lineno, members))
