@@ -21,21 +21,11 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["fast_triplets", "chunks"]
+__all__ = ["fast_triplets"]
 
 _P10 = 10.0 ** np.arange(23)  # exactly representable powers of ten
 _MAX_PREFIX = 24  # widest "row col " part handled by the fast path
 _MAX_INT_DIGITS = 9  # indices fit int32 arithmetic
-
-
-def chunks(buf: bytes, start: int = 0, size: int = 1 << 22):
-    """Yield ``(start, end)`` byte ranges of ``buf`` of about ``size`` bytes that end after a line break."""
-    n = len(buf)
-    while start < n:
-        end = buf.find(b"\n", min(start + size, n) - 1)
-        end = n if end < 0 else end + 1
-        yield start, end
-        start = end
 
 
 def _layout(b: np.ndarray, end: int):

@@ -16,30 +16,48 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import ModelError, ReadError
-from ._fastparse import chunks, fast_triplets
+from ._fastparse import fast_triplets
 
 __all__ = ["read_text", "parse_triplets", "entry_line", "build_model"]
 
 _COMMENT_CHARS = "#%*!"
 _COMMENT_BYTES = (b"#", b"%", b"*", b"!")
+_COMMENT_MASK = np.zeros(256, dtype=bool)
+_COMMENT_MASK[list(b"#%*!")] = True
 _BLOCK = 50_000  # lines per block of the diagnosing scanner
+_CHUNK = 1 << 22  # bytes per chunk of the fast parser
 
 
-def read_bytes(path) -> bytes:
-    """Return the bytes of a text file ``path``; binary content or missing files raise ReadError."""
-    path = Path(path)
+def _check_text(path: Path, raw: bytes | None = None) -> None:
+    """Refuse a missing, empty or binary file (judged by its first 64 kB unless ``raw`` is given)."""
     if not path.exists():
         raise ReadError(path, "file not found")
     if path.is_dir():
         raise ReadError(path, "is a directory, expected a file")
     try:
-        raw = path.read_bytes()
+        if raw is None:
+            with open(path, "rb") as f:
+                head = f.read(65536)
+                if head.isspace():
+                    head += f.read()
+        else:
+            head = raw
     except OSError as exc:
         raise ReadError(path, f"cannot read: {exc.strerror}") from None
-    if not raw or raw.isspace():
+    if not head or head.isspace():
         raise ReadError(path, "file is empty")
-    if b"\x00" in raw[:65536]:
+    if b"\x00" in head[:65536]:
         raise ReadError(path, "looks like a binary file, expected text")
+
+
+def read_bytes(path) -> bytes:
+    """Return the bytes of a text file ``path``; binary content or missing files raise ReadError."""
+    path = Path(path)
+    try:
+        raw = path.read_bytes() if path.is_file() else None
+    except OSError as exc:
+        raise ReadError(path, f"cannot read: {exc.strerror}") from None
+    _check_text(path, raw)
     return raw
 
 
@@ -100,32 +118,69 @@ def _header_end(raw: bytes) -> int:
     return pos
 
 
-def _fast_triplets(raw: bytes):
+def _fast_triplets(path: Path, index_dtype):
     """Vectorized parse into ``(rows, cols, values)`` as written, or None when the text needs the scanner.
 
-    Leading comment lines (a header) are skipped; comments further down go to the scanner.
-    Each chunk of lines is parsed by :func:`~flexmor.io._fastparse.fast_triplets`, else by
-    ``np.loadtxt``; non-integral indices give None.
+    The file is streamed in chunks of whole lines (a first pass counts the lines), so the
+    text is never held whole. Leading comment lines (a header) are skipped; comments further
+    down go to the scanner. Each chunk is parsed by
+    :func:`~flexmor.io._fastparse.fast_triplets`, else by ``np.loadtxt``; non-integral
+    indices give None.
     """
-    start = _header_end(raw)
-    if any(raw.find(ch, start) >= 0 for ch in _COMMENT_BYTES):
-        return None  # loadtxt would also strip comments in mid-line; let the scanner decide
-    size = raw.count(b"\n", start) + 1
-    rows, cols = np.empty(size, dtype=np.int64), np.empty(size, dtype=np.int64)
-    vals = np.empty(size, dtype=np.float64)
-    k = 0
-    for lo, hi in chunks(raw, start):
-        got = fast_triplets(np.frombuffer(raw, dtype=np.uint8, count=hi - lo, offset=lo))
-        if got is None:
-            text = raw[lo:hi].decode("latin-1")
-            a = _loadtxt(io.StringIO(text.replace(",", " ").replace("D", "E").replace("d", "e")))
-            if a is None or not np.all(a[:, :2] == np.floor(a[:, :2])) or np.abs(a[:, :2]).max() > 2**62:
+    with open(path, "rb") as f:
+        size = sum(block.count(b"\n") for block in iter(lambda: f.read(_CHUNK), b"")) + 1
+        f.seek(0)
+        start = _header_end(f.read(_CHUNK))
+        if start >= _CHUNK:
+            return None  # a header longer than a chunk: leave it to the scanner
+        f.seek(start)
+        rows, cols = np.empty(size, dtype=index_dtype), np.empty(size, dtype=index_dtype)
+        vals = np.empty(size, dtype=np.float64)
+        k, rest = 0, b""
+        while True:
+            block = f.read(_CHUNK)
+            buf = rest + block if rest else block
+            if not buf:
+                break
+            cut = buf.rfind(b"\n") + 1 if block else len(buf)
+            if cut == 0:  # no line end yet: read on
+                rest = buf
+                continue
+            got = _chunk(np.frombuffer(buf, dtype=np.uint8, count=cut))
+            if got is None:
                 return None
-            got = a[:, 0], a[:, 1], a[:, 2]
-        m = got[0].size
-        rows[k:k + m], cols[k:k + m], vals[k:k + m] = got
-        k += m
+            rest = buf[cut:]
+            del buf, block
+            m = got[0].size
+            rows[k:k + m], cols[k:k + m], vals[k:k + m] = got
+            k += m
     return rows[:k], cols[:k], vals[:k]
+
+
+def _chunk(b: np.ndarray):
+    """``(rows, cols, values)`` of whole lines of text (uint8), or None (comments, non-integral indices, parse error).
+
+    A first line of another layout (the size line of Matrix Market) is parsed on its own.
+    """
+    if np.any(_COMMENT_MASK[b]):
+        return None  # loadtxt would also strip comments in mid-line; let the scanner decide
+    got = fast_triplets(b)
+    if got is not None:
+        return got
+    nl = int(np.argmax(b == 10)) + 1 if b[-1] == 10 else 0
+    if 0 < nl < b.size:
+        first, got = _loadtxt_chunk(b[:nl]), fast_triplets(b[nl:])
+        if first is not None and got is not None:
+            return tuple(np.concatenate([x, y]) for x, y in zip(first, got))
+    return _loadtxt_chunk(b)
+
+
+def _loadtxt_chunk(b: np.ndarray):
+    text = b.tobytes().decode("latin-1")
+    a = _loadtxt(io.StringIO(text.replace(",", " ").replace("D", "E").replace("d", "e")))
+    if a is None or not np.all(a[:, :2] == np.floor(a[:, :2])) or np.abs(a[:, :2]).max() > 2**31:
+        return None
+    return a[:, 0], a[:, 1], a[:, 2]
 
 
 def _in_range(rows, cols, vals, base: int, n: int | None) -> bool:
@@ -150,7 +205,7 @@ def _valid(a: np.ndarray, base: int, n: int | None) -> bool:
     )
 
 
-def parse_triplets(path, *, one_based: bool = True, n: int | None = None):
+def parse_triplets(path, *, one_based: bool = True, n: int | None = None, index_dtype=np.int64):
     """Parse ``row col value`` lines (whitespace or comma separated).
 
     Blank lines and lines starting with ``# % * !`` are skipped; Fortran exponents
@@ -164,10 +219,12 @@ def parse_triplets(path, *, one_based: bool = True, n: int | None = None):
         Whether indices start at 1 (else 0).
     n : int, optional
         Matrix size; indices beyond it are refused.
+    index_dtype : dtype
+        Of the returned indices (``np.int32`` saves memory when ``n`` fits it).
 
     Returns
     -------
-    rows, cols : ndarray of int64
+    rows, cols : ndarray of ``index_dtype``
         0-based indices, in file order.
     vals : ndarray of float64
         Values, in file order.
@@ -179,14 +236,13 @@ def parse_triplets(path, *, one_based: bool = True, n: int | None = None):
         index below the base or beyond ``n``, NaN or Inf value), with its line number.
     """
     path = Path(path)
-    raw = read_bytes(path)
+    _check_text(path)
     base = 1 if one_based else 0
-    got = _fast_triplets(raw)
+    got = _fast_triplets(path, index_dtype)
     if got is None or not _in_range(*got, base, n):
         got = None
-        a = _scan_triplets(path, _decode(raw), base, n)
-        del raw
-        got = a[:, 0].astype(np.int64), a[:, 1].astype(np.int64), np.ascontiguousarray(a[:, 2])
+        a = _scan_triplets(path, read_text(path), base, n)
+        got = a[:, 0].astype(index_dtype), a[:, 1].astype(index_dtype), np.ascontiguousarray(a[:, 2])
     rows, cols, vals = got
     rows -= base
     cols -= base

@@ -29,6 +29,7 @@ import scipy.sparse as sp
 
 from ..errors import ReadError
 from . import MODEL_FORMATS
+from ._sparse import mirror, triangle_csr
 from ._text import build_model, entry_line, parse_triplets
 
 __all__ = ["read_matrix_market", "find_siblings"]
@@ -156,29 +157,35 @@ def _read_coordinate(path: Path, symmetric: bool) -> sp.csr_matrix:
     if max(nr, nc) > MAX_DIM or nnz > fsize // 6 + 1 or (nnz and max(nr, nc) > 1000 * nnz + 10**6):
         raise ReadError(path, f"header claims a {nr} x {nc} matrix with {nnz} entries, which a "
                               f"{fsize}-byte file cannot hold; the size line is corrupt", lineno)
-    rows, cols, vals = parse_triplets(path)
+    idx = np.int32 if max(nr, nc) < 2**31 - 1 else np.int64
+    rows, cols, vals = parse_triplets(path, index_dtype=idx)
     rows, cols, vals = rows[1:], cols[1:], vals[1:]  # the first 'triplet' is the size line
     if len(vals) != nnz:
         raise ReadError(path, f"header announces {nnz} entries but the file holds {len(vals)}"
                               + ("; the file is truncated (cut off)" if len(vals) < nnz else ""))
-    out = np.flatnonzero((rows < 0) | (cols < 0) | (rows >= nr) | (cols >= nc))
-    if out.size:
-        k = int(out[0])
+    if nnz and (min(rows.min(), cols.min()) < 0 or rows.max() >= nr or cols.max() >= nc):
+        k = int(np.flatnonzero((rows < 0) | (cols < 0) | (rows >= nr) | (cols >= nc))[0])
         raise ReadError(path, f"entry ({rows[k] + 1}, {cols[k] + 1}) is out of bounds of the {nr} x {nc} matrix "
                               "(indices are 1-based)", entry_line(path, k + 1))
-    r, c = (np.maximum(rows, cols), np.minimum(rows, cols)) if symmetric else (rows, cols)
-    key = r * max(nc, 1) + c
-    order = np.argsort(key, kind="stable")
-    dup = np.flatnonzero(np.diff(key[order]) == 0)
-    if dup.size:
-        k = int(order[dup[0] + 1])
+    if symmetric and not np.all(rows >= cols):
+        rows, cols = np.maximum(rows, cols), np.minimum(rows, cols)
+    triplets = [rows, cols, vals]
+    del rows, cols, vals
+    T = triangle_csr(triplets, (nr, nc))
+    if T.nnz < nnz:
+        del T
+        rows, cols, _ = parse_triplets(path)
+        rows, cols = rows[1:], cols[1:]
+        r, c = (np.maximum(rows, cols), np.minimum(rows, cols)) if symmetric else (rows, cols)
+        key = r * max(nc, 1) + c
+        order = np.argsort(key, kind="stable")
+        k = int(order[np.flatnonzero(np.diff(key[order]) == 0)[0] + 1])
         raise ReadError(path, f"entry ({rows[k] + 1}, {cols[k] + 1}) appears twice; each entry once, please",
                         entry_line(path, k + 1))
-    if symmetric:
-        off = rows != cols
-        rows, cols, vals = (np.concatenate([rows, cols[off]]), np.concatenate([cols, rows[off]]),
-                            np.concatenate([vals, vals[off]]))
-    return sp.csr_matrix((vals, (rows, cols)), shape=(nr, nc), dtype=np.float64)
+    if symmetric and nr == nc:  # a non-square one is refused by the caller
+        return mirror(T)
+    T.data[np.isnan(T.data)] = 0.0
+    return T
 
 
 def _read_one(path: Path, role: str) -> sp.csr_matrix:

@@ -36,6 +36,7 @@ import scipy.sparse as sp
 from ...errors import ReadError
 from .. import MODEL_FORMATS
 from .._mass import QUADRATIC_TYPES, check_mass
+from .._sparse import mirror, triangle_csr
 from .._cells import build_mesh
 from .._text import build_model, entry_line, parse_triplets, read_bytes, read_text
 from .deck import read_inp
@@ -140,58 +141,27 @@ def _dof_fast(raw: bytes):
 
 def _read_upper(path: Path, n: int) -> sp.csr_matrix:
     """Read one upper-triangular CalculiX matrix file and return the full symmetric matrix."""
-    r, c, v = parse_triplets(path, one_based=True, n=n)
+    r, c, v = parse_triplets(path, one_based=True, n=n, index_dtype=np.int32 if n < 2**31 - 1 else np.int64)
     lower = np.flatnonzero(r > c)
     if lower.size:
         k = int(lower[0])
         raise ReadError(path, f"entry ({r[k] + 1}, {c[k] + 1}) lies below the diagonal; CalculiX "
                               "writes the upper triangle only, so the file is damaged or not from CalculiX",
                         entry_line(path, k))
-    key = c * np.int64(n) + r
-    if np.all(key[1:] > key[:-1]):  # column by column, as CalculiX writes: the lower triangle in CSR order
-        del key
-        return _symmetric(r, c, v, n)
-    order = np.argsort(key, kind="stable")
-    dup = np.flatnonzero(key[order][1:] == key[order][:-1])
-    if dup.size:
-        k = int(order[dup[0] + 1])
-        first = int(order[dup[0]])
+    count = r.size
+    triplets = [r, c, v]
+    del r, c, v
+    T = triangle_csr(triplets, (n, n))
+    if T.nnz < count:
+        del T
+        r, c, _ = parse_triplets(path, one_based=True, n=n)
+        key = c * np.int64(n) + r
+        order = np.argsort(key, kind="stable")
+        dup = np.flatnonzero(key[order][1:] == key[order][:-1])
+        k, first = int(order[dup[0] + 1]), int(order[dup[0]])
         raise ReadError(path, f"entry ({r[k] + 1}, {c[k] + 1}) appears twice (also on line "
                               f"{entry_line(path, first)}); the file is damaged", entry_line(path, k))
-    off = r != c
-    rows = np.concatenate([r, c[off]])
-    cols = np.concatenate([c, r[off]])
-    vals = np.concatenate([v, v[off]])
-    return sp.csr_matrix((vals, (rows, cols)), shape=(n, n))
-
-
-def _symmetric(r, c, v, n) -> sp.csr_matrix:
-    """The full symmetric CSR matrix of upper-triangle entries ``(r, c, v)`` sorted by column, then row.
-
-    Read as rows ``c``, the entries are the lower triangle in CSR order; its transpose (the
-    strict upper part, by SciPy's linear-time conversion) is merged row by row behind it.
-    Explicit zeros stay stored.
-    """
-    idx = np.int32 if n < 2**31 - 1 else np.int64
-    r, c = r.astype(idx), c.astype(idx)
-    count = np.bincount(c, minlength=n)
-    lptr = np.zeros(n + 1, dtype=np.int64)
-    np.cumsum(count, out=lptr[1:])
-    off = r != c
-    sptr = np.zeros(n + 1, dtype=np.int64)
-    np.cumsum(np.bincount(c[off], minlength=n), out=sptr[1:])
-    upper = sp.csr_matrix((v[off], r[off], sptr), shape=(n, n)).tocsc()  # CSR arrays of the strict upper part
-    del off, sptr
-    indptr = lptr + upper.indptr
-    indices = np.empty(indptr[-1], dtype=idx)
-    data = np.empty(indptr[-1], dtype=np.float64)
-    dest = np.arange(r.size, dtype=np.int64) + np.repeat(indptr[:-1] - lptr[:-1], count)
-    indices[dest], data[dest] = r, v
-    del dest
-    ucount = np.diff(upper.indptr)
-    dest = np.arange(upper.indices.size, dtype=np.int64) + np.repeat(indptr[:-1] + count - upper.indptr[:-1], ucount)
-    indices[dest], data[dest] = upper.indices, upper.data
-    return sp.csr_matrix((data, indices, indptr), shape=(n, n))
+    return mirror(T)
 
 
 def _geometry_file(path: Path) -> Path:
