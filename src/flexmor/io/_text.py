@@ -18,7 +18,7 @@ import numpy as np
 from ..errors import ModelError, ReadError
 from ._fastparse import fast_triplets
 
-__all__ = ["read_text", "parse_triplets", "entry_line", "build_model"]
+__all__ = ["read_text", "read_bytes", "check_text", "parse_triplets", "entry_line", "build_model"]
 
 _COMMENT_CHARS = "#%*!"
 _COMMENT_BYTES = (b"#", b"%", b"*", b"!")
@@ -28,7 +28,7 @@ _BLOCK = 50_000  # lines per block of the diagnosing scanner
 _CHUNK = 1 << 22  # bytes per chunk of the fast parser
 
 
-def _check_text(path: Path, raw: bytes | None = None) -> None:
+def check_text(path: Path, raw: bytes | None = None) -> None:
     """Refuse a missing, empty or binary file (judged by its first 64 kB unless ``raw`` is given)."""
     if not path.exists():
         raise ReadError(path, "file not found")
@@ -57,7 +57,7 @@ def read_bytes(path) -> bytes:
         raw = path.read_bytes() if path.is_file() else None
     except OSError as exc:
         raise ReadError(path, f"cannot read: {exc.strerror}") from None
-    _check_text(path, raw)
+    check_text(path, raw)
     return raw
 
 
@@ -236,7 +236,7 @@ def parse_triplets(path, *, one_based: bool = True, n: int | None = None, index_
         index below the base or beyond ``n``, NaN or Inf value), with its line number.
     """
     path = Path(path)
-    _check_text(path)
+    check_text(path)
     base = 1 if one_based else 0
     got = _fast_triplets(path, index_dtype)
     if got is None or not _in_range(*got, base, n):

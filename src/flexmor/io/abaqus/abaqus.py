@@ -48,7 +48,8 @@ import scipy.sparse as sp
 from ...errors import ReadError
 from .. import MODEL_FORMATS
 from .._mass import QUADRATIC_TYPES, check_mass
-from .._text import build_model, entry_line, parse_triplets, read_text
+from .._sparse import mirror, triangle_csr
+from .._text import build_model, check_text, entry_line, parse_triplets, read_text
 from .abaqus_inp import AbaqusDeck, read_deck
 
 __all__ = ["read_abaqus", "read_deck", "AbaqusDeck", "MATRIX_FILE"]
@@ -96,11 +97,13 @@ def _files(path: Path) -> tuple[Path, dict]:
     return deck, files
 
 
-def _first_data_columns(path: Path, text: str) -> int:
-    for line in text.splitlines():
-        s = line.strip()
-        if s and not s.startswith("*"):
-            return len(s.replace(",", " ").split())
+def _first_data_columns(path: Path) -> int:
+    check_text(path)
+    with open(path, "rb") as f:
+        for line in f:
+            s = line.decode("latin-1").strip()
+            if s and not s.startswith("*"):
+                return len(s.replace(",", " ").split())
     raise ReadError(path, "no matrix entries found")
 
 
@@ -190,43 +193,54 @@ def _dof_per_node(deck: AbaqusDeck, n_max: int, path: Path) -> int:
 
 
 def _read_matrix(path: Path, deck: AbaqusDeck, lut: dict, dpn):
-    """One matrix as ``(node, dof, node, dof, value)`` arrays, in model node ids."""
-    text = read_text(path)
-    ncol = _first_data_columns(path, text)
+    """One matrix as ``(node, dof, node, dof, value, "labels")`` arrays in model node ids (LABELS form)
+    or ``(row, col, value, dofs per node)`` with 0-based equations (COORDINATE form)."""
+    ncol = _first_data_columns(path)
     if ncol == 5:
-        return _labels_to_equations(path, text, deck, lut) + ("labels",)
+        return _labels_to_equations(path, read_text(path), deck, lut) + ("labels",)
     if ncol != 3:
         raise ReadError(path, f"first entry has {ncol} columns; expected 3 (COORDINATE: row, col, value) or "
                               "5 (LABELS: node, dof, node, dof, value)")
     n_cap = deck.node_ids.size * (dpn or 6)
-    r, c, v = parse_triplets(path, one_based=True, n=n_cap)
+    r, c, v = parse_triplets(path, one_based=True, n=n_cap, index_dtype=np.int32 if 8 * n_cap < 2**31 else np.int64)
     d = dpn or _dof_per_node(deck, int(max(r.max(), c.max())) + 1, path)
     big = np.flatnonzero(np.maximum(r, c) >= d * deck.node_ids.size)
     if big.size:
         k = int(big[0])
         raise ReadError(path, f"equation {max(r[k], c[k]) + 1} is beyond {deck.node_ids.size} nodes x {d} DOFs of "
                               "the input deck; are the .mtx and .inp from the same job?", entry_line(path, k))
-    ids = deck.node_ids
-    return ids[r // d], r % d + 1, ids[c // d], c % d + 1, v, "coordinate"
+    return r, c, v, d
 
 
-def _assemble(path, parts, eq_index, n):
-    n1, d1, n2, d2, v, _ = parts
-    r = eq_index(n1, d1)
-    c = eq_index(n2, d2)
-    key = r * np.int64(n) + c
-    order = np.argsort(key, kind="stable")
-    dup = np.flatnonzero(key[order][1:] == key[order][:-1])
-    if dup.size:
+def _assemble(path, parts, number, again):
+    """The matrix of ``parts = [row codes, col codes, values]`` (code = node position * 8 + direction).
+
+    ``parts`` is emptied and its codes turned into equation numbers in place, so that the
+    parsed arrays are freed as soon as they are used; ``again()`` parses the file anew to
+    name a duplicate entry.
+    """
+    r, c, _ = parts
+    np.take(number.astype(r.dtype, copy=False), r, out=r)
+    np.take(number.astype(c.dtype, copy=False), c, out=c)
+    lower, upper = bool(np.any(r > c)), bool(np.any(r < c))
+    count = r.size
+    del r, c
+    n = int(number.max()) + 1
+    T = triangle_csr(parts, (n, n))
+    if T.nnz < count:
+        del T
+        cr, cc, _ = again()
+        key = number[cr] * np.int64(n) + number[cc]
+        order = np.argsort(key, kind="stable")
+        dup = np.flatnonzero(key[order][1:] == key[order][:-1])
         k, first = int(order[dup[0] + 1]), int(order[dup[0]])
-        raise ReadError(path, f"entry ({n1[k]}.{d1[k]}, {n2[k]}.{d2[k]}) appears twice (also on line "
+        raise ReadError(path, f"entry ({again.node(cr[k])}, {again.node(cc[k])}) appears twice (also on line "
                               f"{entry_line(path, first)}); duplicates are refused, not summed",
                         entry_line(path, k))
-    lower, upper = np.any(r > c), np.any(r < c)
     if lower != upper:  # one triangle: mirror it
-        off = r != c
-        r, c, v = np.concatenate([r, c[off]]), np.concatenate([c, r[off]]), np.concatenate([v, v[off]])
-    return sp.csr_matrix((v, (r, c)), shape=(n, n))
+        return mirror(T)
+    T.data[np.isnan(T.data)] = 0.0
+    return T
 
 
 def read_abaqus(path, *, dof_per_node: int | None = None) -> "FEModel":  # noqa: F821
@@ -263,20 +277,47 @@ def read_abaqus(path, *, dof_per_node: int | None = None) -> "FEModel":  # noqa:
                         f"(a CalculiX job would have {deck_path.stem}.sti)")
     deck = read_deck(deck_path)
     lut = deck.lookup()
-    parsed = {role: _read_matrix(p, deck, lut, dof_per_node) for role, p in files.items()}
+    sorter = np.argsort(deck.node_ids)
+    ids_sorted = deck.node_ids[sorter]
+
+    def codes(nodes, dirs):  # (position in the deck's node order) * 8 + direction
+        return sorter[np.searchsorted(ids_sorted, nodes)].astype(np.int64) * 8 + np.asarray(dirs, dtype=np.int64)
+
+    def parse(path):
+        """``[row codes, col codes, values]`` of one matrix file and its form."""
+        got = _read_matrix(path, deck, lut, dof_per_node)
+        if got[-1] == "labels":
+            n1, d1, n2, d2, v, form = got
+            return [codes(n1, d1), codes(n2, d2), v], form
+        r, c, v, d = got
+        for x in (r, c):  # in place: equation -> node position * 8 + direction
+            dof = x % d
+            x //= d
+            x *= 8
+            x += dof + 1
+        return [r, c, v], "coordinate"
+
+    parsed, forms = {}, set()
+    for role, p in files.items():
+        parsed[role], form = parse(p)
+        forms.add(form)
     # equation map: every (node, dof) that occurs, in internal node order, then direction
-    pos = {int(i): k for k, i in enumerate(deck.node_ids)}
-    pairs = np.unique(np.concatenate([
-        np.stack([np.vectorize(pos.get, otypes=[np.int64])(np.concatenate([p[0], p[2]])),
-                  np.concatenate([p[1], p[3]])], axis=1) for p in parsed.values()]), axis=0)
+    used = np.zeros(deck.node_ids.size * 8, dtype=bool)
+    for cr, cc, _ in parsed.values():
+        used[cr] = True
+        used[cc] = True
+    del cr, cc
+    number = (np.cumsum(used) - 1).astype(np.int32 if used.size < 2**31 else np.int64)
+    code = np.flatnonzero(used)
+    del used
+    pairs = np.stack([code // 8, code % 8], axis=1)
+    mats = {}
+    for role in list(parsed):
+        def again(p=files[role]):
+            return parse(p)[0]
+        again.node = lambda k: f"{deck.node_ids[k // 8]}.{k % 8}"
+        mats[role] = _assemble(files[role], parsed.pop(role), number, again)
     n = pairs.shape[0]
-    code = pairs[:, 0] * 8 + pairs[:, 1]
-
-    def eq_index(nodes, dirs):
-        k = np.vectorize(pos.get, otypes=[np.int64])(nodes) * 8 + np.asarray(dirs, dtype=np.int64)
-        return np.searchsorted(code, k)
-
-    mats = {role: _assemble(files[role], parsed[role], eq_index, n) for role in parsed}
     dofs = np.stack([deck.node_ids[pairs[:, 0]], pairs[:, 1]], axis=1)
     used = (abs(mats["K"]).sum(axis=1).A1 > 0) | (abs(mats["M"]).sum(axis=1).A1 > 0)
     if not np.all(used):
@@ -284,7 +325,6 @@ def read_abaqus(path, *, dof_per_node: int | None = None) -> "FEModel":  # noqa:
         log.info("%s: removed %d equations without stiffness and mass", deck_path, n - keep.size)
         mats = {k: A[keep][:, keep] for k, A in mats.items()}
         dofs = dofs[keep]
-    forms = {p[-1] for p in parsed.values()}
     log.info("%s: %d equations, %d nodes, %s form", deck_path, dofs.shape[0], deck.node_ids.size, "/".join(forms))
     quadratic = sorted({etype for etype, _ in deck.elements if etype.startswith(QUADRATIC_TYPES)})
     model = build_model(
