@@ -22,8 +22,6 @@ __all__ = ["read_text", "read_bytes", "check_text", "parse_triplets", "entry_lin
 
 _COMMENT_CHARS = "#%*!"
 _COMMENT_BYTES = (b"#", b"%", b"*", b"!")
-_COMMENT_MASK = np.zeros(256, dtype=bool)
-_COMMENT_MASK[list(b"#%*!")] = True
 _BLOCK = 50_000  # lines per block of the diagnosing scanner
 _CHUNK = 1 << 22  # bytes per chunk of the fast parser
 
@@ -146,7 +144,7 @@ def _fast_triplets(path: Path, index_dtype):
             if cut == 0:  # no line end yet: read on
                 rest = buf
                 continue
-            got = _chunk(np.frombuffer(buf, dtype=np.uint8, count=cut))
+            got = _chunk(buf, cut)
             if got is None:
                 return None
             rest = buf[cut:]
@@ -157,13 +155,14 @@ def _fast_triplets(path: Path, index_dtype):
     return rows[:k], cols[:k], vals[:k]
 
 
-def _chunk(b: np.ndarray):
-    """``(rows, cols, values)`` of whole lines of text (uint8), or None (comments, non-integral indices, parse error).
+def _chunk(buf: bytes, cut: int):
+    """``(rows, cols, values)`` of the whole lines ``buf[:cut]``, or None (comments, non-integral indices, parse error).
 
     A first line of another layout (the size line of Matrix Market) is parsed on its own.
     """
-    if np.any(_COMMENT_MASK[b]):
+    if any(buf.find(ch, 0, cut) >= 0 for ch in _COMMENT_BYTES):
         return None  # loadtxt would also strip comments in mid-line; let the scanner decide
+    b = np.frombuffer(buf, dtype=np.uint8, count=cut)
     got = fast_triplets(b)
     if got is not None:
         return got
