@@ -21,7 +21,7 @@ import numpy as np
 
 from ..mesh import NODES_PER_CELL, CellBlock, Mesh
 
-__all__ = ["abaqus_cell", "nastran_cell", "to_vtk", "build_mesh"]
+__all__ = ["abaqus_cell", "nastran_cell", "to_vtk", "build_mesh", "mesh_of_elements"]
 
 log = logging.getLogger(__name__)
 
@@ -100,3 +100,27 @@ def build_mesh(blocks, convention: str) -> Mesh | None:
     if not merged:
         return None
     return Mesh(tuple(CellBlock(t, np.concatenate(parts)) for t, parts in merged.items()))
+
+
+def mesh_of_elements(elements, cell_of, convention: str, node_ids=None) -> Mesh | None:
+    """A :class:`~flexmor.mesh.Mesh` from per-element ``(element type, node ids)`` pairs.
+
+    ``cell_of(element type, number of nodes)`` names the meshio cell type (None: not kept).
+    Elements using a node outside ``node_ids`` (when given) are left out with a warning.
+    """
+    groups: dict[str, list] = {}
+    for etype, nodes in elements:
+        cell_type = cell_of(etype, len(nodes))
+        if cell_type is not None and len(nodes) == NODES_PER_CELL[cell_type]:
+            groups.setdefault(cell_type, []).append(nodes)
+    blocks = []
+    for cell_type, rows in groups.items():
+        nodes = np.asarray(rows, dtype=np.int64)
+        if node_ids is not None:
+            ok = np.isin(nodes, node_ids).all(axis=1)
+            if not ok.all():
+                log.warning("%d %s elements use nodes without coordinates; left out of the mesh",
+                            int((~ok).sum()), cell_type)
+                nodes = nodes[ok]
+        blocks.append((cell_type, nodes))
+    return build_mesh(blocks, convention)

@@ -48,6 +48,7 @@ import scipy.sparse as sp
 from ...errors import ReadError
 from .. import MODEL_FORMATS
 from .._mass import QUADRATIC_TYPES, check_mass
+from .._cells import abaqus_cell, mesh_of_elements
 from .._sparse import mirror, triangle_csr
 from .._text import build_model, check_text, entry_line, parse_triplets, read_text
 from .abaqus_inp import AbaqusDeck, read_deck
@@ -333,6 +334,7 @@ def read_abaqus(path, *, dof_per_node: int | None = None) -> "FEModel":  # noqa:
         M=mats["M"], K=mats["K"], D=mats.get("D"),
         damping={"type": "given"} if "D" in mats else {"type": "none"},
         node_ids=deck.node_ids, xyz=deck.xyz, dofs=dofs, node_sets=deck.node_sets,
+        mesh=mesh_of_elements(deck.elements, lambda etype, _: abaqus_cell(etype), "abaqus"),
         name=deck_path.stem, source=str(deck_path), singular_mass_ok=bool(quadratic),
     )
     if quadratic and np.all(model.M.diagonal() > 0):

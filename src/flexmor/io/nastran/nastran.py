@@ -34,6 +34,7 @@ import scipy.sparse as sp
 
 from ...errors import ReadError
 from .. import MODEL_FORMATS
+from .._cells import mesh_of_elements, nastran_cell
 from .._text import build_model
 from .nastran_bulk import Bulk, cards, num, read_bulk
 from .op4 import read_op4
@@ -367,6 +368,8 @@ def read_nastran(path, *, stiffness=None, mass=None, damping=None, geometry=None
     if pairs is not None:
         out, ids, xyz, frames = _model_dofs(path, out, pairs, bulk, geo, directions)
         kw = {"dofs": pairs, "node_ids": ids, "xyz": xyz}
+        if bulk is not None and bulk.elements:
+            kw["mesh"] = mesh_of_elements(bulk.elements, nastran_cell, "nastran", ids)
         if frames:
             kw["node_frames"] = frames
     log.info("%s: matrices %s", path, names)

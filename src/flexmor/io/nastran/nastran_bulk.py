@@ -185,6 +185,8 @@ class Bulk:
         for scalar points).
     seqgp : bool
         The file resequences grids (``SEQGP``): matrix DOF order is then not the id order.
+    elements : list of (str, list of int)
+        Card name and grid ids of each element card of :data:`ELEMENT_GRIDS` (for the mesh).
     """
 
     grid_ids: np.ndarray
@@ -194,6 +196,7 @@ class Bulk:
     spoints: np.ndarray
     aset: list
     seqgp: bool = False
+    elements: list = field(default_factory=list)
 
     def frame(self, gid: int) -> np.ndarray:
         """3x3 matrix whose columns are grid ``gid``'s displacement directions in basic components."""
@@ -237,6 +240,23 @@ def _thru(toks) -> list:
     return out
 
 
+#: Element cards kept for the mesh: (index of the first grid field after the card name, most grids).
+ELEMENT_GRIDS = {"CHEXA": (2, 20), "CTETRA": (2, 10), "CPENTA": (2, 15), "CPYRAM": (2, 13), "CQUAD4": (2, 4),
+                 "CQUADR": (2, 4), "CQUAD8": (2, 8), "CTRIA3": (2, 3), "CTRIAR": (2, 3), "CTRIA6": (2, 6),
+                 "CBAR": (2, 2), "CBEAM": (2, 2), "CROD": (2, 2), "CONROD": (1, 2)}
+
+
+def _element(name: str, f) -> list:
+    """Grid ids of an element card; optional mid-side grids left blank drop all of them (corners only)."""
+    first, most = ELEMENT_GRIDS[name]
+    toks = [t for t in f[first:first + most]]
+    grids = [int(t) for t in toks if t]
+    corners = {"CHEXA": 8, "CPENTA": 6, "CTETRA": 4, "CPYRAM": 5, "CQUAD8": 4, "CTRIA6": 3}.get(name)
+    if corners and len(grids) not in (corners, most):
+        grids = [int(t) for t in toks[:corners]]
+    return grids
+
+
 def read_bulk(path) -> Bulk:
     """Read grids, coordinate systems, scalar points and a-set cards of a bulk-data file.
 
@@ -247,7 +267,7 @@ def read_bulk(path) -> Bulk:
         undefined systems or grids, circular definitions, degenerate CORD2 points.
     """
     path = Path(path)
-    grids, cord2, cord1, spoints, aset = {}, {}, {}, [], []
+    grids, cord2, cord1, spoints, aset, elements = {}, {}, {}, [], [], []
     seqgp = False
     gdef = {"cp": 0, "cd": 0}
     for fpath, lineno, name, f, fl in cards(path):
@@ -272,6 +292,8 @@ def read_bulk(path) -> Bulk:
                         if cid <= 0 or cid in cord2 or cid in cord1:
                             raise ReadError(fpath, f"{name} {cid}: id must be positive and unique", lineno)
                         cord1[cid] = (name[-1], [int(f[k + j]) for j in (1, 2, 3)], lineno, fpath)
+            elif name in ELEMENT_GRIDS:
+                elements.append((name, _element(name, f)))
             elif name == "SEQGP":
                 seqgp = True
             elif name == "SPOINT":
@@ -289,6 +311,7 @@ def read_bulk(path) -> Bulk:
             raise ReadError(fpath, f"{name}: too few fields", lineno) from None
     bulk = _resolve(path, grids, gdef, cord2, cord1, spoints, aset)
     bulk.seqgp = seqgp
+    bulk.elements = elements
     return bulk
 
 
