@@ -11,7 +11,7 @@ import pytest
 from conftest import CCX, DATA
 
 import flexmor.io
-from flexmor.io._cells import abaqus_cell, build_mesh, mesh_of_elements, nastran_cell
+from flexmor.io._cells import abaqus_cell, ansys_cell, build_mesh, mesh_of_elements, nastran_cell
 from flexmor.io.calculix import read_inp
 from flexmor.io.nastran.nastran_bulk import read_bulk
 
@@ -158,3 +158,26 @@ def test_abaqus_job_has_the_deck_mesh():
     lo, hi = model.xyz.min(axis=0), model.xyz.max(axis=0)
     assert vol.min() > 0
     assert vol.sum() == pytest.approx(np.prod(hi - lo))
+
+
+def test_ansys_full_with_cdb_has_the_mesh():
+    model = flexmor.io.read(DATA / "ansys" / "ansys_file.full", coordinates=DATA / "ansys" / "ansys_HexBeam.cdb")
+    (block,) = model.mesh.blocks
+    assert block.type == "hexahedron20" and len(block.nodes) == 40
+    x = model.xyz[np.searchsorted(model.node_ids, block.nodes)]
+    for cell in x:
+        _check_midsides("hexahedron20", np.arange(20), lambda i: cell[i])
+    vols = [_hex_volume(cell[:8]) for cell in x]
+    assert min(vols) > 0
+    assert sum(vols) == pytest.approx(np.prod(model.xyz.max(axis=0) - model.xyz.min(axis=0)))
+
+
+def test_ansys_degenerate_bricks():
+    wedge = np.array(CORNERS["wedge"], dtype=float)
+    cell_type, nodes = ansys_cell(185, [1, 2, 3, 3, 4, 5, 6, 6])  # prism: K = L, O = P
+    assert cell_type == "wedge"
+    _check_wedge(wedge[np.array(nodes) - 1])
+    tet = _element(CORNERS["tet"], ABAQUS_EDGES["C3D10"], 10)  # same mid-side edges as SOLID187
+    cell_type, nodes = ansys_cell(186, [1, 2, 3, 3, 4, 4, 4, 4, 5, 6, 3, 7, 4, 4, 4, 4, 8, 9, 10, 10])
+    assert cell_type == "tetra10"
+    _check_midsides("tetra10", np.array(nodes), lambda i: tet[i - 1])

@@ -21,7 +21,7 @@ import numpy as np
 
 from ..mesh import NODES_PER_CELL, CellBlock, Mesh
 
-__all__ = ["abaqus_cell", "nastran_cell", "to_vtk", "build_mesh", "mesh_of_elements"]
+__all__ = ["abaqus_cell", "nastran_cell", "ansys_cell", "to_vtk", "build_mesh", "mesh_of_elements"]
 
 log = logging.getLogger(__name__)
 
@@ -73,6 +73,52 @@ _NASTRAN = {"CHEXA": {8: "hexahedron", 20: "hexahedron20"}, "CTETRA": {4: "tetra
 def nastran_cell(card: str, n_nodes: int) -> str | None:
     """The meshio cell type of a Nastran element card with ``n_nodes`` nodes given, or None."""
     return _NASTRAN.get(card, {}).get(n_nodes)
+
+
+def ansys_cell(etype: int, nodes) -> tuple | None:
+    """``(meshio cell type, nodes in VTK order)`` of an Ansys element (``SOLID186`` ...), or None.
+
+    Degenerate forms of the bricks (repeated nodes: wedge, pyramid, tetrahedron) and of the
+    4-node shell (triangle) are recognized; beams drop their orientation node.
+    """
+    nodes = list(nodes)
+    n = len(nodes)
+    if etype in (185, 45, 65) and n >= 8:
+        i, j, k, l, m, nn, o, p = nodes[:8]
+        if len(set(nodes[:8])) == 8:
+            return "hexahedron", nodes[:8]
+        if k == l and m == nn == o == p:
+            return "tetra", [i, j, k, m]
+        if m == nn == o == p:
+            return "pyramid", [i, j, k, l, m]
+        if k == l and o == p:
+            return "wedge", [nodes[x] for x in (0, 2, 1, 4, 6, 5)]
+        return None
+    if etype in (186, 95) and n >= 20:
+        c = nodes[:20]
+        if len(set(c)) == 20:
+            return "hexahedron20", c
+        if c[2] == c[3] and c[4] == c[5] == c[6] == c[7]:
+            return "tetra10", [c[x] for x in (0, 1, 2, 4, 8, 9, 11, 16, 17, 18)]
+        if c[2] == c[3] and c[6] == c[7]:
+            w = [c[x] for x in (0, 1, 2, 4, 5, 6, 8, 9, 11, 12, 13, 15, 16, 17, 18)]
+            return "wedge15", [w[x] for x in _WEDGE15_ABAQUS]
+        return None
+    if etype in (187, 92) and n >= 10:
+        return "tetra10", nodes[:10]
+    if etype in (285, 72) and n >= 4:
+        return "tetra", nodes[:4]
+    if etype in (181, 63, 43) and n >= 4:
+        return ("triangle", nodes[:3]) if nodes[2] == nodes[3] else ("quad", nodes[:4])
+    if etype in (281, 93) and n >= 8:
+        return ("quad8", nodes[:8]) if len(set(nodes[:8])) == 8 else None
+    if etype in (188, 180, 14, 4, 8) and n >= 2:
+        return "line", nodes[:2]
+    if etype == 189 and n >= 3:
+        return "line3", nodes[:3]
+    if etype == 21 and n >= 1:
+        return "vertex", nodes[:1]
+    return None
 
 
 def to_vtk(convention: str, cell_type: str, nodes: np.ndarray) -> np.ndarray:

@@ -17,7 +17,8 @@ Matrix Market set (``.txt`` or ``.mtx``; pass the stiffness or the mass file)
 Binary ``.full`` (``ansys-mapdl-reader``, optional: ``pip install flexmor[ansys]``)
     Upper triangles are expanded; constrained DOFs (zero rows and columns) are removed, logged
     and listed in ``model.constrained_dofs`` (k, 2: node, direction). Coordinates and node
-    components come from ``<stem>.cdb`` beside it or ``coordinates=``.
+    components and the element connectivity (``model.mesh``) come from ``<stem>.cdb`` beside it
+    or ``coordinates=``.
 
 In both, equations with neither stiffness nor mass are removed and reported. Units are those
 of the Ansys model.
@@ -34,6 +35,7 @@ import scipy.sparse as sp
 
 from ...errors import ReadError
 from .. import MODEL_FORMATS
+from .._cells import ansys_cell, build_mesh
 from .._text import build_model, read_text
 from ..matrix_market import _check_header, _read_one, find_siblings
 
@@ -219,14 +221,14 @@ def _read_full(path: Path, coordinates=None):
         else:
             mats[role] = (U + U.T - sp.diags(U.diagonal())).tocsr()
     mats, dofs, gone = _drop_empty(path, mats, dofs, "constrained (zero rows and columns)")
-    node_ids, xyz, sets = np.zeros(0, np.int64), np.zeros((0, 3)), {}
+    node_ids, xyz, sets, mesh = np.zeros(0, np.int64), np.zeros((0, 3)), {}, None
     cdb = Path(coordinates) if coordinates else path.with_suffix(".cdb")
     if cdb.exists():
-        node_ids, xyz, sets = _read_cdb(cdb)
+        node_ids, xyz, sets, mesh = _read_cdb(cdb)
     elif coordinates:
         raise ReadError(cdb, "coordinate file not found")
     model = build_model(path, roles={"K": path, "M": path}, M=mats["M"], K=mats["K"], node_ids=node_ids, xyz=xyz,
-                        dofs=dofs, node_sets=sets, name=path.stem, source=str(path))
+                        dofs=dofs, node_sets=sets, mesh=mesh, name=path.stem, source=str(path))
     model.constrained_dofs = gone
     return model
 
@@ -264,7 +266,14 @@ def _read_cdb(path: Path):
     except Exception as exc:  # noqa: BLE001
         raise ReadError(path, f"not a readable Ansys archive ({type(exc).__name__}: {str(exc)[:120]})") from None
     sets = {str(k).upper(): np.asarray(v, dtype=np.int64) for k, v in dict(a.node_components).items()}
-    return np.asarray(a.nnum, dtype=np.int64), np.asarray(a.nodes, dtype=np.float64)[:, :3], sets
+    types = {int(k): int(v) for k, v in np.asarray(a.ekey, dtype=np.int64).reshape(-1, 2)}
+    groups: dict = {}
+    for row in a.elem:  # 10 attribute fields (material, type, ...), then the nodes
+        got = ansys_cell(types.get(int(row[1]), 0), np.asarray(row[10:], dtype=np.int64).tolist())
+        if got is not None:
+            groups.setdefault(got[0], []).append(got[1])
+    mesh = build_mesh([(t, np.asarray(rows, dtype=np.int64)) for t, rows in groups.items()], "vtk")
+    return np.asarray(a.nnum, dtype=np.int64), np.asarray(a.nodes, dtype=np.float64)[:, :3], sets, mesh
 
 
 def read_ansys(path, *, coordinates=None) -> "FEModel":  # noqa: F821
