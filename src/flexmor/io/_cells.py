@@ -7,7 +7,8 @@ Ansys differ from VTK's, which :class:`flexmor.mesh.CellBlock` uses:
 * wedges: in VTK the normal of the triangle (0, 1, 2) points away from (3, 4, 5); in the FE
   programs it points towards it, so each triangle is reversed;
 * quadratic beams (Abaqus ``B32``): middle node second in the deck, last in VTK;
-* 20-node bricks and 15-node wedges of Nastran and Ansys: vertical edges before top edges.
+* 20-node bricks and 15-node wedges of Nastran: vertical edges before top edges (Ansys'
+  ``SOLID186`` follows VTK).
 
 ``PERMUTATIONS[(convention, cell type)]`` gives ``vtk_nodes = deck_nodes[:, perm]``.
 """
