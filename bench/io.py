@@ -8,7 +8,9 @@ format flexmor reads, then read back with :func:`flexmor.io.read`:
   ``job.dof``, ``job.inp`` with the nodes;
 * ``matrix-market``: ``job_K.mtx``/``job_M.mtx``, ``coordinate real symmetric`` (lower triangle);
 * ``abaqus``: ``job.inp`` with the nodes and ``job_STIF1.mtx``/``job_MASS1.mtx`` (both
-  triangles, 3 DOFs per node, ``row col value``).
+  triangles, 3 DOFs per node, ``row col value``);
+* ``nastran``: ``job.pch`` with ``DMIG KAAX``/``MAAX`` in large field as Nastran punches them
+  (upper triangle, 10 digits), ``job.bdf`` with the GRIDs (not run by default: card by card).
 
 *MB/s* is the size of the matrix files over the wall time of ``read`` (*MB/cpu s* over its CPU
 time, the fairer number on a loaded machine); *peak MB* the largest
@@ -76,6 +78,21 @@ def write(fmt: str, model, d: Path) -> tuple[Path, list]:
         _nodes(d / "job.inp", model, "*BOUNDARY\n" + "".join(
             f"{model.node_ids[k // 3]}, {k % 3 + 1}, {k % 3 + 1}\n" for k in fixed.tolist()))
         return d / "job.inp", [d / "job_STIF1.mtx", d / "job_MASS1.mtx"]
+    if fmt == "nastran":
+        lines = ["BEGIN BULK"] + [f"GRID,{i},,{x!r},{y!r},{z!r}" for i, (x, y, z) in zip(model.node_ids.tolist(),
+                                                                                   model.xyz.tolist())]
+        (d / "job.bdf").write_text("\n".join(lines + ["ENDDATA"]) + "\n")
+        g, c = model.dofs[:, 0].tolist(), model.dofs[:, 1].tolist()
+        with open(d / "job.pch", "w") as fh:
+            for name, A in (("KAAX", K), ("MAAX", M)):
+                A = sp.csc_matrix(A)  # upper triangle, column by column
+                fh.write(f"DMIG    {name:<8}{0:8d}{6:8d}{2:8d}{0:8d}\n")
+                for j in range(A.shape[1]):
+                    rows = A.indices[A.indptr[j]:A.indptr[j + 1]].tolist()
+                    vals = A.data[A.indptr[j]:A.indptr[j + 1]].tolist()
+                    fh.write(f"DMIG*   {name:<16}{g[j]:>16}{c[j]:>16}\n" + "".join(
+                        f"*       {g[i]:>16}{c[i]:>16}{v:16.9E}\n" for i, v in zip(rows, vals)))
+        return d / "job.pch", [d / "job.pch"]
     raise ValueError(fmt)
 
 
@@ -103,7 +120,7 @@ def main() -> None:
             peak = tracemalloc.get_traced_memory()[1] / 1e6
             tracemalloc.stop()
             csr = sum(A.data.nbytes + A.indices.nbytes + A.indptr.nbytes for A in (m.K.tocsr(), m.M.tocsr())) / 1e6
-            assert abs(m.K - model.K).max() <= 1e-12 * abs(model.K).max()
+            assert abs(m.K - model.K).max() <= (1e-9 if fmt == "nastran" else 1e-12) * abs(model.K).max()
             print(f"{fmt:>14} {mb:8.1f} {dt:8.2f} {mb / dt:8.1f} {cpu:8.2f} {mb / cpu:8.1f} {peak:8.0f} "
                   f"{peak / csr:6.2f}")
 

@@ -21,14 +21,14 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["fast_triplets"]
+__all__ = ["fast_triplets", "parse_values", "value_layout"]
 
 _P10 = 10.0 ** np.arange(23)  # exactly representable powers of ten
 _MAX_PREFIX = 24  # widest "row col " part handled by the fast path
 _MAX_INT_DIGITS = 9  # indices fit int32 arithmetic
 
 
-def _layout(b: np.ndarray, end: int):
+def value_layout(b: np.ndarray, end: int):
     """Layout of the value field that ends before ``b[end]``: ``(width, digit columns, mark, exponent digits)``.
 
     Columns count from the field start (the sign slot); None when the field is not
@@ -58,7 +58,7 @@ def _layout(b: np.ndarray, end: int):
     return width, digits, mark - start, ne
 
 
-def _values(b, fields, width, digits, mark, ne, bad):
+def parse_values(b, fields, width, digits, mark, ne, bad):
     """The values whose fields start at ``fields``; lines that break the layout set ``bad``."""
     col = lambda j: np.take(b, fields + j)  # noqa: E731
     sign = col(0)
@@ -172,7 +172,7 @@ def fast_triplets(b: np.ndarray):
         return None
     nl = np.flatnonzero(b == 10)
     cr = int(nl[0] > 0 and b[nl[0] - 1] == 13)
-    lay = _layout(b, int(nl[0]) - cr)
+    lay = value_layout(b, int(nl[0]) - cr)
     if lay is None:
         return None
     width, digits, mark, ne = lay
@@ -184,7 +184,7 @@ def fast_triplets(b: np.ndarray):
     if np.any(fields < starts) or (cr and np.any(np.take(b, ends) != 13)):
         return None
     bad = np.zeros(nl.size, dtype=bool)
-    vals = _values(b, fields, width, digits, mark, ne, bad)
+    vals = parse_values(b, fields, width, digits, mark, ne, bad)
     ij = _indices(b, starts, fields, bad)
     if ij is None:
         return None

@@ -35,7 +35,9 @@ import scipy.sparse as sp
 from ...errors import ReadError
 from .. import MODEL_FORMATS
 from .._cells import mesh_of_elements, nastran_cell
+from .._sparse import mirror, triangle_csr
 from .._text import build_model
+from .dmig_fast import fast_dmig
 from .nastran_bulk import Bulk, cards, num, read_bulk
 from .op4 import read_op4
 
@@ -59,6 +61,9 @@ def read_dmig(path) -> dict:
         Malformed cards (with line number), column cards without a header, unknown forms.
     """
     top = Path(path)
+    fast = fast_dmig(top)
+    if fast is not None:
+        return fast
     mats: dict = {}
     for fpath, lineno, name, f, flines in cards(top):
         if name != "DMIG":
@@ -206,31 +211,51 @@ def dof_transform(bulk: Bulk, dofs: np.ndarray, where) -> sp.csr_matrix | None:
     return T
 
 
+def _runs_unique(code: np.ndarray) -> np.ndarray:
+    """Sorted unique values of ``code``; cheap when equal values come in runs (the column of each entry)."""
+    if code.size == 0:
+        return code
+    return np.unique(code[np.r_[True, code[1:] != code[:-1]]])
+
+
 def dmig_matrices(path, mats, names):
-    pairs = np.unique(np.concatenate([np.concatenate([mats[n][1], mats[n][2]]) for n in names.values()]), axis=0)
-    if np.any(pairs[:, 1] < 0) or np.any(pairs[:, 1] > 6):
+    codes = {}
+    for name in names.values():
+        _, r, c, _, _ = mats[name]
+        codes[name] = (r[:, 0] * 8 + r[:, 1], c[:, 0] * 8 + c[:, 1])
+    code = np.unique(np.concatenate([_runs_unique(cc) for _, cc in codes.values()]))
+    for rcode, _ in codes.values():
+        k = np.searchsorted(code, rcode)
+        if np.any(k >= code.size) or np.any(code[np.minimum(k, code.size - 1)] != rcode):
+            code = np.unique(np.concatenate([code, rcode]))
+    pairs = np.stack([code // 8, code % 8], axis=1)
+    if np.any((pairs[:, 1] < 0) | (pairs[:, 1] > 6)):
         g = pairs[(pairs[:, 1] < 0) | (pairs[:, 1] > 6)][0]
         raise ReadError(path, f"DOF {g[0]}-{g[1]}: component must be 0 (scalar point) or 1..6")
-    code = pairs[:, 0] * 8 + pairs[:, 1]
     n = pairs.shape[0]
+    idx = np.int32 if n < 2**31 - 1 else np.int64
     out = {}
     for role, name in names.items():
         _, r, c, v, line = mats[name]
         if np.iscomplexobj(v):
             raise ReadError(path, f"DMIG {name} is complex; flexmor needs real matrices")
-        i = np.searchsorted(code, r[:, 0] * 8 + r[:, 1])
-        j = np.searchsorted(code, c[:, 0] * 8 + c[:, 1])
-        key = i * np.int64(n) + j
-        order = np.argsort(key, kind="stable")
-        dup = np.flatnonzero(key[order][1:] == key[order][:-1])
-        if dup.size:
-            k = int(order[dup[0] + 1])
+        rcode, ccode = codes[name]
+        i, j = np.searchsorted(code, rcode).astype(idx), np.searchsorted(code, ccode).astype(idx)
+        del rcode, ccode
+        lower, upper = bool(np.any(i > j)), bool(np.any(i < j))
+        T = triangle_csr([i, j, v], (n, n))
+        if T.nnz < v.size:
+            i, j = np.searchsorted(code, r[:, 0] * 8 + r[:, 1]), np.searchsorted(code, c[:, 0] * 8 + c[:, 1])
+            key = i * np.int64(n) + j
+            order = np.argsort(key, kind="stable")
+            k = int(order[np.flatnonzero(key[order][1:] == key[order][:-1])[0] + 1])
             raise ReadError(path, f"DMIG {name}: entry ({r[k][0]}-{r[k][1]}, {c[k][0]}-{c[k][1]}) given twice; "
                                   "duplicates are refused, not summed", int(line[k]))
-        if np.any(i > j) != np.any(i < j):  # one triangle stored
-            off = i != j
-            i, j, v = np.concatenate([i, j[off]]), np.concatenate([j, i[off]]), np.concatenate([v, v[off]])
-        out[role] = sp.csr_matrix((v, (i, j)), shape=(n, n))
+        if lower != upper:  # one triangle stored
+            out[role] = mirror(T)
+        else:
+            T.data[np.isnan(T.data)] = 0.0
+            out[role] = T
     return out, pairs
 
 
