@@ -166,6 +166,9 @@ def _chunk(buf: bytes, cut: int):
     got = fast_triplets(b)
     if got is not None:
         return got
+    if buf[:cut].isspace():  # blank lines (at the end of the file)
+        empty = np.zeros(0, dtype=np.int64)
+        return empty, empty, np.zeros(0)
     nl = int(np.argmax(b == 10)) + 1 if b[-1] == 10 else 0
     if 0 < nl < b.size:
         first, got = _loadtxt_chunk(b[:nl]), fast_triplets(b[nl:])
