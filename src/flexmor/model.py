@@ -337,6 +337,39 @@ class FEModel:
             "outputs": list(self.output_names),
         }
 
+    def mass_properties(self) -> dict:
+        """Total mass, centre of mass and bounding box, from ``M`` and the node coordinates.
+
+        The mass in direction d is ``e_d^T M e_d`` for the rigid translation ``e_d`` (ones at the
+        equations of direction d), i.e. the mass carried by the model's equations: the mass at
+        constrained (removed) DOFs is not in ``M``. The centre of mass weighs each node's
+        coordinate by its share ``(M e_d)_i`` of that mass. Returns ``mass`` (per direction x y z,
+        None where the model has no such equations or no equation map), ``center_of_mass``
+        and ``bounding_box`` (``[[xmin, ymin, zmin], [xmax, ymax, zmax]]``, None without nodes).
+        """
+        out = {"mass": None, "center_of_mass": None, "bounding_box": None}
+        if self.n_nodes:
+            out["bounding_box"] = [self.xyz.min(axis=0).tolist(), self.xyz.max(axis=0).tolist()]
+        if self.dofs is None or not self.n_nodes or is_partitioned(self.M):
+            return out
+        mass, com = [], []
+        for d in (1, 2, 3):
+            rows = np.flatnonzero(self.dofs[:, 1] == d)
+            if rows.size == 0:
+                mass.append(None)
+                continue
+            e = np.zeros(self.n_dof)
+            e[rows] = 1.0
+            w = (self.M @ e)[rows]
+            m = float(w.sum())
+            mass.append(m)
+            x = self.node_xyz(self.dofs[rows, 0])[:, d - 1]
+            com.append(float(w @ x / m) if m > 0 else None)
+        out["mass"] = mass
+        if len(com) == 3 and all(c is not None for c in com):
+            out["center_of_mass"] = com
+        return out
+
     # -- derived models ---------------------------------------------------------------------
     def with_rayleigh(self, alpha: float, beta: float) -> "FEModel":
         """Return a copy with Rayleigh damping ``D = alpha M + beta K`` (alpha in 1/s, beta in s)."""

@@ -19,6 +19,7 @@ from .damping import Damping, ModalDamping, NoDamping, damping_from_dict
 from .errors import ModelError
 from .mesh import outer_surface
 from .model import FEModel
+from .origin import fingerprint
 from .ports import Ports
 
 __all__ = ["ReducedModel", "project"]
@@ -54,6 +55,11 @@ class ReducedModel:
         where the model has no elements.
     model_name : str
         Name of the full model; ``errors`` holds error measures once evaluated.
+    damping : Damping
+        The damping of the full model it was projected from (``D`` is its projection).
+    origin : dict
+        Fingerprint of the full model (:func:`flexmor.origin.fingerprint`); empty for bodies
+        written before fingerprints existed.
     """
 
     M: np.ndarray
@@ -74,6 +80,7 @@ class ReducedModel:
     damping: Damping = field(default_factory=NoDamping)
     errors: dict = field(default_factory=dict)
     version: str = __version__
+    origin: dict = field(default_factory=dict)
 
     def __post_init__(self):
         if not isinstance(self.damping, Damping):  # the stored form, e.g. {"type": "rayleigh", ...}
@@ -90,6 +97,27 @@ class ReducedModel:
             return sla.eigh(self.K, self.M, eigvals_only=True)
         except np.linalg.LinAlgError:
             raise ModelError("the reduced mass matrix is not positive definite") from None
+
+    def summary(self) -> dict:
+        """What the body is, as a plain dict (used by ``flexmor info BODY.h5``).
+
+        Keys: ``method``, ``order``, ``order_requested``, ``order_note``, ``inputs``,
+        ``outputs``, ``couplings``, ``options`` (the method options recorded), ``frequencies_hz``,
+        ``damping`` (stored form), ``errors`` (the stored measures, without the curves),
+        ``model`` (the fingerprint of the full model it came from, empty for older bodies),
+        ``version`` (of the flexmor that wrote it).
+        """
+        try:
+            freqs = self.frequencies_hz().tolist()
+        except ModelError:
+            freqs = None
+        return {"method": self.method, "order": self.order, "order_requested": self.info.get("order_requested"),
+                "order_note": self.info.get("order_note"), "inputs": list(self.input_names),
+                "outputs": list(self.output_names), "couplings": list(self.info.get("couplings", [])),
+                "options": dict(self.info.get("options", {})), "frequencies_hz": freqs,
+                "damping": self.damping.to_dict(), "model_name": self.model_name,
+                "errors": {k: v for k, v in self.errors.items() if k not in ("freqs_hz", "rel_error")},
+                "model": dict(self.origin), "version": self.version}
 
     def frequencies_hz(self) -> np.ndarray:
         """Undamped eigenfrequencies in Hz (round-off negatives reported as 0)."""
@@ -129,4 +157,5 @@ def project(model: FEModel, basis: Basis, ports: Ports) -> ReducedModel:
         input_names=list(ports.input_names), output_names=list(ports.output_names),
         node_ids=model.node_ids, xyz=model.xyz, dofs=model.dofs, model_name=model.name,
         damping=model.damping, triangles=None if model.mesh is None else outer_surface(model.mesh).triangles,
+        origin=fingerprint(model),
     )

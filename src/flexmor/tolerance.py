@@ -1,11 +1,14 @@
-"""Target-error mode: the smallest order whose *verified* band_error meets a tolerance.
+"""Target-error mode: the smallest order whose *verified* error measure meets a tolerance.
 
 Used by ``flexmor reduce --tol TOL`` (through :func:`flexmor.workflow.reduce_and_judge`).
 The order is doubled until the band_error against the full model's FRF (computed once,
 :class:`flexmor.analysis.compare.FullResponse`) is below ``tol``, then bisected. For methods
 whose basis is nested (its leading r columns are the basis of order r: ``krylov``,
 ``adaptive`` (``info['nested']``) and ``modal``) every trial order below the largest
-basis costs only a projection and a reduced FRF, not a new basis.
+basis costs only a projection and a reduced FRF, not a new basis. The measure is
+``band_error`` unless another one of :data:`flexmor.analysis.frequency.TOL_MEASURES` is
+chosen. Component-mode methods (an ``interface`` option: ``craig-bampton``, ``cms-*``) search
+the number of internal vectors: every trial order is the interface DOFs plus some of them.
 """
 
 from __future__ import annotations
@@ -14,12 +17,13 @@ import logging
 import time
 
 from .basis import Basis
-from .errors import OptionError
+from .analysis.frequency import TOL_MEASURES
+from .errors import OptionError, check_choice
 from .linalg.context import SolverContext, as_solver
 from .projection import project
 from .reduction import reduce
 
-__all__ = ["reduce_to_tolerance", "NESTED"]
+__all__ = ["reduce_to_tolerance", "NESTED", "min_order", "tol_methods", "check_tol_method"]
 
 log = logging.getLogger(__name__)
 
@@ -27,9 +31,35 @@ log = logging.getLogger(__name__)
 NESTED = {"modal"}
 
 
+def tol_methods() -> list[str]:
+    """The registered methods that ``tol`` works with: those that take an order (not ``guyan``)."""
+    from .reduction import methods
+
+    return sorted(m for m in methods() if m != "guyan")
+
+
+def check_tol_method(method: str) -> None:
+    """An :class:`OptionError` when ``tol`` does not apply to ``method``."""
+    if method not in tol_methods():
+        raise OptionError(f"tol does not apply to {method} (its order is fixed by the interface); it works with: "
+                          f"{', '.join(tol_methods())}", params=("tol",))
+
+
+def min_order(model, method: str, ports, options: dict) -> int:
+    """The smallest order ``method`` accepts: the interface DOFs (plus one internal vector) for the
+    component-mode methods, else 1."""
+    from .ports import interface_dofs
+    from .reduction import methods
+
+    if "interface" in methods()[method].options and options.get("interface"):
+        return int(interface_dofs(model, options["interface"]).size) + 1
+    return 1
+
+
 def reduce_to_tolerance(model, method: str, ports, *, tol: float, full, max_order: int | None = None,
-                        start: int | None = None, solver: SolverContext | None = None, **options):
-    """Reduce with the smallest order (found by doubling and bisection) with ``band_error <= tol``.
+                        start: int | None = None, measure: str = "band_error", solver: SolverContext | None = None,
+                        **options):
+    """Reduce with the smallest order (found by doubling and bisection) whose ``measure <= tol``.
 
     Parameters
     ----------
@@ -38,14 +68,17 @@ def reduce_to_tolerance(model, method: str, ports, *, tol: float, full, max_orde
     method : str
         A registered method that takes an order.
     tol : float
-        Target band_error (verified on ``full``).
+        Target of ``measure`` (verified on ``full``).
+    measure : {'band_error', 'rms_rel_error_pct', 'hinf_error', 'max_rel_error'}
+        The error measure ``tol`` targets (:data:`flexmor.analysis.frequency.MEASURES`).
     full : FullResponse
         The full model's FRF over the band.
     max_order : int, optional
         Largest order tried; default ``min(n_dof, 400)``. If even it misses ``tol``, a
         warning is logged and that body is returned (``search['tol_reached']`` False).
     start : int, optional
-        First order tried; default ``max(4, 2 * n_inputs)``.
+        First order tried; default ``max(4, 2 * n_inputs)``, for the component-mode methods
+        the interface DOFs plus that many internal vectors.
 
     Returns
     -------
@@ -53,29 +86,36 @@ def reduce_to_tolerance(model, method: str, ports, *, tol: float, full, max_orde
     timings : dict
         ``basis`` (the whole search, bases and trial projections) and ``project``.
     search : dict
-        ``tol``, ``tol_reached``, ``orders_tried`` with their band_error.
+        ``tol``, ``measure``, ``tol_reached``, ``orders_tried`` with their value of ``measure``.
     """
     solver = as_solver(solver)
     if tol is None or not tol > 0:
         raise OptionError(f"tol must be a positive number, got {tol}", params=("tol",))
-    max_order = int(max_order or min(model.n_dof, 400))
-    R = int(start or max(4, 2 * ports.n_inputs))
+    check_choice("tol_measure", measure, TOL_MEASURES)
+    check_tol_method(method)
+    low = min_order(model, method, ports, options)
+    max_order = int(max_order or max(min(model.n_dof, 400), low))
+    if max_order < low:
+        raise OptionError(f"{method} needs order >= {low} (the interface DOFs plus one internal vector), got "
+                          f"{max_order}", params=("order",))
+    R = int(start or (low - 1 + max(4, 2 * ports.n_inputs) if low > 1 else max(4, 2 * ports.n_inputs)))
     t0 = time.perf_counter()
-    tried, big, lo = {}, None, 0
+    tried, big, lo = {}, None, low - 1
 
     def error(r):
         if r not in tried:
             if big is not None and (big.info.get("nested") or method in NESTED) and r <= big.order:
-                red = project(model, Basis(big.V[:, :r], method, dict(big.info)), ports)
+                info = {k: v for k, v in big.info.items() if k != "order_note"}
+                red = project(model, Basis(big.V[:, :r], method, info), ports)
             else:
                 red = reduce(model, method, r, ports, solver=solver, **options)[0]
-            tried[r] = (full.evaluate(red)["band_error"], red)
+            tried[r] = (full.evaluate(red)[measure], red)
         return tried[r][0]
 
     while True:
         R = min(R, max_order)
         big = reduce(model, method, R, ports, solver=solver, **options)[0]
-        tried[big.order] = (full.evaluate(big)["band_error"], big)
+        tried[big.order] = (full.evaluate(big)[measure], big)
         if tried[big.order][0] <= tol or R >= max_order or big.order < R:
             break
         lo, R = big.order, 2 * R
@@ -89,9 +129,9 @@ def reduce_to_tolerance(model, method: str, ports, *, tol: float, full, max_orde
             else:
                 lo = mid
     else:
-        log.warning("%s: band_error %.2e at order %d misses the target (tol) %.1e", method, tried[hi][0], hi, tol)
+        log.warning("%s: %s %.2e at order %d misses the target (tol) %.1e", method, measure, tried[hi][0], hi, tol)
     red = tried[hi][1]
-    search = {"tol": tol, "tol_reached": reached,
+    search = {"tol": tol, "measure": measure, "tol_reached": reached,
               "orders_tried": {str(k): v[0] for k, v in sorted(tried.items())}}
     red.info["tol_search"] = search
     return red, {"basis": time.perf_counter() - t0, "project": 0.0}, search

@@ -7,6 +7,7 @@ import time
 from pathlib import Path
 
 from .analysis.compare import FullResponse
+from .analysis.frequency import measure_record
 from .checks import check_rigid_body_modes, first_elastic_hz
 from .damping import Damping, NoDamping, Rayleigh, band_matched
 from .damping import modal_damping as _modal_damping
@@ -72,45 +73,47 @@ def coupling_specs(interfaces=(), ports=()) -> list[str]:
     return out
 
 
-def prepare_model(model, couplings=(), damping: Damping | None = None):
-    """The model a reduced body belongs to: ``couplings`` applied (:func:`flexmor.couplings.couple`)
-    and, when the model has no damping of its own, the body's Rayleigh ``damping``."""
+def prepare_model(model, couplings=()):
+    """The model with ``couplings`` applied (:func:`flexmor.couplings.couple`). The model a
+    reduced body is judged against, with the body's damping, is
+    :func:`flexmor.origin.reference_model`."""
     if couplings:
         from .couplings import couple
 
         model = couple(model, list(couplings)).model
-    if isinstance(damping, Rayleigh) and model.D is None:
-        model = model.with_damping(damping)
     return model
 
 
-def body_model(model, reduced):
+def body_model(model, reduced, path="the body", *, damping: Damping | None = None):
     """The full model ``reduced`` was made from: the body's node selections (``info['selections']``,
-    the ``--select`` of ``flexmor reduce``), couplings and damping applied to ``model`` as read."""
-    selections = reduced.info.get("selections", ())
-    if selections:
-        from .selection import with_selections
+    the ``--select`` of ``flexmor reduce``), couplings and damping applied to ``model`` as read,
+    checked against the body's fingerprint (:func:`flexmor.origin.reference_model`, which
+    explains ``path`` and ``damping``)."""
+    from .origin import reference_model
 
-        model = with_selections(model, selections)
-    return prepare_model(model, reduced.info.get("couplings", ()), reduced.damping)
+    return reference_model(model, reduced, path, damping=damping)
 
 
 def reduce_and_judge(model, method: str, order, ports, *, band=None, full: FullResponse | None = None,
                      n_freq: int = 50, grid_tol: float | None = None, full_frf: str = "auto", cache=True,
                      solver: SolverContext | None = None, progress=None, tol: float | None = None, method_band=None,
-                     **options):
+                     tol_measure: str = "band_error", **options):
     """Reduce ``model`` and evaluate the error measures over ``band``.
 
     Returns ``(reduced, result)``; ``result`` is the JSON record of ``flexmor reduce``:
-    ``method, order, seconds, band_hz, band_error, max_rel_error, hinf_error, frequencies_hz, timings``.
+    ``method, order, order_requested, order_note, seconds, band_hz``, the error measures of
+    :data:`flexmor.analysis.frequency.MEASURE_KEYS` (``band_error``, ``rms_rel_error_pct``,
+    ``hinf_error``, ``max_rel_error`` ...), ``notes``, ``frequencies_hz``, ``timings``.
     ``full`` (a :class:`FullResponse`) is reused when given, else computed (``band=None``
     skips the error evaluation). ``n_freq``, ``grid_tol``, ``full_frf`` (the path: auto,
     direct, surrogate) and ``cache`` are passed to :class:`FullResponse`; ``result["grid"]``
     describes the grid (size, tolerance, resonances, path, ``cache_hit``) and
     ``timings["full_frf"]`` is the wall time of the full FRF computed here.
     ``tol`` switches to the target-error mode (:func:`flexmor.tolerance.reduce_to_tolerance`):
-    the smallest order whose verified band_error is ``<= tol``, ``order`` then being the
-    largest order tried; ``result`` gets ``tol`` and ``tol_reached``. ``method_band`` is the band
+    the smallest order whose verified ``tol_measure`` (default band_error) is ``<= tol``,
+    ``order`` then being the largest order tried; ``result`` gets ``tol``, ``tol_measure`` and
+    ``tol_reached``. ``order_requested`` is the order asked for (None in the target-error mode
+    without one); ``order_note`` says why the order returned differs from it (else None). ``method_band`` is the band
     the method itself uses (expansion points, Gramian band) when ``band`` is None (no error
     evaluation). A mechanism (more than six zero-energy modes) is refused first
     (:func:`flexmor.checks.check_rigid_body_modes`). A body with modes below the full model's
@@ -125,6 +128,9 @@ def reduce_and_judge(model, method: str, order, ports, *, band=None, full: FullR
         options.setdefault("band", tuple(method_band))  # default expansion points of krylov, adaptive, irka
     t_full = None
     if tol is not None:  # target-error mode: the order is chosen against the full FRF
+        from .tolerance import check_tol_method
+
+        check_tol_method(method)
         if full is None and band is None:
             raise OptionError("tol needs the error evaluation over a band (band is None)", params=("tol",))
         if full is None:
@@ -137,7 +143,9 @@ def reduce_and_judge(model, method: str, order, ports, *, band=None, full: FullR
         from .tolerance import reduce_to_tolerance
 
         red, t, _ = reduce_to_tolerance(model, method, ports, tol=tol, full=full, max_order=order,
-                                        solver=solver, **options)
+                                        measure=tol_measure, solver=solver, **options)
+        red.info["order_requested"] = None if order is None else int(order)
+        red.info.pop("order_note", None)  # the order was chosen by the search (its record says how)
     else:
         red, t = reduce(model, method, order, ports, solver=solver, **options)
     t["factorize"] = solver.stats.seconds - f0
@@ -146,8 +154,10 @@ def reduce_and_judge(model, method: str, order, ports, *, band=None, full: FullR
     result = {
         "method": method,
         "order": red.order,
+        "order_requested": red.info.get("order_requested"),
+        "order_note": red.info.get("order_note"),
         "seconds": t["basis"] + t["project"],
-        "band_hz": None, "band_error": None, "max_rel_error": None, "hinf_error": None,
+        "band_hz": None, **measure_record(None),
         "frequencies_hz": red.frequencies_hz().tolist(),
         "info": red.info,
     }
@@ -160,15 +170,15 @@ def reduce_and_judge(model, method: str, order, ports, *, band=None, full: FullR
         t0 = time.perf_counter()
         err = full.evaluate(red)
         t["error"] = time.perf_counter() - t0
-        result.update(band_hz=list(full.band), band_error=err["band_error"], max_rel_error=err["max_rel_error"],
-                      hinf_error=err["hinf_error"])
+        result.update(band_hz=list(full.band), **measure_record(err))
         result["grid"] = full.summary()
-        red.errors = {"band_hz": list(full.band), "band_error": err["band_error"],
-                      "max_rel_error": err["max_rel_error"], "freqs_hz": full.freqs, "rel_error": err["rel_error"]}
+        red.errors = {"band_hz": list(full.band), **measure_record(err), "freqs_hz": full.freqs,
+                      "rel_error": err["rel_error"]}
     result["warnings"] = check_body(model, red, f1_hz=first_elastic_hz(model, solver=solver),
                                     band_error=result["band_error"])
     if tol is not None:
         result["tol"] = tol
+        result["tol_measure"] = tol_measure
         result["tol_reached"] = red.info["tol_search"]["tol_reached"]
     result["timings"] = t
     return red, result

@@ -16,7 +16,7 @@ from ..errors import ModelError, OptionError
 from ..linalg.context import SolverContext, as_solver
 from ..linalg.eigen import frequencies_hz
 from . import cache as frf_cache
-from .frequency import error_measures
+from .frequency import error_measures, error_notes
 from .grid import DEFAULT_TOL, adaptive_grid
 from .surrogate import DEFAULT_SURROGATE_TOL
 
@@ -226,7 +226,10 @@ class FullResponse:
         return out
 
     def evaluate(self, reduced) -> dict:
-        """Error measures of ``reduced`` (dict with ``band_error``, ``max_rel_error``, ``rel_error``).
+        """Error measures of ``reduced``: those of :func:`flexmor.analysis.frequency.error_measures`
+        (``band_error``, ``rms_rel_error_pct``, ``hinf_error``, ``max_rel_error`` and where it
+        occurs ...), ``notes`` (:func:`~flexmor.analysis.frequency.error_notes`) and the curve
+        ``rel_error``.
 
         A free body whose basis excludes the rigid-body modes (``info['n_rigid_excluded']``, the
         floating-frame case: the frame carries the rigid motion) is judged on the elastic part
@@ -237,7 +240,8 @@ class FullResponse:
         H = self.H
         if reduced.info.get("n_rigid_excluded"):
             H = H - self._rigid_part()
-        out = error_measures(self.freqs, H, Hr)
+        out = error_measures(self.freqs, H, Hr, resonances=self.resonances)
+        out["notes"] = error_notes(out, damped=reduced.D is not None)
         out["rel_error"] = rel_error(H, Hr)
         return out
 

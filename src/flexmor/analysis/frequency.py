@@ -9,7 +9,16 @@ Conventions as in :mod:`flexmor.dynamics.frf`: frequencies in Hz, FRF arrays of 
 ``band_error``
     ``∫ ||H - Ĥ||_F^2 df / ∫ ||H||_F^2 df`` over the band (piecewise-parabolic rule on the grid);
 ``max_rel_error``
-    ``max_f rel_error(f)``.
+    ``max_f rel_error(f)``; ``max_rel_error_hz`` is where it occurs and
+    ``max_rel_error_at_antiresonance`` whether that is an anti-resonance (see
+    :func:`at_antiresonance`), where ``||H||`` is small and any relative error is large;
+``band_rms_error``, ``rms_rel_error_pct``
+    ``sqrt(band_error)`` and ``100 sqrt(band_error)``: the band_error as the RMS relative
+    error (in %) an engineer reads as "x %";
+``hinf_error``
+    ``max_f σ_max(H - Ĥ) / max_f σ_max(H)``: the largest error relative to the band's peak.
+
+:data:`MEASURES` documents each of them in one line (for ``--help``, the README and the report).
 """
 
 from __future__ import annotations
@@ -19,7 +28,29 @@ import numpy as np
 from ..dynamics.frf import rel_error
 from ..errors import OptionError
 
-__all__ = ["rel_error", "band_error", "max_rel_error", "hinf_error", "band_grid", "error_measures"]
+__all__ = ["rel_error", "band_error", "max_rel_error", "hinf_error", "band_grid", "error_measures", "MEASURES",
+           "TOL_MEASURES", "MEASURE_KEYS", "measure_record", "at_antiresonance", "resonance_share", "error_notes",
+           "ANTIRESONANCE_FACTOR"]
+
+#: One line per error measure, in the order of the tables.
+MEASURES = {
+    "band_error": "∫|H-Hr|²df / ∫|H|²df over the band (squared relative L2 error; the seeds' measure)",
+    "rms_rel_error_pct": "100·sqrt(band_error): RMS relative error over the band in %",
+    "hinf_error": "max_f |H-Hr| / max_f |H|: largest error relative to the band's peak response (H∞-type)",
+    "max_rel_error": "max_f |H-Hr|/|H| (pointwise, Frobenius norms): large at anti-resonances, where |H| is small",
+}
+#: Measures ``--tol`` can target (``band_rms_error`` = rms_rel_error_pct / 100 is JSON only).
+TOL_MEASURES = tuple(MEASURES)
+#: The scalar fields of :func:`error_measures` in every JSON record and error table, in order.
+MEASURE_KEYS = ("band_error", "band_rms_error", "rms_rel_error_pct", "hinf_error", "max_rel_error",
+                "max_rel_error_hz", "max_rel_error_at_antiresonance", "resonance_share")
+#: ``||H||_F`` at an anti-resonance is at most the band median divided by this factor.
+ANTIRESONANCE_FACTOR = 10.0
+#: Relative frequency window (±) in which an anti-resonance is a local minimum of ``||H||_F``.
+ANTIRESONANCE_WINDOW = 0.05
+#: Share of the band_error within ±1 % of the resonances above which an undamped body's
+#: error is said to be dominated by them.
+RESONANCE_DOMINATED = 0.5
 
 
 def band_error(freqs, H, Hr) -> float:
@@ -70,11 +101,78 @@ def hinf_error(H, Hr) -> float:
     return float(num / den) if den > 0 else float("nan")
 
 
-def error_measures(freqs, H, Hr) -> dict:
-    """All error measures of one reduced body as a JSON-ready dict:
-    ``band_error``, ``max_rel_error``, ``hinf_error``."""
-    return {"band_error": band_error(freqs, H, Hr), "max_rel_error": max_rel_error(H, Hr),
-            "hinf_error": hinf_error(H, Hr)}
+def at_antiresonance(freqs, H, i: int) -> bool:
+    """Whether grid point ``i`` is at an anti-resonance of ``H``.
+
+    True when ``f_i`` is inside the band (not an end point), ``||H(f_i)||_F`` is at most the
+    band median of ``||H||_F`` divided by :data:`ANTIRESONANCE_FACTOR` (10) and within a factor
+    2 of the smallest ``||H||_F`` within ``±`` :data:`ANTIRESONANCE_WINDOW` (5 %) in frequency
+    (a local minimum, up to the grid).
+    """
+    f = np.asarray(freqs, float)
+    if i <= 0 or i >= f.size - 1:
+        return False
+    h = np.sqrt(np.sum(np.abs(H) ** 2, axis=(1, 2)))
+    near = np.abs(f - f[i]) <= ANTIRESONANCE_WINDOW * f[i]
+    return bool(h[i] <= np.median(h) / ANTIRESONANCE_FACTOR and h[i] <= 2.0 * h[near].min())
+
+
+def resonance_share(freqs, H, Hr, resonances, width: float = 0.01) -> float | None:
+    """Share of the band_error's numerator ``∫||H - Hr||² df`` within ``±width`` (relative) of the
+    ``resonances`` (Hz); None without resonances or error."""
+    res = np.atleast_1d(np.asarray(resonances if resonances is not None else [], float))
+    f = np.asarray(freqs, float)
+    if res.size == 0 or f.size < 2:
+        return None
+    e2 = np.sum(np.abs(H - Hr) ** 2, axis=(1, 2))
+    w = np.zeros_like(f)
+    d = np.diff(f) / 2
+    w[:-1] += d
+    w[1:] += d
+    total = float(w @ e2)
+    if not total > 0:
+        return None
+    near = np.any(np.abs(f[:, None] - res[None, :]) <= width * res[None, :], axis=1)
+    return float(w[near] @ e2[near] / total)
+
+
+def error_measures(freqs, H, Hr, *, resonances=None) -> dict:
+    """All error measures of one reduced body as a JSON-ready dict: ``band_error``,
+    ``band_rms_error``, ``rms_rel_error_pct``, ``hinf_error``, ``max_rel_error``,
+    ``max_rel_error_hz``, ``max_rel_error_at_antiresonance`` and, with the full model's
+    ``resonances`` (Hz), ``resonance_share`` (:func:`resonance_share`)."""
+    be = band_error(freqs, H, Hr)
+    rel = rel_error(H, Hr)
+    i = int(np.nanargmax(rel)) if np.any(np.isfinite(rel)) else 0
+    rms = float(np.sqrt(be)) if be >= 0 else float("nan")
+    out = {"band_error": be, "band_rms_error": rms, "rms_rel_error_pct": 100.0 * rms,
+           "hinf_error": hinf_error(H, Hr), "max_rel_error": float(np.max(rel)),
+           "max_rel_error_hz": float(np.asarray(freqs, float)[i]),
+           "max_rel_error_at_antiresonance": at_antiresonance(freqs, H, i)}
+    if resonances is not None:
+        out["resonance_share"] = resonance_share(freqs, H, Hr, resonances)
+    return out
+
+
+def measure_record(measures: dict | None) -> dict:
+    """The :data:`MEASURE_KEYS` of ``measures`` (None for each when not evaluated) and its ``notes``."""
+    measures = measures or {}
+    return {**{k: measures.get(k) for k in MEASURE_KEYS}, "notes": list(measures.get("notes", []))}
+
+
+def error_notes(measures: dict, *, damped: bool) -> list[str]:
+    """One-line explanations of ``measures`` (of :func:`error_measures`) a user should read."""
+    notes = []
+    if measures.get("max_rel_error_at_antiresonance") and measures["max_rel_error"] >= 0.1:
+        notes.append(f"max_rel_error {measures['max_rel_error']:.3g} is at the anti-resonance near "
+                     f"{measures['max_rel_error_hz']:.4g} Hz, where |H| is small; rms_rel_error_pct and "
+                     "hinf_error measure the response itself")
+    share = measures.get("resonance_share")
+    if not damped and share is not None and share > RESONANCE_DOMINATED and measures["band_error"] > 1e-12:
+        notes.append(f"undamped model: {100 * share:.0f} % of the error lies within 1 % of the resonances, where a "
+                     "tiny frequency shift gives a huge error; add damping (--rayleigh or --modal-damping) for a "
+                     "measure of the response")
+    return notes
 
 
 def band_grid(fmin: float, fmax: float, *, n: int = 200, resonances=None, zeta: float | None = None) -> np.ndarray:

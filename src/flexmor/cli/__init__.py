@@ -12,11 +12,14 @@ subcommands and their output).
 
 from __future__ import annotations
 
+import contextlib
 import logging
+import os
 import signal
 import sys
 import warnings
 
+from .. import io
 from ..errors import ConvergenceError, FlexmorError, FlexmorWarning, ModelError, PortError, SolverError
 from ..linalg.distributed import quiet_other_ranks
 from .parser import build_parser
@@ -28,8 +31,64 @@ class _Terminated(BaseException):
     """Raised by the SIGTERM handler so that the run unwinds (and removes temporary files)."""
 
 
-def _on_sigterm(signum, frame):
-    raise _Terminated
+class _Run:
+    """The signal state of one run: SIGTERM seen, files committed (removed if terminated).
+
+    The handler both sets :attr:`terminated` and raises :class:`_Terminated`. The exception
+    can be lost: raised inside a destructor (e.g. a solver's ``__del__``) Python only reports it
+    as unraisable and carries on. The flag is not lost: :meth:`guard`, wrapped around the
+    final rename of every written file (:data:`flexmor.io.commit_guard`), refuses to commit
+    once it is set, with SIGTERM blocked so that check, rename and record are not split; and
+    :func:`main` ends a flagged run with 143, removing the files it committed.
+    """
+
+    def __init__(self):
+        self.terminated = False
+        self.written: list = []
+
+    def on_sigterm(self, signum, frame):
+        self.terminated = True
+        raise _Terminated
+
+    @contextlib.contextmanager
+    def guard(self, path):
+        blocked = _block_sigterm()
+        try:
+            if self.terminated:
+                raise _Terminated
+            yield
+            self.written.append(path)
+        finally:
+            if blocked is not None:
+                signal.pthread_sigmask(signal.SIG_SETMASK, blocked)
+
+    def unraisable(self, previous):
+        """A ``sys.unraisablehook`` that keeps a lost ``_Terminated`` quiet (the flag is set)."""
+        def hook(unraisable):
+            if not isinstance(unraisable.exc_value, _Terminated):
+                previous(unraisable)
+        return hook
+
+    def late(self, signum, frame):
+        """SIGTERM after the command returned, while the process ends: no output, exit 143."""
+        self.remove_written()
+        print("flexmor: terminated", file=sys.stderr, flush=True)
+        os._exit(143)
+
+    def remove_written(self) -> None:
+        for path in self.written:
+            try:
+                os.unlink(path)
+            except OSError:
+                pass
+
+
+def _block_sigterm():
+    """Block SIGTERM (the previous mask, or None where masks are not available)."""
+    try:
+        return signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGTERM})
+    except (AttributeError, ValueError, OSError):
+        return None
 
 
 _python_format_warning = warnings.formatwarning
@@ -43,7 +102,11 @@ def _format_warning(message, category, filename, lineno, line=None):
 
 
 def main(argv=None) -> int:
-    """Run the command line; returns the exit code."""
+    """Run the command line; returns the exit code.
+
+    With ``argv`` None (the process's own command line) a SIGTERM that arrives after the
+    command while the interpreter shuts down still removes the files written and exits 143.
+    """
     parser = build_parser()
     args = parser.parse_args(argv)
     level = [logging.WARNING, logging.INFO, logging.DEBUG][min(args.verbose, 2)]
@@ -51,11 +114,40 @@ def main(argv=None) -> int:
     logging.captureWarnings(True)
     warnings.formatwarning = _format_warning
     quiet_other_ranks()  # mpirun -n P: only rank 0 prints
-    previous = None
+    run, previous, hook, code = _Run(), None, sys.unraisablehook, None
     try:
-        previous = signal.signal(signal.SIGTERM, _on_sigterm)
+        previous = signal.signal(signal.SIGTERM, run.on_sigterm)
+        io.commit_guard, sys.unraisablehook = run.guard, run.unraisable(hook)
     except ValueError:  # not the main thread: leave signal handling alone
         pass
+    blocked = None
+    try:
+        try:
+            code = _dispatch(args)
+            # the run is over: a later SIGTERM is taken here (pending), not by the default action
+            blocked = _block_sigterm() if previous is not None else None
+        except _Terminated:  # in the instant between the command's end and the block
+            run.terminated = True
+            blocked = _block_sigterm() if previous is not None else None
+        if blocked is not None and signal.SIGTERM in signal.sigpending():
+            signal.sigwait({signal.SIGTERM})
+            run.terminated = True
+        if run.terminated:  # also when the exception was lost (raised in a destructor): the flag decides
+            run.remove_written()
+            if code != 143:
+                print("flexmor: terminated", file=sys.stderr)
+            code = 143
+        return code
+    finally:
+        if previous is not None:  # the process's own command line ends with the process: still 143
+            signal.signal(signal.SIGTERM, run.late if argv is None and not run.terminated else previous)
+            io.commit_guard, sys.unraisablehook = None, hook
+        if blocked is not None:
+            signal.pthread_sigmask(signal.SIG_SETMASK, blocked)
+
+
+def _dispatch(args) -> int:
+    """Run the command of ``args``; errors become messages and exit codes."""
     try:
         return args.func(args)
     except FlexmorError as exc:
@@ -79,9 +171,6 @@ def main(argv=None) -> int:
     except _Terminated:
         print("flexmor: terminated", file=sys.stderr)
         return 143
-    finally:
-        if previous is not None:
-            signal.signal(signal.SIGTERM, previous)
 
 
 if __name__ == "__main__":

@@ -56,10 +56,13 @@ def _fmt(x, spec=".3e"):
     return "-" if x is None else format(x, spec)
 
 
-def _read_model(args, couplings=()):
+def _read_model(args, couplings=(), *, damped=True):
+    """The model of ``args.model`` (selections and ``couplings`` applied), the read time and the
+    band; with ``damped`` the damping flags applied, else they are left to the caller
+    (:func:`_asked_damping`)."""
     from ..io import read
-    from ..options import Band, parse_pair
-    from ..workflow import apply_damping, prepare_model
+    from ..options import Band
+    from ..workflow import prepare_model
 
     def load():
         model = read(args.model, format=args.format)
@@ -78,10 +81,19 @@ def _read_model(args, couplings=()):
         model = load()
     t_read = time.perf_counter() - t0
     band = Band.parse(args.band) if getattr(args, "band", None) else None
-    rayleigh = parse_pair(args.rayleigh, "rayleigh") if getattr(args, "rayleigh", None) else None
-    model = apply_damping(model, rayleigh=rayleigh, modal_damping=getattr(args, "modal_damping", None),
-                          band_rayleigh=getattr(args, "band_rayleigh", None), band=band)
+    if damped:
+        model = model.with_damping(_asked_damping(args, band))
     return model, t_read, band
+
+
+def _asked_damping(args, band):
+    """The damping of ``--rayleigh`` / ``--modal-damping`` / ``--band-rayleigh`` (NoDamping when none is given)."""
+    from ..options import parse_pair
+    from ..workflow import damping_of
+
+    rayleigh = parse_pair(args.rayleigh, "rayleigh") if getattr(args, "rayleigh", None) else None
+    return damping_of(rayleigh=rayleigh, modal_damping=getattr(args, "modal_damping", None),
+                      band_rayleigh=getattr(args, "band_rayleigh", None), band=band)
 
 
 # -- info --------------------------------------------------------------------------------------
@@ -135,9 +147,16 @@ def cmd_info(args) -> int:
     if args.formats:
         return _info_formats(args)
     if args.model is None:
-            raise OptionError("info needs a MODEL file (or --backends, --formats)")
+        raise OptionError("info needs a MODEL file (or --backends, --formats)")
+    from ..origin import describe_damping
+    from .info import info_body, is_body_file, print_mass_properties
+
+    if is_body_file(args.model, args.format):
+        return info_body(args, _emit_json)
     model, t_read, _ = _read_model(args)
     out = model.summary()
+    out.update(model.mass_properties())
+    out["selections"] = {name: model.node_sets[name].tolist() for name in _selected_names(args)}
     out["backends"] = available_backends()
     solver = _solver(args)
     if args.modes:
@@ -160,9 +179,13 @@ def cmd_info(args) -> int:
         return 0
     print(f"model     {model.name}  ({model.source})")
     print(f"DOF       {model.n_dof}    nodes {model.n_nodes}    nnz(K) {out['nnz_K']}")
-    print(f"damping   {model.damping}")
+    print(f"damping   {describe_damping(model.damping)}")
     if model.node_sets:
         print("node sets " + ", ".join(f"{k} ({v.size})" for k, v in model.node_sets.items()))
+    print_mass_properties(out)
+    for text, (name, ids) in zip(args.select, out["selections"].items()):
+        print(f"selected  {name}: {len(ids)} nodes: " + " ".join(map(str, ids[:40])) + (" ..." if len(ids) > 40 else "")
+              + (" (a sphere selects the nodes on its surface, r +- tol)" if "=sphere:" in text.lower() else ""))
     print(f"backends  {', '.join(out['backends'])}")
     if args.modes:
         print(f"\n mode   frequency [Hz]   ({out['n_rigid']} rigid-body modes)")
@@ -177,15 +200,25 @@ def cmd_info(args) -> int:
     return 0
 
 
+def _selected_names(args) -> list:
+    """The node set names that ``--select NAME=...`` added."""
+    from ..selection import parse_selection
+
+    return [parse_selection(t)[0].upper() for t in getattr(args, "select", None) or ()]
+
+
 # -- reduce ------------------------------------------------------------------------------------
 def cmd_reduce(args) -> int:
     from ..io.hdf5 import write_reduced
+    from ..origin import describe_damping
     from ..ports import make_ports
     from ..workflow import DEFAULT_BAND, coupling_specs, reduce_and_judge
 
     options = method_options(args, args.method)  # before any work: flags the method does not take
     if args.tol is not None and args.no_error:
         raise OptionError("--tol needs the error evaluation over a band (drop --no-error)")
+    if args.tol is None and args.tol_measure != "band_error":
+        raise OptionError("--tol-measure chooses the measure of --tol; give --tol too")
     if args.output_file:
         _check_new(args.output_file, args)
     couplings = coupling_specs(args.interface, args.input + args.output)
@@ -195,7 +228,8 @@ def cmd_reduce(args) -> int:
     red, res = reduce_and_judge(model, args.method, args.order, ports, band=band, method_band=given_band,
                                 n_freq=args.n_freq, grid_tol=args.grid_tol, full_frf=args.full_frf,
                                 cache=not args.no_cache, solver=_solver(args), progress=_progress(args, "full FRF"),
-                                tol=args.tol, inertia_loads=args.inertia_loads, **options)
+                                tol=args.tol, tol_measure=args.tol_measure, inertia_loads=args.inertia_loads,
+                                **options)
     res["timings"]["read"] = t_read
     if is_partitioned(model.K):  # under mpirun with --backend petsc: the rows of K held by each rank
         res["partition"] = row_blocks(model.K)
@@ -203,6 +237,8 @@ def cmd_reduce(args) -> int:
         red.info["couplings"] = couplings
     if args.select:
         red.info["selections"] = list(args.select)
+    # the fingerprint (of the coupled model) also names what made it: couplings, interfaces, selections
+    red.origin.update(couplings=list(couplings), interfaces=list(args.interface), selections=list(args.select))
     path = _check_new(args.output_file or f"{model.name}_{args.method}_{red.order}.h5", args)
     on_root(write_reduced, red, path)  # under MPI: written once, by rank 0
     res["file"] = str(path)
@@ -210,12 +246,16 @@ def cmd_reduce(args) -> int:
         _emit_json(res)
         return 0
     print(f"{args.method}: order {red.order}, {res['seconds']:.3f} s (basis + projection)")
+    if res.get("order_note"):
+        print(f"note: {res['order_note']}")
     if res.get("tol") is not None:
-        print(f"--tol {res['tol']:g}: order {red.order} chosen, verified band_error {_fmt(res['band_error'])} "
+        m = res["tol_measure"]
+        print(f"--tol {res['tol']:g} on {m}: order {red.order} chosen, verified {m} {_fmt(res[m], '.3g')} "
               + ("meets it" if res["tol_reached"] else "MISSES it (largest order tried)"))
     if res["band_hz"]:
-        print(f"band {res['band_hz'][0]:g}-{res['band_hz'][1]:g} Hz: band_error {_fmt(res['band_error'])}, "
-              f"max_rel_error {_fmt(res['max_rel_error'])}")
+        print(f"band {res['band_hz'][0]:g}-{res['band_hz'][1]:g} Hz, damping "
+              f"{describe_damping(model.damping)}:")
+        _table([res])
     fr = res["frequencies_hz"]
     print("reduced frequencies [Hz]: " + " ".join(f"{f:.4g}" for f in fr[:12]) + (" ..." if len(fr) > 12 else ""))
     print(f"written {path}")
@@ -224,42 +264,46 @@ def cmd_reduce(args) -> int:
 
 # -- compare -----------------------------------------------------------------------------------
 def _model_and_bodies(args):
-    """The full model (as read), the band (default DEFAULT_BAND) and the reduced bodies of ``args``."""
+    """The full model (as read, without damping), the band (default DEFAULT_BAND), the reduced
+    bodies of ``args`` and the damping asked for on the command line."""
     from ..io import read_body
     from ..workflow import DEFAULT_BAND
 
-    model, t_read, band = _read_model(args)
-    return model, t_read, band or DEFAULT_BAND, [read_body(p) for p in args.reduced]
+    model, t_read, band = _read_model(args, damped=False)
+    asked = _asked_damping(args, band)
+    return model, t_read, band or DEFAULT_BAND, [read_body(p) for p in args.reduced], asked
 
 
 def cmd_compare(args) -> int:
+    from ..analysis.frequency import measure_record
+    from ..origin import describe_damping, reference_model
     from ..ports import make_ports
-    from ..workflow import body_model as model_for_body
 
-    model, t_read, band, reds = _model_and_bodies(args)
+    model, t_read, band, reds, asked = _model_and_bodies(args)
     solver = _solver(args)
     fulls, rows = {}, []
     for path, red in zip(args.reduced, reds):
         couplings = tuple(red.info.get("couplings", ()))
-        key = (tuple(red.input_names), tuple(red.output_names), couplings,
-               tuple(red.info.get("selections", ())))
+        ref = reference_model(model, red, path, damping=asked)
+        key = (tuple(red.input_names), tuple(red.output_names), couplings, tuple(red.info.get("selections", ())),
+               str(ref.damping.to_dict()))
         if key not in fulls:
-            body_model = model_for_body(model, red)
-            fulls[key] = _full_response(args, body_model, make_ports(body_model, *key[:2]), band, solver)
+            fulls[key] = _full_response(args, ref, make_ports(ref, *key[:2]), band, solver)
         t0 = time.perf_counter()
         err = fulls[key].evaluate(red)
         t_err = time.perf_counter() - t0
         rows.append({"file": str(path), "method": red.method, "order": red.order, "band_hz": list(band),
-                     "band_error": err["band_error"], "max_rel_error": err["max_rel_error"],
-                     "hinf_error": err["hinf_error"],
-                     "timings": {"error": t_err}})
+                     **measure_record(err), "damping": ref.damping.to_dict(),
+                     "reference_damping": describe_damping(ref.damping), "timings": {"error": t_err}})
     if args.json:
         grids = [dict(f.summary(), inputs=list(k[0]), outputs=list(k[1]), couplings=list(k[2]))
                  for k, f in fulls.items()]
         _emit_json({"model": model.name, "band_hz": list(band), "results": rows, "grids": grids,
                     "timings": {"read": t_read, "full_frf": sum(f.seconds for f in fulls.values())}})
         return 0
-    _table(rows)
+    _table(rows, label="file")
+    damp = sorted({r["reference_damping"] for r in rows})
+    print(f"reference: the full model with each body's own damping ({'; '.join(damp)})")
     return 0
 
 
@@ -272,24 +316,62 @@ def _full_response(args, model, ports, band, solver):
                         cache=not args.no_cache, progress=_progress(args, "full FRF"), **grid_opts)
 
 
-def _table(rows) -> None:
-    print(f"{'method':<16}{'order':>6}{'band_error':>13}{'max_rel_error':>15}{'seconds':>10}")
+def _where(r) -> str:
+    """Where max_rel_error occurs: ``1234 Hz`` or ``1234 Hz (AR)`` at an anti-resonance."""
+    if r.get("max_rel_error_hz") is None:
+        return "-"
+    return f"{r['max_rel_error_hz']:.4g} Hz" + (" AR" if r.get("max_rel_error_at_antiresonance") else "")
+
+
+def _table(rows, label: str = "method", header: str | None = None) -> None:
+    """The error table of reduce/compare/report/demo rows (first column ``label``, titled
+    ``header``), then their notes and a legend."""
+    w = max([16] + [len(str(r.get(label, ""))) + 2 for r in rows])
+    print(f"{header or label:<{w}}{'order':>6}{'band_error':>12}{'rms %':>9}{'hinf_error':>12}{'max_rel_error':>15}"
+          f"{'at':>14}{'seconds':>9}")
     for r in rows:
-        print(f"{r['method']:<16}{r['order']:>6}{_fmt(r['band_error']):>13}{_fmt(r['max_rel_error']):>15}"
-              f"{_fmt(r.get('seconds'), '.3f'):>10}")
+        rms = r.get("rms_rel_error_pct")
+        print(f"{str(r.get(label, '')):<{w}}{r['order']:>6}{_fmt(r.get('band_error'), '.2e'):>12}"
+              f"{'-' if rms is None else format(rms, '.3g'):>9}{_fmt(r.get('hinf_error'), '.2e'):>12}"
+              f"{_fmt(r.get('max_rel_error'), '.2e'):>15}{_where(r):>14}{_fmt(r.get('seconds'), '.3f'):>9}")
+    _notes(rows, label)
+    if any(r.get("band_error") is not None for r in rows):
+        print("band_error = ∫|H-Hr|²/∫|H|² over the band; rms % = 100 sqrt(band_error); hinf_error = max|H-Hr| / "
+              "max|H|; max_rel_error = max |H-Hr|/|H| (AR: at an anti-resonance, where |H| is small)")
+
+
+def _notes(rows, label: str) -> None:
+    """The notes of the rows: the anti-resonances in one line, the others (undamped resonances) once each."""
+    from ..analysis.frequency import ANTIRESONANCE_FACTOR
+
+    def name(r):
+        return f"{r['method']} r={r['order']}" if label == "method" else str(r.get(label))
+
+    ar = [name(r) for r in rows if r.get("max_rel_error_at_antiresonance") and (r.get("max_rel_error") or 0) >= 0.1]
+    if ar:
+        print(f"note: max_rel_error of {', '.join(ar)} lies at an anti-resonance (AR: |H| a local minimum, at most "
+              f"1/{ANTIRESONANCE_FACTOR:g} of its band median): a large relative error of a small response; "
+              "rms % and hinf_error measure the response itself")
+    grouped: dict = {}
+    for r in rows:
+        for n in r.get("notes") or ():
+            if not n.startswith("max_rel_error"):
+                grouped.setdefault(n, []).append(name(r))
+    for n, names in grouped.items():
+        print(f"note: {', '.join(names)}: {n}")
 
 
 # -- export ------------------------------------------------------------------------------------
 def cmd_export(args) -> int:
     from ..io import export, export_format, read, read_body
-    from ..workflow import body_model
+    from ..origin import reference_model
 
     _check_new(args.output_file, args)
     red = read_body(args.reduced)
     fmt = export_format(args.output_file, args.format)
     model = read(args.model, format=args.model_format) if args.model else None
-    if model is not None:
-        model = body_model(model, red)
+    if model is not None:  # the body's own model (refused otherwise), its selections, couplings and damping
+        model = reference_model(model, red, args.reduced)
     opts = {"nodes": args.node or None} if fmt in ("sid", "mat") else {}
     if fmt == "sid":
         opts["m1_order"] = args.m1_order
@@ -306,12 +388,12 @@ def cmd_export(args) -> int:
 
 # -- report ------------------------------------------------------------------------------------
 def cmd_report(args) -> int:
+    from ..origin import describe_damping, reference_model, same_damping
     from ..ports import make_ports
     from ..report.html import build_report, write_report
-    from ..workflow import body_model
 
     _check_new(args.output_file, args)
-    model, t_read, band, reds = _model_and_bodies(args)
+    model, t_read, band, reds, asked = _model_and_bodies(args)
 
     def key_of(r):
         return (list(r.input_names), list(r.output_names), list(r.info.get("couplings", [])),
@@ -322,7 +404,13 @@ def cmd_report(args) -> int:
     if other:
         raise OptionError(f"a report needs bodies with the same inputs/outputs/couplings/selections as "
                           f"{args.reduced[0]}; these differ: {', '.join(other)}")
-    model = body_model(model, reds[0])
+    other = [f"{p} ({describe_damping(r.damping)})" for p, r in zip(args.reduced, reds)
+             if not same_damping(r.damping, reds[0].damping)]
+    if other:
+        raise OptionError(f"a report judges its bodies against one full model: {args.reduced[0]} was reduced with "
+                          f"damping {describe_damping(reds[0].damping)}, these with another: {', '.join(other)}; "
+                          "compare them with flexmor compare, or make one report per damping")
+    model = [reference_model(model, r, p, damping=asked) for p, r in zip(args.reduced, reds)][0]
     ports = make_ports(model, *key[:2])
     solver = _solver(args)
     full = _full_response(args, model, ports, band, solver)
@@ -334,10 +422,9 @@ def cmd_report(args) -> int:
         _emit_json({"file": str(args.output_file), "model": model.name, "band_hz": list(band), "results": rep.rows,
                     "time": rep.time, "notes": rep.notes, "timings": {"read": t_read, "full_frf": full.seconds}})
         return 0
-    print(f"{'body':<22}{'band_error':>13}{'max_rel_error':>15}{'time_max_error':>16}")
-    for r in rep.rows:
-        print(f"{r['label']:<22}{_fmt(r['band_error']):>13}{_fmt(r['max_rel_error']):>15}"
-              f"{_fmt(r['time_max_error']):>16}")
+    _table(rep.rows, label="label", header="body")
+    print("time_max_error: " + ", ".join(f"{r['label']} {_fmt(r['time_max_error'])}" for r in rep.rows))
+    print(f"reference: the full model with the bodies' damping ({describe_damping(model.damping)})")
     print(f"written {args.output_file}")
     return 0
 

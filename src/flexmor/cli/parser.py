@@ -13,7 +13,9 @@ from __future__ import annotations
 import argparse
 
 from .. import __version__
+from ..analysis.frequency import MEASURES, TOL_MEASURES
 from ..options import DEFAULT_BAND, option_fields
+from ..tolerance import tol_methods
 from .commands import cmd_compare, cmd_demo, cmd_export, cmd_info, cmd_reduce, cmd_report
 from .options import COMMON, all_options, flag
 from .ui import add_ui_parser
@@ -127,7 +129,14 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("-o", "--output-file", metavar="FILE", help="reduced body file (.h5)")
     p.add_argument("--force", action="store_true", help="overwrite an existing output file")
     p.add_argument("--no-error", action="store_true", help="skip the error evaluation against the full model")
-    p.add_argument("--tol", type=float, help="target band_error: choose the smallest order meeting it (verified)")
+    p.add_argument("--tol", type=float,
+                   help="target error: choose the smallest order whose verified error (--tol-measure) meets it; "
+                        f"--order is then the largest order tried. Methods: {', '.join(tol_methods())} "
+                        "(craig-bampton, cms-*: the number of internal vectors next to the interface DOFs); "
+                        "not guyan (its order is the interface)")
+    p.add_argument("--tol-measure", choices=TOL_MEASURES, default="band_error",
+                   help="the error measure --tol targets (default band_error): "
+                        + "; ".join(f"{k}: {v}" for k, v in MEASURES.items()).replace("%", "%%"))
     p.add_argument("--inertia-loads", choices=["auto", "on", "off"], default="auto",
                    help="add the frame's inertia loads M R (6 unit accelerations, gravity among them) to the inputs "
                    "the basis is built for; auto: on for a free body (no effect on the elastic coordinates of a "

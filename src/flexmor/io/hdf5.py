@@ -3,7 +3,9 @@
 Layout: datasets ``M K B C`` (and ``D``, ``V``, ``node_ids``, ``xyz``, ``dofs`` when present),
 ``errors/freqs_hz`` and ``errors/rel_error`` when evaluated; attributes ``format``
 (= ``flexmor-reduced``), ``version``, ``method``, ``model_name`` and JSON strings ``info``,
-``damping``, ``errors``, ``input_names``, ``output_names``. Written atomically.
+``damping``, ``errors``, ``input_names``, ``output_names`` and ``origin`` (the fingerprint of
+the full model, :mod:`flexmor.origin`; absent in bodies written before it existed). Written
+atomically.
 """
 
 from __future__ import annotations
@@ -18,7 +20,9 @@ from . import BODY_FORMATS, EXPORT_FORMATS, atomic_write
 
 FORMAT_TAG = "flexmor-reduced"
 _ARRAYS = ("M", "K", "D", "B", "C", "V", "node_ids", "xyz", "dofs", "triangles")
-_JSON = ("info", "damping", "errors", "input_names", "output_names")
+_JSON = ("info", "damping", "errors", "input_names", "output_names", "origin")
+#: JSON attributes that older bodies lack: name -> value then
+_OPTIONAL = {"origin": {}}
 
 
 def write_reduced(red, path) -> None:
@@ -106,12 +110,13 @@ def read_reduced(path):
         _check_layout(path, h)
         try:
             arrays = {n: (h[n][()] if n in h else None) for n in _ARRAYS}
-            meta = {n: json.loads(h.attrs[n]) for n in _JSON}
+            meta = {n: json.loads(h.attrs[n]) if n in h.attrs or n not in _OPTIONAL else dict(_OPTIONAL[n])
+                    for n in _JSON}
             if "errors" in h:
                 meta["errors"]["freqs_hz"] = h["errors/freqs_hz"][()]
                 meta["errors"]["rel_error"] = h["errors/rel_error"][()]
-            if not all(isinstance(meta[n], dict) for n in ("info", "damping", "errors")):
-                raise ReadError(path, "attributes info, damping and errors must be JSON objects")
+            if not all(isinstance(meta[n], dict) for n in ("info", "damping", "errors", "origin")):
+                raise ReadError(path, "attributes info, damping, errors and origin must be JSON objects")
             red = ReducedModel(**arrays, **meta, method=str(h.attrs["method"]),
                                model_name=str(h.attrs["model_name"]), version=str(h.attrs["version"]))
         except (KeyError, ValueError, TypeError, OSError) as exc:  # an unknown damping type is an OptionError

@@ -148,7 +148,9 @@ def reduce(model, method: str, order: int | None, ports, *, inertia_loads: str =
     -------
     reduced : ReducedModel
         Its ``info`` holds the method's own record plus ``order_requested`` and ``options`` (the
-        options passed, as JSON values); with ``version`` the result says how it was made.
+        options passed, as JSON values); with ``version`` the result says how it was made. When
+        the order differs from the one asked, ``info['order_note']`` says what was returned and
+        why (the method's own reason where it gives one).
     timings : dict
         Wall times in seconds: ``basis``, ``project``.
     """
@@ -170,6 +172,8 @@ def reduce(model, method: str, order: int | None, ports, *, inertia_loads: str =
     red.info.update(inertia)
     red.info.setdefault("order_requested", order)
     red.info.setdefault("options", _recorded(opts))
+    if order is not None and red.order != order and not red.info.get("order_note"):
+        red.info["order_note"] = f"order {red.order} instead of {order}: {method} returned a basis of that size"
     return red, {"basis": t1 - t0, "project": t2 - t1}
 
 

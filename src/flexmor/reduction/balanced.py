@@ -24,8 +24,9 @@ from ..linalg.eigen import DENSE_LIMIT
 from ..options import Band, band_option, option
 from . import register_method
 from .dense_gramians import dense_gramians, psd_factor
-from .gramians import VARIANTS, _regularized, balance, gramian_factors, nodes_option, truncation_basis, variant_option
 from .free_body import rigid_head
+from .gramians import (VARIANTS, _regularized, balance, balance_note, gramian_factors, nodes_option, truncation_basis,
+                       variant_option)
 from .krylov import rigid_option
 
 __all__ = ["sobt", "fw_sobt", "balanced_basis", "SobtOptions", "FwSobtOptions"]
@@ -60,6 +61,9 @@ def balanced_basis(model, ports, order, band, *, method: str, variant: str = "po
     info = {"variant": variant, "hankel_sv": sigma[:k].tolist(),
             "truncated_sv_sum": float(np.sum(sigma[n_flex:])), "rigid": rigid, "n_rigid_included": int(head.shape[1]),
             "nested": False, **ginfo}
+    note = balance_note(T.shape[1], n_flex, head.shape[1])
+    if note:
+        info["order_note"] = note
     return Basis(V, method, info)
 
 

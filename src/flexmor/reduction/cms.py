@@ -27,7 +27,7 @@ from ..model import FEModel
 from ..options import Band, band_option
 from ..ports import Ports
 from . import register_method
-from .craig_bampton import cb_frame
+from .craig_bampton import cb_frame, cb_order_note
 from .gramians import nodes_option, variant_option
 from .guyan import interface_option
 from .krylov import points_option, rigid_option
@@ -79,6 +79,9 @@ def _cms(model, ports, order, interface, method, internal, solver, rigid):
         V[i, b.size: b.size + Bi.order] = Bi.V
         V = V[:, : b.size + Bi.order]
         info.update(n_internal=int(Bi.order), n_loads=int(sub_ports.n_inputs), internal=Bi.info)
+    note = cb_order_note(order, b.size, V.shape[1] - b.size, i.size, info.get("n_rigid", 0))
+    if note:
+        info["order_note"] = note
     return Basis(V, method, info)
 
 

@@ -10,6 +10,7 @@ from ..basis import Basis
 from ..errors import OptionError, check_choice
 from ..linalg.context import SolverContext, as_solver
 from ..linalg.eigen import eigenmodes, frequencies_hz
+from ..ports import interface_dofs
 from . import register_method
 from .free_body import rigid_body_modes
 from .guyan import constraint_modes, interface_option
@@ -29,9 +30,13 @@ def cb_frame(model, interface, order, method: str, solver: SolverContext | None 
     """
     solver = as_solver(solver)
     check_choice("rigid", rigid, ("exclude", "include"))
+    if order is None:
+        n_b = interface_dofs(model, interface).size if interface else 0
+        raise OptionError(f"{method} needs order (at least the {n_b} interface DOFs, plus internal vectors), or a "
+                          "target error (tol) to choose it", params=("order", "tol"))
     n_rb = rigid_body_modes(model).shape[1] if rigid == "exclude" else 0
     V_c, b, i, F = constraint_modes(model, interface, solver)
-    if order is None or order < b.size - n_rb:
+    if order < b.size - n_rb:
         raise OptionError(f"{method} needs order >= number of interface DOFs ({b.size - n_rb}), got {order}",
                           params=("order",))
     V = np.zeros((model.n_dof, b.size + min(order + n_rb - b.size, i.size)))
@@ -40,6 +45,17 @@ def cb_frame(model, interface, order, method: str, solver: SolverContext | None 
     if n_rb:
         info.update(rigid="exclude", n_rigid=int(n_rb))
     return V, b, i, F, info
+
+
+def cb_order_note(order: int, n_b: int, n_internal: int, n_interior: int, n_rigid: int = 0) -> str | None:
+    """The ``order_note`` of a CMS basis of ``n_b + n_internal`` columns, ``n_rigid`` of them rigid motion
+    removed afterwards, for ``order`` asked (None if it has that order)."""
+    got = n_b + n_internal - n_rigid
+    if got >= order:
+        return None
+    why = (f"the model has only {n_interior} interior DOFs next to the {n_b} interface DOFs"
+           if n_internal >= n_interior else f"only {n_internal} internal vectors were found")
+    return f"order {got} instead of {order}: {why}"
 
 
 @dataclass(frozen=True)
@@ -101,5 +117,8 @@ def craig_bampton(model, ports, order, *, interface=None, rigid: str = "exclude"
         lam, phi = eigenmodes(Kii, Mii, n_modes, sigma=0.0, factorization=F, solver=solver)
         V[i, b.size:] = phi
         freqs = frequencies_hz(lam).tolist()
-    info.update(n_modes=int(n_modes), fixed_interface_hz=freqs)
+    info.update(n_modes=int(n_modes), fixed_interface_hz=freqs, nested=True)
+    note = cb_order_note(order, b.size, n_modes, i.size, info.get("n_rigid", 0))
+    if note:
+        info["order_note"] = note
     return Basis(V, "craig-bampton", info)

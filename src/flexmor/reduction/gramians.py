@@ -61,7 +61,8 @@ from ..linalg.context import SolverContext, as_solver
 from ..linalg.eigen import DENSE_LIMIT, eigenmodes, frequencies_hz, is_rigid
 from ..options import option
 
-__all__ = ["GramianFactors", "quadrature_rule", "gramian_factors", "balance", "compress", "truncation_basis",
+__all__ = ["GramianFactors", "quadrature_rule", "gramian_factors", "balance", "balance_note", "compress",
+           "truncation_basis",
            "VARIANTS", "UNDAMPED_ZETA", "variant_option", "nodes_option"]
 
 log = logging.getLogger(__name__)
@@ -450,8 +451,16 @@ def balance(R: np.ndarray, L: np.ndarray, M, order: int):
     _, s, Zt = np.linalg.svd(Y, full_matrices=False)
     r = int(min(order, int(np.sum(s > 1e-14 * s[0])) if s.size else 0))
     if r < order:
-        log.warning("balancing: only %d non-zero singular values for order %d", r, order)
+        log.info("balancing: only %d non-zero singular values for order %d", r, order)
     return R @ (Zt[:r].T / np.sqrt(s[:r])), s
+
+
+def balance_note(kept: int, asked: int, n_rigid: int = 0) -> str | None:
+    """The ``order_note`` of a balanced basis with ``kept`` of ``asked`` balancing vectors (None if all)."""
+    if kept >= asked:
+        return None
+    return (f"order {kept + n_rigid} instead of {asked + n_rigid}: only {kept} Hankel singular values are above "
+            "1e-14 times the largest; the inputs and outputs see no further states (more would add round-off only)")
 
 
 def truncation_basis(T: np.ndarray, M) -> np.ndarray:

@@ -17,7 +17,7 @@ from ..projection import project
 from . import register_method
 from .dense_gramians import dense_gramians, psd_factor
 from .free_body import exclude_rigid
-from .gramians import UNDAMPED_ZETA, VARIANTS, balance, variant_option
+from .gramians import UNDAMPED_ZETA, VARIANTS, balance, balance_note, variant_option
 from .krylov import krylov, points_option, rigid_option
 
 __all__ = ["two_step", "TwoStepOptions", "GRAMIANS"]
@@ -121,4 +121,7 @@ def two_step(model, ports, order, *, intermediate: int = 120, band=None, gramian
             "n_rigid_included": int(head.shape[1]), "krylov": K1.info, "nested": False}
     if rigid == "exclude":  # (an included head is mixed into the M-orthonormal columns: nothing to keep apart)
         info["rigid"] = rigid
+    note = balance_note(T.shape[1], n_flex, head.shape[1])
+    if note:
+        info["order_note"] = note
     return Basis(V, "two-step", info)

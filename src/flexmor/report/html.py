@@ -25,7 +25,10 @@ import numpy as np
 
 from .. import __version__
 from ..errors import FlexmorError, OptionError, check_choice
+from ..analysis.frequency import ANTIRESONANCE_FACTOR, MEASURES, measure_record
+from ..damping import damping_from_dict
 from ..io import atomic_write
+from ..origin import describe_damping
 from ..linalg.context import SolverContext, as_solver
 from ..linalg.distributed import is_partitioned
 from . import plots
@@ -42,8 +45,9 @@ SINGULAR_VALUE_KEYS = ("hankel_sv", "hankel_singular_values", "hsv", "pod_sv", "
                        "pod_singular_values")
 #: Columns of the summary table: (key, header, format).
 COLUMNS = [("label", "body", "s"), ("method", "method", "s"), ("order", "order", "d"),
-           ("band_error", "band_error", ".4e"), ("max_rel_error", "max_rel_error", ".4e"),
-           ("hinf_error", "H∞ error (rel., band)", ".4e"), ("h2_error", "H2 error (rel.)", ".4e"), ("time_mean_error", "time_mean_error", ".4e"),
+           ("band_error", "band_error", ".4e"), ("rms_rel_error_pct", "rms_rel_error [%]", ".3g"),
+           ("hinf_error", "H∞ error (rel., band)", ".4e"), ("max_rel_error", "max_rel_error", ".4e"),
+           ("max_rel_error_where", "max_rel_error at", "s"), ("h2_error", "H2 error (rel.)", ".4e"), ("time_mean_error", "time_mean_error", ".4e"),
            ("time_max_error", "time_max_error", ".4e"), ("time_seconds", "time integration [s]", ".3f"),
            ("seconds", "reduction [s]", ".3f")]
 
@@ -155,9 +159,11 @@ def build_report(model, ports, reduced, *, band, labels=None, seconds=None, full
     for lb, red, sec in zip(labels, reduced, seconds):
         err = full.evaluate(red)
         H_red[lb], curves[lb] = frf_reduced(red, full.freqs), err["rel_error"]
-        rep.rows.append({"label": lb, "method": red.method, "order": red.order, "band_error": err["band_error"],
-                         "max_rel_error": err["max_rel_error"], "hinf_error": err["hinf_error"], "h2_error": None,
-                         "seconds": sec})
+        rep.rows.append({"label": lb, "method": red.method, "order": red.order, **measure_record(err),
+                         "h2_error": None, "seconds": sec})
+        rep.rows[-1]["max_rel_error_where"] = (f"{err['max_rel_error_hz']:.4g} Hz" + (
+            " (anti-resonance)" if err["max_rel_error_at_antiresonance"] else ""))
+        notes.extend(f"{lb}: {n}" for n in err["notes"])
     damped = model.D is not None
     if damped and model.n_dof <= h2_max_dof:
         from ..analysis.norms import h2_error
@@ -257,12 +263,16 @@ def render_html(rep: Report) -> str:
     out = [(f"<!DOCTYPE html><html lang=en><head><meta charset=utf-8><title>{e(rep.title)}</title>"
             f"<style>{_CSS}</style></head><body><h1>{e(rep.title)}</h1>"),
            (f"<p>Model <b>{e(str(m['name']))}</b> ({e(str(m.get('source', '')))}): {m['n_dof']} DOF, "
-           f"{m['n_nodes']} nodes, damping {e(str(m.get('damping')))}. Band {rep.band[0]:g}-{rep.band[1]:g} Hz. "
+           f"{m['n_nodes']} nodes, damping {e(describe_damping(damping_from_dict(m['damping'])))}. "
+           f"Band {rep.band[0]:g}-{rep.band[1]:g} Hz. "
            f"flexmor {e(__version__)}, {datetime.datetime.now().isoformat(timespec='seconds')}.</p>"),
            '<h2 id="summary">Summary</h2>',
            _table([c[1] for c in COLUMNS], [[fmt(r.get(k), s) for k, _, s in COLUMNS] for r in rep.rows], (0, 1)),
-           ("<p class=note>band_error = &int;&Vert;H&minus;&Ecirc;&Vert;&sup2;<sub>F</sub> df / &int;&Vert;H&Vert;"
-           "&sup2;<sub>F</sub> df over the band; max_rel_error = max<sub>f</sub> rel_error(f); time errors of the "
+           "<p class=note>Error measures over the band: " + "; ".join(
+               f"<b>{e(k)}</b> = {e(v)}" for k, v in MEASURES.items()) + ". "
+           + (f"An anti-resonance is a local minimum of &Vert;H&Vert; at most 1/{ANTIRESONANCE_FACTOR:g} of the "
+              "band median. ")
+           + ("Time errors of the "
            "output displacements: mean<sub>t</sub>&Vert;y&minus;&ycirc;&Vert; / mean<sub>t</sub>&Vert;y&Vert; and "
            "max<sub>t</sub>&Vert;y&minus;&ycirc;&Vert; / max<sub>t</sub>&Vert;y&Vert;. Full model time "
            f"integration: {rep.time.get('seconds_full', float('nan')):.3f} s.</p>")]

@@ -1,0 +1,219 @@
+"""Where a reduced body came from: the fingerprint of its full model, and the checks against it.
+
+A reduced body is only meaningful together with the model it was projected from: its error
+measures, its export (the inertia invariants integrate over the full mass matrix) and the
+expansion ``q ≈ V qr`` all assume that model. :func:`fingerprint` records what identifies
+it, cheaply (O(nnz)): the number of DOF and nodes, hashes of the equation map and of ``K``,
+``M`` (and ``D`` when given with the model), and the damping. :func:`check_origin` compares a
+body's fingerprint with a model and raises a :class:`~flexmor.errors.ModelError` that names
+the body file and what differs. Bodies written before fingerprints existed are accepted
+with a :class:`~flexmor.errors.FlexmorWarning`.
+
+:func:`reference_model` gives the model a body is judged against: its couplings applied
+and **the body's own damping** (a damping asked for on the command line that differs from
+the body's is refused, not silently used).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import math
+import warnings
+import weakref
+from pathlib import Path
+
+import numpy as np
+import scipy.sparse as sp
+
+from .damping import Damping, GivenDamping, ModalDamping, NoDamping, Rayleigh
+from .errors import FlexmorWarning, ModelError, OptionError
+from .linalg.distributed import is_partitioned
+
+__all__ = ["fingerprint", "matrix_hash", "check_origin", "origin_differences", "reference_model",
+           "same_damping", "describe_damping"]
+
+#: Version of the fingerprint record (bumped when what it hashes changes).
+FINGERPRINT_VERSION = 1
+
+_HASHES: dict[int, str] = {}  # id(matrix) -> hash, dropped when the matrix is collected
+
+
+def _digest(*arrays) -> str:
+    h = hashlib.sha256()
+    for a in arrays:
+        a = np.ascontiguousarray(a)
+        h.update(str(a.dtype.str).encode() + str(a.shape).encode())
+        h.update(a.view(np.uint8).reshape(-1) if a.size else b"")
+    return h.hexdigest()[:16]
+
+
+def matrix_hash(A) -> str | None:
+    """Hash of a sparse matrix: its CSR arrays (indices sorted, duplicates summed, float64 values).
+
+    Remembered per matrix object while it lives; None for a matrix whose rows are spread over
+    MPI ranks.
+    """
+    if A is None or is_partitioned(A):
+        return None
+    key = id(A)
+    if key in _HASHES:
+        return _HASHES[key]
+    B = A
+    if not (sp.issparse(B) and B.format == "csr" and B.dtype == np.float64 and B.has_canonical_format):
+        B = sp.csr_matrix(A, dtype=np.float64, copy=True)  # a model's matrices are canonical CSR: no copy
+        B.sum_duplicates()
+        B.sort_indices()
+    value = _digest(np.asarray(B.shape, np.int64), B.indptr.astype(np.int64), B.indices.astype(np.int64), B.data)
+    try:
+        weakref.finalize(A, _HASHES.pop, key, None)
+        _HASHES[key] = value
+    except TypeError:  # not weak-referenceable: not remembered
+        pass
+    return value
+
+
+def fingerprint(model) -> dict:
+    """The fingerprint of ``model`` (as a reduced body records it): JSON-ready dict.
+
+    Keys: ``version``, ``name``, ``source`` (file read), ``n_dof``, ``n_nodes``, ``dof_map``
+    (hash of the equation map, None without one), ``K``, ``M``, ``D`` (hashes; ``D`` only when
+    the damping matrix came with the model), ``damping`` (stored form). ``flexmor reduce``
+    adds the ``couplings``, ``interfaces`` and ``selections`` it applied (their effect on the
+    model is in the hashes already).
+    """
+    dofs = getattr(model, "dofs", None)
+    given = isinstance(model.damping, GivenDamping)
+    return {"version": FINGERPRINT_VERSION, "name": model.name, "source": str(model.source or ""),
+            "n_dof": int(model.n_dof), "n_nodes": int(model.n_nodes),
+            "dof_map": None if dofs is None else _digest(np.asarray(dofs, np.int64)),
+            "K": matrix_hash(model.K), "M": matrix_hash(model.M), "D": matrix_hash(model.D) if given else None,
+            "damping": model.damping.to_dict()}
+
+
+_MATRIX_WORDS = {"K": "stiffness matrix K", "M": "mass matrix M", "D": "damping matrix D"}
+
+
+def origin_differences(recorded: dict, model) -> list[str]:
+    """What differs between a body's recorded fingerprint and ``model``: phrases completing
+    "the body was reduced from a model with ..." (empty if nothing differs). The damping is not
+    compared here (see :func:`reference_model`)."""
+    now = fingerprint(model)
+    if recorded.get("n_dof") != now["n_dof"]:
+        return [f"{recorded.get('n_dof'):,} DOF, this model has {now['n_dof']:,}"]
+    out = []
+    if recorded.get("dof_map") and now["dof_map"] and recorded["dof_map"] != now["dof_map"]:
+        out.append("a different equation map (node and direction of each DOF)")
+    diff = [k for k in ("K", "M", "D") if recorded.get(k) and now[k] and recorded[k] != now[k]]
+    if recorded.get("D") and now["D"] is None:
+        diff.append("D")
+    if diff:
+        out.append("a different " + " and ".join(_MATRIX_WORDS[k] for k in diff))
+    return out
+
+
+def check_origin(body, model, path, *, couplings=()) -> None:
+    """Refuse ``model`` when it is not the one ``body`` (read from ``path``) was reduced from.
+
+    ``couplings`` (named in the message) are those applied to ``model`` for the body.
+
+    Raises
+    ------
+    ModelError
+        Naming the body file, the model it came from and what differs (DOF count, equation
+        map, K, M, D). A body without a fingerprint (written by an older flexmor) only gets a
+        :class:`FlexmorWarning`.
+    """
+    recorded = getattr(body, "origin", None) or {}
+    name = Path(str(path)).name
+    where = (model.source or model.name) + (f" with {', '.join(couplings)}" if couplings else "")
+    if not recorded:
+        warnings.warn(f"body {name} records no fingerprint of the model it was reduced from (written by an older "
+                      f"flexmor or another program): it cannot be checked against {where}", FlexmorWarning, stacklevel=2)
+        return
+    diffs = origin_differences(recorded, model)
+    if diffs:
+        came = recorded.get("source") or recorded.get("name") or "unknown"
+        raise ModelError(f"body {name} was reduced from a model with {'; '.join(diffs)} (the body's model: {came}; "
+                         f"this model: {where}); give the model the body was reduced from")
+
+
+def describe_damping(damping: Damping) -> str:
+    """The damping in words: ``none``, ``Rayleigh alpha 0 1/s, beta 1e-05 s``, ``modal damping 0.01 ...``,
+    ``damping matrix given with the model``."""
+    if isinstance(damping, ModalDamping):
+        return (f"modal damping {damping.zeta:g} in every mode (sparse realization: Rayleigh matched at "
+                f"{damping.band[0]:g} and {damping.band[1]:g} Hz)")
+    if isinstance(damping, Rayleigh):
+        text = f"Rayleigh alpha {damping.alpha:g} 1/s, beta {damping.beta:g} s"
+        zeta = getattr(damping, "zeta", None)
+        return text + (f" (ratio {zeta:g} at {damping.band[0]:g} and {damping.band[1]:g} Hz)"
+                       if zeta is not None else "")
+    if isinstance(damping, GivenDamping):
+        return "damping matrix given with the model"
+    return "none"
+
+
+def same_damping(a: Damping, b: Damping, rtol: float = 1e-9) -> bool:
+    """Whether two dampings are the same: of one kind, with Rayleigh coefficients (and modal ratio) within ``rtol``."""
+    if type(a).kind != type(b).kind:
+        return False
+    if isinstance(a, Rayleigh):
+        pairs = [(a.alpha, b.alpha), (a.beta, b.beta)]
+        if isinstance(a, ModalDamping):
+            pairs.append((a.zeta, b.zeta))
+        return all(math.isclose(x, y, rel_tol=rtol, abs_tol=0.0) for x, y in pairs)
+    return True
+
+
+def reference_model(model, body, path, *, damping: Damping | None = None):
+    """The full model ``body`` is judged against: its selections and couplings, the body's damping.
+
+    Parameters
+    ----------
+    model : FEModel
+        The model as read (without damping asked for on the command line).
+    body : ReducedModel
+        The reduced body, read from ``path`` (named in errors).
+    damping : Damping, optional
+        Damping asked for by the user (``--rayleigh``, ``--modal-damping``, ``--band-rayleigh``);
+        must be the body's own, else an :class:`OptionError`.
+
+    Returns
+    -------
+    FEModel
+        ``model`` with the body's node selections (``info['selections']``) and couplings
+        (``info['couplings']``) applied, checked against the body's fingerprint
+        (:func:`check_origin`), with the body's damping: its Rayleigh or modal damping, none for
+        an undamped body, the model's own ``D`` for a body reduced with it.
+    """
+    name = Path(str(path)).name
+    if damping is not None and not isinstance(damping, NoDamping) and not same_damping(damping, body.damping):
+        raise OptionError(f"body {name} was reduced with damping {describe_damping(body.damping)}; the damping "
+                          f"asked for here ({describe_damping(damping)}) differs. A body is compared against the "
+                          "full model with its own damping: drop rayleigh / modal_damping / band_rayleigh, or "
+                          "reduce again with it", params=("rayleigh", "modal_damping", "band_rayleigh"))
+    ref = model
+    selections = body.info.get("selections", ())
+    if selections:
+        from .selection import with_selections
+
+        ref = with_selections(ref, selections)
+    couplings = tuple(body.info.get("couplings", ()))
+    if couplings:
+        from .couplings import couple
+
+        ref = couple(ref, list(couplings)).model
+    check_origin(body, ref, path, couplings=couplings)
+    bd = body.damping
+    if isinstance(bd, Rayleigh):
+        return ref.with_damping(bd)
+    if isinstance(bd, NoDamping) and ref.D is not None:
+        if isinstance(ref.damping, GivenDamping):
+            raise ModelError(f"body {name} was reduced without damping, but {ref.source or ref.name} has a damping "
+                             "matrix of its own", params=("model",))
+        return dataclasses.replace(ref, D=None, damping=NoDamping())
+    if isinstance(bd, GivenDamping) and ref.D is None:
+        raise ModelError(f"body {name} was reduced with the damping matrix given with its model, but "
+                         f"{ref.source or ref.name} has none", params=("model",))
+    return ref
