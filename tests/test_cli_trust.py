@@ -295,3 +295,13 @@ def test_a_coupled_body_matches_its_model_once_coupled_again(capsys, tmp_path):
     assert origin["n_dof"] == 297 - 27 + 6 and origin["couplings"] == ["TIP@rbe2"]
     out = run_json(capsys, "compare", FREE, body)["results"][0]  # the RBE2 is applied again: same fingerprint
     assert out["band_error"] == pytest.approx(made["band_error"], rel=1e-6)
+
+
+def test_modal_damping_is_checked_by_its_ratio(capsys, tmp_path):
+    body = tmp_path / "md.h5"
+    run_json(capsys, "reduce", CLAMPED, "--method", "modal", "--order", "8", "--input", "TIP:y",
+             "--modal-damping", "0.02", "-o", body)
+    out = run_json(capsys, "compare", CLAMPED, body, "--modal-damping", "0.02", "--band", "10:2000")
+    assert out["results"][0]["damping"]["type"] == "modal" and out["results"][0]["damping"]["zeta"] == 0.02
+    code, _, err = run(capsys, "compare", CLAMPED, body, "--modal-damping", "0.03")
+    assert code == 2 and "modal damping 0.02 in every mode" in err and "modal damping 0.03" in err

@@ -155,14 +155,14 @@ def describe_damping(damping: Damping) -> str:
 
 
 def same_damping(a: Damping, b: Damping, rtol: float = 1e-9) -> bool:
-    """Whether two dampings are the same: of one kind, with Rayleigh coefficients (and modal ratio) within ``rtol``."""
+    """Whether two dampings are the same: of one kind, with Rayleigh coefficients (modal damping: the
+    ratio) within ``rtol``."""
     if type(a).kind != type(b).kind:
         return False
+    if isinstance(a, ModalDamping):  # the ratio in every mode; the band only places its sparse realization
+        return math.isclose(a.zeta, b.zeta, rel_tol=rtol, abs_tol=0.0)
     if isinstance(a, Rayleigh):
-        pairs = [(a.alpha, b.alpha), (a.beta, b.beta)]
-        if isinstance(a, ModalDamping):
-            pairs.append((a.zeta, b.zeta))
-        return all(math.isclose(x, y, rel_tol=rtol, abs_tol=0.0) for x, y in pairs)
+        return all(math.isclose(x, y, rel_tol=rtol, abs_tol=0.0) for x, y in ((a.alpha, b.alpha), (a.beta, b.beta)))
     return True
 
 
