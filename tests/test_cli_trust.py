@@ -305,3 +305,28 @@ def test_modal_damping_is_checked_by_its_ratio(capsys, tmp_path):
     assert out["results"][0]["damping"]["type"] == "modal" and out["results"][0]["damping"]["zeta"] == 0.02
     code, _, err = run(capsys, "compare", CLAMPED, body, "--modal-damping", "0.03")
     assert code == 2 and "modal damping 0.02 in every mode" in err and "modal damping 0.03" in err
+
+
+def test_files_written_by_other_threads_are_not_the_runs(tmp_path):
+    """``flexmor ui`` runs commands in worker threads: SIGTERM of the server must not delete their files."""
+    import threading
+
+    from flexmor.cli import _Run
+
+    run = _Run()
+    with run.guard(tmp_path / "mine.h5"):
+        pass
+
+    def job():
+        with run.guard(tmp_path / "job.h5"):
+            pass
+
+    worker = threading.Thread(target=job)
+    worker.start()
+    worker.join()
+    assert run.written == [tmp_path / "mine.h5"]
+    run.terminated = True  # after SIGTERM the run's own thread commits nothing more
+    with pytest.raises(BaseException, match="") as exc:
+        with run.guard(tmp_path / "late.h5"):
+            pass
+    assert type(exc.value).__name__ == "_Terminated" and run.written == [tmp_path / "mine.h5"]

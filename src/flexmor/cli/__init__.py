@@ -17,6 +17,7 @@ import logging
 import os
 import signal
 import sys
+import threading
 import warnings
 
 from .. import io
@@ -45,6 +46,7 @@ class _Run:
     def __init__(self):
         self.terminated = False
         self.written: list = []
+        self.thread = threading.get_ident()
 
     def on_sigterm(self, signum, frame):
         self.terminated = True
@@ -52,6 +54,9 @@ class _Run:
 
     @contextlib.contextmanager
     def guard(self, path):
+        if threading.get_ident() != self.thread:  # other threads' files (e.g. jobs of `flexmor ui`) are theirs
+            yield
+            return
         blocked = _block_sigterm()
         try:
             if self.terminated:
