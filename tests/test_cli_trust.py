@@ -326,7 +326,7 @@ def test_files_written_by_other_threads_are_not_the_runs(tmp_path):
     worker.join()
     assert run.written == [tmp_path / "mine.h5"]
     run.terminated = True  # after SIGTERM the run's own thread commits nothing more
-    with pytest.raises(BaseException, match="") as exc:
+    with pytest.raises(BaseException) as exc:
         with run.guard(tmp_path / "late.h5"):
             pass
     assert type(exc.value).__name__ == "_Terminated" and run.written == [tmp_path / "mine.h5"]
