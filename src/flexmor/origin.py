@@ -100,7 +100,9 @@ def origin_differences(recorded: dict, model) -> list[str]:
     compared here (see :func:`reference_model`)."""
     now = fingerprint(model)
     if recorded.get("n_dof") != now["n_dof"]:
-        return [f"{recorded.get('n_dof'):,} DOF, this model has {now['n_dof']:,}"]
+        n = recorded.get("n_dof")
+        return [f"{n:,} DOF, this model has {now['n_dof']:,}" if isinstance(n, int)
+                else f"an unknown number of DOF ({n!r}), this model has {now['n_dof']:,}"]
     out = []
     if recorded.get("dof_map") and now["dof_map"] and recorded["dof_map"] != now["dof_map"]:
         out.append("a different equation map (node and direction of each DOF)")
