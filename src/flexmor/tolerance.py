@@ -1,7 +1,7 @@
 """Target-error mode: the smallest order whose *verified* error measure meets a tolerance.
 
 Used by ``flexmor reduce --tol TOL`` (through :func:`flexmor.workflow.reduce_and_judge`).
-The order is doubled until the band_error against the full model's FRF (computed once,
+The order is doubled until the error measure against the full model's FRF (computed once,
 :class:`flexmor.analysis.compare.FullResponse`) is below ``tol``, then bisected. For methods
 whose basis is nested (its leading r columns are the basis of order r: ``krylov``,
 ``adaptive`` (``info['nested']``) and ``modal``) every trial order below the largest
@@ -46,14 +46,21 @@ def check_tol_method(method: str) -> None:
 
 
 def min_order(model, method: str, ports, options: dict) -> int:
-    """The smallest order ``method`` accepts: the interface DOFs (plus one internal vector) for the
-    component-mode methods, else 1."""
+    """The smallest order ``method`` accepts: for the component-mode methods the interface DOFs
+    plus one internal vector (less the rigid-body modes a free body's basis excludes), else 1."""
+    from .options import option_fields
     from .ports import interface_dofs
     from .reduction import methods
+    from .reduction.free_body import rigid_body_modes
 
-    if "interface" in methods()[method].options and options.get("interface"):
-        return int(interface_dofs(model, options["interface"]).size) + 1
-    return 1
+    m = methods()[method]
+    if "interface" not in m.options or not options.get("interface"):
+        return 1
+    low = int(interface_dofs(model, options["interface"]).size) + 1
+    fields = option_fields(m.options_class)
+    if "rigid" in fields and options.get("rigid", fields["rigid"].default) == "exclude":
+        low -= rigid_body_modes(model).shape[1]
+    return max(low, 1)
 
 
 def reduce_to_tolerance(model, method: str, ports, *, tol: float, full, max_order: int | None = None,
