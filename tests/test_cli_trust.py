@@ -330,3 +330,11 @@ def test_files_written_by_other_threads_are_not_the_runs(tmp_path):
         with run.guard(tmp_path / "late.h5"):
             pass
     assert type(exc.value).__name__ == "_Terminated" and run.written == [tmp_path / "mine.h5"]
+
+
+def test_craig_bampton_tol_on_a_free_body_counts_the_excluded_rigid_modes(capsys, tmp_path):
+    out = run_json(capsys, "reduce", FREE, "--method", "craig-bampton", "--interface", "TIP", "--tol", "1e-3",
+                   "--input", "TIP:y", "--rayleigh", "0:1e-6", "-o", tmp_path / "cb.h5")
+    tried = {int(k): v for k, v in out["info"]["tol_search"]["orders_tried"].items()}
+    assert min(tried) < 27 and out["tol_reached"] and out["band_error"] <= 1e-3
+    assert tried[out["order"] - 1] > 1e-3
