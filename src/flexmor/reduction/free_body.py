@@ -368,9 +368,7 @@ def check_body(model, reduced, *, f1_hz: float | None = None, band_error: float 
                         f"have (rigid motion mixed into the elastic coordinates); {hint}")
     if band_error is not None and np.isfinite(band_error) and band_error > 1:
         if model.D is None:
-            why = ("the model is undamped, so the error at its resonances in the band dominates (a small frequency "
-                   "shift gives an unbounded relative error there): add damping (rayleigh or modal_damping) to judge "
-                   "the body, or raise the order")
+            why = "the model is undamped, so its resonances dominate: add damping to judge the body, or raise the order"
         else:
             why = "raise the order, widen the expansion points or band, or use another method"
         msgs.append(f"{reduced.method} body has band_error {band_error:.3g} > 1: it is worse than no body over the "
