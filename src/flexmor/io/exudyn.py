@@ -37,7 +37,7 @@ import scipy.sparse as sp
 from ..errors import ModelError, OptionError
 from . import EXPORT_FORMATS, atomic_write
 
-__all__ = ["NODE_TYPES", "add_marker", "add_to_exudyn", "exudyn_data", "write_exudyn"]
+__all__ = ["NODE_TYPES", "add_full_to_exudyn", "add_marker", "add_to_exudyn", "exudyn_data", "write_exudyn"]
 
 log = logging.getLogger(__name__)
 
@@ -232,6 +232,72 @@ def add_to_exudyn(mbs, reduced, model, *, position=(0.0, 0.0, 0.0), velocity=(0.
     return res
 
 
+def add_full_to_exudyn(mbs, model, *, position=(0.0, 0.0, 0.0), velocity=(0.0, 0.0, 0.0),
+                       angular_velocity=(0.0, 0.0, 0.0), gravity=(0.0, 0.0, 0.0), constrain_rigid: bool = True,
+                       color=(0.9, 0.1, 0.1, 1.0)) -> dict:
+    """Add the full FE body as Exudyn's unreduced ``ObjectFFRF`` (the reference of a reduced body).
+
+    Every mesh node is a 3-DOF point node of the floating frame; the mass and stiffness matrices
+    are the model's (``exudyn.FEM.FEMinterface`` and ``ObjectFFRFinterface.AddObjectFFRF``,
+    Euler-parameter frame at the reference orientation). Nodes without DOF (a supported
+    model's clamped nodes) are left out: they move with the frame.
+
+    Parameters
+    ----------
+    mbs : exudyn.MainSystem
+    model : FEModel
+        Translational DOF only.
+    position, velocity, angular_velocity, gravity : sequence of 3 float
+        As in :func:`add_to_exudyn`.
+    constrain_rigid : bool
+        Exudyn's reference conditions (the nodal displacements are mass-orthogonal to the rigid
+        motions, the frame follows the body, as for a basis without rigid motion); ``False`` for
+        a supported model, whose clamped nodes fix the frame.
+    color : sequence of 4 float
+
+    Returns
+    -------
+    dict
+        Exudyn's ``nRigidBody``, ``nodeList``, ``oFFRF``, ``oRigidBodyConstraint``,
+        ``loadGravity`` (with gravity) and ``node_index`` (FE node id -> Exudyn mesh node).
+
+    Raises
+    ------
+    ModelError
+        A model with rotational DOFs (Exudyn's mesh has 3-DOF nodes only).
+    """
+    from exudyn.FEM import FEMinterface, ObjectFFRFinterface
+    from ..invariants import node_triples
+
+    import exudyn
+
+    trans, rot = node_triples(model)
+    if np.any(rot >= 0):
+        raise ModelError(f"{model.name}: the full FFRF body of Exudyn has 3-DOF nodes; the model has rotational DOFs")
+    has = np.all(trans >= 0, axis=1)
+    if np.any((trans >= 0).any(axis=1) & ~has):
+        raise ModelError(f"{model.name}: a node has some but not all translational DOFs; Exudyn's mesh needs all three")
+    eq = trans[has].reshape(-1)
+    fem = FEMinterface()
+    fem.nodes = {"Position": np.asarray(model.xyz, float)[has]}
+    fem.massMatrix = sp.csr_matrix(model.M)[eq][:, eq]
+    fem.stiffnessMatrix = sp.csr_matrix(model.K)[eq][:, eq]
+    fem.modeBasis = {"matrix": np.zeros((eq.size, 0))}
+    ffrf = ObjectFFRFinterface(fem)
+    res = dict(ffrf.AddObjectFFRF(exudyn, mbs, positionRef=list(position), initialVelocity=list(velocity),
+                                  initialAngularVelocity=list(angular_velocity), gravity=list(gravity),
+                                  constrainRigidBodyMotion=constrain_rigid, color=list(color)))
+    if np.any(gravity):  # the consistent load M Φt g: a force m g at the nodes' mass-weighted mean
+        share = np.asarray(fem.massMatrix @ np.tile([1.0, 0.0, 0.0], eq.size // 3))[0::3]
+        mass = share.sum()
+        res["loadGravity"] = mbs.AddLoad(exudyn.itemInterface.LoadForceVector(
+            markerNumber=mbs.AddMarker(exudyn.itemInterface.MarkerSuperElementPosition(
+                bodyNumber=res["oFFRF"], meshNodeNumbers=list(range(share.size)), weightingFactors=list(share / mass))),
+            loadVector=list(mass * np.asarray(gravity, float))))
+    res["node_index"] = {int(k): i for i, k in enumerate(model.node_ids[has])}
+    return res
+
+
 def add_marker(mbs, body: dict, model, target) -> int:
     """Marker (``MarkerSuperElementPosition``) at a node id or the mean of a node set.
 
@@ -239,7 +305,7 @@ def add_marker(mbs, body: dict, model, target) -> int:
     ----------
     mbs : exudyn.MainSystem
     body : dict
-        As returned by :func:`add_to_exudyn`.
+        As returned by :func:`add_to_exudyn` or :func:`add_full_to_exudyn`.
     model : FEModel
     target : int or str
         Node id, or node-set name (equal weights).
@@ -255,8 +321,9 @@ def add_marker(mbs, body: dict, model, target) -> int:
         ids = model.node_sets[target.upper()]
     else:
         ids = [int(target)]
-    idx = [body["node_index"][int(k)] for k in ids]
-    return mbs.AddMarker(eii.MarkerSuperElementPosition(bodyNumber=body["oFFRFreducedOrder"], meshNodeNumbers=idx,
+    idx = [body["node_index"][int(k)] for k in ids if int(k) in body["node_index"]]
+    obj = body["oFFRFreducedOrder"] if "oFFRFreducedOrder" in body else body["oFFRF"]
+    return mbs.AddMarker(eii.MarkerSuperElementPosition(bodyNumber=obj, meshNodeNumbers=idx,
                                                         weightingFactors=[1.0 / len(idx)] * len(idx)))
 
 

@@ -1,0 +1,191 @@
+#!/usr/bin/env python
+"""The MBS code in the loop: reduced bodies against the full FE body in an Exudyn simulation.
+
+Part 1, *flexible pendulum*: a free solid beam (``flexmor.models.cantilever(clamped=False)``,
+1 m x 40 mm x 40 mm, E = 1 GPa, rho = 1200 kg/m³, first free-free bending mode about 70 Hz) on
+a spherical joint at the centre of its root face (the mean of the four corner nodes, node set
+``JOINT``), released horizontally under gravity. The reference is the **full** FE body in
+Exudyn's unreduced ``ObjectFFRF`` (:func:`flexmor.io.exudyn.add_full_to_exudyn`, Tisserand
+reference conditions); the reduced bodies are ``ObjectFFRFreducedOrder`` objects
+(:func:`flexmor.io.exudyn.add_to_exudyn`) of ``modal``, ``craig-bampton`` (interface
+``JOINT``), ``krylov`` and ``two-step`` (inputs ``JOINT:x/y/z``) of equal order, every basis
+mass-orthogonal to the rigid-body modes. Compared: the tip deflection in the floating frame,
+``u(t) = Aᵀ (p_tip - p_frame) - x_tip`` (tip = mean of the node set ``TIP``), with the error
+``e(t) = |u(t) - u_full(t)| / max_t |u_full(t)|``, its mean and maximum over time, and the wall
+time of Exudyn's ``SolveDynamic``.
+
+Part 2, *spinning hub* (inertia-load inputs): the same beam clamped at ``x = 0`` to a hub whose
+rotation about z is prescribed (spin-up 0 -> 2 rad/s in 0.2 s, then constant speed). The body
+is reduced for the joint force at its tip (``TIP:x``, a rod's axial force, or ``TIP:y``) with
+and without the frame's inertia loads (``inertia_loads='on'`` / ``'off'`` in
+:func:`flexmor.reduction.reduce`); the reference is the full clamped body in ``ObjectFFRF``.
+
+Usage::
+
+    python bench/mbs_loop.py                                  # 1,488-DOF pendulum, orders 12 and 18
+    python bench/mbs_loop.py --divisions 10,2,2 --end-time 0.2 --orders 12 --json out.json
+
+``tests/test_mbs_loop.py`` runs the small size and asserts on the JSON.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+
+import numpy as np
+
+LENGTH, SIDE, E, RHO = 1.0, 0.04, 1e9, 1200.0
+GRAVITY = (0.0, -9.81, 0.0)
+METHODS = ("modal", "craig-bampton", "krylov", "two-step")
+#: Hub spin-up: angular acceleration ALPHA0 sin²(pi t / T_SPIN) for t < T_SPIN.
+ALPHA0, T_SPIN = 20.0, 0.2
+
+
+def beam(divisions, clamped: bool):
+    """The test beam with node set ``JOINT`` (the four corners of the root face, free beam only)."""
+    from flexmor.models import cantilever
+
+    model = cantilever(divisions=divisions, length=LENGTH, width=SIDE, height=SIDE, E=E, rho=RHO, clamped=clamped)
+    if not clamped:
+        corners = [(0, 0, 0), (0, SIDE, 0), (0, 0, SIDE), (0, SIDE, SIDE)]
+        model.node_sets["JOINT"] = np.array([model.node_ids[np.argmin(np.linalg.norm(model.xyz - c, axis=1))]
+                                             for c in corners])
+    return model
+
+
+def hub_angle(t: float) -> float:
+    """Prescribed hub angle (rad): smooth spin-up to ``ALPHA0 T_SPIN / 2`` rad/s, then constant speed."""
+    ts = min(t, T_SPIN)
+    th = ALPHA0 / 2 * (ts * ts / 2 + (T_SPIN / (2 * np.pi)) ** 2 * (np.cos(2 * np.pi * ts / T_SPIN) - 1))
+    return th + ALPHA0 * T_SPIN / 2 * max(t - T_SPIN, 0.0)
+
+
+def simulate(model, add_body, scenario: str, end_time: float, step: float):
+    """Run one Exudyn simulation; returns the times, the tip deflection in the frame (k, 3) and the solve time."""
+    import exudyn as exu
+    import exudyn.itemInterface as eii
+
+    from flexmor.io.exudyn import add_marker
+
+    SC = exu.SystemContainer()
+    mbs = SC.AddSystem()
+    body = add_body(mbs)
+    frame = body["nRigidBody"]
+    if scenario == "pendulum":
+        ground = mbs.AddObject(eii.ObjectGround())
+        pivot = model.xyz[model.node_sets["JOINT"] - 1].mean(axis=0)
+        mg = mbs.AddMarker(eii.MarkerBodyPosition(bodyNumber=ground, localPosition=list(pivot)))
+        mbs.AddObject(eii.SphericalJoint(markerNumbers=[mg, add_marker(mbs, body, model, "JOINT")]))
+    else:  # hub: frame position and Euler parameters 1, 2 fixed, parameter 3 = sin(angle / 2)
+        mg = mbs.AddMarker(eii.MarkerNodeCoordinate(nodeNumber=mbs.AddNode(eii.NodePointGround()), coordinate=0))
+        for c in (0, 1, 2, 4, 5, 6):
+            kw = {"offsetUserFunction": lambda mbs, t, i, off: np.sin(hub_angle(t) / 2)} if c == 6 else {}
+            mc = mbs.AddMarker(eii.MarkerNodeCoordinate(nodeNumber=frame, coordinate=c))
+            mbs.AddObject(eii.CoordinateConstraint(markerNumbers=[mg, mc], **kw))
+    sensors = [mbs.AddSensor(eii.SensorMarker(markerNumber=add_marker(mbs, body, model, "TIP"), storeInternal=True,
+                                              outputVariableType=exu.OutputVariableType.Position))]
+    for var in (exu.OutputVariableType.Position, exu.OutputVariableType.RotationMatrix):
+        sensors.append(mbs.AddSensor(eii.SensorNode(nodeNumber=frame, storeInternal=True, outputVariableType=var)))
+    mbs.Assemble()
+    s = exu.SimulationSettings()
+    s.timeIntegration.endTime = end_time
+    s.timeIntegration.numberOfSteps = int(round(end_time / step))
+    s.timeIntegration.generalizedAlpha.spectralRadius = 0.9
+    s.timeIntegration.verboseMode = 0
+    s.linearSolver.solverType = exu.LinearSolverType.EigenSparse
+    s.solution.file.write = False
+    s.solution.sensors.writePeriod = step
+    t0 = time.perf_counter()
+    mbs.SolveDynamic(s)
+    seconds = time.perf_counter() - t0
+    tip, pos, rot = (mbs.GetSensorStoredData(k) for k in sensors)
+    A = rot[:, 1:].reshape(-1, 3, 3)
+    x_tip = model.xyz[model.node_sets["TIP"] - 1].mean(axis=0)
+    return tip[:, 0], np.einsum("kji,kj->ki", A, tip[:, 1:] - pos[:, 1:]) - x_tip, seconds
+
+
+def errors(u, u_full) -> dict:
+    """Mean and maximum over time of ``|u - u_full| / max |u_full|``."""
+    e = np.linalg.norm(u - u_full, axis=1) / np.linalg.norm(u_full, axis=1).max()
+    return {"mean_error": float(e.mean()), "max_error": float(e.max())}
+
+
+def pendulum(divisions, orders, end_time: float, step: float, methods=METHODS) -> dict:
+    """Part 1: the free pendulum, full body and each method at each order."""
+    from flexmor.io.exudyn import add_full_to_exudyn, add_to_exudyn
+    from flexmor.ports import make_ports
+    from flexmor.reduction import reduce
+
+    model = beam(divisions, clamped=False)
+    _, u_full, sec = simulate(model, lambda mbs: add_full_to_exudyn(mbs, model, gravity=GRAVITY), "pendulum",
+                              end_time, step)
+    out = {"n_dof": model.n_dof, "full_seconds": sec, "max_deflection_m": float(np.linalg.norm(u_full, axis=1).max()),
+           "rows": []}
+    ports = make_ports(model, ["JOINT:x", "JOINT:y", "JOINT:z"])
+    for r in orders:
+        for method in methods:
+            opts = {"interface": ["JOINT"]} if method == "craig-bampton" else {"rigid": "exclude"}
+            red, _ = reduce(model, method, r, ports, **opts)
+            _, u, sec = simulate(model, lambda mbs: add_to_exudyn(mbs, red, model, gravity=GRAVITY), "pendulum",
+                                 end_time, step)
+            out["rows"].append({"method": method, "order": red.order, "seconds": sec, **errors(u, u_full)})
+    return out
+
+
+def hub(divisions, order: int, end_time: float, step: float) -> dict:
+    """Part 2: the clamped beam on the spinning hub, reduced with and without inertia-load inputs."""
+    from flexmor.io.exudyn import add_full_to_exudyn, add_to_exudyn
+    from flexmor.ports import make_ports
+    from flexmor.reduction import reduce
+
+    model = beam(divisions, clamped=True)
+    _, u_full, sec = simulate(model, lambda mbs: add_full_to_exudyn(mbs, model, constrain_rigid=False), "hub",
+                              end_time, step)
+    out = {"n_dof": model.n_dof, "full_seconds": sec, "max_deflection_m": float(np.linalg.norm(u_full, axis=1).max()),
+           "rows": []}
+    for port in ("TIP:x", "TIP:y"):
+        for method in ("krylov", "two-step"):
+            for loads in ("off", "on"):
+                red, _ = reduce(model, method, order, make_ports(model, [port]), inertia_loads=loads)
+                _, u, sec = simulate(model, lambda mbs: add_to_exudyn(mbs, red, model), "hub", end_time, step)
+                out["rows"].append({"method": method, "port": port, "inertia_loads": loads, "order": red.order,
+                                    "seconds": sec, **errors(u, u_full)})
+    return out
+
+
+def _print(title: str, part: dict, keys) -> None:
+    print(f"\n{title}: {part['n_dof']} DOF, full ObjectFFRF {part['full_seconds']:.2f} s, "
+          f"max tip deflection {part['max_deflection_m']:.3g} m")
+    print("".join(f"{k:>15}" for k in keys) + f"{'mean error':>12}{'max error':>12}{'MBS s':>9}{'speed-up':>10}")
+    for row in part["rows"]:
+        print("".join(f"{row[k]!s:>15}" for k in keys) + f"{row['mean_error']:12.2e}{row['max_error']:12.2e}"
+              f"{row['seconds']:9.2f}{part['full_seconds'] / row['seconds']:10.0f}")
+
+
+def main(argv=None) -> int:
+    p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    p.add_argument("--divisions", default="30,3,3", help="elements along x, y, z of the pendulum (default 30,3,3)")
+    p.add_argument("--orders", default="12,18", help="reduced orders, comma-separated")
+    p.add_argument("--end-time", type=float, default=0.2, help="simulated time of the pendulum in s")
+    p.add_argument("--hub-divisions", default="20,2,2", help="elements of the clamped beam on the hub")
+    p.add_argument("--hub-order", type=int, default=7, help="reduced order on the hub")
+    p.add_argument("--hub-end-time", type=float, default=0.4, help="simulated time on the hub in s")
+    p.add_argument("--step", type=float, default=1e-3, help="time step in s")
+    p.add_argument("--json", help="write the results to this file")
+    a = p.parse_args(argv)
+    res = {"pendulum": pendulum(tuple(int(v) for v in a.divisions.split(",")),
+                                [int(v) for v in a.orders.split(",")], a.end_time, a.step),
+           "hub": hub(tuple(int(v) for v in a.hub_divisions.split(",")), a.hub_order, a.hub_end_time, a.step)}
+    _print("flexible pendulum (tip deflection in the frame)", res["pendulum"], ("method", "order"))
+    _print("spinning hub, clamped beam", res["hub"], ("method", "port", "inertia_loads", "order"))
+    if a.json:
+        with open(a.json, "w") as f:
+            json.dump(res, f, indent=1)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
