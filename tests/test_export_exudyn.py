@@ -123,3 +123,31 @@ def test_npz_loads_in_exudyn(free, attached, tmp_path):
     cms.LoadFromFile(str(path))
     assert cms.nModes == 8 and cms.nNodes == free.n_nodes
     np.testing.assert_array_equal(cms.massMatrixReduced, red.M)
+
+
+def test_full_body_falls_freely_and_refuses_rotational_dofs(free):
+    """The unreduced ObjectFFRF of the whole FE model: under gravity alone the free body falls
+    rigidly (the consistent load M Φt g at the mass-weighted mean), its nodes do not deform."""
+    from flexmor.couplings import couple
+    from flexmor.errors import ModelError
+    from flexmor.io.exudyn import add_full_to_exudyn
+
+    SC = exu.SystemContainer()
+    mbs = SC.AddSystem()
+    body = add_full_to_exudyn(mbs, free, gravity=[0.0, -9.81, 0.0])
+    assert len(body["node_index"]) == free.n_nodes == len(body["nodeList"])
+    sensor = mbs.AddSensor(exu.itemInterface.SensorMarker(markerNumber=add_marker(mbs, body, free, "TIP"),
+                                                          storeInternal=True,
+                                                          outputVariableType=exu.OutputVariableType.Position))
+    mbs.Assemble()
+    s = exu.SimulationSettings()
+    s.timeIntegration.endTime, s.timeIntegration.numberOfSteps = 0.1, 20
+    s.timeIntegration.verboseMode = 0
+    s.solution.file.write = False
+    mbs.SolveDynamic(s)
+    data = mbs.GetSensorStoredData(sensor)
+    np.testing.assert_allclose(data[-1, 2] - data[0, 2], -9.81 * 0.1**2 / 2, rtol=1e-6)
+    np.testing.assert_allclose(data[-1, [1, 3]], data[0, [1, 3]], atol=1e-9)
+    coupled = couple(free, ["TIP@rbe2"]).model
+    with pytest.raises(ModelError, match="rotational DOFs"):
+        add_full_to_exudyn(exu.SystemContainer().AddSystem(), coupled)
