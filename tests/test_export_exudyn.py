@@ -151,3 +151,20 @@ def test_full_body_falls_freely_and_refuses_rotational_dofs(free):
     coupled = couple(free, ["TIP@rbe2"]).model
     with pytest.raises(ModelError, match="rotational DOFs"):
         add_full_to_exudyn(exu.SystemContainer().AddSystem(), coupled)
+
+
+def test_marker_on_clamped_nodes_of_the_full_body_is_refused():
+    """A supported model's clamped nodes are not mesh nodes of the full body (they move with
+    its frame): a marker there is refused with the parameter named, the free tip is fine."""
+    from flexmor.errors import ModelError
+    from flexmor.io.exudyn import add_full_to_exudyn
+    from flexmor.models import cantilever
+
+    model = cantilever(divisions=(4, 1, 1))
+    mbs = exu.SystemContainer().AddSystem()
+    body = add_full_to_exudyn(mbs, model, constrain_rigid=False)
+    assert len(body["node_index"]) == model.n_nodes - 4 == model.n_dof // 3
+    assert int(add_marker(mbs, body, model, "TIP")) >= 0
+    with pytest.raises(ModelError, match="clamped nodes") as err:
+        add_marker(mbs, body, model, "FIX")
+    assert err.value.params == ("target",)

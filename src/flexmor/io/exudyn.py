@@ -314,6 +314,11 @@ def add_marker(mbs, body: dict, model, target) -> int:
     -------
     int
         The marker number.
+
+    Raises
+    ------
+    ModelError
+        A node that is not a mesh node of the body.
     """
     import exudyn.itemInterface as eii
 
@@ -321,7 +326,12 @@ def add_marker(mbs, body: dict, model, target) -> int:
         ids = model.node_sets[target.upper()]
     else:
         ids = [int(target)]
-    idx = [body["node_index"][int(k)] for k in ids if int(k) in body["node_index"]]
+    missing = [int(k) for k in ids if int(k) not in body["node_index"]]
+    if missing:
+        raise ModelError(f"target={target!r}: node(s) {missing[:5]} are not mesh nodes of the Exudyn body "
+                         "(unknown ids, or clamped nodes of the full body, which move with its frame)",
+                         params=("target",))
+    idx = [body["node_index"][int(k)] for k in ids]
     obj = body["oFFRFreducedOrder"] if "oFFRFreducedOrder" in body else body["oFFRF"]
     return mbs.AddMarker(eii.MarkerSuperElementPosition(bodyNumber=obj, meshNodeNumbers=idx,
                                                         weightingFactors=[1.0 / len(idx)] * len(idx)))
