@@ -109,3 +109,18 @@ def test_transverse_port_bends_either_way_but_misses_the_stretching_without_iner
         off, on = rows[method, "TIP:y", "off"], rows[method, "TIP:y", "on"]
         np.testing.assert_allclose(off["max_error"], stretch / res["max_deflection_m"], rtol=0.1)
         assert on["max_error"] < off["max_error"] / 5, method
+
+
+def test_benchmark_command_line_prints_the_tables(tmp_path, capsys):
+    """``bench/mbs_loop.py`` end to end on an 84-DOF beam: three tables, one row per method
+    (and port and inertia-load choice), the JSON with the same rows."""
+    import json
+
+    tiny = ["--divisions", "6,1,1", "--crank-divisions", "6,1,1", "--hub-divisions", "6,1,1", "--orders", "12",
+            "--end-time", "0.02", "--crank-end-time", "0.02", "--hub-end-time", "0.02", "--json", str(tmp_path / "r.json")]
+    assert mbs_loop.main(tiny) == 0
+    out = capsys.readouterr().out
+    res = json.loads((tmp_path / "r.json").read_text())
+    assert [len(res[k]["rows"]) for k in ("pendulum", "slider_crank", "hub")] == [4, 4, 8]
+    assert res["pendulum"]["n_dof"] == 84 and res["hub"]["n_dof"] == 72
+    assert out.count("craig-bampton") == 2 and "full ObjectFFRF" in out and "inertia_loads" in out
