@@ -168,3 +168,18 @@ def test_marker_on_clamped_nodes_of_the_full_body_is_refused():
     with pytest.raises(ModelError, match="clamped nodes") as err:
         add_marker(mbs, body, model, "FIX")
     assert err.value.params == ("target",)
+
+
+def test_full_body_draws_its_outer_surface():
+    """The full body's triangles are the model's outer surface on Exudyn's mesh nodes; a
+    clamped model's triangles that touch a clamped node (not a mesh node) are left out: the
+    clamped face and the first element row of the four sides."""
+    from flexmor.io.exudyn import add_full_to_exudyn
+    from flexmor.models import cantilever
+
+    for clamped, n_trigs in ((False, 2 * (4 * 4 + 2)), (True, 2 * (4 * 3 + 1))):  # 2 per face quad
+        model = cantilever(divisions=(4, 1, 1), clamped=clamped)
+        mbs = exu.SystemContainer().AddSystem()
+        body = add_full_to_exudyn(mbs, model, constrain_rigid=not clamped)
+        trigs = np.asarray(mbs.GetObject(body["oFFRF"])["VtriangleMesh"])
+        assert trigs.shape == (n_trigs, 3) and trigs.max() < len(body["node_index"])

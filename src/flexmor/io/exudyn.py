@@ -120,7 +120,7 @@ def exudyn_data(reduced, model, *, node_type: str = NODE_TYPES[0]) -> dict:
     inertia = Sr.T @ MR[:, 3:6]
     rot_dofs = 4 if node_type.endswith("EulerParameters") else 3
     return {
-        "modeBasis": Psi, "trigList": _trig_list(reduced, model), "postProcessingModes": {},
+        "modeBasis": Psi, "trigList": _trig_list(reduced.triangles, model), "postProcessingModes": {},
         "massMatrixReduced": np.asarray(reduced.M, float), "stiffnessMatrixReduced": np.asarray(reduced.K, float),
         "dampingMatrixReduced": np.zeros((r, r)) if reduced.D is None else np.asarray(reduced.D, float),
         "infoList": np.array([r, n, 3, rot_dofs, 3 + rot_dofs, 3 + rot_dofs + r]),
@@ -132,12 +132,12 @@ def exudyn_data(reduced, model, *, node_type: str = NODE_TYPES[0]) -> dict:
     }
 
 
-def _trig_list(reduced, model) -> np.ndarray:
-    """Exudyn's ``trigList``: the body's outer surface triangles (:attr:`ReducedModel.triangles`, else
-    those of ``model.mesh``) as indices of Exudyn's mesh nodes (the model's nodes in order)."""
+def _trig_list(triangles, model) -> np.ndarray:
+    """Exudyn's ``trigList``: outer surface triangles over node ids (a body's
+    :attr:`ReducedModel.triangles`; None: those of ``model.mesh``) as indices of the model's nodes."""
     from ..mesh import outer_surface
 
-    tri = reduced.triangles
+    tri = triangles
     if tri is None and model.mesh is not None:
         tri = outer_surface(model.mesh).triangles
     if tri is None or not np.size(tri):
@@ -239,8 +239,9 @@ def add_full_to_exudyn(mbs, model, *, position=(0.0, 0.0, 0.0), velocity=(0.0, 0
 
     Every mesh node is a 3-DOF point node of the floating frame; the mass and stiffness matrices
     are the model's (``exudyn.FEM.FEMinterface`` and ``ObjectFFRFinterface.AddObjectFFRF``,
-    Euler-parameter frame at the reference orientation). Nodes without DOF (a supported
-    model's clamped nodes) are left out: they move with the frame.
+    Euler-parameter frame at the reference orientation), drawn with the outer surface of
+    ``model.mesh``. Nodes without DOF (a supported model's clamped nodes) are left out: they move
+    with the frame (and the surface triangles that touch them are not drawn).
 
     Parameters
     ----------
@@ -283,6 +284,9 @@ def add_full_to_exudyn(mbs, model, *, position=(0.0, 0.0, 0.0), velocity=(0.0, 0
     fem.massMatrix = sp.csr_matrix(model.M)[eq][:, eq]
     fem.stiffnessMatrix = sp.csr_matrix(model.K)[eq][:, eq]
     fem.modeBasis = {"matrix": np.zeros((eq.size, 0))}
+    mesh_node = np.cumsum(has) - 1  # model node -> Exudyn mesh node (clamped nodes: not drawn)
+    tri = _trig_list(None, model)
+    fem.surface = [{"Name": "outer", "Trigs": mesh_node[tri[np.all(has[tri], axis=1)]]}]
     ffrf = ObjectFFRFinterface(fem)
     res = dict(ffrf.AddObjectFFRF(exudyn, mbs, positionRef=list(position), initialVelocity=list(velocity),
                                   initialAngularVelocity=list(angular_velocity), gravity=list(gravity),
