@@ -47,7 +47,7 @@ def check_tol_method(method: str) -> None:
 
 def min_order(model, method: str, ports, options: dict) -> int:
     """The smallest order ``method`` accepts: for the component-mode methods the interface DOFs
-    plus one internal vector (less the rigid-body modes a free body's basis excludes), else 1."""
+    plus one internal vector (for cms-* less the rigid-body modes a free body's basis excludes), else 1."""
     from .options import option_fields
     from .ports import interface_dofs
     from .reduction import methods
@@ -58,7 +58,9 @@ def min_order(model, method: str, ports, options: dict) -> int:
         return 1
     low = int(interface_dofs(model, options["interface"]).size) + 1
     fields = option_fields(m.options_class)
-    if "rigid" in fields and options.get("rigid", fields["rigid"].default) == "exclude":
+    # a free body's cms-* bases lose the rigid motion of their constraint modes; craig-bampton keeps
+    # n_b columns (inertia-relief attachment modes)
+    if method != "craig-bampton" and "rigid" in fields and options.get("rigid", fields["rigid"].default) == "exclude":
         low -= rigid_body_modes(model).shape[1]
     return max(low, 1)
 

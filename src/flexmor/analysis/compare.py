@@ -117,6 +117,8 @@ class FullResponse:
             raise OptionError("the surrogate path needs a damped model (rayleigh or modal_damping)",
                               params=("rayleigh", "modal_damping"))
         self.path = path
+        m = ports.n_inputs
+        ports = _with_elastic_inputs(model, ports)  # a free body: the elastic part of H too, computed directly
         params = {"band": self.band, "n": int(n), "tol": float(tol), "max_points": int(max_points), "path": path}
         if path == "surrogate":
             params["surrogate_tol"] = float(surrogate_tol)
@@ -139,7 +141,9 @@ class FullResponse:
                 frf_cache.store(key, self.freqs, self.H, self.resonances, self.zeta, self.grid, directory)
                 self.timings["cache"] += time.perf_counter() - t1
         self.grid["cache_hit"] = self.cache_hit
-        self._model, self._ports = model, ports  # for the rigid part of bodies without rigid motion
+        #: the elastic part of H (inputs made orthogonal to the rigid-body modes), None for a supported body
+        self.H_elastic = self.H[:, :, m:] if ports.n_inputs > m else None
+        self.H = self.H[:, :, :m]
         self.n_factorizations = solver.stats.count - c0
         self.seconds = time.perf_counter() - t0
         log.info("full FRF: %d frequencies in %.2f s (%s%s)", self.freqs.size, self.seconds, path,
@@ -233,33 +237,18 @@ class FullResponse:
 
         A free body whose basis excludes the rigid-body modes (``info['n_rigid_excluded']``, the
         floating-frame case: the frame carries the rigid motion) is judged on the elastic part
-        of ``H``: the response of the rigid-body modes alone, ``C Φ (s² I + s Φᵀ D Φ)⁻¹ Φᵀ B``,
-        is taken from the full FRF first (exact for proportional damping).
+        of ``H`` (:attr:`H_elastic`, the FRF of the inputs' elastic part ``(I - M Φ Φᵀ) B``: exact
+        for proportional damping, and computed directly rather than as ``H`` minus the rigid-body
+        response, which at low frequencies exceeds it by orders of magnitude).
         """
         Hr = frf_reduced(reduced, self.freqs)
         H = self.H
-        if reduced.info.get("n_rigid_excluded"):
-            H = H - self._rigid_part()
+        if reduced.info.get("n_rigid_excluded") and self.H_elastic is not None:
+            H = self.H_elastic
         out = error_measures(self.freqs, H, Hr, resonances=self.resonances)
         out["notes"] = error_notes(out, damped=reduced.D is not None)
         out["rel_error"] = rel_error(H, Hr)
         return out
-
-    def _rigid_part(self) -> np.ndarray:
-        """FRF of the rigid-body modes alone on :attr:`freqs`, shape like :attr:`H`."""
-        from ..reduction.free_body import rigid_body_modes
-
-        model, ports = self._model, self._ports
-        phi = rigid_body_modes(model)
-        Cp, Bp = np.asarray(ports.C @ phi), np.asarray((ports.B.T @ phi).T)
-        undamped = model.D is None or isinstance(model.damping, ModalDamping)  # modal: rigid modes undamped
-        Dp = np.zeros((phi.shape[1],) * 2) if undamped else phi.T @ (model.D @ phi)
-        s = 2j * np.pi * self.freqs
-        out = np.empty(self.H.shape, dtype=complex)
-        for k, sk in enumerate(s):
-            out[k] = Cp @ np.linalg.solve(sk * sk * np.eye(phi.shape[1]) + sk * Dp, Bp)
-        return out
-
 
 def _modal_correction(evaluate, damping, f_modes, phi, ports):
     """``evaluate`` (the FRF of the sparse Rayleigh realization of modal damping) with the share of
@@ -279,3 +268,21 @@ def _modal_correction(evaluate, damping, f_modes, phi, ports):
         return H + np.einsum("pk,fk,mk->fpm", Cp, g, Bp)
 
     return corrected
+
+
+def _with_elastic_inputs(model, ports):
+    """``ports`` with the elastic part ``(I - M Φ Φᵀ) B`` of its inputs appended (named ``elastic:...``),
+    for a free body (Φ its M-orthonormal rigid-body modes); ``ports`` itself for a supported body."""
+    import scipy.sparse as sp
+
+    from ..ports import Ports
+    from ..reduction.free_body import rigid_body_modes
+
+    phi = rigid_body_modes(model)
+    if not phi.shape[1] or not ports.n_inputs:
+        return ports
+    B = ports.B.toarray()
+    Be = B - model.M @ (phi @ (phi.T @ B))
+    return Ports(B=sp.hstack([ports.B, sp.csr_matrix(Be)]).tocsr(), C=ports.C,
+                 input_names=list(ports.input_names) + [f"elastic:{n}" for n in ports.input_names],
+                 output_names=list(ports.output_names))

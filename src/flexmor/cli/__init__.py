@@ -74,12 +74,6 @@ class _Run:
                 previous(unraisable)
         return hook
 
-    def late(self, signum, frame):
-        """SIGTERM after the command returned, while the process ends: no output, exit 143."""
-        self.remove_written()
-        print("flexmor: terminated", file=sys.stderr, flush=True)
-        os._exit(143)
-
     def remove_written(self) -> None:
         for path in self.written:
             try:
@@ -109,8 +103,8 @@ def _format_warning(message, category, filename, lineno, line=None):
 def main(argv=None) -> int:
     """Run the command line; returns the exit code.
 
-    With ``argv`` None (the process's own command line) a SIGTERM that arrives after the
-    command while the interpreter shuts down still removes the files written and exits 143.
+    With ``argv`` None (the process's own command line) SIGTERM stays blocked once the outcome is
+    decided: a signal that arrives while the interpreter shuts down no longer changes it.
     """
     parser = build_parser()
     args = parser.parse_args(argv)
@@ -144,10 +138,13 @@ def main(argv=None) -> int:
             code = 143
         return code
     finally:
-        if previous is not None:  # the process's own command line ends with the process: still 143
-            signal.signal(signal.SIGTERM, run.late if argv is None and not run.terminated else previous)
+        if previous is not None:
+            signal.signal(signal.SIGTERM, previous)
             io.commit_guard, sys.unraisablehook = None, hook
-        if blocked is not None:
+        # the process's own command line: the run's outcome is decided above (143 and no file, or its
+        # code and its files), so SIGTERM stays blocked while the interpreter ends; at the end of
+        # finalization Python restores the default action, which would kill a finished run
+        if blocked is not None and argv is not None:
             signal.pthread_sigmask(signal.SIG_SETMASK, blocked)
 
 

@@ -12,7 +12,7 @@ from ..linalg.context import SolverContext, as_solver
 from ..linalg.eigen import eigenmodes, frequencies_hz
 from ..ports import interface_dofs
 from . import register_method
-from .free_body import rigid_body_modes
+from .free_body import inertia_relief_modes, rigid_body_modes
 from .guyan import constraint_modes, interface_option
 from .krylov import rigid_option
 
@@ -84,14 +84,16 @@ def craig_bampton(model, ports, order, *, interface=None, rigid: str = "exclude"
         Interface SPECs (``NODE``, ``SET``, ``NODE:DIR``, ``SET:DIR``).
     rigid : {'exclude', 'include'}
         Free bodies: the constraint modes of an interface that holds the body span its
-        rigid-body motions. ``exclude`` (default) removes them, as the floating frame of
-        reference wants (:func:`flexmor.reduction.free_body.exclude_rigid`: the basis is made
-        mass-orthogonal to the rigid-body modes; the reduced coordinates are then no longer the
-        interface displacements); the fixed-interface modes are computed for
-        ``order - n_b + n_rigid`` so that the body keeps the requested order. Its frequencies
-        are upper bounds of the free-free elastic ones (Rayleigh-Ritz). ``include`` keeps the
-        classic basis (interface coordinates, zero-frequency rigid-body modes). No effect on a
-        supported body.
+        rigid-body motions. ``exclude`` (default), as the floating frame of reference wants,
+        replaces them by the interface's inertia-relief attachment modes
+        (:func:`flexmor.reduction.free_body.inertia_relief_modes`: static elastic responses to
+        unit interface forces balanced by the body's inertia, mass-orthogonal to the rigid-body
+        modes). They span the elastic part of the constraint modes and the quasi-static
+        deformation under any interface load, so the body is exact at low frequency; the
+        reduced coordinates are no longer the interface displacements. ``order - n_b``
+        fixed-interface modes follow. The frequencies are upper bounds of the free-free elastic
+        ones (Rayleigh-Ritz). ``include`` keeps the classic basis (interface coordinates,
+        zero-frequency rigid-body modes). No effect on a supported body.
     solver : SolverContext, optional
         Solver (backend, statistics) of :func:`flexmor.linalg.factorize`; the factorization of ``K_ii`` serves
         both the constraint modes and the shift-invert eigen solver.
@@ -109,6 +111,14 @@ def craig_bampton(model, ports, order, *, interface=None, rigid: str = "exclude"
     """
     solver = as_solver(solver)
     V, b, i, F, info = cb_frame(model, interface, order, "craig-bampton", solver, rigid)
+    n_rb = info.get("n_rigid", 0)
+    if n_rb:  # free body, rigid motion excluded: inertia-relief attachment modes in place of the constraint modes
+        if order < b.size:
+            raise OptionError(f"craig-bampton on a free body needs order >= the {b.size} interface DOFs (their "
+                              f"inertia-relief modes), got {order}", params=("order",))
+        V = V[:, : b.size + max(V.shape[1] - b.size - n_rb, 0)]
+        V[:, : b.size] = inertia_relief_modes(model, b, solver=solver)
+        info.update(attachment="inertia-relief", n_rigid=0, n_rigid_body_modes=int(n_rb))
     n_modes = V.shape[1] - b.size
     freqs = []
     if n_modes:
