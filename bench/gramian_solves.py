@@ -1,0 +1,144 @@
+"""Solves of the Gramian quadrature: direct vs dense (modal form) vs surrogate, as factorizations.
+
+    .venv/bin/python bench/gramian_solves.py                          # 135 ... 3,000 DOF
+    .venv/bin/python bench/gramian_solves.py --dofs 540 3000 --direct-max 3000
+    .venv/bin/python bench/gramian_solves.py --kind plate --dofs 30000 --direct-max 0 --method pod
+
+For each built-in model (cantilever: Rayleigh 0 / 1e-6, inputs and outputs TIP:y, TIP:z;
+plate: Rayleigh 2 / 1e-6, the six RBE3 ports at the hole), band ``--band``:
+
+1. one sparse complex factorization + block solve (median of 3): the unit;
+2. :func:`flexmor.reduction.gramians.gramian_factors` with ``solves`` = ``dense`` (up to
+   ``--dense-max`` DOF), ``surrogate`` and ``direct`` (up to ``--direct-max`` DOF), wall time and
+   its ratio to the unit;
+3. the agreement: largest relative difference of the Gramians ``R R^T``, ``L L^T`` and of the
+   leading 10 Hankel singular values against the reference (direct where run, else dense);
+4. with ``--method``: the method (``fw-sobt``, ``pod`` ...) of ``--order`` with ``solves=auto``,
+   wall time and band_error from the error check.
+
+Times depend on the load (printed); the ratios of one run are what carries over. Results go
+to ``bench/results/gramian_solves.json``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import time
+from pathlib import Path
+
+import numpy as np
+
+from flexmor.dynamics.frf import ShiftedMatrices
+from flexmor.jsonutil import jsonable
+from flexmor.linalg import SolverContext, factorize
+from flexmor.models import cantilever, size_for_dofs
+from flexmor.ports import make_ports
+from flexmor.reduction.gramians import gramian_factors
+
+
+def unit_factorization(model, ports) -> float:
+    """Median seconds of one complex factorization + block solve at 3 frequencies."""
+    A = ShiftedMatrices(model.K, model.M, model.D)
+    B = ports.B.toarray()
+    times = []
+    for f in (100.0, 1000.0, 3000.0):
+        t = time.perf_counter()
+        F = factorize(A(2 * np.pi * f), solver=SolverContext(), symmetric=True, check=False)
+        F.solve(B)
+        del F
+        times.append(time.perf_counter() - t)
+    return float(np.median(times))
+
+
+def build(kind: str, dofs: int):
+    """The model and its ports."""
+    if kind == "plate":
+        from flexmor.couplings import couple
+        from flexmor.models import plate_structure
+
+        n = min(range(4, 120), key=lambda k: abs(_plate_dofs(k) - dofs))
+        specs = [f"HOLE@rbe3:{d}" for d in ("x", "y", "z", "rx", "ry", "rz")]
+        model = couple(plate_structure(n), specs).model.with_rayleigh(2.0, 1e-6)
+        return model, make_ports(model, specs)
+    if dofs < 540:  # 2 x 2 elements across, 27 DOF per element layer along the beam
+        model = cantilever(divisions=(max(2, round(dofs / 27)), 2, 2))
+    else:
+        model = cantilever(n=size_for_dofs(dofs))
+    model = model.with_rayleigh(0.0, 1e-6)
+    return model, make_ports(model, ["TIP:y", "TIP:z"])
+
+
+def _plate_dofs(n: int) -> int:
+    """DOF of ``plate_structure(n)``, interpolated from its documented sizes (n = 20 ... 70)."""
+    return int(np.interp(n, [20, 30, 40, 56, 70], [6336, 10944, 18144, 35988, 60708]))
+
+
+def _rel(a, b):
+    P, Q = a @ a.T, b @ b.T
+    return float(np.abs(P - Q).max() / np.abs(Q).max())
+
+
+def _hsv(G, M):
+    return np.linalg.svd(G.L.T @ (M @ G.R), compute_uv=False)[:10]
+
+
+def run(kind: str, dofs: int, band, dense_max: int, direct_max: int, method: str | None, order: int) -> dict:
+    model, ports = build(kind, dofs)
+    out = {"kind": kind, "n_dof": model.n_dof, "load_before": os.getloadavg()[0]}
+    unit = out["factorization_s"] = unit_factorization(model, ports)
+    res = {}
+    for solves in ("dense", "surrogate", "direct"):
+        if (solves == "dense" and model.n_dof > dense_max) or (solves == "direct" and model.n_dof > direct_max):
+            continue
+        t = time.perf_counter()
+        G = gramian_factors(model, ports, band, solves=solves)
+        sec = time.perf_counter() - t
+        res[solves] = G
+        row = {"seconds": sec, "in_factorizations": sec / unit, "n_nodes": G.info["n_nodes"],
+               "rank_R": G.info["rank_R"]}
+        info = G.info["solves"]
+        if solves == "surrogate":
+            row.update(order=info["order"], n_direct_checks=info["n_direct_checks"],
+                       max_residual_on_nodes=info["max_residual_on_grid"],
+                       final_check_error=info["final_check"]["rel_error"], verified=info["verified"])
+        out[solves] = row
+    ref = res.get("direct") or res.get("dense")
+    for name, G in res.items():
+        if G is not ref:
+            out[name].update(gramian_rel_diff=max(_rel(G.R, ref.R), _rel(G.L, ref.L)),
+                             hsv_rel_diff=float(np.abs(_hsv(G, model.M) / _hsv(ref, model.M) - 1).max()))
+    if method:
+        from flexmor.workflow import reduce_and_judge
+
+        t = time.perf_counter()
+        red, r = reduce_and_judge(model, method, order, ports, band=band)
+        out["method"] = {"name": method, "order": order, "seconds": r["seconds"], "band_error": r["band_error"],
+                         "wall_with_error_check_s": time.perf_counter() - t}
+    out["load_after"] = os.getloadavg()[0]
+    return out
+
+
+def main() -> None:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--kind", choices=("cantilever", "plate"), default="cantilever")
+    p.add_argument("--dofs", type=int, nargs="+", default=[135, 270, 405, 540, 1440, 3000])
+    p.add_argument("--band", default="10:3000")
+    p.add_argument("--dense-max", type=int, default=3000, help="largest model given the dense solves")
+    p.add_argument("--direct-max", type=int, default=3000, help="largest model given the direct solves")
+    p.add_argument("--method", default=None, help="also run this method with solves=auto")
+    p.add_argument("--order", type=int, default=24)
+    args = p.parse_args()
+    band = tuple(float(x) for x in args.band.split(":"))
+    rows = []
+    for d in args.dofs:
+        rows.append(run(args.kind, d, band, args.dense_max, args.direct_max, args.method, args.order))
+        print(json.dumps(jsonable(rows[-1])), flush=True)
+    path = Path(__file__).parent / "results" / "gramian_solves.json"
+    path.parent.mkdir(exist_ok=True)
+    path.write_text(json.dumps(jsonable({"band_hz": band, "rows": rows}), indent=1))
+
+
+if __name__ == "__main__":
+    main()
