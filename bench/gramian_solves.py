@@ -1,8 +1,8 @@
 """Solves of the Gramian quadrature: direct vs dense (modal form) vs surrogate, as factorizations.
 
     .venv/bin/python bench/gramian_solves.py                          # 135 ... 3,000 DOF
-    .venv/bin/python bench/gramian_solves.py --dofs 540 3000 --direct-max 3000
-    .venv/bin/python bench/gramian_solves.py --kind plate --dofs 30000 --direct-max 0 --method pod
+    .venv/bin/python bench/gramian_solves.py --sizes 540 3000 --direct-max 3000
+    .venv/bin/python bench/gramian_solves.py --kind plate --sizes 51 --band 1:2000 --direct-max 0 --method pod
 
 For each built-in model (cantilever: Rayleigh 0 / 1e-6, inputs and outputs TIP:y, TIP:z;
 plate: Rayleigh 2 / 1e-6, the six RBE3 ports at the hole), band ``--band``:
@@ -13,8 +13,9 @@ plate: Rayleigh 2 / 1e-6, the six RBE3 ports at the hole), band ``--band``:
    its ratio to the unit;
 3. the agreement: largest relative difference of the Gramians ``R R^T``, ``L L^T`` and of the
    leading 10 Hankel singular values against the reference (direct where run, else dense);
-4. with ``--method``: the method (``fw-sobt``, ``pod`` ...) of ``--order`` with ``solves=auto``,
-   wall time and band_error from the error check.
+4. with ``--method``: the method (``fw-sobt``, ``pod`` ...) of ``--order`` with ``solves=auto``
+   (and ``direct`` where that was run): wall time, band_error from the error check, reduced
+   eigenfrequencies and their relative differences.
 
 Times depend on the load (printed); the ratios of one run are what carries over. Results go
 to ``bench/results/gramian_solves.json``.
@@ -52,27 +53,22 @@ def unit_factorization(model, ports) -> float:
     return float(np.median(times))
 
 
-def build(kind: str, dofs: int):
-    """The model and its ports."""
+def build(kind: str, size: int):
+    """The model and its ports: a cantilever of about ``size`` DOF, or ``plate_structure(size)``."""
     if kind == "plate":
         from flexmor.couplings import couple
         from flexmor.models import plate_structure
 
-        n = min(range(4, 120), key=lambda k: abs(_plate_dofs(k) - dofs))
+        n = size
         specs = [f"HOLE@rbe3:{d}" for d in ("x", "y", "z", "rx", "ry", "rz")]
         model = couple(plate_structure(n), specs).model.with_rayleigh(2.0, 1e-6)
         return model, make_ports(model, specs)
-    if dofs < 540:  # 2 x 2 elements across, 27 DOF per element layer along the beam
-        model = cantilever(divisions=(max(2, round(dofs / 27)), 2, 2))
+    if size < 540:  # 2 x 2 elements across, 27 DOF per element layer along the beam
+        model = cantilever(divisions=(max(2, round(size / 27)), 2, 2))
     else:
-        model = cantilever(n=size_for_dofs(dofs))
+        model = cantilever(n=size_for_dofs(size))
     model = model.with_rayleigh(0.0, 1e-6)
     return model, make_ports(model, ["TIP:y", "TIP:z"])
-
-
-def _plate_dofs(n: int) -> int:
-    """DOF of ``plate_structure(n)``, interpolated from its documented sizes (n = 20 ... 70)."""
-    return int(np.interp(n, [20, 30, 40, 56, 70], [6336, 10944, 18144, 35988, 60708]))
 
 
 def _rel(a, b):
@@ -84,8 +80,8 @@ def _hsv(G, M):
     return np.linalg.svd(G.L.T @ (M @ G.R), compute_uv=False)[:10]
 
 
-def run(kind: str, dofs: int, band, dense_max: int, direct_max: int, method: str | None, order: int) -> dict:
-    model, ports = build(kind, dofs)
+def run(kind: str, size: int, band, dense_max: int, direct_max: int, method: str | None, order: int) -> dict:
+    model, ports = build(kind, size)
     out = {"kind": kind, "n_dof": model.n_dof, "load_before": os.getloadavg()[0]}
     unit = out["factorization_s"] = unit_factorization(model, ports)
     res = {}
@@ -106,16 +102,24 @@ def run(kind: str, dofs: int, band, dense_max: int, direct_max: int, method: str
         out[solves] = row
     ref = res.get("direct") or res.get("dense")
     for name, G in res.items():
-        if G is not ref:
+        if ref is not None and G is not ref:
             out[name].update(gramian_rel_diff=max(_rel(G.R, ref.R), _rel(G.L, ref.L)),
                              hsv_rel_diff=float(np.abs(_hsv(G, model.M) / _hsv(ref, model.M) - 1).max()))
     if method:
         from flexmor.workflow import reduce_and_judge
 
-        t = time.perf_counter()
-        red, r = reduce_and_judge(model, method, order, ports, band=band)
-        out["method"] = {"name": method, "order": order, "seconds": r["seconds"], "band_error": r["band_error"],
-                         "wall_with_error_check_s": time.perf_counter() - t}
+        from flexmor.analysis.compare import FullResponse
+
+        full = FullResponse(model, ports, band, cache=False)
+        for solves in ("auto", "direct") if "direct" in res else ("auto",):
+            red, r = reduce_and_judge(model, method, order, ports, band=band, full=full, solves=solves)
+            f = np.sort(np.abs(np.linalg.eigvals(np.linalg.solve(red.M, red.K)))) ** 0.5 / (2 * np.pi)
+            out[f"method_{solves}"] = {"name": method, "order": order, "seconds": r["seconds"],
+                                       "band_error": r["band_error"], "frequencies_hz": f}
+        if "direct" in res:
+            a, d = out["method_auto"], out["method_direct"]
+            out["method_rel_diff"] = {"band_error": abs(a["band_error"] / d["band_error"] - 1),
+                                      "frequencies": float(np.abs(a["frequencies_hz"] / d["frequencies_hz"] - 1).max())}
     out["load_after"] = os.getloadavg()[0]
     return out
 
@@ -123,7 +127,8 @@ def run(kind: str, dofs: int, band, dense_max: int, direct_max: int, method: str
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--kind", choices=("cantilever", "plate"), default="cantilever")
-    p.add_argument("--dofs", type=int, nargs="+", default=[135, 270, 405, 540, 1440, 3000])
+    p.add_argument("--sizes", type=int, nargs="+", default=[135, 270, 405, 540, 1440, 3000],
+                   help="cantilever: DOF wanted; plate: the resolution n (n=16: 4,416 DOF, n=51: 32,412 DOF)")
     p.add_argument("--band", default="10:3000")
     p.add_argument("--dense-max", type=int, default=3000, help="largest model given the dense solves")
     p.add_argument("--direct-max", type=int, default=3000, help="largest model given the direct solves")
@@ -132,7 +137,7 @@ def main() -> None:
     args = p.parse_args()
     band = tuple(float(x) for x in args.band.split(":"))
     rows = []
-    for d in args.dofs:
+    for d in args.sizes:
         rows.append(run(args.kind, d, band, args.dense_max, args.direct_max, args.method, args.order))
         print(json.dumps(jsonable(rows[-1])), flush=True)
     path = Path(__file__).parent / "results" / "gramian_solves.json"

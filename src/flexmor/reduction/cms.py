@@ -111,7 +111,7 @@ def cms_krylov(model, ports, order, *, interface=None, band=None, points=None, r
     interface : list of str
         Interface SPECs (``NODE``, ``SET``, ``NODE:DIR``, ``SET:DIR``).
     band : (float, float), optional
-        Band (Hz) of the default Krylov points (three real points; default 1:1000).
+        Band (Hz) of the default Krylov point (see :func:`flexmor.reduction.krylov.krylov`; default 1:1000).
     points : str, optional
         Krylov expansion points (Hz), see :func:`flexmor.reduction.krylov.parse_points`.
     rigid : {'exclude', 'include'}
