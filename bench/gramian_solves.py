@@ -30,27 +30,12 @@ import time
 from pathlib import Path
 
 import numpy as np
+from small_frf import unit_factorization  # bench/ is the script's directory
 
-from flexmor.dynamics.frf import ShiftedMatrices
 from flexmor.jsonutil import jsonable
-from flexmor.linalg import SolverContext, factorize
 from flexmor.models import cantilever, size_for_dofs
 from flexmor.ports import make_ports
 from flexmor.reduction.gramians import gramian_factors
-
-
-def unit_factorization(model, ports) -> float:
-    """Median seconds of one complex factorization + block solve at 3 frequencies."""
-    A = ShiftedMatrices(model.K, model.M, model.D)
-    B = ports.B.toarray()
-    times = []
-    for f in (100.0, 1000.0, 3000.0):
-        t = time.perf_counter()
-        F = factorize(A(2 * np.pi * f), solver=SolverContext(), symmetric=True, check=False)
-        F.solve(B)
-        del F
-        times.append(time.perf_counter() - t)
-    return float(np.median(times))
 
 
 def build(kind: str, size: int):
@@ -106,9 +91,8 @@ def run(kind: str, size: int, band, dense_max: int, direct_max: int, method: str
             out[name].update(gramian_rel_diff=max(_rel(G.R, ref.R), _rel(G.L, ref.L)),
                              hsv_rel_diff=float(np.abs(_hsv(G, model.M) / _hsv(ref, model.M) - 1).max()))
     if method:
-        from flexmor.workflow import reduce_and_judge
-
         from flexmor.analysis.compare import FullResponse
+        from flexmor.workflow import reduce_and_judge
 
         full = FullResponse(model, ports, band, cache=False)
         for solves in ("auto", "direct") if "direct" in res else ("auto",):

@@ -45,7 +45,7 @@ import scipy.sparse as sp
 from ..errors import ModelError, check_choice
 from ..linalg.distributed import is_partitioned
 
-__all__ = ["SOLVES", "DENSE_GRAMIAN_MAX_DOF", "SURROGATE_GRAMIAN_TOL", "choose_solves", "projected_factors"]
+__all__ = ["DENSE_GRAMIAN_MAX_DOF", "SOLVES", "SURROGATE_GRAMIAN_TOL", "choose_solves", "projected_factors"]
 
 log = logging.getLogger(__name__)
 

@@ -26,7 +26,7 @@ import logging
 
 import numpy as np
 
-__all__ = ["nested_estimate", "POINTS_TOL", "N_CHECK"]
+__all__ = ["N_CHECK", "POINTS_TOL", "nested_estimate"]
 
 log = logging.getLogger(__name__)
 
