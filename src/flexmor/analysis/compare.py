@@ -29,7 +29,8 @@ log = logging.getLogger(__name__)
 #: a singular mass matrix or an ill-conditioned non-proportional damping falls back to ``direct``),
 #: ``surrogate`` a verified large projection model (see :mod:`flexmor.analysis.surrogate`),
 #: ``auto`` the surrogate from :data:`SURROGATE_MIN_DOF` DOF on for damped models, else dense up
-#: to :data:`~flexmor.dynamics.dense_frf.DENSE_FRF_MAX_DOF` DOF, else direct.
+#: to :data:`~flexmor.dynamics.dense_frf.DENSE_FRF_MAX_DOF` DOF, else direct; modal damping takes
+#: the dense path up to that size (its ratio exact in every mode).
 PATHS = ("auto", "direct", "dense", "surrogate")
 
 #: Damped models with at least this many DOF use the verified surrogate under ``path="auto"``.
@@ -115,7 +116,8 @@ class FullResponse:
             raise OptionError(f"band must satisfy 0 < FMIN < FMAX (Hz), got {band[0]}:{band[1]}")
         damped = model.D is not None
         if path == "auto":
-            path = ("surrogate" if damped and model.n_dof >= SURROGATE_MIN_DOF else
+            exact_modal = isinstance(model.damping, ModalDamping) and dense_applicable(model)
+            path = ("surrogate" if damped and model.n_dof >= SURROGATE_MIN_DOF and not exact_modal else
                     "dense" if dense_applicable(model) else "direct")
         if path == "surrogate" and not damped:
             raise OptionError("the surrogate path needs a damped model (rayleigh or modal_damping)",
