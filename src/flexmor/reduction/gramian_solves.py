@@ -12,7 +12,7 @@ thousands of nodes). Three ways (``solves``) give them:
     node (:class:`flexmor.dynamics.dense_frf.DenseResolvent`);
 ``surrogate``
     larger models with a finite band: the Galerkin surrogate of
-    :class:`flexmor.analysis.surrogate.Surrogate` (the modes up to 1.1 ``fmax``, static and
+    :class:`flexmor.dynamics.surrogate.Surrogate` (the modes up to 1.1 ``fmax``, static and
     Krylov vectors of the modal pre-pass's factorization, rational Krylov enrichment by direct
     solves), built for the right-hand sides ``[B, C^T]`` with the *state* as output, so its
     checks measure ``||X(w) - V x(w)||_F / ||X(w)||_F``. The candidates of its greedy checks
@@ -100,8 +100,8 @@ class _Dense:
 class _Projected:
     """Solutions of the verified surrogate of the state (see the module docstring)."""
 
-    def __init__(self, work, rhs, nodes_hz, modes, resonances, zeta, solver):
-        from ..analysis.surrogate import Surrogate
+    def __init__(self, work, rhs, nodes_hz, modes, solver):
+        from ..dynamics.surrogate import Surrogate
         from ..ports import Ports
 
         phi, F, sigma = modes
@@ -111,7 +111,7 @@ class _Projected:
                       output_names=[""] * n)
         band = (float(nodes_hz.min()), float(nodes_hz.max()))
         sur = Surrogate(work, state, band, phi=phi, factorization=F, sigma=sigma, solver=solver,
-                        tol=SURROGATE_GRAMIAN_TOL, resonances=resonances, zeta=zeta, candidates=nodes_hz)
+                        tol=SURROGATE_GRAMIAN_TOL, candidates=nodes_hz)
         check = sur.verify(nodes_hz)
         sur.release()
         self.sur, self.V = sur, sur.V
@@ -126,8 +126,7 @@ class _Projected:
         return self.sur.reduced_solution(w)
 
 
-def projected_factors(solves: str, work, rhs, m: int, wk, wt, *, side: str, rigid_modes, modes, resonances, zeta,
-                      solver, store):
+def projected_factors(solves: str, work, rhs, m: int, wk, wt, *, side: str, rigid_modes, modes, solver, store):
     """Quadrature factors ``R, Rv, L`` from the ``dense`` or ``surrogate`` solves.
 
     Parameters
@@ -146,8 +145,6 @@ def projected_factors(solves: str, work, rhs, m: int, wk, wt, *, side: str, rigi
         M-orthonormal rigid-body modes removed from the solutions.
     modes : tuple
         ``(phi, factorization, sigma)`` of the modal pre-pass (surrogate solves).
-    resonances, zeta : ndarray
-        Resonances (Hz) and damping ratios (the surrogate's candidate points).
     solver : SolverContext
     store : callable
         ``store(n, limit)`` -> an empty factor store (:class:`flexmor.reduction.gramians._FactorStore`).
@@ -160,7 +157,7 @@ def projected_factors(solves: str, work, rhs, m: int, wk, wt, *, side: str, rigi
         ``solves``, ``order`` of the basis and, for the surrogate, its checks and residuals.
     """
     basis = (_Dense(work, rhs) if solves == "dense"
-             else _Projected(work, rhs, wk / (2 * math.pi), modes, resonances, zeta, solver))
+             else _Projected(work, rhs, wk / (2 * math.pi), modes, solver))
     V = basis.V
     if rigid_modes is not None and rigid_modes.shape[1]:
         V = V - rigid_modes @ (rigid_modes.T @ (work.M @ V))

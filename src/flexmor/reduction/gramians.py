@@ -434,8 +434,7 @@ def gramian_factors(model, ports, band=(0.0, math.inf), *, side: str = "both", n
     if chosen != "direct":
         try:
             R, Rv, L, sinfo = projected_factors(chosen, work, rhs, m, wk, wt, side=side, rigid_modes=rigid_modes,
-                                                modes=pre, resonances=f_res, zeta=z, solver=solver,
-                                                store=_FactorStore)
+                                                modes=pre, solver=solver, store=_FactorStore)
         except ModelError as exc:  # e.g. non-proportional damping of a small model
             log.info("Gramian solves: %s not applicable (%s), direct solves", chosen, exc)
             chosen = "direct"

@@ -1,4 +1,4 @@
-"""A verified surrogate of the full model's FRF for large models.
+"""A verified surrogate of the full model's responses for large models.
 
 A direct sweep costs one sparse complex factorization per grid point, and the adaptive grid
 of a band with tens of resonances has a thousand points or more. The surrogate replaces
@@ -46,12 +46,11 @@ import numpy as np
 import scipy.linalg as sla
 
 from ..basis import extend_orthonormal
-from ..dynamics.frf import ShiftedMatrices, angular_frequency
+from .frf import ShiftedMatrices, angular_frequency
 from ..errors import check_choice
 from ..linalg import factorize
 from ..linalg.backends import MEMORY_FRACTION, memory_available
 from ..linalg.context import SolverContext, as_solver
-from .grid import initial_grid
 
 __all__ = ["Surrogate", "DEFAULT_SURROGATE_TOL"]
 
@@ -101,15 +100,14 @@ class Surrogate:
         How the checks solve the full model: a complex factorization, or the iterative solver
         on the pre-pass factorization; ``auto`` is direct when twice the memory of the
         pre-pass factorization fits into the available memory.
-    resonances, zeta : array_like, optional
-        Resonances and damping ratios, for candidate points at the peaks.
-    candidates : array_like, optional
-        Frequencies (Hz) of the greedy checks; default 400 points over the band and its peaks.
+    candidates : array_like
+        Frequencies (Hz) where the greedy checks look for the largest residual (e.g. the error
+        grid's initial points over the band and its peaks, or a quadrature's nodes).
     """
 
     def __init__(self, model, ports, band, *, phi, factorization=None, sigma=0.0, solver: SolverContext | None = None,
                  tol: float = DEFAULT_SURROGATE_TOL, n_krylov: int = 3, max_checks: int = 10,
-                 resonances=None, zeta=None, check_solver: str = "auto", candidates=None):
+                 check_solver: str = "auto", candidates):
         check_choice("check_solver", check_solver, CHECK_SOLVERS)
         solver = as_solver(solver)
         self.model, self.solver, self.tol = model, solver, float(tol)
@@ -127,8 +125,7 @@ class Surrogate:
             blocks.append(F0.solve(model.M @ blocks[-1]))
         self._set_basis(np.hstack(blocks))
         self.checks = []
-        cand = (initial_grid(*band, n=400, resonances=resonances, zeta=zeta) if candidates is None
-                else np.unique(np.asarray(candidates, float)))
+        cand = np.unique(np.asarray(candidates, float))
         passed = 0
         while passed < 2 and len(self.checks) < max_checks and cand.size:
             res = self.residual(cand)
