@@ -442,9 +442,9 @@ def krylov(model, ports, order, *, points=None, moments: int | None = None, side
 def _basis_at(model, ports, pts, order, moments, b, head, side, solver, phi, cache):
     """The merged basis at the points ``pts``: ``(V, moments per point, points used)``.
 
-    ``cache`` maps a point to its blocks (and ``s``) from an earlier call; a point's blocks
-    are nested moment by moment, so a call that needs fewer moments reuses them (no new
-    factorization).
+    ``cache`` maps a point to its blocks, ``s`` and moments from an earlier call; a point's
+    blocks are nested moment by moment, so a call that needs fewer moments reuses their leading
+    ``moments * b`` columns' worth (no new factorization).
     """
     per_round = sum(b * (1 if p.imag == 0 else 2) for p in pts)
     k = int(moments) if moments is not None else math.ceil(order / per_round)
@@ -454,7 +454,9 @@ def _basis_at(model, ports, pts, order, moments, b, head, side, solver, phi, cac
             if p not in cache or cache[p][2] < k:
                 got, s = blocks_at_points(model, ports, [p], k, side=side, solver=solver, rigid_modes=phi)
                 cache[p] = (got[0], s[0], k)
-            blocks.append(cache[p][0][:k])
+            share = k * b * (1 if p.imag == 0 else 2)  # columns of the point (see _point_blocks)
+            cols = np.cumsum([bl.shape[1] for bl in cache[p][0]])
+            blocks.append(cache[p][0][:int(np.searchsorted(cols, share)) + 1])
             used.append(cache[p][1])
         V = merge_blocks(head + blocks, order, orthonormal=not head)
         exhausted = all(len(bl) < k for bl in blocks)
