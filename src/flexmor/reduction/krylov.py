@@ -322,13 +322,13 @@ class KrylovOptions:
     """Options of :func:`krylov`."""
 
     points: str | None = points_option()
-    points_tol: float = option(POINTS_TOL, "largest estimated band error of the default single point; above it "
-                               "the band's outer default points are added", parse=float)
     moments: int | None = option(None, "moments (blocks) per expansion point (default: as many as the order needs)",
                                  parse=int)
     side: str = side_option()
     band: Band | None = band_option("the default expansion points")
     rigid: str = rigid_option()
+    points_tol: float = option(POINTS_TOL, "largest estimated band error of the default single point; above it "
+                               "the band's outer default points are added", parse=float)
 
 
 @register_method("krylov", "second-order block Krylov moment matching at expansion points", options=KrylovOptions)
