@@ -65,8 +65,7 @@ from ..options import option
 from .gramian_solves import SOLVES, choose_solves, projected_factors
 
 __all__ = ["GramianFactors", "quadrature_rule", "gramian_factors", "balance", "balance_note", "compress",
-           "truncation_basis",
-           "VARIANTS", "UNDAMPED_ZETA", "variant_option", "nodes_option", "solves_option"]
+           "truncation_basis", "VARIANTS", "UNDAMPED_ZETA", "variant_option", "nodes_option", "solves_option"]
 
 log = logging.getLogger(__name__)
 
