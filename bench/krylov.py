@@ -197,8 +197,8 @@ def main(argv=None) -> int:
         d = o["default"]
         print(f"default point(s) {d['points_hz']} (estimate {d['points_check']['single_point']['estimate']:.1e}): "
               f"basis {d['basis_s']:.2f} s; its {d['factorizations']} factorization(s) {d['factorize_s']:.2f} s + "
-              f"{d['block_solves']} block solves {d['solve_s']:.2f} s: ratio {d['ratio_own']:.2f}; bare factorization + "
-              f"{d['block_solves']} solves {d['bare_s']:.2f} s: ratio {d['ratio_bare']:.2f}")
+              f"{d['block_solves']} block solves {d['solve_s']:.2f} s: ratio {d['ratio_own']:.2f}; "
+              f"bare factorization + {d['block_solves']} solves {d['bare_s']:.2f} s: ratio {d['ratio_bare']:.2f}")
     if args.skip_compare:
         pathlib.Path(args.out).parent.mkdir(parents=True, exist_ok=True)
         pathlib.Path(args.out).write_text(json.dumps(res, indent=1, default=float))

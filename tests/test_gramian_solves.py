@@ -58,7 +58,8 @@ def test_surrogate_solves_report_their_checks(beam, factors):
     model, _ = beam
     info = factors["surrogate"].info["solves"]
     assert info["verified"] is True and info["n_direct_checks"] >= 3
-    assert info["final_check"]["rel_error"] <= SURROGATE_GRAMIAN_TOL and info["max_check_error"] <= SURROGATE_GRAMIAN_TOL
+    assert info["final_check"]["rel_error"] <= SURROGATE_GRAMIAN_TOL
+    assert info["max_check_error"] <= SURROGATE_GRAMIAN_TOL
     assert 0 < info["max_residual_on_grid"] < 1e-2 and info["order"] < model.n_dof // 4
     assert factors["dense"].info["solves"]["order"] == model.n_dof
 
