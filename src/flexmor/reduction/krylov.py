@@ -422,8 +422,8 @@ def krylov(model, ports, order, *, points=None, moments: int | None = None, side
     check = None
     if points is None and order is not None:
         check = {"tol": float(points_tol), "single_point": nested_estimate(model, ports, V, b, band)}
-        if check["single_point"]["estimate"] > float(points_tol):  # the outer two of the three default points
-            pts = np.concatenate([pts, default_points(band)[[0, 2]]])
+        if check["single_point"]["estimate"] > float(points_tol):  # the outer two of the three default points,
+            pts = np.sort_complex(np.concatenate([pts, default_points(band)[[0, 2]]]))  # lowest first, as before
             log.info("krylov: estimated band error %.1e of one point > %.1e: %d points",
                      check["single_point"]["estimate"], points_tol, pts.size)
             V, k, used = _basis_at(model, ports, pts, order, moments, b, head, side, solver, phi, cache)
