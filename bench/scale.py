@@ -10,11 +10,12 @@ tip face, ``TIP_CENTER:x/y/z`` at its centre node):
 * ``modal`` (default order 40),
 * ``craig-bampton`` with the tip face tied to one 6-DOF master by an RBE2 (``TIP@rbe2``; the
   coupling transformation is timed separately) and ``order - 6`` fixed-interface modes,
-* ``krylov`` (default order 200; the default three real expansion points over the band,
+* ``krylov`` (default order 200; the default expansion point: one real point at the band's
+  geometric mean, checked by the estimated band error, three points when the check fails;
   ``--band``, default 1-5000 Hz: about 15 resonances of the 1 m steel cantilever),
 * ``two-step`` (``krylov`` to 200, then balanced truncation to 40 with the band's Gramians),
-* ``krylov-1pt`` (not in the default list): ``krylov`` with one real expansion point at the
-  band's geometric mean, i.e. one factorization and all moments there.
+* ``krylov-1pt`` (not in the default list): ``krylov`` with that one real point given
+  explicitly, i.e. one factorization and all moments there, without the check.
 
 For every method the solver layer's own counters (``SolverContext.stats``)
 give the number and time of its factorizations and of its block solves. ``ratio`` is the

@@ -10,7 +10,9 @@ For each built-in cantilever (Rayleigh 0 / 1e-6, inputs and outputs TIP:y, TIP:z
    plus the FRF on the grid, skipped above ``--dense-max`` DOF;
 3. :class:`flexmor.analysis.compare.FullResponse` with ``path="dense"`` (where it applies) and
    the grid size ``n_points``; the sparse sweep's cost is ``n_points`` factorizations
-   (measured on ``--sweep-points`` of them, extrapolated), plus the modal pre-pass.
+   (measured on ``--sweep-points`` of them, extrapolated), plus the modal pre-pass;
+4. ``FullResponse`` with ``path="surrogate"`` (modal pre-pass, verified projection), its
+   time and its largest relative difference from the dense FRF on the grid.
 
 Every time is also given as a ratio to the unit of step 1, which is what carries over between
 machines and loads. Results go to ``bench/results/small_frf.json``.
@@ -65,6 +67,15 @@ def run(dofs: int, band, dense_max: int, sweep_points: int) -> dict:
         full = FullResponse(model, ports, band, path="surrogate", cache=False)
         freqs = full.freqs
         out["n_points"] = int(freqs.size)
+    t = time.perf_counter()
+    sur = FullResponse(model, ports, band, path="surrogate", cache=False)
+    out["surrogate_full_frf_s"] = time.perf_counter() - t
+    out["surrogate_in_factorizations"] = out["surrogate_full_frf_s"] / unit
+    if model.n_dof <= dense_max:
+        Hs = sur.surrogate.frf(freqs)
+        out["max_rel_diff_surrogate_vs_dense"] = float(np.max(
+            np.linalg.norm((Hs - full.H).reshape(freqs.size, -1), axis=1)
+            / np.linalg.norm(full.H.reshape(freqs.size, -1), axis=1)))
     sample = freqs[np.linspace(0, freqs.size - 1, min(sweep_points, freqs.size)).astype(int)]
     t = time.perf_counter()
     H_direct = frf_full(model, ports, sample)

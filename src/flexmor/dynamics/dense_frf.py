@@ -36,7 +36,8 @@ __all__ = ["DENSE_FRF_MAX_DOF", "PROPORTIONAL_TOL", "STATE_COND_MAX", "DenseReso
 
 log = logging.getLogger(__name__)
 
-#: Largest model (DOF) whose full FRF and band Gramians take the dense path under ``auto``.
+#: Largest model (DOF) whose full FRF takes the dense path under ``auto`` (damped models above
+#: :data:`flexmor.analysis.compare.SURROGATE_MIN_DOF` DOF take the cheaper verified surrogate).
 #: Measured (``bench/small_frf.py``, cantilever, band 1-5000 Hz, 2 cores): the dense path costs
 #: as much as 58 sparse complex factorizations at 540 DOF and 449 at 3,000 DOF, while the sweep
 #: on the same grid spends ~930-1,000; the dense cost grows ~n^3 against ~n^1.5 of one
@@ -140,8 +141,9 @@ class DenseResolvent:
             left = (left / self._s) @ self._Vtop
         return left, right
 
-    def _g(self, w):
-        """Pole factors ``g_k(w)``, shape (len(w), k)."""
+    def pole_factors(self, w):
+        """Pole factors ``g_k(w)`` at the angular frequencies ``w``, shape (len(w), k); for the
+        ``modal`` kind ``X(w) = phi diag(g(w)) phi^T rhs``."""
         w = np.asarray(w, float)[:, None]
         if self.kind == "modal":
             return 1.0 / (self.lam[None, :] - w ** 2 + 1j * w * self._d[None, :])
@@ -151,7 +153,7 @@ class DenseResolvent:
         """``(K - w^2 M + i w D)^{-1} rhs`` at one angular frequency ``w``, shape like ``rhs``, complex."""
         rhs = _dense(rhs)
         left, right = self._factors(rhs)
-        return left @ (self._g([w])[0][:, None] * right)
+        return left @ (self.pole_factors([w])[0][:, None] * right)
 
     def frf(self, w, B, C) -> np.ndarray:
         """``C (K - w^2 M + i w D)^{-1} B`` at angular frequencies ``w``, shape (n_freq, n_outputs, n_inputs)."""
@@ -159,7 +161,7 @@ class DenseResolvent:
         left, right = self._factors(_dense(B), C)
         H = np.empty((w.size, left.shape[0], right.shape[1]), dtype=complex)
         for i in range(0, w.size, _CHUNK):
-            H[i:i + _CHUNK] = np.einsum("pk,fk,km->fpm", left, self._g(w[i:i + _CHUNK]), right, optimize=True)
+            H[i:i + _CHUNK] = np.einsum("pk,fk,km->fpm", left, self.pole_factors(w[i:i + _CHUNK]), right, optimize=True)
         return H
 
 

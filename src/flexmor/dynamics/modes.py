@@ -60,7 +60,7 @@ def modes_below(model, fmax: float, solver: SolverContext, max_modes: int = 400)
         Mass-normalized modes.
     F : Factorization or None
         The factorization of ``K - sigma M`` (None for small dense problems), reused by the
-        surrogate of :mod:`flexmor.analysis.surrogate`.
+        surrogate of :mod:`flexmor.dynamics.surrogate`.
     sigma : float
         Its shift.
     """

@@ -25,8 +25,8 @@ from ..options import Band, band_option, option
 from . import register_method
 from .dense_gramians import dense_gramians, psd_factor
 from .free_body import rigid_head
-from .gramians import (VARIANTS, _regularized, balance, balance_note, gramian_factors, nodes_option, truncation_basis,
-                       variant_option)
+from .gramians import (VARIANTS, _regularized, balance, balance_note, gramian_factors, nodes_option, solves_option,
+                       truncation_basis, variant_option)
 from .krylov import rigid_option
 
 __all__ = ["sobt", "fw_sobt", "balanced_basis", "SobtOptions", "FwSobtOptions"]
@@ -38,7 +38,8 @@ N_REPORTED = 40
 
 
 def balanced_basis(model, ports, order, band, *, method: str, variant: str = "position", nodes: int = 4,
-                   cutoff=None, rigid: str = "include", solver: SolverContext | None = None) -> Basis:
+                   cutoff=None, rigid: str = "include", solves: str = "auto",
+                   solver: SolverContext | None = None) -> Basis:
     """Shared body of ``sobt`` and ``fw-sobt``: Gramian factors over ``band``, balancing, basis."""
     solver = as_solver(solver)
     check_choice("variant", variant, VARIANTS)
@@ -50,10 +51,11 @@ def balanced_basis(model, ports, order, band, *, method: str, variant: str = "po
     n_flex = order - head.shape[1]
     if n_flex < 1:
         raise OptionError(f"order {order} leaves no room next to {head.shape[1]} rigid-body modes", params=("order",))
-    if math.isinf(band[1]) and band[0] == 0 and model.n_dof <= DENSE_LIMIT:
+    if math.isinf(band[1]) and band[0] == 0 and model.n_dof <= DENSE_LIMIT and solves == "auto":
         R, L, ginfo = _dense_factors(model, ports, variant)  # small body: exact Lyapunov solutions
     else:
-        G = gramian_factors(model, ports, band, nodes=nodes, cutoff=cutoff, solver=solver, rigid_modes=phi)
+        G = gramian_factors(model, ports, band, nodes=nodes, cutoff=cutoff, solver=solver, rigid_modes=phi,
+                            solves=solves)
         R, L, ginfo = G.controllability(variant), G.L, G.info
     T, sigma = balance(R, L, model.M, n_flex)
     V = truncation_basis(np.hstack([head, T]), model.M)
@@ -88,12 +90,13 @@ class SobtOptions:
     cutoff: float | None = option(None, "large models: resonances up to CUTOFF Hz get their own quadrature cell "
                                   "(default 10 FMAX)", parse=float)
     rigid: str = rigid_option()
+    solves: str = solves_option()
 
 
 @register_method("sobt", "second-order balanced truncation, full-band Gramians (low rank)", options=SobtOptions,
                  survives_coupling=False)
 def sobt(model, ports, order, *, variant: str = "position", nodes: int = 4, band=None, cutoff: float | None = None,
-         rigid: str = "include", solver: SolverContext | None = None) -> Basis:
+         rigid: str = "include", solves: str = "auto", solver: SolverContext | None = None) -> Basis:
     """Second-order balanced truncation with full-band (``[0, inf)``) Gramians.
 
     Parameters
@@ -121,6 +124,10 @@ def sobt(model, ports, order, *, variant: str = "position", nodes: int = 4, band
     rigid : {'include', 'exclude'}
         Free bodies: the rigid-body modes excited by the inputs lead the basis (include) or
         are left to the floating frame (exclude); the Gramians are those of the flexible part.
+    solves : {'auto', 'direct', 'dense', 'surrogate'}
+        How the quadrature nodes are solved (:func:`flexmor.reduction.gramians.gramian_factors`):
+        ``auto`` is the exact dense Lyapunov solution up to 600 DOF, the exact modal form up to
+        :data:`~flexmor.reduction.gramian_solves.DENSE_GRAMIAN_MAX_DOF` DOF, else ``direct``.
     solver : SolverContext, optional
         Solver (backend, statistics) of :func:`flexmor.linalg.factorize` (one complex factorization per node).
 
@@ -142,7 +149,7 @@ def sobt(model, ports, order, *, variant: str = "position", nodes: int = 4, band
     if cutoff is None and model.n_dof > 600:
         cutoff = 10.0 * Band.of(band).fmax
     return balanced_basis(model, ports, order, (0.0, math.inf), method="sobt", variant=variant, nodes=nodes,
-                          cutoff=cutoff, rigid=rigid, solver=solver)
+                          cutoff=cutoff, rigid=rigid, solves=solves, solver=solver)
 
 
 @dataclass(frozen=True)
@@ -153,12 +160,13 @@ class FwSobtOptions:
     variant: str = variant_option()
     nodes: int = nodes_option()
     rigid: str = rigid_option()
+    solves: str = solves_option()
 
 
 @register_method("fw-sobt", "second-order balanced truncation, frequency-limited Gramians of the band",
                  options=FwSobtOptions, survives_coupling=False)
 def fw_sobt(model, ports, order, *, band=None, variant: str = "position", nodes: int = 4, rigid: str = "include",
-            solver: SolverContext | None = None) -> Basis:
+            solves: str = "auto", solver: SolverContext | None = None) -> Basis:
     """Frequency-limited second-order balanced truncation over the band of interest.
 
     The Gramians are the integrals of ``Re(X X^H)`` over ``band`` only (Gawronski & Juang),
@@ -179,6 +187,11 @@ def fw_sobt(model, ports, order, *, band=None, variant: str = "position", nodes:
         Gauss points per panel of the quadrature (see :func:`sobt`).
     rigid : {'include', 'exclude'}
         See :func:`sobt`.
+    solves : {'auto', 'direct', 'dense', 'surrogate'}
+        How the quadrature nodes are solved (:func:`flexmor.reduction.gramians.gramian_factors`):
+        ``auto`` is the exact modal form up to
+        :data:`~flexmor.reduction.gramian_solves.DENSE_GRAMIAN_MAX_DOF` DOF and a verified surrogate
+        above (reported in ``info['solves']``); ``direct`` is one complex factorization per node.
     solver : SolverContext, optional
         Solver (backend, statistics) of :func:`flexmor.linalg.factorize`.
 
@@ -200,4 +213,4 @@ def fw_sobt(model, ports, order, *, band=None, variant: str = "position", nodes:
     """
     solver = as_solver(solver)
     return balanced_basis(model, ports, order, Band.of(band), method="fw-sobt", variant=variant, nodes=nodes,
-                          rigid=rigid, solver=solver)
+                          rigid=rigid, solves=solves, solver=solver)

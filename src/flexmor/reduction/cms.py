@@ -28,7 +28,7 @@ from ..options import Band, band_option
 from ..ports import Ports
 from . import register_method
 from .craig_bampton import cb_frame, cb_order_note
-from .gramians import nodes_option, variant_option
+from .gramians import nodes_option, solves_option, variant_option
 from .guyan import interface_option
 from .krylov import points_option, rigid_option
 
@@ -111,7 +111,7 @@ def cms_krylov(model, ports, order, *, interface=None, band=None, points=None, r
     interface : list of str
         Interface SPECs (``NODE``, ``SET``, ``NODE:DIR``, ``SET:DIR``).
     band : (float, float), optional
-        Band (Hz) of the default Krylov points (three real points; default 1:1000).
+        Band (Hz) of the default Krylov point (see :func:`flexmor.reduction.krylov.krylov`; default 1:1000).
     points : str, optional
         Krylov expansion points (Hz), see :func:`flexmor.reduction.krylov.parse_points`.
     rigid : {'exclude', 'include'}
@@ -156,12 +156,13 @@ class CmsGramianOptions:
     variant: str = variant_option()
     nodes: int = nodes_option()
     rigid: str = rigid_option("exclude")
+    solves: str = solves_option()
 
 
 @register_method("cms-gramian", "constraint modes + balanced (frequency-limited Gramian) vectors of the "
                  "fixed-interface body", options=CmsGramianOptions, survives_coupling=False)
 def cms_gramian(model, ports, order, *, interface=None, band=None, variant: str = "position", nodes: int = 4,
-                rigid: str = "exclude", solver: SolverContext | None = None) -> Basis:
+                rigid: str = "exclude", solves: str = "auto", solver: SolverContext | None = None) -> Basis:
     """Craig-Bampton with frequency-limited balanced vectors of the fixed-interface body.
 
     The internal vectors are the leading right balancing vectors of the fixed-interface body
@@ -184,6 +185,8 @@ def cms_gramian(model, ports, order, *, interface=None, band=None, variant: str 
     rigid : {'exclude', 'include'}
         Free bodies: remove the rigid motions that the constraint modes span (default), as for
         :func:`flexmor.reduction.craig_bampton.craig_bampton`.
+    solves : {'auto', 'direct', 'dense', 'surrogate'}
+        How the quadrature nodes are solved (see :func:`flexmor.reduction.balanced.fw_sobt`).
     solver : SolverContext, optional
         Solver (backend, statistics) of :func:`flexmor.linalg.factorize`.
 
@@ -208,6 +211,6 @@ def cms_gramian(model, ports, order, *, interface=None, band=None, variant: str 
 
     def internal(sub, sub_ports, n):
         return balanced_basis(sub, sub_ports, n, Band.of(band), method="cms-gramian",
-                              variant=variant, nodes=nodes, rigid="exclude", solver=solver)
+                              variant=variant, nodes=nodes, rigid="exclude", solves=solves, solver=solver)
 
     return _cms(model, ports, order, interface, "cms-gramian", internal, solver, rigid)

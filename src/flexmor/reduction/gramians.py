@@ -20,8 +20,10 @@ rule converges exponentially: doubling ``nodes`` changes the Gramian by round-of
 peaks are resolved. Resonances and damping ratios come from the modal pre-pass of
 :mod:`flexmor.dynamics.modes`. Each node costs one complex symmetric factorization of
 ``K - w^2 M + i w D`` (:func:`flexmor.linalg.factorize`) and one block solve with
-``[B, C^T]``; the factors ``P ≈ R R^T`` have ``2 (m + p)`` columns per node before column
-compression and no N x N matrix is ever formed.
+``[B, C^T]`` on the direct path; small models and finite bands get the same solves from the
+exact modal form or a verified surrogate instead (:mod:`flexmor.reduction.gramian_solves`).
+The factors ``P ≈ R R^T`` have ``2 (m + p)`` columns per node before column compression and
+no N x N matrix is ever formed.
 
 **Undamped models** (``D`` is None): the integrand has poles ``1/(w - w_k)^2`` at the
 resonances, so a Gramian over a band that contains one is infinite. The Gramians are then
@@ -55,15 +57,15 @@ from ..basis import orthonormalize
 from ..dynamics.frf import ShiftedMatrices
 from ..dynamics.modes import modal_damping_ratios, modes_below
 from ..damping import band_matched
-from ..errors import OptionError, check_choice
+from ..errors import ModelError, OptionError, check_choice
 from ..linalg import factorize
 from ..linalg.context import SolverContext, as_solver
-from ..linalg.eigen import DENSE_LIMIT, eigenmodes, frequencies_hz, is_rigid
+from ..linalg.eigen import DENSE_LIMIT, default_shift, eigenmodes, frequencies_hz, is_rigid
 from ..options import option
+from .gramian_solves import SOLVES, choose_solves, projected_factors
 
 __all__ = ["GramianFactors", "quadrature_rule", "gramian_factors", "balance", "balance_note", "compress",
-           "truncation_basis",
-           "VARIANTS", "UNDAMPED_ZETA", "variant_option", "nodes_option"]
+           "truncation_basis", "VARIANTS", "UNDAMPED_ZETA", "variant_option", "nodes_option", "solves_option"]
 
 log = logging.getLogger(__name__)
 
@@ -74,6 +76,12 @@ VARIANTS = ("position", "velocity")
 def variant_option():
     """The ``variant`` option: balance the position or the velocity controllability Gramian."""
     return option("position", "balance position or velocity Gramians", choices=VARIANTS)
+
+
+def solves_option():
+    """The ``solves`` option: how the quadrature nodes are solved (see :func:`gramian_factors`)."""
+    return option("auto", "solves at the quadrature nodes: direct (one factorization each), dense (exact modal "
+                  "form, small models), surrogate (verified reduced model, finite band) or auto", choices=SOLVES)
 
 
 def nodes_option():
@@ -266,25 +274,30 @@ def quadrature_rule(lo: float, hi: float, centres=(), widths=(), *, nodes: int =
 
 
 def _resonances(model, fmax: float, solver: SolverContext):
-    """Eigenfrequencies (Hz), damping ratios and rigid-body modes for the quadrature cells.
+    """Eigenfrequencies (Hz), damping ratios and the modal pre-pass for the quadrature cells.
 
     Small models (``n_dof <= DENSE_LIMIT``): all modes. Larger: the modal pre-pass of
-    :func:`flexmor.dynamics.modes.modes_below` up to ``fmax`` (finite).
+    :func:`flexmor.dynamics.modes.modes_below` up to ``fmax`` (finite). Returns
+    ``(f, zeta, (phi, factorization, sigma))``: the pre-pass's modes (rigid-body modes
+    included) and factorization of ``K - sigma M`` (None for small models), reused by the
+    surrogate solves of :mod:`flexmor.reduction.gramian_solves`.
     """
     if model.n_dof <= DENSE_LIMIT:
         lam, phi = eigenmodes(model.K, model.M, model.n_dof, solver=solver)
         f = frequencies_hz(lam)
-        rigid = is_rigid(lam, model.K, model.M)
-        keep = ~rigid & (f <= fmax)
+        keep = f <= fmax
+        pre = (phi[:, keep], None, default_shift(model.K, model.M))
+        keep &= ~is_rigid(lam, model.K, model.M)
         f_all, phi_all = f[keep], phi[:, keep]
     else:
         if math.isinf(fmax):
             raise OptionError("the Gramian of a large model needs a finite cutoff frequency")
-        f_all, phi_all, _, _ = modes_below(model, fmax, solver)
+        f_all, phi_all, F, sigma = modes_below(model, fmax, solver)
+        pre = (phi_all, F, sigma)
         f_all, phi_all = f_all[f_all > 0], phi_all[:, f_all > 0]
     z = modal_damping_ratios(model.damping, f_all, phi_all, model.D) if model.D is not None else None
     z = np.zeros(f_all.size) if z is None else np.asarray(z, float)
-    return f_all, z
+    return f_all, z, pre
 
 
 def _regularized(model, band_hz, f_res):
@@ -356,7 +369,7 @@ class _FactorStore:
 
 def gramian_factors(model, ports, band=(0.0, math.inf), *, side: str = "both", nodes: int = 4, panels: int = 1,
                     cutoff: float | None = None, solver: SolverContext | None = None, rigid_modes=None,
-                    max_columns: int | None = None) -> GramianFactors:
+                    max_columns: int | None = None, solves: str = "auto") -> GramianFactors:
     """Low-rank factors of the (frequency-limited) second-order Gramians by quadrature.
 
     Parameters
@@ -381,7 +394,13 @@ def gramian_factors(model, ports, band=(0.0, math.inf), *, side: str = "both", n
         Each factor is column-compressed (:func:`compress`) before it exceeds this many
         columns; default :func:`factor_store_columns` of ``N``, so the three factors stay
         below ``min(1 GiB, 1 % of 8 N^2)`` unless their numerical rank needs more (then the
-        limit doubles).
+        limit doubles; direct path).
+    solves : {'auto', 'direct', 'dense', 'surrogate'}
+        How the solves at the quadrature nodes are done (:mod:`flexmor.reduction.gramian_solves`):
+        one complex factorization per node, the exact modal form of a small model, or a verified
+        surrogate (finite band); ``auto`` takes ``dense`` up to
+        :data:`~flexmor.reduction.gramian_solves.DENSE_GRAMIAN_MAX_DOF` DOF, ``surrogate`` above for a
+        finite band, else ``direct``. ``info['solves']`` reports the choice and its checks.
 
     Returns
     -------
@@ -395,7 +414,8 @@ def gramian_factors(model, ports, band=(0.0, math.inf), *, side: str = "both", n
     if int(nodes) < 1 or int(panels) < 1:
         raise OptionError(f"nodes and panels must be positive integers, got {nodes}, {panels}")
     fcut = cutoff if cutoff is not None else (fmax if math.isfinite(fmax) else max(10 * fmin, 1e4))
-    f_res, z = _resonances(model, max(fcut, fmin), solver)
+    chosen = choose_solves(solves, model, fmax)
+    f_res, z, pre = _resonances(model, max(fcut, fmin), solver)
     work, damping = _regularized(model, (fmin, fmax), f_res)
     if model.D is None:
         z = modal_damping_ratios(work.damping, f_res)
@@ -408,10 +428,31 @@ def gramian_factors(model, ports, band=(0.0, math.inf), *, side: str = "both", n
     B = ports.B.toarray()
     m = B.shape[1]
     rhs = np.hstack([B, ports.C.T.toarray()]) if side == "both" else B
-    A = ShiftedMatrices(work.K, work.M, work.D)
     limit = int(max_columns) if max_columns is not None else factor_store_columns(model.n_dof)
-    stores = [_FactorStore(model.n_dof, limit) for _ in range(3 if side == "both" else 2)]
-    for k, (w, weight) in enumerate(zip(wk, wt)):
+    sinfo, stores = {"solves": "direct"}, []
+    if chosen != "direct":
+        try:
+            R, Rv, L, sinfo = projected_factors(chosen, work, rhs, m, wk, wt, side=side, rigid_modes=rigid_modes,
+                                                modes=pre, solver=solver, store=_FactorStore)
+        except ModelError as exc:  # e.g. non-proportional damping of a small model
+            log.info("Gramian solves: %s not applicable (%s), direct solves", chosen, exc)
+            chosen = "direct"
+    if chosen == "direct":
+        stores = [_FactorStore(model.n_dof, limit) for _ in range(3 if side == "both" else 2)]
+        R, Rv, L = _direct_factors(work, rhs, m, wk, wt, rigid_modes, stores, solver)
+    info = {"band_hz": [fmin, fmax], "n_nodes": int(wk.size), "nodes_per_panel": int(nodes), "panels": int(panels),
+            "n_resonances": int(np.sum((f_res >= fmin) & (f_res <= fmax))), "cutoff_hz": float(fcut),
+            "gramian_damping": damping, "rank_R": int(R.shape[1]), "factor_columns_limit": limit,
+            "factor_columns_peak": max((st.peak for st in stores), default=0),
+            "compressions": sum(st.compressions for st in stores), "solves": sinfo}
+    log.info("Gramian factors: %d quadrature nodes, rank %d", wk.size, R.shape[1])
+    return GramianFactors(R, Rv, L, wk / (2 * math.pi), wt, info)
+
+
+def _direct_factors(work, rhs, m, wk, wt, rigid_modes, stores, solver):
+    """The direct path: one complex factorization per quadrature node, factors in ``stores``."""
+    A = ShiftedMatrices(work.K, work.M, work.D)
+    for w, weight in zip(wk, wt):
         F = factorize(A(w), solver=solver, symmetric=True, check=False)
         X = F.solve(rhs)
         del F
@@ -421,17 +462,9 @@ def gramian_factors(model, ports, band=(0.0, math.inf), *, side: str = "both", n
         Xr = s * np.hstack([X[:, :m].real, X[:, :m].imag])
         stores[0].add(Xr)
         stores[1].add(w * Xr)
-        if side == "both":
+        if len(stores) == 3:
             stores[2].add(s * np.hstack([X[:, m:].real, X[:, m:].imag]))
-    R, Rv = stores[0].result(), stores[1].result()
-    L = stores[2].result() if side == "both" else None
-    info = {"band_hz": [fmin, fmax], "n_nodes": int(wk.size), "nodes_per_panel": int(nodes), "panels": int(panels),
-            "n_resonances": int(np.sum((f_res >= fmin) & (f_res <= fmax))), "cutoff_hz": float(fcut),
-            "gramian_damping": damping, "rank_R": int(R.shape[1]), "factor_columns_limit": limit,
-            "factor_columns_peak": max(st.peak for st in stores),
-            "compressions": sum(st.compressions for st in stores)}
-    log.info("Gramian factors: %d quadrature nodes, rank %d", wk.size, R.shape[1])
-    return GramianFactors(R, Rv, L, wk / (2 * math.pi), wt, info)
+    return stores[0].result(), stores[1].result(), stores[2].result() if len(stores) == 3 else None
 
 
 def balance(R: np.ndarray, L: np.ndarray, M, order: int):

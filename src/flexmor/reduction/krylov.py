@@ -35,6 +35,7 @@ from ..linalg.threads import blas_threads
 from ..options import Band, band_option, option
 from . import register_method
 from .free_body import rigid_body_modes
+from .krylov_check import POINTS_TOL, nested_estimate
 
 __all__ = ["krylov", "KrylovOptions", "parse_points", "default_points", "SecondOrderArnoldi", "start_block",
            "rigid_body_modes", "points_option", "side_option", "rigid_option"]
@@ -48,10 +49,11 @@ RIGID = ("include", "exclude")
 DEFLATION_TOL = 1e-10
 
 
-def points_option(what: str = "expansion points"):
+def points_option(what: str = "expansion points", default: str = "krylov's (one real point at the band's geometric "
+                  "mean, checked by points_tol)"):
     """The ``points`` option (text or numbers in Hz, :func:`parse_points`) of the Krylov-based methods."""
-    return option(None, f"{what} in Hz, s = 2 pi p: 0, 300j (frequency axis), -5 (real); default three real "
-                  "points over the band", metavar="P1,P2")
+    return option(None, f"{what} in Hz, s = 2 pi p: 0, 300j (frequency axis), -5 (real); default {default}",
+                  metavar="P1,P2")
 
 
 def side_option(default: str = "input", choices=SIDES):
@@ -325,11 +327,14 @@ class KrylovOptions:
     side: str = side_option()
     band: Band | None = band_option("the default expansion points")
     rigid: str = rigid_option()
+    points_tol: float = option(POINTS_TOL, "largest estimated band error of the default single point; above it "
+                               "the band's outer default points are added", parse=float)
 
 
 @register_method("krylov", "second-order block Krylov moment matching at expansion points", options=KrylovOptions)
 def krylov(model, ports, order, *, points=None, moments: int | None = None, side: str = "input",
-           band=None, rigid: str = "include", solver: SolverContext | None = None) -> Basis:
+           band=None, rigid: str = "include", points_tol: float = POINTS_TOL,
+           solver: SolverContext | None = None) -> Basis:
     """Second-order block Krylov (moment matching) basis at one or several expansion points.
 
     Parameters
@@ -344,7 +349,13 @@ def krylov(model, ports, order, *, points=None, moments: int | None = None, side
         Expansion points in Hz, ``s = 2 pi p`` (see :func:`parse_points`): ``"0"`` is the
         classic static point, ``"300j"`` interpolates at 300 Hz on the frequency axis (complex
         solve; contributes real and imaginary parts), real positive points are cheap and
-        safe for free bodies. Default: :func:`default_points` (three real points over ``band``).
+        safe for free bodies. Default: one real point at the geometric mean of ``band`` (one
+        factorization), checked by the estimated band error of
+        :func:`flexmor.reduction.krylov_check.nested_estimate`; when the estimate exceeds
+        ``points_tol`` (and ``order`` is given), the basis is rebuilt at three real points
+        (the single point and the outer two of :func:`default_points`; the single point's blocks
+        are reused, so two more factorizations). ``info['points_check']``
+        reports the estimate(s).
     moments : int, optional
         Moments (blocks) per point; default as many as ``order`` needs. A point delivers
         ``moments`` blocks' worth of independent columns: moments that vanish (odd moments
@@ -353,6 +364,8 @@ def krylov(model, ports, order, *, points=None, moments: int | None = None, side
         Krylov space of ``B`` (input), of ``C^T`` (output) or of both.
     band : (float, float), optional
         Band (Hz) for the default points; default (1, 1000).
+    points_tol : float
+        Largest estimated band error of the default single point (see ``points``).
     rigid : {'include', 'exclude'}
         Free bodies (rigid-body modes found from the geometry, :func:`rigid_body_modes`):
         the Krylov vectors are kept M-orthogonal to the rigid-body modes (moments of the
@@ -371,7 +384,8 @@ def krylov(model, ports, order, *, points=None, moments: int | None = None, side
     -------
     Basis
         ``info``: ``points_hz`` (as given), ``points_rad_s`` (used), ``moments``, ``side``,
-        ``n_rigid_excluded``, ``nested`` (its leading columns are the basis of lower order).
+        ``n_rigid_excluded``, ``nested`` (its leading columns are the basis of lower order),
+        ``points_check`` (default points: the estimates and the choice).
 
     References
     ----------
@@ -387,34 +401,68 @@ def krylov(model, ports, order, *, points=None, moments: int | None = None, side
     solver = as_solver(solver)
     check_choice("side", side, SIDES)
     check_choice("rigid", rigid, RIGID)
-    pts = parse_points(points) if points is not None else default_points(Band.of(band))
+    band = Band.of(band)
+    pts = parse_points(points) if points is not None else default_points(band, 1)
     if order is None and moments is None:
         raise OptionError("krylov needs order or moments", params=("order", "moments"))
     if moments is not None and (int(moments) != moments or moments < 1):
         raise OptionError(f"moments must be a positive integer, got {moments}", params=("moments",))
     if order is not None and order > model.n_dof:
         raise OptionError(f"order {order} exceeds the number of DOF {model.n_dof}", params=("order",))
+    if not float(points_tol) > 0:
+        raise OptionError(f"points_tol must be positive, got {points_tol}", params=("points_tol",))
     b = start_block(ports, side).shape[1]
-    per_round = sum(b * (1 if p.imag == 0 else 2) for p in pts)
-    k = int(moments) if moments is not None else math.ceil(order / per_round)
     phi = rigid_body_modes(model)
     head = []
     if phi.shape[1] and rigid == "include":  # the rigid motion the ports excite, first
         w = np.linalg.norm(phi.T @ start_block(ports, side), axis=1)
         head = [[phi[:, w > 1e-8 * w.max(initial=0.0)]]] if w.max(initial=0.0) > 0 else []
-    for _ in range(4):
-        blocks, used = blocks_at_points(model, ports, pts, k, side=side, solver=solver, rigid_modes=phi)
-        V = merge_blocks(head + blocks, order, orthonormal=not head)
-        exhausted = all(len(b) < k for b in blocks)
-        if moments is not None or V.shape[1] >= order or exhausted:
-            break
-        # deflation (e.g. real solutions at points on the frequency axis of an undamped body):
-        # more moments per point fill the order
-        k += math.ceil((order - V.shape[1]) / per_round) + 1
+    cache = {}
+    V, k, used = _basis_at(model, ports, pts, order, moments, b, head, side, solver, phi, cache)
+    check = None
+    if points is None and order is not None:
+        check = {"tol": float(points_tol), "single_point": nested_estimate(model, ports, V, b, band)}
+        if check["single_point"]["estimate"] > float(points_tol):  # the outer two of the three default points,
+            pts = np.sort_complex(np.concatenate([pts, default_points(band)[[0, 2]]]))  # lowest first, as before
+            log.info("krylov: estimated band error %.1e of one point > %.1e: %d points",
+                     check["single_point"]["estimate"], points_tol, pts.size)
+            V, k, used = _basis_at(model, ports, pts, order, moments, b, head, side, solver, phi, cache)
+        check["n_points"] = int(pts.size)
     n_rb = int(phi.shape[1]) if rigid == "exclude" else 0
     if order is not None and V.shape[1] < order:
         log.warning("krylov: only %d independent directions for order %d (deflation)", V.shape[1], order)
     info = {"points_hz": [str(p) for p in pts], "points_rad_s": [str(s) for s in used], "moments": k,
             "side": side, "rigid": rigid, "n_rigid": int(phi.shape[1]), "n_rigid_excluded": n_rb,
             "n_rigid_included": int(head[0][0].shape[1]) if head else 0, "nested": True}
+    if check is not None:
+        info["points_check"] = check
     return Basis(V, "krylov", info)
+
+
+def _basis_at(model, ports, pts, order, moments, b, head, side, solver, phi, cache):
+    """The merged basis at the points ``pts``: ``(V, moments per point, points used)``.
+
+    ``cache`` maps a point to its blocks, ``s`` and moments from an earlier call; a point's
+    blocks are nested moment by moment, so a call that needs fewer moments reuses their leading
+    ``moments * b`` columns' worth (no new factorization).
+    """
+    per_round = sum(b * (1 if p.imag == 0 else 2) for p in pts)
+    k = int(moments) if moments is not None else math.ceil(order / per_round)
+    for _ in range(4):
+        blocks, used = [], []
+        for p in pts:
+            if p not in cache or cache[p][2] < k:
+                got, s = blocks_at_points(model, ports, [p], k, side=side, solver=solver, rigid_modes=phi)
+                cache[p] = (got[0], s[0], k)
+            share = k * b * (1 if p.imag == 0 else 2)  # columns of the point (see _point_blocks)
+            cols = np.cumsum([bl.shape[1] for bl in cache[p][0]])
+            blocks.append(cache[p][0][:int(np.searchsorted(cols, share)) + 1])
+            used.append(cache[p][1])
+        V = merge_blocks(head + blocks, order, orthonormal=not head)
+        exhausted = all(len(bl) < k for bl in blocks)
+        if moments is not None or V.shape[1] >= order or exhausted:
+            break
+        # deflation (e.g. real solutions at points on the frequency axis of an undamped body):
+        # more moments per point fill the order
+        k += math.ceil((order - V.shape[1]) / per_round) + 1
+    return V, k, used

@@ -13,8 +13,8 @@ from ..errors import OptionError, check_choice
 from ..linalg.context import SolverContext, as_solver
 from ..options import Band, band_option, option
 from . import register_method
-from .gramians import compress, gramian_factors, nodes_option
 from .free_body import rigid_head
+from .gramians import compress, gramian_factors, nodes_option, solves_option
 from .krylov import rigid_option, side_option
 
 __all__ = ["pod", "PodOptions", "pod_modes", "SNAPSHOTS"]
@@ -91,12 +91,14 @@ class PodOptions:
     side: str = side_option("input", choices=("input", "both"))
     nodes: int = nodes_option()
     rigid: str = rigid_option()
+    solves: str = solves_option()
 
 
 @register_method("pod", "proper orthogonal decomposition of frequency (and time) snapshots", options=PodOptions,
                  survives_coupling=False)
 def pod(model, ports, order, *, band=None, energy: float | None = None, snapshots: str = "frequency",
-        side: str = "input", nodes: int = 4, rigid: str = "include", solver: SolverContext | None = None) -> Basis:
+        side: str = "input", nodes: int = 4, rigid: str = "include", solves: str = "auto",
+        solver: SolverContext | None = None) -> Basis:
     """POD basis from snapshots of the full body's response.
 
     Frequency snapshots are the solutions ``X(w_k) = (K - w_k^2 M + i w_k D)^{-1} B`` at the
@@ -126,6 +128,8 @@ def pod(model, ports, order, *, band=None, energy: float | None = None, snapshot
         Free bodies: the snapshots are those of the flexible part (M-orthogonal to the rigid-body
         modes); ``include`` puts the rigid-body modes the inputs excite first, ``exclude`` leaves
         them to the floating frame.
+    solves : {'auto', 'direct', 'dense', 'surrogate'}
+        How the frequency snapshots are solved (see :func:`flexmor.reduction.balanced.fw_sobt`).
     solver : SolverContext, optional
         Solver (backend, statistics) of :func:`flexmor.linalg.factorize`.
 
@@ -158,10 +162,10 @@ def pod(model, ports, order, *, band=None, energy: float | None = None, snapshot
     parts, info = [], {"snapshots": snapshots, "band_hz": list(band)}
     if snapshots in ("frequency", "both"):
         G = gramian_factors(model, ports, band, side="both" if side == "both" else "input", nodes=nodes,
-                            solver=solver, rigid_modes=phi)
+                            solves=solves, solver=solver, rigid_modes=phi)
         S = G.R if side == "input" else np.hstack([G.R, G.L])
         parts.append(S)
-        info.update(n_nodes=G.info["n_nodes"], gramian_damping=G.info["gramian_damping"])
+        info.update(n_nodes=G.info["n_nodes"], gramian_damping=G.info["gramian_damping"], solves=G.info["solves"])
     if snapshots in ("time", "both"):
         S, tinfo = _time_snapshots(model, ports, band, solver)
         parts.append(S - phi @ (phi.T @ (model.M @ S)) if phi.shape[1] else S)

@@ -68,7 +68,7 @@ class SvdmorOptions:
     directions: int | None = option(None, "input/output directions kept (default: singular values above 1e-3 of "
                                     "the largest)", parse=int)
     band: Band | None = band_option("the sampling and Krylov points")
-    points: str | None = points_option("sampling and Krylov points")
+    points: str | None = points_option("sampling and Krylov points", "three real points over the band")
     side: str = side_option("both")
     rigid: str = rigid_option()
 
@@ -139,7 +139,7 @@ def svdmor(model, ports, order, *, directions: int | None = None, band=None, poi
     Cc = sp.csr_matrix(U[:, :k_out].T @ ports.C)
     compressed = Ports(B=Bc, C=Cc, input_names=[f"w{j + 1}" for j in range(k_in)],
                        output_names=[f"v{j + 1}" for j in range(k_out)])
-    Kb = krylov(model, compressed, order, points=points, band=band, side=side, rigid=rigid, solver=solver)
+    Kb = krylov(model, compressed, order, points=pts, band=band, side=side, rigid=rigid, solver=solver)
     info = {"directions": [k_in, k_out], "input_sv": s_in.tolist(), "output_sv": s_out.tolist(),
             "discarded_input_sv": s_in[k_in:].tolist(), "discarded_output_sv": s_out[k_out:].tolist(),
             "sample_points_rad_s": [str(s) for s in used], "krylov": Kb.info, "nested": True,

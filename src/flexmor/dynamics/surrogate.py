@@ -1,4 +1,4 @@
-"""A verified surrogate of the full model's FRF for large models.
+"""A verified surrogate of the full model's responses for large models.
 
 A direct sweep costs one sparse complex factorization per grid point, and the adaptive grid
 of a band with tens of resonances has a thousand points or more. The surrogate replaces
@@ -46,12 +46,11 @@ import numpy as np
 import scipy.linalg as sla
 
 from ..basis import extend_orthonormal
-from ..dynamics.frf import ShiftedMatrices, angular_frequency
+from .frf import ShiftedMatrices, angular_frequency
 from ..errors import check_choice
 from ..linalg import factorize
 from ..linalg.backends import MEMORY_FRACTION, memory_available
 from ..linalg.context import SolverContext, as_solver
-from .grid import initial_grid
 
 __all__ = ["Surrogate", "DEFAULT_SURROGATE_TOL"]
 
@@ -101,13 +100,14 @@ class Surrogate:
         How the checks solve the full model: a complex factorization, or the iterative solver
         on the pre-pass factorization; ``auto`` is direct when twice the memory of the
         pre-pass factorization fits into the available memory.
-    resonances, zeta : array_like, optional
-        Resonances and damping ratios, for candidate points at the peaks.
+    candidates : array_like
+        Frequencies (Hz) where the greedy checks look for the largest residual (e.g. the error
+        grid's initial points over the band and its peaks, or a quadrature's nodes).
     """
 
     def __init__(self, model, ports, band, *, phi, factorization=None, sigma=0.0, solver: SolverContext | None = None,
                  tol: float = DEFAULT_SURROGATE_TOL, n_krylov: int = 3, max_checks: int = 10,
-                 resonances=None, zeta=None, check_solver: str = "auto"):
+                 check_solver: str = "auto", candidates):
         check_choice("check_solver", check_solver, CHECK_SOLVERS)
         solver = as_solver(solver)
         self.model, self.solver, self.tol = model, solver, float(tol)
@@ -125,7 +125,7 @@ class Surrogate:
             blocks.append(F0.solve(model.M @ blocks[-1]))
         self._set_basis(np.hstack(blocks))
         self.checks = []
-        cand = initial_grid(*band, n=400, resonances=resonances, zeta=zeta)
+        cand = np.unique(np.asarray(candidates, float))
         passed = 0
         while passed < 2 and len(self.checks) < max_checks and cand.size:
             res = self.residual(cand)
@@ -167,7 +167,9 @@ class Surrogate:
         off = np.abs(d - np.diag(np.diag(d))).max()
         self._modal = (lam, np.diag(d), self.Cr @ psi, psi.T @ self.Br) if off <= 1e-10 * np.abs(d).max() else None
 
-    def _reduced_solution(self, w):
+    def reduced_solution(self, w):
+        """Coordinates ``x(w)`` in the basis ``V`` of the surrogate's solutions ``V x(w) ≈ A(w)^{-1} B`` at the
+        angular frequencies ``w``, shape (len(w), order, n_inputs)."""
         if self._modal is not None:
             lam, d, _, PB = self._modal
             psi = self._psi
@@ -185,13 +187,13 @@ class Surrogate:
                 ws = w[s:s + 256, None]
                 out[s:s + 256] = np.einsum("pk,fk,km->fpm", CP, 1.0 / (lam - ws ** 2 + 1j * ws * d), PB)
             return out
-        X = self._reduced_solution(w)
+        X = self.reduced_solution(w)
         return np.einsum("pr,frm->fpm", self.Cr, X)
 
     def residual(self, freqs) -> np.ndarray:
         """Relative residual ``||A(w) V x(w) - B||_F / ||B||_F`` of the surrogate, per frequency."""
         w = angular_frequency(freqs)
-        X = self._reduced_solution(w)
+        X = self.reduced_solution(w)
         m = self.B.shape[1]
         c = np.concatenate([X, -(w ** 2)[:, None, None] * X, (1j * w)[:, None, None] * X,
                             np.broadcast_to(-np.eye(m), (w.size, m, m))], axis=1)
