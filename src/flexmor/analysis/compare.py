@@ -16,6 +16,7 @@ from ..dynamics.surrogate import DEFAULT_SURROGATE_TOL
 from ..errors import ModelError, OptionError
 from ..linalg.context import SolverContext, as_solver
 from ..linalg.eigen import frequencies_hz
+from ..reduction.free_body import with_elastic_inputs
 from . import cache as frf_cache
 from .frequency import error_measures, error_notes
 from .grid import DEFAULT_TOL, adaptive_grid, initial_grid
@@ -124,7 +125,7 @@ class FullResponse:
                               params=("rayleigh", "modal_damping"))
         self.path = path
         m = ports.n_inputs
-        ports = _with_elastic_inputs(model, ports)  # a free body: the elastic part of H too, computed directly
+        ports = with_elastic_inputs(model, ports)  # a free body: the elastic part of H too, computed directly
         params = {"band": self.band, "n": int(n), "tol": float(tol), "max_points": int(max_points), "path": path}
         if path == "surrogate":
             params["surrogate_tol"] = float(surrogate_tol)
@@ -274,21 +275,3 @@ def _modal_correction(evaluate, damping, f_modes, phi, ports):
         return H + np.einsum("pk,fk,mk->fpm", Cp, g, Bp)
 
     return corrected
-
-
-def _with_elastic_inputs(model, ports):
-    """``ports`` with the elastic part ``(I - M Φ Φᵀ) B`` of its inputs appended (named ``elastic:...``),
-    for a free body (Φ its M-orthonormal rigid-body modes); ``ports`` itself for a supported body."""
-    import scipy.sparse as sp
-
-    from ..ports import Ports
-    from ..reduction.free_body import rigid_body_modes
-
-    phi = rigid_body_modes(model)
-    if not phi.shape[1] or not ports.n_inputs:
-        return ports
-    B = ports.B.toarray()
-    Be = B - model.M @ (phi @ (phi.T @ B))
-    return Ports(B=sp.hstack([ports.B, sp.csr_matrix(Be)]).tocsr(), C=ports.C,
-                 input_names=list(ports.input_names) + [f"elastic:{n}" for n in ports.input_names],
-                 output_names=list(ports.output_names))

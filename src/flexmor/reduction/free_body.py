@@ -44,7 +44,7 @@ from ..basis import Basis
 from ..errors import FlexmorWarning
 from ..linalg.eigen import rigid_body_threshold
 
-__all__ = ["rigid_motions", "rigid_body_modes", "rigid_head", "inertia_relief_modes", "with_inertia_loads", "INERTIA_LOAD_NAMES", "exclude_rigid",
+__all__ = ["rigid_motions", "rigid_body_modes", "rigid_head", "inertia_relief_modes", "with_elastic_inputs", "with_inertia_loads", "INERTIA_LOAD_NAMES", "exclude_rigid",
            "elastic_body", "rigid_content", "rigid_residual", "check_body", "spurious_modes_hz"]
 
 log = logging.getLogger(__name__)
@@ -152,6 +152,27 @@ def inertia_relief_modes(model, dofs, *, phi=None, solver=None) -> np.ndarray:
         if np.linalg.norm(dx) <= RELIEF_TOL * np.linalg.norm(x):
             break
     return x
+
+
+def with_elastic_inputs(model, ports):
+    """``ports`` with the elastic part ``(I - M Φ Φᵀ) B`` of its inputs appended (named ``elastic:...``)
+    for a free body (Φ its M-orthonormal rigid-body modes); ``ports`` itself for a supported body.
+
+    The response to the appended inputs is the elastic part of the response to ``B`` (exact for
+    proportional damping), computed directly: at low frequencies, or over long times, the
+    rigid-body response exceeds it by orders of magnitude, and a difference of the two would be
+    round-off. The floating frame's bodies (rigid motion excluded) are judged on it.
+    """
+    from ..ports import Ports
+
+    phi = rigid_body_modes(model)
+    if not phi.shape[1] or not ports.n_inputs:
+        return ports
+    B = ports.B.toarray()
+    Be = B - model.M @ (phi @ (phi.T @ B))
+    return Ports(B=sp.hstack([ports.B, sp.csr_matrix(Be)]).tocsr(), C=ports.C,
+                 input_names=list(ports.input_names) + [f"elastic:{n}" for n in ports.input_names],
+                 output_names=list(ports.output_names))
 
 
 #: Names of the inertia-load inputs (unit accelerations of the frame: translations, rotations).

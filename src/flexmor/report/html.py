@@ -140,6 +140,7 @@ def build_report(model, ports, reduced, *, band, labels=None, seconds=None, full
     from ..analysis.modal_check import full_modes, modal_check
     from ..dynamics.frf import frf_reduced
     from ..dynamics.time import simulate, time_errors
+    from ..reduction.free_body import with_elastic_inputs
 
     reduced = list(reduced)
     if not reduced:
@@ -189,9 +190,11 @@ def build_report(model, ports, reduced, *, band, labels=None, seconds=None, full
     # eigenfrequencies and MAC
     f, phi, n_rig = full_modes(model, n_modes, solver=solver)
     rep.modal = {"full_hz": f, "n_rigid": n_rig, "bodies": {}}
+    elastic = [bool(red.info.get("n_rigid_excluded")) for red in reduced]
     if n_rig:
-        notes.append(f"free body ({n_rig} rigid-body modes): the time responses include rigid-body motion, which "
-                     "bodies without rigid-body modes cannot follow (in an MBS code the floating frame carries it)")
+        notes.append(f"free body ({n_rig} rigid-body modes): bodies without rigid-body motion (rigid excluded, the "
+                     "floating frame carries it) are compared with the full model's elastic response, that to the "
+                     "inputs made orthogonal to the rigid-body modes; the others with the whole response")
     for lb, red in zip(labels, reduced):
         rep.modal["bodies"][lb] = modal_check(model, red, full=(f, phi, n_rig))
     rep.figures["mac"] = plots.mac_png({lb: c["mac"] for lb, c in rep.modal["bodies"].items()})
@@ -201,19 +204,24 @@ def build_report(model, ports, reduced, *, band, labels=None, seconds=None, full
     t_end = float(t_end) if t_end else 3.0 / f_lo
     dt = float(dt) if dt else max(1.0 / (20.0 * band[1]), t_end / max_steps)
     u, desc = _signal(signal, dt, t_end, band)
-    y_full = simulate(model, u, dt=dt, t_end=t_end, ports=ports, scheme=scheme, rho_inf=rho_inf, solver=solver,
-                      progress=time_progress)
+    # one run for both responses (a single-channel signal is applied to each input in turn)
+    single = np.ndim(u(np.array([0.0, dt])) if callable(u) else u) == 1
+    sim_ports = with_elastic_inputs(model, ports) if any(elastic) and single else ports
+    y_all = simulate(model, u, dt=dt, t_end=t_end, ports=sim_ports, scheme=scheme, rho_inf=rho_inf, solver=solver,
+                     progress=time_progress)
+    y_full, y_elastic = _split_inputs(y_all, ports.n_inputs)
     y_red = {}
-    for lb, red, row in zip(labels, reduced, rep.rows):
+    for lb, red, row, el in zip(labels, reduced, rep.rows, elastic):
         yr = simulate(red, u, dt=dt, t_end=t_end, scheme=scheme, rho_inf=rho_inf)
-        e = time_errors(y_full, yr)
+        e = time_errors(y_elastic if el and y_elastic is not None else y_full, yr)
         row.update(time_mean_error=e["time_mean_error"], time_max_error=e["time_max_error"], time_seconds=yr.seconds)
         y_red[lb] = yr.displacement
     rep.time = {"signal": desc, "dt": dt, "t_end": float(y_full.t[-1]), "n_steps": int(y_full.t.size - 1),
                 "scheme": scheme, "seconds_full": y_full.seconds}
     chan = {(i, j): f"{ports.output_names[i]} / {ports.input_names[j] if y_full.displacement.shape[2] > 1 else 'u'}"
             for i in range(ports.n_outputs) for j in range(y_full.displacement.shape[2])}
-    rep.figures["time"] = plots.time_png(y_full.t, y_full.displacement, y_red, chan)
+    y_plot = y_elastic if y_elastic is not None and all(elastic) else y_full
+    rep.figures["time"] = plots.time_png(y_plot.t, y_plot.displacement, y_red, chan)
 
     # the body
     marks = {"inputs": model.node_xyz(port_nodes(model, ports.input_names)) if model.n_nodes else [],
@@ -321,3 +329,15 @@ def write_report(rep: Report, path) -> None:
             fh.write(text)
 
     atomic_write(path, write)
+
+
+def _split_inputs(y, m: int):
+    """``(y for the first m inputs, y for the rest or None)`` of a :class:`TimeResponse` whose inputs were
+    extended by :func:`flexmor.reduction.free_body.with_elastic_inputs`."""
+    import dataclasses
+
+    if y.displacement.shape[2] == m:
+        return y, None
+    fields = ("displacement", "velocity", "acceleration")
+    return tuple(dataclasses.replace(y, **{f: getattr(y, f)[:, :, part] for f in fields})
+                 for part in (slice(None, m), slice(m, None)))
