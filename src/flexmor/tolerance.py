@@ -19,7 +19,7 @@ import time
 from .basis import Basis
 from .analysis.frequency import TOL_MEASURES
 from .errors import OptionError, check_choice
-from .linalg.context import SolverContext, as_solver
+from .linalg.context import SolverContext, as_solver, step
 from .projection import project
 from .reduction import reduce
 
@@ -111,20 +111,28 @@ def reduce_to_tolerance(model, method: str, ports, *, tol: float, full, max_orde
     t0 = time.perf_counter()
     tried, big, lo = {}, None, low - 1
 
+    def trial(r, red=None):
+        """``(measure, body)`` of order ``r`` (``red`` given, else made), shown as one step."""
+        with step(solver.progress, f"tol search: {method} order {r}") as note:
+            if red is None:
+                red = reduce(model, method, r, ports, solver=solver, **options)[0]
+            value = full.evaluate(red)[measure]
+            note["result"] = f"{measure} {value:.3g}" + (f" (order {red.order})" if red.order != r else "")
+        return value, red
+
     def error(r):
         if r not in tried:
             if big is not None and (big.info.get("nested") or method in NESTED) and r <= big.order:
                 info = {k: v for k, v in big.info.items() if k != "order_note"}
-                red = project(model, Basis(big.V[:, :r], method, info), ports)
+                tried[r] = trial(r, project(model, Basis(big.V[:, :r], method, info), ports))
             else:
-                red = reduce(model, method, r, ports, solver=solver, **options)[0]
-            tried[r] = (full.evaluate(red)[measure], red)
+                tried[r] = trial(r)
         return tried[r][0]
 
     while True:
         R = min(R, max_order)
-        big = reduce(model, method, R, ports, solver=solver, **options)[0]
-        tried[big.order] = (full.evaluate(big)[measure], big)
+        value, big = trial(R)
+        tried[big.order] = (value, big)
         if tried[big.order][0] <= tol or R >= max_order or big.order < R:
             break
         lo, R = big.order, 2 * R

@@ -14,7 +14,7 @@ from ..dynamics.frf import angular_frequency, frf_full, frf_reduced, rel_error
 from ..dynamics.modes import modal_damping_ratios, modes_below
 from ..dynamics.surrogate import DEFAULT_SURROGATE_TOL
 from ..errors import ModelError, OptionError
-from ..linalg.context import SolverContext, as_solver
+from ..linalg.context import SolverContext, as_solver, step
 from ..linalg.eigen import frequencies_hz
 from ..reduction.free_body import with_elastic_inputs
 from . import cache as frf_cache
@@ -79,7 +79,9 @@ class FullResponse:
         Use the disk cache (True: :func:`flexmor.analysis.cache.cache_dir`; a path: that
         directory; False: neither read nor write).
     progress : callable, optional
-        ``progress(iterable, total)`` wrapper for the direct sweeps.
+        ``progress(iterable, total, desc=None)`` callback (:func:`flexmor.linalg.context.track`)
+        shown the sweep, the modal pre-pass, the dense eigendecomposition and the surrogate's
+        checks; default that of ``solver``.
 
     Attributes
     ----------
@@ -109,6 +111,7 @@ class FullResponse:
                  cache=True, progress: Callable | None = None, check_solver: str = "auto"):
         t0 = time.perf_counter()
         solver = as_solver(solver)
+        progress = solver.progress if progress is None else progress
         c0 = solver.stats.count
         if path not in PATHS:
             raise OptionError(f"path={path!r} is not allowed; choose one of: {', '.join(PATHS)}")
@@ -160,14 +163,15 @@ class FullResponse:
         t0 = time.perf_counter()
         fmin, fmax = self.band
         damped = model.D is not None
-        dense = self._dense_resolvent(model) if self.path == "dense" else None
+        dense = self._dense_resolvent(model, progress) if self.path == "dense" else None
         if dense is not None:  # all modes are known: the pre-pass is a selection
             f_all = frequencies_hz(dense.lam)
             phi = dense.phi[:, f_all <= fmax]
             f_all = f_all[f_all <= fmax]
         else:
             f_modes = fmax * (1.1 if self.path == "surrogate" else 1.0)
-            f_all, phi, F0, sigma = modes_below(model, f_modes, solver)
+            with step(progress, f"modes below {f_modes:.4g} Hz ({model.n_dof} DOF)"):
+                f_all, phi, F0, sigma = modes_below(model, f_modes, solver)
         z_all = modal_damping_ratios(model.damping, f_all, phi, model.D) if damped else None
         z_all = np.zeros(f_all.size) if z_all is None else np.maximum(z_all, 0.0)
         inband = (f_all >= fmin) & (f_all <= fmax)
@@ -217,10 +221,11 @@ class FullResponse:
             self.grid["dense_kind"] = dense.kind
         self.timings["sweep"] = time.perf_counter() - t1
 
-    def _dense_resolvent(self, model):
+    def _dense_resolvent(self, model, progress):
         """The dense resolvent, or None (and ``path`` set to ``direct``) where the dense path does not apply."""
         try:
-            return DenseResolvent(model.K, model.M, model.D, damping=model.damping)
+            with step(progress, f"dense eigendecomposition ({model.n_dof} DOF)"):
+                return DenseResolvent(model.K, model.M, model.D, damping=model.damping)
         except ModelError as exc:
             log.info("dense full FRF not applicable (%s): sparse direct sweep", exc)
             self.path = "direct"

@@ -12,6 +12,7 @@ import numpy as np
 from .. import __version__
 from ..errors import OptionError
 from ..jsonutil import jsonable
+from ..linalg.context import step
 from ..linalg.distributed import is_partitioned, on_root, row_blocks
 from .options import method_options
 
@@ -24,15 +25,39 @@ def _emit_json(obj) -> None:
     print(json.dumps(jsonable(obj, finite=True)))
 
 
-def _progress(args, desc: str, unit: str = "freq"):
-    """A ``progress(iterable, total)`` wrapper: tqdm on a terminal, nothing under --json."""
-    if getattr(args, "json", False) or not sys.stderr.isatty():
+def _progress(args, label: str = "full FRF", unit: str = "freq"):
+    """The ``progress(iterable, total, desc=None)`` callback of a command
+    (:func:`flexmor.linalg.context.track`), or None: nothing under --json, nor when stderr is
+    not a terminal unless -v. A counted loop gets a tqdm bar on a terminal, a step without a
+    count (or any step off a terminal) a start and an end line with its wall time; ``label`` and
+    ``unit`` name the loops the library does not name."""
+    tty = sys.stderr.isatty()
+    if getattr(args, "json", False) or not (tty or getattr(args, "verbose", 0)):
         return None
     try:
         from tqdm import tqdm
     except ImportError:
-        return None
-    return lambda it, total: tqdm(it, total=total, desc=desc, unit=unit, leave=False)
+        tty = False
+
+    def progress(it, total, desc=None):
+        name = desc or label
+        if total is None or not tty:
+            return _lines(it, total, name)
+        return tqdm(it, total=total, desc=name, unit=unit if desc is None else "it", leave=False)
+
+    return progress
+
+
+def _lines(it, total, desc):
+    """``it`` with a start and an end line (wall time, a step's ``result``) on stderr."""
+    t0 = time.perf_counter()
+    print(f"{desc} ..." + (f" ({total})" if total else ""), file=sys.stderr, flush=True)
+    item = None
+    for item in it:
+        yield item
+    result = item.get("result") if isinstance(item, dict) else None
+    print(f"{desc}: " + (f"{result}, " if result else "") + f"{time.perf_counter() - t0:.2f} s",
+          file=sys.stderr, flush=True)
 
 
 def _check_new(path, args) -> Path:
@@ -46,10 +71,10 @@ def _check_new(path, args) -> Path:
 
 
 def _solver(args):
-    """The solver context of one command: the backend of ``--backend``."""
+    """The solver context of one command: the backend of ``--backend``, the progress callback."""
     from ..linalg.context import SolverContext
 
-    return SolverContext(backend=args.backend)
+    return SolverContext(backend=args.backend, progress=_progress(args))
 
 
 def _fmt(x, spec=".3e"):
@@ -78,7 +103,8 @@ def _read_model(args, couplings=(), *, damped=True):
 
         model = read_on_root(load)
     else:
-        model = load()
+        with step(_progress(args), f"read {args.model}"):
+            model = load()
     t_read = time.perf_counter() - t0
     band = Band.parse(args.band) if getattr(args, "band", None) else None
     if damped:

@@ -50,7 +50,7 @@ from .frf import ShiftedMatrices, angular_frequency
 from ..errors import check_choice
 from ..linalg import factorize
 from ..linalg.backends import MEMORY_FRACTION, memory_available
-from ..linalg.context import SolverContext, as_solver
+from ..linalg.context import SolverContext, as_solver, step
 
 __all__ = ["Surrogate", "DEFAULT_SURROGATE_TOL"]
 
@@ -203,16 +203,18 @@ class Surrogate:
     def _check(self, f_hz: float, residual: float):
         w = 2 * np.pi * f_hz
         info = {"solver": self.check_solver}
-        if self.check_solver == "direct":
-            F = factorize(self.shifted(w), solver=self.solver, symmetric=True, check=False)
-            X = F.solve(self.B)
-            del F
-        else:
-            X, info["solution_residual"], info["iterations"] = self._iterative_solution(w)
-        H = np.asarray(self.C @ X)
-        err = float(np.linalg.norm(H - self.frf([f_hz])[0]) / np.linalg.norm(H))
-        if info.get("solution_residual", 0.0) > 1.0:  # the reference is not accurate enough:
-            err = float("inf")  # the check fails (and the surrogate is enriched with X)
+        with step(self.solver.progress, f"surrogate check at {f_hz:.4g} Hz (order {self.order})") as note:
+            if self.check_solver == "direct":
+                F = factorize(self.shifted(w), solver=self.solver, symmetric=True, check=False)
+                X = F.solve(self.B)
+                del F
+            else:
+                X, info["solution_residual"], info["iterations"] = self._iterative_solution(w)
+            H = np.asarray(self.C @ X)
+            err = float(np.linalg.norm(H - self.frf([f_hz])[0]) / np.linalg.norm(H))
+            if info.get("solution_residual", 0.0) > 1.0:  # the reference is not accurate enough:
+                err = float("inf")  # the check fails (and the surrogate is enriched with X)
+            note["result"] = f"error {err:.1e}"
         self.checks.append({"freq_hz": float(f_hz), "residual": float(residual), "rel_error": err,
                             "order": self.order, **info})
         log.debug("surrogate check at %.4g Hz: residual %.1e, error %.1e (order %d)", f_hz, residual, err, self.order)

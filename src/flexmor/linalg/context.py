@@ -12,7 +12,8 @@ Every function that factorizes or computes eigenpairs takes ``solver: SolverCont
 * the MPI layout used by the ``petsc`` backend (:class:`flexmor.linalg.distributed.MPILayout`),
 * the eigen policy (:class:`EigenPolicy`) of :func:`flexmor.linalg.eigenmodes`,
 * a memo of facts about a model's matrices (e.g. the number of rigid-body modes), valid while
-  those matrices live.
+  those matrices live,
+* the progress callback of long steps (:func:`track`, :func:`step`).
 
 Nothing of this is kept at module level, so two computations in one process with two contexts
 neither share counts nor caches.
@@ -21,6 +22,7 @@ neither share counts nor caches.
 from __future__ import annotations
 
 import weakref
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from typing import Callable
 
@@ -28,7 +30,7 @@ from ..errors import OptionError, SolverError
 from .backends import BACKENDS, OrderingCache, SolverStats
 from .distributed import MPILayout, layout
 
-__all__ = ["SolverContext", "SolverStats", "OrderingCache", "EigenPolicy", "DENSE_LIMIT", "LANCZOS_MAX_K",
+__all__ = ["SolverContext", "track", "step", "SolverStats", "OrderingCache", "EigenPolicy", "DENSE_LIMIT", "LANCZOS_MAX_K",
            "EIGEN_METHODS", "as_solver"]
 
 #: Problems up to this size are solved densely (LAPACK), larger ones by shift-invert Lanczos.
@@ -94,6 +96,9 @@ class SolverContext:
     mpi : MPILayout, optional
         Rank and number of ranks of the ``petsc`` backend (default: those of this process,
         determined on first use by :meth:`layout`).
+    progress : callable, optional
+        ``progress(iterable, total, desc=None)``: shown the long steps of the computation (see
+        :func:`track`); None shows nothing.
 
     Attributes
     ----------
@@ -111,6 +116,7 @@ class SolverContext:
     backend: str = "auto"
     eigen: EigenPolicy = field(default_factory=EigenPolicy)
     mpi: MPILayout | None = None
+    progress: Callable | None = field(default=None, repr=False)
     stats: SolverStats = field(default_factory=SolverStats, init=False)
     orderings: OrderingCache = field(default_factory=OrderingCache, init=False, repr=False)
     _available: tuple | None = field(default=None, init=False, repr=False)
@@ -187,3 +193,28 @@ def as_solver(solver: SolverContext | None) -> SolverContext:
     if not isinstance(solver, SolverContext):
         raise OptionError(f"solver must be a SolverContext (e.g. SolverContext(backend='scipy')), got {solver!r}")
     return solver
+
+
+def track(progress: Callable | None, iterable, total: int | None, desc: str):
+    """``iterable``, shown to ``progress`` as one long step named ``desc``.
+
+    The progress convention of flexmor: a caller (the command line) passes a callback
+    ``progress(iterable, total, desc=None)`` that returns an iterable over the same items
+    (e.g. a tqdm bar); the library iterates it and never prints. ``total`` is the count of a
+    loop (frequencies, quadrature nodes, time steps) or None for a step without one
+    (:func:`step`). ``progress`` None returns ``iterable`` itself.
+    """
+    return iterable if progress is None else progress(iterable, total, desc=desc)
+
+
+@contextmanager
+def step(progress: Callable | None, desc: str):
+    """A step without a count (e.g. one LAPACK call), shown to ``progress`` as it starts and ends.
+
+    Yields a dict in which the step may leave a short ``result`` text (e.g. the error of a
+    trial order) for ``progress`` to show with its end; the callback gets it as the one
+    item of ``track(progress, [note], None, desc)``.
+    """
+    note = {}
+    for item in track(progress, [note], None, desc):
+        yield item

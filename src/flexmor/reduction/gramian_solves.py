@@ -43,6 +43,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from ..errors import ModelError, check_choice
+from ..linalg.context import step, track
 from ..linalg.distributed import is_partitioned
 
 __all__ = ["DENSE_GRAMIAN_MAX_DOF", "SOLVES", "SURROGATE_GRAMIAN_TOL", "choose_solves", "projected_factors"]
@@ -156,14 +157,16 @@ def projected_factors(solves: str, work, rhs, m: int, wk, wt, *, side: str, rigi
     info : dict
         ``solves``, ``order`` of the basis and, for the surrogate, its checks and residuals.
     """
-    basis = (_Dense(work, rhs) if solves == "dense"
-             else _Projected(work, rhs, wk / (2 * math.pi), modes, solver))
+    with step(solver.progress, f"Gramian solves: {solves} basis ({work.n_dof} DOF)"):
+        basis = (_Dense(work, rhs) if solves == "dense"
+                 else _Projected(work, rhs, wk / (2 * math.pi), modes, solver))
     V = basis.V
     if rigid_modes is not None and rigid_modes.shape[1]:
         V = V - rigid_modes @ (rigid_modes.T @ (work.M @ V))
     k = V.shape[1]
     stores = [store(k, max(4 * k, 256)) for _ in range(3 if side == "both" else 2)]
-    for s0 in range(0, wk.size, _CHUNK):
+    for s0 in track(solver.progress, range(0, wk.size, _CHUNK), -(-wk.size // _CHUNK),
+                    f"Gramian quadrature ({wk.size} nodes, {solves})"):
         w, weight = wk[s0:s0 + _CHUNK], wt[s0:s0 + _CHUNK]
         Y = basis.solve(w) * np.sqrt(weight / math.pi)[:, None, None]  # (nodes, k, columns)
         for j in range(w.size):

@@ -59,7 +59,7 @@ from ..dynamics.modes import modal_damping_ratios, modes_below
 from ..damping import band_matched
 from ..errors import ModelError, OptionError, check_choice
 from ..linalg import factorize
-from ..linalg.context import SolverContext, as_solver
+from ..linalg.context import SolverContext, as_solver, track
 from ..linalg.eigen import DENSE_LIMIT, default_shift, eigenmodes, frequencies_hz, is_rigid
 from ..options import option
 from .gramian_solves import SOLVES, choose_solves, projected_factors
@@ -452,7 +452,7 @@ def gramian_factors(model, ports, band=(0.0, math.inf), *, side: str = "both", n
 def _direct_factors(work, rhs, m, wk, wt, rigid_modes, stores, solver):
     """The direct path: one complex factorization per quadrature node, factors in ``stores``."""
     A = ShiftedMatrices(work.K, work.M, work.D)
-    for w, weight in zip(wk, wt):
+    for w, weight in track(solver.progress, list(zip(wk, wt)), wk.size, "Gramian quadrature solves"):
         F = factorize(A(w), solver=solver, symmetric=True, check=False)
         X = F.solve(rhs)
         del F
