@@ -199,7 +199,8 @@ def run_demo(out, *, n: int = 4, band=(10.0, 3000.0), progress=None, on_result=N
     tip's centre node as interface (3 DOF) plus 5 and 13 fixed-interface modes, and
     ``krylov`` and ``fw-sobt`` at r = 8 over the band. Writes one
     ``.h5`` per reduced body, ``rel_error.png`` and the HTML report ``report.html``
-    (:mod:`flexmor.report.html`) into ``out``; ``time_progress`` wraps its time integration.
+    (:mod:`flexmor.report.html`) into ``out``; ``progress`` is shown the long steps
+    (:func:`flexmor.linalg.context.track`), ``time_progress`` wraps its time integration.
 
     Returns the list of result records (as :func:`reduce_and_judge`) with ``file`` added.
     """
@@ -210,8 +211,8 @@ def run_demo(out, *, n: int = 4, band=(10.0, 3000.0), progress=None, on_result=N
     out = Path(out)
     model = cantilever(n=n).with_rayleigh(0.0, 1e-6)
     ports = make_ports(model, ["TIP:y", "TIP:z"])
-    solver = SolverContext()
-    full = FullResponse(model, ports, band, solver=solver, progress=progress)
+    solver = SolverContext(progress=progress)  # the long steps of the full FRF and the reductions
+    full = FullResponse(model, ports, band, solver=solver)
     jobs = [("modal", 4, {}), ("modal", 8, {}), ("modal", 16, {}),
             ("craig-bampton", 8, {"interface": ["TIP_CENTER"]}),
             ("craig-bampton", 16, {"interface": ["TIP_CENTER"]}), ("krylov", 8, {"band": band}),

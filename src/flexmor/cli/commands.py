@@ -42,16 +42,16 @@ def _progress(args, label: str = "full FRF", unit: str = "freq"):
     def progress(it, total, desc=None):
         name = desc or label
         if total is None or not tty:
-            return _lines(it, total, name)
+            return _lines(it, name)
         return tqdm(it, total=total, desc=name, unit=unit if desc is None else "it", leave=False)
 
     return progress
 
 
-def _lines(it, total, desc):
+def _lines(it, desc):
     """``it`` with a start and an end line (wall time, a step's ``result``) on stderr."""
     t0 = time.perf_counter()
-    print(f"{desc} ..." + (f" ({total})" if total else ""), file=sys.stderr, flush=True)
+    print(f"{desc} ...", file=sys.stderr, flush=True)
     item = None
     for item in it:
         yield item

@@ -212,9 +212,7 @@ def step(progress: Callable | None, desc: str):
     """A step without a count (e.g. one LAPACK call), shown to ``progress`` as it starts and ends.
 
     Yields a dict in which the step may leave a short ``result`` text (e.g. the error of a
-    trial order) for ``progress`` to show with its end; the callback gets it as the one
-    item of ``track(progress, [note], None, desc)``.
+    trial order) for ``progress`` to show with its end: the one item of the iterable that
+    ``progress`` gets with ``total`` None.
     """
-    note = {}
-    for item in track(progress, [note], None, desc):
-        yield item
+    yield from track(progress, [{}], None, desc)

@@ -452,7 +452,8 @@ def gramian_factors(model, ports, band=(0.0, math.inf), *, side: str = "both", n
 def _direct_factors(work, rhs, m, wk, wt, rigid_modes, stores, solver):
     """The direct path: one complex factorization per quadrature node, factors in ``stores``."""
     A = ShiftedMatrices(work.K, work.M, work.D)
-    for w, weight in track(solver.progress, list(zip(wk, wt)), wk.size, "Gramian quadrature solves"):
+    nodes = track(solver.progress, list(zip(wk, wt)), wk.size, f"Gramian quadrature ({wk.size} nodes, direct)")
+    for w, weight in nodes:
         F = factorize(A(w), solver=solver, symmetric=True, check=False)
         X = F.solve(rhs)
         del F
