@@ -84,7 +84,7 @@ def frf_png(freqs, H, reduced: dict, input_names, output_names, *, max_pairs: in
     nc = min(3, len(pairs))
     nr = -(-len(pairs) // nc)
     fig, axes = plt.subplots(nr, nc, figsize=(4.2 * nc, 3.2 * nr), squeeze=False)
-    fig.subplots_adjust(left=0.32 / nc, right=0.98, bottom=0.42 / (3.2 * nr), top=1 - 0.3 / (3.2 * nr), wspace=0.3,
+    fig.subplots_adjust(left=0.32 / nc, right=0.98, bottom=0.5 / (3.2 * nr), top=1 - 0.3 / (3.2 * nr), wspace=0.3,
                         hspace=0.45)
     for ax, (i, j) in zip(axes.flat, pairs):
         ax.loglog(freqs, np.abs(H[:, i, j]), "k-", lw=2.0, label="full")
@@ -150,7 +150,7 @@ def time_png(t, y, reduced: dict, labels, *, quantity: str = "displacement", max
     plt = _pyplot()
     chans = [(i, j) for j in range(y.shape[2]) for i in range(y.shape[1])][:max_channels]
     fig, axes = plt.subplots(2, 1, figsize=(9, 6.4), sharex=True)
-    fig.subplots_adjust(left=0.1, right=0.98, bottom=0.08, top=0.98, hspace=0.06)
+    fig.subplots_adjust(left=0.1, right=0.98, bottom=0.08, top=0.96, hspace=0.06)
     for n, (i, j) in enumerate(chans):
         ax = axes[0]
         ax.plot(t, y[:, i, j], color=f"C{n}", lw=2.2, alpha=0.5, label=f"full {labels[(i, j)]}")
