@@ -177,3 +177,19 @@ def test_rayleigh_products_equal_the_damping_matrix_products(clamped):
     plain = simulate((model.M, model.D, model.K, ports.B, ports.C), step(), **kw)
     assert np.abs(fast.displacement - plain.displacement).max() <= 1e-10 * np.abs(plain.displacement).max()
     assert np.abs(fast.displacement).max() > 0
+
+
+
+def test_mkl_threads_sets_and_restores_the_calling_threads_count(clamped):
+    from flexmor.linalg import available_backends, factorize
+    from flexmor.linalg.threads import _mkl_set_local, mkl_threads
+
+    if "pardiso" not in available_backends():
+        pytest.skip("pardiso not available")
+    factorize(clamped.K, symmetric=True, positive=True)  # loads MKL
+    set_local = _mkl_set_local()
+    assert set_local is not None
+    before = set_local(0)  # the local count in force (0: none, the global one applies)
+    with mkl_threads(1):
+        assert set_local(1) == 1  # set_local returns the count it replaces
+    assert set_local(before) == 0
