@@ -158,7 +158,7 @@ def test_dense_one_step_map_equals_the_sparse_step_loop(scheme, multi):
     B, C = rng.standard_normal((n, 2)), rng.standard_normal((3, n))
     u = (lambda t: np.column_stack([np.sin(40 * t), step()(t)])) if multi else sine_sweep(5, 80, 0.3)
     q0, v0 = rng.standard_normal(n), rng.standard_normal(n)
-    kw = dict(dt=1e-3, t_end=0.3, scheme=scheme, rho_inf=0.6, q0=q0, v0=v0)
+    kw = {"dt": 1e-3, "t_end": 0.3, "scheme": scheme, "rho_inf": 0.6, "q0": q0, "v0": v0}
     dense = simulate((M, D, K, B, C), u, **kw)
     sparse = simulate(tuple(sp.csr_matrix(X) for X in (M, D, K)) + (B, sp.csr_matrix(C)), u, **kw)
     assert dense.displacement.shape == (301, 3, 1 if multi else 2)
@@ -172,7 +172,7 @@ def test_rayleigh_products_equal_the_damping_matrix_products(clamped):
     # step with K x + D y: equal to round-off
     model = clamped.with_rayleigh(20.0, 1e-5)
     ports = make_ports(model, ["TIP:y", "TIP:z"])
-    kw = dict(dt=1e-4, t_end=0.01, scheme="generalized-alpha", rho_inf=0.8)
+    kw = {"dt": 1e-4, "t_end": 0.01, "scheme": "generalized-alpha", "rho_inf": 0.8}
     fast = simulate(model, step(), ports=ports, **kw)
     plain = simulate((model.M, model.D, model.K, ports.B, ports.C), step(), **kw)
     assert np.abs(fast.displacement - plain.displacement).max() <= 1e-10 * np.abs(plain.displacement).max()
