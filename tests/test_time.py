@@ -142,3 +142,54 @@ def test_signals():
         simulate(SDOF, step(), dt=0.1, t_end=1, scheme="euler")
     with pytest.raises(OptionError, match="samples"):
         simulate(SDOF, np.ones(5), dt=0.1, t_end=1)
+
+
+@pytest.mark.parametrize("scheme", ["newmark", "generalized-alpha"])
+@pytest.mark.parametrize("multi", [False, True])
+def test_dense_one_step_map_equals_the_sparse_step_loop(scheme, multi):
+    # the same body as dense matrices (one-step map) and sparse ones (factorized loop), from a
+    # non-zero initial state, each input in turn or all at once: equal to round-off
+    rng = np.random.default_rng(3)
+    n = 12
+    A = rng.standard_normal((n, n))
+    K = A @ A.T + n * np.eye(n)
+    M = np.eye(n) + 0.2 * np.diag(rng.random(n))
+    D = 0.3 * M + 2e-3 * K + 1e-3 * np.triu(np.ones((n, n))) @ np.triu(np.ones((n, n))).T  # not proportional
+    B, C = rng.standard_normal((n, 2)), rng.standard_normal((3, n))
+    u = (lambda t: np.column_stack([np.sin(40 * t), step()(t)])) if multi else sine_sweep(5, 80, 0.3)
+    q0, v0 = rng.standard_normal(n), rng.standard_normal(n)
+    kw = {"dt": 1e-3, "t_end": 0.3, "scheme": scheme, "rho_inf": 0.6, "q0": q0, "v0": v0}
+    dense = simulate((M, D, K, B, C), u, **kw)
+    sparse = simulate(tuple(sp.csr_matrix(X) for X in (M, D, K)) + (B, sp.csr_matrix(C)), u, **kw)
+    assert dense.displacement.shape == (301, 3, 1 if multi else 2)
+    for qty in ("displacement", "velocity", "acceleration"):
+        y, ys = dense.output(qty), sparse.output(qty)
+        assert np.abs(y - ys).max() <= 1e-9 * np.abs(ys).max(), qty
+
+
+def test_rayleigh_products_equal_the_damping_matrix_products(clamped):
+    # a Rayleigh model steps with K (x + beta y) + alpha M y; the same matrices given as a tuple
+    # step with K x + D y: equal to round-off
+    model = clamped.with_rayleigh(20.0, 1e-5)
+    ports = make_ports(model, ["TIP:y", "TIP:z"])
+    kw = {"dt": 1e-4, "t_end": 0.01, "scheme": "generalized-alpha", "rho_inf": 0.8}
+    fast = simulate(model, step(), ports=ports, **kw)
+    plain = simulate((model.M, model.D, model.K, ports.B, ports.C), step(), **kw)
+    assert np.abs(fast.displacement - plain.displacement).max() <= 1e-10 * np.abs(plain.displacement).max()
+    assert np.abs(fast.displacement).max() > 0
+
+
+
+def test_mkl_threads_sets_and_restores_the_calling_threads_count(clamped):
+    from flexmor.linalg import available_backends, factorize
+    from flexmor.linalg.threads import _mkl_set_local, mkl_threads
+
+    if "pardiso" not in available_backends():
+        pytest.skip("pardiso not available")
+    factorize(clamped.K, symmetric=True, positive=True)  # loads MKL
+    set_local = _mkl_set_local()
+    assert set_local is not None
+    before = set_local(0)  # the local count in force (0: none, the global one applies)
+    with mkl_threads(1):
+        assert set_local(1) == 1  # set_local returns the count it replaces
+    assert set_local(before) == 0

@@ -1,10 +1,14 @@
-"""Temporarily limit the threads of the OpenBLAS libraries loaded by NumPy and SciPy.
+"""Temporarily limit the threads of the OpenBLAS libraries loaded by NumPy and SciPy, or MKL's.
 
 PARDISO runs on MKL's own OpenMP threads; when OpenBLAS's threads run tall-skinny products
 between two solves, the two thread pools compete for the same cores (their idle threads
 spin), and small BLAS calls slow down by 3-10x on a 2-core machine. The block eigen solver
 therefore runs its dense algebra with one OpenBLAS thread (the solves stay multi-threaded).
 This is a small stand-in for ``threadpoolctl`` (not a dependency), which does the same.
+
+:func:`mkl_threads` sets MKL's thread count of the calling thread (PARDISO's solves): a loop of
+thousands of small solves, each followed by Python-side products, runs them faster on one
+thread, since MKL's idle OpenMP workers spin between solves and take the core the products need.
 """
 
 from __future__ import annotations
@@ -14,7 +18,7 @@ import ctypes
 import functools
 import logging
 
-__all__ = ["blas_threads"]
+__all__ = ["blas_threads", "mkl_threads"]
 
 log = logging.getLogger(__name__)
 
@@ -58,3 +62,47 @@ def blas_threads(n: int = 1):
     finally:
         for set_fn, count in saved:
             set_fn(count)
+
+
+_MKL_SET_LOCAL = []
+
+
+def _mkl_set_local():
+    """MKL's ``MKL_Set_Num_Threads_Local`` (by value; returns the previous local count), or None
+    while no MKL library is loaded (looked up again on the next call until found)."""
+    if _MKL_SET_LOCAL:
+        return _MKL_SET_LOCAL[0]
+    try:
+        with open("/proc/self/maps") as fh:
+            paths = sorted({ln.split()[-1] for ln in fh if "libmkl_rt" in ln and ".so" in ln})
+    except OSError:
+        paths = []
+    for path in paths:
+        try:
+            fn = ctypes.CDLL(path).MKL_Set_Num_Threads_Local
+        except (OSError, AttributeError):
+            continue
+        fn.argtypes, fn.restype = [ctypes.c_int], ctypes.c_int
+        _MKL_SET_LOCAL.append(fn)
+        return fn
+    return None
+
+
+@contextlib.contextmanager
+def mkl_threads(n: int = 1):
+    """Context manager: at most ``n`` MKL threads for the calling thread inside, its previous count after.
+
+    Does nothing where MKL is not loaded (e.g. no PARDISO factorization yet, or another backend).
+    """
+    fn = _mkl_set_local()
+    prev = None
+    if fn is not None:
+        try:
+            prev = int(fn(int(n)))
+        except Exception:  # noqa: BLE001 - foreign library, never fail the computation
+            log.debug("could not set the MKL thread count")
+    try:
+        yield
+    finally:
+        if prev is not None:
+            fn(prev)

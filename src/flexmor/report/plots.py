@@ -39,7 +39,7 @@ def _rel_error_figure(freqs, curves: dict, title: str = ""):
     ax.legend(fontsize=8)
     if title:
         ax.set_title(title)
-    fig.tight_layout()
+    fig.subplots_adjust(left=0.1, right=0.97, bottom=0.11, top=0.92 if title else 0.96)  # fixed: no layout pass
     return fig
 
 
@@ -83,7 +83,9 @@ def frf_png(freqs, H, reduced: dict, input_names, output_names, *, max_pairs: in
              if peak[i, j] >= 1e-8 * peak.max()][:max_pairs]  # numerically zero cross terms are left out
     nc = min(3, len(pairs))
     nr = -(-len(pairs) // nc)
-    fig, axes = plt.subplots(nr, nc, figsize=(4.2 * nc, 3.2 * nr), squeeze=False, layout="constrained")
+    fig, axes = plt.subplots(nr, nc, figsize=(4.2 * nc, 3.2 * nr), squeeze=False)
+    fig.subplots_adjust(left=0.32 / nc, right=0.98, bottom=0.5 / (3.2 * nr), top=1 - 0.3 / (3.2 * nr), wspace=0.3,
+                        hspace=0.45)
     for ax, (i, j) in zip(axes.flat, pairs):
         ax.loglog(freqs, np.abs(H[:, i, j]), "k-", lw=2.0, label="full")
         for label, Hr in reduced.items():
@@ -103,7 +105,8 @@ def singular_values_png(values: dict) -> bytes:
     import numpy as np
 
     plt = _pyplot()
-    fig, ax = plt.subplots(figsize=(7, 4), layout="constrained")
+    fig, ax = plt.subplots(figsize=(7, 4))
+    fig.subplots_adjust(left=0.11, right=0.97, bottom=0.12, top=0.96)
     for label, s in values.items():
         s = np.asarray(s, float)
         ax.semilogy(np.arange(1, s.size + 1), s / s[0] if s.size and s[0] > 0 else s, "o-", ms=3, label=label)
@@ -120,7 +123,9 @@ def mac_png(macs: dict) -> bytes:
     n = max(1, len(macs))
     nc = min(3, n)
     nr = -(-n // nc)
-    fig, axes = plt.subplots(nr, nc, figsize=(3.8 * nc, 3.4 * nr), squeeze=False, layout="constrained")
+    fig, axes = plt.subplots(nr, nc, figsize=(3.8 * nc, 3.4 * nr), squeeze=False)
+    fig.subplots_adjust(left=0.3 / nc, right=0.98, bottom=0.4 / (3.4 * nr), top=1 - 0.3 / (3.4 * nr), wspace=0.35,
+                        hspace=0.4)
     im = None
     for ax, (label, A) in zip(axes.flat, macs.items()):
         im = ax.imshow(A, vmin=0, vmax=1, cmap="viridis", origin="upper", aspect="auto")
@@ -144,7 +149,8 @@ def time_png(t, y, reduced: dict, labels, *, quantity: str = "displacement", max
 
     plt = _pyplot()
     chans = [(i, j) for j in range(y.shape[2]) for i in range(y.shape[1])][:max_channels]
-    fig, axes = plt.subplots(2, 1, figsize=(9, 6.4), sharex=True, layout="constrained")
+    fig, axes = plt.subplots(2, 1, figsize=(9, 6.4), sharex=True)
+    fig.subplots_adjust(left=0.1, right=0.98, bottom=0.08, top=0.96, hspace=0.06)
     for n, (i, j) in enumerate(chans):
         ax = axes[0]
         ax.plot(t, y[:, i, j], color=f"C{n}", lw=2.2, alpha=0.5, label=f"full {labels[(i, j)]}")
