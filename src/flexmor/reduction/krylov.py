@@ -25,6 +25,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+import scipy.linalg as sla
 
 from ..basis import Basis, Columns, extend_orthonormal, rank_revealing_qr
 from ..errors import OptionError, SolverError, check_choice
@@ -177,12 +178,49 @@ class SecondOrderArnoldi:
         self.U = np.zeros((0, 0), dtype=dtype)  # coefficients [U1; U2] of the 2n-vectors, (2 eta, k)
         self._last = None  # coefficients of the last orthonormal block
 
+    def _orthogonalize(self, top: np.ndarray):
+        """Block CGS2 of ``top`` against ``Q``: ``(new, t)`` with ``t`` the coefficients of ``top``.
+
+        The columns of ``top`` are scaled to unit norm and projected out of ``span(Q)`` twice
+        (BLAS-3, Fortran-ordered, in place), then factorized by :func:`rank_revealing_qr`;
+        directions below the deflation tolerance are dropped, as in
+        :func:`flexmor.basis.extend_orthonormal`. The coefficients ``t`` of ``top`` in the grown
+        basis ``[Q, new]`` come from the projections and the triangular factors (no further pass
+        over ``Q``). Near deflation (a kept ``|R_ii| < 1e-3``) a third pass keeps ``new``
+        orthogonal to ``Q``.
+        """
+        Q = self.Q.view
+        n, b = top.shape
+        eta0 = Q.shape[1]
+        t = np.zeros((eta0, b), dtype=Q.dtype, order="F")
+        nrm = np.linalg.norm(top, axis=0)
+        nz = np.flatnonzero(nrm > 0)
+        if nz.size == 0:
+            return np.zeros((n, 0), Q.dtype), t
+        X = np.asfortranarray(top[:, nz] / nrm[nz], dtype=Q.dtype)
+        if eta0:
+            for _ in range(2):
+                h = _gemm_h(Q, X)
+                X = _gemm_sub(X, Q, h)
+                t[:, nz] += h * nrm[nz]
+        W, R, piv = rank_revealing_qr(X)
+        d = np.abs(np.diag(R))
+        k = int(np.sum(d > self.tol))
+        new, Rk = W[:, :k], R[:k] * nrm[nz[piv]]  # top[:, nz[piv]] = Q t[:, nz[piv]] + new Rk (+ deflated part)
+        if eta0 and k and d[k - 1] < 1e-3:  # nearly dependent: a third pass keeps Q^H new = 0
+            g = _gemm_h(Q, new)
+            new, R3 = np.linalg.qr(_gemm_sub(np.asfortranarray(new), Q, g))  # old new = Q g + new R3
+            t[:, nz[piv]] += g @ Rk
+            Rk = R3 @ Rk
+        tn = np.zeros((k, b), dtype=Q.dtype)
+        tn[:, nz[piv]] = Rk
+        return new, np.vstack([t, tn])
+
     def _append(self, top: np.ndarray, bottom: np.ndarray):
         """Add the 2n-vectors ``[top; Q bottom]`` (``top`` n-long, ``bottom`` coefficients)."""
-        Q = self.Q.view
-        new = extend_orthonormal(Q, top, tol=self.tol) if np.any(top) else np.zeros((top.shape[0], 0), top.dtype)
-        eta0, eta = Q.shape[1], Q.shape[1] + new.shape[1]
-        t = np.vstack([Q.conj().T @ top, new.conj().T @ top])
+        eta0 = self.Q.k
+        new, t = self._orthogonalize(top)
+        eta = eta0 + new.shape[1]
         X = np.vstack([t, np.pad(bottom, ((0, eta - bottom.shape[0]), (0, 0)))])
         U = self.U
         if U.shape[1]:  # pad the earlier coefficients to the grown basis
@@ -206,7 +244,7 @@ class SecondOrderArnoldi:
 
     def last_top(self) -> np.ndarray:
         """Upper half ``Q U1`` of the newest orthonormal block of ``2n``-vectors (not orthonormal)."""
-        return self.Q.view @ self._last[: self._last.shape[0] // 2]
+        return _gemm(self.Q.view, self._last[: self._last.shape[0] // 2])
 
     def next_block(self):
         if self.n_solves == 0:
@@ -223,17 +261,34 @@ class SecondOrderArnoldi:
         c = self._last
         u1, u2 = c[: c.shape[0] // 2], c[c.shape[0] // 2:]
         self._last = None
-        Q = self.Q.view
-        V = Q @ u1
-        # rhs = tau A1 V + tau^2 M L with A1 = 2 s M + D and L = Q u2: one product with M
-        rhs = self.M @ ((2 * self.s * self.tau) * V + self.tau ** 2 * (Q @ u2))
+        b = u1.shape[1]
+        # rhs = tau A1 V + tau^2 M L with A1 = 2 s M + D, V = Q u1 and L = Q u2: one product with Q, one with M
+        w = (2 * self.s * self.tau) * u1 + self.tau ** 2 * u2
+        P = _gemm(self.Q.view, np.hstack([w, u1]) if self.D is not None else w)
+        rhs = self.M @ P[:, :b]
         if self.D is not None:
-            rhs = rhs + self.tau * (self.D @ V)
+            rhs += self.tau * (self.D @ P[:, b:])
+        del P  # memory: the basis and a few n x b blocks
         if not np.any(rhs):  # e.g. s = 0 without damping: odd moments vanish, no solve needed
-            return self._append(np.zeros_like(V), u1)
+            return self._append(np.zeros_like(rhs), u1)
         top = -self._project(self.F.solve(rhs))
         self.n_solves += 1
         return self._append(top, u1)
+
+
+def _gemm(Q: np.ndarray, h: np.ndarray) -> np.ndarray:
+    """``Q @ h`` for a tall Fortran-ordered ``Q``, Fortran-ordered (BLAS ``gemm``, fast for few columns)."""
+    return sla.blas.get_blas_funcs("gemm", (Q, h))(1.0, Q, h)
+
+
+def _gemm_h(Q: np.ndarray, X: np.ndarray) -> np.ndarray:
+    """``Q^H X`` (BLAS ``gemm`` with the (conjugate) transpose of ``Q``)."""
+    return sla.blas.get_blas_funcs("gemm", (Q, X))(1.0, Q, X, trans_a=2 if np.iscomplexobj(Q) else 1)
+
+
+def _gemm_sub(X: np.ndarray, Q: np.ndarray, h: np.ndarray) -> np.ndarray:
+    """``X - Q h``, in place when ``X`` is Fortran-ordered of ``Q``'s type; returns the result."""
+    return sla.blas.get_blas_funcs("gemm", (Q, X))(-1.0, Q, h, 1.0, X, overwrite_c=True)
 
 
 def blocks_at_points(model, ports, points, n_moments: int, *, side: str = "input", solver: SolverContext | None = None,
