@@ -105,3 +105,74 @@ def test_arnoldi_stores_one_n_by_r_basis():
     assert np.linalg.norm(Q.T @ Q - np.eye(Q.shape[1])) < 1e-12
     # the basis and a few n x b work blocks; 2n-vectors stored explicitly would need 3x the basis
     assert peak < 1.5 * n * (share + start.shape[1]) * 8, (peak, n * share * 8)
+
+
+@pytest.mark.parametrize("dtype", [float, complex])
+def test_arnoldi_orthogonalization_matches_block_gram_schmidt(dtype):
+    """The Arnoldi's block CGS2 (coefficients from its projections) against extend_orthonormal.
+
+    Per step the new columns span the same space as :func:`flexmor.basis.extend_orthonormal`
+    (largest principal angle < 1e-10), are orthonormal to the basis to round-off, and the
+    coefficients equal ``[Q^H top; new^H top]`` to 1e-12 relative, also for nearly dependent
+    (third pass), exactly dependent (deflated) and zero columns.
+    """
+    import scipy.linalg as sla
+
+    from flexmor.basis import extend_orthonormal
+    from flexmor.models import cantilever
+    from flexmor.reduction.krylov import SecondOrderArnoldi, shifted_factorization, start_block
+
+    model = cantilever(2)
+    ports = make_ports(model, ["TIP:x", "TIP:y", "TIP:z"])
+    s = 2 * np.pi * (300.0 if dtype is float else 300j)
+    F, s = shifted_factorization(model, s)
+    seq = SecondOrderArnoldi(model, F, s, start_block(ports, "input"))
+    rng = np.random.default_rng(3)
+    n = model.n_dof
+
+    def rand(*shape):
+        x = rng.standard_normal(shape)
+        return x + 1j * rng.standard_normal(shape) if dtype is complex else x
+
+    Q, _ = np.linalg.qr(rand(n, 20))
+    seq.Q.append(Q)
+    Q = seq.Q.view
+    generic = rand(n, 4)
+    near = Q @ rand(20, 4) + 1e-6 * rand(n, 4)  # residual 1e-6 of the column: a third pass
+    dependent = np.hstack([generic[:, :2], generic[:, :1] + generic[:, 1:2], np.zeros((n, 1))])
+    for top in (generic, near, dependent, Q @ rand(20, 3)):
+        new, t = seq._orthogonalize(top)
+        ref = extend_orthonormal(Q, top, tol=seq.tol)
+        assert new.shape[1] == ref.shape[1]
+        if new.shape[1]:
+            assert np.max(sla.subspace_angles(new, ref)) < 1e-10
+            assert np.abs(new.conj().T @ new - np.eye(new.shape[1])).max() < 1e-13
+            assert np.abs(Q.conj().T @ new).max() < 1e-13
+        direct = np.vstack([Q.conj().T @ top, new.conj().T @ top])
+        assert np.abs(t - direct).max() < 1e-12 * np.abs(top).max()
+
+
+def test_arnoldi_basis_spans_the_leading_moments():
+    """The orthonormal basis of four blocks spans the explicit moments X_0..X_3 (principal angles < 1e-8)."""
+    import scipy.linalg as sla
+
+    from flexmor.models import cantilever
+    from flexmor.reduction.krylov import SecondOrderArnoldi, shifted_factorization, start_block
+
+    model = cantilever(4).with_rayleigh(5.0, 1e-6)
+    ports = make_ports(model, ["TIP:x", "TIP:y", "TIP:z"])
+    start = start_block(ports, "input")
+    for p in (300.0, 300j):
+        F, s = shifted_factorization(model, 2 * np.pi * p)
+        seq = SecondOrderArnoldi(model, F, s, start)
+        for _ in range(4):
+            seq.next_block()
+        Q = seq.Q.view
+        assert np.abs(Q.conj().T @ Q - np.eye(Q.shape[1])).max() < 1e-12
+        assert np.abs(seq.U.conj().T @ seq.U - np.eye(seq.U.shape[1])).max() < 1e-12  # the 2n-vectors
+        A1 = 2 * s * model.M + model.D
+        X = [F.solve(start.astype(Q.dtype))]
+        for j in range(1, 4):
+            X.append(-F.solve(A1 @ X[-1] + (model.M @ X[-2] if j > 1 else 0)))
+        assert Q.shape[1] == 4 * start.shape[1]
+        assert np.max(sla.subspace_angles(Q, np.hstack(X))) < 1e-8

@@ -72,21 +72,23 @@ def nested_estimate(model, ports, V: np.ndarray, block: int, band, *, n: int = N
            "worst_hz": float(np.sqrt(band[0] * band[1]))}
     if s < 1:
         return out
-    Mr, Kr = V.T @ (model.M @ V), V.T @ (model.K @ V)
+    Vc = np.ascontiguousarray(V)  # one row-major copy serves the sparse products (else one copy each)
+    Mr, Kr = Vc.T @ (model.M @ Vc), Vc.T @ (model.K @ Vc)
     Mr, Kr = (Mr + Mr.T) / 2, (Kr + Kr.T) / 2
     if model.D is not None:
-        Dr = V.T @ (model.D @ V)
+        Dr = Vc.T @ (model.D @ Vc)
     else:  # undamped: a light Rayleigh damping (as for the Gramians) keeps the peaks finite
         reg = band_matched(UNDAMPED_ZETA, band)
         Dr = reg.alpha * Mr + reg.beta * Kr
-    Br, Cr = V.T @ ports.B.toarray(), np.asarray(ports.C @ V)
-    lam = sla.eigh(Kr, Mr, eigvals_only=True)
-    f_res = np.sqrt(np.clip(lam, 0, None)) / (2 * np.pi)
+    Br, Cr = Vc.T @ ports.B.toarray(), np.asarray(ports.C @ Vc)
+    del Vc
+    modes = {r: sla.eigh(Kr, Mr)}
+    f_res = np.sqrt(np.clip(modes[r][0], 0, None)) / (2 * np.pi)
     f = np.unique(np.concatenate([np.geomspace(band[0], band[1], n), f_res[(f_res > band[0]) & (f_res < band[1])]]))
     w = 2 * np.pi * f
 
     def frf(k):  # modal form of the reduced body when its damping is proportional, else solves
-        lam_k, psi = sla.eigh(Kr[:k, :k], Mr[:k, :k])
+        lam_k, psi = modes[k] if k in modes else sla.eigh(Kr[:k, :k], Mr[:k, :k])
         dm = psi.T @ Dr[:k, :k] @ psi
         CP, PB = Cr[:, :k] @ psi, psi.T @ Br[:k]
         if np.abs(dm - np.diag(np.diag(dm))).max(initial=0.0) <= 1e-10 * np.abs(dm).max(initial=0.0) + 1e-300:
