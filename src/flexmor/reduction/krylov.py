@@ -187,7 +187,7 @@ class SecondOrderArnoldi:
         :func:`flexmor.basis.extend_orthonormal`. The coefficients ``t`` of ``top`` in the grown
         basis ``[Q, new]`` come from the projections and the triangular factors (no further pass
         over ``Q``). Near deflation (a kept ``|R_ii| < 1e-3``) a third pass keeps ``new``
-        orthogonal to ``Q``.
+        orthogonal to ``Q``, as in :func:`~flexmor.basis.extend_orthonormal`.
         """
         Q = self.Q.view
         n, b = top.shape
@@ -198,11 +198,10 @@ class SecondOrderArnoldi:
         if nz.size == 0:
             return np.zeros((n, 0), Q.dtype), t
         X = np.asfortranarray(top[:, nz] / nrm[nz], dtype=Q.dtype)
-        if eta0:
-            for _ in range(2):
-                h = _gemm_h(Q, X)
-                X = _gemm_sub(X, Q, h)
-                t[:, nz] += h * nrm[nz]
+        for _ in range(2 if eta0 else 0):
+            h = _gemm_h(Q, X)
+            X = _gemm_sub(X, Q, h)
+            t[:, nz] += h * nrm[nz]
         W, R, piv = rank_revealing_qr(X)
         d = np.abs(np.diag(R))
         k = int(np.sum(d > self.tol))
