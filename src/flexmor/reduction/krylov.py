@@ -181,13 +181,9 @@ class SecondOrderArnoldi:
     def _orthogonalize(self, top: np.ndarray):
         """Block CGS2 of ``top`` against ``Q``: ``(new, t)`` with ``t`` the coefficients of ``top``.
 
-        The columns of ``top`` are scaled to unit norm and projected out of ``span(Q)`` twice
-        (BLAS-3, Fortran-ordered, in place), then factorized by :func:`rank_revealing_qr`;
-        directions below the deflation tolerance are dropped, as in
-        :func:`flexmor.basis.extend_orthonormal`. The coefficients ``t`` of ``top`` in the grown
-        basis ``[Q, new]`` come from the projections and the triangular factors (no further pass
-        over ``Q``). Near deflation (a kept ``|R_ii| < 1e-3``) a third pass keeps ``new``
-        orthogonal to ``Q``, as in :func:`~flexmor.basis.extend_orthonormal`.
+        As :func:`flexmor.basis.extend_orthonormal` (unit columns, two BLAS-3 passes, rank-revealing
+        QR, deflation, a third pass near deflation), in place on Fortran-ordered blocks; ``t`` (the
+        coefficients in ``[Q, new]``) comes from the projections and triangular factors, not another pass over ``Q``.
         """
         Q = self.Q.view
         n, b = top.shape
@@ -199,16 +195,16 @@ class SecondOrderArnoldi:
             return np.zeros((n, 0), Q.dtype), t
         X = np.asfortranarray(top[:, nz] / nrm[nz], dtype=Q.dtype)
         for _ in range(2 if eta0 else 0):
-            h = _gemm_h(Q, X)
-            X = _gemm_sub(X, Q, h)
+            h = _gemm(Q, X, conj=True)
+            X = _gemm(Q, h, into=X)
             t[:, nz] += h * nrm[nz]
         W, R, piv = rank_revealing_qr(X)
         d = np.abs(np.diag(R))
         k = int(np.sum(d > self.tol))
         new, Rk = W[:, :k], R[:k] * nrm[nz[piv]]  # top[:, nz[piv]] = Q t[:, nz[piv]] + new Rk (+ deflated part)
         if eta0 and k and d[k - 1] < 1e-3:  # nearly dependent: a third pass keeps Q^H new = 0
-            g = _gemm_h(Q, new)
-            new, R3 = np.linalg.qr(_gemm_sub(np.asfortranarray(new), Q, g))  # old new = Q g + new R3
+            g = _gemm(Q, new, conj=True)
+            new, R3 = np.linalg.qr(_gemm(Q, g, into=np.asfortranarray(new)))  # old new = Q g + new R3
             t[:, nz[piv]] += g @ Rk
             Rk = R3 @ Rk
         tn = np.zeros((k, b), dtype=Q.dtype)
@@ -275,19 +271,13 @@ class SecondOrderArnoldi:
         return self._append(top, u1)
 
 
-def _gemm(Q: np.ndarray, h: np.ndarray) -> np.ndarray:
-    """``Q @ h`` for a tall Fortran-ordered ``Q``, Fortran-ordered (BLAS ``gemm``, fast for few columns)."""
-    return sla.blas.get_blas_funcs("gemm", (Q, h))(1.0, Q, h)
-
-
-def _gemm_h(Q: np.ndarray, X: np.ndarray) -> np.ndarray:
-    """``Q^H X`` (BLAS ``gemm`` with the (conjugate) transpose of ``Q``)."""
-    return sla.blas.get_blas_funcs("gemm", (Q, X))(1.0, Q, X, trans_a=2 if np.iscomplexobj(Q) else 1)
-
-
-def _gemm_sub(X: np.ndarray, Q: np.ndarray, h: np.ndarray) -> np.ndarray:
-    """``X - Q h``, in place when ``X`` is Fortran-ordered of ``Q``'s type; returns the result."""
-    return sla.blas.get_blas_funcs("gemm", (Q, X))(-1.0, Q, h, 1.0, X, overwrite_c=True)
+def _gemm(Q: np.ndarray, h: np.ndarray, *, conj: bool = False, into: np.ndarray | None = None) -> np.ndarray:
+    """``Q @ h``, ``Q^H @ h`` (``conj``) or ``into - Q @ h`` (in place if ``into`` is Fortran-ordered
+    of the type) by BLAS ``gemm``: for a tall ``Q`` and few columns 2-3x faster than ``@``."""
+    gemm = sla.blas.get_blas_funcs("gemm", (Q, h))
+    if into is not None:
+        return gemm(-1.0, Q, h, 1.0, into, overwrite_c=True)
+    return gemm(1.0, Q, h, trans_a=(2 if np.iscomplexobj(Q) else 1) if conj else 0)
 
 
 def blocks_at_points(model, ports, points, n_moments: int, *, side: str = "input", solver: SolverContext | None = None,
