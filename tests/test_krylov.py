@@ -114,7 +114,7 @@ def test_arnoldi_orthogonalization_matches_block_gram_schmidt(dtype):
     Per step the new columns span the same space as :func:`flexmor.basis.extend_orthonormal`
     (largest principal angle < 1e-10), are orthonormal to the basis to round-off, and the
     coefficients equal ``[Q^H top; new^H top]`` to 1e-12 relative, also for columns nearly in
-    ``span(Q)``, nearly dependent ones (a third pass), exactly dependent (deflated) and zero ones.
+    ``span(Q)``, nearly dependent ones, exactly dependent (deflated) and zero ones.
     """
     import scipy.linalg as sla
 
@@ -140,7 +140,7 @@ def test_arnoldi_orthogonalization_matches_block_gram_schmidt(dtype):
     generic = rand(n, 4)
     near = Q @ rand(20, 4) + 1e-6 * rand(n, 4)  # residual 1e-6 of the column: a third pass
     dependent = np.hstack([generic[:, :2], generic[:, :1] + generic[:, 1:2], np.zeros((n, 1))])
-    close = np.hstack([generic[:, :2], generic[:, :1] + 1e-5 * generic[:, 2:3]])  # nearly dependent block: third pass
+    close = np.hstack([generic[:, :2], generic[:, :1] + 1e-5 * generic[:, 2:3]])  # nearly dependent block
     for top in (generic, near, dependent, close, Q @ rand(20, 3)):
         new, t = seq._orthogonalize(top)
         ref = extend_orthonormal(Q, top, tol=seq.tol)

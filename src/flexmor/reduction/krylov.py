@@ -181,9 +181,12 @@ class SecondOrderArnoldi:
     def _orthogonalize(self, top: np.ndarray):
         """Block CGS2 of ``top`` against ``Q``: ``(new, t)`` with ``t`` the coefficients of ``top``.
 
-        As :func:`flexmor.basis.extend_orthonormal` (unit columns, two BLAS-3 passes, rank-revealing
-        QR, deflation, a third pass near deflation), in place on Fortran-ordered blocks; ``t`` (the
-        coefficients in ``[Q, new]``) comes from the projections and triangular factors, not another pass over ``Q``.
+        As :func:`flexmor.basis.extend_orthonormal` (unit columns, projection, rank-revealing QR,
+        deflation below ``tol``, a second projection), with the QR between the two passes: the
+        second pass projects orthonormal directions, so ``Q^H new`` is at round-off without the
+        third pass a nearly dependent block otherwise needs (``Q`` is read four times per block).
+        In place on Fortran-ordered blocks (BLAS ``gemm``); ``t`` (the coefficients in
+        ``[Q, new]``) comes from the projections and triangular factors, not another pass.
         """
         Q = self.Q.view
         n, b = top.shape
@@ -194,19 +197,18 @@ class SecondOrderArnoldi:
         if nz.size == 0:
             return np.zeros((n, 0), Q.dtype), t
         X = np.asfortranarray(top[:, nz] / nrm[nz], dtype=Q.dtype)
-        for _ in range(2 if eta0 else 0):
+        if eta0:
             h = _gemm(Q, X, conj=True)
             X = _gemm(Q, h, into=X)
-            t[:, nz] += h * nrm[nz]
+            t[:, nz] = h * nrm[nz]
         W, R, piv = rank_revealing_qr(X)
-        d = np.abs(np.diag(R))
-        k = int(np.sum(d > self.tol))
+        k = int(np.sum(np.abs(np.diag(R)) > self.tol))
         new, Rk = W[:, :k], R[:k] * nrm[nz[piv]]  # top[:, nz[piv]] = Q t[:, nz[piv]] + new Rk (+ deflated part)
-        if eta0 and k and d[k - 1] < 1e-3:  # nearly dependent: a third pass keeps Q^H new = 0
+        if eta0 and k:  # second pass: W = Q g + new R2
             g = _gemm(Q, new, conj=True)
-            new, R3 = np.linalg.qr(_gemm(Q, g, into=np.asfortranarray(new)))  # old new = Q g + new R3
+            new, R2 = np.linalg.qr(_gemm(Q, g, into=np.asfortranarray(new)))
             t[:, nz[piv]] += g @ Rk
-            Rk = R3 @ Rk
+            Rk = R2 @ Rk
         tn = np.zeros((k, b), dtype=Q.dtype)
         tn[:, nz[piv]] = Rk
         return new, np.vstack([t, tn])
