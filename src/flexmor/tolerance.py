@@ -46,23 +46,18 @@ def check_tol_method(method: str) -> None:
 
 
 def min_order(model, method: str, ports, options: dict) -> int:
-    """The smallest order ``method`` accepts: for the component-mode methods the interface DOFs
-    plus one internal vector (for cms-* less the rigid-body modes a free body's basis excludes), else 1."""
+    """The smallest order ``method`` accepts plus one: for the component-mode methods one internal
+    vector next to the interface (:func:`flexmor.reduction.craig_bampton.lowest_order`), else 1."""
     from .options import option_fields
-    from .ports import interface_dofs
     from .reduction import methods
-    from .reduction.free_body import rigid_body_modes
+    from .reduction.craig_bampton import lowest_order
 
     m = methods()[method]
     if "interface" not in m.options or not options.get("interface"):
         return 1
-    low = int(interface_dofs(model, options["interface"]).size) + 1
     fields = option_fields(m.options_class)
-    # a free body's cms-* bases lose the rigid motion of their constraint modes; craig-bampton keeps
-    # n_b columns (inertia-relief attachment modes)
-    if method != "craig-bampton" and "rigid" in fields and options.get("rigid", fields["rigid"].default) == "exclude":
-        low -= rigid_body_modes(model).shape[1]
-    return max(low, 1)
+    rigid = options.get("rigid", fields["rigid"].default) if "rigid" in fields else "include"
+    return max(lowest_order(model, method, options["interface"], rigid) + 1, 1)
 
 
 def reduce_to_tolerance(model, method: str, ports, *, tol: float, full, max_order: int | None = None,

@@ -47,7 +47,7 @@ def balanced_basis(model, ports, order, band, *, method: str, variant: str = "po
         raise OptionError(f"{method} needs order", params=("order",))
     if order > model.n_dof:
         raise OptionError(f"order {order} exceeds the number of DOF {model.n_dof}", params=("order",))
-    phi, head = rigid_head(model, ports, rigid)  # the rigid motion the ports excite goes first
+    phi, head = rigid_head(model, ports.B.toarray(), rigid)  # the rigid motion the ports excite goes first
     n_flex = order - head.shape[1]
     if n_flex < 1:
         raise OptionError(f"order {order} leaves no room next to {head.shape[1]} rigid-body modes", params=("order",))

@@ -16,6 +16,25 @@ from .free_body import inertia_relief_modes, rigid_body_modes
 from .guyan import constraint_modes, interface_option
 from .krylov import rigid_option
 
+#: How a CMS method treats the constraint modes of a free body whose rigid motion it excludes:
+#: ``inertia-relief`` replaces them by the interface's inertia-relief attachment modes
+#: (:func:`flexmor.reduction.free_body.inertia_relief_modes`; the n_b columns stay), the default
+#: keeps them and :func:`flexmor.reduction.free_body.exclude_rigid` drops their rigid motion
+#: afterwards (n_rigid columns leave).
+FREE_ATTACHMENT = {"craig-bampton": "inertia-relief"}
+
+
+def _relief(method: str, n_rigid: int) -> bool:
+    return bool(n_rigid) and FREE_ATTACHMENT.get(method) == "inertia-relief"
+
+
+def lowest_order(model, method: str, interface, rigid: str) -> int:
+    """The smallest order ``method`` accepts: the interface DOFs, less the rigid-body modes a free
+    body's basis drops (see :data:`FREE_ATTACHMENT`)."""
+    n_rb = rigid_body_modes(model).shape[1] if rigid == "exclude" else 0
+    n_b = interface_dofs(model, interface).size
+    return n_b if _relief(method, n_rb) else n_b - n_rb
+
 
 def cb_frame(model, interface, order, method: str, solver: SolverContext | None = None, rigid: str = "include"):
     """The Craig-Bampton frame shared by the CMS methods.
@@ -24,9 +43,11 @@ def cb_frame(model, interface, order, method: str, solver: SolverContext | None 
     ``n_b`` columns and zeros in the ``order - n_b`` internal columns (at most the number of
     interior DOFs), the interface and interior equations, the factorization of ``K_ii``, and the
     basis ``info`` to start from. With ``rigid='exclude'`` on a free body the constraint modes
-    span its ``n_rigid`` rigid motions (the interface holds the body), which
-    :func:`flexmor.reduction.free_body.exclude_rigid` removes afterwards: ``n_rigid`` more
-    internal columns keep the requested order, and ``info`` asks for the removal.
+    span its ``n_rigid`` rigid motions (the interface holds the body). Per
+    :data:`FREE_ATTACHMENT`, the first ``n_b`` columns are then the inertia-relief attachment
+    modes, or the constraint modes, whose rigid motion
+    :func:`flexmor.reduction.free_body.exclude_rigid` removes afterwards (``n_rigid`` more
+    internal columns keep the requested order). ``info`` asks for the removal either way.
     """
     solver = as_solver(solver)
     check_choice("rigid", rigid, ("exclude", "include"))
@@ -35,15 +56,20 @@ def cb_frame(model, interface, order, method: str, solver: SolverContext | None 
         raise OptionError(f"{method} needs order (at least the {n_b} interface DOFs, plus internal vectors), or a "
                           "target error (tol) to choose it", params=("order", "tol"))
     n_rb = rigid_body_modes(model).shape[1] if rigid == "exclude" else 0
+    relief = _relief(method, n_rb)
     V_c, b, i, F = constraint_modes(model, interface, solver)
-    if order < b.size - n_rb:
-        raise OptionError(f"{method} needs order >= number of interface DOFs ({b.size - n_rb}), got {order}",
+    low = b.size if relief else b.size - n_rb
+    if order < low:
+        raise OptionError(f"{method} needs order >= number of interface DOFs ({low}), got {order}",
                           params=("order",))
-    V = np.zeros((model.n_dof, b.size + min(order + n_rb - b.size, i.size)))
-    V[:, : b.size] = V_c
+    extra = 0 if relief else n_rb
+    V = np.zeros((model.n_dof, b.size + min(order + extra - b.size, i.size)))
+    V[:, : b.size] = inertia_relief_modes(model, b, solver=solver) if relief else V_c
     info = {"n_interface_dofs": int(b.size)}
     if n_rb:
-        info.update(rigid="exclude", n_rigid=int(n_rb))
+        info.update(rigid="exclude", n_rigid=int(extra))
+    if relief:
+        info.update(attachment="inertia-relief", n_rigid_body_modes=int(n_rb))
     return V, b, i, F, info
 
 
@@ -111,14 +137,6 @@ def craig_bampton(model, ports, order, *, interface=None, rigid: str = "exclude"
     """
     solver = as_solver(solver)
     V, b, i, F, info = cb_frame(model, interface, order, "craig-bampton", solver, rigid)
-    n_rb = info.get("n_rigid", 0)
-    if n_rb:  # free body, rigid motion excluded: inertia-relief attachment modes in place of the constraint modes
-        if order < b.size:
-            raise OptionError(f"craig-bampton on a free body needs order >= the {b.size} interface DOFs (their "
-                              f"inertia-relief modes), got {order}", params=("order",))
-        V = V[:, : b.size + max(V.shape[1] - b.size - n_rb, 0)]
-        V[:, : b.size] = inertia_relief_modes(model, b, solver=solver)
-        info.update(attachment="inertia-relief", n_rigid=0, n_rigid_body_modes=int(n_rb))
     n_modes = V.shape[1] - b.size
     freqs = []
     if n_modes:

@@ -44,8 +44,8 @@ from ..basis import Basis
 from ..errors import FlexmorWarning
 from ..linalg.eigen import rigid_body_threshold
 
-__all__ = ["rigid_motions", "rigid_body_modes", "rigid_head", "inertia_relief_modes", "with_elastic_inputs", "with_inertia_loads", "INERTIA_LOAD_NAMES", "exclude_rigid",
-           "elastic_body", "rigid_content", "rigid_residual", "check_body", "spurious_modes_hz"]
+__all__ = ["rigid_motions", "rigid_body_modes", "rigid_head", "m_project", "elastic_loads", "inertia_relief_modes",
+           "with_elastic_inputs", "with_inertia_loads", "INERTIA_LOAD_NAMES", "exclude_rigid", "elastic_body", "rigid_content", "rigid_residual", "check_body", "spurious_modes_hz"]
 
 log = logging.getLogger(__name__)
 
@@ -100,17 +100,27 @@ def rigid_body_modes(model) -> np.ndarray:
     return R @ (U[:, keep] / np.sqrt(w[keep]))
 
 
-def rigid_head(model, ports, rigid: str):
+def m_project(model, phi, X):
+    """Displacements ``X`` made M-orthogonal to the modes ``phi``: ``(I - Φ Φᵀ M) X``."""
+    return X - phi @ (phi.T @ (model.M @ X))
+
+
+def elastic_loads(model, phi, F):
+    """The elastic part of the loads ``F``: ``(I - M Φ Φᵀ) F`` (no work on the rigid-body modes ``phi``)."""
+    return F - model.M @ (phi @ (phi.T @ F))
+
+
+def rigid_head(model, loads, rigid: str):
     """``(phi, head)``: the rigid-body modes of ``model`` and, for ``rigid='include'``, those the
-    inputs excite (the leading columns of a basis that keeps the rigid motion); ``head`` is empty
-    for ``'exclude'`` or a supported body."""
+    dense ``loads`` (e.g. ``B``) excite (the leading columns of a basis that keeps the rigid
+    motion); ``head`` is empty for ``'exclude'`` or a supported body."""
     from ..errors import check_choice
 
     check_choice("rigid", rigid, ("include", "exclude"))
     phi = rigid_body_modes(model)
     head = np.zeros((model.n_dof, 0))
     if phi.shape[1] and rigid == "include":
-        w = np.linalg.norm(phi.T @ ports.B.toarray(), axis=1)
+        w = np.linalg.norm(phi.T @ loads, axis=1)
         head = phi[:, w > 1e-8 * w.max(initial=0.0)] if w.max(initial=0.0) > 0 else head
     return phi, head
 
@@ -138,16 +148,13 @@ def inertia_relief_modes(model, dofs, *, phi=None, solver=None) -> np.ndarray:
     dofs = np.asarray(dofs, dtype=np.int64)
     E = np.zeros((model.n_dof, dofs.size))
     E[dofs, np.arange(dofs.size)] = 1.0
-    f = E - model.M @ (phi @ (phi.T @ E))
+    f = elastic_loads(model, phi, E)
     sigma = default_shift(model.K, model.M)
     F = factorize((model.K - sigma * model.M).tocsr(), solver=solver, positive=True)
 
-    def project(X):
-        return X - phi @ (phi.T @ (model.M @ X))
-
-    x = project(F.solve(f))
+    x = m_project(model, phi, F.solve(f))
     for _ in range(50):
-        dx = project(F.solve(f - model.K @ x))
+        dx = m_project(model, phi, F.solve(f - model.K @ x))
         x = x + dx
         if np.linalg.norm(dx) <= RELIEF_TOL * np.linalg.norm(x):
             break
@@ -169,7 +176,7 @@ def with_elastic_inputs(model, ports):
     if not phi.shape[1] or not ports.n_inputs:
         return ports
     B = ports.B.toarray()
-    Be = B - model.M @ (phi @ (phi.T @ B))
+    Be = elastic_loads(model, phi, B)
     return Ports(B=sp.hstack([ports.B, sp.csr_matrix(Be)]).tocsr(), C=ports.C,
                  input_names=list(ports.input_names) + [f"elastic:{n}" for n in ports.input_names],
                  output_names=list(ports.output_names))
@@ -223,7 +230,7 @@ def with_inertia_loads(model, ports, mode: str = "off"):
     if phi.shape[1]:  # the elastic part: nothing is left of a uniform field on a free body
         L0 = np.linalg.norm(L, axis=0)
         for _ in range(2):
-            L = L - model.M @ (phi @ (phi.T @ L))
+            L = elastic_loads(model, phi, L)
         keep[keep] = np.linalg.norm(L, axis=0) > RIGID_DEFLATION_TOL * L0
         L = L[:, np.linalg.norm(L, axis=0) > RIGID_DEFLATION_TOL * L0]
     if not L.shape[1]:
@@ -245,10 +252,6 @@ def rigid_residual(model, V, phi=None) -> float:
     nrm = np.sqrt(np.clip(np.einsum("ij,ij->j", V, MV), 0.0, None))
     c = np.linalg.norm(phi.T @ MV, axis=0)
     return float(np.max(c / np.where(nrm > 0, nrm, 1.0)))
-
-
-def _m_project(model, phi, V):
-    return V - phi @ (phi.T @ (model.M @ V))
 
 
 def _orthonormal_in_order(X, tol: float, ref=None):
@@ -305,7 +308,7 @@ def exclude_rigid(model, basis: Basis) -> Basis:
     V0 = np.asarray(basis.V, dtype=float)[:, head:]
     X = V0
     for _ in range(2):
-        X = _m_project(model, phi, X)
+        X = m_project(model, phi, X)
     # relative to the method's columns: a column that was rigid motion leaves only round-off
     scale = np.linalg.norm(V0, axis=0)
     kept = np.linalg.norm(X, axis=0) / np.where(scale > 0, scale, 1.0)
@@ -314,7 +317,7 @@ def exclude_rigid(model, basis: Basis) -> Basis:
     else:
         # a column that was rigid motion keeps only round-off of the method's column: dropped
         Q, _ = _orthonormal_in_order(X, RIGID_DEFLATION_TOL, ref=scale)
-        Q = _m_project(model, phi, Q)  # clean to round-off of unit columns
+        Q = m_project(model, phi, Q)  # clean to round-off of unit columns
         Q, _ = _orthonormal_in_order(Q, RIGID_DEFLATION_TOL)
     info = dict(basis.info, rigid_residual=rigid_residual(model, Q, phi))
     if rigid == "exclude":

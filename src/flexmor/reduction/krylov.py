@@ -35,7 +35,7 @@ from ..linalg.eigen import default_shift
 from ..linalg.threads import blas_threads
 from ..options import Band, band_option, option
 from . import register_method
-from .free_body import rigid_body_modes
+from .free_body import rigid_body_modes, rigid_head
 from .krylov_check import POINTS_TOL, nested_estimate
 
 __all__ = ["krylov", "KrylovOptions", "parse_points", "default_points", "SecondOrderArnoldi", "start_block",
@@ -458,11 +458,8 @@ def krylov(model, ports, order, *, points=None, moments: int | None = None, side
     if not float(points_tol) > 0:
         raise OptionError(f"points_tol must be positive, got {points_tol}", params=("points_tol",))
     b = start_block(ports, side).shape[1]
-    phi = rigid_body_modes(model)
-    head = []
-    if phi.shape[1] and rigid == "include":  # the rigid motion the ports excite, first
-        w = np.linalg.norm(phi.T @ start_block(ports, side), axis=1)
-        head = [[phi[:, w > 1e-8 * w.max(initial=0.0)]]] if w.max(initial=0.0) > 0 else []
+    phi, excited = rigid_head(model, start_block(ports, side), rigid)  # the rigid motion the ports excite, first
+    head = [[excited]] if excited.shape[1] else []
     cache = {}
     V, k, used = _basis_at(model, ports, pts, order, moments, b, head, side, solver, phi, cache)
     check = None

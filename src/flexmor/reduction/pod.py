@@ -13,7 +13,7 @@ from ..errors import OptionError, check_choice
 from ..linalg.context import SolverContext, as_solver
 from ..options import Band, band_option, option
 from . import register_method
-from .free_body import rigid_head
+from .free_body import m_project, rigid_head
 from .gramians import compress, gramian_factors, nodes_option, solves_option
 from .krylov import rigid_option, side_option
 
@@ -158,7 +158,7 @@ def pod(model, ports, order, *, band=None, energy: float | None = None, snapshot
     if energy is not None and not 0 < float(energy) <= 1:
         raise OptionError(f"energy must be in (0, 1], got {energy}", params=("energy",))
     band = Band.of(band)
-    phi, head = rigid_head(model, ports, rigid)
+    phi, head = rigid_head(model, ports.B.toarray(), rigid)
     parts, info = [], {"snapshots": snapshots, "band_hz": list(band)}
     if snapshots in ("frequency", "both"):
         G = gramian_factors(model, ports, band, side="both" if side == "both" else "input", nodes=nodes,
@@ -168,7 +168,7 @@ def pod(model, ports, order, *, band=None, energy: float | None = None, snapshot
         info.update(n_nodes=G.info["n_nodes"], gramian_damping=G.info["gramian_damping"], solves=G.info["solves"])
     if snapshots in ("time", "both"):
         S, tinfo = _time_snapshots(model, ports, band, solver)
-        parts.append(S - phi @ (phi.T @ (model.M @ S)) if phi.shape[1] else S)
+        parts.append(m_project(model, phi, S))
         info["time"] = tinfo
     if len(parts) > 1:
         parts = [P / math.sqrt(max(np.einsum("ij,ij->", P, model.M @ P), 1e-300)) for P in parts]
