@@ -1,0 +1,169 @@
+"""The block second-order Arnoldi process of :mod:`flexmor.reduction.krylov`.
+
+For the pencil ``A0 = sigma^2 M + sigma D + K``, ``A1 = 2 sigma M + D`` of an expansion point,
+:class:`SecondOrderArnoldi` orthonormalizes the upper half of the first-order Krylov vectors of
+``[[-A0^{-1} A1, -A0^{-1} M], [I, 0]]`` (stored as ``[Q U1; Q U2]`` with one orthonormal
+``n x eta`` basis ``Q``) by block classical Gram-Schmidt with reorthogonalization and
+deflation, one factorization of ``A0`` serving every block.
+"""
+
+from __future__ import annotations
+
+import logging
+
+import numpy as np
+import scipy.linalg as sla
+
+from ..basis import Columns, rank_revealing_qr
+
+__all__ = ["SecondOrderArnoldi", "DEFLATION_TOL"]
+
+log = logging.getLogger(__name__)
+
+#: Relative size below which a new Krylov direction counts as dependent (deflated).
+DEFLATION_TOL = 1e-10
+
+
+class SecondOrderArnoldi:
+    """Block second-order Arnoldi sequence at one expansion point ``s`` in two-level form (TOAR).
+
+    Block Arnoldi on the linearization ``[[-A0^{-1} tau A1, -A0^{-1} tau^2 M], [I, 0]]``
+    started with ``[A0^{-1} start; 0]``, with the Taylor variable scaled by ``tau`` (a
+    frequency of the point and of the body) so that both halves have comparable size. The
+    upper halves of the first ``k`` blocks span ``{X_0 ... X_{k-1}}``; orthogonalizing the full
+    vectors (twice, with deflation) keeps the process stable even when an upper half
+    vanishes (e.g. ``s = 0`` with stiffness-proportional damping, where ``X_1 || X_0``).
+
+    The lower half of every Krylov vector is an upper half of an earlier one, so all
+    ``2n``-vectors are stored as ``[Q U1; Q U2]`` with one orthonormal ``n x eta`` basis ``Q``
+    of the upper halves and small coefficient matrices (two-level orthogonal Arnoldi): the
+    memory is that of ``Q``, the basis the method wants, instead of ``3x`` it for the
+    ``2n``-vectors and a separate basis; the orthogonalization of the ``2n``-vectors runs on
+    the ``2 eta``-long coefficients.
+
+    Each call of :meth:`next_block` returns the new columns of ``Q`` (orthonormal to the
+    earlier ones; complex if ``s`` is; none when a moment lies in the span already) or
+    ``None`` when the sequence is exhausted; :meth:`last_top` is the upper half of the
+    newest orthonormal ``2n``-block.
+
+    References
+    ----------
+    Lu, D., Su, Y., Bai, Z. (2016). Stability analysis of the two-level orthogonal Arnoldi
+    procedure. SIAM J. Matrix Anal. Appl. 37(1), 195-214.
+    """
+
+    def __init__(self, model, F, s: complex, start: np.ndarray, *, tol: float = DEFLATION_TOL, project=None,
+                 capacity: int = 16):
+        self.M, self.D, self.F, self.tol = model.M, model.D, F, tol
+        self._project = project if project is not None else (lambda X: X)
+        s = complex(s).real if complex(s).imag == 0 else complex(s)
+        self.s, self.n_solves, self.tau = s, 0, 1.0
+        self._start = start
+        self._K = model.K
+        dtype = np.result_type(start.dtype, float) if isinstance(s, float) else np.complex128
+        self.Q = Columns(model.M.shape[0], dtype, capacity=max(int(capacity), 1))
+        self.U = np.zeros((0, 0), dtype=dtype)  # coefficients [U1; U2] of the 2n-vectors, (2 eta, k)
+        self._last = None  # coefficients of the last orthonormal block
+
+    def _orthogonalize(self, top: np.ndarray):
+        """Block CGS2 of ``top`` against ``Q``: ``(new, t)`` with ``t`` the coefficients of ``top``.
+
+        As :func:`flexmor.basis.extend_orthonormal` (unit columns, projection, rank-revealing QR,
+        deflation below ``tol``, a second projection), with the QR between the two passes: the
+        second pass projects orthonormal directions, so ``Q^H new`` is at round-off without the
+        third pass a nearly dependent block otherwise needs (``Q`` is read four times per block).
+        In place on Fortran-ordered blocks (BLAS ``gemm``); ``t`` (the coefficients in
+        ``[Q, new]``) comes from the projections and triangular factors, not another pass.
+        """
+        Q = self.Q.view
+        n, b = top.shape
+        eta0 = Q.shape[1]
+        t = np.zeros((eta0, b), dtype=Q.dtype, order="F")
+        nrm = np.linalg.norm(top, axis=0)
+        nz = np.flatnonzero(nrm > 0)
+        if nz.size == 0:
+            return np.zeros((n, 0), Q.dtype), t
+        X = np.asfortranarray(top[:, nz] / nrm[nz], dtype=Q.dtype)
+        if eta0:
+            h = _gemm(Q, X, conj=True)
+            X = _gemm(Q, h, into=X)
+            t[:, nz] = h * nrm[nz]
+        W, R, piv = rank_revealing_qr(X)
+        k = int(np.sum(np.abs(np.diag(R)) > self.tol))
+        new, Rk = W[:, :k], R[:k] * nrm[nz[piv]]  # top[:, nz[piv]] = Q t[:, nz[piv]] + new Rk (+ deflated part)
+        if eta0 and k:  # second pass: W = Q g + new R2
+            g = _gemm(Q, new, conj=True)
+            new, R2 = np.linalg.qr(_gemm(Q, g, into=np.asfortranarray(new)))
+            t[:, nz[piv]] += g @ Rk
+            Rk = R2 @ Rk
+        tn = np.zeros((k, b), dtype=Q.dtype)
+        tn[:, nz[piv]] = Rk
+        return new, np.vstack([t, tn])
+
+    def _append(self, top: np.ndarray, bottom: np.ndarray):
+        """Add the 2n-vectors ``[top; Q bottom]`` (``top`` n-long, ``bottom`` coefficients)."""
+        eta0 = self.Q.k
+        new, t = self._orthogonalize(top)
+        eta = eta0 + new.shape[1]
+        X = np.vstack([t, np.pad(bottom, ((0, eta - bottom.shape[0]), (0, 0)))])
+        U = self.U
+        if U.shape[1]:  # pad the earlier coefficients to the grown basis
+            U = np.vstack([np.pad(U[:eta0], ((0, eta - eta0), (0, 0))), np.pad(U[eta0:], ((0, eta - eta0), (0, 0)))])
+        ref = np.linalg.norm(X, axis=0).max(initial=0.0)
+        if ref == 0:
+            return None
+        for _ in range(2):
+            if U.shape[1]:
+                X -= U @ (U.conj().T @ X)
+        W, R, _ = rank_revealing_qr(X)
+        k = int(np.sum(np.abs(np.diag(R)) > self.tol * ref))
+        if k < X.shape[1]:
+            log.debug("second-order Arnoldi: %d of %d directions deflated", X.shape[1] - k, X.shape[1])
+        if k == 0:
+            return None
+        self.Q.append(new)
+        self.U = np.hstack([U, W[:, :k]]) if U.shape[1] else np.ascontiguousarray(W[:, :k])
+        self._last = W[:, :k]
+        return self.Q.view[:, eta0:]
+
+    def last_top(self) -> np.ndarray:
+        """Upper half ``Q U1`` of the newest orthonormal block of ``2n``-vectors (not orthonormal)."""
+        return _gemm(self.Q.view, self._last[: self._last.shape[0] // 2])
+
+    def next_block(self):
+        if self.n_solves == 0:
+            X0 = self._project(self.F.solve(self._start))
+            self.n_solves += 1
+            x = X0[:, 0]
+            mx = np.vdot(x, self.M @ x).real
+            if mx > 0:  # tau^2 = Rayleigh quotient of |s|^2 M + K: the frequency scale of the point
+                kx = np.vdot(x, self._K @ x).real
+                self.tau = float(np.sqrt(abs(self.s) ** 2 + max(kx, 0.0) / mx)) or 1.0
+            return self._append(X0, np.zeros((0, X0.shape[1]), X0.dtype))
+        if self._last is None:
+            return None
+        c = self._last
+        u1, u2 = c[: c.shape[0] // 2], c[c.shape[0] // 2:]
+        self._last = None
+        b = u1.shape[1]
+        # rhs = tau A1 V + tau^2 M L with A1 = 2 s M + D, V = Q u1 and L = Q u2: one product with Q, one with M
+        w = (2 * self.s * self.tau) * u1 + self.tau ** 2 * u2
+        P = _gemm(self.Q.view, np.hstack([w, u1]) if self.D is not None else w)
+        rhs = self.M @ P[:, :b]
+        if self.D is not None:
+            rhs += self.tau * (self.D @ P[:, b:])
+        del P  # memory: the basis and a few n x b blocks
+        if not np.any(rhs):  # e.g. s = 0 without damping: odd moments vanish, no solve needed
+            return self._append(np.zeros_like(rhs), u1)
+        top = -self._project(self.F.solve(rhs))
+        self.n_solves += 1
+        return self._append(top, u1)
+
+
+def _gemm(Q: np.ndarray, h: np.ndarray, *, conj: bool = False, into: np.ndarray | None = None) -> np.ndarray:
+    """``Q @ h``, ``Q^H @ h`` (``conj``) or ``into - Q @ h`` (in place if ``into`` is Fortran-ordered
+    of the type) by BLAS ``gemm``: for a tall ``Q`` and few columns 2-3x faster than ``@``."""
+    gemm = sla.blas.get_blas_funcs("gemm", (Q, h))
+    if into is not None:
+        return gemm(-1.0, Q, h, 1.0, into, overwrite_c=True)
+    return gemm(1.0, Q, h, trans_a=(2 if np.iscomplexobj(Q) else 1) if conj else 0)
