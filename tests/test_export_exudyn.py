@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from flexmor.basis import Basis
-from flexmor.invariants import rigid_fields, compute_invariants, node_triples
+from flexmor.invariants import compute_invariants, rigid_fields
 from flexmor.io.exudyn import add_marker, add_to_exudyn, exudyn_data, write_exudyn
 from flexmor.ports import make_ports
 from flexmor.projection import project
@@ -56,8 +56,7 @@ def test_free_floating_eigenfrequencies_equal_flexmor(free, attached):
     mbs.Assemble()
     ev, _ = exu.solver.ComputeODE2Eigenvalues(mbs)
     f_exu = np.sort(np.sqrt(np.abs(ev)) / (2 * np.pi))
-    trans, rot = node_triples(free)
-    St, Sr, _ = rigid_fields(free, trans, rot)
+    St, Sr, _ = rigid_fields(free)
     full = project(free, Basis(np.hstack([St, Sr, red.V]), "rigid+modes"), ports).frequencies_hz()
     assert f_exu.size == 14 and np.all(f_exu[:6] < 1e-3)
     np.testing.assert_allclose(f_exu[6:], full[6:], rtol=1e-6)
@@ -95,8 +94,7 @@ def test_force_at_the_tip_matches_flexmor_response(free, attached, tmp_path):
     # flexmor: exact modal solution of Mr x'' + Kr x = Br F, y = Cr x
     import scipy.linalg as sla
 
-    trans, rot = node_triples(free)
-    St, Sr, _ = rigid_fields(free, trans, rot)
+    St, Sr, _ = rigid_fields(free)
     full = project(free, Basis(np.hstack([St, Sr, red.V]), "rigid+modes"), ports)
     lam, X = sla.eigh(full.K, full.M)
     g = X.T @ full.B[:, 0] * F

@@ -165,24 +165,18 @@ def _cross_fields(W, trans, rot, n):
     return np.hstack(out)
 
 
-def rigid_fields(model, trans, rot):
-    """Translations St (n, 3), rotations Sr (n, 3) and position X (n,) as nodal vectors."""
-    n = model.n_dof
-    St, Sr, X = np.zeros((n, 3)), np.zeros((n, 3)), np.zeros(n)
-    xyz = model.xyz
-    for d in range(3):
-        ok = trans[:, d] >= 0
-        St[trans[ok, d], d] = 1.0
-        X[trans[ok, d]] = xyz[ok, d]
-        okr = rot[:, d] >= 0
-        Sr[rot[okr, d], d] = 1.0
-    for k in range(3):
-        i, j = (k + 1) % 3, (k + 2) % 3  # e_k × r
-        ok = trans[:, i] >= 0
-        Sr[trans[ok, i], k] = -xyz[ok, j]
-        ok = trans[:, j] >= 0
-        Sr[trans[ok, j], k] = xyz[ok, i]
-    return St, Sr, X
+def rigid_fields(model):
+    """Translations St (n, 3), rotations about the origin Sr (n, 3) and position X (n,) as nodal
+    vectors (:func:`flexmor.reduction.free_body.rigid_motions` about the origin; X holds the
+    coordinate of each translational equation's node along its direction)."""
+    from .reduction.free_body import rigid_motions
+
+    R = rigid_motions(model, origin=np.zeros(3))
+    X = np.zeros(model.n_dof)
+    xyz, d = model.node_xyz(model.dofs[:, 0]), model.dofs[:, 1]
+    for a in range(3):
+        X[d == a + 1] = xyz[d == a + 1, a]
+    return R[:, :3], R[:, 3:], X
 
 
 def compute_invariants(model, V, *, K=None, D=None, nodes=()) -> Invariants:
@@ -214,7 +208,7 @@ def compute_invariants(model, V, *, K=None, D=None, nodes=()) -> Invariants:
                          "export needs the model the body was reduced from")
     trans, rot = node_triples(model)
     n, r = model.n_dof, V.shape[1]
-    St, Sr, X = rigid_fields(model, trans, rot)
+    St, Sr, X = rigid_fields(model)
     Y = _cross_fields(V, trans, rot, n)  # (n, 3r): columns k*r + b = e_k × Φ_b
     F = np.hstack([St, Sr, X[:, None], V, Y])
     MF = np.asarray(model.M @ F)

@@ -112,7 +112,7 @@ def exudyn_data(reduced, model, *, node_type: str = NODE_TYPES[0]) -> dict:
     # the terms of the rigid fields are taken from the full mass matrix (rotational DOFs included,
     # e.g. the master nodes of RBE2 couplings that carry the mass of their faces): exact rigid-body
     # mass, centre of mass and inertia tensor, and the exact first-order coupling terms
-    St, Sr, X = rigid_fields(model, trans, rot)
+    St, Sr, X = rigid_fields(model)
     MR = np.asarray(model.M @ np.hstack([St, Sr, X[:, None]]))
     Mtt = St.T @ MR[:, :3]
     mass = float(np.trace(Mtt) / 3)

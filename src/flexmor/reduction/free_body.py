@@ -56,18 +56,19 @@ RIGID_DEFLATION_TOL = 1e-8
 POLISH_TOL = 1e-6
 
 
-def rigid_motions(model) -> np.ndarray:
+def rigid_motions(model, origin=None) -> np.ndarray:
     """The six rigid motions of the model's geometry as nodal fields, (n_dof, 6), unnormalized.
 
-    Columns: unit translations x, y, z, then unit rotations about x, y, z through the centroid
-    of the nodes (``e_a x (x - x_c)`` on translational DOF, ``1`` on rotational DOF). A column
-    is zero where the model has no DOF in that direction; all are zero without geometry.
+    Columns: unit translations x, y, z, then unit rotations about x, y, z through ``origin``
+    (default the mean position of the equations' nodes; ``e_a x (x - x_o)`` on translational
+    DOF, ``1`` on rotational DOF). A column is zero where the model has no DOF in that
+    direction; all are zero without geometry.
     """
     R = np.zeros((model.n_dof, 6))
     if model.dofs is None or model.n_nodes == 0:
         return R
     xyz = model.node_xyz(model.dofs[:, 0])
-    xyz = xyz - xyz.mean(axis=0)
+    xyz = xyz - (xyz.mean(axis=0) if origin is None else np.asarray(origin, dtype=float))
     d = model.dofs[:, 1]
     for a in range(3):
         R[d == a + 1, a] = 1.0
@@ -231,8 +232,9 @@ def with_inertia_loads(model, ports, mode: str = "off"):
         L0 = np.linalg.norm(L, axis=0)
         for _ in range(2):
             L = elastic_loads(model, phi, L)
-        keep[keep] = np.linalg.norm(L, axis=0) > RIGID_DEFLATION_TOL * L0
-        L = L[:, np.linalg.norm(L, axis=0) > RIGID_DEFLATION_TOL * L0]
+        left = np.linalg.norm(L, axis=0) > RIGID_DEFLATION_TOL * L0
+        keep[keep] = left
+        L = L[:, left]
     if not L.shape[1]:
         return ports, record
     scale = np.mean(sp.linalg.norm(ports.B, axis=0)) if ports.n_inputs else 1.0
