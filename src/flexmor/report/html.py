@@ -248,7 +248,7 @@ def build_report(model, ports, reduced, *, band, labels=None, seconds=None, full
 
 # -- rendering ---------------------------------------------------------------------------------
 _CSS = """body{font-family:system-ui,sans-serif;margin:2em auto;max-width:1100px;color:#222}
-table{border-collapse:collapse;margin:1em 0;font-size:0.9em}th,td{border:1px solid #bbb;padding:3px 8px;
+.t{overflow-x:auto;margin:1em 0}table{border-collapse:collapse;font-size:0.85em}th,td{border:1px solid #bbb;padding:3px 8px;
 text-align:right}th{background:#eee}td.l{text-align:left}img{max-width:100%;display:block;margin:1em 0}
 .note{color:#666;font-size:0.9em}h2{border-bottom:1px solid #ccc;margin-top:2em}"""
 
@@ -261,7 +261,7 @@ def _table(header, rows, left=(0,)) -> str:
     h = "".join(f"<th>{html.escape(str(c))}</th>" for c in header)
     body = "".join("<tr>" + "".join(f'<td{" class=l" if k in left else ""}>{html.escape(str(c))}</td>'
                                     for k, c in enumerate(r)) + "</tr>" for r in rows)
-    return f"<table><tr>{h}</tr>{body}</table>"
+    return f'<div class="t"><table><tr>{h}</tr>{body}</table></div>'
 
 
 def render_html(rep: Report) -> str:
