@@ -14,8 +14,8 @@ from test_io_mesh import ABAQUS_EDGES, CORNERS, NASTRAN_EDGES, VTK_EDGES, _check
 import flexmor.io
 from flexmor.cli import main
 from flexmor.errors import ModelError, ReadError
-from flexmor.io.calculix import read_inp
 from flexmor.io._cells import build_mesh, mesh_of_elements, nastran_cell
+from flexmor.io.calculix import read_inp
 from flexmor.io.hdf5 import write_reduced
 from flexmor.io.meshio_mesh import read_mesh, with_mesh
 from flexmor.io.nastran.nastran_bulk import read_bulk
@@ -148,7 +148,7 @@ def test_abaqus_quadratic_beam_meshio_is_wrong(tmp_path):
     xyz = np.array([(0.0, 0, 0), (3.0, 0, 0), (6.0, 0, 0)])
     deck = _deck(tmp_path, "B32", xyz)
     cells = []
-    ids, coords, _ = read_inp(deck, cells=cells)
+    _, coords, _ = read_inp(deck, cells=cells)
     (block,) = build_mesh(cells, "abaqus").blocks
     assert block.type == "line3"
     np.testing.assert_array_equal(coords[block.nodes[0] - 1], xyz[[0, 2, 1]])  # VTK: ends, then middle
@@ -287,6 +287,7 @@ def test_vtu_holds_the_mesh_and_the_expanded_modes(tmp_path, ccx_body):
     np.testing.assert_array_equal(ids, model.node_ids)
     np.testing.assert_allclose(grid.field_data["frequencies_hz"], red.frequencies_hz(), rtol=1e-12)
     freqs, shapes = body_modes(red)
+    np.testing.assert_allclose(freqs, red.frequencies_hz(), rtol=1e-12)
     phi = shapes[:, 0]
     assert phi @ (model.M @ phi) == pytest.approx(1.0, rel=1e-9)  # mass-normalized
     mode1 = grid.point_data["mode_1"]
@@ -316,7 +317,7 @@ def test_vtu_of_quadratic_tetrahedra_keeps_vtk_order(tmp_path):
 
 
 def test_vtu_without_model_draws_the_body_surface(tmp_path, ccx_body):
-    red, model = ccx_body
+    red, _ = ccx_body
     body = tmp_path / "body.h5"
     write_reduced(red, body)
     out = tmp_path / "surface.vtu"
@@ -333,7 +334,7 @@ def test_vtu_without_model_draws_the_body_surface(tmp_path, ccx_body):
 def test_vtu_needs_nodes(tmp_path, ccx_body):
     import dataclasses
 
-    red, model = ccx_body
+    red, _ = ccx_body
     bare = dataclasses.replace(red, triangles=None)
     with pytest.raises(ModelError, match="no node table and surface"):
         flexmor.io.export(bare, tmp_path / "x.vtu")

@@ -137,7 +137,7 @@ class Mesh:
                            field_data=dict(field_data or {}))
 
     @classmethod
-    def from_meshio(cls, mesh, node_ids=None) -> "Mesh":
+    def from_meshio(cls, mesh, node_ids=None) -> Mesh:
         """The cells of a ``meshio.Mesh`` over node ids.
 
         Parameters
