@@ -65,7 +65,8 @@ def _assert_same_cells(ours: dict, theirs: dict):
 def test_round_trip_keeps_node_ids_types_and_order():
     ids = np.array([40, 7, 12, 99, 3, 58, 21, 64])
     xyz = np.arange(24, dtype=float).reshape(8, 3) ** 1.5
-    mesh = Mesh([CellBlock("hexahedron", [[3, 7, 12, 40, 58, 99, 21, 64]]), CellBlock("wedge", [[7, 12, 40, 3, 58, 99]]),
+    mesh = Mesh([CellBlock("hexahedron", [[3, 7, 12, 40, 58, 99, 21, 64]]),
+                 CellBlock("wedge", [[7, 12, 40, 3, 58, 99]]),
                  CellBlock("line", [[21, 64]])])
     m = mesh.to_meshio(ids, xyz)
     assert [c.type for c in m.cells] == ["hexahedron", "wedge", "line"]
@@ -300,7 +301,8 @@ def test_vtu_holds_the_mesh_and_the_expanded_modes(tmp_path, ccx_body):
 
 
 def test_vtu_of_quadratic_tetrahedra_keeps_vtk_order(tmp_path):
-    """A tet10 model (an Abaqus C3D10 deck): after the export the mid-side nodes of every cell lie mid-edge in VTK's order and the volumes are positive (a permuted order fails)."""
+    """A tet10 model (an Abaqus C3D10 deck): after the export the mid-side nodes of every cell lie
+    mid-edge in VTK's order and the volumes are positive (a permuted order fails)."""
     deck = DATA / "abaqus" / "blockC3D10.inp"
     model = flexmor.io.read(deck)
     red, _ = reduce(model, "modal", 4, make_ports(model, [f"{int(model.node_ids[0])}:x"]))

@@ -150,8 +150,8 @@ class Mesh:
         -------
         Mesh
             One block per meshio cell block of a type in :data:`NODES_PER_CELL` (meshio's
-            names are flexmor's; wedges turned by :data:`MESHIO_ORDER`); blocks of other types (polygons, Lagrange cells ...) are
-            left out with a log message.
+            names are flexmor's; wedges turned by :data:`MESHIO_ORDER`); blocks of other
+            types (polygons, Lagrange cells ...) are left out with a log message.
         """
         ids = meshio_node_ids(mesh) if node_ids is None else np.asarray(node_ids, dtype=np.int64).reshape(-1)
         if ids.size != len(mesh.points):
@@ -173,7 +173,7 @@ def _reorder(cell_type: str, nodes: np.ndarray) -> np.ndarray:
 
 
 def _meshio_block(meshio, cell_type: str, cells: np.ndarray):
-    """A ``meshio.CellBlock``; quadratic cells meshio cannot hold (5.3.5: ``wedge15``, ``pyramid13``) by their corners."""
+    """A ``meshio.CellBlock``; cells of a type meshio cannot hold (5.3.5: ``wedge15``, ``pyramid13``) as corners."""
     try:
         return meshio.CellBlock(cell_type, cells)
     except KeyError:
