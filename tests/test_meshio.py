@@ -200,23 +200,30 @@ def _matrix_market(folder, model):
     return folder / "beam_K.mtx"
 
 
-def test_matrix_market_with_a_mesh_file_gets_nodes_dofs_and_cells(tmp_path, free_beam):
+@pytest.mark.parametrize("suffix", [".vtu", ".vtk", ".msh", ".inp"])
+def test_matrix_market_with_a_mesh_file_gets_nodes_dofs_and_cells(tmp_path, free_beam, suffix):
     mtx = _matrix_market(tmp_path, free_beam)
-    vtu = tmp_path / "beam.vtu"
-    m = free_beam.mesh.to_meshio(free_beam.node_ids, free_beam.xyz)
-    m.points = free_beam.xyz  # node table order: equation 3 i + d is point i
+    path = tmp_path / f"beam{suffix}"
+    m = free_beam.mesh.to_meshio(free_beam.node_ids, free_beam.xyz)  # point i: equations 3 i .. 3 i + 2
     del m.point_data[NODE_ID_DATA]
-    meshio.write(vtu, m)
-    model = with_mesh(flexmor.io.read(mtx), vtu)
+    meshio.write(path, m)
+    model = with_mesh(flexmor.io.read(mtx), path)
     assert model.n_nodes == free_beam.n_nodes and model.mesh.n_cells == free_beam.mesh.n_cells
     np.testing.assert_array_equal(model.dofs, free_beam.dofs)
-    np.testing.assert_array_equal(model.xyz, free_beam.xyz)
+    np.testing.assert_allclose(model.xyz, free_beam.xyz, rtol=1e-12)
     assert model.mass_properties()["center_of_mass"] == pytest.approx(free_beam.mass_properties()["center_of_mass"])
-    # with node ids in the file (point data node_id), they are kept
-    m.point_data[NODE_ID_DATA] = free_beam.node_ids + 1000
-    meshio.write(vtu, m)
+    _assert_same_cells(_cell_coords(model.mesh, model.node_ids, model.xyz),
+                       _cell_coords(free_beam.mesh, free_beam.node_ids, free_beam.xyz))
+
+
+def test_mesh_file_node_ids_are_kept(tmp_path, free_beam):
+    mtx = _matrix_market(tmp_path, free_beam)
+    vtu = tmp_path / "beam.vtu"
+    shifted = Mesh([CellBlock(b.type, b.nodes + 1000) for b in free_beam.mesh.blocks])
+    meshio.write(vtu, shifted.to_meshio(free_beam.node_ids + 1000, free_beam.xyz))
     model = with_mesh(flexmor.io.read(mtx), vtu)
     np.testing.assert_array_equal(model.node_ids, free_beam.node_ids + 1000)
+    np.testing.assert_array_equal(model.dofs[:, 0], free_beam.dofs[:, 0] + 1000)
     _assert_same_cells(_cell_coords(model.mesh, model.node_ids, model.xyz),
                        _cell_coords(free_beam.mesh, free_beam.node_ids, free_beam.xyz))
 
