@@ -5,7 +5,7 @@ PYTHON ?= python3
 VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
-EXTRAS := full,fast,test,ansys,exudyn
+EXTRAS := full,fast,test,ansys,exudyn,mesh
 MPI_EXTRAS := full,test
 
 .PHONY: demo test test-mpi install bench clean lock

@@ -33,7 +33,7 @@ def test_the_registries_hold_the_built_in_formats():
     assert set(MODEL_FORMATS.names()) == {"abaqus", "ansys", "calculix", "matlab", "matrix-market", "nastran", "sid"}
     assert set(BODY_FORMATS.names()) == {"hdf5", "nastran-se"}
     assert set(EXPORT_FORMATS.names()) == {"hdf5", "sid", "exudyn", "mat", "statespace", "matrix-market",
-                                           "nastran-dmig", "op4"}
+                                           "nastran-dmig", "op4", "vtu"}
 
 
 def test_registering_a_taken_suffix_or_name_is_refused():

@@ -4,17 +4,39 @@ The cell types use meshio's names (``hexahedron``, ``hexahedron20``, ``tetra``, 
 ``wedge``, ``quad``, ``quad8``, ``triangle``, ``triangle6``, ``line``, ``line3``, ...), so a
 mesh can be handed to meshio and the visualization without translation. Cells refer to
 nodes by their ids in the FE file (``FEModel.node_ids``), not by row index.
+
+:meth:`Mesh.to_meshio` and :meth:`Mesh.from_meshio` convert to and from ``meshio.Mesh``
+(the optional extra ``flexmor[mesh]``); the node ids travel as the point data
+:data:`NODE_ID_DATA`. The node orders agree except for wedges: flexmor's ``wedge`` and
+``wedge15`` have their corners in the orientation of VTK's (linear) wedge, the normal of the
+triangle (0, 1, 2) pointing away from (3, 4, 5); meshio stores both in the orientation of
+gmsh and the FE programs (towards it) and turns only the linear wedge around when it writes
+VTK files (:data:`MESHIO_ORDER`).
 """
 
 from __future__ import annotations
 
+import logging
 from dataclasses import dataclass
 
 import numpy as np
 
 from .errors import ModelError
 
-__all__ = ["FACES", "NODES_PER_CELL", "CellBlock", "Mesh", "Surface", "outer_surface"]
+__all__ = ["FACES", "MESHIO_ORDER", "NODES_PER_CELL", "NODE_ID_DATA", "CellBlock", "Mesh", "Surface", "import_meshio",
+           "meshio_node_ids", "outer_surface"]
+
+log = logging.getLogger(__name__)
+
+#: Node permutation flexmor -> meshio per cell type (``meshio_nodes = nodes[:, perm]``; each is its own
+#: inverse): the wedges' triangles reversed, as meshio's wedges follow gmsh's orientation.
+MESHIO_ORDER = {
+    "wedge": [0, 2, 1, 3, 5, 4],
+    "wedge15": [0, 2, 1, 3, 5, 4, 8, 7, 6, 11, 10, 9, 12, 14, 13],
+}
+
+#: Point-data array with the node ids in the meshio meshes (and files) flexmor writes.
+NODE_ID_DATA = "node_id"
 
 #: Nodes per cell of each supported cell type (meshio's names).
 NODES_PER_CELL = {
@@ -33,7 +55,8 @@ class CellBlock:
     type : str
         meshio cell type name, one of :data:`NODES_PER_CELL`.
     nodes : ndarray of int, shape (n_cells, nodes_per_cell)
-        Node ids of each cell, in meshio's (= VTK's) node order.
+        Node ids of each cell, in VTK's node order (meshio's but for the wedges' orientation,
+        :data:`MESHIO_ORDER`).
     """
 
     type: str
@@ -76,6 +99,116 @@ class Mesh:
         if missing.size:
             raise ModelError(f"{missing.size} node(s) used by elements are not in the node table, "
                              f"first: {int(missing[0])}")
+
+    def to_meshio(self, node_ids, xyz, *, point_data=None, field_data=None):
+        """This mesh as a ``meshio.Mesh`` over the node table ``node_ids``, ``xyz``.
+
+        Parameters
+        ----------
+        node_ids : array_like of int, shape (n_nodes,)
+            The node table's ids; point ``i`` of the result is node ``node_ids[i]``.
+        xyz : array_like of float, shape (n_nodes, 3)
+            Node coordinates.
+        point_data, field_data : dict, optional
+            Passed to ``meshio.Mesh``; the node ids are added as point data :data:`NODE_ID_DATA`.
+
+        Returns
+        -------
+        meshio.Mesh
+            Cells as point indices, block by block with the same cell types (wedges turned
+            by :data:`MESHIO_ORDER`); ``wedge15`` and ``pyramid13`` cells, which meshio 5.3.5
+            cannot hold, as their corners (with a log message).
+
+        Raises
+        ------
+        ModelError
+            meshio is not installed, or a cell uses a node outside ``node_ids``.
+        """
+        meshio = import_meshio()
+        node_ids = np.asarray(node_ids, dtype=np.int64).reshape(-1)
+        xyz = np.asarray(xyz, dtype=np.float64).reshape(-1, 3)
+        if xyz.shape[0] != node_ids.size:
+            raise ModelError(f"{node_ids.size} node ids but {xyz.shape[0]} coordinate rows")
+        self.check_nodes(node_ids)
+        order = np.argsort(node_ids, kind="stable")
+        rows = [order[np.searchsorted(node_ids, _reorder(b.type, b.nodes), sorter=order)] for b in self.blocks]
+        cells = [_meshio_block(meshio, b.type, r) for b, r in zip(self.blocks, rows)]
+        return meshio.Mesh(xyz, cells, point_data={NODE_ID_DATA: node_ids, **(point_data or {})},
+                           field_data=dict(field_data or {}))
+
+    @classmethod
+    def from_meshio(cls, mesh, node_ids=None) -> Mesh:
+        """The cells of a ``meshio.Mesh`` over node ids.
+
+        Parameters
+        ----------
+        mesh : meshio.Mesh
+        node_ids : array_like of int, optional
+            Id of each point; default :func:`meshio_node_ids`.
+
+        Returns
+        -------
+        Mesh
+            One block per meshio cell block of a type in :data:`NODES_PER_CELL` (meshio's
+            names are flexmor's; wedges turned by :data:`MESHIO_ORDER`); blocks of other
+            types (polygons, Lagrange cells ...) are left out with a log message.
+        """
+        ids = meshio_node_ids(mesh) if node_ids is None else np.asarray(node_ids, dtype=np.int64).reshape(-1)
+        if ids.size != len(mesh.points):
+            raise ModelError(f"{ids.size} node ids for {len(mesh.points)} points")
+        blocks, skipped = [], []
+        for block in mesh.cells:
+            if block.type in NODES_PER_CELL:
+                blocks.append(CellBlock(block.type, _reorder(block.type, ids[np.asarray(block.data, dtype=np.int64)])))
+            else:
+                skipped.append(f"{len(block.data)} {block.type}")
+        if skipped:
+            log.warning("cells of types flexmor does not know left out of the mesh: %s", ", ".join(skipped))
+        return cls(tuple(blocks))
+
+
+def _reorder(cell_type: str, nodes: np.ndarray) -> np.ndarray:
+    perm = MESHIO_ORDER.get(cell_type)
+    return nodes if perm is None else nodes[:, perm]
+
+
+def _meshio_block(meshio, cell_type: str, cells: np.ndarray):
+    """A ``meshio.CellBlock``; cells of a type meshio cannot hold (5.3.5: ``wedge15``, ``pyramid13``) as corners."""
+    try:
+        return meshio.CellBlock(cell_type, cells)
+    except KeyError:
+        corners = _CORNERS[cell_type]
+        log.warning("meshio %s cannot hold %s cells: %d of them passed as their corners (%s)",
+                    getattr(meshio, "__version__", "?"), cell_type, len(cells), corners)
+        return meshio.CellBlock(corners, cells[:, :_N_CORNERS[corners]])
+
+
+def import_meshio():
+    """The ``meshio`` module; a :class:`ModelError` naming the extra ``flexmor[mesh]`` when it is absent."""
+    try:
+        import meshio
+    except ImportError:
+        raise ModelError("meshes through meshio need the meshio package: pip install 'flexmor[mesh]'") from None
+    return meshio
+
+
+def meshio_node_ids(mesh) -> np.ndarray:
+    """The node id of each point of a ``meshio.Mesh``.
+
+    The ids meshio's Nastran reader keeps (``points_id``, the GRID ids), else the point data
+    :data:`NODE_ID_DATA` (files flexmor wrote), else the point index + 1 (meshio's Abaqus,
+    gmsh, VTK readers number the points from 0 in the file's order and drop the file's ids).
+    """
+    n = len(mesh.points)
+    ids = getattr(mesh, "points_id", None)
+    if ids is None:
+        ids = mesh.point_data.get(NODE_ID_DATA)
+    if ids is None:
+        return np.arange(1, n + 1, dtype=np.int64)
+    ids = np.asarray(ids).reshape(-1)
+    if ids.size != n or not np.array_equal(ids, np.round(ids)) or np.unique(ids).size != n:
+        raise ModelError(f"the node ids of the {n} points are not {n} distinct integers")
+    return ids.astype(np.int64)
 
 
 #: Faces of the volume cells by corner index in meshio's (= VTK's) node order.

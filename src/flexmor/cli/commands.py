@@ -90,7 +90,7 @@ def _read_model(args, couplings=(), *, damped=True):
     from ..workflow import prepare_model
 
     def load():
-        model = read(args.model, format=args.format)
+        model = _with_mesh(read(args.model, format=args.format), args)
         if getattr(args, "select", None):
             from ..selection import with_selections
 
@@ -110,6 +110,15 @@ def _read_model(args, couplings=(), *, damped=True):
     if damped:
         model = model.with_damping(_asked_damping(args, band))
     return model, t_read, band
+
+
+def _with_mesh(model, args):
+    """``model`` with the nodes and elements of ``--mesh FILE`` (when given)."""
+    if not getattr(args, "mesh", None):
+        return model
+    from ..io.meshio_mesh import with_mesh
+
+    return with_mesh(model, args.mesh)
 
 
 def _asked_damping(args, band):
@@ -395,7 +404,9 @@ def cmd_export(args) -> int:
     _check_new(args.output_file, args)
     red = read_body(args.reduced)
     fmt = export_format(args.output_file, args.format)
-    model = read(args.model, format=args.model_format) if args.model else None
+    if args.mesh and not args.model:
+        raise OptionError("--mesh attaches a mesh file to the --model; give --model too")
+    model = _with_mesh(read(args.model, format=args.model_format), args) if args.model else None
     if model is not None:  # the body's own model (refused otherwise), its selections, couplings and damping
         model = reference_model(model, red, args.reduced)
     opts = {"nodes": args.node or None} if fmt in ("sid", "mat") else {}

@@ -26,6 +26,8 @@ __all__ = ["build_parser", "flag_names"]
 PARAM_DESTS = {"inputs": "input", "outputs": "output", "selections": "select", "nodes": "node"}
 
 _INTERFACE_HELP = "interface NODE, SET, SET:DIR, or SET@rbe2 / SET@rbe3 (6-DOF master node at the centroid)"
+_MESH_HELP = ("mesh file read through meshio (.vtu .msh .inp .bdf ...) for matrices without geometry (Matrix "
+              "Market, MATLAB): its points are the nodes, the equations their x y z (or x..rz) node after node")
 
 
 def _help(f) -> str:
@@ -65,6 +67,7 @@ def flag_names(p) -> dict:
 def _add_model_args(p, damping=True):
     p.add_argument("model", help="main file of the FE export (format from the suffix)")
     p.add_argument("--format", help="override the format chosen from the suffix")
+    p.add_argument("--mesh", metavar="FILE", help=_MESH_HELP)
     p.add_argument("--backend", default="auto",
                    help="sparse solver: auto, pardiso, cholmod, scipy, petsc (MPI: mpirun -n P flexmor ...)")
     p.add_argument("--json", action="store_true", help="print one JSON object on stdout")
@@ -174,6 +177,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--model", help="FE model the body was reduced from (required for sid and exudyn: the "
                    "inertia invariants integrate over its mass matrix)")
     p.add_argument("--model-format", help="override the format of --model chosen from its suffix")
+    p.add_argument("--mesh", metavar="FILE", help=_MESH_HELP + " (with --model)")
     p.add_argument("--node", action="append", default=[], metavar="NODE|SET",
                    help="SID frame node (node id or set; a set gives an RBE3 master); default the port nodes")
     p.add_argument("--allow-clamped", action="store_true", help="sid/exudyn: export a body of a supported "

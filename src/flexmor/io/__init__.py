@@ -214,3 +214,4 @@ def atomic_write(path, write: Callable[[str], None]) -> None:
 from . import hdf5, calculix, abaqus, matrix_market, ansys, nastran, sid, exudyn, matlab, statespace  # noqa: F401, I001
 from . import matrix_market_export  # noqa: F401, E402
 from .nastran import nastran_export  # noqa: F401, E402
+from . import vtu  # noqa: F401, E402

@@ -20,14 +20,14 @@ import re
 
 import numpy as np
 
-from ..mesh import NODES_PER_CELL, CellBlock, Mesh
+from ..mesh import MESHIO_ORDER, NODES_PER_CELL, CellBlock, Mesh
 
 __all__ = ["abaqus_cell", "nastran_cell", "ansys_cell", "to_vtk", "build_mesh", "mesh_of_elements"]
 
 log = logging.getLogger(__name__)
 
-_WEDGE = [0, 2, 1, 3, 5, 4]
-_WEDGE15_ABAQUS = _WEDGE + [8, 7, 6, 11, 10, 9, 12, 14, 13]
+_WEDGE = MESHIO_ORDER["wedge"]
+_WEDGE15_ABAQUS = MESHIO_ORDER["wedge15"]  # Abaqus' C3D15 is meshio's wedge15
 _HEX20_NASTRAN = list(range(12)) + [16, 17, 18, 19, 12, 13, 14, 15]
 _WEDGE15_NASTRAN = _WEDGE + [8, 7, 6, 14, 13, 12, 9, 11, 10]
 

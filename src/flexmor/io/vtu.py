@@ -1,0 +1,147 @@
+"""Export of a reduced body's mode shapes on its mesh as a VTK unstructured grid (``.vtu``) for ParaView.
+
+The body's modes are the eigenpairs of ``(Kr, Mr)``, expanded to the full model's
+equations by the basis (``V phi``): the modes the reduced body moves in. The file holds
+the mesh (the full model's elements, or without the model the body's outer surface as
+triangles), the node ids as point data ``node_id``, one displacement vector per node and
+mode as point data ``mode_1``, ``mode_2`` ... (global x y z; zero where a node has no such
+equation, e.g. a clamped node) and the frequencies in Hz as field data ``frequencies_hz``.
+In ParaView: *Warp By Vector* with a ``mode_k`` array animates mode k. Written through
+meshio (the optional extra ``flexmor[mesh]``), atomically.
+"""
+
+from __future__ import annotations
+
+from types import SimpleNamespace
+from xml.etree import ElementTree
+
+import numpy as np
+import scipy.linalg as sla
+
+from ..errors import ModelError
+from ..invariants import node_triples
+from ..mesh import CellBlock, Mesh, import_meshio
+from . import EXPORT_FORMATS, atomic_write
+
+__all__ = ["body_modes", "nodal_modes", "write_vtu"]
+
+
+def body_modes(reduced) -> tuple[np.ndarray, np.ndarray]:
+    """The reduced body's undamped modes, expanded to the full model's equations.
+
+    Returns
+    -------
+    freqs_hz : ndarray, shape (r,)
+        Eigenfrequencies of ``(Kr, Mr)``, ascending (round-off negatives as 0).
+    shapes : ndarray, shape (n_dof, r)
+        ``V phi`` with ``phi`` mass-normalized (``phi^T Mr phi = I``) and its sign chosen so
+        that the entry of largest magnitude of each expanded mode is positive.
+
+    Raises
+    ------
+    ModelError
+        The body stores no basis ``V`` or its reduced mass matrix is not positive definite.
+    """
+    if reduced.V is None:
+        raise ModelError("the body stores no basis V, so its modes cannot be expanded to the nodes")
+    try:
+        lam, phi = sla.eigh(reduced.K, reduced.M)
+    except (np.linalg.LinAlgError, ValueError):
+        raise ModelError("the reduced mass matrix is not positive definite") from None
+    shapes = np.asarray(reduced.V) @ phi
+    if shapes.size:
+        big = shapes[np.argmax(np.abs(shapes), axis=0), np.arange(shapes.shape[1])]
+        shapes *= np.where(big < 0, -1.0, 1.0)
+    return np.sqrt(np.clip(lam, 0.0, None)) / (2 * np.pi), shapes
+
+
+def nodal_modes(shapes: np.ndarray, geometry) -> np.ndarray:
+    """Displacement vectors (n_nodes, 3, k) of ``shapes`` (n_dof, k) at the nodes of ``geometry``.
+
+    ``geometry`` has ``node_ids``, ``dofs`` (n_dof, 2), ``n_nodes``, ``n_dof`` and optionally
+    ``node_frames`` (an FEModel): translations in a node's own frame are turned to global x y z.
+    """
+    trans, _ = node_triples(geometry)
+    out = np.zeros((trans.shape[0], 3, shapes.shape[1]))
+    ok = trans >= 0
+    out[ok] = shapes[trans[ok]]
+    frames = getattr(geometry, "node_frames", None) or {}
+    if frames:
+        row = {int(k): i for i, k in enumerate(geometry.node_ids)}
+        for node, Q in frames.items():
+            out[row[node]] = Q @ out[row[node]]
+    return out
+
+
+def _geometry(reduced, model):
+    """``(geometry, mesh)``: the node table and cells of ``model``, else the body's own nodes and surface."""
+    n_dof = reduced.V.shape[0]
+    if model is not None:
+        if model.n_dof != n_dof:
+            raise ModelError(f"the model has {model.n_dof} DOF but the body's basis V has {n_dof} rows; give model "
+                             "the body was reduced from", params=("model",))
+        if model.dofs is None or not model.n_nodes or model.mesh is None:
+            raise ModelError(f"the model {model.source or model.name} has no {'elements' if model.n_nodes else 'nodes'}"
+                             "; a .vtu needs its mesh (attach one to matrices without geometry with a mesh file, "
+                             "flexmor.io.meshio_mesh.with_mesh)", params=("model",))
+        return model, model.mesh
+    if reduced.dofs is None or reduced.node_ids is None or not len(reduced.node_ids) or reduced.triangles is None:
+        raise ModelError("the body has no node table and surface (its model had no elements); give model, the FE "
+                         "model with elements it was reduced from", params=("model",))
+    geometry = SimpleNamespace(node_ids=np.asarray(reduced.node_ids), dofs=np.asarray(reduced.dofs),
+                               n_nodes=len(reduced.node_ids), n_dof=n_dof)
+    return geometry, Mesh([CellBlock("triangle", reduced.triangles)])
+
+
+def write_vtu(reduced, path, *, model=None) -> None:
+    """Write the body's mesh and mode shapes as a ``.vtu`` file for ParaView, atomically.
+
+    Parameters
+    ----------
+    reduced : ReducedModel
+        A body with its basis ``V``.
+    path : str or path-like
+        The ``.vtu`` file.
+    model : FEModel, optional
+        The full model the body was reduced from: its elements and nodes are written (and
+        its nodes' own frames applied). Without it, the body's node table and outer surface
+        (triangles) are used.
+
+    Raises
+    ------
+    ModelError
+        No basis, no nodes or elements to draw on, a model of another size, or meshio
+        missing (the message names the extra ``flexmor[mesh]``).
+    """
+    meshio = import_meshio()
+    freqs, shapes = body_modes(reduced)
+    geometry, mesh = _geometry(reduced, model)
+    nodal = nodal_modes(shapes, geometry)
+    xyz = model.xyz if model is not None else reduced.xyz
+    point_data = {f"mode_{k + 1}": np.ascontiguousarray(nodal[:, :, k]) for k in range(nodal.shape[2])}
+    grid = mesh.to_meshio(geometry.node_ids, xyz, point_data=point_data, field_data={"frequencies_hz": freqs})
+
+    def write(tmp):
+        meshio.write(tmp, grid, file_format="vtu")
+        _add_field_data(tmp, {"frequencies_hz": freqs})
+
+    atomic_write(path, write)
+
+
+def _add_field_data(path, arrays: dict) -> None:
+    """Insert ``arrays`` as ASCII ``FieldData`` into the ``.vtu`` file ``path`` (meshio 5.3.5 writes none)."""
+    tree = ElementTree.parse(path)
+    grid = tree.getroot().find("UnstructuredGrid")
+    field = ElementTree.Element("FieldData")
+    for name, values in arrays.items():
+        values = np.asarray(values, dtype=np.float64).ravel()
+        array = ElementTree.SubElement(field, "DataArray", type="Float64", Name=name,
+                                       NumberOfTuples=str(values.size), format="ascii")
+        array.text = " ".join(repr(float(v)) for v in values)
+    grid.insert(0, field)
+    tree.write(path, xml_declaration=True, encoding="utf-8")
+
+
+EXPORT_FORMATS.register("vtu", [".vtu"], write_vtu,
+                        description="mesh with the body's mode shapes (point data mode_k, field data frequencies_hz) "
+                                    "for ParaView")
