@@ -14,6 +14,7 @@ import argparse
 
 from .. import __version__
 from ..analysis.frequency import MEASURES, TOL_MEASURES
+from ..io import EXPORT_FORMATS
 from ..options import DEFAULT_BAND, option_fields
 from ..tolerance import tol_methods
 from .commands import cmd_compare, cmd_demo, cmd_export, cmd_info, cmd_reduce, cmd_report
@@ -172,7 +173,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("reduced", help="reduced body file (.h5)")
     p.add_argument("-o", "--output-file", required=True, metavar="FILE", help="file to write")
     p.add_argument("--force", action="store_true", help="overwrite an existing output file")
-    p.add_argument("--format", help="sid, exudyn, mat, statespace (ss), hdf5; default from the suffix "
+    p.add_argument("--format", help=f"{', '.join(EXPORT_FORMATS.names())}; default from the suffix "
                    "(flexmor info --formats)")
     p.add_argument("--model", help="FE model the body was reduced from (required for sid and exudyn: the "
                    "inertia invariants integrate over its mass matrix)")
