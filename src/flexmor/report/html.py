@@ -45,10 +45,10 @@ SINGULAR_VALUE_KEYS = ("hankel_sv", "hankel_singular_values", "hsv", "pod_sv", "
                        "pod_singular_values")
 #: Columns of the summary table: (key, header, format).
 COLUMNS = [("label", "body", "s"), ("method", "method", "s"), ("order", "order", "d"),
-           ("band_error", "band_error", ".4e"), ("rms_rel_error_pct", "rms_rel_error [%]", ".3g"),
-           ("hinf_error", "H∞ error (rel., band)", ".4e"), ("max_rel_error", "max_rel_error", ".4e"),
-           ("max_rel_error_where", "max_rel_error at", "s"), ("h2_error", "H2 error (rel.)", ".4e"), ("time_mean_error", "time_mean_error", ".4e"),
-           ("time_max_error", "time_max_error", ".4e"), ("time_seconds", "time integration [s]", ".3f"),
+           ("band_error", "band_error", ".3e"), ("rms_rel_error_pct", "rms_rel_error [%]", ".3g"),
+           ("hinf_error", "H∞ error (rel., band)", ".3e"), ("max_rel_error", "max_rel_error", ".3e"),
+           ("max_rel_error_where", "max_rel_error at", "s"), ("h2_error", "H2 error (rel.)", ".3e"), ("time_mean_error", "time_mean_error", ".3e"),
+           ("time_max_error", "time_max_error", ".3e"), ("time_seconds", "time integration [s]", ".3f"),
            ("seconds", "reduction [s]", ".3f")]
 
 
@@ -248,8 +248,8 @@ def build_report(model, ports, reduced, *, band, labels=None, seconds=None, full
 
 # -- rendering ---------------------------------------------------------------------------------
 _CSS = """body{font-family:system-ui,sans-serif;margin:2em auto;max-width:1100px;color:#222}
-.t{overflow-x:auto;margin:1em 0}table{border-collapse:collapse;font-size:0.85em}th,td{border:1px solid #bbb;padding:3px 8px;
-text-align:right}th{background:#eee}td.l{text-align:left}img{max-width:100%;display:block;margin:1em 0}
+.t{overflow-x:auto;margin:1em 0}table{border-collapse:collapse;font-size:0.85em}th,td{border:1px solid #bbb;padding:3px 6px;
+text-align:right}th{background:#eee;font-weight:600}td{white-space:nowrap}td.l{text-align:left;white-space:normal}img{max-width:100%;display:block;margin:1em 0}
 .note{color:#666;font-size:0.9em}h2{border-bottom:1px solid #ccc;margin-top:2em}"""
 
 
@@ -258,7 +258,7 @@ def _img(png: bytes, alt: str) -> str:
 
 
 def _table(header, rows, left=(0,)) -> str:
-    h = "".join(f"<th>{html.escape(str(c))}</th>" for c in header)
+    h = "".join(f"<th>{html.escape(str(c)).replace('_', '_<wbr>')}</th>" for c in header)
     body = "".join("<tr>" + "".join(f'<td{" class=l" if k in left else ""}>{html.escape(str(c))}</td>'
                                     for k, c in enumerate(r)) + "</tr>" for r in rows)
     return f'<div class="t"><table><tr>{h}</tr>{body}</table></div>'
@@ -275,7 +275,8 @@ def render_html(rep: Report) -> str:
            f"Band {rep.band[0]:g}-{rep.band[1]:g} Hz. "
            f"flexmor {e(__version__)}, {datetime.datetime.now().isoformat(timespec='seconds')}.</p>"),
            '<h2 id="summary">Summary</h2>',
-           _table([c[1] for c in COLUMNS], [[fmt(r.get(k), s) for k, _, s in COLUMNS] for r in rep.rows], (0, 1)),
+           _table([c[1] for c in COLUMNS], [[fmt(r.get(k), s) for k, _, s in COLUMNS] for r in rep.rows],
+                  [k for k, c in enumerate(COLUMNS) if c[2] == "s"]),
            "<p class=note>Error measures over the band: " + "; ".join(
                f"<b>{e(k)}</b> = {e(v)}" for k, v in MEASURES.items()) + ". "
            + (f"An anti-resonance is a local minimum of &Vert;H&Vert; at most 1/{ANTIRESONANCE_FACTOR:g} of the "
