@@ -9,11 +9,11 @@ nodes by their ids in the FE file (``FEModel.node_ids``), not by row index.
 (the optional extra ``flexmor[mesh]``); the node ids travel as the point data
 :data:`NODE_ID_DATA`. The node orders are meshio's. Wedges (``wedge``, ``wedge15``) have the
 orientation of VTK's code, gmsh, meshio and the FE programs: the normal of the triangle
-(0, 1, 2) points towards (3, 4, 5). VTK's shape functions have always been this way round; its
-documentation said the opposite before VTK 9.7, which made its faces, cell sizes and mesh
-quality of the wedges consistent with the shape functions (older ParaView may show such wedges
-with a negative cell size). meshio 5.3.5 turns linear wedges around when it writes and reads
-VTK files; flexmor undoes that for those files (:data:`MESHIO_ORDER`).
+(0, 1, 2) points towards (3, 4, 5). VTK's shape functions have always been this way round; VTK
+9.7 turned its documentation (which said the opposite), its wedges' faces, cell sizes and mesh
+quality to agree with them (older ParaView may show such wedges with a negative cell size).
+meshio 5.3.5 turns linear wedges around when it writes and reads VTK files; flexmor undoes that
+for those files (:data:`MESHIO_ORDER`).
 """
 
 from __future__ import annotations
@@ -30,7 +30,7 @@ __all__ = ["FACES", "MESHIO_ORDER", "NODES_PER_CELL", "NODE_ID_DATA", "CellBlock
 
 log = logging.getLogger(__name__)
 
-#: Node permutation flexmor -> meshio per meshio cell type for meshes meshio writes to or read from VTK
+#: Node permutation flexmor -> meshio per meshio cell type for meshes meshio writes to or reads from VTK
 #: files (``.vtu``, ``.vtk``; each is its own inverse; in memory meshio's order is flexmor's): meshio
 #: 5.3.5 reverses the linear wedge's triangles on the way to and from VTK files, which turns the
 #: wedges of VTK's code inside out, so flexmor reverses them first.
