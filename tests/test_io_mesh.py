@@ -3,7 +3,8 @@
 Elements are written in each program's own node order (CalculiX/Abaqus, Nastran), with
 mid-side nodes placed at the middle of the edge that the program's documentation names. After
 the mapping, each mid-side node must lie at the middle of the edge VTK names for its position,
-bricks and tetrahedra must have positive volume and wedges the VTK orientation.
+bricks and tetrahedra must have positive volume and wedges the orientation of VTK's code
+(test_cell_volumes.py checks the signed volumes with VTK's shape functions).
 """
 
 import numpy as np
@@ -73,6 +74,17 @@ def _hex_volume(x):
     return vol
 
 
+def _bdf(tmp_path, card, xyz):
+    """A Nastran bulk file with the GRIDs 1.. at ``xyz`` and one element ``card`` on them (property 1)."""
+    grids = [f"GRID,{i + 1},,{x!r},{y!r},{z!r}" for i, (x, y, z) in enumerate(xyz.tolist())]
+    fields = ["1", "1"] + [str(i + 1) for i in range(len(xyz))]
+    chunks = [",".join(fields[k:k + 8]) for k in range(0, len(fields), 8)]
+    rows = [("+," if k else f"{card},") + c + (",+" if k + 1 < len(chunks) else "") for k, c in enumerate(chunks)]
+    bdf = tmp_path / f"{card}{len(xyz)}.bdf"
+    bdf.write_text("\n".join(["BEGIN BULK"] + grids + rows + ["ENDDATA"]) + "\n")
+    return bdf
+
+
 def _deck(tmp_path, etype, xyz):
     lines = ["*NODE"] + [f"{i + 1}, {x!r}, {y!r}, {z!r}" for i, (x, y, z) in enumerate(xyz.tolist())]
     ids = [str(i + 1) for i in range(len(xyz))]
@@ -105,8 +117,8 @@ def test_calculix_quadratic_elements_in_vtk_order(tmp_path, etype, corners, cell
 
 
 def _check_wedge(p):
-    normal = np.cross(p[1] - p[0], p[2] - p[0])  # VTK: points away from the face (3, 4, 5)
-    assert normal @ (p[3] - p[0]) < 0
+    normal = np.cross(p[1] - p[0], p[2] - p[0])  # VTK's code: points towards the face (3, 4, 5)
+    assert normal @ (p[3] - p[0]) > 0
 
 
 def test_wedge_follows_vtk_orientation(tmp_path):
@@ -121,14 +133,7 @@ def test_wedge_follows_vtk_orientation(tmp_path):
     ("CHEXA", "hex", "hexahedron20", 20), ("CPENTA", "wedge", "wedge15", 15), ("CTETRA", "tet", "tetra10", 10)])
 def test_nastran_quadratic_elements_in_vtk_order(tmp_path, card, corners, cell_type, n):
     xyz = _element(CORNERS[corners], NASTRAN_EDGES[card], n)
-    grids = [f"GRID,{i + 1},,{x!r},{y!r},{z!r}" for i, (x, y, z) in enumerate(xyz.tolist())]
-    ids = [str(i + 1) for i in range(n)]
-    fields = ["1", "1"] + ids
-    rows = [f"{card}," + ",".join(fields[:8]) + ",+"] + \
-        ["+," + ",".join(fields[k:k + 8]) + (",+" if k + 8 < len(fields) else "") for k in range(8, len(fields), 8)]
-    bdf = tmp_path / "one.bdf"
-    bdf.write_text("\n".join(["BEGIN BULK"] + grids + rows + ["ENDDATA"]) + "\n")
-    bulk = read_bulk(bdf)
+    bulk = read_bulk(_bdf(tmp_path, card, xyz))
     (block,) = mesh_of_elements(bulk.elements, nastran_cell, "nastran", bulk.grid_ids).blocks
     assert block.type == cell_type
     _check_midsides(cell_type, block.nodes[0], lambda i: bulk.xyz[np.searchsorted(bulk.grid_ids, i)])

@@ -7,11 +7,13 @@ nodes by their ids in the FE file (``FEModel.node_ids``), not by row index.
 
 :meth:`Mesh.to_meshio` and :meth:`Mesh.from_meshio` convert to and from ``meshio.Mesh``
 (the optional extra ``flexmor[mesh]``); the node ids travel as the point data
-:data:`NODE_ID_DATA`. The node orders agree except for wedges: flexmor's ``wedge`` and
-``wedge15`` have their corners in the orientation of VTK's (linear) wedge, the normal of the
-triangle (0, 1, 2) pointing away from (3, 4, 5); meshio stores both in the orientation of
-gmsh and the FE programs (towards it) and turns only the linear wedge around when it writes
-VTK files (:data:`MESHIO_ORDER`).
+:data:`NODE_ID_DATA`. The node orders are meshio's. Wedges (``wedge``, ``wedge15``) have the
+orientation of VTK's code, gmsh, meshio and the FE programs: the normal of the triangle
+(0, 1, 2) points towards (3, 4, 5). VTK's shape functions have always been this way round; VTK
+9.7 turned its documentation (which said the opposite), its wedges' faces, cell sizes and mesh
+quality to agree with them (older ParaView may show such wedges with a negative cell size).
+meshio 5.3.5 turns linear wedges around when it writes and reads VTK files; flexmor undoes that
+for those files (:data:`MESHIO_ORDER`).
 """
 
 from __future__ import annotations
@@ -28,11 +30,12 @@ __all__ = ["FACES", "MESHIO_ORDER", "NODES_PER_CELL", "NODE_ID_DATA", "CellBlock
 
 log = logging.getLogger(__name__)
 
-#: Node permutation flexmor -> meshio per cell type (``meshio_nodes = nodes[:, perm]``; each is its own
-#: inverse): the wedges' triangles reversed, as meshio's wedges follow gmsh's orientation.
+#: Node permutation flexmor -> meshio per meshio cell type for meshes meshio writes to or reads from VTK
+#: files (``.vtu``, ``.vtk``; each is its own inverse; in memory meshio's order is flexmor's): meshio
+#: 5.3.5 reverses the linear wedge's triangles on the way to and from VTK files, which turns the
+#: wedges of VTK's code inside out, so flexmor reverses them first.
 MESHIO_ORDER = {
     "wedge": [0, 2, 1, 3, 5, 4],
-    "wedge15": [0, 2, 1, 3, 5, 4, 8, 7, 6, 11, 10, 9, 12, 14, 13],
 }
 
 #: Point-data array with the node ids in the meshio meshes (and files) flexmor writes.
@@ -55,8 +58,7 @@ class CellBlock:
     type : str
         meshio cell type name, one of :data:`NODES_PER_CELL`.
     nodes : ndarray of int, shape (n_cells, nodes_per_cell)
-        Node ids of each cell, in VTK's node order (meshio's but for the wedges' orientation,
-        :data:`MESHIO_ORDER`).
+        Node ids of each cell, in VTK's (and meshio's) node order.
     """
 
     type: str
@@ -100,7 +102,7 @@ class Mesh:
             raise ModelError(f"{missing.size} node(s) used by elements are not in the node table, "
                              f"first: {int(missing[0])}")
 
-    def to_meshio(self, node_ids, xyz, *, point_data=None, field_data=None):
+    def to_meshio(self, node_ids, xyz, *, point_data=None, field_data=None, vtk=False):
         """This mesh as a ``meshio.Mesh`` over the node table ``node_ids``, ``xyz``.
 
         Parameters
@@ -111,13 +113,16 @@ class Mesh:
             Node coordinates.
         point_data, field_data : dict, optional
             Passed to ``meshio.Mesh``; the node ids are added as point data :data:`NODE_ID_DATA`.
+        vtk : bool
+            The result goes to a VTK file (``.vtu``, ``.vtk``): cells turned by
+            :data:`MESHIO_ORDER`, so that they are right in the file.
 
         Returns
         -------
         meshio.Mesh
-            Cells as point indices, block by block with the same cell types (wedges turned
-            by :data:`MESHIO_ORDER`); ``wedge15`` and ``pyramid13`` cells, which meshio 5.3.5
-            cannot hold, as their corners (with a log message).
+            Cells as point indices, block by block with the same cell types; ``wedge15`` and
+            ``pyramid13`` cells, which meshio 5.3.5 cannot hold, as their corners (with a log
+            message).
 
         Raises
         ------
@@ -131,13 +136,15 @@ class Mesh:
             raise ModelError(f"{node_ids.size} node ids but {xyz.shape[0]} coordinate rows")
         self.check_nodes(node_ids)
         order = np.argsort(node_ids, kind="stable")
-        rows = [order[np.searchsorted(node_ids, _reorder(b.type, b.nodes), sorter=order)] for b in self.blocks]
-        cells = [_meshio_block(meshio, b.type, r) for b, r in zip(self.blocks, rows)]
+        cells = [_meshio_block(meshio, b.type, order[np.searchsorted(node_ids, b.nodes, sorter=order)])
+                 for b in self.blocks]
+        if vtk:
+            cells = [meshio.CellBlock(c.type, _reorder(c.type, c.data)) for c in cells]
         return meshio.Mesh(xyz, cells, point_data={NODE_ID_DATA: node_ids, **(point_data or {})},
                            field_data=dict(field_data or {}))
 
     @classmethod
-    def from_meshio(cls, mesh, node_ids=None) -> Mesh:
+    def from_meshio(cls, mesh, node_ids=None, *, vtk=False) -> Mesh:
         """The cells of a ``meshio.Mesh`` over node ids.
 
         Parameters
@@ -145,13 +152,16 @@ class Mesh:
         mesh : meshio.Mesh
         node_ids : array_like of int, optional
             Id of each point; default :func:`meshio_node_ids`.
+        vtk : bool
+            ``mesh`` was read from a VTK file (``.vtu``, ``.vtk``): cells turned by
+            :data:`MESHIO_ORDER`.
 
         Returns
         -------
         Mesh
             One block per meshio cell block of a type in :data:`NODES_PER_CELL` (meshio's
-            names are flexmor's; wedges turned by :data:`MESHIO_ORDER`); blocks of other
-            types (polygons, Lagrange cells ...) are left out with a log message.
+            names and node orders are flexmor's); blocks of other types (polygons, Lagrange
+            cells ...) are left out with a log message.
         """
         ids = meshio_node_ids(mesh) if node_ids is None else np.asarray(node_ids, dtype=np.int64).reshape(-1)
         if ids.size != len(mesh.points):
@@ -159,7 +169,8 @@ class Mesh:
         blocks, skipped = [], []
         for block in mesh.cells:
             if block.type in NODES_PER_CELL:
-                blocks.append(CellBlock(block.type, _reorder(block.type, ids[np.asarray(block.data, dtype=np.int64)])))
+                nodes = ids[np.asarray(block.data, dtype=np.int64)]
+                blocks.append(CellBlock(block.type, _reorder(block.type, nodes) if vtk else nodes))
             else:
                 skipped.append(f"{len(block.data)} {block.type}")
         if skipped:
@@ -169,7 +180,7 @@ class Mesh:
 
 def _reorder(cell_type: str, nodes: np.ndarray) -> np.ndarray:
     perm = MESHIO_ORDER.get(cell_type)
-    return nodes if perm is None else nodes[:, perm]
+    return nodes if perm is None else np.asarray(nodes)[:, perm]
 
 
 def _meshio_block(meshio, cell_type: str, cells: np.ndarray):
@@ -211,11 +222,11 @@ def meshio_node_ids(mesh) -> np.ndarray:
     return ids.astype(np.int64)
 
 
-#: Faces of the volume cells by corner index in meshio's (= VTK's) node order.
+#: Faces of the volume cells by corner index in meshio's (= VTK's) node order, outward (right-hand rule).
 FACES = {
     "tetra": [(0, 2, 1), (0, 1, 3), (1, 2, 3), (0, 3, 2)],
     "pyramid": [(0, 3, 2, 1), (0, 1, 4), (1, 2, 4), (2, 3, 4), (3, 0, 4)],
-    "wedge": [(0, 1, 2), (3, 5, 4), (0, 3, 4, 1), (1, 4, 5, 2), (2, 5, 3, 0)],
+    "wedge": [(0, 2, 1), (3, 4, 5), (0, 1, 4, 3), (1, 2, 5, 4), (2, 0, 3, 5)],
     "hexahedron": [(0, 3, 2, 1), (4, 5, 6, 7), (0, 1, 5, 4), (1, 2, 6, 5), (2, 3, 7, 6), (3, 0, 4, 7)],
 }
 #: Corner nodes of each cell type (quadratic cells shown by their corners).

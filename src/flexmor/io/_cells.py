@@ -4,8 +4,9 @@ The node order of CalculiX/Abaqus (``C3D20``: corners, bottom edges, top edges, 
 edges), of Nastran (``CHEXA`` 20: corners, bottom edges, *vertical* edges, top edges) and of
 Ansys differ from VTK's, which :class:`flexmor.mesh.CellBlock` uses:
 
-* wedges: in VTK the normal of the triangle (0, 1, 2) points away from (3, 4, 5); in the FE
-  programs it points towards it, so each triangle is reversed;
+* wedges keep their corners: VTK's code (shape functions, faces, cell size) orients them as
+  the FE programs do, the normal of the triangle (0, 1, 2) pointing towards (3, 4, 5)
+  (:mod:`flexmor.mesh`);
 * quadratic beams (Abaqus ``B32``): middle node second in the deck, last in VTK;
 * 20-node bricks and 15-node wedges of Nastran: vertical edges before top edges (Ansys'
   ``SOLID186`` follows VTK).
@@ -20,23 +21,18 @@ import re
 
 import numpy as np
 
-from ..mesh import MESHIO_ORDER, NODES_PER_CELL, CellBlock, Mesh
+from ..mesh import NODES_PER_CELL, CellBlock, Mesh
 
 __all__ = ["abaqus_cell", "nastran_cell", "ansys_cell", "to_vtk", "build_mesh", "mesh_of_elements"]
 
 log = logging.getLogger(__name__)
 
-_WEDGE = MESHIO_ORDER["wedge"]
-_WEDGE15_ABAQUS = MESHIO_ORDER["wedge15"]  # Abaqus' C3D15 is meshio's wedge15
 _HEX20_NASTRAN = list(range(12)) + [16, 17, 18, 19, 12, 13, 14, 15]
-_WEDGE15_NASTRAN = _WEDGE + [8, 7, 6, 14, 13, 12, 9, 11, 10]
+_WEDGE15_NASTRAN = list(range(9)) + [12, 13, 14, 9, 10, 11]
 
 #: Node permutation deck -> VTK by (convention, meshio cell type); absent means identity.
 PERMUTATIONS = {
-    ("abaqus", "wedge"): _WEDGE,
-    ("abaqus", "wedge15"): _WEDGE15_ABAQUS,
     ("abaqus", "line3"): [0, 2, 1],
-    ("nastran", "wedge"): _WEDGE,
     ("nastran", "hexahedron20"): _HEX20_NASTRAN,
     ("nastran", "wedge15"): _WEDGE15_NASTRAN,
 }
@@ -93,7 +89,7 @@ def ansys_cell(etype: int, nodes) -> tuple | None:
         if m == nn == o == p:
             return "pyramid", [i, j, k, l, m]
         if k == l and o == p:
-            return "wedge", [nodes[x] for x in (0, 2, 1, 4, 6, 5)]
+            return "wedge", [nodes[x] for x in (0, 1, 2, 4, 5, 6)]
         return None
     if etype in (186, 95) and n >= 20:
         c = nodes[:20]
@@ -102,8 +98,7 @@ def ansys_cell(etype: int, nodes) -> tuple | None:
         if c[2] == c[3] and c[4] == c[5] == c[6] == c[7]:
             return "tetra10", [c[x] for x in (0, 1, 2, 4, 8, 9, 11, 16, 17, 18)]
         if c[2] == c[3] and c[6] == c[7]:
-            w = [c[x] for x in (0, 1, 2, 4, 5, 6, 8, 9, 11, 12, 13, 15, 16, 17, 18)]
-            return "wedge15", [w[x] for x in _WEDGE15_ABAQUS]
+            return "wedge15", [c[x] for x in (0, 1, 2, 4, 5, 6, 8, 9, 11, 12, 13, 15, 16, 17, 18)]
         return None
     if etype in (187, 92) and n >= 10:
         return "tetra10", nodes[:10]

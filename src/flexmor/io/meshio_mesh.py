@@ -75,7 +75,7 @@ def read_mesh(path) -> tuple[Mesh, np.ndarray, np.ndarray]:
     xyz[:, :min(3, pts.shape[1])] = pts[:, :3]
     try:
         ids = meshio_node_ids(m)
-        return Mesh.from_meshio(m, ids), ids, xyz
+        return Mesh.from_meshio(m, ids, vtk=path.suffix.lower() in (".vtu", ".vtk")), ids, xyz
     except ModelError as exc:
         raise ReadError(path, str(exc)) from None
 

@@ -119,7 +119,8 @@ def write_vtu(reduced, path, *, model=None) -> None:
     nodal = nodal_modes(shapes, geometry)
     xyz = model.xyz if model is not None else reduced.xyz
     point_data = {f"mode_{k + 1}": np.ascontiguousarray(nodal[:, :, k]) for k in range(nodal.shape[2])}
-    grid = mesh.to_meshio(geometry.node_ids, xyz, point_data=point_data, field_data={"frequencies_hz": freqs})
+    grid = mesh.to_meshio(geometry.node_ids, xyz, point_data=point_data, field_data={"frequencies_hz": freqs},
+                          vtk=True)
 
     def write(tmp):
         meshio.write(tmp, grid, file_format="vtu")
