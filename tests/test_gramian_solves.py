@@ -102,7 +102,14 @@ def test_auto_choice_and_bad_choice():
     assert small.n_dof <= DENSE_GRAMIAN_MAX_DOF < large.n_dof
     assert choose_solves("auto", small, np.inf) == "dense"
     assert choose_solves("auto", large, 3000.0) == "surrogate"
-    assert choose_solves("auto", large, np.inf) == "direct"
+    # the full band: the surrogate up to a cutoff when the tail has a bound (Rayleigh beta > 0; an
+    # undamped model gets such a damping for its Gramians), else one factorization per node
+    assert choose_solves("auto", large, np.inf) == "surrogate"
+    assert choose_solves("auto", large.with_rayleigh(1.0, 1e-6), np.inf) == "surrogate"
+    assert choose_solves("auto", large.with_rayleigh(1.0, 0.0), np.inf) == "direct"
+    given = FEModel(M=large.M, K=large.K, D=large.M * 2.0, dofs=large.dofs, node_ids=large.node_ids, xyz=large.xyz,
+                    node_sets=large.node_sets)
+    assert choose_solves("auto", given, np.inf) == "direct"
     assert choose_solves("direct", small, 3000.0) == "direct"
     with pytest.raises(OptionError, match="solves"):
         choose_solves("fast", small, 3000.0)

@@ -173,7 +173,9 @@ class Surrogate:
         if self._modal is not None:
             lam, d, _, PB = self._modal
             psi = self._psi
-            return np.einsum("rk,fk,km->frm", psi, 1.0 / (lam - w[:, None] ** 2 + 1j * w[:, None] * d), PB)
+            Y = (1.0 / (lam - w[:, None] ** 2 + 1j * w[:, None] * d))[:, :, None] * PB  # (f, k, m) modal
+            Yk = Y.transpose(1, 0, 2).reshape(lam.size, -1)  # one GEMM with psi for all frequencies
+            return (psi @ Yk.real + 1j * (psi @ Yk.imag)).reshape(psi.shape[0], w.size, -1).transpose(1, 0, 2)
         A = (self.Kr[None] - (w ** 2)[:, None, None] * self.Mr[None] + (1j * w)[:, None, None] * self.Dr[None])
         return np.linalg.solve(A, np.broadcast_to(self.Br.astype(complex), (w.size, *self.Br.shape)))
 
@@ -193,11 +195,17 @@ class Surrogate:
     def residual(self, freqs) -> np.ndarray:
         """Relative residual ``||A(w) V x(w) - B||_F / ||B||_F`` of the surrogate, per frequency."""
         w = angular_frequency(freqs)
-        X = self.reduced_solution(w)
         m = self.B.shape[1]
-        c = np.concatenate([X, -(w ** 2)[:, None, None] * X, (1j * w)[:, None, None] * X,
-                            np.broadcast_to(-np.eye(m), (w.size, m, m))], axis=1)
-        r2 = np.einsum("fam,ab,fbm->f", c.conj(), self._gram, c).real
+        r2 = np.empty(w.size)
+        step = max(1, 4096 // m)  # frequencies per chunk: one real GEMM with the Gram matrix for all of them
+        for s in range(0, w.size, step):
+            ws = w[s:s + step]
+            X = self.reduced_solution(ws)
+            c = np.concatenate([X, -(ws ** 2)[:, None, None] * X, (1j * ws)[:, None, None] * X,
+                                np.broadcast_to(-np.eye(m), (ws.size, m, m))], axis=1)
+            C = c.transpose(1, 0, 2).reshape(c.shape[1], -1)  # (a, frequencies x inputs)
+            GC = self._gram @ C.real + 1j * (self._gram @ C.imag)
+            r2[s:s + step] = np.einsum("aj,aj->j", C.conj(), GC).real.reshape(ws.size, m).sum(1)
         return np.sqrt(np.maximum(r2, 0.0)) / np.linalg.norm(self.B)
 
     def _check(self, f_hz: float, residual: float):

@@ -36,6 +36,12 @@ log = logging.getLogger(__name__)
 #: Number of singular values reported in ``info['hankel_sv']`` (at least 2 * order).
 N_REPORTED = 40
 
+#: ``sobt``'s default cutoff of large models in units of the band's top. The modal pre-pass computes
+#: every mode below it (plate_structure, 35,988 DOF, band top 2 kHz: 51 modes below 4 FMAX, 256 below
+#: 10 FMAX); the surrogate solves end there and report a bound of the rest (``info['solves']['tail']``:
+#: 1.4e-4 of the position Gramian's trace above 4 FMAX, 1e-5 above 10 FMAX on the 2,052-DOF plate).
+SOBT_CUTOFF = 4.0
+
 
 def balanced_basis(model, ports, order, band, *, method: str, variant: str = "position", nodes: int = 4,
                    cutoff=None, rigid: str = "include", solves: str = "auto",
@@ -86,9 +92,9 @@ class SobtOptions:
 
     variant: str = variant_option()
     nodes: int = nodes_option()
-    band: Band | None = band_option("interest: large models resolve resonances up to 10 FMAX")
+    band: Band | None = band_option(f"interest: large models resolve resonances up to {SOBT_CUTOFF:g} FMAX")
     cutoff: float | None = option(None, "large models: resonances up to CUTOFF Hz get their own quadrature cell "
-                                  "(default 10 FMAX)", parse=float)
+                                  f"(default {SOBT_CUTOFF:g} FMAX)", parse=float)
     rigid: str = rigid_option()
     solves: str = solves_option()
 
@@ -114,22 +120,25 @@ def sobt(model, ports, order, *, variant: str = "position", nodes: int = 4, band
         Gauss points per panel of the resonance-resolving quadrature (panels graded towards each
         resonance; 4 gives Gramians to ~1e-5, 6 to ~1e-7, 8 to ~1e-9).
     band : (float, float), optional
-        Only used for the default ``cutoff`` of large models: ``10 * fmax``.
+        Only used for the default ``cutoff`` of large models: ``SOBT_CUTOFF * fmax`` (4 fmax).
     cutoff : float, optional
         Large models (more than 600 DOF): resonances up to ``cutoff`` Hz get their own
-        quadrature cell, the rest of ``[0, inf)`` is one tail cell (their contribution to the
-        Gramians decays like ``w^-4`` with stiffness-proportional damping). Small models
-        (up to 600 DOF) get the exact dense Lyapunov solutions
-        (:func:`flexmor.reduction.gramians.dense_gramians`).
+        quadrature cell. With the surrogate solves the Gramians end at the cutoff and
+        ``info['solves']['tail']`` bounds the part above it (a share of the trace; with
+        Rayleigh damping the modes above contribute at most ``|phi_j^T B|^2 / (2 beta lam_j^2)``
+        each, bounded in total by one static solve); with the direct solves the rest of
+        ``[0, inf)`` is one tail cell. Small models (up to 600 DOF) get the exact dense
+        Lyapunov solutions (:func:`flexmor.reduction.gramians.dense_gramians`).
     rigid : {'include', 'exclude'}
         Free bodies: the rigid-body modes excited by the inputs lead the basis (include) or
         are left to the floating frame (exclude); the Gramians are those of the flexible part.
     solves : {'auto', 'direct', 'dense', 'surrogate'}
         How the quadrature nodes are solved (:func:`flexmor.reduction.gramians.gramian_factors`):
-        ``auto`` is the exact dense Lyapunov solution up to 600 DOF, the exact modal form up to
-        :data:`~flexmor.reduction.gramian_solves.DENSE_GRAMIAN_MAX_DOF` DOF, else ``direct``.
+        ``auto`` is the exact dense Lyapunov solution up to 600 DOF, else the verified surrogate
+        up to the cutoff with Rayleigh damping (``beta > 0``) or an undamped model, else ``direct``
+        (one complex factorization per node).
     solver : SolverContext, optional
-        Solver (backend, statistics) of :func:`flexmor.linalg.factorize` (one complex factorization per node).
+        Solver (backend, statistics) of :func:`flexmor.linalg.factorize`.
 
     Returns
     -------
@@ -147,7 +156,7 @@ def sobt(model, ports, order, *, variant: str = "position", nodes: int = 4, band
     """
     solver = as_solver(solver)
     if cutoff is None and model.n_dof > 600:
-        cutoff = 10.0 * Band.of(band).fmax
+        cutoff = SOBT_CUTOFF * Band.of(band).fmax
     return balanced_basis(model, ports, order, (0.0, math.inf), method="sobt", variant=variant, nodes=nodes,
                           cutoff=cutoff, rigid=rigid, solves=solves, solver=solver)
 

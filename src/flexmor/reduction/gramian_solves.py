@@ -42,11 +42,14 @@ import math
 import numpy as np
 import scipy.sparse as sp
 
+from ..damping import Rayleigh
 from ..errors import ModelError, check_choice
+from ..linalg import factorize
 from ..linalg.context import step, track
 from ..linalg.distributed import is_partitioned
 
-__all__ = ["DENSE_GRAMIAN_MAX_DOF", "SOLVES", "SURROGATE_GRAMIAN_TOL", "choose_solves", "projected_factors"]
+__all__ = ["DENSE_GRAMIAN_MAX_DOF", "SOLVES", "SURROGATE_GRAMIAN_TOL", "choose_solves", "projected_factors",
+           "tail_boundable", "tail_share"]
 
 log = logging.getLogger(__name__)
 
@@ -70,7 +73,8 @@ _CHUNK = 64
 
 def choose_solves(solves: str, model, fmax: float) -> str:
     """The choice ``auto`` stands for: ``dense`` up to :data:`DENSE_GRAMIAN_MAX_DOF` DOF, ``surrogate``
-    for a finite band, else ``direct``; explicit choices are returned as given."""
+    for a finite band or a full band whose tail can be bounded (:func:`tail_boundable`), else
+    ``direct``; explicit choices are returned as given."""
     check_choice("solves", solves, SOLVES)
     if solves != "auto":
         return solves
@@ -78,7 +82,13 @@ def choose_solves(solves: str, model, fmax: float) -> str:
         return "direct"
     if model.n_dof <= DENSE_GRAMIAN_MAX_DOF:
         return "dense"
-    return "surrogate" if math.isfinite(fmax) else "direct"
+    return "surrogate" if math.isfinite(fmax) or tail_boundable(model) else "direct"
+
+
+def tail_boundable(model) -> bool:
+    """Whether the full band's tail above a cutoff has the bound of :func:`tail_share`: Rayleigh damping
+    ``D = alpha M + beta K`` with ``beta > 0`` (an undamped model gets such a damping for its Gramians)."""
+    return model.D is None or (isinstance(model.damping, Rayleigh) and model.damping.beta > 0)
 
 
 class _Dense:
@@ -127,7 +137,72 @@ class _Projected:
         return self.sur.reduced_solution(w)
 
 
-def projected_factors(solves: str, work, rhs, m: int, wk, wt, *, side: str, rigid_modes, modes, solver, store):
+def tail_share(work, rhs, m: int, wk, wt, modes, solver, traces) -> dict:
+    """Bound of the Gramians' part above the last quadrature node (the full band's tail), relative.
+
+    With M-orthonormal modes ``phi_j``, ``b_j = phi_j^T rhs`` and Rayleigh damping
+    ``d_j = alpha + beta lam_j``, the M-trace of the tail ``E = (1/pi) int_wc^inf Re(X X^H) dw``
+    is ``sum_j |b_j|^2 e_j`` with ``e_j = (1/pi) int_wc^inf |lam_j - w^2 + i w d_j|^-2 dw`` (times
+    ``w^2`` for velocities). For the modes of the pre-pass, ``e_j`` is the exact full integral
+    ``1/(2 d_j lam_j)`` (velocities ``1/(2 d_j)``) minus the quadrature's part below ``wc``. For
+    the modes above them (``lam_j >= lam_H``, the largest known) ``e_j <= 1/(2 beta lam_j^2)``
+    (``1/(2 beta lam_j)``), and ``sum |b_j|^2 / (lam_j - sigma)^p`` over them is the whole sum,
+    ``tr(S^T M S)`` or ``tr(rhs^T S)`` with the static solution ``S = (K - sigma M)^{-1} rhs`` of
+    the pre-pass factorization, minus the known modes' terms. ``E`` is positive semi-definite,
+    so the Gramian without its tail is off by at most this trace.
+
+    Parameters
+    ----------
+    work : FEModel
+        The damped model (Rayleigh damping, ``beta > 0``).
+    rhs : ndarray, shape (n_dof, m [+ p])
+    m : int
+        Number of inputs.
+    wk, wt : ndarray
+        Quadrature nodes (rad/s, the last one below ``wc``) and weights.
+    modes : tuple
+        ``(phi, factorization, sigma)`` of the modal pre-pass (rigid-body modes included).
+    solver : SolverContext
+    traces : dict
+        M-traces of the computed factors, ``{'position', 'velocity'[, 'observability']}``.
+
+    Returns
+    -------
+    dict
+        ``cutoff_hz``, ``known_modes`` and per Gramian (``position``, ``velocity``, ``observability``)
+        the bound of ``tr(M E) / tr(M (P + E))``.
+    """
+    from ..linalg.eigen import is_rigid
+
+    phi, F, sigma = modes
+    alpha, beta = work.damping.alpha, work.damping.beta
+    if F is None:
+        F = factorize((work.K - sigma * work.M).tocsr(), solver=solver, positive=sigma < 0)
+    S = F.solve(rhs)
+    lam = np.einsum("ij,ij->j", phi, work.K @ phi)
+    b2 = (phi.T @ rhs) ** 2  # (modes, columns)
+    flex = ~is_rigid(lam, work.K, work.M)
+    lf, d = lam[flex], alpha + beta * lam[flex]
+    inv = 1.0 / ((lf[:, None] - wk ** 2) ** 2 + (wk * d[:, None]) ** 2)
+    known = {"position": np.maximum(1 / (2 * d * lf) - inv @ wt / math.pi, 0.0),
+             "velocity": np.maximum(1 / (2 * d) - inv @ (wt * wk ** 2) / math.pi, 0.0)}
+    lam_h = float(lam.max())
+    grow = (lam_h - sigma) / lam_h
+    rest = {"position": (np.einsum("ij,ij->j", S, work.M @ S) - (b2 / (lam - sigma)[:, None] ** 2).sum(0))
+            * max(1.0, grow ** 2),
+            "velocity": (np.einsum("ij,ij->j", rhs, S) - (b2 / (lam - sigma)[:, None]).sum(0)) * max(1.0, grow)}
+    cols = {"position": slice(0, m), "velocity": slice(0, m), "observability": slice(m, None)}
+    out = {"cutoff_hz": float(wk.max() / (2 * math.pi)), "known_modes": int(flex.sum())}
+    for name, tr in traces.items():
+        kind = "velocity" if name == "velocity" else "position"
+        c = cols[name]
+        e = float(known[kind] @ b2[flex, c].sum(1) + max(float(rest[kind][c].sum()), 0.0) / (2 * beta))
+        out[name] = e / (tr + e) if tr + e > 0 else 0.0
+    return out
+
+
+def projected_factors(solves: str, work, rhs, m: int, wk, wt, *, side: str, rigid_modes, modes, solver, store,
+                      tail: bool = False):
     """Quadrature factors ``R, Rv, L`` from the ``dense`` or ``surrogate`` solves.
 
     Parameters
@@ -149,6 +224,9 @@ def projected_factors(solves: str, work, rhs, m: int, wk, wt, *, side: str, rigi
     solver : SolverContext
     store : callable
         ``store(n, limit)`` -> an empty factor store (:class:`flexmor.reduction.gramians._FactorStore`).
+    tail : bool
+        The nodes end at a cutoff below the full band's end: report the bound of the rest
+        (:func:`tail_share`) in ``info['tail']``.
 
     Returns
     -------
@@ -177,5 +255,12 @@ def projected_factors(solves: str, work, rhs, m: int, wk, wt, *, side: str, rigi
                 stores[2].add(np.hstack([Y[j, :, m:].real, Y[j, :, m:].imag]))
     R, Rv = V @ stores[0].result(), V @ stores[1].result()
     L = V @ stores[2].result() if side == "both" else None
+    info = basis.info
+    if tail:
+        traces = {name: float(np.einsum("ij,ij->", X, work.M @ X))
+                  for name, X in (("position", R), ("velocity", Rv), ("observability", L)) if X is not None}
+        info["tail"] = tail_share(work, rhs, m, wk, wt, modes, solver, traces)
+        log.info("Gramians up to %.4g Hz: the tail above is at most %.1e (position), %.1e (velocity) of the trace",
+                 info["tail"]["cutoff_hz"], info["tail"]["position"], info["tail"]["velocity"])
     log.info("Gramian solves: %s (basis of order %d)", solves, k)
-    return R, Rv, L, basis.info
+    return R, Rv, L, info

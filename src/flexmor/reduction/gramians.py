@@ -62,7 +62,7 @@ from ..linalg import factorize
 from ..linalg.context import SolverContext, as_solver, track
 from ..linalg.eigen import DENSE_LIMIT, default_shift, eigenmodes, frequencies_hz, is_rigid
 from ..options import option
-from .gramian_solves import SOLVES, choose_solves, projected_factors
+from .gramian_solves import SOLVES, choose_solves, projected_factors, tail_boundable
 
 __all__ = ["GramianFactors", "quadrature_rule", "gramian_factors", "balance", "balance_note", "compress",
            "truncation_basis", "VARIANTS", "UNDAMPED_ZETA", "variant_option", "nodes_option", "solves_option"]
@@ -422,29 +422,36 @@ def gramian_factors(model, ports, band=(0.0, math.inf), *, side: str = "both", n
     lo = 2 * math.pi * fmin
     if rigid_modes is not None and rigid_modes.shape[1] and lo == 0:
         lo = 2 * math.pi * 1e-3 * (f_res[0] if f_res.size else 1.0)  # the flexible part is regular at 0
+    # the surrogate's full band ends at the cutoff; the rest is bounded (gramian_solves.tail_share)
+    tail = chosen == "surrogate" and math.isinf(fmax) and tail_boundable(work) and fcut > fmin
     scale = (2 * math.pi * f_res[0], 2 * math.pi * f_res[-1]) if f_res.size else None
-    wk, wt = quadrature_rule(lo, 2 * math.pi * fmax, 2 * math.pi * f_res, 2 * math.pi * f_res * np.maximum(z, 0),
-                             nodes=int(nodes), panels=int(panels), scale=scale)
+    wk, wt = quadrature_rule(lo, 2 * math.pi * (fcut if tail else fmax), 2 * math.pi * f_res,
+                             2 * math.pi * f_res * np.maximum(z, 0), nodes=int(nodes), panels=int(panels), scale=scale)
     B = ports.B.toarray()
     m = B.shape[1]
-    rhs = np.hstack([B, ports.C.T.toarray()]) if side == "both" else B
+    collocated = side == "both" and ports.C.shape == ports.B.T.shape and (ports.C != ports.B.T).nnz == 0
+    rhs = np.hstack([B, ports.C.T.toarray()]) if side == "both" and not collocated else B
     limit = int(max_columns) if max_columns is not None else factor_store_columns(model.n_dof)
-    sinfo, stores = {"solves": "direct"}, []
+    sinfo, stores, one_side = {"solves": "direct"}, [], "input" if collocated else side
+    if chosen == "surrogate" and math.isinf(fmax) and not tail:
+        chosen = "direct"  # a full band whose tail has no bound
     if chosen != "direct":
         try:
-            R, Rv, L, sinfo = projected_factors(chosen, work, rhs, m, wk, wt, side=side, rigid_modes=rigid_modes,
-                                                modes=pre, solver=solver, store=_FactorStore)
+            R, Rv, L, sinfo = projected_factors(chosen, work, rhs, m, wk, wt, side=one_side, rigid_modes=rigid_modes,
+                                                modes=pre, solver=solver, store=_FactorStore, tail=tail)
         except ModelError as exc:  # e.g. non-proportional damping of a small model
             log.info("Gramian solves: %s not applicable (%s), direct solves", chosen, exc)
             chosen = "direct"
     if chosen == "direct":
-        stores = [_FactorStore(model.n_dof, limit) for _ in range(3 if side == "both" else 2)]
+        stores = [_FactorStore(model.n_dof, limit) for _ in range(2 if one_side == "input" else 3)]
         R, Rv, L = _direct_factors(work, rhs, m, wk, wt, rigid_modes, stores, solver)
+    if collocated:  # C = B^T: the observability Gramian is the controllability one, from the same solves
+        L = R
     info = {"band_hz": [fmin, fmax], "n_nodes": int(wk.size), "nodes_per_panel": int(nodes), "panels": int(panels),
             "n_resonances": int(np.sum((f_res >= fmin) & (f_res <= fmax))), "cutoff_hz": float(fcut),
             "gramian_damping": damping, "rank_R": int(R.shape[1]), "factor_columns_limit": limit,
             "factor_columns_peak": max((st.peak for st in stores), default=0),
-            "compressions": sum(st.compressions for st in stores), "solves": sinfo}
+            "compressions": sum(st.compressions for st in stores), "solves": sinfo, "collocated": bool(collocated)}
     log.info("Gramian factors: %d quadrature nodes, rank %d", wk.size, R.shape[1])
     return GramianFactors(R, Rv, L, wk / (2 * math.pi), wt, info)
 
