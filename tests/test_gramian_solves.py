@@ -148,3 +148,90 @@ def test_full_frf_auto_path_of_mid_size_models():
     e_auto, e_dense = auto.evaluate(red)["band_error"], dense.evaluate(red)["band_error"]
     # measured: 1.2722730e-5 on both grids, 2.4e-9 relative
     assert 1e-8 < e_dense < 1 and abs(e_auto / e_dense - 1) < 1e-6, (e_auto, e_dense)
+
+
+def test_full_band_surrogate_ends_at_the_cutoff_and_bounds_the_rest(clamped):
+    # sobt's full band: the surrogate up to the cutoff, the tail above bounded; 270 DOF, so the
+    # exact full-band trace sum_j |phi_j^T B|^2 / (2 d_j lam_j) is at hand from all modes
+    from flexmor.linalg.eigen import dense_eigenmodes
+
+    model = clamped.with_rayleigh(5.0, 1e-6)
+    ports = make_ports(model, ["TIP:y", "TIP:z"])
+    G = gramian_factors(model, ports, (0.0, np.inf), cutoff=7000.0, solves="surrogate")
+    tail = G.info["solves"]["tail"]
+    assert G.info["solves"]["verified"] is True and 6900 < tail["cutoff_hz"] <= 7000 and G.info["collocated"]
+    lam, phi = dense_eigenmodes(model.K.toarray(), model.M.toarray())
+    b2 = ((phi.T @ ports.B.toarray()) ** 2).sum(1)
+    d = 5.0 + 1e-6 * lam
+    for X, exact, name in ((G.R, (b2 / (2 * d * lam)).sum(), "position"), (G.Rv, (b2 / (2 * d)).sum(), "velocity")):
+        share = 1 - np.einsum("ij,ij->", X, model.M @ X) / exact
+        # measured: position 3.343e-5 bounded by 3.352e-5, velocity 3.41e-3 by 3.68e-3
+        assert 0 < share <= tail[name] < 1.1 * share, name
+
+
+def test_sobt_full_band_surrogate_equals_direct_to_its_tail(clamped):
+    model = clamped.with_rayleigh(5.0, 1e-6)
+    ports = make_ports(model, ["TIP:y", "TIP:z"])
+    full = FullResponse(model, ports, BAND, cache=False)
+    out = {}
+    for s in ("direct", "surrogate"):
+        red, res = reduce_and_judge(model, "sobt", 6, ports, full=full, band=BAND, cutoff=7000.0, solves=s)
+        out[s] = _freqs(red), res["band_error"], red.info
+    (f0, e0, i0), (f, e, info) = out["direct"], out["surrogate"]
+    assert i0["solves"] == {"solves": "direct"} and info["solves"]["solves"] == "surrogate"
+    assert info["n_nodes"] < i0["n_nodes"]  # the direct path's tail cell beyond the cutoff is not solved
+    # measured: frequencies 1.3e-7, band_error 1.0e-3 relative (band_error 8.3e-8; tail 3.4e-5 of the trace)
+    assert 1e-10 < e0 < 1e-2 and np.abs(f / f0 - 1).max() < 1e-5 and abs(e / e0 - 1) < 1e-2
+
+
+def test_collocated_ports_share_one_gramian_and_pod_equals_fw_sobt(beam):
+    # C = B^T: Q_p = P_p from the same solves, and the balanced subspace span(R Z_r) of
+    # L^T M R = R^T M R is the M-weighted POD subspace of R: pod and fw-sobt give one body
+    model, ports = beam
+    G = gramian_factors(model, ports, BAND, solves="surrogate")
+    assert G.info["collocated"] is True and G.L is G.R
+    bodies = {}
+    for method in ("pod", "fw-sobt"):
+        red, res = reduce_and_judge(model, method, 4, ports, band=BAND)
+        bodies[method] = _freqs(red), res["band_error"]
+    (fp, ep), (fb, eb) = bodies["pod"], bodies["fw-sobt"]
+    # measured: frequencies 1.9e-12, band_error 6.3e-9 relative (band_error 6.8e-8)
+    assert np.abs(fp / fb - 1).max() < 1e-9 and abs(ep / eb - 1) < 1e-6
+    other = make_ports(model, ["TIP:y", "TIP:z"], ["TIP:x", "TIP:z"])  # not collocated: P_p != Q_p
+    G2 = gramian_factors(model, other, BAND, solves="surrogate")
+    assert G2.info["collocated"] is False and G2.L.shape[0] == model.n_dof and not np.allclose(G2.L, G2.R)
+
+
+@pytest.mark.parametrize("proportional", [True, False])
+def test_surrogate_residuals_equal_the_full_ones(beam, proportional):
+    # the residuals from the Gram matrix (one GEMM per chunk of frequencies, modal or not)
+    # against ||A(w) V x(w) - B|| / ||B|| formed in the full space
+    from flexmor.dynamics.frf import ShiftedMatrices
+    from flexmor.dynamics.modes import modes_below
+    from flexmor.dynamics.surrogate import Surrogate
+    from flexmor.linalg.context import as_solver
+
+    model, ports = beam
+    if not proportional:  # a damper at the tip: no diagonal modal form of the surrogate
+        d = np.zeros(model.n_dof)
+        d[ports.B.toarray()[:, 0] != 0] = 50.0
+        model = FEModel(M=model.M, K=model.K, D=model.D + sp.diags(d), dofs=model.dofs, node_ids=model.node_ids,
+                        xyz=model.xyz, node_sets=model.node_sets)
+    _, phi, F, sigma = modes_below(model, BAND[1], as_solver(None))
+    freqs = np.linspace(BAND[0], BAND[1], 700)
+    sur = Surrogate(model, ports, BAND, phi=phi, factorization=F, sigma=sigma, candidates=freqs[::50], max_checks=1)
+    assert (sur._modal is not None) == proportional
+    A, B = ShiftedMatrices(model.K, model.M, model.D), sur.B
+    X = sur.reduced_solution(2 * np.pi * freqs)
+    full = [np.linalg.norm(A(2 * np.pi * f) @ (sur.V @ X[k]) - B) / np.linalg.norm(B) for k, f in enumerate(freqs)]
+    w = 2 * np.pi * freqs
+    c = np.concatenate([X, -(w ** 2)[:, None, None] * X, (1j * w)[:, None, None] * X,
+                        np.broadcast_to(-np.eye(2), (w.size, 2, 2))], axis=1)
+    gram = np.sqrt(np.maximum(np.einsum("fam,ab,fbm->f", c.conj(), sur._gram, c).real, 0)) / np.linalg.norm(B)
+    res, full = sur.residual(freqs), np.array(full)
+    big = full > 0.1 * full.max()
+    # both Gram forms carry the rounding of ||P c||^2 with ||K V x|| >> ||B|| (a floor near 1e-6):
+    # measured |res - gram| 3.7e-3 and 3.5e-5 of the largest residual, res within 1.2e-2 and
+    # 3.4e-3 of the full residual where that is above a tenth of its largest value
+    assert full.max() > 1e-5 and np.abs(res - gram).max() < 2e-2 * full.max()
+    assert np.abs(res / full - 1)[big].max() < 0.05
