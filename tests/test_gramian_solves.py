@@ -57,7 +57,11 @@ def test_gramians_of_every_solves_equal_the_direct_ones(factors):
 def test_surrogate_solves_report_their_checks(beam, factors):
     model, _ = beam
     info = factors["surrogate"].info["solves"]
-    assert info["verified"] is True and info["n_direct_checks"] >= 3
+    # two passing checks in a row, and the node of the largest residual checked with the final basis
+    # (here one of the two: its result is reused instead of a third factorization at the same node)
+    assert info["verified"] is True and info["n_direct_checks"] >= 2
+    assert info["n_direct_checks"] >= 3 or info["final_check_reused"] is True
+    assert info["final_check"]["order"] == info["order"]
     assert info["final_check"]["rel_error"] <= SURROGATE_GRAMIAN_TOL
     assert info["max_check_error"] <= SURROGATE_GRAMIAN_TOL
     assert 0 < info["max_residual_on_grid"] < 1e-2 and info["order"] < model.n_dof // 4
