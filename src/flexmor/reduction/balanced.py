@@ -37,10 +37,11 @@ log = logging.getLogger(__name__)
 N_REPORTED = 40
 
 #: ``sobt``'s default cutoff of large models in units of the band's top. The modal pre-pass computes
-#: every mode below it (plate_structure, 35,988 DOF, band top 2 kHz: 51 modes below 4 FMAX, 256 below
-#: 10 FMAX); the surrogate solves end there and report a bound of the rest (``info['solves']['tail']``:
-#: 1.4e-4 of the position Gramian's trace above 4 FMAX, 1e-5 above 10 FMAX on the 2,052-DOF plate).
-SOBT_CUTOFF = 4.0
+#: every mode below it (plate_structure, 35,988 DOF, band top 2 kHz: 51 modes below 2 FMAX, 120 below
+#: 5 FMAX, 256 below 10 FMAX); the surrogate solves end there and report a bound of the rest
+#: (``info['solves']['tail']``). At 10,944 DOF: position tail 2.3e-4 of the trace at 2 FMAX (sobt 20:
+#: 2.7 s CPU, band_error 8.5e-5), 4.6e-5 at 4 FMAX (5.0 s, 3.1e-4), 3.3e-5 at 10 FMAX (15 s).
+SOBT_CUTOFF = 2.0
 
 
 def balanced_basis(model, ports, order, band, *, method: str, variant: str = "position", nodes: int = 4,
@@ -120,7 +121,7 @@ def sobt(model, ports, order, *, variant: str = "position", nodes: int = 4, band
         Gauss points per panel of the resonance-resolving quadrature (panels graded towards each
         resonance; 4 gives Gramians to ~1e-5, 6 to ~1e-7, 8 to ~1e-9).
     band : (float, float), optional
-        Only used for the default ``cutoff`` of large models: ``SOBT_CUTOFF * fmax`` (4 fmax).
+        Only used for the default ``cutoff`` of large models: ``SOBT_CUTOFF * fmax`` (2 fmax).
     cutoff : float, optional
         Large models (more than 600 DOF): resonances up to ``cutoff`` Hz get their own
         quadrature cell. With the surrogate solves the Gramians end at the cutoff and

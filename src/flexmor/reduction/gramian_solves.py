@@ -19,6 +19,11 @@ thousands of nodes). Three ways (``solves``) give them:
     are the quadrature nodes; the residual at every node and a final direct check at the node
     of the largest residual are reported in ``info['solves']``.
 
+The full band ``[0, inf)`` (``sobt``) with the surrogate ends at the cutoff (the modes of the
+pre-pass reach it): the part of the Gramians above is positive semi-definite, and with Rayleigh
+damping its trace has a bound from the pre-pass's modes and one static solve
+(:func:`tail_share`), reported in ``info['tail']`` as a share of each Gramian's trace.
+
 With the dense and surrogate solves the quadrature factors are accumulated in the ``k``
 coordinates of the basis ``V`` (the rank of the factors cannot exceed ``k``) and lifted once,
 ``R = V R_k``, so no ``N x (columns)`` store is ever compressed. The quadrature nodes and

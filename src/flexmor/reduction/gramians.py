@@ -20,10 +20,11 @@ rule converges exponentially: doubling ``nodes`` changes the Gramian by round-of
 peaks are resolved. Resonances and damping ratios come from the modal pre-pass of
 :mod:`flexmor.dynamics.modes`. Each node costs one complex symmetric factorization of
 ``K - w^2 M + i w D`` (:func:`flexmor.linalg.factorize`) and one block solve with
-``[B, C^T]`` on the direct path; small models and finite bands get the same solves from the
-exact modal form or a verified surrogate instead (:mod:`flexmor.reduction.gramian_solves`).
-The factors ``P ≈ R R^T`` have ``2 (m + p)`` columns per node before column compression and
-no N x N matrix is ever formed.
+``[B, C^T]`` on the direct path (``[B]`` alone for collocated ports, ``C = B^T``: then
+``Q_p = P_p``); small models and finite bands get the same solves from the exact modal form or a
+verified surrogate instead, the full band a surrogate up to the cutoff with a bound of the rest
+(:mod:`flexmor.reduction.gramian_solves`). The factors ``P ≈ R R^T`` have ``2 (m + p)`` columns
+per node before column compression and no N x N matrix is ever formed.
 
 **Undamped models** (``D`` is None): the integrand has poles ``1/(w - w_k)^2`` at the
 resonances, so a Gramian over a band that contains one is infinite. The Gramians are then
@@ -422,8 +423,7 @@ def gramian_factors(model, ports, band=(0.0, math.inf), *, side: str = "both", n
     lo = 2 * math.pi * fmin
     if rigid_modes is not None and rigid_modes.shape[1] and lo == 0:
         lo = 2 * math.pi * 1e-3 * (f_res[0] if f_res.size else 1.0)  # the flexible part is regular at 0
-    # the surrogate's full band ends at the cutoff; the rest is bounded (gramian_solves.tail_share)
-    tail = chosen == "surrogate" and math.isinf(fmax) and tail_boundable(work) and fcut > fmin
+    tail = chosen == "surrogate" and math.isinf(fmax) and tail_boundable(work) and fcut > fmin  # ends at fcut
     scale = (2 * math.pi * f_res[0], 2 * math.pi * f_res[-1]) if f_res.size else None
     wk, wt = quadrature_rule(lo, 2 * math.pi * (fcut if tail else fmax), 2 * math.pi * f_res,
                              2 * math.pi * f_res * np.maximum(z, 0), nodes=int(nodes), panels=int(panels), scale=scale)
@@ -433,8 +433,7 @@ def gramian_factors(model, ports, band=(0.0, math.inf), *, side: str = "both", n
     rhs = np.hstack([B, ports.C.T.toarray()]) if side == "both" and not collocated else B
     limit = int(max_columns) if max_columns is not None else factor_store_columns(model.n_dof)
     sinfo, stores, one_side = {"solves": "direct"}, [], "input" if collocated else side
-    if chosen == "surrogate" and math.isinf(fmax) and not tail:
-        chosen = "direct"  # a full band whose tail has no bound
+    chosen = "direct" if chosen == "surrogate" and math.isinf(fmax) and not tail else chosen  # tail not bounded
     if chosen != "direct":
         try:
             R, Rv, L, sinfo = projected_factors(chosen, work, rhs, m, wk, wt, side=one_side, rigid_modes=rigid_modes,
@@ -445,8 +444,7 @@ def gramian_factors(model, ports, band=(0.0, math.inf), *, side: str = "both", n
     if chosen == "direct":
         stores = [_FactorStore(model.n_dof, limit) for _ in range(2 if one_side == "input" else 3)]
         R, Rv, L = _direct_factors(work, rhs, m, wk, wt, rigid_modes, stores, solver)
-    if collocated:  # C = B^T: the observability Gramian is the controllability one, from the same solves
-        L = R
+    L = R if collocated else L  # C = B^T: the observability Gramian is the controllability one
     info = {"band_hz": [fmin, fmax], "n_nodes": int(wk.size), "nodes_per_panel": int(nodes), "panels": int(panels),
             "n_resonances": int(np.sum((f_res >= fmin) & (f_res <= fmax))), "cutoff_hz": float(fcut),
             "gramian_damping": damping, "rank_R": int(R.shape[1]), "factor_columns_limit": limit,
