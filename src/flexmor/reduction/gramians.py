@@ -399,9 +399,10 @@ def gramian_factors(model, ports, band=(0.0, math.inf), *, side: str = "both", n
     solves : {'auto', 'direct', 'dense', 'surrogate'}
         How the solves at the quadrature nodes are done (:mod:`flexmor.reduction.gramian_solves`):
         one complex factorization per node, the exact modal form of a small model, or a verified
-        surrogate (finite band); ``auto`` takes ``dense`` up to
-        :data:`~flexmor.reduction.gramian_solves.DENSE_GRAMIAN_MAX_DOF` DOF, ``surrogate`` above for a
-        finite band, else ``direct``. ``info['solves']`` reports the choice and its checks.
+        surrogate (a full band ends at ``cutoff``, the rest bounded in ``info['solves']['tail']``);
+        ``auto`` takes ``dense`` up to :data:`~flexmor.reduction.gramian_solves.DENSE_GRAMIAN_MAX_DOF`
+        DOF, ``surrogate`` above for a finite band or Rayleigh damping, else ``direct``.
+        ``info['solves']`` reports the choice and its checks.
 
     Returns
     -------
