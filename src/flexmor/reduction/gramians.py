@@ -82,7 +82,8 @@ def variant_option():
 def solves_option():
     """The ``solves`` option: how the quadrature nodes are solved (see :func:`gramian_factors`)."""
     return option("auto", "solves at the quadrature nodes: direct (one factorization each), dense (exact modal "
-                  "form, small models), surrogate (verified reduced model, finite band) or auto", choices=SOLVES)
+                  "form, small models), surrogate (verified reduced model; a full band up to its cutoff) or auto",
+                  choices=SOLVES)
 
 
 def nodes_option():
