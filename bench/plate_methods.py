@@ -101,19 +101,18 @@ def pymor_worker(name: str, inp: str, out: str) -> None:
 
 
 def _monitor(cmd: list, status: str, cpu_limit: float, wall_limit: float, nice: int) -> None:
-    """Run the worker ``cmd`` with the limits, then write its exit, wall and CPU seconds to ``status``."""
-    def limits():
-        os.nice(nice)
-        resource.setrlimit(resource.RLIMIT_CPU, (int(cpu_limit), int(cpu_limit) + 10))
-
+    """Run the worker ``cmd`` (it sets its own niceness and CPU limit from the environment), stop it at the
+    wall limit, then write its exit, wall and CPU seconds to ``status``."""
     t0, load0 = time.time(), os.getloadavg()
-    proc = subprocess.Popen(cmd, preexec_fn=limits, stdout=open(status + ".log", "w"), stderr=subprocess.STDOUT)
-    rec = {"pid": proc.pid, "started": time.strftime("%Y-%m-%d %H:%M:%S UTC", time.gmtime(t0)), "nice": nice,
-           "cpu_limit_s": cpu_limit, "wall_limit_s": wall_limit, "load_start": load0, "running": True}
-    pathlib.Path(status).write_text(json.dumps(rec))
-    signal.signal(signal.SIGALRM, lambda *_: proc.kill())
-    signal.alarm(int(wall_limit))
-    _, st, ru = os.wait4(proc.pid, 0)
+    env = dict(os.environ, PLATE_CPU_LIMIT=str(int(cpu_limit)), PLATE_NICE=str(int(nice)))
+    with open(status + ".log", "w") as log:
+        proc = subprocess.Popen(cmd, stdout=log, stderr=subprocess.STDOUT, env=env)
+        rec = {"pid": proc.pid, "started": time.strftime("%Y-%m-%d %H:%M:%S UTC", time.gmtime(t0)), "nice": nice,
+               "cpu_limit_s": cpu_limit, "wall_limit_s": wall_limit, "load_start": load0, "running": True}
+        pathlib.Path(status).write_text(json.dumps(rec))
+        signal.signal(signal.SIGALRM, lambda *_: proc.kill())
+        signal.alarm(int(wall_limit))
+        _, st, ru = os.wait4(proc.pid, 0)
     rc = os.waitstatus_to_exitcode(st)
     cpu, wall = ru.ru_utime + ru.ru_stime, time.time() - t0
     rec.update(running=False, exit=rc, wall_s=wall, cpu_s=cpu, load_end=os.getloadavg(),
@@ -202,6 +201,10 @@ def main(argv=None) -> int:
     ap.add_argument("cmd", nargs="*", help=argparse.SUPPRESS)
     args = ap.parse_args(argv)
     if args.pymor_worker:
+        if os.environ.get("PLATE_CPU_LIMIT"):  # started by --monitor: SIGXCPU at the limit
+            os.nice(int(os.environ["PLATE_NICE"]))
+            limit = int(os.environ["PLATE_CPU_LIMIT"])
+            resource.setrlimit(resource.RLIMIT_CPU, (limit, limit + 10))
         pymor_worker(*args.pymor_worker)
         return 0
     if args.monitor:
