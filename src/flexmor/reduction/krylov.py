@@ -33,6 +33,7 @@ from ..linalg.context import SolverContext, as_solver
 from ..linalg.eigen import default_shift
 from ..linalg.threads import blas_threads
 from ..options import Band, band_option, option
+from ..projection import reduced_matrices
 from . import register_method
 from .arnoldi import DEFLATION_TOL, SecondOrderArnoldi
 from .free_body import rigid_body_modes, rigid_head
@@ -283,7 +284,8 @@ def krylov(model, ports, order, *, points=None, moments: int | None = None, side
     Basis
         ``info``: ``points_hz`` (as given), ``points_rad_s`` (used), ``moments``, ``side``,
         ``n_rigid_excluded``, ``nested`` (its leading columns are the basis of lower order),
-        ``points_check`` (default points: the estimates and the choice).
+        ``points_check`` (default points: the estimates and the choice). ``reduced``: the
+        projected matrices the check made (default points), for :func:`flexmor.projection.project`.
 
     References
     ----------
@@ -314,14 +316,16 @@ def krylov(model, ports, order, *, points=None, moments: int | None = None, side
     head = [[excited]] if excited.shape[1] else []
     cache = {}
     V, k, used = _basis_at(model, ports, pts, order, moments, b, head, side, solver, phi, cache)
-    check = None
+    check = reduced = None
     if points is None and order is not None:
-        check = {"tol": float(points_tol), "single_point": nested_estimate(model, ports, V, b, band)}
+        reduced = reduced_matrices(model, V)  # the check's projection, handed on to project()
+        check = {"tol": float(points_tol), "single_point": nested_estimate(model, ports, V, b, band, reduced=reduced)}
         if check["single_point"]["estimate"] > float(points_tol):  # the outer two of the three default points,
             pts = np.sort_complex(np.concatenate([pts, default_points(band)[[0, 2]]]))  # lowest first, as before
             log.info("krylov: estimated band error %.1e of one point > %.1e: %d points",
                      check["single_point"]["estimate"], points_tol, pts.size)
             V, k, used = _basis_at(model, ports, pts, order, moments, b, head, side, solver, phi, cache)
+            reduced = None
         check["n_points"] = int(pts.size)
     n_rb = int(phi.shape[1]) if rigid == "exclude" else 0
     if order is not None and V.shape[1] < order:
@@ -331,7 +335,7 @@ def krylov(model, ports, order, *, points=None, moments: int | None = None, side
             "n_rigid_included": int(head[0][0].shape[1]) if head else 0, "nested": True}
     if check is not None:
         info["points_check"] = check
-    return Basis(V, "krylov", info)
+    return Basis(V, "krylov", info, reduced=reduced)
 
 
 def _basis_at(model, ports, pts, order, moments, b, head, side, solver, phi, cache):
