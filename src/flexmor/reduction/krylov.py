@@ -193,18 +193,29 @@ def _point_blocks(model, start, p, n_moments: int, solver: SolverContext, proj):
     return out, s
 
 
-def merge_blocks(blocks, order: int | None = None, *, orthonormal: bool = False) -> np.ndarray:
+def merge_blocks(blocks, order: int | None = None, *, orthonormal: bool = False, head=None) -> np.ndarray:
     """Merge per-point blocks round-robin (moment 0 of every point, then moment 1, ...).
 
     With ``orthonormal=True`` (the blocks of each point are orthonormal, as from
-    :func:`blocks_at_points`) a single point needs no further work; otherwise, and for
-    several points, the blocks are merged by block Gram-Schmidt with deflation.
+    :func:`blocks_at_points`) a single point needs no further work: its blocks side by side
+    (a view of its Arnoldi basis, no copy, when they are consecutive columns of it); otherwise,
+    and for several points, the blocks are merged by block Gram-Schmidt with deflation.
+    ``head`` (n, h), optional, comes first (orthonormalized): the rigid-body modes the ports
+    excite. The blocks must then be M-orthogonal to them (:func:`blocks_at_points` with those
+    ``rigid_modes``), so a single point's blocks stay as they are: ``[head, blocks]`` has
+    independent columns (its mass matrix is block diagonal) without a Euclidean pass against
+    the head.
     """
     nonempty = [b for b in blocks if b]
+    has_head = head is not None and head.shape[1] > 0
     if orthonormal and len(nonempty) == 1:  # one point: its blocks are orthonormal already
-        V = np.hstack(nonempty[0])
+        if has_head:
+            V = np.hstack([extend_orthonormal(None, head, tol=DEFLATION_TOL)] + nonempty[0])
+        else:
+            V = _side_by_side(nonempty[0])
         return V[:, :order] if order is not None else V
-    n = nonempty[0][0].shape[0]
+    blocks = [[head]] + list(blocks) if has_head else blocks
+    n = (head if has_head else nonempty[0][0]).shape[0]
     V = Columns(n)
     with blas_threads(1):
         for j in range(max(len(b) for b in blocks)):
@@ -214,6 +225,18 @@ def merge_blocks(blocks, order: int | None = None, *, orthonormal: bool = False)
                     if order is not None and V.k >= order:
                         return np.ascontiguousarray(V.view[:, :order])
     return np.ascontiguousarray(V.view)
+
+
+def _side_by_side(blocks) -> np.ndarray:
+    """``np.hstack(blocks)``, as a view when the blocks are consecutive columns of one
+    Fortran-ordered array (a real point's blocks: views of its Arnoldi basis)."""
+    base = blocks[0].base
+    if base is not None and base.ndim == 2 and base.flags.f_contiguous and all(b.base is base for b in blocks):
+        addr = [b.__array_interface__["data"][0] for b in blocks]
+        start, step = divmod(addr[0] - base.__array_interface__["data"][0], base.strides[1])
+        if not step and all(a1 - a0 == b.shape[1] * base.strides[1] for a0, a1, b in zip(addr, addr[1:], blocks)):
+            return base[:, start:start + sum(b.shape[1] for b in blocks)]
+    return np.hstack(blocks)
 
 
 @dataclass(frozen=True)
@@ -313,9 +336,8 @@ def krylov(model, ports, order, *, points=None, moments: int | None = None, side
         raise OptionError(f"points_tol must be positive, got {points_tol}", params=("points_tol",))
     b = start_block(ports, side).shape[1]
     phi, excited = rigid_head(model, start_block(ports, side), rigid)  # the rigid motion the ports excite, first
-    head = [[excited]] if excited.shape[1] else []
     cache = {}
-    V, k, used = _basis_at(model, ports, pts, order, moments, b, head, side, solver, phi, cache)
+    V, k, used = _basis_at(model, ports, pts, order, moments, b, excited, side, solver, phi, cache)
     check = reduced = None
     if points is None and order is not None:
         reduced = reduced_matrices(model, V)  # the check's projection, handed on to project()
@@ -324,7 +346,7 @@ def krylov(model, ports, order, *, points=None, moments: int | None = None, side
             pts = np.sort_complex(np.concatenate([pts, default_points(band)[[0, 2]]]))  # lowest first, as before
             log.info("krylov: estimated band error %.1e of one point > %.1e: %d points",
                      check["single_point"]["estimate"], points_tol, pts.size)
-            V, k, used = _basis_at(model, ports, pts, order, moments, b, head, side, solver, phi, cache)
+            V, k, used = _basis_at(model, ports, pts, order, moments, b, excited, side, solver, phi, cache)
             reduced = None
         check["n_points"] = int(pts.size)
     n_rb = int(phi.shape[1]) if rigid == "exclude" else 0
@@ -332,7 +354,7 @@ def krylov(model, ports, order, *, points=None, moments: int | None = None, side
         log.warning("krylov: only %d independent directions for order %d (deflation)", V.shape[1], order)
     info = {"points_hz": [str(p) for p in pts], "points_rad_s": [str(s) for s in used], "moments": k,
             "side": side, "rigid": rigid, "n_rigid": int(phi.shape[1]), "n_rigid_excluded": n_rb,
-            "n_rigid_included": int(head[0][0].shape[1]) if head else 0, "nested": True}
+            "n_rigid_included": int(excited.shape[1]), "nested": True}
     if check is not None:
         info["points_check"] = check
     return Basis(V, "krylov", info, reduced=reduced)
@@ -357,7 +379,7 @@ def _basis_at(model, ports, pts, order, moments, b, head, side, solver, phi, cac
             cols = np.cumsum([bl.shape[1] for bl in cache[p][0]])
             blocks.append(cache[p][0][:int(np.searchsorted(cols, share)) + 1])
             used.append(cache[p][1])
-        V = merge_blocks(head + blocks, order, orthonormal=not head)
+        V = merge_blocks(blocks, order, orthonormal=True, head=head)
         exhausted = all(len(bl) < k for bl in blocks)
         if moments is not None or V.shape[1] >= order or exhausted:
             break
