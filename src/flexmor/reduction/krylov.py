@@ -25,6 +25,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+import scipy.linalg as sla
 
 from ..basis import Basis, Columns, extend_orthonormal
 from ..errors import OptionError, SolverError, check_choice
@@ -201,19 +202,21 @@ def merge_blocks(blocks, order: int | None = None, *, orthonormal: bool = False,
     (a view of its Arnoldi basis, no copy, when they are consecutive columns of it); otherwise,
     and for several points, the blocks are merged by block Gram-Schmidt with deflation.
     ``head`` (n, h), optional, comes first (orthonormalized): the rigid-body modes the ports
-    excite. The blocks must then be M-orthogonal to them (:func:`blocks_at_points` with those
-    ``rigid_modes``), so a single point's blocks stay as they are: ``[head, blocks]`` has
-    independent columns (its mass matrix is block diagonal) without a Euclidean pass against
-    the head.
+    excite. A single point's orthonormal blocks, which lie nearly Euclidean-orthogonal to such
+    a head (they are M-orthogonal to it up to the Arnoldi's round-off), are then orthogonalized
+    against the head alone, by one projection and a Cholesky factor of their small Gram matrix
+    (:func:`_after_head`), instead of a Gram-Schmidt pass over all earlier columns.
     """
     nonempty = [b for b in blocks if b]
     has_head = head is not None and head.shape[1] > 0
     if orthonormal and len(nonempty) == 1:  # one point: its blocks are orthonormal already
-        if has_head:
-            V = np.hstack([extend_orthonormal(None, head, tol=DEFLATION_TOL)] + nonempty[0])
-        else:
-            V = _side_by_side(nonempty[0])
-        return V[:, :order] if order is not None else V
+        Q = _side_by_side(nonempty[0])
+        if not has_head:
+            return Q[:, :order] if order is not None else Q
+        H = extend_orthonormal(None, head, tol=DEFLATION_TOL)
+        rest = _after_head(H, Q[:, :None if order is None else max(order - H.shape[1], 0)])
+        if rest is not None:
+            return np.hstack([H, rest])
     blocks = [[head]] + list(blocks) if has_head else blocks
     n = (head if has_head else nonempty[0][0]).shape[0]
     V = Columns(n)
@@ -225,6 +228,24 @@ def merge_blocks(blocks, order: int | None = None, *, orthonormal: bool = False,
                     if order is not None and V.k >= order:
                         return np.ascontiguousarray(V.view[:, :order])
     return np.ascontiguousarray(V.view)
+
+
+def _after_head(H: np.ndarray, Q: np.ndarray, limit: float = 0.5):
+    """Orthonormal columns ``(Q - H C) R^{-1}`` (``C = H^T Q``, ``R^T R = I - C^T C``): the
+    orthonormal ``Q`` made orthogonal to the orthonormal ``H``, in order (``R`` is upper
+    triangular, so the leading columns span what ``Q``'s leading columns add to ``H``). None
+    when a column of ``Q`` lies closer to ``span(H)`` than ``||C||_2 <= limit`` allows (then
+    block Gram-Schmidt with deflation is the safe way)."""
+    if Q.shape[1] == 0:
+        return Q
+    with blas_threads(1):
+        C = H.T @ Q
+        if np.linalg.norm(C, 2) > limit:
+            return None
+        R = np.linalg.cholesky(np.eye(Q.shape[1]) - C.T @ C).T
+        X = np.asfortranarray(Q - H @ C)
+        trsm = sla.blas.get_blas_funcs("trsm", (R, X))
+        return trsm(1.0, R, X, side=1, lower=0, overwrite_b=1)
 
 
 def _side_by_side(blocks) -> np.ndarray:
