@@ -21,6 +21,7 @@ from . import __version__
 from .basis import Basis
 from .damping import Damping, ModalDamping, NoDamping, damping_from_dict
 from .errors import ModelError
+from .linalg.threads import sparse_dense
 from .mesh import outer_surface
 from .model import FEModel
 from .origin import fingerprint
@@ -163,9 +164,9 @@ def reduced_matrices(model: FEModel, V: np.ndarray) -> ReducedMatrices:
     """
     # one row-major copy serves every sparse product (SciPy copies Fortran-ordered columns for each)
     Vc = np.ascontiguousarray(V, dtype=float)
-    Mr = _sym(Vc.T @ (model.M @ Vc))
-    Kr = _sym(Vc.T @ (model.K @ Vc))
-    Dr = _sym(Vc.T @ (model.D @ Vc)) if model.D is not None else None
+    Mr = _sym(Vc.T @ sparse_dense(model.M, Vc))
+    Kr = _sym(Vc.T @ sparse_dense(model.K, Vc))
+    Dr = _sym(Vc.T @ sparse_dense(model.D, Vc)) if model.D is not None else None
     return ReducedMatrices(Mr, Kr, Dr, (V, model.M, model.K, model.D))
 
 
