@@ -194,11 +194,11 @@ def test_one_point_merge_against_the_rigid_head_is_block_gram_schmidt():
     phi, head = rigid_head(model, start_block(ports, "input"), "include")
     blocks, _ = blocks_at_points(model, ports, [300.0], 4, rigid_modes=phi)
     h = head.shape[1]
-    fast = merge_blocks(blocks, h + 9, orthonormal=True, head=head)
-    slow = merge_blocks([[head]] + blocks, h + 9)
-    assert fast.shape == slow.shape == (model.n_dof, h + 9)
-    assert np.abs(fast.T @ fast - np.eye(h + 9)).max() < 1e-12
-    for k in range(h, h + 10, 3):  # the head, then block by block
+    fast = merge_blocks(blocks, h + 10, orthonormal=True, head=head)  # the order cuts the fourth block
+    slow = merge_blocks([[head]] + blocks, h + 10)
+    assert fast.shape == slow.shape == (model.n_dof, h + 10)
+    assert np.abs(fast.T @ fast - np.eye(h + 10)).max() < 1e-12
+    for k in (h, h + 3, h + 6, h + 9, h + 10):  # the head, block by block, the cut block's leading direction
         assert np.max(sla.subspace_angles(fast[:, :k], slow[:, :k])) < 1e-8, k
     plain = merge_blocks(blocks, 9, orthonormal=True)
     assert np.shares_memory(plain, blocks[0][0]) and np.array_equal(plain, np.hstack(blocks[0])[:, :9])

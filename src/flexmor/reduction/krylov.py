@@ -210,13 +210,13 @@ def merge_blocks(blocks, order: int | None = None, *, orthonormal: bool = False,
     nonempty = [b for b in blocks if b]
     has_head = head is not None and head.shape[1] > 0
     if orthonormal and len(nonempty) == 1:  # one point: its blocks are orthonormal already
-        Q = _side_by_side(nonempty[0])
         if not has_head:
+            Q = _side_by_side(nonempty[0])
             return Q[:, :order] if order is not None else Q
         H = extend_orthonormal(None, head, tol=DEFLATION_TOL)
-        rest = _after_head(H, Q[:, :None if order is None else max(order - H.shape[1], 0)])
-        if rest is not None:
-            return np.hstack([H, rest])
+        V = _head_then_blocks(H, nonempty[0], order)
+        if V is not None:
+            return V
     blocks = [[head]] + list(blocks) if has_head else blocks
     n = (head if has_head else nonempty[0][0]).shape[0]
     V = Columns(n)
@@ -228,6 +228,25 @@ def merge_blocks(blocks, order: int | None = None, *, orthonormal: bool = False,
                     if order is not None and V.k >= order:
                         return np.ascontiguousarray(V.view[:, :order])
     return np.ascontiguousarray(V.view)
+
+
+def _head_then_blocks(H: np.ndarray, blocks, order: int | None):
+    """``[H, blocks]`` merged as block Gram-Schmidt merges them (up to round-off), or None: the
+    blocks that fit the order whole through :func:`_after_head`, a block cut by the order through
+    :func:`flexmor.basis.extend_orthonormal` (its pivoted choice of the leading directions)."""
+    need = None if order is None else max(order - H.shape[1], 0)
+    cols = np.cumsum([b.shape[1] for b in blocks])
+    whole = len(blocks) if need is None else int(np.searchsorted(cols, need, side="right"))
+    rest = _after_head(H, _side_by_side(blocks[:whole]) if whole else H[:, :0])
+    if rest is None:
+        return None
+    V = np.hstack([H, rest])
+    for blk in blocks[whole:]:
+        if V.shape[1] >= order:
+            break
+        with blas_threads(1):
+            V = np.hstack([V, extend_orthonormal(V, blk, tol=DEFLATION_TOL)])
+    return V[:, :order] if order is not None else V
 
 
 def _after_head(H: np.ndarray, Q: np.ndarray, limit: float = 0.5):
