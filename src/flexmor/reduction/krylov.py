@@ -202,10 +202,9 @@ def merge_blocks(blocks, order: int | None = None, *, orthonormal: bool = False,
     (a view of its Arnoldi basis, no copy, when they are consecutive columns of it); otherwise,
     and for several points, the blocks are merged by block Gram-Schmidt with deflation.
     ``head`` (n, h), optional, comes first (orthonormalized): the rigid-body modes the ports
-    excite. A single point's orthonormal blocks, which lie nearly Euclidean-orthogonal to such
-    a head (they are M-orthogonal to it up to the Arnoldi's round-off), are then orthogonalized
-    against the head alone, by one projection and a Cholesky factor of their small Gram matrix
-    (:func:`_after_head`), instead of a Gram-Schmidt pass over all earlier columns.
+    excite. A single point's orthonormal blocks are then orthogonalized against the head alone
+    (:func:`_after_head`: projections on the few head columns and Cholesky factors of the blocks'
+    Gram matrix, BLAS-3), instead of a Gram-Schmidt pass over all earlier columns per block.
     """
     nonempty = [b for b in blocks if b]
     has_head = head is not None and head.shape[1] > 0
@@ -249,22 +248,23 @@ def _head_then_blocks(H: np.ndarray, blocks, order: int | None):
     return V[:, :order] if order is not None else V
 
 
-def _after_head(H: np.ndarray, Q: np.ndarray, limit: float = 0.5):
-    """Orthonormal columns ``(Q - H C) R^{-1}`` (``C = H^T Q``, ``R^T R = I - C^T C``): the
-    orthonormal ``Q`` made orthogonal to the orthonormal ``H``, in order (``R`` is upper
-    triangular, so the leading columns span what ``Q``'s leading columns add to ``H``). None
-    when a column of ``Q`` lies closer to ``span(H)`` than ``||C||_2 <= limit`` allows (then
-    block Gram-Schmidt with deflation is the safe way)."""
+def _after_head(H: np.ndarray, Q: np.ndarray, limit: float = 0.999):
+    """The orthonormal ``Q`` made orthogonal to the orthonormal ``H``, in order: ``(Q - H C) R^{-1}``
+    (``C = H^T Q``, ``R^T R = I - C^T C``), then the same once more with the Gram matrix formed
+    (Cholesky QR twice: orthonormal to round-off). ``R`` is upper triangular, so the leading
+    columns span what ``Q``'s leading columns add to ``H``. None when a column of ``Q`` lies
+    closer to ``span(H)`` than ``||C||_2 <= limit`` allows (block Gram-Schmidt with deflation
+    is then the safe way)."""
     if Q.shape[1] == 0:
         return Q
-    with blas_threads(1):
-        C = H.T @ Q
-        if np.linalg.norm(C, 2) > limit:
-            return None
-        R = np.linalg.cholesky(np.eye(Q.shape[1]) - C.T @ C).T
-        X = np.asfortranarray(Q - H @ C)
-        trsm = sla.blas.get_blas_funcs("trsm", (R, X))
-        return trsm(1.0, R, X, side=1, lower=0, overwrite_b=1)
+    C = H.T @ Q
+    if np.linalg.norm(C, 2) > limit:
+        return None
+    trsm = sla.blas.get_blas_funcs("trsm", (H, Q))
+    X = trsm(1.0, np.linalg.cholesky(np.eye(Q.shape[1]) - C.T @ C).T, np.asfortranarray(Q - H @ C), side=1,
+             overwrite_b=1)
+    X -= H @ (H.T @ X)
+    return trsm(1.0, np.linalg.cholesky(X.T @ X).T, X, side=1, overwrite_b=1)
 
 
 def _side_by_side(blocks) -> np.ndarray:
