@@ -264,7 +264,8 @@ def _after_head(H: np.ndarray, Q: np.ndarray, limit: float = 0.999):
     X = trsm(1.0, np.linalg.cholesky(np.eye(Q.shape[1]) - C.T @ C).T, np.asfortranarray(Q - H @ C), side=1,
              overwrite_b=1)
     X -= H @ (H.T @ X)
-    return trsm(1.0, np.linalg.cholesky(X.T @ X).T, X, side=1, overwrite_b=1)
+    syrk = sla.blas.get_blas_funcs("syrk", (X,))
+    return trsm(1.0, sla.cholesky(syrk(1.0, X, trans=1), lower=False), X, side=1, overwrite_b=1)  # upper triangles
 
 
 def _side_by_side(blocks) -> np.ndarray:
