@@ -177,3 +177,28 @@ def test_arnoldi_basis_spans_the_leading_moments():
             X.append(-F.solve(A1 @ X[-1] + (model.M @ X[-2] if j > 1 else 0)))
         assert Q.shape[1] == 4 * start.shape[1]
         assert np.max(sla.subspace_angles(Q, np.hstack(X))) < 1e-8
+
+
+def test_one_point_merge_against_the_rigid_head_is_block_gram_schmidt():
+    """A single point's blocks merged after the rigid head (one projection and a Cholesky factor)
+    span, block by block, what block Gram-Schmidt over all columns spans; without a head the
+    merged basis is a view of the Arnoldi basis (no copy)."""
+    import scipy.linalg as sla
+
+    from flexmor.models import cantilever
+    from flexmor.reduction.free_body import rigid_head
+    from flexmor.reduction.krylov import blocks_at_points, merge_blocks, start_block
+
+    model = cantilever(4, clamped=False)
+    ports = make_ports(model, ["TIP:x", "TIP:y", "TIP:z"])
+    phi, head = rigid_head(model, start_block(ports, "input"), "include")
+    blocks, _ = blocks_at_points(model, ports, [300.0], 4, rigid_modes=phi)
+    h = head.shape[1]
+    fast = merge_blocks(blocks, h + 10, orthonormal=True, head=head)  # the order cuts the fourth block
+    slow = merge_blocks([[head]] + blocks, h + 10)
+    assert fast.shape == slow.shape == (model.n_dof, h + 10)
+    assert np.abs(fast.T @ fast - np.eye(h + 10)).max() < 1e-12
+    for k in (h, h + 3, h + 6, h + 9, h + 10):  # the head, block by block, the cut block's leading direction
+        assert np.max(sla.subspace_angles(fast[:, :k], slow[:, :k])) < 1e-8, k
+    plain = merge_blocks(blocks, 9, orthonormal=True)
+    assert np.shares_memory(plain, blocks[0][0]) and np.array_equal(plain, np.hstack(blocks[0])[:, :9])

@@ -70,3 +70,32 @@ def test_explicit_points_are_not_checked_and_bad_tol(beam):
     assert "points_check" not in basis.info and len(basis.info["points_hz"]) == 2
     with pytest.raises(OptionError, match="points_tol"):
         krylov(model, ports, 8, points_tol=0.0)
+
+
+def test_the_checks_projection_is_the_bodys(beam):
+    """The check's reduced matrices serve project(); a copy of V or another model is projected anew."""
+    import dataclasses
+
+    import numpy as np
+
+    from flexmor.basis import Basis
+    from flexmor.damping import ModalDamping
+    from flexmor.projection import project
+
+    model, ports, _ = beam
+    basis = krylov(model, ports, 8, band=BAND)
+    assert basis.reduced is not None and basis.reduced.of(model, basis.V)
+    fresh = project(model, Basis(basis.V.copy(), "krylov"), ports)
+    red = project(model, basis, ports)
+    for a, b in ((red.M, fresh.M), (red.K, fresh.K), (red.D, fresh.D)):
+        assert np.abs(a - b).max() <= 1e-12 * np.abs(b).max()
+    assert red.M is basis.reduced.M  # shared, not recomputed
+    stiffer = dataclasses.replace(model, K=model.K * 2.0)  # the same V on another model: its own products
+    assert np.allclose(project(stiffer, basis, ports).K, 2.0 * fresh.K, rtol=1e-12, atol=0)
+    undamped = dataclasses.replace(model, D=None)
+    assert project(undamped, basis, ports).D is None
+    modal = model.with_damping(ModalDamping(1.5e-4, 5e-7, zeta=0.02, band=BAND))
+    mb = krylov(modal, ports, 8, band=BAND)  # modal damping: the body's own modes, from the shared Mr, Kr
+    assert mb.reduced is not None
+    got, want = project(modal, mb, ports).D, project(modal, Basis(mb.V.copy(), "krylov"), ports).D
+    assert np.abs(got - want).max() <= 1e-10 * np.abs(want).max()

@@ -94,3 +94,15 @@ def test_lanczos_matches_dense(free):
     np.testing.assert_allclose(lam[6:], lam_dense[6:], rtol=1e-9)
     assert np.all(np.abs(lam[:6]) < 1e-6 * lam[6])  # rigid-body modes
     np.testing.assert_allclose(phi.T @ (free.M @ phi), np.eye(12), atol=1e-9)
+
+
+def test_sparse_dense_rows_over_threads_equal_scipys_product():
+    from flexmor.linalg.threads import sparse_dense
+
+    rng = np.random.default_rng(3)
+    A = sp.random(3000, 3000, density=0.01, format="csr", random_state=4) + sp.eye(3000, format="csr")
+    X = rng.standard_normal((3000, 200))
+    ref = A @ X
+    for threads in (1, 2, 3):
+        assert np.array_equal(sparse_dense(A, X, threads), ref)  # the same sums in the same order
+    assert np.array_equal(sparse_dense(A.tocsc(), X, 2), A.tocsc() @ X)

@@ -22,11 +22,15 @@ class Basis:
     info : dict
         Method parameters and diagnostics (JSON-serializable values), e.g. the number of
         rigid-body modes excluded or the interface size.
+    reduced : flexmor.projection.ReducedMatrices or None
+        The projected matrices of ``V`` when the method computed them already (used by
+        :func:`flexmor.projection.project` instead of the sparse products); None otherwise.
     """
 
     V: np.ndarray
     method: str
     info: dict = field(default_factory=dict)
+    reduced: object = field(default=None, repr=False, compare=False)
 
     @property
     def order(self) -> int:

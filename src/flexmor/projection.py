@@ -4,6 +4,10 @@ Galerkin (one-sided) projection keeps the reduced body a mechanical second-order
 with symmetric ``Mr``, ``Kr`` that a multibody code accepts::
 
     Mr = V^T M V,  Dr = V^T D V,  Kr = V^T K V,  Br = V^T B,  Cr = C V,   q ≈ V qr
+
+The sparse products are made by :func:`reduced_matrices`; a method that needed the reduced
+matrices itself (e.g. the check of ``krylov``'s expansion point) hands them on with its basis
+(``Basis.reduced``), and :func:`project` uses them instead of forming the products again.
 """
 
 from __future__ import annotations
@@ -17,12 +21,13 @@ from . import __version__
 from .basis import Basis
 from .damping import Damping, ModalDamping, NoDamping, damping_from_dict
 from .errors import ModelError
+from .linalg.threads import sparse_dense
 from .mesh import outer_surface
 from .model import FEModel
 from .origin import fingerprint
 from .ports import Ports
 
-__all__ = ["ReducedModel", "project"]
+__all__ = ["ReducedModel", "ReducedMatrices", "project", "reduced_matrices"]
 
 
 def _sym(A: np.ndarray) -> np.ndarray:
@@ -125,6 +130,46 @@ class ReducedModel:
         return np.sqrt(np.clip(lam, 0.0, None)) / (2 * np.pi)
 
 
+@dataclass(frozen=True)
+class ReducedMatrices:
+    """The projected matrices of the columns ``V``: ``Mr = V^T M V``, ``Kr = V^T K V`` (symmetrized)
+    and ``Dr = V^T D V`` (symmetrized; None when the model has no ``D``).
+
+    Made by :func:`reduced_matrices`; :func:`project` uses them for a basis whose ``V`` is this
+    ``V`` of the same model (the same array and sparse matrix objects, see :meth:`of`).
+    """
+
+    M: np.ndarray
+    K: np.ndarray
+    D: np.ndarray | None
+    source: tuple = field(repr=False, compare=False)  # (V, model.M, model.K, model.D) they were made from
+
+    def of(self, model: FEModel, V) -> bool:
+        """Whether these are the matrices of ``V`` and ``model`` (the very objects: not a copy, a slice
+        or a model with another matrix)."""
+        return all(a is b for a, b in zip(self.source, (V, model.M, model.K, model.D)))
+
+
+def reduced_matrices(model: FEModel, V: np.ndarray) -> ReducedMatrices:
+    """``V^T M V``, ``V^T K V`` and ``V^T D V`` (symmetrized): the sparse products of :func:`project`.
+
+    Parameters
+    ----------
+    model : FEModel
+    V : ndarray, shape (n_dof, r)
+
+    Returns
+    -------
+    ReducedMatrices
+    """
+    # one row-major copy serves every sparse product (SciPy copies Fortran-ordered columns for each)
+    Vc = np.ascontiguousarray(V, dtype=float)
+    Mr = _sym(Vc.T @ sparse_dense(model.M, Vc))
+    Kr = _sym(Vc.T @ sparse_dense(model.K, Vc))
+    Dr = _sym(Vc.T @ sparse_dense(model.D, Vc)) if model.D is not None else None
+    return ReducedMatrices(Mr, Kr, Dr, (V, model.M, model.K, model.D))
+
+
 def project(model: FEModel, basis: Basis, ports: Ports) -> ReducedModel:
     """Galerkin projection of ``model`` onto ``basis``; the one path used by every method.
 
@@ -132,7 +177,8 @@ def project(model: FEModel, basis: Basis, ports: Ports) -> ReducedModel:
     ----------
     model : FEModel
     basis : Basis
-        ``basis.V`` of shape (n_dof, r).
+        ``basis.V`` of shape (n_dof, r); ``basis.reduced`` (:class:`ReducedMatrices` of that
+        ``V``), when the method computed them, saves the sparse products.
     ports : Ports
         Inputs and outputs; projected to ``Br = V^T B`` and ``Cr = C V``.
 
@@ -145,9 +191,10 @@ def project(model: FEModel, basis: Basis, ports: Ports) -> ReducedModel:
         raise ModelError(f"basis has shape {V.shape}, expected ({model.n_dof}, r)")
     if V.shape[1] == 0:
         raise ModelError(f"method {basis.method!r} produced an empty basis")
-    Mr = _sym(V.T @ (model.M @ V))
-    Kr = _sym(V.T @ (model.K @ V))
-    Dr = _sym(V.T @ (model.D @ V)) if model.D is not None else None
+    pre = basis.reduced
+    if pre is None or not pre.of(model, basis.V):
+        pre = reduced_matrices(model, V)
+    Mr, Kr, Dr = pre.M, pre.K, pre.D
     if Dr is not None and isinstance(model.damping, ModalDamping):  # modal damping: zeta in the body's own modes
         Dr = model.damping.reduced_matrix(Mr, Kr)
     Br = np.asarray((ports.B.T @ V).T)

@@ -9,6 +9,9 @@ This is a small stand-in for ``threadpoolctl`` (not a dependency), which does th
 :func:`mkl_threads` sets MKL's thread count of the calling thread (PARDISO's solves): a loop of
 thousands of small solves, each followed by Python-side products, runs them faster on one
 thread, since MKL's idle OpenMP workers spin between solves and take the core the products need.
+
+:func:`sparse_dense` is SciPy's sparse-times-dense product (single-threaded, without the GIL) with
+the rows split over as many Python threads as OpenBLAS may use.
 """
 
 from __future__ import annotations
@@ -17,8 +20,12 @@ import contextlib
 import ctypes
 import functools
 import logging
+from concurrent.futures import ThreadPoolExecutor
 
-__all__ = ["blas_threads", "mkl_threads"]
+import numpy as np
+import scipy.sparse as sp
+
+__all__ = ["blas_threads", "mkl_threads", "blas_thread_count", "sparse_dense"]
 
 log = logging.getLogger(__name__)
 
@@ -62,6 +69,44 @@ def blas_threads(n: int = 1):
     finally:
         for set_fn, count in saved:
             set_fn(count)
+
+
+def blas_thread_count() -> int:
+    """Threads the (first) OpenBLAS library loaded may use now; 1 when none is found."""
+    for _, get_fn in _handles():
+        try:
+            return max(int(get_fn()), 1)
+        except Exception:  # noqa: BLE001 - foreign library
+            continue
+    return 1
+
+
+def sparse_dense(A, X: np.ndarray, threads: int | None = None) -> np.ndarray:
+    """``A @ X`` for a sparse ``A`` and a dense block ``X``, the rows of a CSR ``A`` split over ``threads``.
+
+    SciPy's product runs on one thread and releases the GIL, so row blocks of ``A`` multiply in
+    parallel Python threads, each writing its rows of the result (the same sums in the same order
+    as ``A @ X``). ``threads`` defaults to :func:`blas_thread_count`; one thread, a small product or
+    a matrix that is not CSR is plain ``A @ X``. ``X`` should be row-major (SciPy copies other layouts).
+    """
+    threads = blas_thread_count() if threads is None else max(int(threads), 1)
+    n = A.shape[0]
+    if threads == 1 or A.format != "csr" or X.ndim != 2 or A.nnz * X.shape[1] < 1 << 22:
+        return A @ X
+    cuts = np.searchsorted(A.indptr, np.linspace(0, A.nnz, threads + 1)[1:-1])  # equal shares of nonzeros
+    bounds = np.concatenate([[0], cuts, [n]])
+    out = np.empty((n, X.shape[1]), dtype=np.result_type(A.dtype, X.dtype))
+
+    def rows(i):
+        a, b = bounds[i], bounds[i + 1]
+        if b > a:  # the row block as views of A's arrays (slicing A would copy them)
+            p0, p1 = A.indptr[a], A.indptr[b]
+            part = sp.csr_matrix((A.data[p0:p1], A.indices[p0:p1], A.indptr[a:b + 1] - p0), shape=(b - a, A.shape[1]))
+            out[a:b] = part @ X
+
+    with ThreadPoolExecutor(threads) as pool:
+        list(pool.map(rows, range(threads)))
+    return out
 
 
 _MKL_SET_LOCAL = []

@@ -25,6 +25,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+import scipy.linalg as sla
 
 from ..basis import Basis, Columns, extend_orthonormal
 from ..errors import OptionError, SolverError, check_choice
@@ -33,6 +34,7 @@ from ..linalg.context import SolverContext, as_solver
 from ..linalg.eigen import default_shift
 from ..linalg.threads import blas_threads
 from ..options import Band, band_option, option
+from ..projection import reduced_matrices
 from . import register_method
 from .arnoldi import DEFLATION_TOL, SecondOrderArnoldi
 from .free_body import rigid_body_modes, rigid_head
@@ -192,18 +194,30 @@ def _point_blocks(model, start, p, n_moments: int, solver: SolverContext, proj):
     return out, s
 
 
-def merge_blocks(blocks, order: int | None = None, *, orthonormal: bool = False) -> np.ndarray:
+def merge_blocks(blocks, order: int | None = None, *, orthonormal: bool = False, head=None) -> np.ndarray:
     """Merge per-point blocks round-robin (moment 0 of every point, then moment 1, ...).
 
     With ``orthonormal=True`` (the blocks of each point are orthonormal, as from
-    :func:`blocks_at_points`) a single point needs no further work; otherwise, and for
-    several points, the blocks are merged by block Gram-Schmidt with deflation.
+    :func:`blocks_at_points`) a single point needs no further work: its blocks side by side
+    (a view of its Arnoldi basis, no copy, when they are consecutive columns of it); otherwise,
+    and for several points, the blocks are merged by block Gram-Schmidt with deflation.
+    ``head`` (n, h), optional, comes first (orthonormalized): the rigid-body modes the ports
+    excite. A single point's orthonormal blocks are then orthogonalized against the head alone
+    (:func:`_after_head`: projections on the few head columns and Cholesky factors of the blocks'
+    Gram matrix, BLAS-3), instead of a Gram-Schmidt pass over all earlier columns per block.
     """
     nonempty = [b for b in blocks if b]
+    has_head = head is not None and head.shape[1] > 0
     if orthonormal and len(nonempty) == 1:  # one point: its blocks are orthonormal already
-        V = np.hstack(nonempty[0])
-        return V[:, :order] if order is not None else V
-    n = nonempty[0][0].shape[0]
+        if not has_head:
+            Q = _side_by_side(nonempty[0])
+            return Q[:, :order] if order is not None else Q
+        H = extend_orthonormal(None, head, tol=DEFLATION_TOL)
+        V = _head_then_blocks(H, nonempty[0], order)
+        if V is not None:
+            return V
+    blocks = [[head]] + list(blocks) if has_head else blocks
+    n = (head if has_head else nonempty[0][0]).shape[0]
     V = Columns(n)
     with blas_threads(1):
         for j in range(max(len(b) for b in blocks)):
@@ -213,6 +227,57 @@ def merge_blocks(blocks, order: int | None = None, *, orthonormal: bool = False)
                     if order is not None and V.k >= order:
                         return np.ascontiguousarray(V.view[:, :order])
     return np.ascontiguousarray(V.view)
+
+
+def _head_then_blocks(H: np.ndarray, blocks, order: int | None):
+    """``[H, blocks]`` merged as block Gram-Schmidt merges them (up to round-off), or None: the
+    blocks that fit the order whole through :func:`_after_head`, a block cut by the order through
+    :func:`flexmor.basis.extend_orthonormal` (its pivoted choice of the leading directions)."""
+    need = None if order is None else max(order - H.shape[1], 0)
+    cols = np.cumsum([b.shape[1] for b in blocks])
+    whole = len(blocks) if need is None else int(np.searchsorted(cols, need, side="right"))
+    rest = _after_head(H, _side_by_side(blocks[:whole]) if whole else H[:, :0])
+    if rest is None:
+        return None
+    V = np.hstack([H, rest])
+    for blk in blocks[whole:]:
+        if V.shape[1] >= order:
+            break
+        with blas_threads(1):
+            V = np.hstack([V, extend_orthonormal(V, blk, tol=DEFLATION_TOL)])
+    return V[:, :order] if order is not None else V
+
+
+def _after_head(H: np.ndarray, Q: np.ndarray, limit: float = 0.999):
+    """The orthonormal ``Q`` made orthogonal to the orthonormal ``H``, in order: ``(Q - H C) R^{-1}``
+    (``C = H^T Q``, ``R^T R = I - C^T C``), then the same once more with the Gram matrix formed
+    (Cholesky QR twice: orthonormal to round-off). ``R`` is upper triangular, so the leading
+    columns span what ``Q``'s leading columns add to ``H``. None when a column of ``Q`` lies
+    closer to ``span(H)`` than ``||C||_2 <= limit`` allows (block Gram-Schmidt with deflation
+    is then the safe way)."""
+    if Q.shape[1] == 0:
+        return Q
+    C = H.T @ Q
+    if np.linalg.norm(C, 2) > limit:
+        return None
+    trsm = sla.blas.get_blas_funcs("trsm", (H, Q))
+    X = trsm(1.0, np.linalg.cholesky(np.eye(Q.shape[1]) - C.T @ C).T, np.asfortranarray(Q - H @ C), side=1,
+             overwrite_b=1)
+    X -= H @ (H.T @ X)
+    syrk = sla.blas.get_blas_funcs("syrk", (X,))
+    return trsm(1.0, sla.cholesky(syrk(1.0, X, trans=1), lower=False), X, side=1, overwrite_b=1)  # upper triangles
+
+
+def _side_by_side(blocks) -> np.ndarray:
+    """``np.hstack(blocks)``, as a view when the blocks are consecutive columns of one
+    Fortran-ordered array (a real point's blocks: views of its Arnoldi basis)."""
+    base = blocks[0].base
+    if base is not None and base.ndim == 2 and base.flags.f_contiguous and all(b.base is base for b in blocks):
+        addr = [b.__array_interface__["data"][0] for b in blocks]
+        start, step = divmod(addr[0] - base.__array_interface__["data"][0], base.strides[1])
+        if not step and all(a1 - a0 == b.shape[1] * base.strides[1] for a0, a1, b in zip(addr, addr[1:], blocks)):
+            return base[:, start:start + sum(b.shape[1] for b in blocks)]
+    return np.hstack(blocks)
 
 
 @dataclass(frozen=True)
@@ -283,7 +348,8 @@ def krylov(model, ports, order, *, points=None, moments: int | None = None, side
     Basis
         ``info``: ``points_hz`` (as given), ``points_rad_s`` (used), ``moments``, ``side``,
         ``n_rigid_excluded``, ``nested`` (its leading columns are the basis of lower order),
-        ``points_check`` (default points: the estimates and the choice).
+        ``points_check`` (default points: the estimates and the choice). ``reduced``: the
+        projected matrices the check made (default points), for :func:`flexmor.projection.project`.
 
     References
     ----------
@@ -311,27 +377,28 @@ def krylov(model, ports, order, *, points=None, moments: int | None = None, side
         raise OptionError(f"points_tol must be positive, got {points_tol}", params=("points_tol",))
     b = start_block(ports, side).shape[1]
     phi, excited = rigid_head(model, start_block(ports, side), rigid)  # the rigid motion the ports excite, first
-    head = [[excited]] if excited.shape[1] else []
     cache = {}
-    V, k, used = _basis_at(model, ports, pts, order, moments, b, head, side, solver, phi, cache)
-    check = None
+    V, k, used = _basis_at(model, ports, pts, order, moments, b, excited, side, solver, phi, cache)
+    check = reduced = None
     if points is None and order is not None:
-        check = {"tol": float(points_tol), "single_point": nested_estimate(model, ports, V, b, band)}
+        reduced = reduced_matrices(model, V)  # the check's projection, handed on to project()
+        check = {"tol": float(points_tol), "single_point": nested_estimate(model, ports, V, b, band, reduced=reduced)}
         if check["single_point"]["estimate"] > float(points_tol):  # the outer two of the three default points,
             pts = np.sort_complex(np.concatenate([pts, default_points(band)[[0, 2]]]))  # lowest first, as before
             log.info("krylov: estimated band error %.1e of one point > %.1e: %d points",
                      check["single_point"]["estimate"], points_tol, pts.size)
-            V, k, used = _basis_at(model, ports, pts, order, moments, b, head, side, solver, phi, cache)
+            V, k, used = _basis_at(model, ports, pts, order, moments, b, excited, side, solver, phi, cache)
+            reduced = None
         check["n_points"] = int(pts.size)
     n_rb = int(phi.shape[1]) if rigid == "exclude" else 0
     if order is not None and V.shape[1] < order:
         log.warning("krylov: only %d independent directions for order %d (deflation)", V.shape[1], order)
     info = {"points_hz": [str(p) for p in pts], "points_rad_s": [str(s) for s in used], "moments": k,
             "side": side, "rigid": rigid, "n_rigid": int(phi.shape[1]), "n_rigid_excluded": n_rb,
-            "n_rigid_included": int(head[0][0].shape[1]) if head else 0, "nested": True}
+            "n_rigid_included": int(excited.shape[1]), "nested": True}
     if check is not None:
         info["points_check"] = check
-    return Basis(V, "krylov", info)
+    return Basis(V, "krylov", info, reduced=reduced)
 
 
 def _basis_at(model, ports, pts, order, moments, b, head, side, solver, phi, cache):
@@ -353,7 +420,7 @@ def _basis_at(model, ports, pts, order, moments, b, head, side, solver, phi, cac
             cols = np.cumsum([bl.shape[1] for bl in cache[p][0]])
             blocks.append(cache[p][0][:int(np.searchsorted(cols, share)) + 1])
             used.append(cache[p][1])
-        V = merge_blocks(head + blocks, order, orthonormal=not head)
+        V = merge_blocks(blocks, order, orthonormal=True, head=head)
         exhausted = all(len(bl) < k for bl in blocks)
         if moments is not None or V.shape[1] >= order or exhausted:
             break

@@ -13,8 +13,9 @@ band_error of the body of order ``r - b`` and so bounds that of order ``r`` from
 moments converge (measured: 7-45x above the true band_error of ``r`` on the built-in
 cantilever). Undamped bodies are compared with a light Rayleigh damping of ratio
 :data:`~flexmor.reduction.gramians.UNDAMPED_ZETA` at the band ends. Only reduced matrices are
-involved: the cost is one projection of ``M``, ``K`` (and ``D``) onto the basis and the modal
-form of the two small bodies, no factorization.
+involved: the cost is one projection of ``M``, ``K`` (and ``D``) onto the basis
+(:func:`flexmor.projection.reduced_matrices`, handed on to the projection of the body) and the
+modal form of the two small bodies, no factorization.
 
 References
 ----------
@@ -30,6 +31,7 @@ import numpy as np
 import scipy.linalg as sla
 
 from ..damping import band_matched
+from ..projection import ReducedMatrices, reduced_matrices
 from .gramians import UNDAMPED_ZETA
 
 __all__ = ["N_CHECK", "POINTS_TOL", "nested_estimate"]
@@ -44,7 +46,8 @@ POINTS_TOL = 1e-4
 N_CHECK = 200
 
 
-def nested_estimate(model, ports, V: np.ndarray, block: int, band, *, n: int = N_CHECK) -> dict:
+def nested_estimate(model, ports, V: np.ndarray, block: int, band, *, n: int = N_CHECK,
+                    reduced: ReducedMatrices | None = None) -> dict:
     """Estimated band error of the nested Krylov basis ``V`` (see the module docstring).
 
     Parameters
@@ -59,6 +62,9 @@ def nested_estimate(model, ports, V: np.ndarray, block: int, band, *, n: int = N
         Band in Hz.
     n : int
         Log-spaced frequencies.
+    reduced : ReducedMatrices, optional
+        The projected matrices of ``V`` (:func:`flexmor.projection.reduced_matrices`), if made
+        already; else they are made here.
 
     Returns
     -------
@@ -72,16 +78,13 @@ def nested_estimate(model, ports, V: np.ndarray, block: int, band, *, n: int = N
            "worst_hz": float(np.sqrt(band[0] * band[1]))}
     if s < 1:
         return out
-    Vc = np.ascontiguousarray(V)  # one row-major copy serves the sparse products (else one copy each)
-    Mr, Kr = Vc.T @ (model.M @ Vc), Vc.T @ (model.K @ Vc)
-    Mr, Kr = (Mr + Mr.T) / 2, (Kr + Kr.T) / 2
-    if model.D is not None:
-        Dr = Vc.T @ (model.D @ Vc)
-    else:  # undamped: a light Rayleigh damping (as for the Gramians) keeps the peaks finite
+    if reduced is None or not reduced.of(model, V):
+        reduced = reduced_matrices(model, V)
+    Mr, Kr, Dr = reduced.M, reduced.K, reduced.D
+    if Dr is None:  # undamped: a light Rayleigh damping (as for the Gramians) keeps the peaks finite
         reg = band_matched(UNDAMPED_ZETA, band)
         Dr = reg.alpha * Mr + reg.beta * Kr
-    Br, Cr = Vc.T @ ports.B.toarray(), np.asarray(ports.C @ Vc)
-    del Vc
+    Br, Cr = np.asarray((ports.B.T @ V).T), np.asarray(ports.C @ V)
     modes = {r: sla.eigh(Kr, Mr)}
     f_res = np.sqrt(np.clip(modes[r][0], 0, None)) / (2 * np.pi)
     f = np.unique(np.concatenate([np.geomspace(band[0], band[1], n), f_res[(f_res > band[0]) & (f_res < band[1])]]))
