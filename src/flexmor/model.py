@@ -17,6 +17,7 @@ matrices ``B`` (n_dof, m) and ``C`` (p, n_dof).
 from __future__ import annotations
 
 import dataclasses
+import functools
 import warnings
 from dataclasses import dataclass, field
 
@@ -237,13 +238,12 @@ class FEModel:
             raise ModelError("node coordinates contain NaN or Inf")
         if np.unique(self.node_ids).size != self.node_ids.size:
             raise ModelError("node ids are not unique")
-        self._node_index = {int(k): i for i, k in enumerate(self.node_ids)}
         frames = {}
         for nd, Q in (self.node_frames or {}).items():
             Q = np.asarray(Q, dtype=np.float64)
             if Q.shape != (3, 3) or not np.allclose(Q.T @ Q, np.eye(3), atol=1e-8):
                 raise ModelError(f"node_frames[{nd}] is not an orthonormal 3 x 3 matrix")
-            if int(nd) not in self._node_index:
+            if not np.isin(int(nd), self.node_ids):
                 raise ModelError(f"node_frames names node {nd}, which is not in the node table")
             frames[int(nd)] = Q
         self.node_frames = frames
@@ -262,9 +262,6 @@ class FEModel:
             key = self.dofs[:, 0] * 8 + self.dofs[:, 1]
             if np.unique(key).size != n:
                 raise ModelError("the equation map names a (node, direction) pair twice")
-            self._dof_index = {ab: i for i, ab in enumerate(zip(self.dofs[:, 0].tolist(), self.dofs[:, 1].tolist()))}
-        else:
-            self._dof_index = {}
         sets = {}
         for name, ids in self.node_sets.items():
             ids = np.asarray(ids, dtype=np.int64).reshape(-1)
@@ -309,6 +306,18 @@ class FEModel:
             nd, d = self.dofs[i]
             return f"equation {i + 1} (node {nd}, {direction_name(d)})"
         return f"equation {i + 1}"
+
+    @functools.cached_property
+    def _dof_index(self) -> dict:
+        """``{(node, direction): equation}``, built on first use (a dict of a million entries costs time)."""
+        if self.dofs is None:
+            return {}
+        return {ab: i for i, ab in enumerate(zip(self.dofs[:, 0].tolist(), self.dofs[:, 1].tolist()))}
+
+    @functools.cached_property
+    def _node_index(self) -> dict:
+        """``{node id: row of the node table}``, built on first use."""
+        return {k: i for i, k in enumerate(self.node_ids.tolist())}
 
     def dof_index(self, node: int, direction: int) -> int:
         """Equation index (0-based) of ``(node, direction)``; ``KeyError`` when absent."""

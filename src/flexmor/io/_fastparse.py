@@ -59,36 +59,42 @@ def value_layout(b: np.ndarray, end: int):
 
 
 def parse_values(b, fields, width, digits, mark, ne, bad):
-    """The values whose fields start at ``fields``; lines that break the layout set ``bad``."""
-    col = lambda j: np.take(b, fields + j)  # noqa: E731
+    """The values whose fields start at ``fields``; lines that break the layout set ``bad``.
+
+    Digits are taken a column at a time as bytes, paired in ``uint8`` (two digits fit a byte)
+    and accumulated into an ``int64`` mantissa a pair at a time.
+    """
+    def col(j):
+        return np.take(b[j:], fields)
+
     sign = col(0)
-    bad |= ~((sign == 45) | (sign == 43) | _is_sep(sign))
-    point = col(2)
-    bad |= point != 46
+    ok = _is_sep(sign)
+    ok |= sign == 45
+    ok |= sign == 43
+    ok &= col(2) == 46
     m = col(mark)
-    bad |= ~((m == 69) | (m == 101) | (m == 68) | (m == 100))
+    m |= 32  # E, D -> e, d
+    ok &= (m == 101) | (m == 100)
     es = col(mark + 1)
-    bad |= ~((es == 43) | (es == 45))
-    mant = np.zeros(fields.size, dtype=np.int64)
-    for j in digits:
-        d = col(j) - np.uint8(48)
-        bad |= d > 9
-        mant *= 10
-        mant += d
-    exp = np.zeros(fields.size, dtype=np.int64)
-    for j in range(mark + 2, mark + 2 + ne):
-        d = col(j) - np.uint8(48)
-        bad |= d > 9
-        exp *= 10
-        exp += d
-    scale = np.where(es == 45, -exp, exp) - (len(digits) - 1)
+    ok &= (es == 43) | (es == 45)
+    top = np.zeros(fields.size, dtype=np.uint8)  # the largest digit byte - 48: > 9 for a non-digit
+    mant = _number(col, digits, top)
+    exp = _number(col, range(mark + 2, mark + 2 + ne), top)
+    ok &= top < 10
+    bad |= ~ok
+    scale = exp.astype(np.int16)
+    neg = es == 45
+    scale *= 1 - 2 * neg.view(np.int8)
+    scale -= len(digits) - 1
+    up = np.abs(scale)
+    slow = up > 22
+    np.minimum(up, 22, out=up)
+    power = _P10[up]
+    power *= np.where(sign == 45, -1.0, 1.0)  # the sign, exactly
     vals = mant.astype(np.float64)
-    up = np.minimum(np.maximum(scale, 0), 22)
-    down = np.minimum(np.maximum(-scale, 0), 22)
-    vals *= _P10[up]
-    vals /= _P10[down]
-    np.negative(vals, out=vals, where=sign == 45)
-    slow = np.flatnonzero((mant > 2**53) | (np.abs(scale) > 22))
+    vals = np.where(scale < 0, vals / power, vals * power)  # one correctly rounded operation
+    slow |= mant > 2**53
+    slow = np.flatnonzero(slow)
     if slow.size:  # outside the exact fast path: strtod on those fields
         text = np.take(b, fields[slow, None] + np.arange(width))
         text = np.concatenate([text, np.full((slow.size, 1), 32, np.uint8)], axis=1)
@@ -101,6 +107,29 @@ def parse_values(b, fields, width, digits, mark, ne, bad):
         else:
             vals[slow] = exact
     return vals
+
+
+def _number(col, cols, top):
+    """The decimal number written in the byte columns ``cols`` (int64); ``top`` keeps the largest digit."""
+    out = None
+    cols = list(cols)
+    for k in range(0, len(cols), 2):
+        pair = cols[k:k + 2]
+        d = col(pair[0])
+        d -= 48
+        np.maximum(top, d, out=top)
+        if len(pair) == 2:
+            e = col(pair[1])
+            e -= 48
+            np.maximum(top, e, out=top)
+            d *= 10  # garbage for non-digits, which ``top`` reports
+            d += e
+        if out is None:
+            out = d.astype(np.int64)
+        else:
+            out *= 100 if len(pair) == 2 else 10
+            out += d
+    return out
 
 
 def _is_sep(c: np.ndarray) -> np.ndarray:
@@ -116,44 +145,58 @@ def _fortran(text: np.ndarray) -> np.ndarray:
     return out
 
 
-#: Byte classes of the index part: 0 other, 1 digit, 2 separator (space, tab, comma).
-_CLASS = np.zeros(256, dtype=np.uint8)
-_CLASS[48:58] = 1
-_CLASS[[32, 9, 44]] = 2
-
-
 def _indices(b, starts, ends, bad):
     """The two integers between ``starts`` (line start) and ``ends`` (value field) of each line.
 
-    Returns ``(first, second, digit_last)``, ``digit_last`` telling lines whose index part
-    ends in a digit (no separator before the value field); None when a line is too wide.
+    The index part is scanned a byte column at a time, left to right, right-aligned on the
+    value field (bytes before the line start count as separators). Returns
+    ``(first, second, digit_last)`` as int32 (``digit_last`` tells lines whose index part ends
+    in a digit), or None when a line is too wide.
     """
     plen = ends - starts
     width = int(plen.max(initial=0))
     if width > _MAX_PREFIX:
         return None
     n = starts.size
-    first = np.zeros(n, dtype=np.int64)
-    acc = np.zeros(n, dtype=np.int64)
-    ndig = np.zeros(n, dtype=np.int8)
-    tokens = np.zeros(n, dtype=np.int8)
+    plen = plen.astype(np.int8)
+    pad = np.empty(b.size + _MAX_PREFIX, dtype=np.uint8)  # line ends before the first line
+    pad[:_MAX_PREFIX] = 10
+    pad[_MAX_PREFIX:] = b
+    first = np.zeros(n, dtype=np.int32)
+    acc = np.zeros(n, dtype=np.int32)
+    ndig = np.zeros(n, dtype=np.uint8)
+    longest = np.zeros(n, dtype=np.uint8)
+    tokens = np.zeros(n, dtype=np.uint8)
+    other = np.zeros(n, dtype=bool)
     prev = np.zeros(n, dtype=bool)
-    for j in range(width):
-        c = np.take(b, ends - (width - j), mode="clip")
-        cls = np.take(_CLASS, c)
-        np.maximum(cls, (plen < width - j).view(np.uint8) * np.uint8(2), out=cls)  # before the line: separator
-        bad |= cls == 0
-        isd = cls == 1
-        start = isd & ~prev
+    for j in range(width):  # masks as 0/1 bytes: NumPy's masked (where=) operations are slow
+        c = np.take(pad[_MAX_PREFIX - width + j:], ends)
+        inside = plen >= width - j
+        d = c - np.uint8(48)
+        isd = d < 10
+        isd &= inside
+        ok = _is_sep(c)
+        ok |= isd
+        ok |= ~inside
+        other |= ~ok
+        start = isd > prev
         tokens += start
-        first += acc * (start & (tokens == 2))
-        acc *= ~start
-        ndig *= ~start
+        s = start.view(np.uint8)
+        first += acc * (s & (tokens == 2))  # token 2 starts: token 1 is complete
+        keep = 1 - s  # a token starts: drop the count
+        ndig *= keep
         ndig += isd
-        acc *= np.where(isd, 10, 1)
-        acc += (c - np.uint8(48)) * isd
+        np.maximum(longest, ndig, out=longest)
+        m = isd.view(np.uint8) * np.uint8(9)
+        m += 1
+        m *= keep
+        np.multiply(acc, m, out=acc, casting="unsafe")
+        d *= isd
+        np.add(acc, d, out=acc, casting="unsafe")
         prev = isd
-    bad |= (tokens != 2) | (ndig > _MAX_INT_DIGITS)
+    bad |= other
+    bad |= tokens != 2
+    bad |= longest > _MAX_INT_DIGITS
     return first, acc, prev
 
 
@@ -162,7 +205,7 @@ def fast_triplets(b: np.ndarray):
 
     Returns
     -------
-    rows, cols : ndarray of int64
+    rows, cols : ndarray of int32
         The integers as written (not shifted to 0-based).
     values : ndarray of float64
     None

@@ -23,7 +23,7 @@ __all__ = ["read_text", "read_bytes", "check_text", "parse_triplets", "entry_lin
 _COMMENT_CHARS = "#%*!"
 _COMMENT_BYTES = (b"#", b"%", b"*", b"!")
 _BLOCK = 50_000  # lines per block of the diagnosing scanner
-_CHUNK = 1 << 22  # bytes per chunk of the fast parser
+_CHUNK = 1 << 21  # bytes per chunk of the fast parser
 
 
 def check_text(path: Path, raw: bytes | None = None) -> None:

@@ -29,7 +29,7 @@ import scipy.sparse as sp
 
 from ..errors import ReadError
 from . import MODEL_FORMATS
-from ._sparse import mirror, triangle_csr
+from ._sparse import assemble
 from ._text import build_model, entry_line, parse_triplets
 
 __all__ = ["read_matrix_market", "find_siblings"]
@@ -171,9 +171,8 @@ def _read_coordinate(path: Path, symmetric: bool) -> sp.csr_matrix:
         rows, cols = np.maximum(rows, cols), np.minimum(rows, cols)
     triplets = [rows, cols, vals]
     del rows, cols, vals
-    T = triangle_csr(triplets, (nr, nc))
-    if T.nnz < nnz:
-        del T
+    A = assemble(triplets, (nr, nc), mirror=symmetric and nr == nc)  # a non-square one is refused by the caller
+    if A is None:
         rows, cols, _ = parse_triplets(path)
         rows, cols = rows[1:], cols[1:]
         r, c = (np.maximum(rows, cols), np.minimum(rows, cols)) if symmetric else (rows, cols)
@@ -182,10 +181,7 @@ def _read_coordinate(path: Path, symmetric: bool) -> sp.csr_matrix:
         k = int(order[np.flatnonzero(np.diff(key[order]) == 0)[0] + 1])
         raise ReadError(path, f"entry ({rows[k] + 1}, {cols[k] + 1}) appears twice; each entry once, please",
                         entry_line(path, k + 1))
-    if symmetric and nr == nc:  # a non-square one is refused by the caller
-        return mirror(T)
-    T.data[np.isnan(T.data)] = 0.0
-    return T
+    return A
 
 
 def _read_one(path: Path, role: str) -> sp.csr_matrix:

@@ -49,7 +49,7 @@ from ...errors import ReadError
 from .. import MODEL_FORMATS
 from .._mass import QUADRATIC_TYPES, check_mass
 from .._cells import abaqus_cell, mesh_of_elements
-from .._sparse import mirror, triangle_csr
+from .._sparse import assemble
 from .._text import build_model, check_text, entry_line, parse_triplets, read_text
 from .abaqus_inp import AbaqusDeck, read_deck
 
@@ -158,9 +158,10 @@ def _parse_labels(path: Path, text: str):
     return np.array(r1), np.array(d1), np.array(r2), np.array(d2), np.array(v, dtype=np.float64)
 
 
-def _labels_to_equations(path, text, deck: AbaqusDeck, lut):
+def _labels_to_equations(path, text, deck: AbaqusDeck):
     """Node tokens of a LABELS file → equation indices and the equation map."""
     n1, d1, n2, d2, v = _parse_labels(path, text)
+    lut = deck.lookup()
     tokens, inv = np.unique(np.concatenate([n1, n2]), return_inverse=True)
     ids = np.empty(tokens.size, dtype=np.int64)
     for k, tok in enumerate(tokens):
@@ -193,12 +194,12 @@ def _dof_per_node(deck: AbaqusDeck, n_max: int, path: Path) -> int:
     raise ReadError(path, f"equation numbers up to {n_max} do not fit {deck.node_ids.size} nodes; pass dof_per_node=")
 
 
-def _read_matrix(path: Path, deck: AbaqusDeck, lut: dict, dpn):
+def _read_matrix(path: Path, deck: AbaqusDeck, dpn):
     """One matrix as ``(node, dof, node, dof, value, "labels")`` arrays in model node ids (LABELS form)
     or ``(row, col, value, dofs per node)`` with 0-based equations (COORDINATE form)."""
     ncol = _first_data_columns(path)
     if ncol == 5:
-        return _labels_to_equations(path, read_text(path), deck, lut) + ("labels",)
+        return _labels_to_equations(path, read_text(path), deck) + ("labels",)
     if ncol != 3:
         raise ReadError(path, f"first entry has {ncol} columns; expected 3 (COORDINATE: row, col, value) or "
                               "5 (LABELS: node, dof, node, dof, value)")
@@ -213,35 +214,39 @@ def _read_matrix(path: Path, deck: AbaqusDeck, lut: dict, dpn):
     return r, c, v, d
 
 
-def _assemble(path, parts, number, again):
-    """The matrix of ``parts = [row codes, col codes, values]`` (code = node position * 8 + direction).
+def _assemble(path, parts, size, again):
+    """The matrix of ``parts = [row codes, col codes, values]`` over all codes (node position * 8 + direction).
 
-    ``parts`` is emptied and its codes turned into equation numbers in place, so that the
-    parsed arrays are freed as soon as they are used; ``again()`` parses the file anew to
-    name a duplicate entry.
+    ``parts`` is emptied so that the parsed arrays are freed as soon as they are used;
+    ``again()`` parses the file anew to name a duplicate entry.
     """
     r, c, _ = parts
-    np.take(number.astype(r.dtype, copy=False), r, out=r)
-    np.take(number.astype(c.dtype, copy=False), c, out=c)
     lower, upper = bool(np.any(r > c)), bool(np.any(r < c))
-    count = r.size
     del r, c
-    n = int(number.max()) + 1
-    T = triangle_csr(parts, (n, n))
-    if T.nnz < count:
-        del T
+    A = assemble(parts, (size, size), mirror=lower != upper)  # one triangle: mirror it
+    if A is None:
         cr, cc, _ = again()
-        key = number[cr] * np.int64(n) + number[cc]
+        key = cr.astype(np.int64) * size + cc
         order = np.argsort(key, kind="stable")
         dup = np.flatnonzero(key[order][1:] == key[order][:-1])
         k, first = int(order[dup[0] + 1]), int(order[dup[0]])
         raise ReadError(path, f"entry ({again.node(cr[k])}, {again.node(cc[k])}) appears twice (also on line "
                               f"{entry_line(path, first)}); duplicates are refused, not summed",
                         entry_line(path, k))
-    if lower != upper:  # one triangle: mirror it
-        return mirror(T)
-    T.data[np.isnan(T.data)] = 0.0
-    return T
+    return A
+
+
+def _compress(A: sp.csr_matrix, code: np.ndarray, number: np.ndarray) -> sp.csr_matrix:
+    """``A[code][:, code]`` in place for a matrix whose rows and columns outside ``code`` are empty
+    (``number`` maps a code to its position in ``code``)."""
+    np.take(number.astype(A.indices.dtype, copy=False), A.indices, out=A.indices)
+    indptr = np.append(A.indptr[code], A.indptr[-1]).astype(A.indptr.dtype)
+    return sp.csr_matrix((A.data, A.indices, indptr), shape=(code.size, code.size))
+
+
+def _rows_in_use(A: sp.csr_matrix) -> np.ndarray:
+    """Rows of ``A`` with a nonzero entry (without a temporary the size of ``A``)."""
+    return (A.max(axis=1).toarray().ravel() != 0) | (A.min(axis=1).toarray().ravel() != 0)
 
 
 def read_abaqus(path, *, dof_per_node: int | None = None) -> "FEModel":  # noqa: F821
@@ -277,7 +282,6 @@ def read_abaqus(path, *, dof_per_node: int | None = None) -> "FEModel":  # noqa:
                         f"not found; Abaqus writes it for *MATRIX GENERATE, STIFFNESS, MASS in {deck_path.name} "
                         f"(a CalculiX job would have {deck_path.stem}.sti)")
     deck = read_deck(deck_path)
-    lut = deck.lookup()
     sorter = np.argsort(deck.node_ids)
     ids_sorted = deck.node_ids[sorter]
 
@@ -286,7 +290,7 @@ def read_abaqus(path, *, dof_per_node: int | None = None) -> "FEModel":  # noqa:
 
     def parse(path):
         """``[row codes, col codes, values]`` of one matrix file and its form."""
-        got = _read_matrix(path, deck, lut, dof_per_node)
+        got = _read_matrix(path, deck, dof_per_node)
         if got[-1] == "labels":
             n1, d1, n2, d2, v, form = got
             return [codes(n1, d1), codes(n2, d2), v], form
@@ -298,29 +302,27 @@ def read_abaqus(path, *, dof_per_node: int | None = None) -> "FEModel":  # noqa:
             x += dof + 1
         return [r, c, v], "coordinate"
 
-    parsed, forms = {}, set()
-    for role, p in files.items():
-        parsed[role], form = parse(p)
+    size = deck.node_ids.size * 8
+    used = np.zeros(size, dtype=bool)  # every (node, dof) that occurs
+    mats, forms = {}, set()
+    for role, p in files.items():  # one file at a time: only one parsed file in memory
+        parts, form = parse(p)
         forms.add(form)
-    # equation map: every (node, dof) that occurs, in internal node order, then direction
-    used = np.zeros(deck.node_ids.size * 8, dtype=bool)
-    for cr, cc, _ in parsed.values():
-        used[cr] = True
-        used[cc] = True
-    del cr, cc
-    number = (np.cumsum(used) - 1).astype(np.int32 if used.size < 2**31 else np.int64)
-    code = np.flatnonzero(used)
-    del used
-    pairs = np.stack([code // 8, code % 8], axis=1)
-    mats = {}
-    for role in list(parsed):
-        def again(p=files[role]):
+        used[parts[0]] = True
+        used[parts[1]] = True
+
+        def again(p=p):
             return parse(p)[0]
         again.node = lambda k: f"{deck.node_ids[k // 8]}.{k % 8}"
-        mats[role] = _assemble(files[role], parsed.pop(role), number, again)
-    n = pairs.shape[0]
-    dofs = np.stack([deck.node_ids[pairs[:, 0]], pairs[:, 1]], axis=1)
-    used = (abs(mats["K"]).sum(axis=1).A1 > 0) | (abs(mats["M"]).sum(axis=1).A1 > 0)
+        mats[role] = _assemble(p, parts, size, again)
+    # equation map: in internal node order, then direction
+    code = np.flatnonzero(used)
+    number = (np.cumsum(used) - 1).astype(np.int32 if size < 2**31 else np.int64)
+    del used
+    mats = {role: _compress(A, code, number) for role, A in mats.items()}
+    n = code.size
+    dofs = np.stack([deck.node_ids[code // 8], code % 8], axis=1)
+    used = _rows_in_use(mats["K"]) | _rows_in_use(mats["M"])
     if not np.all(used):
         keep = np.flatnonzero(used)
         log.info("%s: removed %d equations without stiffness and mass", deck_path, n - keep.size)

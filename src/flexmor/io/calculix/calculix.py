@@ -36,7 +36,7 @@ import scipy.sparse as sp
 from ...errors import ReadError
 from .. import MODEL_FORMATS
 from .._mass import QUADRATIC_TYPES, check_mass
-from .._sparse import mirror, triangle_csr
+from .._sparse import assemble
 from .._cells import build_mesh
 from .._text import build_model, entry_line, parse_triplets, read_bytes, read_text
 from .deck import read_inp
@@ -148,12 +148,10 @@ def _read_upper(path: Path, n: int) -> sp.csr_matrix:
         raise ReadError(path, f"entry ({r[k] + 1}, {c[k] + 1}) lies below the diagonal; CalculiX "
                               "writes the upper triangle only, so the file is damaged or not from CalculiX",
                         entry_line(path, k))
-    count = r.size
     triplets = [r, c, v]
     del r, c, v
-    T = triangle_csr(triplets, (n, n))
-    if T.nnz < count:
-        del T
+    A = assemble(triplets, (n, n), mirror=True)
+    if A is None:
         r, c, _ = parse_triplets(path, one_based=True, n=n)
         key = c * np.int64(n) + r
         order = np.argsort(key, kind="stable")
@@ -161,7 +159,7 @@ def _read_upper(path: Path, n: int) -> sp.csr_matrix:
         k, first = int(order[dup[0] + 1]), int(order[dup[0]])
         raise ReadError(path, f"entry ({r[k] + 1}, {c[k] + 1}) appears twice (also on line "
                               f"{entry_line(path, first)}); the file is damaged", entry_line(path, k))
-    return mirror(T)
+    return A
 
 
 def _geometry_file(path: Path) -> Path:

@@ -35,7 +35,7 @@ import scipy.sparse as sp
 from ...errors import ReadError
 from .. import MODEL_FORMATS
 from .._cells import mesh_of_elements, nastran_cell
-from .._sparse import mirror, triangle_csr
+from .._sparse import assemble
 from .._text import build_model
 from .dmig_fast import fast_dmig
 from .nastran_bulk import Bulk, cards, num, read_bulk
@@ -243,19 +243,15 @@ def dmig_matrices(path, mats, names):
         i, j = np.searchsorted(code, rcode).astype(idx), np.searchsorted(code, ccode).astype(idx)
         del rcode, ccode
         lower, upper = bool(np.any(i > j)), bool(np.any(i < j))
-        T = triangle_csr([i, j, v], (n, n))
-        if T.nnz < v.size:
+        A = assemble([i, j, v], (n, n), mirror=lower != upper)  # one triangle stored: mirror it
+        if A is None:
             i, j = np.searchsorted(code, r[:, 0] * 8 + r[:, 1]), np.searchsorted(code, c[:, 0] * 8 + c[:, 1])
             key = i * np.int64(n) + j
             order = np.argsort(key, kind="stable")
             k = int(order[np.flatnonzero(key[order][1:] == key[order][:-1])[0] + 1])
             raise ReadError(path, f"DMIG {name}: entry ({r[k][0]}-{r[k][1]}, {c[k][0]}-{c[k][1]}) given twice; "
                                   "duplicates are refused, not summed", int(line[k]))
-        if lower != upper:  # one triangle stored
-            out[role] = mirror(T)
-        else:
-            T.data[np.isnan(T.data)] = 0.0
-            out[role] = T
+        out[role] = A
     return out, pairs
 
 
