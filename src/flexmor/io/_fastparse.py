@@ -24,6 +24,11 @@ import numpy as np
 __all__ = ["fast_triplets", "parse_values", "value_layout"]
 
 _P10 = 10.0 ** np.arange(23)  # exactly representable powers of ten
+#: x87 extended precision (64-bit significand, stored in 16 bytes, little-endian): the
+#: powers of ten up to 1e27 are exact, which widens the exact range (see :func:`_wide`).
+_WIDE = np.finfo(np.longdouble).nmant == 63 and np.dtype(np.longdouble).itemsize == 16 \
+    and np.little_endian
+_P10L = np.cumprod(np.r_[1, np.full(27, 10)].astype(np.longdouble)) if _WIDE else None
 _MAX_PREFIX = 24  # widest "row col " part handled by the fast path
 _MAX_INT_DIGITS = 9  # indices fit int32 arithmetic
 
@@ -95,7 +100,9 @@ def parse_values(b, fields, width, digits, mark, ne, bad):
     vals = np.where(scale < 0, vals / power, vals * power)  # one correctly rounded operation
     slow |= mant > 2**53
     slow = np.flatnonzero(slow)
-    if slow.size:  # outside the exact fast path: strtod on those fields
+    if slow.size and _WIDE:
+        slow = _wide(vals, slow, mant, scale, sign)
+    if slow.size:  # outside the exact fast paths: strtod on those fields
         text = np.take(b, fields[slow, None] + np.arange(width))
         text = np.concatenate([text, np.full((slow.size, 1), 32, np.uint8)], axis=1)
         try:
@@ -107,6 +114,30 @@ def parse_values(b, fields, width, digits, mark, ne, bad):
         else:
             vals[slow] = exact
     return vals
+
+
+def _wide(vals, slow, mant, scale, sign):
+    """Values at ``slow`` (powers of ten beyond 1e22, mantissas beyond 2**53) in x87 extended precision.
+
+    ``mant`` times or over ``10**k`` in two steps of at most ``10**27`` (exact in a 64-bit
+    significand) carries at most two roundings of 2**-64; rounding that to a double is
+    correct unless the extended result lies within a few units of its last place of a
+    halfway point between two doubles (its low 11 bits near ``0x400``). Sets those values;
+    returns the rest (far powers, near-halfway results) for ``strtod``.
+    """
+    k = np.abs(scale[slow]).astype(np.int64)
+    ok = k <= 54
+    sel, k = slow[ok], k[ok]
+    k1 = np.minimum(k, 27)
+    q = mant[sel].astype(np.longdouble)
+    down = scale[sel] < 0
+    for p in (_P10L[k1], _P10L[k - k1]):
+        q = np.where(down, q / p, q * p)
+    low = q.view(np.uint64).reshape(q.size, -1)[:, 0] & np.uint64(0x7FF)
+    near = (low >= 0x400 - 4) & (low <= 0x400 + 4)
+    done = sel[~near]
+    vals[done] = q[~near].astype(np.float64) * np.where(sign[done] == 45, -1.0, 1.0)
+    return np.setdiff1d(slow, done, assume_unique=True)
 
 
 def _number(col, cols, top):

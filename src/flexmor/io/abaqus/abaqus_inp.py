@@ -151,15 +151,53 @@ class _Parser:
         st = getattr(self, "_state", None) or {"block": None, "opts": {}, "part": None, "inst": None,
                                                "mat": None, "elem": None, "cont": []}
         self._state = st
-        for lineno, raw in enumerate(lines, 1):
-            s = raw.strip()
+        i, n = 0, len(lines)
+        while i < n:
+            s = lines[i].strip()
+            i += 1
             if not s or s.startswith("**"):
                 continue
             if s.startswith("*"):
-                self._keyword(path, lineno, s, st, depth)
+                self._keyword(path, i, s, st, depth)
                 continue
-            self._data(path, lineno, s, st)
+            if st["block"] == "NODE":  # a run of node lines at once
+                j = i
+                while j < n and lines[j][:1] not in ("*", "") and not lines[j].isspace():
+                    j += 1
+                if self._node_run(path, i, [s] + lines[i:j], st):
+                    i = j
+                    continue
+            self._data(path, i, s, st)
         return self
+
+    def _node_run(self, path, lineno, data, st) -> bool:
+        """Store the node lines ``data`` (the first on line ``lineno``) if all are plain
+        ``label, x, y, z`` with new labels; False leaves them to the line-by-line parser."""
+        text = "\n".join(data)
+        k = len(data)
+        if text.count(",") != 3 * k:
+            return False
+        try:
+            a = np.fromstring(text.replace(",", " "), sep=" ")
+        except ValueError:
+            return False
+        if a.size != 4 * k:
+            return False
+        a = a.reshape(k, 4)
+        labels = a[:, 0]
+        if not (np.all(np.isfinite(a)) and np.all(labels == np.floor(labels)) and np.abs(labels).max() < 2**53):
+            return False
+        labels = labels.astype(np.int64).tolist()
+        tgt = self._target(st)
+        if len(set(labels)) < k or not tgt.where.keys().isdisjoint(labels):
+            return False
+        where = str(path)
+        tgt.where.update((lab, (where, lineno + m)) for m, lab in enumerate(labels))
+        tgt.labels.extend(labels)
+        tgt.xyz.extend(a[:, 1:].tolist())
+        if st["opts"].get("NSET"):
+            tgt.nsets.setdefault(st["opts"]["NSET"].upper(), []).extend(labels)
+        return True
 
     # -- keywords ---------------------------------------------------------------------------
     def _keyword(self, path, lineno, s, st, depth):
