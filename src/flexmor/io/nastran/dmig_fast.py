@@ -1,16 +1,19 @@
-"""Vectorized reading of DMIG punch files as Nastran writes them (``PARAM,EXTOUT,DMIGPCH``).
+"""Vectorized, streamed reading of DMIG punch files as Nastran writes them (``PARAM,EXTOUT,DMIGPCH``).
 
 A punched DMIG matrix is one large-field column card per column, ``DMIG*  NAME  GJ  CJ``, and
 one continuation line per entry, ``*  GI  CI  A`` in fixed 16-character fields. Such files are
-parsed with NumPy a field column at a time (the GRID and other cards around them are skipped).
-:func:`fast_dmig` returns None for anything else (small or free field column cards, tabs,
-``INCLUDE``, ``BEGIN BULK``, blank first fields, complex matrices, a field that does not parse):
-the card-by-card reader then reads the file and names the line of a defect.
+read in chunks of whole lines and parsed with NumPy a byte column at a time (the GRID and
+other cards around them are skipped), straight into preallocated arrays: the text is never
+held whole. :func:`scan_dmig` returns None for anything else (small or free field column
+cards, tabs, ``INCLUDE``, ``BEGIN BULK``, blank first fields, complex matrices, a field that
+does not parse, a column before its header card): the card-by-card reader then reads the
+file and names the line of a defect.
 """
 
 from __future__ import annotations
 
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
@@ -18,8 +21,24 @@ from numpy.lib.stride_tricks import sliding_window_view
 from .._fastparse import parse_values, value_layout
 from .._text import check_text
 
-__all__ = ["fast_dmig"]
+__all__ = ["DmigColumns", "fast_dmig", "scan_dmig"]
 
+_CHUNK = 1 << 21  # bytes read at a time
+_PAD = b" " * 81  # fixed fields may reach past the last line of a chunk
+
+
+class DmigColumns(NamedTuple):
+    """One DMIG matrix, column by column: entries in file order, ``counts[k]`` of them in column ``k``.
+
+    Codes are ``grid * 8 + component``.
+    """
+
+    ifo: int
+    rows: np.ndarray  #: row code of each entry (int64)
+    columns: np.ndarray  #: code of each column (int64)
+    counts: np.ndarray  #: entries of each column (int64)
+    values: np.ndarray  #: float64
+    lines: np.ndarray | None  #: line number of each entry (int64), when asked for
 
 
 def _fields(b, starts, offset, width=16):
@@ -27,18 +46,37 @@ def _fields(b, starts, offset, width=16):
     return sliding_window_view(b, width)[starts + offset]
 
 
-def _separated(block) -> bytes:
-    """The fields of ``block`` one after the other, a space after each."""
+def _right_ints(b, pos, bad, width=16):
+    """The integers right-aligned in the fields ``b[pos:pos + width]`` (spaces, then up to 9 digits)."""
+    acc = np.zeros(pos.size, dtype=np.int64)
+    seen = np.zeros(pos.size, dtype=bool)
+    for j in range(width):
+        c = np.take(b[j:], pos)
+        if j < width - 9:
+            bad |= c != 32
+            continue
+        d = c - np.uint8(48)
+        isd = d < 10
+        bad |= ~isd & (seen | (c != 32))  # a space after a digit, or another byte
+        seen |= isd
+        acc *= 1 + 9 * isd.view(np.uint8).astype(np.int64)
+        d *= isd
+        acc += d
+    bad |= ~isd  # the last byte is a digit
+    return acc
+
+
+def _ints(b, starts, offset):
+    """The integers in the fixed field at ``offset``: right-aligned by bytes, else by ``strtod``; None if not."""
+    bad = np.zeros(starts.size, dtype=bool)
+    got = _right_ints(b, starts + offset, bad)
+    if not bad.any():
+        return got
+    block = _fields(b, starts, offset)
     out = np.full((block.shape[0], block.shape[1] + 1), 32, dtype=np.uint8)
     out[:, :-1] = block
-    return out.tobytes()
-
-
-def _ints(block) -> np.ndarray | None:
-    if not block.size:
-        return np.zeros(0, dtype=np.int64)
     try:
-        a = np.fromstring(_separated(block), dtype=np.int64, sep=" ")
+        a = np.fromstring(out.tobytes(), dtype=np.int64, sep=" ")
     except ValueError:
         return None
     return a if a.size == block.shape[0] else None
@@ -60,8 +98,10 @@ def _reals(b, starts) -> np.ndarray | None:
             return vals
     text = _fields(b, starts, 40).copy()
     text[(text == 68) | (text == 100)] = 69  # D exponent
+    out = np.full((text.shape[0], 17), 32, dtype=np.uint8)
+    out[:, :-1] = text
     try:
-        a = np.fromstring(_separated(text), sep=" ")
+        a = np.fromstring(out.tobytes(), sep=" ")
     except ValueError:
         return None
     return a if a.size == starts.size and np.all(np.isfinite(a)) else None
@@ -77,85 +117,166 @@ def _header(line: bytes):
     return f[0].upper(), int(f[2]), int(f[3])
 
 
-def fast_dmig(path) -> dict | None:
-    """All DMIG matrices of a punch file, as :func:`~flexmor.io.nastran.read_dmig` returns them, or None."""
+class _Scan:
+    """State carried from chunk to chunk: the headers, the columns so far and the owner of continuation lines."""
+
+    def __init__(self, capacity: int, lines: bool):
+        self.headers: dict = {}  # name -> IFO
+        self.col_names: list = []  # per chunk: the name of each column
+        self.col_codes: list = []
+        self.col_starts: list = []
+        self.rows = np.empty(capacity, dtype=np.int64)
+        self.vals = np.empty(capacity, dtype=np.float64)
+        self.lines = np.empty(capacity, dtype=np.int64) if lines else None
+        self.k = 0  # entries stored
+        self.owner_is_col = False  # the last card before the chunk: a DMIG column?
+        self.lineno = 0  # lines before the chunk
+
+    def chunk(self, buf: bytes) -> bool:
+        """Parse the whole lines ``buf``; False when the file needs the card reader."""
+        size = len(buf)
+        b = np.frombuffer(buf + _PAD, dtype=np.uint8)
+        ends = np.flatnonzero(b[:size] == 10)
+        starts = np.empty_like(ends)
+        starts[0] = 0
+        starts[1:] = ends[:-1] + 1
+        length = ends - starts - (b[np.maximum(ends - 1, 0)] == 13)
+        first = b[starts]
+        keep = (length > 0) & (first != 36)  # not blank, not a $ comment
+        lineno = np.flatnonzero(keep) + 1 + self.lineno
+        self.lineno += ends.size
+        starts, length, first = starts[keep], length[keep], first[keep]
+        cont = first == 42
+        if np.any((first == 32) | (first == 43)):
+            return False  # blank first field or '+' continuations: small/free field
+        heads = np.flatnonzero(~cont)
+        word = _fields(b, starts[heads], 0, 8)
+        low = word | 32
+        for w in (b"incl", b"begi", b"endd"):  # INCLUDE, BEGIN BULK, ENDDATA: the card reader handles them
+            if np.any(np.all(low[:, :4] == np.frombuffer(w, np.uint8), axis=1)):
+                return False
+        dmig = np.all(word[:, :4] == np.frombuffer(b"DMIG", np.uint8), axis=1)
+        if np.any(np.all(low[:, :4] == np.frombuffer(b"dmig", np.uint8), axis=1) & ~dmig):
+            return False  # lower-case card names
+        large = dmig & (word[:, 4] == 42)
+        cols = heads[large]
+        gj, cj = _ints(b, starts[cols], 24), _ints(b, starts[cols], 40)
+        if gj is None or cj is None or np.any((cj < 0) | (cj > 6)):
+            return False
+        for h in np.r_[heads[dmig & ~large], cols[gj == 0]].tolist():  # header cards: few, one by one
+            got = _header(buf[starts[h]:starts[h] + length[h]])
+            if got is None or got[2] > 2 or got[1] not in (1, 2, 6, 9):
+                return False  # a small-field column card, a complex matrix, an unknown form
+            self.headers[got[0]] = got[1]
+        is_col = np.zeros(heads.size, dtype=bool)  # heads that are column cards (GJ != 0)
+        is_col[np.flatnonzero(large)[gj != 0]] = True
+        cols, gj, cj = cols[gj != 0], gj[gj != 0], cj[gj != 0]
+        if np.any(length[cols] > 56) and np.any(_fields(b, starts[cols], 56)[length[cols] > 56] != 32):
+            return False  # entries on the column card itself
+        field = np.ascontiguousarray(_fields(b, starts[cols], 8)).view("S16").ravel()
+        unique, which = np.unique(field, return_inverse=True)  # the few names, decoded once each
+        names = [x.decode("latin-1").strip().upper() for x in unique.tolist()]
+        if any(nm not in self.headers for nm in names):
+            return False  # a column before its header: the card reader says so
+        # the card owning each line: the last non-continuation line (before the chunk: carried over)
+        owner = np.maximum.accumulate(np.where(~cont, np.arange(cont.size), -1))
+        owned = np.where(owner >= 0, np.isin(owner, heads[is_col]), self.owner_is_col)
+        if heads.size:
+            self.owner_is_col = bool(is_col[-1])
+        entry = np.flatnonzero(cont & owned)
+        before = np.searchsorted(entry, cols)  # entries of the chunk before each column card
+        if np.any(length[entry] < 56):
+            return False
+        tail = _fields(b, starts[entry], 56)
+        if np.any((tail != 32) & (np.arange(16) < (length[entry] - 56)[:, None])):
+            return False  # an imaginary part or more fields
+        g, c = _ints(b, starts[entry], 8), _ints(b, starts[entry], 24)
+        v = _reals(b, starts[entry])
+        if g is None or c is None or v is None or np.any((c < 0) | (c > 6)):
+            return False
+        m, k = entry.size, self.k
+        if k + m > self.rows.size:
+            return False  # cannot happen: the capacity counts every continuation line
+        g *= 8
+        g += c
+        self.rows[k:k + m], self.vals[k:k + m] = g, v
+        if self.lines is not None:
+            self.lines[k:k + m] = lineno[entry]
+        self.col_names.append(np.asarray(names + [""])[which])
+        self.col_codes.append(gj * 8 + cj)
+        self.col_starts.append(before + k)
+        self.k += m
+        return True
+
+    def result(self) -> dict | None:
+        starts = np.concatenate(self.col_starts + [np.array([self.k])]).astype(np.int64)
+        codes = np.concatenate(self.col_codes + [np.zeros(0, np.int64)])
+        names = np.concatenate(self.col_names + [np.zeros(0, str)])
+        out = {}
+        for name in dict.fromkeys(names.tolist()):
+            mine = np.flatnonzero(names == name)
+            counts = starts[mine + 1] - starts[mine]
+            if mine[-1] - mine[0] == mine.size - 1:  # columns in one run
+                sel = slice(int(starts[mine[0]]), int(starts[mine[-1] + 1]))
+            else:
+                sel = np.concatenate([np.arange(starts[i], starts[i + 1]) for i in mine.tolist()])
+            # copies, so that each matrix's entries are freed on their own once assembled
+            out[name] = DmigColumns(self.headers[name], np.array(self.rows[sel]), codes[mine], counts,
+                                    np.array(self.vals[sel]), None if self.lines is None else self.lines[sel])
+        self.rows = self.vals = self.lines = None
+        for name, ifo in self.headers.items():
+            empty = np.zeros(0, np.int64)
+            out.setdefault(name, DmigColumns(ifo, empty, empty, empty, np.zeros(0), None if self.lines is None
+                                             else empty))
+        return out or None
+
+
+def scan_dmig(path, *, lines: bool = False) -> dict | None:
+    """All DMIG matrices of a punch file as :class:`DmigColumns` by name, or None (see the module docstring).
+
+    Parameters
+    ----------
+    path : str or path-like
+    lines : bool
+        Whether to record the line number of each entry (8 bytes per entry more).
+    """
     path = Path(path)
     check_text(path)
-    size = path.stat().st_size
-    raw = bytearray(size + 81)  # padding: fixed fields may reach past the last line
     with open(path, "rb") as f:
-        if f.readinto(memoryview(raw)[:size]) != size:
-            return None
-    if raw.find(b"\t", 0, size) >= 0:
+        capacity, last = 1, b"\n"
+        for block in iter(lambda: f.read(_CHUNK), b""):
+            capacity += (last + block).count(b"\n*")
+            last = block[-1:]
+            if b"\t" in block:
+                return None
+        scan = _Scan(capacity, lines)
+        f.seek(0)
+        rest = b""
+        while True:
+            block = f.read(_CHUNK)
+            buf = rest + block
+            if not buf:
+                break
+            if not block and buf[-1:] != b"\n":
+                buf += b"\n"
+            cut = buf.rfind(b"\n") + 1
+            if cut == 0:
+                rest = buf
+                continue
+            if not scan.chunk(buf[:cut]):
+                return None
+            rest = buf[cut:]
+    return scan.result()
+
+
+def fast_dmig(path) -> dict | None:
+    """All DMIG matrices of a punch file, as :func:`~flexmor.io.nastran.read_dmig` returns them, or None."""
+    got = scan_dmig(path, lines=True)
+    if got is None:
         return None
-    if raw[size - 1] != 10:
-        raw[size] = 10
-        size += 1
-    raw[size:] = b" " * (len(raw) - size)
-    b = np.frombuffer(raw, dtype=np.uint8)
-    ends = np.flatnonzero(b[:size] == 10)
-    starts = np.r_[0, ends[:-1] + 1]
-    length = ends - starts - (b[np.maximum(ends - 1, 0)] == 13)
-    first = b[starts]
-    keep = (length > 0) & (first != 36)  # not blank, not a $ comment
-    starts, length, first, lineno = starts[keep], length[keep], first[keep], np.flatnonzero(keep) + 1
-    cont = first == 42
-    if np.any(np.isin(first, (32, 43))):
-        return None  # blank first field or '+' continuations: small/free field
-    heads = np.flatnonzero(~cont)
-    word = _fields(b, starts[heads], 0, 8)
-    low = word | 32
-    for w in (b"incl", b"begi", b"endd"):  # INCLUDE, BEGIN BULK, ENDDATA: the card reader handles them
-        if np.any(np.all(low[:, :4] == np.frombuffer(w, np.uint8), axis=1)):
-            return None
-    dmig = np.all(word[:, :4] == np.frombuffer(b"DMIG", np.uint8), axis=1)
-    if np.any(np.all(low[:, :4] == np.frombuffer(b"dmig", np.uint8), axis=1) & ~dmig):
-        return None  # lower-case card names
-    large = dmig & (word[:, 4] == 42)
-    col_heads = heads[large]
-    gj = _ints(_fields(b, starts[col_heads], 24))
-    cj = _ints(_fields(b, starts[col_heads], 40))
-    if gj is None or cj is None:
-        return None
-    headers = {}
-    for h in np.r_[heads[dmig & ~large], col_heads[gj == 0]].tolist():  # header cards: few, one by one
-        got = _header(bytes(raw[starts[h]:starts[h] + length[h]]))
-        if got is None:
-            return None  # a small-field column card
-        if got[2] > 2 or got[1] not in (1, 2, 6, 9):
-            return None
-        headers[got[0]] = got[1]
-    is_col = gj != 0
-    col_heads, gj, cj = col_heads[is_col], gj[is_col], cj[is_col]
-    if np.any(length[col_heads] > 56) and np.any(_fields(b, starts[col_heads], 56)[length[col_heads] > 56] != 32):
-        return None  # entries on the column card itself
-    names = [bytes(x).decode("latin-1").strip().upper() for x in _fields(b, starts[col_heads], 8)]
-    owner = np.maximum.accumulate(np.where(~cont, np.arange(cont.size), -1))
-    col_of = np.full(cont.size, -1)
-    col_of[col_heads] = np.arange(col_heads.size)
-    owned = np.where(owner >= 0, col_of[np.maximum(owner, 0)], -1)
-    entry = np.flatnonzero(cont & (owned >= 0))
-    if np.any(length[entry] < 56):
-        return None
-    tail = _fields(b, starts[entry], 56)
-    if np.any((tail != 32) & (np.arange(16) < (length[entry] - 56)[:, None])):
-        return None  # an imaginary part or more fields
-    g = _ints(_fields(b, starts[entry], 8))
-    c = _ints(_fields(b, starts[entry], 24))
-    v = _reals(b, starts[entry])
-    if g is None or c is None or v is None or np.any((c < 0) | (c > 6)) or np.any((cj < 0) | (cj > 6)):
-        return None
-    col = owned[entry]
     out = {}
-    for name in dict.fromkeys(names):
-        if name not in headers:
-            return None
-        mine = np.flatnonzero(np.asarray(names) == name)
-        sel = np.flatnonzero(np.isin(col, mine))
-        k = col[sel]
-        out[name] = (headers[name], np.stack([g[sel], c[sel]], axis=1), np.stack([gj[k], cj[k]], axis=1), v[sel],
-                     lineno[entry[sel]])
-    for name, ifo in headers.items():
-        out.setdefault(name, (ifo, np.zeros((0, 2), np.int64), np.zeros((0, 2), np.int64), np.zeros(0),
-                              np.zeros(0, np.int64)))
-    return out or None
+    for name, m in got.items():
+        cols = np.repeat(m.columns, m.counts)
+        out[name] = (m.ifo, np.stack([m.rows // 8, m.rows % 8], axis=1), np.stack([cols // 8, cols % 8], axis=1),
+                     m.values, m.lines)
+    return out

@@ -37,7 +37,7 @@ from .. import MODEL_FORMATS
 from .._cells import mesh_of_elements, nastran_cell
 from .._sparse import assemble
 from .._text import build_model
-from .dmig_fast import fast_dmig
+from .dmig_fast import DmigColumns, fast_dmig, scan_dmig
 from .nastran_bulk import Bulk, cards, num, read_bulk
 from .op4 import read_op4
 
@@ -211,23 +211,37 @@ def dof_transform(bulk: Bulk, dofs: np.ndarray, where) -> sp.csr_matrix | None:
     return T
 
 
-def _runs_unique(code: np.ndarray) -> np.ndarray:
-    """Sorted unique values of ``code``; cheap when equal values come in runs (the column of each entry)."""
-    if code.size == 0:
-        return code
-    return np.unique(code[np.r_[True, code[1:] != code[:-1]]])
+def _columns(mats: dict) -> dict:
+    """:func:`read_dmig`'s matrices (an entry's row, column and line each) as :class:`DmigColumns`."""
+    out = {}
+    for name, (ifo, r, c, v, line) in mats.items():
+        code = c[:, 0] * 8 + c[:, 1]
+        first = np.flatnonzero(np.r_[True, code[1:] != code[:-1]]) if code.size else np.zeros(0, np.int64)
+        out[name] = DmigColumns(ifo, r[:, 0] * 8 + r[:, 1], code[first], np.diff(np.r_[first, code.size]), v, line)
+    return out
+
+
+def _read_columns(path: Path, lines: bool = False) -> dict:
+    """All DMIG matrices of ``path`` as :class:`DmigColumns`: streamed when the file allows, else card by card."""
+    got = scan_dmig(path, lines=lines)
+    return got if got is not None else _columns(read_dmig(path))
 
 
 def dmig_matrices(path, mats, names):
-    codes = {}
-    for name in names.values():
-        _, r, c, _, _ = mats[name]
-        codes[name] = (r[:, 0] * 8 + r[:, 1], c[:, 0] * 8 + c[:, 1])
-    code = np.unique(np.concatenate([_runs_unique(cc) for _, cc in codes.values()]))
-    for rcode, _ in codes.values():
-        k = np.searchsorted(code, rcode)
-        if np.any(k >= code.size) or np.any(code[np.minimum(k, code.size - 1)] != rcode):
-            code = np.unique(np.concatenate([code, rcode]))
+    """CSR matrices by role and the equation map ``(grid, component)`` of the DMIG matrices ``names``.
+
+    ``mats`` (:class:`DmigColumns` by name) gives up the matrices it assembles, so that their
+    entries are freed as soon as they are used. An entry given twice is refused with its line.
+    """
+    code = np.unique(np.concatenate([mats[name].columns for name in names.values()]))
+    for name in names.values():  # rows without a column of their own (a rectangular block), in slices
+        rows = mats[name].rows
+        for s in range(0, rows.size, 1 << 20):
+            k = np.minimum(np.searchsorted(code, rows[s:s + (1 << 20)]), code.size - 1)
+            if np.any(code[k] != rows[s:s + (1 << 20)]):
+                code = np.unique(np.concatenate([code, rows]))
+                break
+    del rows
     pairs = np.stack([code // 8, code % 8], axis=1)
     if np.any((pairs[:, 1] < 0) | (pairs[:, 1] > 6)):
         g = pairs[(pairs[:, 1] < 0) | (pairs[:, 1] > 6)][0]
@@ -236,21 +250,25 @@ def dmig_matrices(path, mats, names):
     idx = np.int32 if n < 2**31 - 1 else np.int64
     out = {}
     for role, name in names.items():
-        _, r, c, v, line = mats[name]
-        if np.iscomplexobj(v):
+        if name not in mats:  # the same matrix in two roles
+            out[role] = next(out[r] for r, nm in names.items() if nm == name and r in out)
+            continue
+        m = mats.pop(name)
+        if np.iscomplexobj(m.values):
             raise ReadError(path, f"DMIG {name} is complex; flexmor needs real matrices")
-        rcode, ccode = codes[name]
-        i, j = np.searchsorted(code, rcode).astype(idx), np.searchsorted(code, ccode).astype(idx)
-        del rcode, ccode
-        lower, upper = bool(np.any(i > j)), bool(np.any(i < j))
-        A = assemble([i, j, v], (n, n), mirror=lower != upper)  # one triangle stored: mirror it
+        parts = [np.searchsorted(code, m.rows).astype(idx), np.repeat(np.searchsorted(code, m.columns).astype(idx),
+                                                                    m.counts), m.values]
+        del m  # no other reference: assemble() frees the parsed entries as it goes
+        lower, upper = bool(np.any(parts[0] > parts[1])), bool(np.any(parts[0] < parts[1]))
+        A = assemble(parts, (n, n), mirror=lower != upper)  # one triangle stored: mirror it
         if A is None:
-            i, j = np.searchsorted(code, r[:, 0] * 8 + r[:, 1]), np.searchsorted(code, c[:, 0] * 8 + c[:, 1])
-            key = i * np.int64(n) + j
+            m = _read_columns(Path(path), lines=True)[name]
+            r, c = m.rows, np.repeat(m.columns, m.counts)
+            key = np.searchsorted(code, r) * np.int64(n) + np.searchsorted(code, c)
             order = np.argsort(key, kind="stable")
             k = int(order[np.flatnonzero(key[order][1:] == key[order][:-1])[0] + 1])
-            raise ReadError(path, f"DMIG {name}: entry ({r[k][0]}-{r[k][1]}, {c[k][0]}-{c[k][1]}) given twice; "
-                                  "duplicates are refused, not summed", int(line[k]))
+            raise ReadError(path, f"DMIG {name}: entry ({r[k] // 8}-{r[k] % 8}, {c[k] // 8}-{c[k] % 8}) given twice; "
+                                  "duplicates are refused, not summed", int(m.lines[k]))
         out[role] = A
     return out, pairs
 
@@ -305,7 +323,7 @@ def _model_dofs(path, out, pairs, bulk, geo, directions):
 def load_matrices(path: Path, stiffness, mass, damping):
     """``(is_op4, matrices by name, {"K": name, "M": name[, "D": name]})`` of a DMIG or OP4 file."""
     op4 = path.suffix.lower() == ".op4"
-    mats = read_op4(path, sparse=True) if op4 else read_dmig(path)
+    mats = read_op4(path, sparse=True) if op4 else _read_columns(path)
     names = {"K": _pick(mats, stiffness, "K", "stiffness", path), "M": _pick(mats, mass, "M", "mass", path)}
     b = _pick(mats, damping, "B", "damping", path)
     if b:
