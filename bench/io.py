@@ -10,22 +10,29 @@ format flexmor reads, then read back with :func:`flexmor.io.read`:
 * ``abaqus``: ``job.inp`` with the nodes and ``job_STIF1.mtx``/``job_MASS1.mtx`` (both
   triangles, 3 DOFs per node, ``row col value``);
 * ``nastran``: ``job.pch`` with ``DMIG KAAX``/``MAAX`` in large field as Nastran punches them
-  (upper triangle, 10 digits), ``job.bdf`` with the GRIDs (not run by default: card by card).
+  (upper triangle, 10 digits), ``job.bdf`` with the GRIDs.
 
-*MB/s* is the size of the matrix files over the wall time of ``read`` (*MB/cpu s* over its CPU
-time, the fairer number on a loaded machine); *peak MB* the largest
-memory allocated during ``read`` (``tracemalloc``: NumPy arrays and Python objects); *x CSR* that
-peak over the bytes of the final CSR ``K`` and ``M`` (data, indices, indptr).
+Each file is read twice (:func:`measure`): *read s* and *cpu s* are the wall and CPU time of
+an untraced ``read``, *MB/cpu s* the size of the matrix files over that CPU time (the fair
+number on a loaded machine); then, under ``tracemalloc``, *traced* is the CPU time and
+*peak MB* the largest memory allocated (NumPy arrays and Python objects); *x CSR* that peak
+over the bytes of the final CSR ``K`` and ``M`` (data, indices, indptr). ``--baseline SRC``
+reads the same files with another source tree (in a child process) on the row above.
 
 Usage::
 
     .venv/bin/python bench/io.py                  # ~30k DOF
     .venv/bin/python bench/io.py --dofs 3000 --formats calculix
+    git worktree add ../base main && .venv/bin/python bench/io.py --baseline ../base/src
 """
 
 from __future__ import annotations
 
 import argparse
+import json
+import os
+import subprocess
+import sys
 import tempfile
 import time
 import tracemalloc
@@ -96,33 +103,77 @@ def write(fmt: str, model, d: Path) -> tuple[Path, list]:
     raise ValueError(fmt)
 
 
-def main() -> None:
-    from flexmor.io import read
-    from flexmor.models import cantilever, size_for_dofs
+def measure(main_file: Path, files: list) -> dict:
+    """Read ``main_file`` twice: CPU and wall time untraced, then the ``tracemalloc`` peak (and the traced CPU time).
 
+    ``tracemalloc`` slows every allocation of a Python object, so the Python parts of a
+    reader (deck parsing, dictionaries) take up to twice as long under it: speed is measured
+    in a run without it.
+    """
+    import flexmor.io.abaqus
+    import flexmor.io.calculix
+    import flexmor.io.matrix_market
+    import flexmor.io.nastran  # noqa: F401 - imported before the clock starts
+    from flexmor.io import read
+
+    mb = sum(Path(p).stat().st_size for p in files) / 1e6
+    t0, c0 = time.perf_counter(), time.process_time()
+    m = read(main_file)
+    dt, cpu = time.perf_counter() - t0, time.process_time() - c0
+    del m
+    tracemalloc.start()
+    c0 = time.process_time()
+    m = read(main_file)
+    traced = time.process_time() - c0
+    peak = tracemalloc.get_traced_memory()[1] / 1e6
+    tracemalloc.stop()
+    csr = sum(A.data.nbytes + A.indices.nbytes + A.indptr.nbytes for A in (m.K.tocsr(), m.M.tocsr())) / 1e6
+    return {"mb": mb, "wall": dt, "cpu": cpu, "traced": traced, "peak": peak, "csr": csr, "K": m.K}
+
+
+def _in_child(src: str, main_file: Path, files: list) -> dict:
+    """:func:`measure` in a fresh interpreter that imports flexmor from ``src``."""
+    env = dict(os.environ, PYTHONPATH=src)
+    out = subprocess.run([sys.executable, __file__, "--measure", str(main_file), "--files", ",".join(map(str, files))],
+                         env=env, check=True, capture_output=True, text=True).stdout
+    return json.loads(out.strip().splitlines()[-1])
+
+
+def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--dofs", type=int, default=30_000)
-    ap.add_argument("--formats", default="calculix,matrix-market,abaqus")
+    ap.add_argument("--formats", default="calculix,matrix-market,abaqus,nastran")
+    ap.add_argument("--baseline", metavar="SRC", help="another flexmor source tree (e.g. a worktree of main: "
+                                                     "../base/src), measured beside this one")
+    ap.add_argument("--measure", help=argparse.SUPPRESS)
+    ap.add_argument("--files", help=argparse.SUPPRESS)
     a = ap.parse_args()
+    if a.measure:  # child process of --baseline
+        r = measure(Path(a.measure), a.files.split(","))
+        del r["K"]
+        print(json.dumps(r))
+        return
+    from flexmor.models import cantilever, size_for_dofs
+
     model = cantilever(size_for_dofs(a.dofs))
     print(f"cantilever, {model.n_dof} DOF, K nnz {model.K.nnz}")
-    print(f"{'format':>14} {'MB':>8} {'read s':>8} {'MB/s':>8} {'cpu s':>8} {'MB/cpu s':>8} {'peak MB':>8} "
-          f"{'x CSR':>6}")
+    print(f"{'format':>14} {'code':>7} {'MB':>7} {'read s':>7} {'cpu s':>7} {'MB/cpu s':>8} {'traced':>7} "
+          f"{'peak MB':>8} {'x CSR':>6}")
+    here = str(Path(__file__).resolve().parents[1] / "src")
     for fmt in a.formats.split(","):
         with tempfile.TemporaryDirectory() as tmp:
             d = Path(tmp)
             main_file, files = write(fmt, model, d)
-            mb = sum(p.stat().st_size for p in files) / 1e6
-            tracemalloc.start()
-            t0, c0 = time.perf_counter(), time.process_time()
-            m = read(main_file)
-            dt, cpu = time.perf_counter() - t0, time.process_time() - c0
-            peak = tracemalloc.get_traced_memory()[1] / 1e6
-            tracemalloc.stop()
-            csr = sum(A.data.nbytes + A.indices.nbytes + A.indptr.nbytes for A in (m.K.tocsr(), m.M.tocsr())) / 1e6
-            assert abs(m.K - model.K).max() <= (1e-9 if fmt == "nastran" else 1e-12) * abs(model.K).max()
-            print(f"{fmt:>14} {mb:8.1f} {dt:8.2f} {mb / dt:8.1f} {cpu:8.2f} {mb / cpu:8.1f} {peak:8.0f} "
-                  f"{peak / csr:6.2f}")
+            runs = [("before", a.baseline), ("after", here)] if a.baseline else [("", None)]
+            for label, src in runs:
+                if src is None:
+                    r = measure(main_file, files)
+                    K = r.pop("K")
+                    assert abs(K - model.K).max() <= (1e-9 if fmt == "nastran" else 1e-12) * abs(model.K).max()
+                else:
+                    r = _in_child(src, main_file, files)
+                print(f"{fmt:>14} {label:>7} {r['mb']:7.1f} {r['wall']:7.2f} {r['cpu']:7.2f} "
+                      f"{r['mb'] / r['cpu']:8.1f} {r['traced']:7.2f} {r['peak']:8.0f} {r['peak'] / r['csr']:6.2f}")
 
 
 if __name__ == "__main__":

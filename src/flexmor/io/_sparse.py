@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 
-__all__ = ["assemble"]
+__all__ = ["assemble", "rows_in_use"]
 
 
 def assemble(triplets: list, shape, *, mirror: bool = False) -> sp.csr_matrix | None:
@@ -88,3 +88,8 @@ def _symmetric(U: sp.csr_matrix, L: sp.csr_matrix) -> sp.csr_matrix:
         indices[a0:a1][in_u] = L.indices[l0:l1][keep]
         data[a0:a1][in_u] = L.data[l0:l1][keep]
     return sp.csr_matrix((data, indices, indptr.astype(idx)), shape=U.shape)
+
+
+def rows_in_use(A: sp.csr_matrix) -> np.ndarray:
+    """Whether each row of ``A`` has a nonzero entry (without a temporary the size of ``A``)."""
+    return (A.max(axis=1).toarray().ravel() != 0) | (A.min(axis=1).toarray().ravel() != 0)

@@ -49,7 +49,7 @@ from ...errors import ReadError
 from .. import MODEL_FORMATS
 from .._mass import QUADRATIC_TYPES, check_mass
 from .._cells import abaqus_cell, mesh_of_elements
-from .._sparse import assemble
+from .._sparse import assemble, rows_in_use
 from .._text import build_model, check_text, entry_line, parse_triplets, read_text
 from .abaqus_inp import AbaqusDeck, read_deck
 
@@ -244,11 +244,6 @@ def _compress(A: sp.csr_matrix, code: np.ndarray, number: np.ndarray) -> sp.csr_
     return sp.csr_matrix((A.data, A.indices, indptr), shape=(code.size, code.size))
 
 
-def _rows_in_use(A: sp.csr_matrix) -> np.ndarray:
-    """Rows of ``A`` with a nonzero entry (without a temporary the size of ``A``)."""
-    return (A.max(axis=1).toarray().ravel() != 0) | (A.min(axis=1).toarray().ravel() != 0)
-
-
 def read_abaqus(path, *, dof_per_node: int | None = None) -> "FEModel":  # noqa: F821
     """Read an Abaqus ``*MATRIX GENERATE`` export with its input deck.
 
@@ -322,7 +317,7 @@ def read_abaqus(path, *, dof_per_node: int | None = None) -> "FEModel":  # noqa:
     mats = {role: _compress(A, code, number) for role, A in mats.items()}
     n = code.size
     dofs = np.stack([deck.node_ids[code // 8], code % 8], axis=1)
-    used = _rows_in_use(mats["K"]) | _rows_in_use(mats["M"])
+    used = rows_in_use(mats["K"]) | rows_in_use(mats["M"])
     if not np.all(used):
         keep = np.flatnonzero(used)
         log.info("%s: removed %d equations without stiffness and mass", deck_path, n - keep.size)

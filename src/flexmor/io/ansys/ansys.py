@@ -36,6 +36,7 @@ import scipy.sparse as sp
 from ...errors import ReadError
 from .. import MODEL_FORMATS
 from .._cells import ansys_cell, build_mesh
+from .._sparse import rows_in_use
 from .._text import build_model, read_text
 from ..matrix_market import _check_header, _read_one, find_siblings
 
@@ -67,7 +68,11 @@ def read_mapping(path, n_eq: int) -> np.ndarray:
         equation numbers outside ``1..n_eq``.
     """
     path = Path(path)
-    lines = read_text(path).splitlines()
+    text = read_text(path)
+    fast = _mapping_fast(text, n_eq)
+    if fast is not None:
+        return fast
+    lines = text.splitlines()
     data = [(k, s.strip()) for k, s in enumerate(lines, 1) if s.strip() and not s.lstrip().startswith("%")]
     if data and len(data[0][1].split()) >= 3 and not data[0][1].split()[0].lstrip("-").isdigit():
         data = data[1:]  # header "Matrix Eqn  Node  DOF"
@@ -109,6 +114,83 @@ def read_mapping(path, n_eq: int) -> np.ndarray:
     return np.stack([np.repeat(nodes, d), np.tile(np.arange(1, d + 1), nodes.size)], axis=1)
 
 
+_EQ_LINES = re.compile(r"(?:[ \t]*\d{1,15}[ \t]+\d{1,15}[ \t]+[1-6][ \t]*(?:\r?\n|\Z))+")
+_NODE_LINES = re.compile(r"(?:[ \t]*\d{1,15}[ \t]*(?:\r?\n|\Z))+")
+_XYZ_LINES = re.compile(r"(?:[ ]*\d{1,15}(?:[ ]+[-+.0-9eE]+){3}[ ]*(?:\r?\n|\Z))+")
+
+
+def _body(text: str, header) -> tuple[int, str] | None:
+    """``(lines before, text after)`` the leading comment lines and the header line ``header(first)`` tells."""
+    pos = lines = 0
+    while True:
+        end = text.find("\n", pos)
+        line = text[pos:len(text) if end < 0 else end]
+        if line.strip() and not line.lstrip().startswith("%"):
+            break
+        if end < 0:
+            return None
+        pos, lines = end + 1, lines + 1
+    if header(line.split()):
+        pos, lines = (len(text) if end < 0 else end + 1), lines + 1
+    body = text[pos:].rstrip()
+    return (lines, body) if body else None
+
+
+def _ints(body: str, pattern, width: int) -> np.ndarray | None:
+    """The integers of ``body`` as (lines, width) when every line matches ``pattern``, else None."""
+    if pattern.fullmatch(body) is None:
+        return None
+    a = np.fromstring(body, dtype=np.int64, sep=" ")
+    return a.reshape(-1, width) if a.size % width == 0 else None
+
+
+def _mapping_fast(text: str, n_eq: int) -> np.ndarray | None:
+    """The equation map of a well-formed map file, vectorized; None leaves it to the line-by-line parser."""
+    got = _body(text, lambda t: len(t) >= 3 and not t[0].lstrip("-").isdigit())
+    if got is None:
+        return None
+    body = got[1]
+    first = body.split("\n", 1)[0].split()
+    if len(first) == 3:  # HBMAT .mapping: eqn node label
+        for lab, code in (("ROTX", "4"), ("ROTY", "5"), ("ROTZ", "6"), ("UX", "1"), ("UY", "2"), ("UZ", "3")):
+            body = body.replace(lab, code)
+        a = _ints(body, _EQ_LINES, 3)
+        if a is None or a.shape[0] != n_eq or not np.array_equal(np.sort(a[:, 0]), np.arange(1, n_eq + 1)):
+            return None
+        out = np.empty((n_eq, 2), dtype=np.int64)
+        out[a[:, 0] - 1] = a[:, 1:]
+        return out
+    head, _, rest = body.partition("\n")
+    h = head.split()
+    a = _ints(rest.strip(), _NODE_LINES, 1)
+    if a is None or h != [str(a.shape[0]), "1"] or n_eq % a.shape[0] or n_eq // a.shape[0] not in (1, 2, 3, 6):
+        return None
+    d = n_eq // a.shape[0]
+    return np.stack([np.repeat(a[:, 0], d), np.tile(np.arange(1, d + 1), a.shape[0])], axis=1)
+
+
+def _coordinates_fast(text: str):
+    """``(node ids, xyz)`` of a well-formed coordinate table, vectorized; None leaves it to the line parser."""
+    got = _body(text, lambda t: not t[0].isdigit())
+    if got is None:
+        return None
+    body = got[1]
+    if "\t" in body or ";" in body:
+        body = body.replace(",", ".").replace("\t", " ").replace(";", " ")
+    elif body.split("\n", 1)[0].count(",") >= 3:
+        body = body.replace(",", " ")
+    if _XYZ_LINES.fullmatch(body) is None:
+        return None
+    try:
+        a = np.fromstring(body, sep=" ")
+    except ValueError:
+        return None
+    if a.size % 4 or a.size != 4 * (body.count("\n") + 1) or not np.all(np.isfinite(a)):
+        return None
+    a = a.reshape(-1, 4)
+    return a[:, 0].astype(np.int64), np.ascontiguousarray(a[:, 1:])
+
+
 def read_coordinates(path):
     """Read a nodal-coordinate table (header line, then ``node x y z``; tabs/semicolons, decimal commas).
 
@@ -118,7 +200,11 @@ def read_coordinates(path):
     xyz : ndarray of float64, shape (n, 3)
     """
     path = Path(path)
-    lines = read_text(path).splitlines()
+    text = read_text(path)
+    fast = _coordinates_fast(text)
+    if fast is not None:
+        return fast
+    lines = text.splitlines()
     ids, xyz = [], []
     for lineno, raw in enumerate(lines, 1):
         s = raw.strip()
@@ -162,7 +248,7 @@ def _companions(stiff: Path):
 
 
 def _drop_empty(path, mats, dofs, what="without stiffness and mass"):
-    used = (abs(mats["K"]).sum(axis=1).A1 > 0) | (abs(mats["M"]).sum(axis=1).A1 > 0)
+    used = rows_in_use(mats["K"]) | rows_in_use(mats["M"])
     if np.all(used):
         return mats, dofs, np.zeros((0, 2), dtype=np.int64)
     keep = np.flatnonzero(used)
