@@ -171,3 +171,12 @@ def test_exact_halfway_and_far_powers_read_as_strtod():
         got = fast_triplets(np.frombuffer(text.encode(), dtype=np.uint8))
         ref = np.array([float(x.split()[2]) for x in text.splitlines()])
         np.testing.assert_array_equal(got[2], ref)
+
+
+def test_shorter_lines_after_the_first_chunk(tmp_path):
+    """Arrays sized by the first chunk's shortest line grow when later lines are shorter."""
+    lines = [f"{100000 + i} {100000 + i} {i:.13e}" for i in range(400)] + [f"{i} {i} {i:.13e}" for i in range(1, 2000)]
+    path = tmp_path / "m.txt"
+    path.write_text("\n".join(lines) + "\n")
+    rows, cols, vals = text_mod.parse_triplets(path)
+    assert rows.size == 2399 and rows[-1] == 1998 and vals[-1] == 1999.0 and rows[0] == 99999

@@ -119,21 +119,20 @@ def _header_end(raw: bytes) -> int:
 def _fast_triplets(path: Path, index_dtype):
     """Vectorized parse into ``(rows, cols, values)`` as written, or None when the text needs the scanner.
 
-    The file is streamed in chunks of whole lines (a first pass counts the lines), so the
-    text is never held whole. Leading comment lines (a header) are skipped; comments further
-    down go to the scanner. Each chunk is parsed by
-    :func:`~flexmor.io._fastparse.fast_triplets`, else by ``np.loadtxt``; non-integral
-    indices give None.
+    The file is streamed in chunks of whole lines into arrays sized for the file's size over
+    the shortest line of the first chunk (grown should a later line be shorter, shrunk in place
+    at the end), so the text is never held whole. Leading comment lines (a header) are skipped; comments further down
+    go to the scanner. Each chunk is parsed by :func:`~flexmor.io._fastparse.fast_triplets`,
+    else by ``np.loadtxt``; non-integral indices give None.
     """
     with open(path, "rb") as f:
-        size = sum(block.count(b"\n") for block in iter(lambda: f.read(_CHUNK), b"")) + 1
+        size = f.seek(0, 2)
         f.seek(0)
         start = _header_end(f.read(_CHUNK))
         if start >= _CHUNK:
             return None  # a header longer than a chunk: leave it to the scanner
         f.seek(start)
-        rows, cols = np.empty(size, dtype=index_dtype), np.empty(size, dtype=index_dtype)
-        vals = np.empty(size, dtype=np.float64)
+        rows = cols = vals = None
         k, rest = 0, b""
         while True:
             block = f.read(_CHUNK)
@@ -144,15 +143,28 @@ def _fast_triplets(path: Path, index_dtype):
             if cut == 0:  # no line end yet: read on
                 rest = buf
                 continue
+            if rows is None:
+                ends = np.flatnonzero(np.frombuffer(buf, dtype=np.uint8, count=cut) == 10)
+                shortest = int(min(ends[0] + 1, np.diff(ends).min(initial=cut))) if ends.size else cut
+                cap = (size - start) // max(shortest, 1) + 2
+                rows, cols = np.empty(cap, dtype=index_dtype), np.empty(cap, dtype=index_dtype)
+                vals = np.empty(cap, dtype=np.float64)
             got = _chunk(buf, cut)
             if got is None:
                 return None
             rest = buf[cut:]
             del buf, block
             m = got[0].size
+            if k + m > rows.size:  # shorter lines than the first chunk's: grow
+                grow = max(k + m, rows.size + rows.size // 4)
+                rows, cols, vals = (np.concatenate([x[:k], np.empty(grow - k, x.dtype)]) for x in (rows, cols, vals))
             rows[k:k + m], cols[k:k + m], vals[k:k + m] = got
             k += m
-    return rows[:k], cols[:k], vals[:k]
+    if rows is None:
+        return np.zeros(0, index_dtype), np.zeros(0, index_dtype), np.zeros(0)
+    for x in (rows, cols, vals):
+        x.resize(k, refcheck=False)  # realloc: the unused capacity is returned, nothing copied
+    return rows, cols, vals
 
 
 def _chunk(buf: bytes, cut: int):
