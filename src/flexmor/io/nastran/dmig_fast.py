@@ -48,22 +48,22 @@ def _fields(b, starts, offset, width=16):
 
 def _right_ints(b, pos, bad, width=16):
     """The integers right-aligned in the fields ``b[pos:pos + width]`` (spaces, then up to 9 digits)."""
-    acc = np.zeros(pos.size, dtype=np.int64)
+    bad |= np.any(sliding_window_view(b, width - 9)[pos] != 32, axis=1)
+    acc = np.zeros(pos.size, dtype=np.int32)
     seen = np.zeros(pos.size, dtype=bool)
-    for j in range(width):
+    for j in range(width - 9, width):
         c = np.take(b[j:], pos)
-        if j < width - 9:
-            bad |= c != 32
-            continue
         d = c - np.uint8(48)
         isd = d < 10
         bad |= ~isd & (seen | (c != 32))  # a space after a digit, or another byte
         seen |= isd
-        acc *= 1 + 9 * isd.view(np.uint8).astype(np.int64)
+        m = isd.view(np.uint8) * np.uint8(9)
+        m += 1
+        np.multiply(acc, m, out=acc, casting="unsafe")
         d *= isd
-        acc += d
+        np.add(acc, d, out=acc, casting="unsafe")
     bad |= ~isd  # the last byte is a digit
-    return acc
+    return acc.astype(np.int64)
 
 
 def _ints(b, starts, offset):
@@ -180,15 +180,19 @@ class _Scan:
             return False  # a column before its header: the card reader says so
         # the card owning each line: the last non-continuation line (before the chunk: carried over)
         owner = np.maximum.accumulate(np.where(~cont, np.arange(cont.size), -1))
-        owned = np.where(owner >= 0, np.isin(owner, heads[is_col]), self.owner_is_col)
+        col_line = np.zeros(cont.size + 1, dtype=bool)  # lines that are column cards (the last: before the chunk)
+        col_line[heads[is_col]] = True
+        col_line[-1] = self.owner_is_col
+        owned = col_line[owner]
         if heads.size:
             self.owner_is_col = bool(is_col[-1])
         entry = np.flatnonzero(cont & owned)
         before = np.searchsorted(entry, cols)  # entries of the chunk before each column card
         if np.any(length[entry] < 56):
             return False
-        tail = _fields(b, starts[entry], 56)
-        if np.any((tail != 32) & (np.arange(16) < (length[entry] - 56)[:, None])):
+        long = entry[length[entry] > 56]
+        tail = _fields(b, starts[long], 56)
+        if np.any((tail != 32) & (np.arange(16) < (length[long] - 56)[:, None])):
             return False  # an imaginary part or more fields
         g, c = _ints(b, starts[entry], 8), _ints(b, starts[entry], 24)
         v = _reals(b, starts[entry])
@@ -196,7 +200,7 @@ class _Scan:
             return False
         m, k = entry.size, self.k
         if k + m > self.rows.size:
-            return False  # cannot happen: the capacity counts every continuation line
+            return False  # cannot happen: the capacity bounds the entry lines
         g *= 8
         g += c
         self.rows[k:k + m], self.vals[k:k + m] = g, v
@@ -209,6 +213,9 @@ class _Scan:
         return True
 
     def result(self) -> dict | None:
+        for x in (self.rows, self.vals, self.lines):
+            if x is not None:
+                x.resize(self.k, refcheck=False)  # realloc: the unused capacity is returned, nothing copied
         starts = np.concatenate(self.col_starts + [np.array([self.k])]).astype(np.int64)
         codes = np.concatenate(self.col_codes + [np.zeros(0, np.int64)])
         names = np.concatenate(self.col_names + [np.zeros(0, str)])
@@ -243,13 +250,7 @@ def scan_dmig(path, *, lines: bool = False) -> dict | None:
     path = Path(path)
     check_text(path)
     with open(path, "rb") as f:
-        capacity, last = 1, b"\n"
-        for block in iter(lambda: f.read(_CHUNK), b""):
-            capacity += (last + block).count(b"\n*")
-            last = block[-1:]
-            if b"\t" in block:
-                return None
-        scan = _Scan(capacity, lines)
+        scan = _Scan(f.seek(0, 2) // 57 + 1, lines)  # an entry line has at least 56 characters and a line end
         f.seek(0)
         rest = b""
         while True:
@@ -263,8 +264,8 @@ def scan_dmig(path, *, lines: bool = False) -> dict | None:
             if cut == 0:
                 rest = buf
                 continue
-            if not scan.chunk(buf[:cut]):
-                return None
+            if b"\t" in buf or not scan.chunk(buf[:cut]):
+                return None  # tabs: the card reader expands them
             rest = buf[cut:]
     return scan.result()
 
