@@ -248,6 +248,13 @@ def dmig_matrices(path, mats, names):
         raise ReadError(path, f"DOF {g[0]}-{g[1]}: component must be 0 (scalar point) or 1..6")
     n = pairs.shape[0]
     idx = np.int32 if n < 2**31 - 1 else np.int64
+    if code.size and code[0] >= 0 and code[-1] < 64 * n + 2**20:  # moderate codes: a table, no binary searches
+        table = np.zeros(int(code[-1]) + 1, dtype=idx)
+        table[code] = np.arange(n, dtype=idx)
+        number = table.take
+    else:
+        def number(x):
+            return np.searchsorted(code, x).astype(idx)
     out = {}
     for role, name in names.items():
         if name not in mats:  # the same matrix in two roles
@@ -256,8 +263,7 @@ def dmig_matrices(path, mats, names):
         m = mats.pop(name)
         if np.iscomplexobj(m.values):
             raise ReadError(path, f"DMIG {name} is complex; flexmor needs real matrices")
-        parts = [np.searchsorted(code, m.rows).astype(idx), np.repeat(np.searchsorted(code, m.columns).astype(idx),
-                                                                    m.counts), m.values]
+        parts = [number(m.rows), np.repeat(number(m.columns), m.counts), m.values]
         del m  # no other reference: assemble() frees the parsed entries as it goes
         lower, upper = bool(np.any(parts[0] > parts[1])), bool(np.any(parts[0] < parts[1]))
         A = assemble(parts, (n, n), mirror=lower != upper)  # one triangle stored: mirror it

@@ -39,9 +39,12 @@ _MAX_INCLUDE_DEPTH = 20
 
 def num(tok: str) -> float:
     """A Nastran real: ``1.5``, ``1.5E-3``, ``1.5D-3``, ``1.5-3`` (implicit exponent), ``.5``."""
-    t = tok.strip().upper().replace("D", "E")
-    m = _IMPLICIT_EXP.match(t)
-    v = float(f"{m.group(1)}E{m.group(2)}" if m else t)
+    try:
+        v = float(tok)  # the common forms at once
+    except ValueError:
+        t = tok.strip().upper().replace("D", "E")
+        m = _IMPLICIT_EXP.match(t)
+        v = float(f"{m.group(1)}E{m.group(2)}" if m else t)
     if not np.isfinite(v):
         raise ValueError(tok)
     return v
