@@ -9,8 +9,11 @@ width, so NumPy can parse the whole buffer column by column instead of number by
   byte against the layout of the first line, its digits are accumulated into an exact integer
   mantissa and scaled by a power of ten; mantissa below 2**53 and power up to 1e22 make
   this one correctly rounded operation, the same double as ``strtod`` (Clinger's fast path);
-  the few other values are parsed by ``strtod``;
-* the two integers before it are accumulated column by column in the same way.
+  powers up to 1e54 and longer mantissas go through x87 extended precision with a check
+  that the result is not near a halfway point (:func:`_wide`); the few other values are
+  parsed by ``strtod``;
+* the two integers before it are accumulated column by column in the same way (bytes and
+  ``int32``, no masked NumPy operations: those are ten times slower than plain ones).
 
 :func:`fast_triplets` returns None whenever a line does not fit (another layout, comments,
 blank lines, a third integer ...); the caller then parses with a general parser and, for a
