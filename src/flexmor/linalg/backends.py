@@ -21,6 +21,10 @@ libraries are imported only when a backend is checked or used.
 ``auto`` (a choice of :class:`flexmor.linalg.context.SolverContext`, not a backend) picks the
 fastest available backend that supports the matrix (cholmod for real positive definite, then
 pardiso for real or complex, then scipy).
+
+pardiso and scipy choose a memory mode per factorization from their estimate
+(:mod:`flexmor.linalg.memory`): double precision in core, mixed precision (single-precision
+factor, solves refined in double) or, pardiso only, out of core.
 """
 
 from __future__ import annotations
@@ -38,9 +42,10 @@ import numpy as np
 import scipy.sparse as sp
 
 from ..errors import SolverError
+from .memory import MEMORY_FRACTION, OutOfCore, matrix_bytes, pardiso_estimates, plan_memory, refine
 
 __all__ = ["Backend", "BACKENDS", "Factorization", "OrderingCache", "SolverStats", "available_backends",
-           "memory_available", "estimate_memory", "check_memory", "describe_backends"]
+           "memory_available", "estimate_memory", "MEMORY_FRACTION", "describe_backends"]
 
 log = logging.getLogger(__name__)
 
@@ -55,6 +60,16 @@ class SolverStats:
         Factorizations and their wall time.
     solves, solve_columns, solve_seconds : int, int, float
         Calls of :meth:`Factorization.solve`, right-hand sides solved, and their wall time.
+    mixed, ooc : int
+        Factorizations in mixed precision and out of core (:mod:`flexmor.linalg.memory`).
+    refined_solves, refine_steps, refine_max_steps : int
+        Solves refined in double precision (mixed mode), their single-precision solves in
+        all and the most of one.
+    refine_residual : float
+        The largest backward error a refined solve ended with.
+    factor_reason : str
+        Why the last factorization in mixed precision or out of core was made so
+        (:func:`flexmor.linalg.memory.factor_record` summarizes these counts).
     """
 
     count: int = 0
@@ -62,6 +77,13 @@ class SolverStats:
     solves: int = 0
     solve_columns: int = 0
     solve_seconds: float = 0.0
+    mixed: int = 0
+    ooc: int = 0
+    refined_solves: int = 0
+    refine_steps: int = 0
+    refine_max_steps: int = 0
+    refine_residual: float = 0.0
+    factor_reason: str = ""
 
 
 class Factorization:
@@ -84,6 +106,8 @@ class Factorization:
         the backend reports them (pardiso), else None. For ``K - s M`` the number of
         negative eigenvalues is the number of eigenvalues of ``(K, M)`` below ``s``
         (Sylvester's law of inertia).
+    memory : MemoryPlan or None
+        The memory mode and the estimates of the backends that choose one (pardiso, scipy).
     """
 
     backend = "none"
@@ -95,8 +119,11 @@ class Factorization:
         self.seconds = 0.0
         self.inertia = None
         self.memory_estimate = None
+        self.memory = None
+        self._A = None
 
-    def _solve(self, b: np.ndarray) -> np.ndarray:  # pragma: no cover - abstract
+    def _solve_factor(self, b: np.ndarray) -> np.ndarray:  # pragma: no cover - abstract
+        """Solve with the factor itself (2-D ``b``, real for a real factor)."""
         raise NotImplementedError
 
     def solve(self, b) -> np.ndarray:
@@ -119,6 +146,27 @@ class Factorization:
         x = self._solve(b.reshape(b.shape[0], -1))
         return x.reshape(-1) if one else x
 
+    def _plan(self, solver, A, estimates: dict) -> None:
+        """Choose the memory mode (:func:`flexmor.linalg.memory.plan_memory`); the mixed mode
+        keeps ``A`` in double precision for the residuals of its refined solves."""
+        self.memory = plan_memory(solver, self.backend, A.shape[0], estimates)
+        self.memory_estimate = self.memory.estimate
+        if self.memory.mode == "mixed":
+            self._A = A.tocsr().astype(self.dtype, copy=False)
+            self._anorm = float(np.linalg.norm(self._A.data))
+            self._tol = solver.refine_tol
+
+    def _solve(self, b: np.ndarray) -> np.ndarray:
+        if self._A is None:
+            return self._solve_factor(b)
+        x, steps, residual = refine(self._A, self._solve_factor, b, anorm=self._anorm, tol=self._tol)
+        st = self.stats
+        st.refined_solves += 1
+        st.refine_steps += steps
+        st.refine_max_steps = max(st.refine_max_steps, steps)
+        st.refine_residual = max(st.refine_residual, residual)
+        return x
+
     __call__ = solve
 
 
@@ -129,28 +177,25 @@ class _ScipyLU(Factorization):
         super().__init__(A, solver.stats)
         from scipy.sparse.linalg import splu
 
-        self.memory_estimate = estimate_memory(A, "scipy")
-        check_memory(self.memory_estimate, "scipy", A.shape[0])
+        self.dtype = np.dtype(np.complex128 if np.iscomplexobj(A.data) else np.float64)
+        est = estimate_memory(A, "scipy")
+        self._plan(solver, A, {"double": est, "mixed": est / 2 + matrix_bytes(A), "ooc": None})
         opts = {}
         if symmetric:
             opts = dict(permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0, options={"SymmetricMode": True})
+        C = sp.csc_matrix(A)
+        if self.memory.mode == "mixed":  # the factor in single precision
+            C = C.astype(np.complex64 if self.dtype.kind == "c" else np.float32)
         try:
-            self._lu = splu(sp.csc_matrix(A), **opts)
+            self._lu = splu(C, **opts)
         except RuntimeError as exc:
             raise SolverError(f"SuperLU failed: {exc}; the matrix is singular (a free body needs a shift)") from None
         except MemoryError:
             raise SolverError("SuperLU ran out of memory; use a faster solver (backend pardiso)",
                               params=("backend",)) from None
-        self.dtype = self._lu.U.dtype
 
-    def _solve(self, b):
-        if np.iscomplexobj(b) and not np.iscomplexobj(self._lu.U.data):
-            return self._lu.solve(np.ascontiguousarray(b.real)) + 1j * self._lu.solve(np.ascontiguousarray(b.imag))
-        return self._lu.solve(np.asarray(b, dtype=np.result_type(b, self._lu.U.dtype)))
-
-
-#: Refuse a factorization whose estimate exceeds this share of the available memory.
-MEMORY_FRACTION = 0.9
+    def _solve_factor(self, b):
+        return self._lu.solve(np.asarray(b, dtype=self._lu.U.dtype))
 
 
 def memory_available() -> float | None:
@@ -179,22 +224,6 @@ def estimate_memory(A, backend: str) -> float | None:
     per_row = max(A.nnz / max(n, 1) / 73.5, 0.1)
     itemsize = 2.0 if np.iscomplexobj(A.data) else 1.0
     return 3.7e9 * (n / 94500.0) ** 1.6 * per_row * itemsize
-
-
-def check_memory(estimate: float | None, backend: str, n: int) -> None:
-    """Raise :class:`SolverError` when ``estimate`` bytes would not fit into the available memory."""
-    avail = memory_available()
-    if estimate is None or avail is None:
-        return
-    log.debug("factorization of n=%d with %s: estimate %.0f MB, available %.0f MB", n, backend,
-              estimate / 2**20, avail / 2**20)
-    if estimate > MEMORY_FRACTION * avail:
-        others = [b for b in available_backends() if b != backend]
-        hint = (f"try another backend ({', '.join(others)}), " if others else "") + \
-            "a distributed backend on a machine with more memory, or a smaller model"
-        raise SolverError(
-            f"factorizing {n} equations with {backend} needs about {estimate / 2**20:.0f} MB, "
-            f"but only {avail / 2**20:.0f} MB of memory are available; {hint}")
 
 
 @functools.cache
@@ -264,7 +293,9 @@ class _Pardiso(Factorization):
     Matrix types: real symmetric positive definite (2), real symmetric indefinite (-2,
     Bunch-Kaufman), complex symmetric (6, e.g. ``K - w^2 M + i w D``), real (11) and complex
     (13) unsymmetric. Symmetric indefinite types use symmetric weighted matching and scaling
-    (iparm 11/13), recommended by Intel for saddle-point-like and shifted matrices.
+    (iparm 11/13), recommended by Intel for saddle-point-like and shifted matrices. After the
+    analysis, the memory mode is chosen from its estimate; the mixed (``iparm[27] = 1``) and
+    out-of-core (``iparm[59] = 2``) modes analyse again with the ordering just computed.
     """
 
     backend = "pardiso"
@@ -308,14 +339,28 @@ class _Pardiso(Factorization):
         if self._perm is None:
             self._perm = np.zeros(self._n, dtype=np.int32)
         self.reused_ordering = ip[4] == 1
+        self._ooc = None
         try:
             self._call(11, None, None, 0)  # analysis: ordering, symbolic factorization, memory
             if not self.reused_ordering:
                 orderings.remember(key, self._perm)
-            kb = max(int(self._iparm[14]), int(self._iparm[15]) + int(self._iparm[16]))
-            self.memory_estimate = 1024.0 * kb
-            check_memory(self.memory_estimate, "pardiso", self._n)
-            self._call(22, None, None, 0)  # numerical factorization
+            self._plan(solver, A, pardiso_estimates(ip, A))
+            if self.memory.mode != "double":
+                self._release()
+                ip[4] = 1  # the ordering just computed
+                if self.memory.mode == "mixed":
+                    ip[27] = 1  # single-precision values, factor and solves
+                    self._data = self._data.astype(np.complex64 if cplx else np.float32)
+                else:
+                    ip[59] = 2  # out of core, in memory at most what fits (no more than in core)
+                    self._ooc = OutOfCore(min(self.memory.usable or np.inf, self.memory.estimates["double"]),
+                                          solver.scratch_dir)
+                self._call(11, None, None, 0)
+            if self._ooc is None:
+                self._call(22, None, None, 0)  # numerical factorization
+            else:
+                with self._ooc.environment():  # read by MKL in this phase only
+                    self._call(22, None, None, 0)
         except SolverError:
             self._release()
             raise
@@ -340,18 +385,20 @@ class _Pardiso(Factorization):
             what = _PARDISO_ERRORS.get(err.value, "unknown error")
             raise SolverError(f"PARDISO phase {phase} failed with error {err.value}: {what}")
 
-    def _solve(self, b):
-        b = np.asfortranarray(b, dtype=np.result_type(b.dtype, self.dtype))
+    def _solve_factor(self, b):
         if np.iscomplexobj(b) and self.dtype.kind != "c":  # handled by Factorization.solve
             raise SolverError("complex right-hand side for a real PARDISO factorization")
+        b = np.asfortranarray(b, dtype=self._data.dtype)
         x = np.zeros_like(b, order="F")
         self._call(33, b, x, b.shape[1])
         return x
 
     def _release(self):
         if np.any(self._pt):
-            self._call(-1, None, None, 0)  # free all internal memory of this handle
+            self._call(-1, None, None, 0)  # free all internal memory of this handle (and the OOC files)
             self._pt[:] = 0
+        if self._ooc is not None:
+            self._ooc.remove()
 
     def __del__(self):
         try:
@@ -374,7 +421,7 @@ class _Cholmod(Factorization):
         except CholmodNotPositiveDefiniteError as exc:
             raise SolverError(f"CHOLMOD: matrix is not positive definite ({exc})") from None
 
-    def _solve(self, b):
+    def _solve_factor(self, b):
         return self._f(b)
 
 

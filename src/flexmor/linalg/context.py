@@ -5,6 +5,7 @@ Every function that factorizes or computes eigenpairs takes ``solver: SolverCont
 
 * the backend (a name of :data:`flexmor.linalg.backends.BACKENDS` or ``auto``, validated when
   the context is made; the backends available for ``auto`` are determined once per context),
+* the memory mode of factorizations and the memory they may use (:mod:`flexmor.linalg.memory`),
 * the statistics of its factorizations and solves (:class:`SolverStats`), so that a caller
   reads the solver share of its own computation from the context it passed,
 * the PARDISO ordering cache (:class:`OrderingCache`, reused across shifted matrices of one
@@ -27,7 +28,9 @@ from dataclasses import dataclass, field
 from typing import Callable
 
 from ..errors import OptionError, SolverError
+from . import backends as _backends
 from .backends import BACKENDS, OrderingCache, SolverStats
+from .memory import FACTOR_MEMORY, REFINE_TOL
 from .distributed import MPILayout, layout
 
 __all__ = ["SolverContext", "track", "step", "SolverStats", "OrderingCache", "EigenPolicy", "DENSE_LIMIT", "LANCZOS_MAX_K",
@@ -99,6 +102,18 @@ class SolverContext:
     progress : callable, optional
         ``progress(iterable, total, desc=None)``: shown the long steps of the computation (see
         :func:`track`); None shows nothing.
+    factor_memory : {'auto', 'double', 'mixed', 'ooc'}
+        Memory mode of the factorizations (:mod:`flexmor.linalg.memory`): ``auto`` takes double
+        precision in core when its estimate fits, else mixed precision, else out of core;
+        ``double``, ``mixed`` (pardiso, scipy) and ``ooc`` (pardiso) force one.
+    memory_limit : float, optional
+        Bytes of memory the factorizations may count on (None: the machine's available memory,
+        ``MemAvailable``); a factorization uses at most
+        :data:`~flexmor.linalg.memory.MEMORY_FRACTION` of it.
+    refine_tol : float
+        Backward error to which the mixed mode refines each solve (default 1e-12).
+    scratch_dir : str or Path, optional
+        Where out-of-core factorizations write their temporary files (None: ``$TMPDIR``).
 
     Attributes
     ----------
@@ -110,13 +125,18 @@ class SolverContext:
     Raises
     ------
     OptionError
-        An unknown backend name (the message lists the allowed ones).
+        An unknown backend name or memory mode (the message lists the allowed ones), a
+        memory limit or refinement tolerance that is not positive.
     """
 
     backend: str = "auto"
     eigen: EigenPolicy = field(default_factory=EigenPolicy)
     mpi: MPILayout | None = None
     progress: Callable | None = field(default=None, repr=False)
+    factor_memory: str = "auto"
+    memory_limit: float | None = None
+    refine_tol: float = REFINE_TOL
+    scratch_dir: str | None = None
     stats: SolverStats = field(default_factory=SolverStats, init=False)
     orderings: OrderingCache = field(default_factory=OrderingCache, init=False, repr=False)
     _available: tuple | None = field(default=None, init=False, repr=False)
@@ -126,6 +146,19 @@ class SolverContext:
         allowed = ["auto", *BACKENDS]
         if self.backend not in allowed:
             raise OptionError(f"backend={self.backend!r} is not allowed; choose one of: {', '.join(allowed)}")
+        if self.factor_memory not in FACTOR_MEMORY:
+            raise OptionError(f"factor_memory={self.factor_memory!r} is not allowed; choose one of: "
+                              f"{', '.join(FACTOR_MEMORY)}", params=("factor_memory",))
+        if self.memory_limit is not None and not self.memory_limit > 0:
+            raise OptionError(f"memory_limit must be a positive number of bytes, got {self.memory_limit!r}",
+                              params=("memory_limit",))
+        if not 0 < self.refine_tol < 1:
+            raise OptionError(f"refine_tol must lie in (0, 1), got {self.refine_tol!r}", params=("refine_tol",))
+
+    def memory_available(self) -> float | None:
+        """Bytes of memory the factorizations may count on: ``memory_limit``, else the machine's
+        available memory (:func:`flexmor.linalg.backends.memory_available`), or None if unknown."""
+        return _backends.memory_available() if self.memory_limit is None else float(self.memory_limit)
 
     def layout(self) -> MPILayout:
         """The MPI layout of the ``petsc`` backend (this process' rank and size unless given)."""

@@ -4,7 +4,9 @@ Every method obtains its solves from ``factorize(A, solver=...)`` and never call
 library itself, so a faster backend speeds up every method at once. A factorization is
 computed once and reused for any number of right-hand sides (1-D or 2-D, real or complex).
 The backends are listed in :mod:`flexmor.linalg.backends`; the
-:class:`~flexmor.linalg.context.SolverContext` chooses among them and counts the work.
+:class:`~flexmor.linalg.context.SolverContext` chooses among them and counts the work. A
+factorization whose double-precision factor does not fit into memory is computed in mixed
+precision or out of core (:mod:`flexmor.linalg.memory`, ``SolverContext(factor_memory=...)``).
 """
 
 from __future__ import annotations
@@ -39,8 +41,10 @@ def factorize(A, *, solver: SolverContext | None = None, symmetric: bool = True,
         over MPI ranks (:class:`flexmor.linalg.distributed.PartitionedMatrix`) is factorized by
         the ``petsc`` backend.
     solver : SolverContext, optional
-        The backend choice (``auto``: the fastest available one that supports ``A``), and
-        where the factorization and its solves are counted. None: a fresh default context.
+        The backend choice (``auto``: the fastest available one that supports ``A``), the
+        memory mode (``factor_memory``; mixed precision needs pardiso or scipy, out of core
+        pardiso, which ``auto`` then picks), and where the factorization and its solves are
+        counted. None: a fresh default context.
     symmetric : bool
         ``A`` is (complex) symmetric; enables symmetric orderings and factorizations.
     positive : bool
@@ -70,11 +74,16 @@ def factorize(A, *, solver: SolverContext | None = None, symmetric: bool = True,
     if is_complex and not BACKENDS[name].complex:
         log.info("backend %s has no complex support; using scipy", name)
         name = "scipy"
+    name = _memory_backend(name, solver)
     t0 = time.perf_counter()
     F = BACKENDS[name].factorize(A, solver, symmetric=symmetric, positive=positive)
     F.seconds = time.perf_counter() - t0
-    solver.stats.count += 1
-    solver.stats.seconds += F.seconds
+    stats = solver.stats
+    stats.count += 1
+    stats.seconds += F.seconds
+    if F.memory is not None and F.memory.mode != "double":
+        setattr(stats, F.memory.mode, getattr(stats, F.memory.mode) + 1)
+        stats.factor_reason = F.memory.reason
     log.debug("factorized n=%d nnz=%d with %s in %.3f s", A.shape[0], A.nnz, name, F.seconds)
     if check:
         rng = np.random.default_rng(0)
@@ -87,3 +96,22 @@ def factorize(A, *, solver: SolverContext | None = None, symmetric: bool = True,
                 "a free-free body needs a shift or reference conditions"
             )
     return F
+
+
+#: The backends that have each forced memory mode (:mod:`flexmor.linalg.memory`).
+_MODE_BACKENDS = {"mixed": ("pardiso", "scipy"), "ooc": ("pardiso",)}
+
+
+def _memory_backend(name: str, solver: SolverContext) -> str:
+    """``name``, or for a memory mode it lacks the first available backend that has it (``auto``)."""
+    wanted = _MODE_BACKENDS.get(solver.factor_memory)
+    if wanted is None or name in wanted:
+        return name
+    if solver.backend == "auto":
+        for other in wanted:
+            if other in solver.available():
+                log.info("factor_memory=%r: backend %s instead of %s", solver.factor_memory, other, name)
+                return other
+    raise SolverError(f"factor_memory={solver.factor_memory!r} needs backend {' or '.join(wanted)}"
+                      + ("" if "pardiso" in solver.available() else " (pardiso: pip install flexmor[fast])")
+                      + f", not {name}", params=("factor_memory", "backend"))

@@ -219,7 +219,7 @@ class PetscFactorization(Factorization):
     def _factor_code(pc) -> int:
         return int(pc.getFactorMatrix().getMumpsInfog(1))
 
-    def _solve(self, b: np.ndarray) -> np.ndarray:
+    def _solve_factor(self, b: np.ndarray) -> np.ndarray:
         PETSc = _petsc()
         r0, r1 = self.rows
         k = b.shape[1]
