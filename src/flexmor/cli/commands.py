@@ -71,10 +71,24 @@ def _check_new(path, args) -> Path:
 
 
 def _solver(args):
-    """The solver context of one command: the backend of ``--backend``, the progress callback."""
+    """The solver context of one command: the backend of ``--backend``, the memory of
+    ``--factor-memory`` and ``--memory-limit`` (out-of-core files beside ``-o FILE``), the
+    progress callback."""
     from ..linalg.context import SolverContext
 
-    return SolverContext(backend=args.backend, progress=_progress(args))
+    out = getattr(args, "output_file", None)
+    return SolverContext(backend=args.backend, progress=_progress(args), factor_memory=args.factor_memory,
+                         memory_limit=args.memory_limit, scratch_dir=str(Path(out).resolve().parent) if out else None)
+
+
+def _factor_note(out: dict, solver) -> str:
+    """Record the memory modes of the factorizations of ``solver`` in ``out["factor"]``; the line
+    that says which were not in double precision in core ("" when all were)."""
+    from ..linalg.memory import describe_factor, factor_record
+
+    out["factor"] = factor_record(solver.stats)
+    text = describe_factor(solver.stats)
+    return f"factor: {text}" if text else ""
 
 
 def _fmt(x, spec=".3e"):
@@ -209,6 +223,7 @@ def cmd_info(args) -> int:
         out["reference"] = dict(compare_modes(model, read_frd(args.reference), solver=solver),
                                 file=str(args.reference))
     out["timings"] = {"read": t_read}
+    factor = _factor_note(out, solver)
     if args.json:
         _emit_json(out)
         return 0
@@ -232,6 +247,8 @@ def cmd_info(args) -> int:
         print(f"\n mode   {args.reference} [Hz]   model [Hz]   rel. diff   MAC")
         for i, row in enumerate(zip(ref["frequencies_hz"], ref["model_frequencies_hz"], ref["rel_diff"], ref["mac"]), 1):
             print(f"{i:5d}   {row[0]:14.6f}   {row[1]:14.6f}   {row[2]:9.2e}   {row[3]:.6f}")
+    if factor:
+        print(factor)
     return 0
 
 
@@ -260,9 +277,10 @@ def cmd_reduce(args) -> int:
     model, t_read, given_band = _read_model(args, couplings)
     ports = make_ports(model, args.input, args.output)
     band = None if args.no_error else (given_band or DEFAULT_BAND)
+    solver = _solver(args)
     red, res = reduce_and_judge(model, args.method, args.order, ports, band=band, method_band=given_band,
                                 n_freq=args.n_freq, grid_tol=args.grid_tol, full_frf=args.full_frf,
-                                cache=not args.no_cache, solver=_solver(args), progress=_progress(args, "full FRF"),
+                                cache=not args.no_cache, solver=solver, progress=_progress(args, "full FRF"),
                                 tol=args.tol, tol_measure=args.tol_measure, inertia_loads=args.inertia_loads,
                                 **options)
     res["timings"]["read"] = t_read
@@ -277,6 +295,7 @@ def cmd_reduce(args) -> int:
     path = _check_new(args.output_file or f"{model.name}_{args.method}_{red.order}.h5", args)
     on_root(write_reduced, red, path)  # under MPI: written once, by rank 0
     res["file"] = str(path)
+    factor = _factor_note(res, solver)
     if args.json:
         _emit_json(res)
         return 0
@@ -293,6 +312,8 @@ def cmd_reduce(args) -> int:
         _table([res])
     fr = res["frequencies_hz"]
     print("reduced frequencies [Hz]: " + " ".join(f"{f:.4g}" for f in fr[:12]) + (" ..." if len(fr) > 12 else ""))
+    if factor:
+        print(factor)
     print(f"written {path}")
     return 0
 

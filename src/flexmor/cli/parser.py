@@ -15,6 +15,7 @@ import argparse
 from .. import __version__
 from ..analysis.frequency import MEASURES, TOL_MEASURES
 from ..io import EXPORT_FORMATS
+from ..linalg.memory import FACTOR_MEMORY
 from ..options import DEFAULT_BAND, option_fields
 from ..tolerance import tol_methods
 from .commands import cmd_compare, cmd_demo, cmd_export, cmd_info, cmd_reduce, cmd_report
@@ -65,12 +66,34 @@ def flag_names(p) -> dict:
     return names
 
 
+_UNITS = {"": 1, "K": 2**10, "M": 2**20, "G": 2**30, "T": 2**40}
+
+
+def memory_size(text: str) -> float:
+    """Bytes of ``--memory-limit``: a number with an optional unit K, M, G or T (powers of 1024)."""
+    t = text.strip().upper().removesuffix("B").removesuffix("I")
+    unit = t[-1:] if t[-1:] in _UNITS and t[-1:] else ""
+    try:
+        value = float(t[:len(t) - len(unit)]) * _UNITS[unit]
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a memory size (e.g. 8G, 500M, 2e9)") from None
+    if not value > 0:
+        raise argparse.ArgumentTypeError(f"{text!r}: the memory limit must be positive")
+    return value
+
+
 def _add_model_args(p, damping=True):
     p.add_argument("model", help="main file of the FE export (format from the suffix)")
     p.add_argument("--format", help="override the format chosen from the suffix")
     p.add_argument("--mesh", metavar="FILE", help=_MESH_HELP)
     p.add_argument("--backend", default="auto",
                    help="sparse solver: auto, pardiso, cholmod, scipy, petsc (MPI: mpirun -n P flexmor ...)")
+    p.add_argument("--factor-memory", choices=FACTOR_MEMORY, default="auto",
+                   help="memory mode of the factorizations: double (in core), mixed (single-precision factor, "
+                        "solves refined in double; pardiso, scipy), ooc (out of core, files beside the output or "
+                        "in $TMPDIR; pardiso); auto: double if it fits, else mixed, else ooc (default auto)")
+    p.add_argument("--memory-limit", type=memory_size, metavar="SIZE",
+                   help="memory the factorizations may count on, e.g. 16G (default: the available memory)")
     p.add_argument("--json", action="store_true", help="print one JSON object on stdout")
     p.add_argument("--select", action="append", default=[], metavar="NAME=KIND:NUMBERS",
                    help="add node set NAME: set:OTHER, box:x0,y0,z0,x1,y1,z1, plane:x0,y0,z0,nx,ny,nz[,tol], "

@@ -1,0 +1,183 @@
+"""Factorizations beyond the memory of the machine: mixed precision and out of core behind factorize()."""
+
+import gc
+import json
+
+import numpy as np
+import pytest
+
+import flexmor.linalg.memory as memory
+from flexmor.cli import main
+from flexmor.errors import OptionError, SolverError
+from flexmor.linalg import SolverContext, available_backends, factorize
+from flexmor.linalg.memory import MEMORY_FRACTION, describe_factor, factor_record
+from flexmor.models import cantilever
+from flexmor.ports import make_ports
+from flexmor.reduction import reduce
+
+BACKENDS = available_backends()
+needs_pardiso = pytest.mark.skipif("pardiso" not in BACKENDS, reason="out of core needs the pardiso backend "
+                                   "(pip install flexmor[fast]); mixed precision also runs with scipy")
+MIXED = [b for b in ("pardiso", "scipy") if b in BACKENDS]
+
+
+@pytest.fixture(scope="module")
+def beam():
+    return cantilever(n=4)  # 3,000 equations, clamped
+
+
+def _matrices(model):
+    """The stiffness (real SPD) and the complex symmetric K - w^2 M + i w D at 300 Hz."""
+    w = 2 * np.pi * 300.0
+    return {"real": (model.K.tocsr(), True),
+            "complex": ((model.K - w**2 * model.M + 1j * w * 1e-5 * model.K).tocsr(), False)}
+
+
+def _rhs(n, k=3):
+    return np.random.default_rng(7).standard_normal((n, k))
+
+
+@pytest.mark.parametrize("kind", ["real", "complex"])
+@pytest.mark.parametrize("backend", MIXED)
+def test_mixed_precision_solves_equal_the_double_ones(beam, backend, kind):
+    A, positive = _matrices(beam)[kind]
+    B = _rhs(A.shape[0])
+    X0 = factorize(A, solver=SolverContext(backend), positive=positive).solve(B)
+    solver = SolverContext(backend, factor_memory="mixed")
+    F = factorize(A, solver=solver, positive=positive)
+    assert F.memory.mode == "mixed" and F.backend == backend
+    X = F.solve(B)
+    assert np.linalg.norm(X - X0) / np.linalg.norm(X0) < 1e-10
+    x = F.solve(B[:, 0] + 1j * B[:, 1])  # a complex right-hand side of a real factor too
+    assert np.linalg.norm(x - (X0[:, 0] + 1j * X0[:, 1])) / np.linalg.norm(X0[:, :2]) < 1e-10
+    rec = factor_record(solver.stats)
+    # the check's solve too; a complex right-hand side of a real factor is two solves
+    assert rec["mixed"] == 1 and rec["double"] == 0 and rec["refined_solves"] == (4 if kind == "real" else 3)
+    assert 2 <= rec["refine_max_steps"] <= 12 and rec["refine_residual"] <= 1e-12
+    assert "mixed precision (1 of 1 factorizations)" in describe_factor(solver.stats)
+
+
+@needs_pardiso
+@pytest.mark.parametrize("kind", ["real", "complex"])
+def test_out_of_core_solves_equal_the_in_core_ones_and_leave_no_files(beam, kind, tmp_path):
+    A, positive = _matrices(beam)[kind]
+    B = _rhs(A.shape[0])
+    X0 = factorize(A, solver=SolverContext("pardiso"), positive=positive).solve(B)
+    solver = SolverContext(factor_memory="ooc", scratch_dir=str(tmp_path))
+    F = factorize(A, solver=solver, positive=positive)
+    assert F.memory.mode == "ooc" and F.backend == "pardiso"
+    (work,) = tmp_path.iterdir()  # one directory of this factorization, holding the factor files
+    assert work.name.startswith("flexmor-ooc-") and any(work.iterdir())
+    X = F.solve(B)
+    assert np.linalg.norm(X - X0) / np.linalg.norm(X0) < 1e-10
+    assert factor_record(solver.stats)["ooc"] == 1
+    del F
+    gc.collect()
+    assert list(tmp_path.iterdir()) == []
+
+
+@needs_pardiso
+def test_out_of_core_files_are_removed_when_the_factorization_fails(beam, tmp_path, monkeypatch):
+    """An in-core share below what MKL needs: error -9 in the numerical phase, and no files left."""
+    monkeypatch.setattr(memory, "OOC_MIN_SHARE", 1e-4)
+    est = factorize(beam.K, solver=SolverContext("pardiso"), positive=True).memory.estimates
+    limit = 1.01 * est["ooc"] / MEMORY_FRACTION  # the permanent data and almost nothing for the factor
+    solver = SolverContext(factor_memory="ooc", memory_limit=limit, scratch_dir=str(tmp_path))
+    with pytest.raises(SolverError, match="out-of-core"):
+        factorize(beam.K, solver=solver, positive=True)
+    gc.collect()
+    assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize("backend", MIXED)
+def test_auto_takes_the_first_mode_that_fits_the_memory_limit(beam, backend, tmp_path):
+    A, positive = _matrices(beam)["complex"]
+    b = _rhs(A.shape[0], 1)[:, 0]
+    F = factorize(A, solver=SolverContext(backend), positive=positive)
+    est = F.memory.estimates
+    assert F.memory.mode == "double" and est["mixed"] < est["double"]
+    x0 = F.solve(b)
+    between = (est["mixed"] + est["double"]) / 2 / MEMORY_FRACTION
+    G = factorize(A, solver=SolverContext(backend, memory_limit=between), positive=positive)
+    assert G.memory.mode == "mixed" and "the double-precision factor needs" in G.memory.reason
+    assert np.linalg.norm(G.solve(b) - x0) / np.linalg.norm(x0) < 1e-10
+    if backend == "pardiso":
+        assert est["ooc"] < est["mixed"]
+        below = (est["ooc"] + est["mixed"]) / 2 / MEMORY_FRACTION
+        H = factorize(A, solver=SolverContext(memory_limit=below, scratch_dir=str(tmp_path)), positive=positive)
+        assert H.memory.mode == "ooc"
+        assert np.linalg.norm(H.solve(b) - x0) / np.linalg.norm(x0) < 1e-10
+        del H
+        gc.collect()
+        assert list(tmp_path.iterdir()) == []
+    tiny = 0.5 * min(v for v in est.values() if v) / MEMORY_FRACTION
+    with pytest.raises(SolverError, match=rf"with {backend} needs about \d+ MB in double precision, in mixed "
+                       r"precision \d+ MB.*, but only \d+ MB of memory are available"):
+        factorize(A, solver=SolverContext(backend, memory_limit=tiny), positive=positive)
+
+
+@needs_pardiso
+def test_krylov_with_mixed_precision_gives_the_same_reduced_body():
+    model = cantilever(n=4).with_rayleigh(0.0, 1e-6)
+    spec = ["TIP_CENTER:x", "TIP_CENTER:y", "TIP_CENTER:z"]  # one symmetric input: deflation by rounding noise
+    ports = make_ports(model, spec, spec)
+    ref, _ = reduce(model, "krylov", 12, ports, band=(10.0, 3000.0), solver=SolverContext())
+    solver = SolverContext(factor_memory="mixed")
+    red, _ = reduce(model, "krylov", 12, ports, band=(10.0, 3000.0), solver=solver)
+    assert solver.stats.mixed == solver.stats.count >= 1 and solver.stats.refined_solves > 0
+    np.testing.assert_allclose(red.frequencies_hz(), ref.frequencies_hz(), rtol=1e-9)
+
+
+@pytest.mark.parametrize("backend", MIXED)
+def test_mixed_precision_refuses_an_ill_conditioned_matrix(beam, backend):
+    """K - s M with s within 1e-9 of the first eigenvalue: cond ~ 1e12, beyond a single-precision factor."""
+    from flexmor.linalg import eigenmodes
+
+    lam, _ = eigenmodes(beam.K, beam.M, 1)
+    A = (beam.K - lam[0] * (1 + 1e-9) * beam.M).tocsr()
+    with pytest.raises(SolverError, match="too ill-conditioned for a single-precision factor; set "
+                                          "factor_memory to 'ooc'"):
+        factorize(A, solver=SolverContext(backend, factor_memory="mixed"), check=False).solve(np.ones(A.shape[0]))
+
+
+def test_a_mode_the_backend_lacks_is_refused(beam):
+    with pytest.raises(SolverError, match="factor_memory='ooc' needs backend pardiso.*, not scipy"):
+        factorize(beam.K, solver=SolverContext("scipy", factor_memory="ooc"), positive=True)
+
+
+def test_solver_context_checks_the_memory_options():
+    with pytest.raises(OptionError, match="factor_memory='fast' is not allowed; choose one of: auto, double, "
+                                          "mixed, ooc"):
+        SolverContext(factor_memory="fast")
+    with pytest.raises(OptionError, match="memory_limit must be a positive number of bytes"):
+        SolverContext(memory_limit=0)
+    with pytest.raises(OptionError, match="refine_tol must lie in"):
+        SolverContext(refine_tol=2.0)
+    assert SolverContext(memory_limit=5e9).memory_available() == 5e9
+
+
+@needs_pardiso
+def test_cli_reduce_records_the_memory_mode(capsys, tmp_path):
+    from conftest import CCX
+
+    model = str(CCX / "beam8_clamped_mat.sti")
+    base = ["reduce", model, "--method", "krylov", "--order", "6", "--input", "TIP:y", "--no-cache", "--json"]
+
+    def run(*extra, name):
+        assert main(base + ["-o", str(tmp_path / name), *extra]) == 0
+        return json.loads(capsys.readouterr().out)
+
+    ref = run(name="double.h5")
+    assert ref["factor"]["double"] >= 1 and ref["factor"]["mixed"] == 0 and ref["factor"]["reason"] is None
+    out = run("--factor-memory", "mixed", name="mixed.h5")
+    assert out["factor"]["mixed"] >= 1 and out["factor"]["refine_residual"] <= 1e-12
+    assert "factor_memory='mixed'" in out["factor"]["reason"]
+    out = run("--factor-memory", "ooc", name="ooc.h5")
+    assert out["factor"]["ooc"] >= 1
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["double.h5", "mixed.h5", "ooc.h5"]  # no OOC files
+    assert main(base[:-1] + ["-o", str(tmp_path / "x.h5"), "--memory-limit", "100K"]) == 2
+    err = capsys.readouterr().err
+    assert "needs about 1 MB in double precision" in err and "Traceback" not in err
+    with pytest.raises(SystemExit):
+        main(base + ["--memory-limit", "lots"])
+    assert "--memory-limit: 'lots' is not a memory size" in capsys.readouterr().err
