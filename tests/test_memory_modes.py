@@ -6,10 +6,9 @@ import json
 import numpy as np
 import pytest
 
-import flexmor.linalg.memory as memory
 from flexmor.cli import main
 from flexmor.errors import OptionError, SolverError
-from flexmor.linalg import SolverContext, available_backends, factorize
+from flexmor.linalg import SolverContext, available_backends, factorize, memory
 from flexmor.linalg.memory import MEMORY_FRACTION, describe_factor, factor_record
 from flexmor.models import cantilever
 from flexmor.ports import make_ports

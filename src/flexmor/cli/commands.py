@@ -159,7 +159,8 @@ def _info_backends(args) -> int:
             (", SPD only" if r["positive_only"] else "")
         print(f"{r['name']:<8} {flags:<32} {r['description']}")
     if avail is not None:
-        print(f"memory available: {avail / 2**20:.0f} MB (factorizations that would not fit are refused)")
+        print(f"memory available: {avail / 2**20:.0f} MB (factorizations that would not fit in double precision "
+              "run in mixed precision or out of core, --factor-memory)")
     return 0
 
 

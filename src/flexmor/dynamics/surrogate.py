@@ -49,7 +49,7 @@ from ..basis import extend_orthonormal
 from .frf import ShiftedMatrices, angular_frequency
 from ..errors import check_choice
 from ..linalg import factorize
-from ..linalg.backends import MEMORY_FRACTION, memory_available
+from ..linalg.backends import MEMORY_FRACTION
 from ..linalg.context import SolverContext, as_solver, step
 
 __all__ = ["Surrogate", "DEFAULT_SURROGATE_TOL"]
@@ -99,7 +99,7 @@ class Surrogate:
     check_solver : {'auto', 'direct', 'iterative'}
         How the checks solve the full model: a complex factorization, or the iterative solver
         on the pre-pass factorization; ``auto`` is direct when twice the memory of the
-        pre-pass factorization fits into the available memory.
+        pre-pass factorization fits into the available memory (``solver.memory_available()``).
     candidates : array_like
         Frequencies (Hz) where the greedy checks look for the largest residual (e.g. the error
         grid's initial points over the band and its peaks, or a quadrature's nodes).
@@ -117,7 +117,7 @@ class Surrogate:
         F0 = factorization or factorize((model.K - sigma * model.M).tocsr(), solver=solver, positive=sigma < 0)
         self._F0 = F0
         if check_solver == "auto":
-            est, avail = F0.memory_estimate, memory_available()
+            est, avail = F0.memory_estimate, solver.memory_available()
             check_solver = "iterative" if est and avail and 2 * est > MEMORY_FRACTION * avail else "direct"
         self.check_solver = check_solver
         blocks = [phi, F0.solve(self.B)]

@@ -44,9 +44,9 @@ import numpy as np
 
 from ..errors import SolverError
 
-__all__ = ["FACTOR_MEMORY", "MODE_NAMES", "MEMORY_FRACTION", "REFINE_TOL", "REFINE_MAX_ITER", "MemoryPlan",
-           "plan_memory", "refusal", "pardiso_estimates", "matrix_bytes", "refine", "OutOfCore", "factor_record",
-           "describe_factor"]
+__all__ = ["FACTOR_MEMORY", "MEMORY_FRACTION", "MODE_NAMES", "REFINE_MAX_ITER", "REFINE_TOL", "MemoryPlan",
+           "OutOfCore", "describe_factor", "factor_record", "matrix_bytes", "pardiso_estimates", "plan_memory",
+           "refine", "refusal"]
 
 log = logging.getLogger(__name__)
 
