@@ -180,3 +180,24 @@ def test_cli_reduce_records_the_memory_mode(capsys, tmp_path):
     with pytest.raises(SystemExit):
         main(base + ["--memory-limit", "lots"])
     assert "--memory-limit: 'lots' is not a memory size" in capsys.readouterr().err
+
+
+@needs_pardiso
+def test_memory_benchmark_smoke_run(tmp_path):
+    """``bench/memory.py`` on a tiny model (the full benchmark is not part of the suite): same code."""
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    out = tmp_path / "memory.json"
+    cmd = [sys.executable, str(Path(__file__).resolve().parents[1] / "bench" / "memory.py"), "--sizes", "3000",
+           "--mode", "double,mixed,ooc", "--nrhs", "2", "--scratch", str(tmp_path), "--out", str(out)]
+    proc = subprocess.run(cmd, capture_output=True, text=True, timeout=600, check=False)
+    assert proc.returncode == 0, proc.stderr
+    rows = json.loads(out.read_text())["results"]
+    assert [r["mode"] for r in rows] == ["double", "mixed", "ooc"]
+    for r in rows:
+        assert r["n_dof"] == 3000 and r["residual"] < 1e-10 and r["files_left"] == []
+        assert r["estimates_mb"]["ooc"] < r["estimates_mb"]["mixed"] < r["estimates_mb"]["double"]
+    assert rows[1]["refine_max_steps"] >= 2 and rows[2]["ooc_files_mb"] > 0
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["memory.json"]
