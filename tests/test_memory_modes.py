@@ -201,3 +201,11 @@ def test_memory_benchmark_smoke_run(tmp_path):
         assert r["estimates_mb"]["ooc"] < r["estimates_mb"]["mixed"] < r["estimates_mb"]["double"]
     assert rows[1]["refine_max_steps"] >= 2 and rows[2]["ooc_files_mb"] > 0
     assert sorted(p.name for p in tmp_path.iterdir()) == ["memory.json"]
+
+
+@needs_pardiso
+def test_a_single_precision_factor_reports_no_inertia(beam):
+    """The eigen solvers count modes below a shift by the inertia; a single-precision factor's is not exact."""
+    A = (beam.K - 1e7 * beam.M).tocsr()  # a shift above the lowest eigenvalues: indefinite
+    assert factorize(A, solver=SolverContext("pardiso")).inertia[1] > 0
+    assert factorize(A, solver=SolverContext("pardiso", factor_memory="mixed")).inertia is None

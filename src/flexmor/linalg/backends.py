@@ -365,7 +365,9 @@ class _Pardiso(Factorization):
             self._release()
             raise
         self._live = True
-        if self._mtype == -2 and self._iparm[13] == 0:  # no perturbed pivots: exact inertia
+        # no perturbed pivots: exact inertia (not of a single-precision factor, whose rounding
+        # of ~1e-7 ||A|| may move the eigenvalues nearest the shift across it)
+        if self._mtype == -2 and self._iparm[13] == 0 and self.memory.mode != "mixed":
             self.inertia = (int(self._iparm[21]), int(self._iparm[22]))
 
     def _call(self, phase, b, x, nrhs):
