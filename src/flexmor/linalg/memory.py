@@ -147,9 +147,7 @@ def plan_memory(solver, backend: str, n: int, estimates: dict) -> MemoryPlan:
         return usable is None or est <= usable
 
     if asked != "auto" and asked != "double" and estimates.get(asked) is None:
-        raise SolverError(f"factor_memory={asked!r} is not available with the {backend} backend; "
-                          + ("use backend pardiso" if asked == "ooc" else "use backend pardiso or scipy"),
-                          params=("factor_memory", "backend"))
+        raise SolverError(f"factor_memory={asked!r} is not available with {backend}", params=("factor_memory",))
     candidates = ("double", "mixed", "ooc") if asked == "auto" else (asked,)
     mode = next((m for m in candidates if fits(m)), None)
     if mode is None:
