@@ -209,3 +209,9 @@ def test_a_single_precision_factor_reports_no_inertia(beam):
     A = (beam.K - 1e7 * beam.M).tocsr()  # a shift above the lowest eigenvalues: indefinite
     assert factorize(A, solver=SolverContext("pardiso")).inertia[1] > 0
     assert factorize(A, solver=SolverContext("pardiso", factor_memory="mixed")).inertia is None
+
+
+@needs_pardiso
+def test_out_of_core_in_a_missing_directory_is_a_clear_error(beam, tmp_path):
+    with pytest.raises(SolverError, match="cannot make the directory of the out-of-core factor in .*nowhere"):
+        factorize(beam.K, solver=SolverContext(factor_memory="ooc", scratch_dir=str(tmp_path / "nowhere")))

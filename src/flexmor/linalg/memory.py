@@ -306,11 +306,20 @@ class OutOfCore:
         Memory MKL may keep in core.
     scratch_dir : str or Path, optional
         Where the temporary directory is made (None: ``$TMPDIR`` / the system's default).
+
+    Raises
+    ------
+    SolverError
+        The directory cannot be made there.
     """
 
     def __init__(self, core_bytes: float, scratch_dir=None):
         self.core_mb = max(int(core_bytes // 2**20), 1)
-        self.path = tempfile.mkdtemp(prefix="flexmor-ooc-", dir=None if scratch_dir is None else str(scratch_dir))
+        try:
+            self.path = tempfile.mkdtemp(prefix="flexmor-ooc-", dir=None if scratch_dir is None else str(scratch_dir))
+        except OSError as exc:
+            raise SolverError(f"cannot make the directory of the out-of-core factor in {scratch_dir or '$TMPDIR'}: "
+                              f"{exc.strerror or exc}") from None
         self._finalizer = weakref.finalize(self, _remove, self.path)
         log.info("out-of-core factor files in %s, %d MB in core", self.path, self.core_mb)
 
