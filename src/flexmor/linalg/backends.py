@@ -42,7 +42,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from ..errors import SolverError
-from .memory import MEMORY_FRACTION, OutOfCore, matrix_bytes, pardiso_estimates, plan_memory, refine
+from .memory import MEMORY_FRACTION, OutOfCore, estimate_memory, matrix_bytes, pardiso_estimates, plan_memory, refine
 
 __all__ = ["Backend", "BACKENDS", "Factorization", "OrderingCache", "SolverStats", "available_backends",
            "memory_available", "estimate_memory", "MEMORY_FRACTION", "describe_backends"]
@@ -208,22 +208,6 @@ def memory_available() -> float | None:
     except (OSError, ValueError, IndexError):
         pass
     return None
-
-
-def estimate_memory(A, backend: str) -> float | None:
-    """Heuristic bytes for factorizing ``A`` with a backend that reports nothing beforehand.
-
-    For SuperLU (``scipy``) an empirical fit to the fill of 3D solid FE matrices measured in
-    ``bench/solvers.py`` (0.52 GB at 27k DOF, 3.7 GB at 94.5k DOF, nested-dissection-free
-    minimum-degree ordering): ``3.7 GB * (n / 94500)**1.6 * (nnz / n / 73.5)``; it overestimates
-    shells and 2D meshes, whose fill grows more slowly. None for other backends.
-    """
-    if backend != "scipy":
-        return None
-    n = A.shape[0]
-    per_row = max(A.nnz / max(n, 1) / 73.5, 0.1)
-    itemsize = 2.0 if np.iscomplexobj(A.data) else 1.0
-    return 3.7e9 * (n / 94500.0) ** 1.6 * per_row * itemsize
 
 
 @functools.cache
