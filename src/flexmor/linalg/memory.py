@@ -25,9 +25,9 @@ into :data:`MEMORY_FRACTION` of the available memory (``memory_limit``, default 
 ``MemAvailable`` of the machine), and otherwise refuses with the estimates of all three
 (:func:`plan_memory`). The estimates come from PARDISO's analysis phase (the in-core peak
 ``max(iparm[14], iparm[15] + iparm[16])`` KB; see :func:`pardiso_estimates`) or from the
-SuperLU heuristic of :func:`estimate_memory`; the mixed mode counts
-the double matrix it keeps for the residuals. The choice and its reason are logged and counted
-in :class:`~flexmor.linalg.backends.SolverStats` (``factor_record``).
+SuperLU heuristic of :func:`estimate_memory`; the mixed mode counts the double matrix it keeps
+for the residuals. The choice and its reason are logged and counted in
+:class:`~flexmor.linalg.backends.SolverStats` (summarized by :func:`factor_record`).
 """
 
 from __future__ import annotations
@@ -190,7 +190,7 @@ def matrix_bytes(A) -> int:
     return int(A.data.nbytes + A.indices.nbytes + A.indptr.nbytes)
 
 
-def pardiso_estimates(iparm: np.ndarray, A, *, ooc: bool = True) -> dict:
+def pardiso_estimates(iparm: np.ndarray, A) -> dict:
     """Bytes each memory mode of PARDISO needs, from ``iparm`` after a double-precision analysis.
 
     ``double``: the in-core peak ``max(iparm[14], iparm[15] + iparm[16])`` KB. ``mixed``: the
@@ -202,7 +202,7 @@ def pardiso_estimates(iparm: np.ndarray, A, *, ooc: bool = True) -> dict:
     ooc_min = int(iparm[62]) or OOC_MIN_SHARE * factor
     return {"double": 1024.0 * max(peak, perm + factor),
             "mixed": 1024.0 * max(peak, perm + factor / 2) + matrix_bytes(A),
-            "ooc": 1024.0 * (perm + ooc_min) if ooc else None}
+            "ooc": 1024.0 * (perm + ooc_min)}
 
 
 def estimate_memory(A, backend: str) -> float | None:
