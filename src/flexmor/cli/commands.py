@@ -71,9 +71,8 @@ def _check_new(path, args) -> Path:
 
 
 def _solver(args):
-    """The solver context of one command: the backend of ``--backend``, the memory of
-    ``--factor-memory`` and ``--memory-limit`` (out-of-core files beside ``-o FILE``), the
-    progress callback."""
+    """The solver context of one command: ``--backend``, ``--factor-memory``, ``--memory-limit`` (out-of-core
+    files beside ``-o FILE``), the progress callback."""
     from ..linalg.context import SolverContext
 
     out = getattr(args, "output_file", None)
@@ -82,13 +81,11 @@ def _solver(args):
 
 
 def _factor_note(out: dict, solver) -> str:
-    """Record the memory modes of the factorizations of ``solver`` in ``out["factor"]``; the line
-    that says which were not in double precision in core ("" when all were)."""
+    """``out["factor"]``: the memory modes of the factorizations; the line on those not in double in core, or ""."""
     from ..linalg.memory import describe_factor, factor_record
 
     out["factor"] = factor_record(solver.stats)
-    text = describe_factor(solver.stats)
-    return f"factor: {text}" if text else ""
+    return f"factor: {describe_factor(solver.stats)}" if solver.stats.mixed or solver.stats.ooc else ""
 
 
 def _fmt(x, spec=".3e"):
@@ -159,8 +156,7 @@ def _info_backends(args) -> int:
             (", SPD only" if r["positive_only"] else "")
         print(f"{r['name']:<8} {flags:<32} {r['description']}")
     if avail is not None:
-        print(f"memory available: {avail / 2**20:.0f} MB (factorizations that would not fit in double precision "
-              "run in mixed precision or out of core, --factor-memory)")
+        print(f"memory available: {avail / 2**20:.0f} MB (what does not fit runs in mixed precision or out of core)")
     return 0
 
 
