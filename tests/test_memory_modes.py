@@ -215,3 +215,14 @@ def test_a_single_precision_factor_reports_no_inertia(beam):
 def test_out_of_core_in_a_missing_directory_is_a_clear_error(beam, tmp_path):
     with pytest.raises(SolverError, match="cannot make the directory of the out-of-core factor in .*nowhere"):
         factorize(beam.K, solver=SolverContext(factor_memory="ooc", scratch_dir=str(tmp_path / "nowhere")))
+
+
+def test_a_wrong_out_of_core_factor_is_caught(beam, tmp_path):
+    """MKL may return a wrong out-of-core factor without an error when starved of memory: one check solve."""
+    ooc = memory.OutOfCore(2**20, tmp_path)
+    ooc.verify(beam.K, factorize(beam.K, positive=True).solve)
+    with pytest.raises(SolverError, match=r"failed its check \(relative residual 1.0e\+00\) with 1 MB in core: give "
+                                          r"it more memory \(memory_limit\)"):
+        ooc.verify(beam.K, lambda b: 0 * b)
+    ooc.remove()
+    assert list(tmp_path.iterdir()) == []

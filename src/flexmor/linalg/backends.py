@@ -345,6 +345,7 @@ class _Pardiso(Factorization):
             else:
                 with self._ooc.environment():  # read by MKL in this phase only
                     self._call(22, None, None, 0)
+                self._ooc.verify(A, self._solve_factor)
         except SolverError:
             self._release()
             raise

@@ -354,6 +354,24 @@ class OutOfCore:
                 else:
                     os.environ[k] = v
 
+    def verify(self, A, solve) -> None:
+        """Check the factor by one solve with a random right-hand side (``solve`` takes (n, 1)).
+
+        With little memory in core, MKL may return a wrong out-of-core factor without an error
+        (seen once, otherwise its error -9), so each one is checked, whatever ``check`` says.
+
+        Raises
+        ------
+        SolverError
+            The relative residual exceeds 1e-6 (the bound of ``factorize(check=True)``).
+        """
+        b = np.random.default_rng(0).standard_normal((A.shape[0], 1))
+        res = float(np.linalg.norm(A @ solve(b) - b) / np.linalg.norm(b))
+        if not res <= 1e-6:
+            raise SolverError(f"the out-of-core factorization failed its check (relative residual {res:.1e}) with "
+                              f"{self.core_mb} MB in core: give it more memory (memory_limit), or the matrix is "
+                              "singular", params=("memory_limit",))
+
     def remove(self) -> None:
         """Delete the directory and the factor files in it."""
         self._finalizer()
