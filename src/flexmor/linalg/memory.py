@@ -18,7 +18,8 @@ the machine can still be computed on it, in one of three modes
 ``ooc``
     PARDISO's out-of-core mode (``iparm[59] = 2``): the factor is written to files in a
     temporary directory (:class:`OutOfCore`, removed with the factorization) and at most
-    ``MKL_PARDISO_OOC_MAX_CORE_SIZE`` of it is kept in memory. Exact as in core, slower.
+    ``MKL_PARDISO_OOC_MAX_CORE_SIZE`` of it is kept in memory. Exact as in core, slower; each
+    factor is checked by one solve (:meth:`OutOfCore.verify`).
 
 ``auto`` (the default) takes the first of double, mixed and out-of-core whose estimate fits
 into :data:`MEMORY_FRACTION` of the available memory (``memory_limit``, default the
