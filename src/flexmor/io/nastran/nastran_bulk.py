@@ -30,11 +30,14 @@ import numpy as np
 
 from ...errors import ReadError
 from .._text import read_text
+from .nastran_grids import BLANK, grid_form, grid_run
 
 __all__ = ["Bulk", "CoordSystem", "cards", "num", "read_bulk"]
 
 _IMPLICIT_EXP = re.compile(r"^([+-]?(?:\d+\.?\d*|\.\d+))([+-]\d+)$")
 _MAX_INCLUDE_DEPTH = 20
+_MIN_RUN = 8  # shorter runs of GRID lines are read card by card
+_RUN = "GRID run"  # the card name of a run of GRID lines read as one block (no card has a blank)
 
 
 def num(tok: str) -> float:
@@ -85,9 +88,13 @@ def cards(path):
 
     Each line contributes 8 fields (small field, free field) or 4 (large field).
     """
-    path = Path(path)
+    yield from _cards(_lines(Path(path)))
+
+
+def _cards(lines):
+    """The cards of ``(path, lineno, line)`` triples (see :func:`cards`)."""
     card = None
-    for fpath, lineno, line in _lines(path):
+    for fpath, lineno, line in lines:
         if not line.strip():
             continue
         if "," in line[:10]:
@@ -116,6 +123,76 @@ def cards(path):
         card = (fpath, lineno, head.rstrip("*").upper(), fields, [lineno] * len(fields))
     if card is not None:
         yield card
+
+
+def _continues(line: str) -> bool:
+    """Whether a (non-blank) line continues the card before it."""
+    head = line.split(",", 1)[0].strip() if "," in line[:10] else line[:8].strip()
+    return head == "" or head[0] in "*+"
+
+
+def _items(path: Path):
+    """The cards of :func:`cards`, runs of plain GRID lines as one item each.
+
+    A run is ``(path, line numbers, _RUN, (ids, cp, xyz, cd), None)`` (see
+    :func:`~flexmor.io.nastran.nastran_grids.grid_run`); a run that does not parse as a
+    block is read card by card.
+    """
+    lines = [t for t in _lines(path) if t[2]]
+    i = start = 0
+    n = len(lines)
+    while i < n:
+        form = grid_form(lines[i][2])
+        if form is None:
+            i += 1
+            continue
+        fpath, j = lines[i][0], i + 1
+        while j < n and lines[j][0] is fpath and grid_form(lines[j][2]) == form:
+            j += 1
+        if j < n and _continues(lines[j][2]):
+            j -= 1  # the last GRID of the run goes on
+        run = grid_run([t[2] for t in lines[i:j]], form) if j - i >= _MIN_RUN else None
+        if run is not None:
+            yield from _cards(lines[start:i])
+            yield fpath, np.array([t[1] for t in lines[i:j]], dtype=np.int64), _RUN, run, None
+            start = j
+        i = max(j, i + 1)
+    yield from _cards(lines[start:])
+
+
+class _Grids:
+    """GRID cards as arrays, in file order: runs added whole, single cards collected and added as a block."""
+
+    def __init__(self):
+        self.blocks, self.one, self.files = [], [], []
+
+    def _file(self, fpath) -> int:
+        if not self.files or self.files[-1] != fpath:
+            self.files.append(fpath)
+        return len(self.files) - 1
+
+    def add(self, fpath, lineno, gid, cp, x, cd):
+        self.one.append((gid, cp, *x, cd, lineno, self._file(fpath)))
+
+    def add_run(self, fpath, linenos, run):
+        self._flush()
+        ids, cp, xyz, cd = run
+        self.blocks.append((ids, cp, xyz, cd, linenos, np.full(ids.size, self._file(fpath))))
+
+    def _flush(self):
+        if self.one:
+            a = np.array(self.one, dtype=object)
+            self.blocks.append((a[:, 0].astype(np.int64), a[:, 1].astype(np.int64), a[:, 2:5].astype(np.float64),
+                                a[:, 5].astype(np.int64), a[:, 6].astype(np.int64), a[:, 7].astype(np.int64)))
+            self.one = []
+
+    def arrays(self):
+        """``(ids, cp, xyz, cd, line numbers, file indices)`` of all grids in file order."""
+        self._flush()
+        if not self.blocks:
+            return (np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros((0, 3)), np.zeros(0, np.int64),
+                    np.zeros(0, np.int64), np.zeros(0, np.int64))
+        return tuple(np.concatenate(c) for c in zip(*self.blocks))
 
 
 def _rect(kind: str, c) -> np.ndarray:
@@ -270,16 +347,21 @@ def read_bulk(path) -> Bulk:
         undefined systems or grids, circular definitions, degenerate CORD2 points.
     """
     path = Path(path)
-    grids, cord2, cord1, spoints, aset, elements = {}, {}, {}, [], [], []
+    grids, cord2, cord1, spoints, aset, elements = _Grids(), {}, {}, [], [], []
     seqgp = False
     gdef = {"cp": 0, "cd": 0}
-    for fpath, lineno, name, f, fl in cards(path):
+    for fpath, lineno, name, f, fl in _items(path):
         try:
-            if name == "GRID":
+            if name == _RUN:
+                grids.add_run(fpath, lineno, f)
+            elif name == "GRID":
                 gid = int(f[0])
-                if gid in grids:
-                    raise ReadError(fpath, f"GRID {gid} defined twice (first on line {grids[gid][3]})", lineno)
-                grids[gid] = (f[1], [_real(f, k) for k in (2, 3, 4)], f[5] if len(f) > 5 else "", lineno, fpath)
+                x = [_real(f, k) for k in (2, 3, 4)]
+                try:
+                    cp, cd = (int(t) if t else BLANK for t in (f[1], f[5] if len(f) > 5 else ""))
+                except ValueError:
+                    raise ReadError(fpath, f"GRID {gid}: CP/CD must be integers", lineno) from None
+                grids.add(fpath, lineno, gid, cp, x, cd)
             elif name == "GRDSET":
                 gdef = {"cp": _int(f, 1), "cd": _int(f, 5)}
             elif name in ("CORD2R", "CORD2C", "CORD2S"):
@@ -319,23 +401,34 @@ def read_bulk(path) -> Bulk:
 
 
 def _resolve(path, grids, gdef, cord2, cord1, spoints, aset) -> Bulk:
+    gids, cp, x, cd, linenos, fidx = grids.arrays()
+    order = np.argsort(gids, kind="stable")
+    _check_unique(gids, order, linenos, fidx, grids.files)
+    ids = gids[order]
+    cp, x, cd, linenos, fidx = (a[order] for a in (cp, x, cd, linenos, fidx))
+    cp = np.where(cp == BLANK, gdef["cp"], cp)
+    cd = np.where(cd == BLANK, gdef["cd"], cd)
+    cd[cd == -1] = 0  # -1: fluid grid point, no displacement system
+
+    def where(k):
+        return grids.files[fidx[k]], int(linenos[k])
+
     systems = {0: BASIC}
-    pos = {}  # grid -> basic position
-    pending_g = {}
-    for gid, (cp, x, cd, lineno, fpath) in grids.items():
-        try:
-            pending_g[gid] = (int(cp) if cp else gdef["cp"], x, int(cd) if cd else gdef["cd"], lineno, fpath)
-        except ValueError:
-            raise ReadError(fpath, f"GRID {gid}: CP/CD must be integers", lineno) from None
+    xyz = np.zeros_like(x)  # basic positions
+    done = np.zeros(ids.size, dtype=bool)
     pending_s = dict(cord2)
-    pending_s.update({k: v for k, v in cord1.items()})
+    pending_s.update(cord1)
     while True:
         progress = False
-        for gid in list(pending_g):
-            cp, x, _, lineno, fpath = pending_g[gid]
-            if cp in systems:
-                pos[gid] = systems[cp].to_basic(x)
-                del pending_g[gid]
+        for c in np.unique(cp[~done]).tolist():
+            if c in systems:
+                sel = np.flatnonzero(~done & (cp == c))
+                if c == 0:
+                    xyz[sel] = x[sel] + 0.0  # as BASIC.to_basic: -0.0 becomes 0.0
+                else:
+                    for k in sel.tolist():
+                        xyz[k] = systems[c].to_basic(x[k])
+                done[sel] = True
                 progress = True
         for cid in list(pending_s):
             spec = pending_s[cid]
@@ -345,46 +438,51 @@ def _resolve(path, grids, gdef, cord2, cord1, spoints, aset) -> Bulk:
                     continue
                 a, b, c = (systems[rid].to_basic(p) for p in P)
             else:
-                kind, gids, lineno, fpath = spec
-                if not all(g in pos for g in gids):
+                kind, gl, lineno, fpath = spec
+                k = np.minimum(np.searchsorted(ids, gl), max(ids.size - 1, 0))
+                if not (ids.size and np.all(ids[k] == gl) and np.all(done[k])):
                     continue
-                a, b, c = (pos[g] for g in gids)
+                a, b, c = xyz[k]
             systems[cid] = _axes(fpath, lineno, cid, kind, a, b, c)
             del pending_s[cid]
             progress = True
-        if not pending_g and not pending_s:
+        if done.all() and not pending_s:
             break
         if not progress:
-            _unresolved(pending_g, pending_s, cord2, grids, systems)
-    ids = np.array(sorted(grids), dtype=np.int64)
-    cds = np.array([_cd(grids[int(g)], gdef) for g in ids], dtype=np.int64)
-    for g, c in zip(ids, cds):
-        if c not in systems:
-            _, _, _, lineno, fpath = grids[int(g)]
-            raise ReadError(fpath, f"GRID {g}: displacement system CD={c} is not defined", lineno)
-    xyz = np.array([pos[int(g)] for g in ids]).reshape(-1, 3)
-    return Bulk(ids, xyz, cds, systems, np.unique(np.asarray(spoints, np.int64)), aset)
+            _unresolved(pending_s, cord2, ids, cp, np.flatnonzero(~done)[np.argsort(order[~done])], where)
+    bad = np.flatnonzero(~np.isin(cd, list(systems)))
+    if bad.size:
+        fpath, lineno = where(int(bad[0]))
+        raise ReadError(fpath, f"GRID {ids[bad[0]]}: displacement system CD={cd[bad[0]]} is not defined", lineno)
+    return Bulk(ids, xyz, cd, systems, np.unique(np.asarray(spoints, np.int64)), aset)
 
 
-def _cd(grid, gdef) -> int:
-    cd = int(grid[2]) if grid[2] else gdef["cd"]
-    return 0 if cd == -1 else cd  # -1: fluid grid point, no displacement system
+def _check_unique(gids, order, linenos, fidx, files) -> None:
+    """Refuse a grid id defined twice, at the first repeated definition in file order."""
+    dup = np.flatnonzero(gids[order][1:] == gids[order][:-1])
+    if dup.size:
+        j = int(np.argmin(order[dup + 1]))
+        k, first = int(order[dup[j] + 1]), int(order[dup[j]])
+        raise ReadError(files[fidx[k]], f"GRID {gids[k]} defined twice (first on line {linenos[first]})",
+                        int(linenos[k]))
 
 
-def _unresolved(pending_g, pending_s, cord2, grids, systems):
+def _unresolved(pending_s, cord2, ids, cp, pending_g, where):
+    """Raise for the first definition that cannot be resolved; ``pending_g``: unresolved grids in file order."""
     for cid, spec in pending_s.items():
         if cid in cord2:
             kind, rid, _, lineno, fpath = spec
             if rid not in pending_s:
                 raise ReadError(fpath, f"CORD2{kind} {cid}: reference system RID={rid} is not defined", lineno)
         else:
-            kind, gids, lineno, fpath = spec
-            miss = [g for g in gids if g not in grids]
+            kind, gl, lineno, fpath = spec
+            miss = [g for g in gl if g not in set(ids[np.isin(ids, gl)].tolist())]
             if miss:
                 raise ReadError(fpath, f"CORD1{kind} {cid}: grid {miss[0]} is not defined", lineno)
-    for gid, (cp, _, _, lineno, fpath) in pending_g.items():
-        if cp not in pending_s:
-            raise ReadError(fpath, f"GRID {gid}: coordinate system CP={cp} is not defined", lineno)
+    for k in pending_g.tolist():
+        if int(cp[k]) not in pending_s:
+            fpath, lineno = where(k)
+            raise ReadError(fpath, f"GRID {ids[k]}: coordinate system CP={cp[k]} is not defined", lineno)
     cid = next(iter(pending_s))
     fpath, lineno = pending_s[cid][-1], pending_s[cid][-2]
     raise ReadError(fpath, f"coordinate system {cid} depends on itself (circular CORD/GRID references)", lineno)

@@ -1,0 +1,100 @@
+"""Runs of plain ``GRID`` cards parsed as one block with NumPy.
+
+A bulk-data file of a large model is mostly ``GRID`` cards, one line each. Consecutive lines
+of the same form (small field ``GRID    ID      CP      X1 ...`` or free field
+``GRID,ID,CP,X1,X2,X3,CD``) are cut into a table of fields at once: the small-field lines
+padded to 72 columns and sliced as a byte matrix (8 columns a field), the free-field lines
+split at their commas when every line has the same number of fields. Each column is then
+converted by NumPy's string casts, which parse integers and reals as Python's ``int`` and
+``float`` do (the same doubles as ``strtod``).
+
+:func:`grid_run` returns None for a run that does not fit (other field counts, Nastran's
+implicit exponents ``1.5-3`` or ``D`` exponents, non-finite values, malformed fields, non-ASCII
+text); the caller then reads those lines card by card, which names the line of a defect.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["BLANK", "grid_form", "grid_run"]
+
+#: CP or CD field left blank (the ``GRDSET`` default applies).
+BLANK = np.iinfo(np.int64).min
+_WIDTH = 72  # columns 73-80 are the continuation marker
+_MAX_FREE_FIELDS = 8  # ID CP X1 X2 X3 CD PS SEID
+
+
+def grid_form(line: str) -> str | None:
+    """``"small"`` or ``"free"`` for a line that starts a plain ``GRID`` card, else None."""
+    if line.startswith("GRID,"):
+        return "free"
+    if line.startswith("GRID") and line[:8].rstrip() == "GRID" and "," not in line[:10]:
+        return "small"
+    return None
+
+
+def grid_run(lines: list, form: str):
+    """``(ids, cp, xyz, cd)`` of ``GRID`` lines all of ``form``, or None when one does not fit.
+
+    Blank CP and CD fields are :data:`BLANK`, blank coordinates 0.0; the fields PS and SEID
+    are not read.
+    """
+    table = _small(lines) if form == "small" else _free(lines)
+    if table is None:
+        return None
+    try:
+        ids = _ints(table[:, 0], None)
+        if ids is None:
+            return None
+        cp, cd = _ints(table[:, 1], BLANK), _ints(table[:, 5], BLANK)
+        xyz = np.column_stack([_reals(table[:, k]) for k in (2, 3, 4)])
+    except (ValueError, OverflowError):
+        return None
+    if not np.all(np.isfinite(xyz)):
+        return None
+    return ids, cp, xyz, cd
+
+
+def _small(lines: list):
+    """The fields 2-7 of small-field lines as an ``(n, 6)`` array of 8-byte strings."""
+    try:
+        raw = "".join(ln[:_WIDTH].ljust(_WIDTH) for ln in lines).encode("ascii")
+    except UnicodeEncodeError:
+        return None
+    b = np.frombuffer(raw, dtype=np.uint8).reshape(len(lines), _WIDTH)
+    return np.ascontiguousarray(b[:, 8:56]).view("S8")
+
+
+def _free(lines: list):
+    """The fields 2-7 of free-field lines as an ``(n, 6)`` string array (blank beyond a line's end)."""
+    n_fields = lines[0].count(",")
+    if n_fields > _MAX_FREE_FIELDS or any(ln.count(",") != n_fields for ln in lines):
+        return None
+    toks = ",".join(lines).split(",")
+    table = np.array(toks).reshape(len(lines), n_fields + 1)[:, 1:7]
+    if table.shape[1] < 6:
+        table = np.concatenate([table, np.full((len(lines), 6 - table.shape[1]), "", dtype=table.dtype)], axis=1)
+    return table
+
+
+def _ints(col: np.ndarray, blank):
+    """Integers of a column; blank fields are ``blank`` (None: a blank field does not fit)."""
+    empty = np.strings.strip(col) == col.dtype.type()
+    if not empty.any():
+        return col.astype(np.int64)
+    if blank is None:
+        return None
+    out = np.full(col.size, blank, dtype=np.int64)
+    out[~empty] = col[~empty].astype(np.int64)
+    return out
+
+
+def _reals(col: np.ndarray) -> np.ndarray:
+    """Reals of a column; blank fields are 0.0."""
+    empty = np.strings.strip(col) == col.dtype.type()
+    if not empty.any():
+        return col.astype(np.float64)
+    out = np.zeros(col.size)
+    out[~empty] = col[~empty].astype(np.float64)
+    return out
