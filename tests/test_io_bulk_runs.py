@@ -193,3 +193,19 @@ def test_node_block_bad_line_named(tmp_path, bad, words):
     with pytest.raises(ReadError, match=words) as exc:
         read_inp(p)
     assert exc.value.line == 1801 and lines[exc.value.line - 1] == bad
+
+
+@pytest.mark.parametrize("newline", ["\r\n", "\r"])
+def test_node_block_other_line_ends(tmp_path, newline):
+    p, lines = _node_deck(tmp_path)
+    want = read_inp(p)
+    p.write_bytes(newline.join(lines).encode() + newline.encode())
+    ids, xyz, sets = read_inp(p)
+    np.testing.assert_array_equal(ids, want[0])
+    assert xyz.tobytes() == want[1].tobytes()
+    assert sets.keys() == want[2].keys()
+    lines[1800] = "1799, 0.1, abc, 0."
+    p.write_bytes(newline.join(lines).encode())
+    with pytest.raises(ReadError, match="non-numeric") as exc:
+        read_inp(p)
+    assert exc.value.line == 1801
