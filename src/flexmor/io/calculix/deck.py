@@ -2,16 +2,12 @@
 
 ``*NODE`` and ``*ELEMENT`` data are parsed a block at a time with NumPy (a deck of a million
 nodes in about a second); a block that does not fit the plain ``id, x, y, z`` (or ``id,
-n1, n2, ...``) form is parsed line by line, which names the offending line. The blocks are
-found without a look at each line: one regular-expression pass marks the keyword, comment
-and blank lines, and the lines between two marks are data.
+n1, n2, ...``) form is parsed line by line, which names the offending line.
 """
 
 from __future__ import annotations
 
-import bisect
 import logging
-import re
 from pathlib import Path
 
 import numpy as np
@@ -25,8 +21,6 @@ from ..abaqus.abaqus_inp import include_path, keyword_options
 __all__ = ["read_inp"]
 
 log = logging.getLogger(__name__)
-
-_MARK = re.compile(r"^[^\S\n]*(?:\*|$)", re.MULTILINE)  # keyword, comment or blank line
 
 
 def read_inp(path, _depth: int = 0, _state: dict | None = None, *, element_types: set | None = None,
@@ -61,9 +55,7 @@ def read_inp(path, _depth: int = 0, _state: dict | None = None, *, element_types
     path = Path(path)
     top = _state is None
     st = _state if _state is not None else {"ids": [], "xyz": [], "src": [], "sets": {}, "set_lines": []}
-    text = read_text(path)
-    lines = text.splitlines()
-    marks = _marks(text, len(lines))
+    lines = read_text(path).splitlines()
     block, opts, cur_set = None, {}, None
     i, n = 0, len(lines)
     while i < n:
@@ -91,12 +83,6 @@ def read_inp(path, _depth: int = 0, _state: dict | None = None, *, element_types
             continue
         data, linenos = [], []
         while i < n:
-            j = marks[bisect.bisect_left(marks, i)] if marks is not None else i
-            if j > i:  # data lines up to the next mark
-                data.extend(map(str.strip, lines[i:j]))
-                linenos.extend(range(i + 1, j + 1))
-                i = j
-                continue
             t = lines[i].strip()
             if t.startswith("*") and not t.startswith("**"):
                 break
@@ -130,20 +116,6 @@ def read_inp(path, _depth: int = 0, _state: dict | None = None, *, element_types
     return ids, xyz, sets
 
 
-def _marks(text: str, n_lines: int):
-    """Sorted indices of the keyword, comment and blank lines, ``n_lines`` last; None when lines
-    also end at other characters than ``\n`` (``str.splitlines`` then counts otherwise)."""
-    if n_lines != text.count("\n") + (not text.endswith("\n")) - (not text):
-        return None
-    out, line, pos = [], 0, 0
-    for m in _MARK.finditer(text):
-        line += text.count("\n", pos, m.start())
-        pos = m.start()
-        out.append(line)
-    out.append(n_lines)
-    return out
-
-
 def _check_unique(ids: np.ndarray, src: list) -> None:
     """Refuse a node id defined twice, naming the second definition's line and the first's."""
     order = np.argsort(ids, kind="stable")
@@ -164,15 +136,13 @@ def _check_unique(ids: np.ndarray, src: list) -> None:
 def _node_block(path, data, linenos, st, cur_set):
     """The nodes of consecutive ``*NODE`` data lines, vectorized when all are ``id, x, y, z``."""
     k = len(data)
-    text = "\n".join(data)
     a = None
-    if text.count(",") == 3 * k:
+    if "".join(data).count(",") == 3 * k:
         try:
-            a = np.fromstring(text.replace(",", " "), sep=" ")
-        except ValueError:
+            a = np.loadtxt(data, delimiter=",", comments=None, ndmin=2)
+        except (ValueError, OverflowError):
             a = None
-        if a is not None and a.size == 4 * k:
-            a = a.reshape(k, 4)
+        if a is not None and a.shape == (k, 4):
             if not (np.all(np.isfinite(a)) and np.all(a[:, 0] == np.floor(a[:, 0]))
                     and np.abs(a[:, 0]).max() < 2**53):
                 a = None

@@ -2,8 +2,8 @@
 Craig-Bampton superelements (a reduced body), and reduced bodies written as superelements.
 
 Modules: :mod:`.nastran` (the FE-model reader), :mod:`.nastran_bulk` (GRID/CORD/SET cards),
-:mod:`.op4` (OUTPUT4 files), :mod:`.nastran_se` (superelements), :mod:`.nastran_export`
-(DMIG punch and OP4 export).
+:mod:`.nastran_grids` (runs of GRID cards as one block), :mod:`.op4` (OUTPUT4 files),
+:mod:`.nastran_se` (superelements), :mod:`.nastran_export` (DMIG punch and OP4 export).
 """
 
 from .nastran import read_dmig, read_nastran

@@ -6,7 +6,8 @@ Cards
     is a continuation marker and dropped). Columns 73-80 of fixed-field lines are the
     continuation marker and ignored; tabs expand to 8-column stops; ``$`` starts a comment.
     When the file has ``BEGIN BULK``, only the lines after it (up to ``ENDDATA``) are read.
-    ``INCLUDE 'file'`` lines are followed (relative to the including file).
+    ``INCLUDE 'file'`` lines are followed (relative to the including file). Runs of plain
+    one-line GRID cards are read as one block (:mod:`.nastran_grids`).
 Grid points
     ``GRID ID CP X1 X2 X3 CD`` with blank CP/CD taken from ``GRDSET``. Positions in the
     ``CP`` system are converted to the basic system; the ``CD`` system is the one in which
@@ -30,7 +31,7 @@ import numpy as np
 
 from ...errors import ReadError
 from .._text import read_text
-from .nastran_grids import BLANK, grid_form, grid_run
+from .nastran_grids import BLANK, Grids, grid_form, grid_run
 
 __all__ = ["Bulk", "CoordSystem", "cards", "num", "read_bulk"]
 
@@ -158,41 +159,6 @@ def _items(path: Path):
             start = j
         i = max(j, i + 1)
     yield from _cards(lines[start:])
-
-
-class _Grids:
-    """GRID cards as arrays, in file order: runs added whole, single cards collected and added as a block."""
-
-    def __init__(self):
-        self.blocks, self.one, self.files = [], [], []
-
-    def _file(self, fpath) -> int:
-        if not self.files or self.files[-1] != fpath:
-            self.files.append(fpath)
-        return len(self.files) - 1
-
-    def add(self, fpath, lineno, gid, cp, x, cd):
-        self.one.append((gid, cp, *x, cd, lineno, self._file(fpath)))
-
-    def add_run(self, fpath, linenos, run):
-        self._flush()
-        ids, cp, xyz, cd = run
-        self.blocks.append((ids, cp, xyz, cd, linenos, np.full(ids.size, self._file(fpath))))
-
-    def _flush(self):
-        if self.one:
-            a = np.array(self.one, dtype=object)
-            self.blocks.append((a[:, 0].astype(np.int64), a[:, 1].astype(np.int64), a[:, 2:5].astype(np.float64),
-                                a[:, 5].astype(np.int64), a[:, 6].astype(np.int64), a[:, 7].astype(np.int64)))
-            self.one = []
-
-    def arrays(self):
-        """``(ids, cp, xyz, cd, line numbers, file indices)`` of all grids in file order."""
-        self._flush()
-        if not self.blocks:
-            return (np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros((0, 3)), np.zeros(0, np.int64),
-                    np.zeros(0, np.int64), np.zeros(0, np.int64))
-        return tuple(np.concatenate(c) for c in zip(*self.blocks))
 
 
 def _rect(kind: str, c) -> np.ndarray:
@@ -347,7 +313,7 @@ def read_bulk(path) -> Bulk:
         undefined systems or grids, circular definitions, degenerate CORD2 points.
     """
     path = Path(path)
-    grids, cord2, cord1, spoints, aset, elements = _Grids(), {}, {}, [], [], []
+    grids, cord2, cord1, spoints, aset, elements = Grids(), {}, {}, [], [], []
     seqgp = False
     gdef = {"cp": 0, "cd": 0}
     for fpath, lineno, name, f, fl in _items(path):

@@ -11,13 +11,14 @@ converted by NumPy's string casts, which parse integers and reals as Python's ``
 :func:`grid_run` returns None for a run that does not fit (other field counts, Nastran's
 implicit exponents ``1.5-3`` or ``D`` exponents, non-finite values, malformed fields, non-ASCII
 text); the caller then reads those lines card by card, which names the line of a defect.
+:class:`Grids` keeps the grids of runs and single cards as arrays in file order.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["BLANK", "grid_form", "grid_run"]
+__all__ = ["BLANK", "Grids", "grid_form", "grid_run"]
 
 #: CP or CD field left blank (the ``GRDSET`` default applies).
 BLANK = np.iinfo(np.int64).min
@@ -98,3 +99,38 @@ def _reals(col: np.ndarray) -> np.ndarray:
     out = np.zeros(col.size)
     out[~empty] = col[~empty].astype(np.float64)
     return out
+
+
+class Grids:
+    """GRID cards as arrays, in file order: runs added whole, single cards collected and added as a block."""
+
+    def __init__(self):
+        self.blocks, self.one, self.files = [], [], []
+
+    def _file(self, fpath) -> int:
+        if not self.files or self.files[-1] != fpath:
+            self.files.append(fpath)
+        return len(self.files) - 1
+
+    def add(self, fpath, lineno, gid, cp, x, cd):
+        self.one.append((gid, cp, *x, cd, lineno, self._file(fpath)))
+
+    def add_run(self, fpath, linenos, run):
+        self._flush()
+        ids, cp, xyz, cd = run
+        self.blocks.append((ids, cp, xyz, cd, linenos, np.full(ids.size, self._file(fpath))))
+
+    def _flush(self):
+        if self.one:
+            a = np.array(self.one, dtype=object)
+            self.blocks.append((a[:, 0].astype(np.int64), a[:, 1].astype(np.int64), a[:, 2:5].astype(np.float64),
+                                a[:, 5].astype(np.int64), a[:, 6].astype(np.int64), a[:, 7].astype(np.int64)))
+            self.one = []
+
+    def arrays(self):
+        """``(ids, cp, xyz, cd, line numbers, file indices)`` of all grids in file order."""
+        self._flush()
+        if not self.blocks:
+            return (np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros((0, 3)), np.zeros(0, np.int64),
+                    np.zeros(0, np.int64), np.zeros(0, np.int64))
+        return tuple(np.concatenate(c) for c in zip(*self.blocks))
