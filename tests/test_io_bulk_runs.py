@@ -22,6 +22,10 @@ def _small(gid, cp, x, cd=""):
     return f"{'GRID':<8}{gid:<8}{cp:<8}" + "".join(f"{v:<8}" for v in x) + f"{cd:<8}"
 
 
+def _large(gid, cp, x, cd=""):
+    return [f"{'GRID*':<8}{gid:>16}{cp:>16}{x[0]:>16}{x[1]:>16}*G{gid}", f"{'*G' + str(gid):<8}{x[2]:>16}{cd:>16}"]
+
+
 def _mixed_deck(rng) -> tuple[list, dict]:
     """Lines of a bulk deck with ~400 grids in every form, and the expected CP/CD of each grid."""
     ids = rng.permutation(np.arange(1, 401)) * 3
@@ -39,7 +43,7 @@ def _mixed_deck(rng) -> tuple[list, dict]:
         elif block in (1, 4):
             lines.append(",".join(["GRID", str(gid), cp, *x, cd]))
         elif block == 2 and k % 7 == 0:
-            lines += [f"{'GRID*':<8}{gid:>16}{cp:>16}{x[0]:>16}{x[1]:>16}*G", f"{'*G':<8}{x[2]:>16}{cd:>16}"]
+            lines += _large(gid, cp, x, cd)
         elif block == 2:
             x[:] = [v.replace("E", "") for v in x]  # 2.5-1: Nastran's implicit exponent
             x[0] = "1.+2" if k == 101 else x[0]
@@ -51,6 +55,8 @@ def _mixed_deck(rng) -> tuple[list, dict]:
             lines.append(f"GRID\t{gid}\t{cp}\t{x[0]}\t{x[1]}\t{x[2]}\t{cd}")
             if k % 10 == 0:
                 lines.append("")
+        elif k < 375:
+            lines += _large(gid, cp, x, cd)
         else:
             lines.append(_small(gid, cp, x, cd) if k % 2 else ",".join(["GRID", str(gid), cp, *x, cd]))
     lines.append("ENDDATA")
@@ -70,7 +76,7 @@ def test_runs_give_the_grids_of_the_card_by_card_reader(tmp_path, monkeypatch):
 
     monkeypatch.setattr(nb, "grid_run", spy)
     fast = read_bulk(p)
-    assert ("small", 50, True) in runs and ("free", 50, True) in runs  # the runs were read as blocks
+    assert {("small", 50, True), ("free", 50, True), ("large", 50, True)} <= set(runs)  # read as blocks
     monkeypatch.setattr(nb, "_MIN_RUN", 10**9)
     slow = read_bulk(p)
     np.testing.assert_array_equal(fast.grid_ids, slow.grid_ids)
@@ -101,8 +107,29 @@ def test_grid_run_parses_fields_as_the_card_reader():
     assert grid_run([_small(1, "", ["1.5-3", "0.", "0."])], "small") is None  # Nastran exponent: card reader
     assert grid_run([_small(1, "", ["inf", "0.", "0."])], "small") is None
     assert grid_run([_small("", "", ["1.", "0.", "0."])], "small") is None
-    assert grid_form("GRID*          1") is None and grid_form("GRIDS   1") is None
+    assert grid_form("GRID*          1") == "large" and grid_form("GRIDS   1") is None
+    assert grid_form("GRID*,1,,1.,2.") is None  # free-field large: card reader
+    ids, cp, xyz, cd = grid_run(_large(4, "", ["1.", "2.", "3."], "2") + _large(5, "1", ["", "-0.", "1e-3"]), "large")
+    np.testing.assert_array_equal(ids, [4, 5])
+    np.testing.assert_array_equal(cp, [BLANK, 1])
+    np.testing.assert_array_equal(cd, [2, BLANK])
+    np.testing.assert_array_equal(xyz, [[1.0, 2.0, 3.0], [0.0, -0.0, 1e-3]])
     assert grid_form("GRID    1") == "small" and grid_form("GRID,1") == "free" and grid_form("grid,1") is None
+
+
+def test_large_field_run_bad_continuation_names_the_card(tmp_path):
+    lines = ["BEGIN BULK"] + [ln for k in range(1, 201) for ln in _large(k, "", [f"{k}.", "0.", "-1.5"])]
+    lines[2 * 150] = lines[2 * 150].replace("-1.5", "1..5")  # the continuation of GRID 150 (line 301)
+    p = tmp_path / "large.bdf"
+    p.write_text("\n".join(lines) + "\n")
+    with pytest.raises(ReadError, match="GRID: malformed field") as exc:
+        read_bulk(p)
+    assert exc.value.line == 300  # the card's first line, as the card reader says
+    lines[2 * 150] = lines[2 * 150].replace("1..5", "-2.5")
+    p.write_text("\n".join(lines) + "\n")
+    b = read_bulk(p)
+    np.testing.assert_array_equal(b.xyz[149], [150.0, 0.0, -2.5])
+    np.testing.assert_array_equal(b.xyz[0], [1.0, 0.0, -1.5])
 
 
 def _run_deck(tmp_path, bad_line: str | None, at: int, free: bool) -> tuple:

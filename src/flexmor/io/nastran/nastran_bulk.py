@@ -133,7 +133,7 @@ def _continues(line: str) -> bool:
 
 
 def _items(path: Path):
-    """The cards of :func:`cards`, runs of plain GRID lines as one item each.
+    """The cards of :func:`cards`, runs of plain GRID cards as one item each.
 
     A run is ``(path, line numbers, _RUN, (ids, cp, xyz, cd), None)`` (see
     :func:`~flexmor.io.nastran.nastran_grids.grid_run`); a run that does not parse as a
@@ -147,15 +147,17 @@ def _items(path: Path):
         if form is None:
             i += 1
             continue
-        fpath, j = lines[i][0], i + 1
-        while j < n and lines[j][0] is fpath and grid_form(lines[j][2]) == form:
-            j += 1
-        if j < n and _continues(lines[j][2]):
-            j -= 1  # the last GRID of the run goes on
-        run = grid_run([t[2] for t in lines[i:j]], form) if j - i >= _MIN_RUN else None
+        step = 2 if form == "large" else 1  # GRID* and its * continuation
+        fpath, j = lines[i][0], i
+        while j + step <= n and lines[j][0] is fpath is lines[j + step - 1][0] and grid_form(lines[j][2]) == form \
+                and (step == 1 or (lines[j + 1][2][0] == "*" and "," not in lines[j + 1][2][:10])):
+            j += step
+        if j < n and j > i and _continues(lines[j][2]):
+            j -= step  # the last GRID of the run goes on
+        run = grid_run([t[2] for t in lines[i:j]], form) if j - i >= _MIN_RUN * step else None
         if run is not None:
             yield from _cards(lines[start:i])
-            yield fpath, np.array([t[1] for t in lines[i:j]], dtype=np.int64), _RUN, run, None
+            yield fpath, np.array([t[1] for t in lines[i:j:step]], dtype=np.int64), _RUN, run, None
             start = j
         i = max(j, i + 1)
     yield from _cards(lines[start:])

@@ -1,10 +1,11 @@
 """Runs of plain ``GRID`` cards parsed as one block with NumPy.
 
-A bulk-data file of a large model is mostly ``GRID`` cards, one line each. Consecutive lines
-of the same form (small field ``GRID    ID      CP      X1 ...`` or free field
-``GRID,ID,CP,X1,X2,X3,CD``) are cut into a table of fields at once: the small-field lines
-padded to 72 columns and sliced as a byte matrix (8 columns a field), the free-field lines
-split at their commas when every line has the same number of fields. Each column is then
+A bulk-data file of a large model is mostly ``GRID`` cards, one line each (two in large
+field). Consecutive cards of the same form (small field ``GRID    ID      CP      X1 ...``,
+large field ``GRID*`` with one ``*`` continuation, or free field ``GRID,ID,CP,X1,X2,X3,CD``)
+are cut into a table of fields at once: fixed-field lines padded to 72 columns and sliced as a
+byte matrix (8 or 16 columns a field), free-field lines split at their commas when every line
+has the same number of fields. Each column is then
 converted by NumPy's string casts, which parse integers and reals as Python's ``int`` and
 ``float`` do (the same doubles as ``strtod``).
 
@@ -27,21 +28,23 @@ _MAX_FREE_FIELDS = 8  # ID CP X1 X2 X3 CD PS SEID
 
 
 def grid_form(line: str) -> str | None:
-    """``"small"`` or ``"free"`` for a line that starts a plain ``GRID`` card, else None."""
+    """``"small"``, ``"large"`` or ``"free"`` for a line that starts a plain ``GRID`` card, else None."""
     if line.startswith("GRID,"):
         return "free"
-    if line.startswith("GRID") and line[:8].rstrip() == "GRID" and "," not in line[:10]:
-        return "small"
+    if line.startswith("GRID") and "," not in line[:10]:
+        head = line[:8].rstrip()
+        return "small" if head == "GRID" else "large" if head == "GRID*" else None
     return None
 
 
 def grid_run(lines: list, form: str):
-    """``(ids, cp, xyz, cd)`` of ``GRID`` lines all of ``form``, or None when one does not fit.
+    """``(ids, cp, xyz, cd)`` of ``GRID`` cards all of ``form``, or None when one does not fit.
 
-    Blank CP and CD fields are :data:`BLANK`, blank coordinates 0.0; the fields PS and SEID
-    are not read.
+    ``lines`` are one per card, or for ``"large"`` the head and its continuation line of each
+    card. Blank CP and CD fields are :data:`BLANK`, blank coordinates 0.0; the fields PS and
+    SEID are not read.
     """
-    table = _small(lines) if form == "small" else _free(lines)
+    table = _free(lines) if form == "free" else _fixed(lines, form == "large")
     if table is None:
         return None
     try:
@@ -57,14 +60,16 @@ def grid_run(lines: list, form: str):
     return ids, cp, xyz, cd
 
 
-def _small(lines: list):
-    """The fields 2-7 of small-field lines as an ``(n, 6)`` array of 8-byte strings."""
+def _fixed(lines: list, large: bool):
+    """The fields ID to CD of fixed-field cards as an ``(n, 6)`` array of 8- or 16-byte strings."""
     try:
         raw = "".join(ln[:_WIDTH].ljust(_WIDTH) for ln in lines).encode("ascii")
     except UnicodeEncodeError:
         return None
-    b = np.frombuffer(raw, dtype=np.uint8).reshape(len(lines), _WIDTH)
-    return np.ascontiguousarray(b[:, 8:56]).view("S8")
+    if not large:
+        return np.ascontiguousarray(np.frombuffer(raw, dtype=np.uint8).reshape(-1, _WIDTH)[:, 8:56]).view("S8")
+    b = np.frombuffer(raw, dtype=np.uint8).reshape(-1, 2 * _WIDTH)
+    return np.ascontiguousarray(np.hstack([b[:, 8:_WIDTH], b[:, _WIDTH + 8:_WIDTH + 40]])).view("S16")
 
 
 def _free(lines: list):
