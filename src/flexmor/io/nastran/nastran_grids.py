@@ -78,7 +78,10 @@ def _free(lines: list):
     if n_fields > _MAX_FREE_FIELDS or any(ln.count(",") != n_fields for ln in lines):
         return None
     toks = ",".join(lines).split(",")
-    table = np.array(toks).reshape(len(lines), n_fields + 1)[:, 1:7]
+    try:
+        table = np.array(toks, dtype="S").reshape(len(lines), n_fields + 1)[:, 1:7]
+    except UnicodeEncodeError:
+        return None
     if table.shape[1] < 6:
         table = np.concatenate([table, np.full((len(lines), 6 - table.shape[1]), "", dtype=table.dtype)], axis=1)
     return table
