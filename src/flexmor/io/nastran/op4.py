@@ -18,7 +18,6 @@ checked against the header and the file size before use.
 
 from __future__ import annotations
 
-import re
 import struct
 from pathlib import Path
 
@@ -28,13 +27,12 @@ import scipy.sparse as sp
 from ...errors import ReadError
 from .._text import read_text
 from .nastran_bulk import num
+from .op4_stream import check_header, fast_ascii, is_header, is_values, matrix_header
 
 __all__ = ["read_op4"]
 
 #: Largest OP4 matrix (entries) returned densely: 2e8 entries = 1.6 GB of float64.
 MAX_DENSE = 200_000_000
-_HEADER = re.compile(r"^\s*(-?\d+)\s+(-?\d+)\s+(\d+)\s+(\d+)\s*(\S+)\s*(.*)$")
-_FMT = re.compile(r"(\d+)\s*[EeDd]\s*(\d+)\.(\d+)")
 
 
 def read_op4(path, *, sparse: bool = False) -> dict:
@@ -61,17 +59,30 @@ def read_op4(path, *, sparse: bool = False) -> dict:
     path = Path(path)
     if not path.exists():
         raise ReadError(path, "file not found")
-    raw = path.read_bytes()
-    if not raw.strip():
+    with open(path, "rb") as f:
+        head = f.read(65536)
+        size = f.seek(0, 2)
+        if head.isspace() and size > len(head):
+            f.seek(0)
+            head = f.read()
+    if not head.strip():
         raise ReadError(path, "file is empty")
-    binary = len(raw) >= 16 and (raw[12] == 0 or raw[15] == 0 or b"\x00" in raw[:16])
-    mats = _binary(path, raw) if binary else _ascii(path)
+    binary = len(head) >= 16 and (head[12] == 0 or head[15] == 0 or b"\x00" in head[:16])
+    if binary:
+        mats = _binary(path, path.read_bytes())
+    else:
+        mats = fast_ascii(path, size)
+        if mats is None:  # irregular layout or a defect: the line scanner reads it or names the line
+            mats = _ascii(path)
     out = {}
-    for name, (nrow, ncol, form, r, c, v) in mats.items():
-        if form == 6 and nrow == ncol and r.size and not (np.any(r > c) and np.any(r < c)):
-            off = r != c
-            r, c, v = np.concatenate([r, c[off]]), np.concatenate([c, r[off]]), np.concatenate([v, v[off]])
-        A = sp.csc_matrix((v, (r, c)), shape=(nrow, ncol))
+    for name, (form, A) in mats.items():
+        nrow, ncol = A.shape
+        if form == 6 and nrow == ncol and A.nnz:
+            c = np.repeat(np.arange(ncol, dtype=A.indices.dtype), np.diff(A.indptr))
+            lower, upper = bool(np.any(A.indices > c)), bool(np.any(A.indices < c))
+            del c
+            if not (lower and upper):  # one triangle stored: complete it
+                A = sp.csc_matrix(A + (sp.tril(A, -1) if lower else sp.triu(A, 1)).T)
         A.eliminate_zeros()  # dense columns store the zeros between the first and last non-zero row
         if not sparse:
             if nrow * ncol > MAX_DENSE:
@@ -112,16 +123,7 @@ class _Col:
         key = c * np.int64(self.nrow) + r
         if np.unique(key).size != key.size:
             raise ReadError(self.path, f"matrix {self.name}: a column stores the same row twice")
-        return self.nrow, self.ncol, form, r, c, v
-
-
-def _check_header(path, ncol, nrow, form, typ, name, where):
-    if ncol < 0 or nrow == 0 and ncol > 0 or typ not in (1, 2, 3, 4) or not 1 <= form <= 18:
-        raise ReadError(path, f"OP4 header of {name!r}: ncol={ncol} nrow={nrow} form={form} type={typ} is not a "
-                              "valid matrix header", where)
-    if abs(nrow) * max(ncol, 1) > 10**13:
-        raise ReadError(path, f"OP4 header of {name!r}: {abs(nrow)} x {ncol} is implausibly large; is the file "
-                              "corrupt?", where)
+        return form, sp.csc_matrix((v, (r, c)), shape=(self.nrow, self.ncol))
 
 
 # -- ASCII ------------------------------------------------------------------------------------
@@ -133,27 +135,7 @@ def _ascii(path):
         if not h.strip():
             i += 1
             continue
-        try:
-            ncol, nrow, form, typ = (int(h[k:k + 8]) for k in range(0, 32, 8))
-            name, fmt = h[32:40].strip(), h[40:]
-            if not name:
-                raise ValueError
-        except ValueError:
-            m = _HEADER.match(h)
-            if not m:
-                raise ReadError(path, f"expected an OP4 header 'ncol nrow form type NAME format', got {h[:60]!r}",
-                                i + 1) from None
-            ncol, nrow, form, typ = (int(m.group(k)) for k in range(1, 5))
-            name, fmt = m.group(5), m.group(6)
-            f = _FMT.search(name)
-            if f:  # name and format touch
-                name, fmt = name[:f.start()].rstrip("1P,").rstrip(), name[f.start():] + fmt
-        f = _FMT.search(fmt)
-        per_line, width = (int(f.group(1)), int(f.group(2))) if f else (5, 16)
-        name = name.upper()
-        _check_header(path, ncol, nrow, form, typ, name, i + 1)
-        if per_line < 1 or width < 2:
-            raise ReadError(path, f"matrix {name}: unusable number format {fmt.strip()!r}", i + 1)
+        ncol, nrow, form, typ, name, per_line, width = matrix_header(path, h, i + 1)
         bigmat = nrow < 0 or abs(nrow) >= 65536
         wper = 1 if typ & 1 else 2
         col = _Col(path, name, abs(nrow), ncol, typ > 2)
@@ -164,7 +146,7 @@ def _ascii(path):
             try:
                 icol, irow, nw = (int(x) for x in lines[i].split())
             except ValueError:
-                if _HEADER.match(lines[i]) and len(lines[i].split()) > 3:
+                if is_header(lines[i]):
                     raise ReadError(path, f"matrix {name}: the next matrix header follows before the closing "
                                           f"record; the header announces {ncol} columns (corrupt header or "
                                           "truncated matrix?)", i + 1) from None
@@ -176,7 +158,7 @@ def _ascii(path):
             if icol > ncol:
                 i += -(-nw // per_line) if irow > 0 else 0
                 if irow == 0:  # closing record of a sparse matrix: one dummy value line
-                    i += 1 if i < len(lines) and _is_values(lines[i]) else 0
+                    i += 1 if i < len(lines) and is_values(lines[i]) else 0
                 break
             if irow > 0:
                 vals, i = _dense_values(path, lines, i, nw, per_line, width, wper)
@@ -221,14 +203,6 @@ def _dense_values(path, lines, i, nw, per_line, width, wper):
         if j < len(lines) and len(lines[j].split()) == 3 and all(t.lstrip("-").isdigit() for t in lines[j].split()):
             return vals, j
         raise
-
-
-def _is_values(line: str) -> bool:
-    try:
-        num(line.split()[0])
-        return "." in line or "E" in line.upper()
-    except (ValueError, IndexError):
-        return False
 
 
 def _values(path, lines, i, n, per_line, width):
@@ -279,7 +253,7 @@ def _binary(path, raw: bytes):
             raise ReadError(path, f"expected a matrix header record at byte {start}")
         ncol, nrow, form, typ = struct.unpack(end + ("4q" if ib == 8 else "4i"), body[:4 * ib])
         name = body[4 * ib:].decode("latin-1").replace("\x00", " ").strip().upper() or f"M{len(out)}"
-        _check_header(path, ncol, nrow, form, typ, name, None)
+        check_header(path, ncol, nrow, form, typ, name, None)
         single = typ & 1 and ib == 4
         word_bytes = ib
         vfmt = np.dtype(end + ("f4" if single else "f8"))
