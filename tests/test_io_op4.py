@@ -116,3 +116,95 @@ def test_broken_ascii_sparse(tmp_path):
     p.write_text("\n".join(lines) + "\n")
     with pytest.raises(ReadError, match=rf"s\.op4:{k + 1}: .*does not fit column"):
         read_op4(p)
+
+
+# -- ASCII read streamed (op4_stream.fast_ascii) against the line scanner (op4._ascii) ---------
+def _same(path):
+    """The streamed reader takes ``path`` and gives bit for bit the matrices of the line scanner."""
+    from flexmor.io.nastran import op4, op4_stream
+
+    fast = op4_stream.fast_ascii(path, path.stat().st_size)
+    assert fast is not None, "the streamed reader handed the file to the line scanner"
+    old = op4._ascii(path)
+    assert list(fast) == list(old)
+    for name, (form, A) in fast.items():
+        assert form == old[name][0]
+        np.testing.assert_array_equal(A.toarray().view(np.int64), old[name][1].toarray().view(np.int64))
+    return fast
+
+
+def _wide_values(shape):
+    """Values with exponents -90..90 (two digits: the field width holds them) and zeros."""
+    A = RNG.standard_normal(shape) * 10.0 ** RNG.integers(-90, 90, shape)
+    A[RNG.random(shape) < 0.3] = 0.0
+    return A
+
+
+@pytest.mark.parametrize("sparse, bigmat, per_line, width", [(False, False, 3, 23), (True, False, 3, 23),
+                                                             (True, True, 5, 24), (False, False, 5, 16)])
+def test_ascii_streamed_bit_identical(tmp_path, sparse, bigmat, per_line, width):
+    p = tmp_path / "w.op4"
+    A = _wide_values((40, 30))
+    write_ascii(p, {"A": A, "S": A[:30] + A[:30].T, "E": np.zeros((3, 2))}, sparse=sparse, bigmat=bigmat,
+                per_line=per_line, width=width)
+    _same(p)
+    np.testing.assert_array_equal(read_op4(p)["A"], A if width > 16 else read_op4(p)["A"])
+
+
+def test_ascii_streamed_over_chunks(tmp_path, monkeypatch):
+    """Records cut by the chunk boundaries (chunks of 1 kB), one matrix after the other."""
+    from flexmor.io.nastran import op4_stream
+
+    monkeypatch.setattr(op4_stream, "_CHUNK", 1000)
+    p = tmp_path / "c.op4"
+    A = _wide_values((61, 47))
+    write_ascii(p, {"A": A, "B": A.T}, sparse=True)
+    _same(p)
+    write_ascii(p, {"A": A, "B": A.T})
+    m = _same(p)
+    np.testing.assert_array_equal(m["B"][1].toarray(), A.T)
+
+
+def test_ascii_exporter_file(tmp_path, clamped):
+    """A reduced body written by flexmor's own OP4 exporter (``1P,3E24.16``, symmetric, full columns)."""
+    from flexmor.io import export
+    from flexmor.ports import make_ports
+    from flexmor.reduction import reduce
+
+    red, _ = reduce(clamped, "krylov", 10, make_ports(clamped, [f"{int(clamped.dofs[-1, 0])}:y"]))
+    p = tmp_path / "body.op4"
+    export(red, p, model=clamped)
+    m = _same(p)
+    assert {"KAA", "MAA"} <= set(m)
+
+
+def test_ascii_fortran_forms(tmp_path):
+    """``D`` exponents, an implicit exponent (``1.25-3``) and a three-digit one without its letter."""
+    p = tmp_path / "f.op4"
+    A = _wide_values((8, 4))
+    write_ascii(p, {"A": A}, per_line=3, width=23)
+    text = p.read_text().replace("E+", "D+").replace("E-", "D-")
+    p.write_text(text)
+    _same(p)
+    np.testing.assert_array_equal(read_op4(p)["A"], A)
+    lines = p.read_text().splitlines()
+    k = next(i for i, ln in enumerate(lines) if len(ln) == 69)  # a full line of three values
+    lines[k] = f"{'1.25-3':>23}{'-2.5+100':>23}{'.5':>23}"
+    p.write_text("\n".join(lines) + "\n")
+    m = _same(p)
+    assert {1.25e-3, -2.5e100, 0.5} <= set(m["A"][1].data.tolist())
+
+
+def test_ascii_corrupt_value_deep_in_file(tmp_path):
+    p = tmp_path / "deep.op4"
+    write_ascii(p, {"A": _wide_values((300, 200)) + 1.0, "B": np.eye(4)})
+    lines = p.read_text().splitlines()
+    k = 5000 + next(i for i, ln in enumerate(lines[5000:]) if len(ln) == 69)
+    lines[k] = lines[k][:30] + "x" + lines[k][31:]
+    p.write_text("\n".join(lines) + "\n")
+    with pytest.raises(ReadError, match=rf"deep\.op4:{k + 1}: non-numeric or non-finite value"):
+        read_op4(p)
+    lines[k] = lines[k][:23]  # a short line: the column reads into its next record
+    p.write_text("\n".join(lines) + "\n")
+    with pytest.raises(ReadError, match=r"deep\.op4:\d+: "):
+        read_op4(p)

@@ -188,13 +188,14 @@ def _walk(path, buf, b, m, out, left_bytes, eof):
             if len(toks) != (2 if m.bigmat else 1):
                 return None
             lp1, r0 = toks if m.bigmat else (toks[0] >> 16, toks[0] & 0xFFFF)
-            m.left -= lp1 + 1 if m.bigmat else lp1
-            if lp1 < 1 or (lp1 - 1) % m.wper or m.left < 0:
+            left = m.left - (lp1 + 1 if m.bigmat else lp1)
+            if lp1 < 1 or (lp1 - 1) % m.wper or left < 0:
                 return None
             nv = (lp1 - 1) // m.wper
             nlv = -(-nv // p)
             if i + 1 + nlv > nlines:
                 break
+            m.left = left
             recs.append((m, i + 1, nv, p, m.width))
             m.icol.append(m.col)
             m.r0.append(r0)
