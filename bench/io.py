@@ -10,7 +10,9 @@ format flexmor reads, then read back with :func:`flexmor.io.read`:
 * ``abaqus``: ``job.inp`` with the nodes and ``job_STIF1.mtx``/``job_MASS1.mtx`` (both
   triangles, 3 DOFs per node, ``row col value``);
 * ``nastran``: ``job.pch`` with ``DMIG KAAX``/``MAAX`` in large field as Nastran punches them
-  (upper triangle, 10 digits), ``job.bdf`` with the GRIDs.
+  (upper triangle, 10 digits), ``job.bdf`` with the GRIDs;
+* ``op4``: ASCII OUTPUT4 ``job.op4`` with ``KAA``/``MAA`` (symmetric, stored in full) in the
+  sparse BIGMAT form (a string per run of consecutive rows), ``1P,3E23.16``; no bulk file.
 
 Each file is read twice (:func:`measure`): *read s* and *cpu s* are the wall and CPU time of
 an untraced ``read``, *MB/cpu s* the size of the matrix files over that CPU time (the fair
@@ -100,7 +102,28 @@ def write(fmt: str, model, d: Path) -> tuple[Path, list]:
                     fh.write(f"DMIG*   {name:<16}{g[j]:>16}{c[j]:>16}\n" + "".join(
                         f"*       {g[i]:>16}{c[i]:>16}{v:16.9E}\n" for i, v in zip(rows, vals)))
         return d / "job.pch", [d / "job.pch"]
+    if fmt == "op4":
+        _write_op4(d / "job.op4", {"KAA": model.K, "MAA": model.M})
+        return d / "job.op4", [d / "job.op4"]
     raise ValueError(fmt)
+
+
+def _write_op4(path: Path, mats: dict) -> None:
+    """ASCII OUTPUT4, BIGMAT strings (``L + 1, first row`` then ``L`` words), 3 values of ``E23.16`` a line."""
+    with open(path, "w") as fh:
+        for name, A in mats.items():
+            A = sp.csc_matrix(A)
+            n = A.shape[0]
+            fh.write(f"{n:8d}{-n:8d}{6:8d}{2:8d}{name:<8}1P,3E23.16\n")
+            for j in range(n):
+                rows, vals = A.indices[A.indptr[j]:A.indptr[j + 1]], A.data[A.indptr[j]:A.indptr[j + 1]].tolist()
+                cuts = [0] + (np.flatnonzero(np.diff(rows) != 1) + 1).tolist() + [rows.size]
+                out = [f"{j + 1:8d}{0:8d}{2 * rows.size + 2 * (len(cuts) - 1):8d}\n"]
+                for a, b in zip(cuts[:-1], cuts[1:]):
+                    out.append(f"{2 * (b - a) + 1:8d}{int(rows[a]) + 1:8d}\n")
+                    out += ["".join(f"{v:23.16E}" for v in vals[k:min(k + 3, b)]) + "\n" for k in range(a, b, 3)]
+                fh.write("".join(out))
+            fh.write(f"{n + 1:8d}{0:8d}{0:8d}\n{1.0:23.16E}\n")
 
 
 def measure(main_file: Path, files: list) -> dict:
@@ -142,7 +165,7 @@ def _in_child(src: str, main_file: Path, files: list) -> dict:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--dofs", type=int, default=30_000)
-    ap.add_argument("--formats", default="calculix,matrix-market,abaqus,nastran")
+    ap.add_argument("--formats", default="calculix,matrix-market,abaqus,nastran,op4")
     ap.add_argument("--baseline", metavar="SRC", help="another flexmor source tree (e.g. a worktree of main: "
                                                      "../base/src), measured beside this one")
     ap.add_argument("--measure", help=argparse.SUPPRESS)
@@ -169,7 +192,7 @@ def main() -> None:
                 if src is None:
                     r = measure(main_file, files)
                     K = r.pop("K")
-                    assert abs(K - model.K).max() <= (1e-9 if fmt == "nastran" else 1e-12) * abs(model.K).max()
+                    assert abs(K - model.K).max() <= (1e-9 if fmt == "nastran" else 0 if fmt == "op4" else 1e-12) * abs(model.K).max()
                 else:
                     r = _in_child(src, main_file, files)
                 print(f"{fmt:>14} {label:>7} {r['mb']:7.1f} {r['wall']:7.2f} {r['cpu']:7.2f} "

@@ -90,21 +90,23 @@ class _Matrix:
         self.ncol, nrow, self.form, typ, self.name, self.per_line, self.width = head
         self.nrow, self.bigmat, self.cplx = abs(nrow), nrow < 0 or abs(nrow) >= 65536, typ > 2
         self.wper = 1 if typ & 1 else 2
-        self.icol, self.r0, self.n = [], [], []
+        self.icol, self.r0, self.n = [], [], []  # arrays, one per chunk
         self.vals, self.k = np.empty(cap), 0
-        self.left = 0  # words left in the sparse column being read
-        self.col = 0
 
-    def put(self, values: np.ndarray) -> None:
+    def put(self, icol, r0, n, values: np.ndarray) -> None:
+        self.icol.append(icol)
+        self.r0.append(r0)
+        self.n.append(n)
         k = self.k + values.size
         if k > self.vals.size:
-            self.vals = np.concatenate([self.vals[:self.k], np.empty(max(k, self.vals.size + self.vals.size // 4) - self.k)])
+            grow = max(k, self.vals.size + self.vals.size // 4)
+            self.vals = np.concatenate([self.vals[:self.k], np.empty(grow - self.k)])
         self.vals[self.k:k] = values
         self.k = k
 
     def matrix(self):
         """``(form, CSC matrix)``, or None when the records break a rule (the scanner names it)."""
-        icol, r0, n = (np.array(x, dtype=np.int64) for x in (self.icol, self.r0, self.n))
+        icol, r0, n = (np.concatenate(x + [np.zeros(0, np.int64)]) for x in (self.icol, self.r0, self.n))
         vals = self.vals
         vals.resize(self.k, refcheck=False)  # realloc: the unused capacity is returned
         if self.cplx:
@@ -136,14 +138,13 @@ def fast_ascii(path, size: int):
             block = f.read(_CHUNK)
             eof = not block
             buf = rest + block if rest else block
-            cut = buf.rfind(b"\n") + 1 if not eof else len(buf)
             if eof and buf and not buf.endswith(b"\n"):
                 buf += b"\n"
-                cut = len(buf)
-            if not buf[:cut]:
+            cut = buf.rfind(b"\n") + 1
+            if cut == 0:
+                rest = buf
                 continue
-            b = np.frombuffer(buf, dtype=np.uint8, count=cut)
-            got = _walk(path, buf, b, m, out, size - done, eof)
+            got = _Chunk(buf, cut).walk(path, m, out, size - done, eof)
             if got is None:
                 return None
             m, used = got
@@ -154,127 +155,171 @@ def fast_ascii(path, size: int):
     return out if m is None and out else None
 
 
-def _walk(path, buf, b, m, out, left_bytes, eof):
-    """Walk the records of the whole lines in ``b``; parse their values. ``(matrix being read, bytes used)`` or None."""
-    nl = np.flatnonzero(b == 10)
-    starts = np.empty_like(nl)
-    starts[:1] = 0
-    starts[1:] = nl[:-1] + 1
-    ends = nl - (np.take(b, nl - 1, mode="clip") == 13) * (nl > starts)
-    st, en = starts.tolist(), ends.tolist()
-    nlines = len(st)
-    recs = []  # (matrix, first value line, values, per line, width)
-    finished = []
-    i = 0
-    while i < nlines:
-        line = buf[st[i]:en[i]]
-        if m is None:
-            if not line.strip():
+class _Chunk:
+    """The whole lines of a chunk: line table, and the integers of the lines without a ``.``."""
+
+    _MAXINT = 64  # longest line of integers
+
+    def __init__(self, buf: bytes, cut: int):
+        self.buf = buf
+        b = self.b = np.frombuffer(buf, dtype=np.uint8, count=cut)
+        nl = np.flatnonzero(b == 10)
+        self.starts = np.empty_like(nl)
+        self.starts[:1] = 0
+        self.starts[1:] = nl[:-1] + 1
+        self.ends = nl - (np.take(b, nl - 1, mode="clip") == 13) * (nl > self.starts)
+        self.n = nl.size
+        dot = np.zeros(self.n + 1, dtype=bool)
+        dot[np.searchsorted(nl, np.flatnonzero(b == 46))] = True
+        self.ilines = np.flatnonzero(~dot[:-1])  # record lines (and blank or other lines)
+        s, e = self.starts[self.ilines], self.ends[self.ilines]
+        width = min(int((e - s).max(initial=0)), self._MAXINT)
+        pad = np.concatenate([b, np.full(width + 1, 32, np.uint8)])
+        t = np.take(pad, s[:, None] + np.arange(width + 1))
+        t[np.arange(width + 1) >= (e - s)[:, None]] = 32
+        digit = (t >= 48) & (t <= 57)
+        self.other = ~np.all(digit | (t == 32) | (t == 45) | (t == 43), axis=1) | (e - s > width)
+        t[self.other] = 32
+        sp_ = t == 32
+        first = ~sp_ & np.concatenate([np.ones((t.shape[0], 1), bool), sp_[:, :-1]], axis=1)
+        self.count = first.sum(axis=1)
+        ok = self.count <= 3
+        self.other |= ~ok
+        self.count[~ok] = 0
+        t[~ok] = 32
+        first[~ok] = False
+        ints = np.fromstring(t.tobytes(), dtype=np.int64, sep=" ") if t.size else np.zeros(0, np.int64)
+        self.ints = np.zeros((t.shape[0], 3), np.int64)
+        if ints.size != int(self.count.sum()):
+            self.ints = None
+            return
+        rows, cols = np.nonzero(first)
+        self.ints[rows, np.cumsum(first, axis=1)[rows, cols] - 1] = ints
+
+    def line(self, i: int) -> bytes:
+        return self.buf[self.starts[i]:self.ends[i]]
+
+    def walk(self, path, m, out, left_bytes, eof):
+        """Read the matrices of the chunk; ``(matrix being read, bytes used)`` or None."""
+        if self.ints is None:
+            return None
+        i, finished = 0, []
+        while i < self.n:
+            if m is None:
+                line = self.line(i)
+                if line.strip():
+                    try:
+                        head = matrix_header(path, line.decode("latin-1"), None)
+                    except ReadError:
+                        return None
+                    m = _Matrix(head, left_bytes // head[6] + 1)
                 i += 1
                 continue
-            try:
-                head = matrix_header(path, line.decode("latin-1"), None)
-            except ReadError:
+            got = self._body(m, i, eof)
+            if got is None:
                 return None
-            m = _Matrix(head, left_bytes // head[6] + 1)
-            i += 1
-            continue
-        p = m.per_line
-        try:
-            toks = [int(t) for t in line.split()]
-        except ValueError:
-            return None
-        if m.left > 0:  # a string header of a sparse column
-            if len(toks) != (2 if m.bigmat else 1):
-                return None
-            lp1, r0 = toks if m.bigmat else (toks[0] >> 16, toks[0] & 0xFFFF)
-            left = m.left - (lp1 + 1 if m.bigmat else lp1)
-            if lp1 < 1 or (lp1 - 1) % m.wper or left < 0:
-                return None
-            nv = (lp1 - 1) // m.wper
-            nlv = -(-nv // p)
-            if i + 1 + nlv > nlines:
+            closing, i = got
+            if not closing:
                 break
-            m.left = left
-            recs.append((m, i + 1, nv, p, m.width))
-            m.icol.append(m.col)
-            m.r0.append(r0)
-            m.n.append(nv)
-            i += 1 + nlv
-            continue
-        if len(toks) != 3 or toks[2] < 0:
-            return None
-        icol, irow, nw = toks
-        if icol > m.ncol:  # closing record
-            skip = -(-nw // p) if irow > 0 else 1
-            if i + 1 + skip > nlines and not eof:
-                break
-            if irow == 0 and not (i + 1 < nlines and is_values(buf[st[i + 1]:en[i + 1]].decode("latin-1"))):
-                skip = 0
-            if i + 1 + skip > nlines:
+            nxt = self._closing(m, i, eof)
+            if nxt is None:
                 return None
+            if nxt < 0:
+                break
             finished.append(m)
-            m = None
-            i += 1 + skip
-            continue
-        if irow > 0:
-            nlv = -(-nw // p)
-            if i + 1 + nlv > nlines:
-                break
-            recs.append((m, i + 1, nw, p, m.width))
-            m.icol.append(icol)
-            m.r0.append(irow)
-            m.n.append(nw)
-            i += 1 + nlv
-        else:
-            m.left, m.col = nw, icol
-            i += 1
-    if not _values(buf, b, starts, ends, recs):
-        return None
-    for x in finished:
-        got = x.matrix()
-        if got is None:
+            m, i = None, nxt
+        for x in finished:
+            got = x.matrix()
+            if got is None:
+                return None
+            out[x.name] = got
+        return m, int(self.starts[i]) if i < self.n else self.b.size
+
+    def _closing(self, m, i, eof):
+        """Line after the closing record at line ``i`` and its value lines; -1: in the next chunk; None: irregular."""
+        irow, nw = (int(x) for x in self.ints[np.searchsorted(self.ilines, i), 1:])
+        skip = -(-nw // m.per_line) if irow > 0 else 1
+        if i + 1 + skip > self.n:
+            return None if eof else -1
+        if irow <= 0 and not is_values(self.line(i + 1).decode("latin-1")):
+            skip = 0
+        return i + 1 + skip
+
+    def _body(self, m, i, eof):
+        """Parse the column records from line ``i`` up to the closing record or the last complete column.
+
+        Returns ``(closing, line)``: the closing record's line, or (``closing`` False) the line
+        to read on from with the next chunk; None when the lines are irregular.
+        """
+        il = self.ilines
+        a = int(np.searchsorted(il, i))
+        if a >= il.size or il[a] != i:
             return None
-        out[x.name] = got
-    return m, st[i] if i < nlines else len(b)
+        col = (self.count[a:] == 3) & ~self.other[a:]
+        end = np.flatnonzero(col & (self.ints[a:, 0] > m.ncol))
+        closing = end.size > 0
+        if closing:
+            z = a + int(end[0])
+        elif eof:
+            return None
+        else:  # up to the last column record of the chunk: its column may go on in the next one
+            z = a + int(np.flatnonzero(col)[-1]) if col.any() else a
+        if z == a:
+            return closing, i
+        lines, cnt, ints = il[a:z], self.count[a:z], self.ints[a:z]
+        col = col[:z - a]
+        if self.other[a:z].any() or not col[0] or not np.all(col | (cnt == (2 if m.bigmat else 1))):
+            return None
+        gap = np.diff(np.append(lines, il[z])) - 1  # value lines after each record line
+        cols = np.flatnonzero(col)
+        owner = cols[np.cumsum(col) - 1]  # the column record of each line
+        icol, irow, nw = ints[owner, 0], ints[owner, 1], ints[owner, 2]
+        string = ~col
+        if m.bigmat:
+            lp1, r0, words = ints[:, 0], ints[:, 1], ints[:, 0] + 1
+        else:
+            lp1, r0 = ints[:, 0] >> 16, ints[:, 0] & 0xFFFF
+            words = lp1
+        sparse = col & (irow <= 0)
+        used = np.bincount(np.cumsum(col)[string] - 1, weights=words[string], minlength=cols.size)
+        if (np.any(nw < 0) or np.any(string & (irow > 0)) or np.any(used != np.where(irow[cols] > 0, 0, nw[cols]))
+                or np.any(string & ((lp1 < 1) | ((lp1 - 1) % m.wper != 0)))):
+            return None
+        r0 = np.where(col, irow, r0)
+        n = np.where(col, nw, (lp1 - 1) // m.wper)
+        n[sparse] = 0
+        if np.any(gap != -(-n // m.per_line)):
+            return None
+        rec = ~sparse
+        vals = _values(self, lines[rec] + 1, n[rec], m.per_line, m.width)
+        if vals is None:
+            return None
+        m.put(icol[rec], r0[rec], n[rec], vals)
+        return closing, int(il[z])
 
 
-def _values(buf, b, starts, ends, recs) -> bool:
-    """Parse the values of the records ``recs`` and append them to their matrices; False for a bad line."""
-    if not recs:
-        return True
-    first = np.array([r[1] for r in recs], dtype=np.int64)
-    n = np.array([r[2] for r in recs], dtype=np.int64)
-    p = np.array([r[3] for r in recs], dtype=np.int64)
-    w = np.array([r[4] for r in recs], dtype=np.int64)
+def _values(chunk, first, n, p, w):
+    """The values of records whose ``n`` values, ``p`` to a line of ``w``-byte fields, start at line ``first``."""
+    buf, b, starts, ends = chunk.buf, chunk.b, chunk.starts, chunk.ends
     total = int(n.sum())
-    # value lines: expected length (count x width) of each
     nlv = -(-n // p)
     lines = np.repeat(first - np.cumsum(nlv) + nlv, nlv) + np.arange(int(nlv.sum()))
-    count = np.repeat(p, nlv)
-    last = np.cumsum(nlv)[nlv > 0] - 1
-    count[last] = (n - (nlv - 1) * p)[nlv > 0]
-    if np.any(np.take(ends, lines) - np.take(starts, lines) != count * np.repeat(w, nlv)):
-        return False
+    count = np.full(lines.size, p)
+    count[np.cumsum(nlv)[nlv > 0] - 1] = (n - (nlv - 1) * p)[nlv > 0]
+    if np.any(np.take(ends, lines) - np.take(starts, lines) != count * w):
+        return None
     j = np.arange(total) - np.repeat(np.cumsum(n) - n, n)
-    pe, we = np.repeat(p, n), np.repeat(w, n)
-    fields = np.take(starts, np.repeat(first, n) + j // pe) + (j % pe) * we  # field starts
+    fields = np.take(starts, np.repeat(first, n) + j // p) + (j % p) * w  # field starts
     vals = np.empty(total)
     bad = np.zeros(total, dtype=bool)
-    seg = np.flatnonzero(np.diff([id(r[0]) for r in recs], prepend=0, append=1))  # runs of one matrix
-    offs = np.cumsum(n) - n
-    for a, z in zip(seg[:-1], seg[1:]):
-        e0, e1 = int(offs[a]), int(offs[z - 1] + n[z - 1])
-        if e1 > e0:
-            _parse(b, fields[e0:e1], int(w[a]), vals[e0:e1], bad[e0:e1])
+    if total:
+        _parse(b, fields, w, vals, bad)
     for k in np.flatnonzero(bad).tolist():  # other forms: one by one, as the line scanner
         try:
-            vals[k] = num(buf[fields[k]:fields[k] + we[k]].decode("latin-1"))
+            vals[k] = num(buf[fields[k]:fields[k] + w].decode("latin-1"))
         except (ValueError, UnicodeDecodeError):
-            return False
-    for a, z in zip(seg[:-1], seg[1:]):
-        recs[a][0].put(vals[int(offs[a]):int(offs[z - 1] + n[z - 1])])
-    return True
+            return None
+    return vals
 
 
 def _parse(b, fields, width, vals, bad):
