@@ -342,10 +342,15 @@ def op4_matrices(path, mats, names) -> dict:
 
     A damping matrix without any non-zero entry (Nastran writes "no damping" as a 1 x 1 null
     matrix, e.g. ``BXX`` of ``EXTSEOUT`` beside 46 x 46 ``KXX``/``MXX``) is read as zero
-    damping: it is dropped from ``names`` and the result.
+    damping: it is dropped from ``names`` and the result. Each converted matrix is released
+    from ``mats`` (only one copy of it is held at a time).
     """
+    shapes = {nm: A.shape for nm, A in mats.items()}
     out = {}
     for role, nm in list(names.items()):
+        if mats[nm] is None:  # the same matrix in two roles
+            out[role] = next(out[r] for r, m in names.items() if m == nm and r in out)
+            continue
         A = mats[nm]
         if role == "D" and A.count_nonzero() == 0:
             log.info("%s: damping matrix %s %s is null: read as zero damping", path, nm, A.shape)
@@ -356,9 +361,10 @@ def op4_matrices(path, mats, names) -> dict:
         if A.shape[0] != A.shape[1]:
             raise ReadError(path, f"matrix {nm} is {A.shape[0]} x {A.shape[1]}, not square")
         out[role] = sp.csr_matrix(A)
+        mats[nm] = A = None
     n = out["K"].shape[0]
     if any(A.shape != (n, n) for A in out.values()):
-        raise ReadError(path, "the matrices " + ", ".join(f"{nm} {mats[nm].shape}" for nm in names.values())
+        raise ReadError(path, "the matrices " + ", ".join(f"{nm} {shapes[nm]}" for nm in names.values())
                               + " differ in size")
     return out
 

@@ -78,9 +78,9 @@ def read_op4(path, *, sparse: bool = False) -> dict:
     for name, (form, A) in mats.items():
         nrow, ncol = A.shape
         if form == 6 and nrow == ncol and A.nnz:
-            c = np.repeat(np.arange(ncol, dtype=A.indices.dtype), np.diff(A.indptr))
-            lower, upper = bool(np.any(A.indices > c)), bool(np.any(A.indices < c))
-            del c
+            A.sort_indices()
+            j = np.flatnonzero(np.diff(A.indptr))  # the first and last row of each stored column
+            lower, upper = bool(np.any(A.indices[A.indptr[j + 1] - 1] > j)), bool(np.any(A.indices[A.indptr[j]] < j))
             if not (lower and upper):  # one triangle stored: complete it
                 A = sp.csc_matrix(A + (sp.tril(A, -1) if lower else sp.triu(A, 1)).T)
         A.eliminate_zeros()  # dense columns store the zeros between the first and last non-zero row

@@ -84,49 +84,65 @@ def is_values(line: str) -> bool:
 
 
 class _Matrix:
-    """The matrix being read: its header, its records ``(icol, first row, values)`` and values."""
+    """The matrix being read: its header, and its CSC data filled a chunk at a time.
+
+    ``vals`` (values, two per complex entry) and ``rows`` (row of each entry) are sized from
+    the first chunk's columns (at most the file's remaining bytes over the field width),
+    grown should a later column hold more, and shrunk in place at the end.
+    """
 
     def __init__(self, head, cap):
         self.ncol, nrow, self.form, typ, self.name, self.per_line, self.width = head
         self.nrow, self.bigmat, self.cplx = abs(nrow), nrow < 0 or abs(nrow) >= 65536, typ > 2
         self.wper = 1 if typ & 1 else 2
-        self.icol, self.r0, self.n = [], [], []  # arrays, one per chunk
-        self.vals, self.k = np.empty(cap), 0
+        self.idx = np.int32 if self.nrow < 2**31 - 1 else np.int64
+        self.vals, self.rows, self.k, self.e, self.cap = np.empty(0), np.empty(0, self.idx), 0, 0, cap
+        self.counts = np.zeros(self.ncol + 1, np.int64)  # entries per column (1-based)
+        self.last = (0, 0)  # column and end row of the last entry: columns in order, rows not overlapping
+        self.bad = False
 
     def put(self, icol, r0, n, values: np.ndarray) -> None:
-        self.icol.append(icol)
-        self.r0.append(r0)
-        self.n.append(n)
-        k = self.k + values.size
+        """Append records ``(column, first row, values)`` and their values; a broken rule sets ``bad``."""
+        ne = n // 2 if self.cplx else n
+        if self.bad or self.cplx and np.any(n % 2) or np.any(
+                (icol < 1) | (icol > self.ncol) | (r0 < 1) | (r0 - 1 + ne > self.nrow)):
+            self.bad = True
+            return
+        keep = ne > 0
+        icol, r0, ne = icol[keep], r0[keep], ne[keep]
+        c = np.r_[self.last[0], icol]
+        stop = np.r_[self.last[1], r0 + ne]
+        if np.any((c[1:] < c[:-1]) | ((c[1:] == c[:-1]) & (r0 < stop[:-1]))):
+            self.bad = True  # out of column order or overlapping rows
+            return
+        if icol.size:
+            self.last = (int(c[-1]), int(stop[-1]))
+        k, e = self.k + values.size, self.e + int(ne.sum())
+        if self.vals.size == 0 and icol.size:  # extrapolated from the first columns
+            self.cap = min(self.cap, int(k * 1.05 * self.ncol / icol[-1]) + 1024)
         if k > self.vals.size:
-            grow = max(k, self.vals.size + self.vals.size // 4)
+            grow = max(k, self.cap, self.vals.size + self.vals.size // 4)
             self.vals = np.concatenate([self.vals[:self.k], np.empty(grow - self.k)])
+            self.rows = np.concatenate([self.rows[:self.e], np.empty(grow // (2 if self.cplx else 1) - self.e,
+                                                                     self.idx)])
         self.vals[self.k:k] = values
-        self.k = k
+        rows = self.rows[self.e:e]
+        rows[:] = np.arange(e - self.e, dtype=self.idx)
+        rows -= np.repeat((np.cumsum(ne) - ne - (r0 - 1)).astype(self.idx), ne)
+        self.counts += np.bincount(icol, weights=ne, minlength=self.ncol + 1).astype(np.int64)
+        self.k, self.e = k, e
 
     def matrix(self):
-        """``(form, CSC matrix)``, or None when the records break a rule (the scanner names it)."""
-        icol, r0, n = (np.concatenate(x + [np.zeros(0, np.int64)]) for x in (self.icol, self.r0, self.n))
-        vals = self.vals
-        vals.resize(self.k, refcheck=False)  # realloc: the unused capacity is returned
-        if self.cplx:
-            if np.any(n % 2):
-                return None
-            vals, n = vals.view(np.complex128), n // 2
-        if np.any((icol < 1) | (icol > self.ncol) | (r0 < 1) | (r0 - 1 + n > self.nrow)):
+        """``(form, CSC matrix)``, or None when the records broke a rule (the scanner names it)."""
+        if self.bad:
             return None
-        keep = n > 0
-        icol, r0, n = icol[keep], r0[keep], n[keep]
-        if np.any((icol[1:] < icol[:-1]) | ((icol[1:] == icol[:-1]) & (r0[1:] < r0[:-1] + n[:-1]))):
-            return None  # out of column order or overlapping rows
-        total = int(n.sum())
-        idx = np.int32 if max(total, self.nrow) < 2**31 - 1 else np.int64
-        indices = np.arange(total, dtype=idx)
-        indices -= np.repeat((np.cumsum(n) - n - (r0 - 1)).astype(idx), n)
-        indptr = np.zeros(self.ncol + 1, dtype=idx)
-        np.add.at(indptr, icol, n.astype(idx))
-        np.cumsum(indptr, out=indptr)
-        return self.form, sp.csc_matrix((vals, indices, indptr), shape=(self.nrow, self.ncol))
+        vals, rows = self.vals, self.rows
+        vals.resize(self.k, refcheck=False)  # realloc: the unused capacity is returned
+        rows.resize(self.e, refcheck=False)
+        if self.cplx:
+            vals = vals.view(np.complex128)
+        indptr = np.cumsum(self.counts).astype(self.idx if self.e < 2**31 - 1 else np.int64)
+        return self.form, sp.csc_matrix((vals, rows, indptr), shape=(self.nrow, self.ncol))
 
 
 def fast_ascii(path, size: int):
@@ -169,32 +185,27 @@ class _Chunk:
         self.starts[1:] = nl[:-1] + 1
         self.ends = nl - (np.take(b, nl - 1, mode="clip") == 13) * (nl > self.starts)
         self.n = nl.size
-        dot = np.zeros(self.n + 1, dtype=bool)
-        dot[np.searchsorted(nl, np.flatnonzero(b == 46))] = True
-        self.ilines = np.flatnonzero(~dot[:-1])  # record lines (and blank or other lines)
-        s, e = self.starts[self.ilines], self.ends[self.ilines]
-        width = min(int((e - s).max(initial=0)), self._MAXINT)
+        length = self.ends - self.starts
+        mark = np.take(b, self.ends - 4, mode="clip") | 32  # E or D four bytes before the end: a value line
+        short = np.flatnonzero((length <= self._MAXINT) & (mark != 101) & (mark != 100))  # record lines among these
+        s, e = self.starts[short], self.ends[short]
+        width = int((e - s).max(initial=0))
         pad = np.concatenate([b, np.full(width + 1, 32, np.uint8)])
         t = np.take(pad, s[:, None] + np.arange(width + 1))
         t[np.arange(width + 1) >= (e - s)[:, None]] = 32
-        digit = (t >= 48) & (t <= 57)
-        self.other = ~np.all(digit | (t == 32) | (t == 45) | (t == 43), axis=1) | (e - s > width)
-        t[self.other] = 32
-        sp_ = t == 32
-        first = ~sp_ & np.concatenate([np.ones((t.shape[0], 1), bool), sp_[:, :-1]], axis=1)
-        self.count = first.sum(axis=1)
-        ok = self.count <= 3
-        self.other |= ~ok
-        self.count[~ok] = 0
-        t[~ok] = 32
-        first[~ok] = False
+        isint = np.all(((t >= 48) & (t <= 57)) | (t == 32) | (t == 45) | (t == 43), axis=1)
+        self.ilines, t = short[isint], t[isint]  # lines of integers only (record lines, blank lines)
+        self.count = (~(t == 32)[:, :-1] & (t == 32)[:, 1:]).sum(axis=1)  # tokens (each ends before a blank)
         ints = np.fromstring(t.tobytes(), dtype=np.int64, sep=" ") if t.size else np.zeros(0, np.int64)
-        self.ints = np.zeros((t.shape[0], 3), np.int64)
+        self.ints = None
         if ints.size != int(self.count.sum()):
-            self.ints = None
             return
-        rows, cols = np.nonzero(first)
-        self.ints[rows, np.cumsum(first, axis=1)[rows, cols] - 1] = ints
+        self.count[self.count > 3] = 0  # not a record line
+        off = np.cumsum(self.count) - self.count
+        self.ints = np.zeros((t.shape[0], 3), np.int64)
+        for k in range(3):
+            has = self.count > k
+            self.ints[has, k] = ints[off[has] + k]
 
     def line(self, i: int) -> bytes:
         return self.buf[self.starts[i]:self.ends[i]]
@@ -255,7 +266,7 @@ class _Chunk:
         a = int(np.searchsorted(il, i))
         if a >= il.size or il[a] != i:
             return None
-        col = (self.count[a:] == 3) & ~self.other[a:]
+        col = self.count[a:] == 3
         end = np.flatnonzero(col & (self.ints[a:, 0] > m.ncol))
         closing = end.size > 0
         if closing:
@@ -268,7 +279,7 @@ class _Chunk:
             return closing, i
         lines, cnt, ints = il[a:z], self.count[a:z], self.ints[a:z]
         col = col[:z - a]
-        if self.other[a:z].any() or not col[0] or not np.all(col | (cnt == (2 if m.bigmat else 1))):
+        if not col[0] or not np.all(col | (cnt == (2 if m.bigmat else 1))):
             return None
         gap = np.diff(np.append(lines, il[z])) - 1  # value lines after each record line
         cols = np.flatnonzero(col)
