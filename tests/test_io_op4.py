@@ -208,3 +208,15 @@ def test_ascii_corrupt_value_deep_in_file(tmp_path):
     p.write_text("\n".join(lines) + "\n")
     with pytest.raises(ReadError, match=r"deep\.op4:\d+: "):
         read_op4(p)
+
+
+def test_ascii_broken_record_lines(tmp_path):
+    """Record lines that are not three integers go to the line scanner, which names them."""
+    p = tmp_path / "r.op4"
+    write_ascii(p, {"A": _sample()})
+    lines = p.read_text().splitlines()
+    assert lines[5].split() == ["2", "2", "6"]
+    for bad in ("       2       2--     6", "       2       2", "", "       2       2       6       0"):
+        p.write_text("\n".join(lines[:5] + [bad] + lines[6:]) + "\n")
+        with pytest.raises(ReadError, match=r"r\.op4:6: matrix A: expected a column record"):
+            read_op4(p)

@@ -4,20 +4,23 @@ An ASCII OP4 matrix is a header line (``NCOL NROW FORM TYPE NAME`` and a Fortran
 as ``1P,3E24.16``: values per line and field width), then per stored column a record line
 ``ICOL IROW NW`` followed by its values in fixed-width fields, ``per_line`` to a line (sparse
 columns, ``IROW = 0``: a string header line before each run of rows). :func:`fast_ascii`
-reads the file in chunks of whole lines: the record lines are walked in Python (one per
-column or string), the value fields of a whole chunk are parsed at once by
-:func:`~flexmor.io._fastparse.parse_values` (the double ``strtod`` gives) into one
-preallocated array per matrix, which becomes the ``data`` of a CSC matrix as it is. Fields
-of another form (``1.0-3``, a three-digit exponent without its letter) are parsed one by one
-like the line scanner does. It returns None for anything irregular (blank or trailing
-characters, lines of another length than the format says, records out of column order,
-overlapping rows, a field that is not a number, a truncated file): the line scanner of
-:mod:`.op4` then reads the file and names the line of a defect.
+reads the file in chunks of whole lines: the record lines of a chunk (those of integers only)
+are parsed at once by ``np.fromstring`` and the structure (strings per sparse column, value
+lines per record, column order) is checked with array arithmetic; the value fields are parsed
+at once by :func:`~flexmor.io._fastparse.parse_values` (the double ``strtod`` gives). Rows,
+values and column counts go straight into arrays per matrix, which become its CSC matrix as
+they are (no Python loop per column or string). Fields of another form (``1.0-3``, a
+three-digit exponent without its letter) are parsed one by one like the line scanner does.
+It returns None for anything irregular (blank or trailing characters, lines of another
+length than the format says, records out of column order, overlapping rows, a field that is
+not a number, a truncated file): the line scanner of :mod:`.op4` then reads the file and
+names the line of a defect.
 """
 
 from __future__ import annotations
 
 import re
+import warnings
 
 import numpy as np
 import scipy.sparse as sp
@@ -26,7 +29,7 @@ from ...errors import ReadError
 from .._fastparse import parse_values, value_layout
 from .nastran_bulk import num
 
-__all__ = ["check_header", "fast_ascii", "is_values", "matrix_header"]
+__all__ = ["check_header", "fast_ascii", "is_header", "is_values", "matrix_header"]
 
 _CHUNK = 1 << 21  # bytes read at a time
 _HEADER = re.compile(r"^\s*(-?\d+)\s+(-?\d+)\s+(\d+)\s+(\d+)\s*(\S+)\s*(.*)$")
@@ -172,7 +175,7 @@ def fast_ascii(path, size: int):
 
 
 class _Chunk:
-    """The whole lines of a chunk: line table, and the integers of the lines without a ``.``."""
+    """The whole lines of a chunk: line table, and the integers of the lines that hold integers only."""
 
     _MAXINT = 64  # longest line of integers
 
@@ -196,8 +199,13 @@ class _Chunk:
         isint = np.all(((t >= 48) & (t <= 57)) | (t == 32) | (t == 45) | (t == 43), axis=1)
         self.ilines, t = short[isint], t[isint]  # lines of integers only (record lines, blank lines)
         self.count = (~(t == 32)[:, :-1] & (t == 32)[:, 1:]).sum(axis=1)  # tokens (each ends before a blank)
-        ints = np.fromstring(t.tobytes(), dtype=np.int64, sep=" ") if t.size else np.zeros(0, np.int64)
         self.ints = None
+        try:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")  # text that does not parse: fewer numbers, checked below
+                ints = np.fromstring(t.tobytes(), dtype=np.int64, sep=" ") if t.size else np.zeros(0, np.int64)
+        except ValueError:
+            return
         if ints.size != int(self.count.sum()):
             return
         self.count[self.count > 3] = 0  # not a record line
