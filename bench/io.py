@@ -31,6 +31,7 @@ Usage::
 from __future__ import annotations
 
 import argparse
+import itertools
 import json
 import os
 import subprocess
@@ -119,7 +120,7 @@ def _write_op4(path: Path, mats: dict) -> None:
                 rows, vals = A.indices[A.indptr[j]:A.indptr[j + 1]], A.data[A.indptr[j]:A.indptr[j + 1]].tolist()
                 cuts = [0] + (np.flatnonzero(np.diff(rows) != 1) + 1).tolist() + [rows.size]
                 out = [f"{j + 1:8d}{0:8d}{2 * rows.size + 2 * (len(cuts) - 1):8d}\n"]
-                for a, b in zip(cuts[:-1], cuts[1:]):
+                for a, b in itertools.pairwise(cuts):
                     out.append(f"{2 * (b - a) + 1:8d}{int(rows[a]) + 1:8d}\n")
                     out += ["".join(f"{v:23.16E}" for v in vals[k:min(k + 3, b)]) + "\n" for k in range(a, b, 3)]
                 fh.write("".join(out))
