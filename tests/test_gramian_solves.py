@@ -203,7 +203,9 @@ def test_collocated_ports_share_one_gramian_and_pod_equals_fw_sobt(beam):
     assert np.abs(fp / fb - 1).max() < 1e-9 and abs(ep / eb - 1) < 1e-6
     other = make_ports(model, ["TIP:y", "TIP:z"], ["TIP:x", "TIP:z"])  # not collocated: P_p != Q_p
     G2 = gramian_factors(model, other, BAND, solves="surrogate")
-    assert G2.info["collocated"] is False and G2.L.shape[0] == model.n_dof and not np.allclose(G2.L, G2.R)
+    # the factors' ranks come from a compression tolerance, so they may differ by a column
+    assert G2.info["collocated"] is False and G2.L.shape[0] == model.n_dof
+    assert G2.L.shape != G2.R.shape or not np.allclose(G2.L, G2.R)
 
 
 @pytest.mark.parametrize("proportional", [True, False])
