@@ -100,18 +100,19 @@ def extend_orthonormal(V: np.ndarray | None, X: np.ndarray, *, tol: float = 1e-1
     return Q
 
 
-def rank_revealing_qr(X: np.ndarray):
+def rank_revealing_qr(X: np.ndarray, *, overwrite: bool = False):
     """``X[:, piv] = Q R`` with ``|R_ii|`` non-increasing, for tall ``X`` (n, b), n >> b.
 
     A Householder QR of the tall block followed by a column-pivoted QR of its small (b, b)
     triangular factor: as rank revealing as a pivoted QR of ``X`` at the cost of an
     unpivoted one (LAPACK's pivoted ``geqp3`` is BLAS-2 bound on tall blocks).
+    ``overwrite``: ``Q`` is written into ``X`` (memory of one block less).
     """
     import scipy.linalg as sla
 
     Q1, R1 = np.linalg.qr(X)
     Q2, R, piv = sla.qr(R1, pivoting=True)
-    return Q1 @ Q2, R, piv
+    return np.matmul(Q1, Q2, out=X if overwrite else None), R, piv
 
 
 class Columns:

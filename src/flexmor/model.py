@@ -327,9 +327,21 @@ class FEModel:
         """True if ``node`` is in the node table."""
         return int(node) in self._node_index
 
+    @functools.cached_property
+    def _node_order(self) -> np.ndarray:
+        """Rows of the node table sorted by node id, built on first use."""
+        return np.argsort(self.node_ids, kind="stable")
+
     def node_xyz(self, nodes) -> np.ndarray:
-        """Coordinates (k, 3) of the given node ids."""
-        return self.xyz[[self._node_index[int(k)] for k in np.atleast_1d(nodes)]]
+        """Coordinates (k, 3) of the given node ids; ``KeyError`` for an id not in the node table."""
+        nodes = np.atleast_1d(np.asarray(nodes)).astype(np.int64, copy=False).ravel()
+        order = self._node_order
+        ids = self.node_ids[order]
+        pos = np.minimum(np.searchsorted(ids, nodes), max(ids.size - 1, 0))
+        bad = (ids[pos] != nodes) if ids.size else np.ones(nodes.shape, dtype=bool)
+        if np.any(bad):
+            raise KeyError(int(nodes[np.flatnonzero(bad)[0]]))
+        return self.xyz[order[pos]]
 
     def summary(self) -> dict:
         """Sizes and properties as a plain dict (used by ``flexmor info``)."""

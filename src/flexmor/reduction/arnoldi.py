@@ -64,16 +64,24 @@ class SecondOrderArnoldi:
         self.Q = Columns(model.M.shape[0], dtype, capacity=max(int(capacity), 1))
         self.U = np.zeros((0, 0), dtype=dtype)  # coefficients [U1; U2] of the 2n-vectors, (2 eta, k)
         self._last = None  # coefficients of the last orthonormal block
+        self._P = None  # Q [w, u1] of the next right-hand side (next_block)
 
-    def _orthogonalize(self, top: np.ndarray):
-        """Block CGS2 of ``top`` against ``Q``: ``(new, t)`` with ``t`` the coefficients of ``top``.
+    def _orthogonalize(self, top: np.ndarray, *, overwrite: bool = False):
+        """Block CGS2 of ``top`` against ``Q``: ``(new, t, second)`` with ``t`` the coefficients of ``top``.
 
         As :func:`flexmor.basis.extend_orthonormal` (unit columns, projection, rank-revealing QR,
         deflation below ``tol``, a second projection), with the QR between the two passes: the
         second pass projects orthonormal directions, so ``Q^H new`` is at round-off without the
-        third pass a nearly dependent block otherwise needs (``Q`` is read four times per block).
-        In place on Fortran-ordered blocks (BLAS ``gemm``); ``t`` (the coefficients in
-        ``[Q, new]``) comes from the projections and triangular factors, not another pass.
+        third pass a nearly dependent block otherwise needs. In place on Fortran-ordered blocks
+        (BLAS ``gemm``); ``t`` (the coefficients in ``[Q, new']``) comes from the projections and
+        triangular factors, not another pass.
+
+        The second pass is left to :meth:`_append`: with ``second = (g, R2)``, ``g = Q^H new``, the
+        new columns are ``new' = (new - Q g) R2^{-1}`` where ``R2^H R2 = I - g^H g`` (the Gram matrix
+        of ``new - Q g`` for orthonormal ``new``; ``||g||`` is at most ``eps / tol``, so its
+        Cholesky factor is as accurate as a QR). Its product ``Q g`` is then formed in the same
+        pass over ``Q`` as the next right-hand side's ``Q w`` (:meth:`_second_pass`): ``Q`` is read
+        four times per block. ``overwrite``: ``top`` may be overwritten.
         """
         Q = self.Q.view
         n, b = top.shape
@@ -82,28 +90,34 @@ class SecondOrderArnoldi:
         nrm = np.linalg.norm(top, axis=0)
         nz = np.flatnonzero(nrm > 0)
         if nz.size == 0:
-            return np.zeros((n, 0), Q.dtype), t
-        X = np.asfortranarray(top[:, nz] / nrm[nz], dtype=Q.dtype)
+            return np.zeros((n, 0), Q.dtype), t, None
+        if overwrite and nz.size == b and top.flags.f_contiguous and top.dtype == Q.dtype:  # in place
+            X = top
+            X /= nrm
+        else:
+            X = np.asfortranarray(top[:, nz] / nrm[nz], dtype=Q.dtype)
         if eta0:
             h = _gemm(Q, X, conj=True)
             X = _gemm(Q, h, into=X)
             t[:, nz] = h * nrm[nz]
-        W, R, piv = rank_revealing_qr(X)
+        W, R, piv = rank_revealing_qr(X, overwrite=True)
         k = int(np.sum(np.abs(np.diag(R)) > self.tol))
         new, Rk = W[:, :k], R[:k] * nrm[nz[piv]]  # top[:, nz[piv]] = Q t[:, nz[piv]] + new Rk (+ deflated part)
-        if eta0 and k:  # second pass: W = Q g + new R2
+        second = None
+        if eta0 and k:  # second pass: new = Q g + new' R2
             g = _gemm(Q, new, conj=True)
-            new, R2 = np.linalg.qr(_gemm(Q, g, into=np.asfortranarray(new)))
+            R2 = sla.cholesky(np.eye(k) - g.conj().T @ g, lower=False)
             t[:, nz[piv]] += g @ Rk
             Rk = R2 @ Rk
+            second = (g, R2)
         tn = np.zeros((k, b), dtype=Q.dtype)
         tn[:, nz[piv]] = Rk
-        return new, np.vstack([t, tn])
+        return new, np.vstack([t, tn]), second
 
     def _append(self, top: np.ndarray, bottom: np.ndarray):
         """Add the 2n-vectors ``[top; Q bottom]`` (``top`` n-long, ``bottom`` coefficients)."""
         eta0 = self.Q.k
-        new, t = self._orthogonalize(top)
+        new, t, second = self._orthogonalize(top, overwrite=True)  # top is ours (next_block)
         eta = eta0 + new.shape[1]
         X = np.vstack([t, np.pad(bottom, ((0, eta - bottom.shape[0]), (0, 0)))])
         U = self.U
@@ -121,10 +135,34 @@ class SecondOrderArnoldi:
             log.debug("second-order Arnoldi: %d of %d directions deflated", X.shape[1] - k, X.shape[1])
         if k == 0:
             return None
-        self.Q.append(new)
         self.U = np.hstack([U, W[:, :k]]) if U.shape[1] else np.ascontiguousarray(W[:, :k])
         self._last = W[:, :k]
+        # the next right-hand side's basis product Q c, c = [w] or [w, u1] (see next_block), in the
+        # pass over the old columns that completes the second Gram-Schmidt pass of the new ones
+        u1, u2 = self._last[:eta], self._last[eta:]
+        w = (2 * self.s * self.tau) * u1 + self.tau ** 2 * u2
+        new, self._P = self._second_pass(new, second, np.hstack([w, u1]) if self.D is not None else w)
+        self.Q.append(new)
         return self.Q.view[:, eta0:]
+
+    def _second_pass(self, new: np.ndarray, second, c: np.ndarray):
+        """``(new', P)``: the new columns after the second pass of :meth:`_orthogonalize` and
+        ``P = [Q, new'] c``, with one product with ``Q`` for both."""
+        Q = self.Q.view
+        eta0 = Q.shape[1]
+        if second is not None:
+            g, R2 = second
+            kn = g.shape[1]
+            Y = _gemm(Q, np.hstack([g, c[:eta0]]))  # Fortran-ordered: its leading columns are contiguous
+            new = np.subtract(new, Y[:, :kn], out=Y[:, :kn])
+            trsm = sla.blas.get_blas_funcs("trsm", (R2, new))
+            new = trsm(1.0, R2, new, side=1, lower=0, overwrite_b=True)  # (new - Q g) R2^{-1}, in place
+            P = Y[:, kn:]
+        else:
+            P = _gemm(Q, c[:eta0]) if eta0 else np.zeros((Q.shape[0], c.shape[1]), dtype=c.dtype, order="F")
+        if new.shape[1] and c.shape[1]:  # P += new c_new, in place
+            P = sla.blas.get_blas_funcs("gemm", (new, P))(1.0, new, c[eta0:], 1.0, P, overwrite_c=True)
+        return new, P
 
     def last_top(self) -> np.ndarray:
         """Upper half ``Q U1`` of the newest orthonormal block of ``2n``-vectors (not orthonormal)."""
@@ -142,20 +180,19 @@ class SecondOrderArnoldi:
             return self._append(X0, np.zeros((0, X0.shape[1]), X0.dtype))
         if self._last is None:
             return None
-        c = self._last
-        u1, u2 = c[: c.shape[0] // 2], c[c.shape[0] // 2:]
-        self._last = None
+        u1 = self._last[: self._last.shape[0] // 2]
+        P, self._P, self._last = self._P, None, None
         b = u1.shape[1]
-        # rhs = tau A1 V + tau^2 M L with A1 = 2 s M + D, V = Q u1 and L = Q u2: one product with Q, one with M
-        w = (2 * self.s * self.tau) * u1 + self.tau ** 2 * u2
-        P = _gemm(self.Q.view, np.hstack([w, u1]) if self.D is not None else w)
+        # rhs = tau A1 V + tau^2 M L with A1 = 2 s M + D, V = Q u1 and L = Q u2: P = Q [w, u1] from _append
         rhs = self.M @ P[:, :b]
         if self.D is not None:
             rhs += self.tau * (self.D @ P[:, b:])
         del P  # memory: the basis and a few n x b blocks
         if not np.any(rhs):  # e.g. s = 0 without damping: odd moments vanish, no solve needed
             return self._append(np.zeros_like(rhs), u1)
-        top = -self._project(self.F.solve(rhs))
+        top = self._project(self.F.solve(rhs))
+        del rhs
+        np.negative(top, out=top)
         self.n_solves += 1
         return self._append(top, u1)
 
