@@ -53,6 +53,19 @@ class Ports:
     def n_outputs(self) -> int:
         return self.C.shape[0]
 
+    def reduced(self, V: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``(Br, Cr) = (V^T B, C V)`` for a basis ``V`` (n_dof, r): shapes (r, m) and (p, r).
+
+        Only the rows of ``V`` the ports touch are read (a sparse product with the whole ``V``
+        would copy it when it is column-major, as bases are).
+        """
+        B, C = sp.csr_matrix(self.B), sp.csc_matrix(self.C)
+        rows = np.flatnonzero(np.diff(B.indptr))
+        cols = np.flatnonzero(np.diff(C.indptr))
+        Br = np.asarray((B[rows].T @ V[rows]).T)
+        Cr = np.asarray(C[:, cols] @ V[cols])
+        return Br, Cr
+
 
 def parse_spec(spec: str):
     """Split a SPEC into ``(target, direction code or None)``."""

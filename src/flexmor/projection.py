@@ -197,8 +197,7 @@ def project(model: FEModel, basis: Basis, ports: Ports) -> ReducedModel:
     Mr, Kr, Dr = pre.M, pre.K, pre.D
     if Dr is not None and isinstance(model.damping, ModalDamping):  # modal damping: zeta in the body's own modes
         Dr = model.damping.reduced_matrix(Mr, Kr)
-    Br = np.asarray((ports.B.T @ V).T)
-    Cr = np.asarray(ports.C @ V)
+    Br, Cr = ports.reduced(V)
     return ReducedModel(
         M=Mr, K=Kr, D=Dr, B=Br, C=Cr, V=V, method=basis.method, info=dict(basis.info),
         input_names=list(ports.input_names), output_names=list(ports.output_names),

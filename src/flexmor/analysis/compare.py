@@ -270,8 +270,8 @@ def _modal_correction(evaluate, damping, f_modes, phi, ports):
     wk = 2 * np.pi * np.asarray(f_modes, float)
     d_modal = 2 * damping.ratios(f_modes) * wk
     d_rayleigh = damping.alpha + damping.beta * wk ** 2
-    Cp = np.asarray(ports.C @ phi)
-    Bp = np.asarray(ports.B.T @ phi)
+    Bp, Cp = ports.reduced(phi)
+    Bp = Bp.T
 
     def corrected(freqs):
         H = evaluate(freqs)

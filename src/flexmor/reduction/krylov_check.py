@@ -84,7 +84,7 @@ def nested_estimate(model, ports, V: np.ndarray, block: int, band, *, n: int = N
     if Dr is None:  # undamped: a light Rayleigh damping (as for the Gramians) keeps the peaks finite
         reg = band_matched(UNDAMPED_ZETA, band)
         Dr = reg.alpha * Mr + reg.beta * Kr
-    Br, Cr = np.asarray((ports.B.T @ V).T), np.asarray(ports.C @ V)
+    Br, Cr = ports.reduced(V)
     modes = {r: sla.eigh(Kr, Mr)}
     f_res = np.sqrt(np.clip(modes[r][0], 0, None)) / (2 * np.pi)
     f = np.unique(np.concatenate([np.geomspace(band[0], band[1], n), f_res[(f_res > band[0]) & (f_res < band[1])]]))
