@@ -7,8 +7,8 @@ factorizes real symmetric positive definite (Cholesky), real symmetric indefinit
 matrices with nested-dissection ordering (METIS); the orderings of recent sparsity patterns are
 reused (:class:`OrderingCache`). After the analysis phase it chooses a memory mode from the
 estimate of PARDISO (:mod:`flexmor.linalg.memory`): double precision in core, mixed precision
-or out of core. It is the ``pardiso`` entry of :data:`flexmor.linalg.backends.BACKENDS` and is
-imported when that backend is checked or used.
+or out of core. It is the ``pardiso`` entry of :data:`flexmor.linalg.backends.BACKENDS`;
+pypardiso and MKL are loaded only when that backend is checked or used.
 """
 
 from __future__ import annotations
@@ -43,9 +43,9 @@ def mkl_pardiso():
 
 #: PARDISO error codes (MKL reference) in the messages of :class:`SolverError`.
 PARDISO_ERRORS = {-1: "input inconsistent", -2: "not enough memory", -3: "reordering problem",
-                   -4: "zero pivot (singular matrix)", -5: "unclassified internal error",
-                   -6: "reordering failed", -7: "diagonal matrix is singular", -8: "32-bit integer overflow",
-                   -9: "not enough memory for out-of-core", -10: "error opening out-of-core files"}
+                  -4: "zero pivot (singular matrix)", -5: "unclassified internal error",
+                  -6: "reordering failed", -7: "diagonal matrix is singular", -8: "32-bit integer overflow",
+                  -9: "not enough memory for out-of-core", -10: "error opening out-of-core files"}
 
 
 class OrderingCache:
