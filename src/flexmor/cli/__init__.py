@@ -7,7 +7,8 @@ so an interrupted run leaves neither a partial nor a temporary file; an existing
 is only replaced with ``--force``.
 
 Modules: :mod:`.parser` (arguments, generated per-method options), :mod:`.commands` (the
-subcommands and their output).
+subcommands and their output), :mod:`.tables` (the error table), :mod:`.info` (info on a body,
+the backends and the formats).
 """
 
 from __future__ import annotations

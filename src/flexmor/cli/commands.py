@@ -14,7 +14,9 @@ from ..errors import OptionError
 from ..jsonutil import jsonable
 from ..linalg.context import step
 from ..linalg.distributed import is_partitioned, on_root, row_blocks
+from .info import info_backends, info_body, info_formats, is_body_file, print_mass_properties
 from .options import method_options
+from .tables import fmt, print_error_table
 
 __all__ = ["cmd_info", "cmd_reduce", "cmd_compare", "cmd_export", "cmd_report", "cmd_demo"]
 
@@ -88,10 +90,6 @@ def _factor_note(out: dict, solver) -> str:
     return f"factor: {describe_factor(solver.stats)}" if solver.stats.mixed or solver.stats.ooc else ""
 
 
-def _fmt(x, spec=".3e"):
-    return "-" if x is None else format(x, spec)
-
-
 def _read_model(args, couplings=(), *, damped=True):
     """The model of ``args.model`` (selections and ``couplings`` applied), the read time and the
     band; with ``damped`` the damping flags applied, else they are left to the caller
@@ -143,59 +141,18 @@ def _asked_damping(args, band):
 
 
 # -- info --------------------------------------------------------------------------------------
-def _info_backends(args) -> int:
-    from ..linalg.backends import describe_backends, memory_available
-
-    rows = describe_backends()
-    avail = memory_available()
-    if args.json:
-        print(json.dumps({"backends": rows, "memory_available_mb": None if avail is None else avail / 2**20}))
-        return 0
-    for r in rows:
-        flags = ("available" if r["available"] else "not installed") + (", complex" if r["complex"] else "") + \
-            (", SPD only" if r["positive_only"] else "")
-        print(f"{r['name']:<8} {flags:<32} {r['description']}")
-    if avail is not None:
-        print(f"memory available: {avail / 2**20:.0f} MB (what does not fit runs in mixed precision or out of core)")
-    return 0
-
-
-_FORMAT_TITLES = {"model": "FE models (info, reduce, compare, report MODEL; --format NAME)",
-                  "body": "reduced bodies (compare, report, export BODY)",
-                  "export": "exports (export BODY -o FILE; --format NAME)"}
-
-
-def _info_formats(args) -> int:
-    from ..io import describe_formats
-
-    table = describe_formats()
-    if args.json:
-        _emit_json({"formats": table})
-        return 0
-    lines = {kind: [(r["name"] + (f" ({', '.join(r['aliases'])})" if r["aliases"] else ""),
-                     " ".join(r["suffixes"] + ([r["claims"]] if r["claims"] else [])), r["description"])
-                    for r in rows] for kind, rows in table.items()}
-    w0, w1 = (max(len(line[i]) for rows in lines.values() for line in rows) for i in (0, 1))
-    for kind, rows in lines.items():
-        print(("\n" if kind != "model" else "") + _FORMAT_TITLES[kind])
-        for name, suffixes, description in rows:
-            print(f"  {name:<{w0}}  {suffixes:<{w1}}  {description}")
-    return 0
-
-
 def cmd_info(args) -> int:
     from ..checks import MAX_RIGID_BODY_MODES, mechanism_error
     from ..linalg import available_backends
     from ..linalg.eigen import eigenmodes, frequencies_hz, is_rigid
 
     if args.backends:
-        return _info_backends(args)
+        return info_backends(args)
     if args.formats:
-        return _info_formats(args)
+        return info_formats(args, _emit_json)
     if args.model is None:
         raise OptionError("info needs a MODEL file (or --backends, --formats)")
     from ..origin import describe_damping
-    from .info import info_body, is_body_file, print_mass_properties
 
     if is_body_file(args.model, args.format):
         return info_body(args, _emit_json)
@@ -301,12 +258,12 @@ def cmd_reduce(args) -> int:
         print(f"note: {res['order_note']}")
     if res.get("tol") is not None:
         m = res["tol_measure"]
-        print(f"--tol {res['tol']:g} on {m}: order {red.order} chosen, verified {m} {_fmt(res[m], '.3g')} "
+        print(f"--tol {res['tol']:g} on {m}: order {red.order} chosen, verified {m} {fmt(res[m], '.3g')} "
               + ("meets it" if res["tol_reached"] else "MISSES it (largest order tried)"))
     if res["band_hz"]:
         print(f"band {res['band_hz'][0]:g}-{res['band_hz'][1]:g} Hz, damping "
               f"{describe_damping(model.damping)}:")
-        _table([res])
+        print_error_table([res])
     fr = res["frequencies_hz"]
     print("reduced frequencies [Hz]: " + " ".join(f"{f:.4g}" for f in fr[:12]) + (" ..." if len(fr) > 12 else ""))
     if factor:
@@ -354,7 +311,7 @@ def cmd_compare(args) -> int:
         _emit_json({"model": model.name, "band_hz": list(band), "results": rows, "grids": grids,
                     "timings": {"read": t_read, "full_frf": sum(f.seconds for f in fulls.values())}})
         return 0
-    _table(rows, label="file")
+    print_error_table(rows, label="file")
     damp = sorted({r["reference_damping"] for r in rows})
     print(f"reference: the full model with each body's own damping ({'; '.join(damp)})")
     return 0
@@ -367,51 +324,6 @@ def _full_response(args, model, ports, band, solver):
     grid_opts = {} if args.grid_tol is None else {"tol": args.grid_tol}
     return FullResponse(model, ports, band, n=args.n_freq, solver=solver, path=args.full_frf,
                         cache=not args.no_cache, progress=_progress(args, "full FRF"), **grid_opts)
-
-
-def _where(r) -> str:
-    """Where max_rel_error occurs: ``1234 Hz`` or ``1234 Hz (AR)`` at an anti-resonance."""
-    if r.get("max_rel_error_hz") is None:
-        return "-"
-    return f"{r['max_rel_error_hz']:.4g} Hz" + (" AR" if r.get("max_rel_error_at_antiresonance") else "")
-
-
-def _table(rows, label: str = "method", header: str | None = None) -> None:
-    """The error table of reduce/compare/report/demo rows (first column ``label``, titled
-    ``header``), then their notes and a legend."""
-    w = max([16] + [len(str(r.get(label, ""))) + 2 for r in rows])
-    print(f"{header or label:<{w}}{'order':>6}{'band_error':>12}{'rms %':>9}{'hinf_error':>12}{'max_rel_error':>15}"
-          f"{'at':>14}{'seconds':>9}")
-    for r in rows:
-        rms = r.get("rms_rel_error_pct")
-        print(f"{str(r.get(label, '')):<{w}}{r['order']:>6}{_fmt(r.get('band_error'), '.2e'):>12}"
-              f"{'-' if rms is None else format(rms, '.3g'):>9}{_fmt(r.get('hinf_error'), '.2e'):>12}"
-              f"{_fmt(r.get('max_rel_error'), '.2e'):>15}{_where(r):>14}{_fmt(r.get('seconds'), '.3f'):>9}")
-    _notes(rows, label)
-    if any(r.get("band_error") is not None for r in rows):
-        print("band_error = ∫|H-Hr|²/∫|H|² over the band; rms % = 100 sqrt(band_error); hinf_error = max|H-Hr| / "
-              "max|H|; max_rel_error = max |H-Hr|/|H| (AR: at an anti-resonance, where |H| is small)")
-
-
-def _notes(rows, label: str) -> None:
-    """The notes of the rows: the anti-resonances in one line, the others (undamped resonances) once each."""
-    from ..analysis.frequency import ANTIRESONANCE_FACTOR
-
-    def name(r):
-        return f"{r['method']} r={r['order']}" if label == "method" else str(r.get(label))
-
-    ar = [name(r) for r in rows if r.get("max_rel_error_at_antiresonance") and (r.get("max_rel_error") or 0) >= 0.1]
-    if ar:
-        print(f"note: max_rel_error of {', '.join(ar)} lies at an anti-resonance (AR: |H| a local minimum, at most "
-              f"1/{ANTIRESONANCE_FACTOR:g} of its band median): a large relative error of a small response; "
-              "rms % and hinf_error measure the response itself")
-    grouped: dict = {}
-    for r in rows:
-        for n in r.get("notes") or ():
-            if not n.startswith("max_rel_error"):
-                grouped.setdefault(n, []).append(name(r))
-    for n, names in grouped.items():
-        print(f"note: {', '.join(names)}: {n}")
 
 
 # -- export ------------------------------------------------------------------------------------
@@ -477,8 +389,8 @@ def cmd_report(args) -> int:
         _emit_json({"file": str(args.output_file), "model": model.name, "band_hz": list(band), "results": rep.rows,
                     "time": rep.time, "notes": rep.notes, "timings": {"read": t_read, "full_frf": full.seconds}})
         return 0
-    _table(rep.rows, label="label", header="body")
-    print("time_max_error: " + ", ".join(f"{r['label']} {_fmt(r['time_max_error'])}" for r in rep.rows))
+    print_error_table(rep.rows, label="label", header="body")
+    print("time_max_error: " + ", ".join(f"{r['label']} {fmt(r['time_max_error'])}" for r in rep.rows))
     print(f"reference: the full model with the bodies' damping ({describe_damping(model.damping)})")
     print(f"written {args.output_file}")
     return 0
@@ -500,7 +412,7 @@ def cmd_demo(args) -> int:
     print(f"model {m['name']}: {m['n_dof']} DOF; band {res['band_hz'][0]:g}-{res['band_hz'][1]:g} Hz, "
           f"{res['n_freq']} frequencies, full FRF {res['full_frf_seconds']:.2f} s"
           + (" (from cache)" if res["grid"].get("cache_hit") else "") + "\n")
-    _table(res["results"])
+    print_error_table(res["results"])
     print(f"\nreduced bodies and {res['plot']} written to {args.out}/")
     if res.get("report"):
         print(f"report: {res['report']}")

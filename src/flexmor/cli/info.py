@@ -1,10 +1,12 @@
-"""``flexmor info`` on a reduced body (``BODY.h5``): what it is and where it came from."""
+"""``flexmor info`` on what is not an FE model: a reduced body (``BODY.h5``: what it is and where
+it came from), the solver backends (``--backends``) and the file formats (``--formats``)."""
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
-__all__ = ["is_body_file", "info_body", "print_mass_properties"]
+__all__ = ["is_body_file", "info_body", "info_backends", "info_formats", "print_mass_properties"]
 
 
 def is_body_file(path, format: str | None) -> bool:
@@ -71,6 +73,48 @@ def info_body(args, emit_json) -> int:
             _row("", "; ".join(made))
     else:
         _row("model", f"{out['model_name'] or '?'} (no fingerprint: written by an older flexmor)")
+    return 0
+
+
+def info_backends(args) -> int:
+    """Print (or emit as JSON) the solver backends, what they handle, and the memory available."""
+    from ..linalg.backends import describe_backends, memory_available
+
+    rows = describe_backends()
+    avail = memory_available()
+    if args.json:
+        print(json.dumps({"backends": rows, "memory_available_mb": None if avail is None else avail / 2**20}))
+        return 0
+    for r in rows:
+        flags = ("available" if r["available"] else "not installed") + (", complex" if r["complex"] else "") + \
+            (", SPD only" if r["positive_only"] else "")
+        print(f"{r['name']:<8} {flags:<32} {r['description']}")
+    if avail is not None:
+        print(f"memory available: {avail / 2**20:.0f} MB (what does not fit runs in mixed precision or out of core)")
+    return 0
+
+
+_FORMAT_TITLES = {"model": "FE models (info, reduce, compare, report MODEL; --format NAME)",
+                  "body": "reduced bodies (compare, report, export BODY)",
+                  "export": "exports (export BODY -o FILE; --format NAME)"}
+
+
+def info_formats(args, emit_json) -> int:
+    """Print (or emit as JSON with ``emit_json``) the registered model, body and export formats."""
+    from ..io import describe_formats
+
+    table = describe_formats()
+    if args.json:
+        emit_json({"formats": table})
+        return 0
+    lines = {kind: [(r["name"] + (f" ({', '.join(r['aliases'])})" if r["aliases"] else ""),
+                     " ".join(r["suffixes"] + ([r["claims"]] if r["claims"] else [])), r["description"])
+                    for r in rows] for kind, rows in table.items()}
+    w0, w1 = (max(len(line[i]) for rows in lines.values() for line in rows) for i in (0, 1))
+    for kind, rows in lines.items():
+        print(("\n" if kind != "model" else "") + _FORMAT_TITLES[kind])
+        for name, suffixes, description in rows:
+            print(f"  {name:<{w0}}  {suffixes:<{w1}}  {description}")
     return 0
 
 

@@ -29,9 +29,10 @@ from typing import Callable
 
 from ..errors import OptionError, SolverError
 from . import backends as _backends
-from .backends import BACKENDS, OrderingCache, SolverStats
+from .backends import BACKENDS, SolverStats
 from .distributed import MPILayout, layout
 from .memory import FACTOR_MEMORY, REFINE_TOL
+from .pardiso import OrderingCache
 
 __all__ = ["SolverContext", "track", "step", "SolverStats", "OrderingCache", "EigenPolicy", "DENSE_LIMIT", "LANCZOS_MAX_K",
            "EIGEN_METHODS", "as_solver"]

@@ -1,0 +1,66 @@
+"""The error table that ``reduce``, ``compare``, ``report`` and ``demo`` print, with its notes and legend."""
+
+from __future__ import annotations
+
+__all__ = ["fmt", "print_error_table"]
+
+
+def fmt(x, spec: str = ".3e") -> str:
+    """``x`` formatted with ``spec``, or ``-`` when it is None."""
+    return "-" if x is None else format(x, spec)
+
+
+def _where(r) -> str:
+    """Where max_rel_error occurs: ``1234 Hz`` or ``1234 Hz (AR)`` at an anti-resonance."""
+    if r.get("max_rel_error_hz") is None:
+        return "-"
+    return f"{r['max_rel_error_hz']:.4g} Hz" + (" AR" if r.get("max_rel_error_at_antiresonance") else "")
+
+
+def print_error_table(rows, label: str = "method", header: str | None = None) -> None:
+    """Print the error table of reduce/compare/report/demo rows, then their notes and a legend.
+
+    Parameters
+    ----------
+    rows : list of dict
+        One dict per body: ``order``, the error measures (``band_error``, ``rms_rel_error_pct``,
+        ``hinf_error``, ``max_rel_error`` and where it occurs), ``seconds``, ``notes``; a missing
+        value prints as ``-``.
+    label : str
+        The key of the first column (``method``, ``file`` or ``label``).
+    header : str, optional
+        The title of the first column; default ``label``.
+    """
+    w = max([16] + [len(str(r.get(label, ""))) + 2 for r in rows])
+    print(f"{header or label:<{w}}{'order':>6}{'band_error':>12}{'rms %':>9}{'hinf_error':>12}{'max_rel_error':>15}"
+          f"{'at':>14}{'seconds':>9}")
+    for r in rows:
+        rms = r.get("rms_rel_error_pct")
+        print(f"{str(r.get(label, '')):<{w}}{r['order']:>6}{fmt(r.get('band_error'), '.2e'):>12}"
+              f"{'-' if rms is None else format(rms, '.3g'):>9}{fmt(r.get('hinf_error'), '.2e'):>12}"
+              f"{fmt(r.get('max_rel_error'), '.2e'):>15}{_where(r):>14}{fmt(r.get('seconds'), '.3f'):>9}")
+    _notes(rows, label)
+    if any(r.get("band_error") is not None for r in rows):
+        print("band_error = ∫|H-Hr|²/∫|H|² over the band; rms % = 100 sqrt(band_error); hinf_error = max|H-Hr| / "
+              "max|H|; max_rel_error = max |H-Hr|/|H| (AR: at an anti-resonance, where |H| is small)")
+
+
+def _notes(rows, label: str) -> None:
+    """The notes of the rows: the anti-resonances in one line, the others (undamped resonances) once each."""
+    from ..analysis.frequency import ANTIRESONANCE_FACTOR
+
+    def name(r):
+        return f"{r['method']} r={r['order']}" if label == "method" else str(r.get(label))
+
+    ar = [name(r) for r in rows if r.get("max_rel_error_at_antiresonance") and (r.get("max_rel_error") or 0) >= 0.1]
+    if ar:
+        print(f"note: max_rel_error of {', '.join(ar)} lies at an anti-resonance (AR: |H| a local minimum, at most "
+              f"1/{ANTIRESONANCE_FACTOR:g} of its band median): a large relative error of a small response; "
+              "rms % and hinf_error measure the response itself")
+    grouped: dict = {}
+    for r in rows:
+        for n in r.get("notes") or ():
+            if not n.startswith("max_rel_error"):
+                grouped.setdefault(n, []).append(name(r))
+    for n, names in grouped.items():
+        print(f"note: {', '.join(names)}: {n}")

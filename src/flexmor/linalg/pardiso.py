@@ -1,0 +1,210 @@
+"""The ``pardiso`` backend: Intel MKL PARDISO called through ctypes, and its ordering cache.
+
+The library is the one located by *pypardiso* (``pip install flexmor[fast]``); only its
+``pardiso`` entry point is used, typed once (:func:`mkl_pardiso`). :class:`PardisoFactorization`
+factorizes real symmetric positive definite (Cholesky), real symmetric indefinite
+(Bunch-Kaufman, with the inertia), complex symmetric (``K - w^2 M + i w D``) and unsymmetric
+matrices with nested-dissection ordering (METIS); the orderings of recent sparsity patterns are
+reused (:class:`OrderingCache`). After the analysis phase it chooses a memory mode from the
+estimate of PARDISO (:mod:`flexmor.linalg.memory`): double precision in core, mixed precision
+or out of core. It is the ``pardiso`` entry of :data:`flexmor.linalg.backends.BACKENDS`;
+pypardiso and MKL are loaded only when that backend is checked or used.
+"""
+
+from __future__ import annotations
+
+import functools
+import hashlib
+
+import numpy as np
+import scipy.sparse as sp
+
+from ..errors import SolverError
+from .backends import Factorization
+from .memory import OutOfCore, pardiso_estimates
+
+__all__ = ["PARDISO_ERRORS", "OrderingCache", "PardisoFactorization", "mkl_pardiso"]
+
+
+@functools.cache
+def mkl_pardiso():
+    """The MKL ``pardiso`` entry point (found through pypardiso's library search), typed once."""
+    import ctypes
+
+    import pypardiso
+
+    fn = pypardiso.PyPardisoSolver().libmkl.pardiso
+    i32p = ctypes.POINTER(ctypes.c_int32)
+    fn.argtypes = [ctypes.POINTER(ctypes.c_int64), i32p, i32p, i32p, i32p, i32p, ctypes.c_void_p,
+                   i32p, i32p, i32p, i32p, i32p, i32p, ctypes.c_void_p, ctypes.c_void_p, i32p]
+    fn.restype = None
+    return fn
+
+
+#: PARDISO error codes (MKL reference) in the messages of :class:`SolverError`.
+PARDISO_ERRORS = {-1: "input inconsistent", -2: "not enough memory", -3: "reordering problem",
+                  -4: "zero pivot (singular matrix)", -5: "unclassified internal error",
+                  -6: "reordering failed", -7: "diagonal matrix is singular", -8: "32-bit integer overflow",
+                  -9: "not enough memory for out-of-core", -10: "error opening out-of-core files"}
+
+
+class OrderingCache:
+    """Fill-reducing orderings of the last few sparsity patterns factorized by PARDISO.
+
+    Shifted matrices ``K - w^2 M + i w D`` of one model share a pattern, so frequency sweeps,
+    quadrature nodes and expansion points compute METIS' nested dissection once and reuse it
+    (``iparm[4] = 1``); the symbolic factorization still runs. Keyed by :meth:`key`.
+
+    Parameters
+    ----------
+    kept : int
+        Patterns remembered (the oldest is dropped first).
+    """
+
+    def __init__(self, kept: int = 4):
+        self.kept = int(kept)
+        self._perms: dict = {}
+
+    def __len__(self) -> int:
+        return len(self._perms)
+
+    @staticmethod
+    def key(mtype: int, ia: np.ndarray, ja: np.ndarray) -> tuple:
+        """Identity of a sparsity pattern (and of the matrix class): size, nnz and a digest."""
+        h = hashlib.blake2b(ia.view(np.uint8), digest_size=16)
+        h.update(ja.view(np.uint8))
+        return (int(mtype), ia.size - 1, ja.size, h.hexdigest())
+
+    def get(self, key: tuple) -> np.ndarray | None:
+        """The ordering stored for ``key``, or None."""
+        return self._perms.get(key)
+
+    def remember(self, key: tuple, perm: np.ndarray) -> None:
+        """Store a copy of ``perm`` for ``key`` as the newest entry."""
+        self._perms.pop(key, None)
+        self._perms[key] = perm.copy()
+        while len(self._perms) > self.kept:
+            self._perms.pop(next(iter(self._perms)))
+
+
+class PardisoFactorization(Factorization):
+    """Intel MKL PARDISO called through ctypes on the upper triangle (symmetric) or the full matrix.
+
+    Matrix types: real symmetric positive definite (2), real symmetric indefinite (-2,
+    Bunch-Kaufman), complex symmetric (6, e.g. ``K - w^2 M + i w D``), real (11) and complex
+    (13) unsymmetric. Symmetric indefinite types use symmetric weighted matching and scaling
+    (iparm 11/13), recommended by Intel for saddle-point-like and shifted matrices. After the
+    analysis, the memory mode is chosen from its estimate; the mixed (``iparm[27] = 1``) and
+    out-of-core (``iparm[59] = 2``) modes analyse again with the ordering just computed.
+    """
+
+    backend = "pardiso"
+
+    def __init__(self, A, solver, *, symmetric=True, positive=False):
+        super().__init__(A, solver.stats)
+        import ctypes
+
+        orderings = solver.orderings
+        self._fn = mkl_pardiso()
+        cplx = np.iscomplexobj(A.data)
+        if cplx:
+            self._mtype = 6 if symmetric else 13
+        else:
+            self._mtype = (2 if positive else -2) if symmetric else 11
+        self.dtype = np.dtype(np.complex128 if cplx else np.float64)
+        U = sp.triu(A, format="csr") if symmetric else sp.csr_matrix(A)
+        U.sum_duplicates()
+        U.sort_indices()
+        if np.any(np.diff(U.indptr) == 0):
+            raise SolverError("matrix has an empty row: it is singular")
+        self._data = np.ascontiguousarray(U.data, dtype=self.dtype)
+        self._ia = np.ascontiguousarray(U.indptr, dtype=np.int32)
+        self._ja = np.ascontiguousarray(U.indices, dtype=np.int32)
+        self._n = U.shape[0]
+        self._pt = np.zeros(64, dtype=np.int64)
+        self._iparm = np.zeros(64, dtype=np.int32)
+        ip = self._iparm
+        ip[0] = 1  # user values below, zeros are MKL defaults
+        ip[1] = 2  # nested dissection (METIS)
+        ip[7] = 0  # iterative refinement (two steps) only after perturbed pivots
+        ip[9] = 13 if self._mtype in (11, 13) else 8  # pivot perturbation 1e-13 / 1e-8
+        indefinite = self._mtype in (-2, 6, 11, 13)
+        ip[10] = ip[12] = 1 if indefinite else 0  # scaling + weighted matching
+        ip[34] = 1  # zero-based indices
+        self._ctypes = ctypes
+        self._live = False
+        key = orderings.key(self._mtype, self._ia, self._ja)
+        self._perm = orderings.get(key)
+        ip[4] = 2 if self._perm is None else 1  # 2: return METIS' permutation, 1: reuse a stored one
+        if self._perm is None:
+            self._perm = np.zeros(self._n, dtype=np.int32)
+        self.reused_ordering = ip[4] == 1
+        self._ooc = None
+        try:
+            self._call(11, None, None, 0)  # analysis: ordering, symbolic factorization, memory
+            if not self.reused_ordering:
+                orderings.remember(key, self._perm)
+            self._plan(solver, A, pardiso_estimates(ip, A))
+            if self.memory.mode != "double":
+                self._release()
+                ip[4] = 1  # the ordering just computed
+                if self.memory.mode == "mixed":
+                    ip[27] = 1  # single-precision values, factor and solves
+                    self._data = self._data.astype(np.complex64 if cplx else np.float32)
+                else:
+                    ip[59] = 2  # out of core, in memory at most what fits (no more than in core)
+                    self._ooc = OutOfCore(min(self.memory.usable or np.inf, self.memory.estimates["double"]),
+                                          solver.scratch_dir)
+                self._call(11, None, None, 0)
+            if self._ooc is None:
+                self._call(22, None, None, 0)  # numerical factorization
+            else:
+                with self._ooc.environment():  # read by MKL in this phase only
+                    self._call(22, None, None, 0)
+                self._ooc.verify(A, self._solve_factor)
+        except SolverError:
+            self._release()
+            raise
+        self._live = True
+        # no perturbed pivots: exact inertia (not of a single-precision factor, whose rounding
+        # of ~1e-7 ||A|| may move the eigenvalues nearest the shift across it)
+        if self._mtype == -2 and self._iparm[13] == 0 and self.memory.mode != "mixed":
+            self.inertia = (int(self._iparm[21]), int(self._iparm[22]))
+
+    def _call(self, phase, b, x, nrhs):
+        c = self._ctypes
+        i32 = c.c_int32
+        err = i32(0)
+        one = c.byref(i32(1))
+        dummy = np.zeros(1, self.dtype)
+        bp = (b if b is not None else dummy).ctypes.data
+        xp = (x if x is not None else dummy).ctypes.data
+        self._fn(self._pt.ctypes.data_as(c.POINTER(c.c_int64)), one, one, c.byref(i32(self._mtype)),
+                 c.byref(i32(phase)), c.byref(i32(self._n)), self._data.ctypes.data,
+                 self._ia.ctypes.data_as(c.POINTER(i32)), self._ja.ctypes.data_as(c.POINTER(i32)),
+                 self._perm.ctypes.data_as(c.POINTER(i32)), c.byref(i32(nrhs)), self._iparm.ctypes.data_as(c.POINTER(i32)), c.byref(i32(0)),
+                 bp, xp, c.byref(err))
+        if err.value != 0:
+            what = PARDISO_ERRORS.get(err.value, "unknown error")
+            raise SolverError(f"PARDISO phase {phase} failed with error {err.value}: {what}")
+
+    def _solve_factor(self, b):
+        if np.iscomplexobj(b) and self.dtype.kind != "c":  # handled by Factorization.solve
+            raise SolverError("complex right-hand side for a real PARDISO factorization")
+        b = np.asfortranarray(b, dtype=self._data.dtype)
+        x = np.zeros_like(b, order="F")
+        self._call(33, b, x, b.shape[1])
+        return x
+
+    def _release(self):
+        if np.any(self._pt):
+            self._call(-1, None, None, 0)  # free all internal memory of this handle (and the OOC files)
+            self._pt[:] = 0
+        if self._ooc is not None:
+            self._ooc.remove()
+
+    def __del__(self):
+        try:
+            self._release()
+        except Exception:  # noqa: BLE001 - interpreter shutdown
+            pass
