@@ -77,7 +77,7 @@ def balanced_basis(model, ports, order, band, *, method: str, variant: str = "po
 
 
 def _dense_factors(model, ports, variant):
-    """Exact full-band Gramian factors of a small body (:func:`~flexmor.reduction.gramians.dense_gramians`)."""
+    """Exact full-band Gramian factors of a small body (:func:`~flexmor.reduction.dense_gramians.dense_gramians`)."""
     from ..linalg.eigen import dense_eigenmodes, frequencies_hz
 
     work, damping = _regularized(model, (0.0, math.inf), frequencies_hz(dense_eigenmodes(model.K, model.M)[0]))
@@ -129,7 +129,7 @@ def sobt(model, ports, order, *, variant: str = "position", nodes: int = 4, band
         Rayleigh damping the modes above contribute at most ``|phi_j^T B|^2 / (2 beta lam_j^2)``
         each, bounded in total by one static solve); with the direct solves the rest of
         ``[0, inf)`` is one tail cell. Small models (up to 600 DOF) get the exact dense
-        Lyapunov solutions (:func:`flexmor.reduction.gramians.dense_gramians`).
+        Lyapunov solutions (:func:`flexmor.reduction.dense_gramians.dense_gramians`).
     rigid : {'include', 'exclude'}
         Free bodies: the rigid-body modes excited by the inputs lead the basis (include) or
         are left to the floating frame (exclude); the Gramians are those of the flexible part.

@@ -14,11 +14,10 @@ the blocks of the Gramians of the first-order realization ``E = diag(I, M)``,
 The integral is evaluated by a quadrature that resolves the resonances
 (:mod:`flexmor.reduction.gramian_quadrature`): the band is split
 into one cell per resonance ``w_k`` (at the geometric midpoints between neighbours), and in
-each cell the substitution ``w = w_k + g_k tan(theta)`` (``g_k = zeta_k w_k``, the half
-width of the peak) turns the Lorentzian peak into a smooth integrand, integrated by
-composite Gauss-Legendre in ``theta``; an unbounded last cell ends at ``theta = pi/2``. The
-rule converges exponentially: doubling ``nodes`` changes the Gramian by round-off once the
-peaks are resolved. Resonances and damping ratios come from the modal pre-pass of
+each cell Gauss-Legendre panels are graded geometrically towards the peak (half width
+``g_k = zeta_k w_k``), so every panel is as far from the poles as it is long; an unbounded last
+cell ends with the substitution ``w = d0 / t``. The rule converges exponentially: doubling
+``nodes`` changes the Gramian by round-off once the peaks are resolved. Resonances and damping ratios come from the modal pre-pass of
 :mod:`flexmor.dynamics.modes`. Each node costs one complex symmetric factorization of
 ``K - w^2 M + i w D`` (:func:`flexmor.linalg.factorize`) and one block solve with
 ``[B, C^T]`` on the direct path (``[B]`` alone for collocated ports, ``C = B^T``: then

@@ -48,7 +48,7 @@ def two_step(model, ports, order, *, intermediate: int = 120, band=None, gramian
 
     The first step (:func:`flexmor.reduction.krylov.krylov`, input and output Krylov spaces at
     real points over the band) is cheap and accurate; the small body ``V1^T (M, D, K) V1`` then
-    gets exact dense Gramians (:func:`flexmor.reduction.gramians.dense_gramians`: Lyapunov
+    gets exact dense Gramians (:func:`flexmor.reduction.dense_gramians.dense_gramians`: Lyapunov
     equations, frequency-limited by the Gawronski-Juang formula), is balanced and truncated.
     The final basis ``V1 T`` lives in the full space and is projected one-sided (Galerkin).
 
