@@ -191,18 +191,24 @@ def matrix_bytes(A) -> int:
     return int(A.data.nbytes + A.indices.nbytes + A.indptr.nbytes)
 
 
-def pardiso_estimates(iparm: np.ndarray, A) -> dict:
+def pardiso_estimates(iparm: np.ndarray, A, stored: int) -> dict:
     """Bytes each memory mode of PARDISO needs, from ``iparm`` after a double-precision analysis.
 
     ``double``: the in-core peak ``max(iparm[14], iparm[15] + iparm[16])`` KB. ``mixed``: the
-    same with the factor part ``iparm[16]`` halved, plus the double matrix ``A`` kept for the
-    residuals. ``ooc``: the permanent data ``iparm[15]`` plus the minimum out-of-core memory
-    ``iparm[62]`` KB (or :data:`OOC_MIN_SHARE` of ``iparm[16]`` when MKL reports none).
+    same with the factor part ``iparm[16]`` halved, plus the single-precision copy of the
+    ``stored`` matrix values PARDISO then reads, plus a copy of ``A`` for the residuals only when ``A``
+    is not already a CSR matrix in double precision (otherwise the residuals use the
+    caller's matrix, which is in memory already). ``ooc``: the permanent data ``iparm[15]``
+    plus the minimum out-of-core memory ``iparm[62]`` KB (or :data:`OOC_MIN_SHARE` of
+    ``iparm[16]`` when MKL reports none).
     """
     peak, perm, factor = (int(iparm[i]) for i in (14, 15, 16))
     ooc_min = int(iparm[62]) or OOC_MIN_SHARE * factor
+    cplx = np.iscomplexobj(A.data)
+    single_values = stored * (8 if cplx else 4)
+    copied = not (A.format == "csr" and A.dtype == (np.complex128 if cplx else np.float64))
     return {"double": 1024.0 * max(peak, perm + factor),
-            "mixed": 1024.0 * max(peak, perm + factor / 2) + matrix_bytes(A),
+            "mixed": 1024.0 * max(peak, perm + factor / 2) + single_values + (matrix_bytes(A) if copied else 0),
             "ooc": 1024.0 * (perm + ooc_min)}
 
 

@@ -144,7 +144,7 @@ class PardisoFactorization(Factorization):
             self._call(11, None, None, 0)  # analysis: ordering, symbolic factorization, memory
             if not self.reused_ordering:
                 orderings.remember(key, self._perm)
-            self._plan(solver, A, pardiso_estimates(ip, A))
+            self._plan(solver, A, pardiso_estimates(ip, A, self._data.size))
             if self.memory.mode != "double":
                 self._release()
                 ip[4] = 1  # the ordering just computed
