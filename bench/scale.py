@@ -73,12 +73,14 @@ def _reset_peak() -> None:
         pass
 
 
-def run_case(size: int, methods: list[str], order: int, order_krylov: int, band: tuple) -> dict:
+def run_case(size: int, methods: list[str], order: int, order_krylov: int, band: tuple, *, bare: bool = True,
+             memory: dict | None = None) -> dict:
     import numpy as np
 
     from flexmor.couplings import couple
     from flexmor.linalg import SolverContext, available_backends, factorize
     from flexmor.linalg.eigen import default_shift
+    from flexmor.linalg.memory import factor_record
     from flexmor.models import cantilever, size_for_dofs
     from flexmor.ports import make_ports
     from flexmor.reduction import reduce
@@ -89,19 +91,20 @@ def run_case(size: int, methods: list[str], order: int, order_krylov: int, band:
     model = cantilever(size_for_dofs(size))
     out = {"target_dofs": size, "n_dof": model.n_dof, "nnz_K": int(model.K.nnz),
            "assembly_s": time.perf_counter() - t0, "model_mb": _status("VmRSS"), "methods": {}}
-    sigma = default_shift(model.K, model.M)
-    _reset_peak()
-    t0, c0 = time.perf_counter(), _cpu()
-    F = factorize((model.K - sigma * model.M).tocsr(), positive=True, check=False)
-    out["factor_s"], out["factor_cpu_s"] = time.perf_counter() - t0, _cpu() - c0
-    b = np.random.default_rng(0).standard_normal((model.n_dof, 6))
-    t0 = time.perf_counter()
-    F.solve(b)
-    out["solve6_s"] = time.perf_counter() - t0
-    out["factor_estimate_mb"] = None if F.memory_estimate is None else F.memory_estimate / 2**20
-    out["factor_peak_mb"] = _status("VmHWM")
-    out["backend"] = F.backend
-    del F, b
+    if bare:
+        sigma = default_shift(model.K, model.M)
+        _reset_peak()
+        t0, c0 = time.perf_counter(), _cpu()
+        F = factorize((model.K - sigma * model.M).tocsr(), positive=True, check=False)
+        out["factor_s"], out["factor_cpu_s"] = time.perf_counter() - t0, _cpu() - c0
+        b = np.random.default_rng(0).standard_normal((model.n_dof, 6))
+        t0 = time.perf_counter()
+        F.solve(b)
+        out["solve6_s"] = time.perf_counter() - t0
+        out["factor_estimate_mb"] = None if F.memory_estimate is None else F.memory_estimate / 2**20
+        out["factor_peak_mb"] = _status("VmHWM")
+        out["backend"] = F.backend
+        del F, b
     ports = make_ports(model, INPUTS)
     for method in methods:
         opts: dict = {}
@@ -121,7 +124,7 @@ def run_case(size: int, methods: list[str], order: int, order_krylov: int, band:
         elif method == "two-step":
             opts["intermediate"] = order_krylov
             opts["band"] = band
-        ctx = SolverContext()
+        ctx = SolverContext(**(memory or {}))
         _reset_peak()
         t0, c0 = time.perf_counter(), _cpu()
         red, timings = reduce(body, method.removesuffix("-1pt"), r, p, solver=ctx, **opts)
@@ -132,22 +135,30 @@ def run_case(size: int, methods: list[str], order: int, order_krylov: int, band:
             "order": red.order, "wall_s": wall, "cpu_s": cpu, "basis_s": timings["basis"], "project_s": timings["project"],
             "couple_s": t_couple, "factorizations": d["count"], "factor_s": d["seconds"], "solves": d["solves"],
             "solve_columns": d["solve_columns"], "solve_s": d["solve_seconds"], "solver_s": solver,
-            "ratio": wall / solver if solver > 0 else None, "peak_mb": _status("VmHWM")}
+            "ratio": wall / solver if solver > 0 else None, "peak_mb": _status("VmHWM"),
+            "factor": factor_record(ctx.stats)}
         del red, body
     return out
 
 
 def _row(size: int, r: dict) -> list[str]:
-    est = r["factor_estimate_mb"] or float("nan")
-    lines = [f"{size:>8} {r['n_dof']:>8} {r['nnz_K']:>10}  assembly {r['assembly_s']:.1f} s, "
-             f"bare factor {r['factor_s']:.1f} s (cpu {r['factor_cpu_s']:.1f} s, {r['backend']}, estimate {est:.0f} MB, peak {r['factor_peak_mb']:.0f} MB), "
-             f"block solve (6 rhs) {r['solve6_s']:.2f} s"]
+    line = f"{size:>8} {r['n_dof']:>8} {r['nnz_K']:>10}  assembly {r['assembly_s']:.1f} s"
+    if "factor_s" in r:
+        est = r["factor_estimate_mb"] or float("nan")
+        line += (f", bare factor {r['factor_s']:.1f} s (cpu {r['factor_cpu_s']:.1f} s, {r['backend']}, estimate {est:.0f} MB, "
+                 f"peak {r['factor_peak_mb']:.0f} MB), block solve (6 rhs) {r['solve6_s']:.2f} s")
+    lines = [line]
     for name, m in r["methods"].items():
         ratio = "-" if m["ratio"] is None else f"{m['ratio']:.2f}"
         lines.append(f"{'':>8} {name:>14} r={m['order']:<4} wall {m['wall_s']:8.1f} s  cpu {m['cpu_s']:8.1f} s  "
                      f"{m['factorizations']:>2} fact {m['factor_s']:7.1f} s  {m['solves']:>4} solves "
                      f"({m['solve_columns']:>4} cols) {m['solve_s']:7.1f} s  ratio {ratio:>5}  "
                      f"peak {m['peak_mb']:7.0f} MB" + (f"  (+ RBE2 {m['couple_s']:.1f} s)" if m["couple_s"] else ""))
+        f = m.get("factor") or {}
+        if f.get("reason"):
+            lines.append(f"{'':>8} {'':>14} factor: {f['reason']}" + (
+                f"; {f['refine_steps']} refinement steps in {f['refined_solves']} solves (most {f['refine_max_steps']}), "
+                f"residual {f['refine_residual']:.1e}" if f.get("refined_solves") else ""))
     return lines
 
 
@@ -159,6 +170,10 @@ def main(argv=None) -> int:
     ap.add_argument("--order-krylov", type=int, default=200, help="krylov order and two-step's intermediate order")
     ap.add_argument("--band", default="1:5000", help="band (Hz) of krylov's points and two-step's Gramians")
     ap.add_argument("--timeout", type=float, default=3600)
+    ap.add_argument("--factor-memory", choices=["auto", "double", "mixed", "ooc"], default="auto",
+                    help="memory mode of the methods' factorizations (default auto)")
+    ap.add_argument("--memory-limit", help="memory the factorizations may assume, e.g. 12G (default: what is available)")
+    ap.add_argument("--no-bare", action="store_true", help="skip the bare double-precision factorization")
     ap.add_argument("--case", type=int, help=argparse.SUPPRESS)
     ap.add_argument("--out", default=str(HERE / "results" / "scale.json"))
     args = ap.parse_args(argv)
@@ -168,13 +183,20 @@ def main(argv=None) -> int:
         ap.error(f"unknown method(s) {', '.join(bad)}; choose from {', '.join(METHODS)}")
     if args.case:
         band = tuple(float(x) for x in args.band.split(":"))
-        print(json.dumps(run_case(args.case, methods, args.order, args.order_krylov, band)))
+        memory = {"factor_memory": args.factor_memory}
+        if args.memory_limit:
+            from flexmor.cli.parser import memory_size
+            memory["memory_limit"] = memory_size(args.memory_limit)
+        print(json.dumps(run_case(args.case, methods, args.order, args.order_krylov, band, bare=not args.no_bare,
+                                  memory=memory)))
         return 0
     rows = []
     print(f"{'size':>8} {'n_dof':>8} {'nnz(K)':>10}", flush=True)
     for size in [int(s) for s in args.sizes.split(",")]:
         cmd = [sys.executable, str(pathlib.Path(__file__).resolve()), "--case", str(size), "--methods",
-               ",".join(methods), "--order", str(args.order), "--order-krylov", str(args.order_krylov), "--band", args.band]
+               ",".join(methods), "--order", str(args.order), "--order-krylov", str(args.order_krylov), "--band", args.band,
+               "--factor-memory", args.factor_memory] + (["--memory-limit", args.memory_limit] if args.memory_limit else []) + \
+              (["--no-bare"] if args.no_bare else [])
         t0 = time.perf_counter()
         proc = subprocess.run(cmd, capture_output=True, text=True, timeout=args.timeout, check=False)
         lines = [ln for ln in proc.stdout.splitlines() if ln.startswith("{")]
