@@ -41,7 +41,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from ..errors import SolverError
-from .memory import MEMORY_FRACTION, estimate_memory, matrix_bytes, plan_memory, refine
+from .memory import MEMORY_FRACTION, estimate_memory, matrix_bytes, norm_bound, plan_memory, refine
 
 __all__ = ["Backend", "BACKENDS", "Factorization", "SolverStats", "available_backends",
            "memory_available", "estimate_memory", "MEMORY_FRACTION", "describe_backends"]
@@ -152,7 +152,7 @@ class Factorization:
         self.memory_estimate = self.memory.estimate
         if self.memory.mode == "mixed":
             self._A = A.tocsr().astype(self.dtype, copy=False)
-            self._anorm = float(np.linalg.norm(self._A.data))
+            self._anorm = norm_bound(self._A)
             self._tol = solver.refine_tol
 
     def _solve(self, b: np.ndarray) -> np.ndarray:
