@@ -9,12 +9,13 @@ the machine can still be computed on it, in one of three modes
 ``mixed``
     The factor in single precision (``float32`` / ``complex64``: half the memory of the
     factor; PARDISO ``iparm[27] = 1`` or SciPy's SuperLU), each solve refined in double
-    precision against the double matrix, ``x += F32.solve(b - A x)``, until the corrections
-    reach the rounding level of double precision (as accurate as a double factor's solution)
-    and the normwise backward error ``||b - A x|| / (||A||_F ||x|| + ||b||)`` of every column
-    is at most ``refine_tol`` (:func:`refine`). Converges while ``eps_single * cond(A) < 1``;
-    an ill-conditioned matrix is refused with a :class:`~flexmor.errors.SolverError` that
-    suggests the out-of-core mode.
+    precision against the double matrix by GMRES with the single-precision factor as
+    preconditioner (:func:`refine`), until the normwise backward error
+    ``||b - A x|| / (||A|| ||x|| + ||b||)`` of every column is that of a double-precision
+    solve (:data:`BACKWARD_TARGET`); it must then be at most ``refine_tol``. Converges for
+    ``eps_single * cond(A)`` beyond 1 too, as long as few eigenvalues of the preconditioned
+    matrix are far from 1 (a shift near an eigenvalue); a matrix too ill-conditioned for it is
+    refused with a :class:`~flexmor.errors.SolverError` that suggests the out-of-core mode.
 ``ooc``
     PARDISO's out-of-core mode (``iparm[59] = 2``): the factor is written to files in a
     temporary directory (:class:`OutOfCore`, removed with the factorization) and at most
@@ -45,9 +46,9 @@ import numpy as np
 
 from ..errors import SolverError
 
-__all__ = ["FACTOR_MEMORY", "MEMORY_FRACTION", "MODE_NAMES", "REFINE_MAX_ITER", "REFINE_TOL", "MemoryPlan",
-           "OutOfCore", "describe_factor", "estimate_memory", "factor_record", "matrix_bytes", "pardiso_estimates",
-           "norm_bound", "plan_memory", "refine", "refusal"]
+__all__ = ["BACKWARD_TARGET", "FACTOR_MEMORY", "MEMORY_FRACTION", "MODE_NAMES", "REFINE_MAX_ITER", "REFINE_RESTART",
+           "REFINE_TOL", "MemoryPlan", "OutOfCore", "describe_factor", "estimate_memory", "factor_record",
+           "matrix_bytes", "norm_bound", "pardiso_estimates", "plan_memory", "refine", "refusal"]
 
 log = logging.getLogger(__name__)
 
