@@ -303,7 +303,7 @@ def refine(A, low_solve, b: np.ndarray, *, anorm: float, tol: float = REFINE_TOL
     ``(A + dA) x = b`` with ``||dA||_2 <= c u ||A||_2``, ``c`` of order one in practice (Higham,
     ch. 9-10; by Rigal and Gaches, sec. 7.1, ``eta`` is the smallest such relative
     perturbation); PARDISO's solves of the cantilever's ``K`` measure ``c = 1.2-2.2`` at
-    3,000-94,500 DOF, ``eta = 0.9-1.6 u`` in this measure. At ``eta <= 2u`` the forward error
+    3,000-94,500 DOF, ``eta = 0.8-1.6 u`` in this measure. At ``eta <= 2u`` the forward error
     ``<~ cond(A) eta`` is that of the double solve. The target is attainable: ``x`` is stored
     with relative error ``u`` (``eta ~ u / 2``) and the residual computed with the error
     ``gamma_{p+1} (|A| |x| + |b|)`` at most (``p`` nonzeros in a row), of norm ``~ u || |A| |x| || /
