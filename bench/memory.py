@@ -32,7 +32,6 @@ import argparse
 import json
 import pathlib
 import resource
-import subprocess
 import sys
 import tempfile
 import time
@@ -41,7 +40,13 @@ HERE = pathlib.Path(__file__).resolve().parent
 DEFAULT_OUT = HERE / "results" / "memory.json"
 sys.path.insert(0, str(HERE))
 
-from solvers import _machine, _proc_status, _reset_peak  # the RSS helpers of bench/solvers.py
+from solvers import (  # the RSS and process helpers of bench/solvers.py
+    _machine,
+    _proc_status,
+    _reset_peak,
+    spawn_case,
+    write_results,
+)
 
 MODES = ("double", "mixed", "ooc")
 
@@ -97,24 +102,12 @@ def run_case(size: int, mode: str, args) -> dict:
 
 
 def _spawn(size: int, mode: str, args) -> dict:
-    cmd = [sys.executable, str(pathlib.Path(__file__).resolve()), "--case", f"{size}:{mode}", "--nrhs",
-           str(args.nrhs), "--seed", str(args.seed), "--matrix", args.matrix]
+    options = ["--nrhs", str(args.nrhs), "--seed", str(args.seed), "--matrix", args.matrix]
     if args.memory_limit is not None:
-        cmd += ["--memory-limit", str(args.memory_limit)]
+        options += ["--memory-limit", str(args.memory_limit)]
     if args.scratch:
-        cmd += ["--scratch", args.scratch]
-    t0 = time.perf_counter()
-    try:
-        proc = subprocess.run(cmd, capture_output=True, text=True, timeout=args.timeout, check=False)
-    except subprocess.TimeoutExpired:
-        return {"target_dofs": size, "asked": mode, "error": f"timeout after {args.timeout:.0f} s"}
-    lines = [ln for ln in proc.stdout.splitlines() if ln.startswith("{")]
-    if proc.returncode != 0 or not lines:
-        tail = (proc.stderr.strip().splitlines() or ["(no output)"])[-1]
-        return {"target_dofs": size, "asked": mode, "error": f"exit code {proc.returncode}: {tail}"}
-    res = json.loads(lines[-1])
-    res["process_seconds"] = time.perf_counter() - t0
-    return res
+        options += ["--scratch", args.scratch]
+    return spawn_case(__file__, f"{size}:{mode}", options, args.timeout, {"target_dofs": size, "asked": mode})
 
 
 def _f(v, spec):
@@ -187,11 +180,8 @@ def main(argv=None) -> int:
             print("#   " + (r["error"] if "error" in r else f"{r['mode']}: factor {r['factor_seconds']:.2f} s, "
                   f"solves {r['solve_seconds']:.2f} s, peak {r['peak_mb']:.0f} MB"), file=sys.stderr, flush=True)
     table = print_table(results)
-    out = pathlib.Path(args.out)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    out.write_text(json.dumps({"machine": machine, "args": {k: v for k, v in vars(args).items() if k != "case"},
-                               "results": results, "table": table}, indent=2))
-    print(f"# wrote {out}")
+    write_results(args.out, {"machine": machine, "args": {k: v for k, v in vars(args).items() if k != "case"},
+                             "results": results, "table": table})
     return 0
 
 

@@ -32,7 +32,6 @@ from __future__ import annotations
 import argparse
 import json
 import pathlib
-import subprocess
 import sys
 import time
 
@@ -41,7 +40,7 @@ DEFAULT_OUT = HERE / "results" / "refine.json"
 sys.path.insert(0, str(HERE))
 
 from scale import INPUTS  # the inputs of the scale benchmark
-from solvers import _machine, _proc_status  # the RSS helpers of bench/solvers.py
+from solvers import _machine, _proc_status, spawn_case, write_results  # the RSS and process helpers of bench/solvers.py
 
 VARIANTS = ("double", "stationary", "gmres")
 BAND = (1.0, 5000.0)
@@ -103,17 +102,8 @@ def run_case(size: int, variant: str, order: int) -> dict:
 
 
 def _spawn(size: int, variant: str, args) -> dict:
-    cmd = [sys.executable, str(pathlib.Path(__file__).resolve()), "--case", f"{size}:{variant}", "--order",
-           str(args.order)]
-    try:
-        proc = subprocess.run(cmd, capture_output=True, text=True, timeout=args.timeout, check=False)
-    except subprocess.TimeoutExpired:
-        return {"target_dofs": size, "variant": variant, "error": f"timeout after {args.timeout:.0f} s"}
-    lines = [ln for ln in proc.stdout.splitlines() if ln.startswith("{")]
-    if proc.returncode != 0 or not lines:
-        tail = (proc.stderr.strip().splitlines() or ["(no output)"])[-1]
-        return {"target_dofs": size, "variant": variant, "error": f"exit code {proc.returncode}: {tail}"}
-    return json.loads(lines[-1])
+    return spawn_case(__file__, f"{size}:{variant}", ["--order", str(args.order)], args.timeout,
+                      {"target_dofs": size, "variant": variant})
 
 
 def print_table(results: list[dict]) -> str:
@@ -175,11 +165,8 @@ def main(argv=None) -> int:
             results.append(r)
             print("#   " + (r["error"] if "error" in r else f"{r['wall_s']:.1f} s"), file=sys.stderr, flush=True)
     table = print_table(results)
-    out = pathlib.Path(args.out)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    out.write_text(json.dumps({"machine": machine, "args": {k: v for k, v in vars(args).items() if k != "case"},
-                               "results": results, "table": table}, indent=2))
-    print(f"# wrote {out}")
+    write_results(args.out, {"machine": machine, "args": {k: v for k, v in vars(args).items() if k != "case"},
+                             "results": results, "table": table})
     return 0
 
 

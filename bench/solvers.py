@@ -190,23 +190,37 @@ def _machine() -> dict:
     return info
 
 
-def _spawn(size: int, backend: str, args) -> dict:
-    cmd = [sys.executable, str(pathlib.Path(__file__).resolve()), "--case", f"{size}:{backend}",
-           "--nrhs", str(args.nrhs), "--seed", str(args.seed)]
+def spawn_case(script: str, case: str, options: list[str], timeout: float, ident: dict) -> dict:
+    """Run ``script --case CASE OPTIONS`` in a fresh Python process (its memory peak its own) and
+    return the JSON record of its last ``{``-line, with ``process_seconds``; on a timeout or a
+    failure ``ident`` with an ``error`` message."""
+    cmd = [sys.executable, str(pathlib.Path(script).resolve()), "--case", case, *options]
     t0 = time.perf_counter()
     try:
-        proc = subprocess.run(cmd, capture_output=True, text=True, timeout=args.timeout, check=False)
+        proc = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout, check=False)
     except subprocess.TimeoutExpired:
-        return {"target_dofs": size, "backend": backend, "error": f"timeout after {args.timeout:.0f} s"}
+        return {**ident, "error": f"timeout after {timeout:.0f} s"}
     wall = time.perf_counter() - t0
     lines = [ln for ln in proc.stdout.splitlines() if ln.startswith("{")]
     if proc.returncode != 0 or not lines:
         tail = (proc.stderr.strip().splitlines() or ["(no output)"])[-1]
-        return {"target_dofs": size, "backend": backend,
-                "error": f"exit code {proc.returncode}: {tail}"}
+        return {**ident, "error": f"exit code {proc.returncode}: {tail}"}
     res = json.loads(lines[-1])
     res["process_seconds"] = wall
     return res
+
+
+def write_results(out: str, record: dict) -> None:
+    """Write a benchmark's JSON ``record`` to ``out`` (directories made) and say so."""
+    path = pathlib.Path(out)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(json.dumps(record, indent=2))
+    print(f"# wrote {path}")
+
+
+def _spawn(size: int, backend: str, args) -> dict:
+    return spawn_case(__file__, f"{size}:{backend}", ["--nrhs", str(args.nrhs), "--seed", str(args.seed)],
+                      args.timeout, {"target_dofs": size, "backend": backend})
 
 
 def _fmt(v, spec, missing="-"):
@@ -298,11 +312,7 @@ def main(argv=None) -> int:
                 print(f"#   n_dof={r['n_dof']} factor {r['factor_seconds']:.2f} s, solve "
                       f"{r['solve_seconds']:.2f} s, peak {r['peak_mb']:.0f} MB", file=sys.stderr, flush=True)
     table = print_table(results)
-    out = pathlib.Path(args.out)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    out.write_text(json.dumps({"machine": machine, "nrhs": args.nrhs, "results": results,
-                               "table": table}, indent=2))
-    print(f"# wrote {out}")
+    write_results(args.out, {"machine": machine, "nrhs": args.nrhs, "results": results, "table": table})
     return 0
 
 
