@@ -280,19 +280,26 @@ def test_inertia_loads_have_no_elastic_part_on_a_free_body(free):
     np.testing.assert_array_equal(a.V, b.V)
 
 
-def test_a_body_with_rigid_motion_is_exported_elastic(free, tmp_path):
-    """krylov's default (rigid='include') puts the rigid motion the ports excite into the basis; the
-    floating frame carries it, so SID and Exudyn export the basis made M-orthogonal to it (with a warning)."""
+def test_a_body_with_rigid_motion_is_refused_at_export_unless_removed(free, tmp_path):
+    """A basis with the rigid motion the ports excite (rigid='include') is not what the floating
+    frame takes: export refuses it (the body written would have another order and error than the one
+    judged); with remove_rigid the basis is made M-orthogonal to it (with a warning naming the orders)."""
     model = apply_damping(free, modal_damping=0.01, band=(10.0, 2000.0))
-    red, _ = reduce(model, "krylov", 16, make_ports(model, ["TIP:y", "TIP:z"]), band=(10.0, 2000.0))
+    red, _ = reduce(model, "krylov", 16, make_ports(model, ["TIP:y", "TIP:z"]), band=(10.0, 2000.0),
+                    rigid="include")
     assert red.info["n_rigid_included"] == 4 and red.frequencies_hz()[3] < 1.0
-    with pytest.warns(FlexmorWarning, match=r"order 16 -> 12"):
+    with pytest.raises(ModelError, match=r"order 16 -> 12.*remove_rigid"):
         write_sid(red, tmp_path / "k.SID_FEM", model=model)
+    assert not (tmp_path / "k.SID_FEM").exists()
+    with pytest.warns(FlexmorWarning, match=r"order 16 -> 12"):
+        write_sid(red, tmp_path / "k.SID_FEM", model=model, remove_rigid=True)
     sid = read_sid(tmp_path / "k.SID_FEM")
     np.testing.assert_allclose(sid.frequencies_hz()[:2], elastic_hz(model, 2), rtol=1e-6)
     assert sid.mass == pytest.approx(78.5, rel=1e-12)
+    with pytest.raises(ModelError, match="rigid-body motion"):
+        exudyn_data(red, model)
     with pytest.warns(FlexmorWarning, match="rigid-body motion"):
-        data = exudyn_data(red, model)
+        data = exudyn_data(red, model, remove_rigid=True)
     assert data["massMatrixReduced"].shape == (12, 12)
     assert sla.eigh(data["stiffnessMatrixReduced"], data["massMatrixReduced"], eigvals_only=True)[0] > 1e6
 

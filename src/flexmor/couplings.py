@@ -49,7 +49,8 @@ from .errors import ModelError, PortError
 from .linalg.distributed import is_partitioned
 from .model import FEModel
 
-__all__ = ["parse_coupling", "is_coupling", "rbe2_matrix", "rbe3_matrix", "couple", "Coupled", "port_row"]
+__all__ = ["parse_coupling", "is_coupling", "rbe2_matrix", "rbe3_matrix", "couple", "Coupled", "port_row",
+           "coupling_masters"]
 
 log = logging.getLogger(__name__)
 
@@ -321,3 +322,33 @@ def couple(model: FEModel, specs, *, weights: dict | None = None) -> Coupled:
     except ModelError as exc:
         raise PortError(f"coupled model is invalid: {exc}") from None
     return Coupled(coupled, T, masters)
+
+
+def coupling_masters(model: FEModel) -> list[dict]:
+    """The coupling masters of a coupled model (its node sets ``NAME@RBE2`` / ``NAME@RBE3`` of one node).
+
+    Returns
+    -------
+    list of dict
+        ``name`` (e.g. ``HOLE@RBE2``), ``id`` (the master's node id), ``kind`` (``rbe2``/``rbe3``),
+        ``xyz`` (its position), ``slaves`` (node ids of the coupled set), in the model's order.
+    """
+    from .errors import FlexmorError
+
+    out = []
+    for key, ids in model.node_sets.items():
+        if "@" not in key or np.size(ids) != 1:
+            continue
+        try:
+            name, kind, _ = parse_coupling(key)
+        except FlexmorError:  # a set name with '@' that is no coupling
+            continue
+        nodes = model.node_sets.get(name.strip().upper())
+        if nodes is None and name.strip().lstrip("-").isdigit():
+            nodes = np.array([int(name)], dtype=np.int64)
+        if nodes is None or not model.has_node(int(ids[0])):
+            continue
+        nodes = np.asarray([n for n in np.atleast_1d(nodes) if model.has_node(int(n))], dtype=np.int64)
+        out.append({"name": key, "id": int(ids[0]), "kind": kind, "xyz": model.node_xyz([int(ids[0])])[0].tolist(),
+                    "slaves": nodes})
+    return out

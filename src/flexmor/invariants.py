@@ -289,20 +289,26 @@ def _spec_targets(reduced) -> list[str]:
     return out
 
 
-def frame_nodes(model, V, specs=None, reduced=None) -> list[FrameNode]:
+def frame_nodes(model, V, specs=None, reduced=None, *, masters=()) -> list[FrameNode]:
     """Frame nodes (marker/interface points) of the SID file.
 
     Parameters
     ----------
     model : FEModel
+        The model as read (:attr:`flexmor.expansion.ExpandedBody.model`).
     V : ndarray (n_dof, r)
+        The basis at its equations.
     specs : sequence of str, optional
-        Node ids or node sets. A single node gives its own translations and, if the model has
+        Node ids or node sets. A coupling master (``HOLE@rbe2``, its set name ``HOLE@RBE2`` or its
+        node id, one of ``masters``) gives the master node itself: its translations as ``phi`` and
+        its rotations as ``psi``. A single node gives its own translations and, if the model has
         them, its rotational DOFs as ``psi`` (else zero). A set of several nodes (or
         ``SET@rbe3``) gives an RBE3 master at the set's centroid: the weighted least-squares
         rigid motion of the set's translations (:func:`flexmor.couplings.rbe3_matrix`).
-        Default: the port and interface targets of ``reduced``.
+        Default: the port and interface targets of ``reduced`` and every master.
     reduced : ReducedModel, optional
+    masters : sequence of MasterNode
+        The body's coupling masters (:func:`flexmor.expansion.expand_body`).
 
     Raises
     ------
@@ -311,26 +317,34 @@ def frame_nodes(model, V, specs=None, reduced=None) -> list[FrameNode]:
     """
     from .couplings import parse_coupling, rbe3_matrix
 
+    masters = list(masters)
     if specs is None:
         specs = _spec_targets(reduced) if reduced is not None else []
         specs = [s for s in specs if not _is_generic(s)]
+        named = {m.id for m in masters for s in specs if m.matches(s)}
+        specs += [m.name for m in masters if m.id not in named]
     if not specs:
         raise PortError("no nodes for the SID frame: the reduced body names no port or interface nodes; "
                         "give them as nodes (node ids or node sets, e.g. TIP and 12)", params=("nodes",))
     trans, rot = node_triples(model)
     index = {int(k): i for i, k in enumerate(model.node_ids)}
-    next_id = int(model.node_ids.max()) + 1
+    next_id = max([int(model.node_ids.max())] + [m.id for m in masters]) + 1
     out = []
     for spec in specs:
         name = str(spec).strip()
+        master = next((m for m in masters if m.matches(name)), None)
+        if master is not None:
+            out.append(FrameNode(master.id, name, np.array(master.xyz, float), master.rows[:3].copy(),
+                                 master.rows[3:].copy()))
+            continue
         target = parse_coupling(name)[0] if "@" in name else name
         if target.upper() in model.node_sets:
             ids = model.node_sets[target.upper()]
         elif target.lstrip("-").isdigit() and int(target) in index:
             ids = np.array([int(target)])
         else:
-            sets = ", ".join(sorted(model.node_sets)) or "none"
-            raise PortError(f"SID frame node {name!r} is neither a node id nor a node set (sets: {sets})")
+            known = ", ".join(sorted(model.node_sets) + [m.name for m in masters]) or "none"
+            raise PortError(f"SID frame node {name!r} is neither a node id nor a node set (sets: {known})")
         if ids.size == 1 and "@" not in name:
             i = index[int(ids[0])]
             out.append(FrameNode(int(ids[0]), name, model.xyz[i].copy(), _gather(V, trans[i:i + 1])[0],

@@ -30,7 +30,7 @@ from .damping import Damping, GivenDamping, ModalDamping, NoDamping, Rayleigh
 from .errors import FlexmorWarning, ModelError, OptionError
 from .linalg.distributed import is_partitioned
 
-__all__ = ["fingerprint", "matrix_hash", "check_origin", "origin_differences", "reference_model",
+__all__ = ["with_body_damping", "fingerprint", "matrix_hash", "check_origin", "origin_differences", "reference_model",
            "same_damping", "describe_damping"]
 
 #: Version of the fingerprint record (bumped when what it hashes changes).
@@ -207,6 +207,20 @@ def reference_model(model, body, path, *, damping: Damping | None = None):
 
         ref = couple(ref, list(couplings)).model
     check_origin(body, ref, path, couplings=couplings)
+    return with_body_damping(ref, body, path)
+
+
+def with_body_damping(ref, body, path):
+    """``ref`` (the model ``body`` was reduced on) with the body's damping: its Rayleigh or modal
+    damping, none for an undamped body, the model's own ``D`` for a body reduced with it.
+
+    Raises
+    ------
+    ModelError
+        The body was reduced with a damping matrix of the model that ``ref`` lacks, or without
+        damping from a model that has one of its own.
+    """
+    name = Path(str(path)).name
     bd = body.damping
     if isinstance(bd, Rayleigh):
         return ref.with_damping(bd)

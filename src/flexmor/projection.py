@@ -19,6 +19,7 @@ import scipy.linalg as sla
 
 from . import __version__
 from .basis import Basis
+from .couplings import coupling_masters
 from .damping import Damping, ModalDamping, NoDamping, damping_from_dict
 from .errors import ModelError
 from .linalg.threads import sparse_dense
@@ -107,7 +108,8 @@ class ReducedModel:
         """What the body is, as a plain dict (used by ``flexmor info BODY.h5``).
 
         Keys: ``method``, ``order``, ``order_requested``, ``order_note``, ``inputs``,
-        ``outputs``, ``couplings``, ``options`` (the method options recorded), ``frequencies_hz``,
+        ``outputs``, ``couplings``, ``masters`` (each coupling's master node: ``name``, ``id``,
+        ``kind``, ``xyz``, ``n_slaves``), ``options`` (the method options recorded), ``frequencies_hz``,
         ``damping`` (stored form), ``errors`` (the stored measures, without the curves),
         ``model`` (the fingerprint of the full model it came from, empty for older bodies),
         ``version`` (of the flexmor that wrote it).
@@ -119,6 +121,7 @@ class ReducedModel:
         return {"method": self.method, "order": self.order, "order_requested": self.info.get("order_requested"),
                 "order_note": self.info.get("order_note"), "inputs": list(self.input_names),
                 "outputs": list(self.output_names), "couplings": list(self.info.get("couplings", [])),
+                "masters": list(self.info.get("masters", [])),
                 "options": dict(self.info.get("options", {})), "frequencies_hz": freqs,
                 "damping": self.damping.to_dict(), "model_name": self.model_name,
                 "errors": {k: v for k, v in self.errors.items() if k not in ("freqs_hz", "rel_error")},
@@ -198,8 +201,13 @@ def project(model: FEModel, basis: Basis, ports: Ports) -> ReducedModel:
     if Dr is not None and isinstance(model.damping, ModalDamping):  # modal damping: zeta in the body's own modes
         Dr = model.damping.reduced_matrix(Mr, Kr)
     Br, Cr = ports.reduced(V)
+    info = dict(basis.info)
+    masters = coupling_masters(model)
+    if masters:  # the interfaces of the body: one master id everywhere (info, SID, Exudyn, report)
+        info["masters"] = [{"name": m["name"], "id": m["id"], "kind": m["kind"], "xyz": m["xyz"],
+                            "n_slaves": int(m["slaves"].size)} for m in masters]
     return ReducedModel(
-        M=Mr, K=Kr, D=Dr, B=Br, C=Cr, V=V, method=basis.method, info=dict(basis.info),
+        M=Mr, K=Kr, D=Dr, B=Br, C=Cr, V=V, method=basis.method, info=info,
         input_names=list(ports.input_names), output_names=list(ports.output_names),
         node_ids=model.node_ids, xyz=model.xyz, dofs=model.dofs, model_name=model.name,
         damping=model.damping, triangles=None if model.mesh is None else outer_surface(model.mesh).triangles,

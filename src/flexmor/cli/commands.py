@@ -14,7 +14,7 @@ from ..errors import OptionError
 from ..jsonutil import jsonable
 from ..linalg.context import step
 from ..linalg.distributed import is_partitioned, on_root, row_blocks
-from .info import info_backends, info_body, info_formats, is_body_file, print_mass_properties
+from .info import info_backends, info_body, info_formats, interface_lines, is_body_file, print_mass_properties
 from .options import method_options
 from .tables import fmt, print_error_table
 
@@ -254,6 +254,8 @@ def cmd_reduce(args) -> int:
         _emit_json(res)
         return 0
     print(f"{args.method}: order {red.order}, {res['seconds']:.3f} s (basis + projection)")
+    for line in interface_lines(red.info.get("masters", [])):
+        print(f"interface {line}")
     if res.get("order_note"):
         print(f"note: {res['order_note']}")
     if res.get("tol") is not None:
@@ -337,20 +339,54 @@ def cmd_export(args) -> int:
     if args.mesh and not args.model:
         raise OptionError("--mesh attaches a mesh file to the --model; give --model too")
     model = _with_mesh(read(args.model, format=args.model_format), args) if args.model else None
-    if model is not None:  # the body's own model (refused otherwise), its selections, couplings and damping
-        model = reference_model(model, red, args.reduced)
+    out = {"file": str(args.output_file), "format": fmt, "order": red.order, "method": red.method}
+    if model is not None:  # the body's own model (refused otherwise); the exporters apply its couplings
+        ref = reference_model(model, red, args.reduced)
+        if args.remove_rigid:
+            out.update(_removed_rigid(args, model, ref, red))
     opts = {"nodes": args.node or None} if fmt in ("sid", "mat") else {}
     if fmt == "sid":
         opts["m1_order"] = args.m1_order
     if args.allow_clamped:
         opts["allow_clamped"] = True
+    if args.remove_rigid and fmt in ("sid", "exudyn"):
+        opts["remove_rigid"] = True
     export(red, args.output_file, fmt, model=model, **opts)
-    out = {"file": str(args.output_file), "format": fmt, "order": red.order, "method": red.method}
     if args.json:
         _emit_json(out)
-    else:
-        print(f"exported {args.reduced} ({red.method}, order {red.order}) as {fmt}: {args.output_file}")
+        return 0
+    print(f"exported {args.reduced} ({red.method}, order {red.order}) as {fmt}: {args.output_file}")
+    if "order_exported" in out:
+        print(f"note: rigid-body motion removed from the basis: order {red.order} -> {out['order_exported']}; "
+              f"the body written has band_error {_g(out['band_error'])} (rms {_g(out['rms_rel_error_pct'])} %) "
+              f"over {out['band_hz'][0]:g}-{out['band_hz'][1]:g} Hz, judged on the elastic part")
     return 0
+
+
+def _g(x) -> str:
+    return fmt(x, ".3g")
+
+
+def _removed_rigid(args, model, ref, red) -> dict:
+    """``--remove-rigid``: when the body holds rigid motion, the order and the error measures of the
+    body export writes (its basis made mass-orthogonal to the rigid-body modes) over the body's band."""
+    import warnings
+
+    from ..analysis.compare import FullResponse
+    from ..analysis.frequency import measure_record
+    from ..expansion import expand_body
+    from ..linalg.context import SolverContext
+    from ..options import DEFAULT_BAND, Band
+    from ..ports import make_ports
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        body = expand_body(model, red, args.reduced, remove_rigid=True).body
+    if "rigid_removed_at_export" not in body.info:
+        return {}
+    band = Band.of(red.errors.get("band_hz") or DEFAULT_BAND)
+    full = FullResponse(ref, make_ports(ref, red.input_names, red.output_names), band, solver=SolverContext())
+    return {"order_exported": body.order, "band_hz": list(band), **measure_record(full.evaluate(body))}
 
 
 # -- report ------------------------------------------------------------------------------------

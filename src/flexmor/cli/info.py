@@ -6,7 +6,7 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-__all__ = ["is_body_file", "info_body", "info_backends", "info_formats", "print_mass_properties"]
+__all__ = ["is_body_file", "info_body", "interface_lines", "info_backends", "info_formats", "print_mass_properties"]
 
 
 def is_body_file(path, format: str | None) -> bool:
@@ -16,6 +16,12 @@ def is_body_file(path, format: str | None) -> bool:
     if format is not None:
         return format in BODY_FORMATS.names() and format not in MODEL_FORMATS.names()
     return MODEL_FORMATS.by_path(Path(path)) is None and BODY_FORMATS.by_path(Path(path)) is not None
+
+
+def interface_lines(masters) -> list[str]:
+    """One line per coupling master: ``HOLE@RBE2: master node 4183 (RBE2, 6 DOF) at [x, y, z], 100 slave nodes``."""
+    return [f"{m['name']}: master node {m['id']} ({m['kind'].upper()}, 6 DOF x y z rx ry rz) at "
+            f"[{', '.join(f'{v:.6g}' for v in m['xyz'])}], {m['n_slaves']} slave nodes" for m in masters]
 
 
 def _row(name: str, value, width: int = 12) -> None:
@@ -46,6 +52,8 @@ def info_body(args, emit_json) -> int:
     _row("outputs", ", ".join(out["outputs"]) or "-")
     if out["couplings"]:
         _row("couplings", ", ".join(out["couplings"]))
+    for line in interface_lines(out["masters"]):
+        _row("interface", line)
     _row("damping", describe_damping(damping_from_dict(out["damping"])))
     fr = out["frequencies_hz"]
     if fr is not None:

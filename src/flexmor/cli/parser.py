@@ -203,7 +203,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--model-format", help="override the format of --model chosen from its suffix")
     p.add_argument("--mesh", metavar="FILE", help=_MESH_HELP + " (with --model)")
     p.add_argument("--node", action="append", default=[], metavar="NODE|SET",
-                   help="SID frame node (node id or set; a set gives an RBE3 master); default the port nodes")
+                   help="SID frame node (node id, set, or coupling such as HOLE@rbe2: its master; a set gives an "
+                   "RBE3 master); default the port nodes and the coupling masters")
+    p.add_argument("--remove-rigid", action="store_true", help="sid/exudyn: export a body whose basis holds "
+                   "rigid-body motion with its basis made mass-orthogonal to the rigid-body modes (another order "
+                   "and error than the body judged; the error of what is written is stated); refused otherwise")
     p.add_argument("--allow-clamped", action="store_true", help="sid/exudyn: export a body of a supported "
                    "(clamped) model, whose mass properties miss the supported nodes (for a frame that does not move)")
     p.add_argument("--m1-order", choices=["row-q-col", "row-col-q"], default="row-q-col",

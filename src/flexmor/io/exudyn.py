@@ -37,7 +37,8 @@ import scipy.sparse as sp
 from ..errors import ModelError, OptionError
 from . import EXPORT_FORMATS, atomic_write
 
-__all__ = ["NODE_TYPES", "add_full_to_exudyn", "add_marker", "add_to_exudyn", "exudyn_data", "write_exudyn"]
+__all__ = ["NODE_TYPES", "EXTRA_KEYS", "add_full_to_exudyn", "add_marker", "add_npz_to_exudyn", "add_to_exudyn", "exudyn_data",
+           "write_exudyn"]
 
 log = logging.getLogger(__name__)
 
@@ -56,7 +57,7 @@ def _skew_rows(U):
     return S.transpose(0, 1, 3, 2).reshape(n3, 3 * m)
 
 
-def exudyn_data(reduced, model, *, node_type: str = NODE_TYPES[0]) -> dict:
+def exudyn_data(reduced, model, *, node_type: str = NODE_TYPES[0], remove_rigid: bool = False) -> dict:
     """The dictionary of ``ObjectFFRFreducedOrderInterface`` (file version 1) for a reduced body.
 
     Parameters
@@ -64,46 +65,50 @@ def exudyn_data(reduced, model, *, node_type: str = NODE_TYPES[0]) -> dict:
     reduced : ReducedModel
         With its basis ``V``.
     model : FEModel
-        The full model it was reduced from.
+        The full model it was reduced from, as read: the body applies its own couplings, and
+        its basis is expanded to their slave nodes (:func:`flexmor.expansion.expand_body`).
     node_type : str
         Rigid-body node of the floating frame, one of :data:`NODE_TYPES`.
+    remove_rigid : bool
+        Allow the basis of a body that holds rigid-body motion to be made mass-orthogonal to
+        it (another body than the one judged); refused by default.
 
     Returns
     -------
     dict
-        Keys of ``ObjectFFRFreducedOrderInterface.GetDictionary()``; ``nodeIds`` (the FE node
-        id of each Exudyn mesh node) and ``dampingMatrixReduced`` (the body's damping, to set on
-        the ``ObjectFFRFreducedOrder``) in addition.
+        Keys of ``ObjectFFRFreducedOrderInterface.GetDictionary()``, and in addition:
+        ``nodeIds`` (the FE node id of each Exudyn mesh node: the model's nodes, then each
+        coupling master, which carries no mass), ``dampingMatrixReduced`` (the body's damping, to
+        set on the ``ObjectFFRFreducedOrder``), ``interfaceNames``, ``interfaceMasterNodes``
+        (mesh node of each master), ``interfaceSlaveNodes`` and ``interfaceSlaveOffsets`` (the
+        mesh nodes of interface ``k`` are ``interfaceSlaveNodes[offsets[k]:offsets[k+1]]``).
 
     Raises
     ------
     ModelError
         No basis, a basis that does not match the model, no node table.
     """
+    from ..expansion import expand_body
     from ..invariants import node_triples, rigid_fields
-    from ..reduction.free_body import elastic_body
 
     if node_type not in NODE_TYPES:
         raise OptionError(f"node_type={node_type!r} is not allowed; choose one of: {', '.join(NODE_TYPES)}")
-    if reduced.V is None:
-        raise ModelError("the reduced body holds no basis V; re-run flexmor reduce (it stores V)")
-    V = np.asarray(reduced.V, dtype=float)
-    if V.shape[0] != model.n_dof:
-        raise ModelError(f"basis has {V.shape[0]} rows, but the model {model.name!r} has {model.n_dof} equations; "
-                         "export needs the model the body was reduced from")
-    reduced = elastic_body(model, reduced)  # the floating frame carries the rigid motion
-    V = np.asarray(reduced.V, dtype=float)
+    xb = expand_body(model, reduced, remove_rigid=remove_rigid)  # the floating frame carries the rigid motion
+    reduced, model, V = xb.body, xb.model, xb.V
     trans, rot = node_triples(model)
     if np.any(rot >= 0):
         log.warning("%s: rotational DOFs are not part of Exudyn's 3-DOF mesh and are dropped", model.name)
-    n, r = model.n_nodes, V.shape[1]
+    n0, r = model.n_nodes, V.shape[1]
+    n = n0 + len(xb.masters)  # the coupling masters follow the model's nodes (no mass of their own)
     ok = (trans >= 0).reshape(-1)
     rows = np.flatnonzero(ok)
     S = sp.csr_matrix((np.ones(rows.size), (trans.reshape(-1)[ok], rows)), shape=(model.n_dof, 3 * n))
     Me = (S.T @ model.M @ S).tocsr()
     Psi = np.zeros((3 * n, r))
     Psi[rows] = V[trans.reshape(-1)[ok]]
-    x = model.xyz.reshape(-1)
+    for k, m in enumerate(xb.masters):
+        Psi[3 * (n0 + k):3 * (n0 + k) + 3] = m.rows[:3]
+    x = xb.xyz.reshape(-1)
     Phit = np.tile(np.eye(3), (n, 1))
     xt = _skew_rows(x[:, None])
     Pt = _skew_rows(Psi)
@@ -119,6 +124,8 @@ def exudyn_data(reduced, model, *, node_type: str = NODE_TYPES[0]) -> dict:
     chi = (St.T @ MR[:, 6]) / mass
     inertia = Sr.T @ MR[:, 3:6]
     rot_dofs = 4 if node_type.endswith("EulerParameters") else 3
+    index = {int(k): i for i, k in enumerate(xb.node_ids)}
+    slaves = [np.array([index[int(k)] for k in m.slaves], dtype=np.int64) for m in xb.masters]
     return {
         "modeBasis": Psi, "trigList": _trig_list(reduced.triangles, model), "postProcessingModes": {},
         "massMatrixReduced": np.asarray(reduced.M, float), "stiffnessMatrixReduced": np.asarray(reduced.K, float),
@@ -128,7 +135,11 @@ def exudyn_data(reduced, model, *, node_type: str = NODE_TYPES[0]) -> dict:
         "totalMass": mass, "chiU": chi, "chiUtilde": _skew_rows(chi[:, None]),
         "mPsiTildePsi": Pt.T @ MPsi, "mPsiTildePsiTilde": Pt.T @ MPt, "mPhitTPsi": MR[:, :3].T @ V,
         "mPhitTPsiTilde": Phit.T @ MPt, "mXRefTildePsi": -(MR[:, 3:6].T @ V), "mXRefTildePsiTilde": xt.T @ MPt,
-        "fileVersion": 1, "type": "ObjectFFRFreducedOrderInterface", "nodeIds": model.node_ids.copy(),
+        "fileVersion": 1, "type": "ObjectFFRFreducedOrderInterface", "nodeIds": xb.node_ids,
+        "interfaceNames": np.array([m.name for m in xb.masters], dtype=str),
+        "interfaceMasterNodes": np.arange(n0, n, dtype=np.int64),
+        "interfaceSlaveNodes": np.concatenate(slaves) if slaves else np.zeros(0, np.int64),
+        "interfaceSlaveOffsets": np.cumsum([0] + [s.size for s in slaves]).astype(np.int64),
     }
 
 
@@ -151,13 +162,22 @@ def _trig_list(triangles, model) -> np.ndarray:
     return order[pos].astype(np.int64)
 
 
-def write_exudyn(reduced, path, *, model=None, node_type: str = NODE_TYPES[0], allow_clamped: bool = False) -> None:
+def write_exudyn(reduced, path, *, model=None, node_type: str = NODE_TYPES[0], allow_clamped: bool = False,
+                 remove_rigid: bool = False) -> None:
     """Write the Exudyn data of a reduced body to ``path`` (``.npz``), atomically.
 
     Load it in Exudyn with ``cms = exudyn.FEM.ObjectFFRFreducedOrderInterface();
-    cms.LoadFromFile(path)``, then ``cms.AddObjectFFRFreducedOrder(mbs, ...)``. A body of a
-    supported (clamped) model is refused unless ``allow_clamped`` (its mass properties miss the
-    supported nodes, :func:`flexmor.invariants.check_free_model`).
+    cms.LoadFromFile(path)``, then ``res = cms.AddObjectFFRFreducedOrder(mbs, ...)``. Exudyn's
+    loader does not read the body's damping (modal damping: its ratio in every mode); one line
+    sets it::
+
+        mbs.SetObjectParameter(res["oFFRFreducedOrder"], "dampingMatrixReduced",
+                               np.load(path, allow_pickle=False)["dampingMatrixReduced"])
+
+    (:func:`add_npz_to_exudyn` does both.) A body of a supported (clamped) model is refused
+    unless ``allow_clamped`` (its mass properties miss the supported nodes,
+    :func:`flexmor.invariants.check_free_model`). ``model`` is the FE model as read; see
+    :func:`exudyn_data` for the coupling masters and ``remove_rigid``.
 
     Raises
     ------
@@ -171,7 +191,7 @@ def write_exudyn(reduced, path, *, model=None, node_type: str = NODE_TYPES[0], a
     from ..invariants import check_free_model
 
     check_free_model(model, allow_clamped=allow_clamped)
-    data = exudyn_data(reduced, model, node_type=node_type)
+    data = exudyn_data(reduced, model, node_type=node_type, remove_rigid=remove_rigid)
 
     def write(tmp):
         with open(tmp, "wb") as f:
@@ -180,9 +200,57 @@ def write_exudyn(reduced, path, *, model=None, node_type: str = NODE_TYPES[0], a
     atomic_write(path, write)
 
 
+#: Keys of :func:`exudyn_data` that Exudyn's ``ObjectFFRFreducedOrderInterface`` does not read.
+EXTRA_KEYS = ("nodeIds", "dampingMatrixReduced", "interfaceNames", "interfaceMasterNodes", "interfaceSlaveNodes",
+              "interfaceSlaveOffsets")
+
+
+def _add(mbs, data: dict, *, position, velocity, rotation, angular_velocity, gravity, rayleigh, name, color):
+    """Add the body of ``data`` (:func:`exudyn_data`) to ``mbs``: Exudyn's result dict with ``cms``,
+    ``node_index`` (FE node id -> mesh node) and ``interfaces`` (name -> master and slave mesh nodes)."""
+    from exudyn.FEM import ObjectFFRFreducedOrderInterface
+
+    cms = ObjectFFRFreducedOrderInterface()
+    cms.SetWithDictionary({k: v for k, v in data.items() if k not in EXTRA_KEYS})
+    res = cms.AddObjectFFRFreducedOrder(
+        mbs, positionRef=list(position), initialVelocity=list(velocity),
+        rotationMatrixRef=[] if rotation is None else np.asarray(rotation), initialAngularVelocity=list(angular_velocity),
+        massProportionalDamping=float(rayleigh[0]), stiffnessProportionalDamping=float(rayleigh[1]),
+        gravity=list(gravity), color=list(color), name=name)
+    res = dict(res)
+    D = np.asarray(data["dampingMatrixReduced"], float)
+    if not any(rayleigh) and np.any(D):  # the body's own damping (e.g. modal: its ratio in every mode)
+        mbs.SetObjectParameter(res["oFFRFreducedOrder"], "dampingMatrixReduced", D)
+    res["cms"] = cms
+    res["node_index"] = {int(k): i for i, k in enumerate(np.asarray(data["nodeIds"]))}
+    off = np.asarray(data["interfaceSlaveOffsets"])
+    slaves = np.asarray(data["interfaceSlaveNodes"])
+    xyz = np.asarray(data["xRef"], float).reshape(-1, 3)
+    res["interfaces"] = {str(nm): {"master": int(mn), "slaves": slaves[off[k]:off[k + 1]].tolist(),
+                                   "master_id": int(np.asarray(data["nodeIds"])[mn]), "xyz": xyz[int(mn)]}
+                         for k, (nm, mn) in enumerate(zip(data["interfaceNames"], data["interfaceMasterNodes"]))}
+    return res
+
+
+def add_npz_to_exudyn(mbs, path, *, position=(0.0, 0.0, 0.0), velocity=(0.0, 0.0, 0.0), rotation=None,
+                      angular_velocity=(0.0, 0.0, 0.0), gravity=(0.0, 0.0, 0.0), rayleigh=(0.0, 0.0), name: str = "",
+                      color=(0.1, 0.9, 0.1, 1.0)) -> dict:
+    """Add a body written by :func:`write_exudyn` (``.exudyn.npz``) to an Exudyn ``MainSystem``,
+    with its own damping and its interfaces (the arguments and the result as in :func:`add_to_exudyn`).
+    The file is read without unpickling."""
+    with np.load(path, allow_pickle=False) as f:
+        data = {k: f[k] for k in f.files if k != "postProcessingModes"}
+    data["postProcessingModes"] = {}
+    data["trigList"] = np.asarray(data["trigList"])
+    data["rigidBodyNodeType"] = str(data["rigidBodyNodeType"])
+    return _add(mbs, data, position=position, velocity=velocity, rotation=rotation, angular_velocity=angular_velocity,
+                gravity=gravity, rayleigh=rayleigh, name=name, color=color)
+
+
 def add_to_exudyn(mbs, reduced, model, *, position=(0.0, 0.0, 0.0), velocity=(0.0, 0.0, 0.0), rotation=None,
                   angular_velocity=(0.0, 0.0, 0.0), gravity=(0.0, 0.0, 0.0), rayleigh=(0.0, 0.0),
-                  node_type: str = NODE_TYPES[0], name: str = "", color=(0.1, 0.9, 0.1, 1.0)) -> dict:
+                  node_type: str = NODE_TYPES[0], name: str = "", color=(0.1, 0.9, 0.1, 1.0),
+                  remove_rigid: bool = False) -> dict:
     """Add a reduced body as ``ObjectFFRFreducedOrder`` to an Exudyn ``MainSystem``.
 
     Parameters
@@ -190,7 +258,8 @@ def add_to_exudyn(mbs, reduced, model, *, position=(0.0, 0.0, 0.0), velocity=(0.
     mbs : exudyn.MainSystem
     reduced : ReducedModel
     model : FEModel
-        The full model the body was reduced from.
+        The full model the body was reduced from, as read (``flexmor.io.read(path)``): the body
+        applies its own couplings (:func:`exudyn_data`).
     position, velocity : sequence of 3 float
         Reference position and initial velocity of the floating frame.
     rotation : array (3, 3), optional
@@ -205,31 +274,20 @@ def add_to_exudyn(mbs, reduced, model, *, position=(0.0, 0.0, 0.0), velocity=(0.
         Rigid-body node of the frame, one of :data:`NODE_TYPES`.
     name : str
     color : sequence of 4 float
+    remove_rigid : bool
+        See :func:`exudyn_data`.
 
     Returns
     -------
     dict
         Exudyn's ``nRigidBody``, ``nGenericODE2``, ``oFFRFreducedOrder``, ``loadGravity``, and
-        ``cms`` (the interface object) and ``node_index`` (FE node id -> Exudyn mesh node).
+        ``cms`` (the interface object), ``node_index`` (FE node id -> Exudyn mesh node, coupling
+        masters included) and ``interfaces`` (coupling name, e.g. ``HOLE@RBE2`` -> ``master``
+        and ``slaves`` mesh nodes, ``master_id``, ``xyz``): :func:`add_marker` puts markers on them.
     """
-    from exudyn.FEM import ObjectFFRFreducedOrderInterface
-
-    data = exudyn_data(reduced, model, node_type=node_type)
-    data.pop("nodeIds")
-    D = data.pop("dampingMatrixReduced")
-    cms = ObjectFFRFreducedOrderInterface()
-    cms.SetWithDictionary(data)
-    res = cms.AddObjectFFRFreducedOrder(
-        mbs, positionRef=list(position), initialVelocity=list(velocity),
-        rotationMatrixRef=[] if rotation is None else np.asarray(rotation), initialAngularVelocity=list(angular_velocity),
-        massProportionalDamping=float(rayleigh[0]), stiffnessProportionalDamping=float(rayleigh[1]),
-        gravity=list(gravity), color=list(color), name=name)
-    res = dict(res)
-    if not any(rayleigh) and np.any(D):  # the body's own damping (e.g. modal: its ratio in every mode)
-        mbs.SetObjectParameter(res["oFFRFreducedOrder"], "dampingMatrixReduced", D)
-    res["cms"] = cms
-    res["node_index"] = {int(k): i for i, k in enumerate(model.node_ids)}
-    return res
+    data = exudyn_data(reduced, model, node_type=node_type, remove_rigid=remove_rigid)
+    return _add(mbs, data, position=position, velocity=velocity, rotation=rotation, angular_velocity=angular_velocity,
+                gravity=gravity, rayleigh=rayleigh, name=name, color=color)
 
 
 def add_full_to_exudyn(mbs, model, *, position=(0.0, 0.0, 0.0), velocity=(0.0, 0.0, 0.0),
@@ -302,17 +360,35 @@ def add_full_to_exudyn(mbs, model, *, position=(0.0, 0.0, 0.0), velocity=(0.0, 0
     return res
 
 
-def add_marker(mbs, body: dict, model, target) -> int:
-    """Marker (``MarkerSuperElementPosition``) at a node id or the mean of a node set.
+def _interface(body: dict, target):
+    """The entry of ``body['interfaces']`` that ``target`` names (``HOLE@rbe2``, ``HOLE@RBE2``, master id) or None."""
+    t = str(target).strip()
+    for name, itf in body.get("interfaces", {}).items():
+        if t.replace(" ", "").upper() == name or (t.lstrip("-").isdigit() and int(t) == itf["master_id"]):
+            return itf
+    return None
+
+
+def add_marker(mbs, body: dict, model, target, *, kind: str | None = None) -> int:
+    """Marker at a node, a node set or a coupling master of a body in Exudyn.
 
     Parameters
     ----------
     mbs : exudyn.MainSystem
     body : dict
-        As returned by :func:`add_to_exudyn` or :func:`add_full_to_exudyn`.
+        As returned by :func:`add_to_exudyn`, :func:`add_npz_to_exudyn` or :func:`add_full_to_exudyn`.
     model : FEModel
+        The model as read (its node sets).
     target : int or str
-        Node id, or node-set name (equal weights).
+        Node id, node-set name, or a coupling of the body (``HOLE@rbe2``, its set ``HOLE@RBE2``
+        or its master's node id).
+    kind : {'position', 'rigid'}, optional
+        ``position``: ``MarkerSuperElementPosition`` at the node, or at the mean of the set's
+        nodes (equal weights), or at a coupling master's mesh node. ``rigid``:
+        ``MarkerSuperElementRigid`` (position and orientation) fitted to the set's nodes, or to
+        a coupling's slave nodes with the master's position as its point: the master's rigid
+        motion for an RBE2 (whose slaves move rigidly with it), the set's fitted motion for
+        an RBE3. Default ``rigid`` for a coupling, ``position`` otherwise.
 
     Returns
     -------
@@ -322,23 +398,43 @@ def add_marker(mbs, body: dict, model, target) -> int:
     Raises
     ------
     ModelError
-        A node that is not a mesh node of the body.
+        A node that is not a mesh node of the body; a rigid marker on fewer than three nodes.
     """
     import exudyn.itemInterface as eii
 
-    if isinstance(target, str) and target.upper() in model.node_sets:
-        ids = model.node_sets[target.upper()]
-    else:
-        ids = [int(target)]
-    missing = [int(k) for k in ids if int(k) not in body["node_index"]]
-    if missing:
-        raise ModelError(f"target={target!r}: node(s) {missing[:5]} are not mesh nodes of the Exudyn body "
-                         "(unknown ids, or clamped nodes of the full body, which move with its frame)",
-                         params=("target",))
-    idx = [body["node_index"][int(k)] for k in ids]
+    from ..errors import check_choice
+
+    itf = _interface(body, target)
+    kind = ("rigid" if itf is not None else "position") if kind is None else kind
+    check_choice("kind", kind, ("position", "rigid"))
     obj = body["oFFRFreducedOrder"] if "oFFRFreducedOrder" in body else body["oFFRF"]
-    return mbs.AddMarker(eii.MarkerSuperElementPosition(bodyNumber=obj, meshNodeNumbers=idx,
-                                                        weightingFactors=[1.0 / len(idx)] * len(idx)))
+    if itf is not None and kind == "position":
+        return mbs.AddMarker(eii.MarkerSuperElementPosition(bodyNumber=obj, meshNodeNumbers=[itf["master"]],
+                                                            weightingFactors=[1.0]))
+    if itf is not None:
+        idx, point = list(itf["slaves"]), np.asarray(itf["xyz"], float)
+    else:
+        if isinstance(target, str) and target.upper() in model.node_sets:
+            ids = model.node_sets[target.upper()]
+        else:
+            ids = [int(target)]
+        missing = [int(k) for k in ids if int(k) not in body["node_index"]]
+        if missing:
+            raise ModelError(f"target={target!r}: node(s) {missing[:5]} are not mesh nodes of the Exudyn body "
+                             "(unknown ids, or clamped nodes of the full body, which move with its frame)",
+                             params=("target",))
+        idx, point = [body["node_index"][int(k)] for k in ids], None
+    w = [1.0 / len(idx)] * len(idx)
+    if kind == "position":
+        return mbs.AddMarker(eii.MarkerSuperElementPosition(bodyNumber=obj, meshNodeNumbers=idx, weightingFactors=w))
+    if len(idx) < 3:
+        raise ModelError(f"target={target!r}: a rigid marker needs at least three nodes off one line, "
+                         f"got {len(idx)}", params=("target",))
+    offset = None
+    if point is not None:  # the master's point, against the slaves' mean (reference positions in the frame)
+        offset = (point - np.asarray(body["cms"].xRef, float).reshape(-1, 3)[idx].mean(axis=0)).tolist()
+    return mbs.AddMarker(eii.MarkerSuperElementRigid(bodyNumber=obj, meshNodeNumbers=idx, weightingFactors=w,
+                                                     offset=offset))
 
 
 EXPORT_FORMATS.register("exudyn", [".exudyn.npz"], write_exudyn,

@@ -103,8 +103,9 @@ def write_vtu(reduced, path, *, model=None) -> None:
     path : str or path-like
         The ``.vtu`` file.
     model : FEModel, optional
-        The full model the body was reduced from: its elements and nodes are written (and
-        its nodes' own frames applied). Without it, the body's node table and outer surface
+        The full model the body was reduced from, as read: its elements and nodes are written
+        (and its nodes' own frames applied); a body with couplings is expanded to their slave
+        nodes (:func:`flexmor.expansion.expand_body`). Without it, the body's node table and outer surface
         (triangles) are used.
 
     Raises
@@ -114,6 +115,11 @@ def write_vtu(reduced, path, *, model=None) -> None:
         missing (the message names the extra ``flexmor[mesh]``).
     """
     meshio = import_meshio()
+    if model is not None and reduced.V is not None and reduced.info.get("couplings"):
+        from ..expansion import expand_body, expanded_reduced
+
+        xb = expand_body(model, reduced, elastic=False)  # the slaves move with their masters
+        reduced, model = expanded_reduced(xb), xb.model
     freqs, shapes = body_modes(reduced)
     geometry, mesh = _geometry(reduced, model)
     nodal = nodal_modes(shapes, geometry)

@@ -350,15 +350,18 @@ def rigid_content(model, V) -> float:
 RIGID_CONTENT_TOL = 1e-6
 
 
-def elastic_body(model, reduced):
+def elastic_body(model, reduced, *, remove_rigid: bool = False):
     """The body for a floating-frame export: its basis without rigid-body motion.
 
     In the floating frame the rigid motion belongs to the frame. A body whose basis contains
     a rigid-body motion (``rigid='include'``, or a method that does not separate it; measured
     by :func:`rigid_content`) would be singular there (``Ke`` has zero
-    eigenvalues, the frame and the modes are redundant). Its basis is made mass-orthogonal to
-    the rigid-body modes (:func:`exclude_rigid`) and projected again, with the body's ports
-    and the model's damping, and a one-line :class:`~flexmor.errors.FlexmorWarning` says so.
+    eigenvalues, the frame and the modes are redundant). Such a body is refused: the body
+    exported must be the body reduced and judged (reduce it with ``rigid='exclude'``, the
+    default). With ``remove_rigid`` its basis is made mass-orthogonal to the rigid-body modes
+    (:func:`exclude_rigid`) and projected again, with the body's ports and the model's
+    damping; a one-line :class:`~flexmor.errors.FlexmorWarning` says so and
+    ``info['rigid_removed_at_export']`` records the order it had.
     A basis that only couples with the frame motion without containing any rigid motion (an
     attached frame: modes held at a node set, ``Ct, Cr != 0``) is a valid choice of reference
     conditions and is kept, as is a model without rigid-body modes.
@@ -366,7 +369,8 @@ def elastic_body(model, reduced):
     Raises
     ------
     ModelError
-        When the body's ports cannot be rebuilt on ``model`` (they are needed for the projection).
+        A body that holds rigid motion without ``remove_rigid``; with it, when the body's ports
+        cannot be rebuilt on ``model`` (they are needed for the projection).
     """
     from ..errors import FlexmorError, ModelError
     from ..ports import make_ports
@@ -382,10 +386,19 @@ def elastic_body(model, reduced):
                          f"removing it needs the body's ports on the model: {exc}") from None
     basis = exclude_rigid(model, Basis(reduced.V, reduced.method, dict(reduced.info, rigid="exclude")))
     body = project(model, basis, ports)
+    change = (f"made mass-orthogonal to the {phi.shape[1]} rigid-body modes (order {reduced.order} -> {body.order}), "
+              "another body than the one reduced and judged")
+    if not remove_rigid:
+        raise ModelError(f"the {reduced.method} body holds rigid-body motion, which the floating frame carries; "
+                         f"exporting it would need its basis {change}. Reduce with rigid='exclude' (--rigid exclude, "
+                         "the default for free bodies), or allow the change with remove_rigid=True (flexmor export "
+                         "--remove-rigid, which states the error of the body it writes)", params=("remove_rigid",))
+    body.info["rigid_removed_at_export"] = {"order_reduced": reduced.order, "order_exported": body.order}
+    body.info["couplings"] = list(reduced.info.get("couplings", ()))
+    body.info["selections"] = list(reduced.info.get("selections", ()))
+    body.origin = dict(reduced.origin)
     warnings.warn(f"{reduced.method} body: its basis holds rigid-body motion, which the floating frame carries; "
-                  f"exported with the basis made mass-orthogonal to the {phi.shape[1]} rigid-body modes (order "
-                  f"{reduced.order} -> {body.order}); reduce with rigid='exclude' (--rigid exclude) to judge that body",
-                  FlexmorWarning, stacklevel=2)
+                  f"exported with its basis {change}", FlexmorWarning, stacklevel=2)
     return body
 
 

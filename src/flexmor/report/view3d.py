@@ -26,10 +26,9 @@ from importlib import resources
 import numpy as np
 import scipy.sparse as sp
 
-from ..couplings import parse_coupling
+from ..couplings import coupling_masters, parse_coupling
 from ..damping import ModalDamping
 from ..dynamics.frf import ShiftedMatrices, angular_frequency
-from ..errors import FlexmorError
 from ..linalg import factorize
 from ..linalg.context import as_solver
 from .surface import decimate, outer_surface
@@ -76,20 +75,7 @@ def _port_spiders(model, specs) -> list:
 
 def _spiders(model) -> list:
     """``[(set name, master id, node ids)]`` of the couplings applied to ``model`` (sets ``NAME@RBE2`` ...)."""
-    out = []
-    for key, ids in model.node_sets.items():
-        if "@" not in key or ids.size != 1:
-            continue
-        try:
-            name, _, _ = parse_coupling(key)
-        except FlexmorError:  # a set name with '@' that is no coupling
-            continue
-        nodes = model.node_sets.get(name.upper())
-        if nodes is None and name.strip().lstrip("-").isdigit():
-            nodes = np.array([int(name)])
-        if nodes is not None:
-            out.append((key, int(ids[0]), _ids_of(model, nodes)))
-    return out
+    return [(m["name"], m["id"], m["slaves"]) for m in coupling_masters(model)]
 
 
 def display_map(model, ids: np.ndarray, spiders=()) -> sp.csr_matrix:

@@ -5,7 +5,8 @@ Variables (MATLAB names; all present, empty where not available):
 ==================  ==========  ====================================================
 ``Mr Kr Dr``        r x r       reduced mass, stiffness, damping (``Dr`` zeros if none)
 ``Br``, ``Cr``      r x m, p x r  reduced input and output matrices
-``V``               n x r       basis at the equations of the full model
+``V``               n x r       basis at the equations of the full model (as read: a
+                                coupling's slaves included, :mod:`flexmor.expansion`)
 ``node_ids``        n_nodes x 1 node numbers; ``xyz`` n_nodes x 3 coordinates
 ``dofs``            n x 2       equation map: node id, direction 1..6 (x y z rx ry rz)
 ``frequencies_hz``  r x 1       undamped eigenfrequencies of the reduced body
@@ -51,7 +52,15 @@ def _empty(a, shape=(0, 0)):
 
 
 def mat_variables(reduced, model=None, *, nodes=None) -> dict:
-    """The variables of the ``.mat`` file as a dict (see the module docstring)."""
+    """The variables of the ``.mat`` file as a dict (see the module docstring). With ``model`` (as
+    read) a body with couplings is written at the model's equations, its basis expanded to the
+    slave nodes, and its masters are frame nodes (:func:`flexmor.expansion.expand_body`)."""
+    masters = ()
+    if model is not None and reduced.V is not None:
+        from ...expansion import expand_body, expanded_reduced
+
+        xb = expand_body(model, reduced, elastic=False)
+        reduced, model, masters = expanded_reduced(xb), xb.model, xb.masters
     r = reduced.order
     out = {
         "Mr": reduced.M, "Kr": reduced.K, "Dr": _empty(reduced.D, (r, r)) if reduced.D is not None else np.zeros((r, r)),
@@ -67,7 +76,7 @@ def mat_variables(reduced, model=None, *, nodes=None) -> dict:
         from ...invariants import compute_invariants, frame_nodes
 
         try:
-            fn = frame_nodes(model, reduced.V, nodes, reduced)
+            fn = frame_nodes(model, reduced.V, nodes, reduced, masters=masters)
         except Exception:  # noqa: BLE001 - frame nodes are optional in the .mat file
             fn = []
         inv = compute_invariants(model, reduced.V, K=reduced.K, D=reduced.D, nodes=fn)

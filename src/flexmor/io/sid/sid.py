@@ -68,7 +68,7 @@ def _skew(v):
     return np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
 
 
-def sid_from_reduced(reduced, model, *, nodes=None) -> SIDFile:
+def sid_from_reduced(reduced, model, *, nodes=None, remove_rigid: bool = False) -> SIDFile:
     """Build the SID contents of a reduced body.
 
     Parameters
@@ -76,9 +76,16 @@ def sid_from_reduced(reduced, model, *, nodes=None) -> SIDFile:
     reduced : ReducedModel
         Must hold its basis ``V``.
     model : FEModel
-        The full model it was reduced from (mass matrix, coordinates).
+        The full model it was reduced from, as read (mass matrix, coordinates): the body applies
+        its own couplings and its basis is expanded to their slave nodes
+        (:func:`flexmor.expansion.expand_body`); each coupling master is a frame node with its
+        translations (``phi``) and rotations (``psi``).
     nodes : sequence of str, optional
-        Frame nodes (node ids or sets); default the body's port and interface nodes.
+        Frame nodes (node ids, node sets, coupling masters); default the body's port and
+        interface nodes and every coupling master.
+    remove_rigid : bool
+        Allow the basis of a body that holds rigid-body motion to be made mass-orthogonal to
+        it (another body than the one judged); refused by default.
 
     Returns
     -------
@@ -89,16 +96,12 @@ def sid_from_reduced(reduced, model, *, nodes=None) -> SIDFile:
     ModelError, PortError
         Basis missing or not matching the model; no frame nodes.
     """
-    from ...errors import ModelError
+    from ...expansion import expand_body
     from ...invariants import compute_invariants, frame_nodes
-    from ...reduction.free_body import elastic_body
 
-    if reduced.V is None:
-        raise ModelError("the reduced body holds no basis V; re-run flexmor reduce (it stores V)")
-    if np.shape(reduced.V)[0] == model.n_dof:
-        reduced = elastic_body(model, reduced)  # the floating frame carries the rigid motion
-    V = reduced.V
-    fn = frame_nodes(model, V, nodes, reduced)
+    xb = expand_body(model, reduced, remove_rigid=remove_rigid)  # the floating frame carries the rigid motion
+    reduced, model, V = xb.body, xb.model, xb.V
+    fn = frame_nodes(model, V, nodes, reduced, masters=xb.masters)
     inv = compute_invariants(model, V, K=reduced.K, D=reduced.D, nodes=fn)
     r = V.shape[1]
     sid_nodes = []
@@ -190,7 +193,7 @@ def sid_text(sid: SIDFile, *, m1_order: str = "row-q-col") -> str:
 
 
 def write_sid(reduced, path, *, model=None, nodes=None, m1_order: str = "row-q-col",
-              allow_clamped: bool = False) -> None:
+              allow_clamped: bool = False, remove_rigid: bool = False) -> None:
     """Write a reduced body as a ``.SID_FEM`` file, atomically.
 
     Parameters
@@ -198,15 +201,18 @@ def write_sid(reduced, path, *, model=None, nodes=None, m1_order: str = "row-q-c
     reduced : ReducedModel or SIDFile
     path : str or path-like
     model : FEModel
-        The full model (required unless ``reduced`` is a SIDFile): the invariants need its
-        mass matrix and node coordinates.
+        The full model as read (required unless ``reduced`` is a SIDFile): the invariants need
+        its mass matrix and node coordinates (see :func:`sid_from_reduced`).
     nodes : sequence of str, optional
-        Frame nodes (node ids or node sets); default the body's port/interface nodes.
+        Frame nodes (node ids, node sets, coupling masters); default the body's port/interface
+        nodes and its coupling masters.
     m1_order : {'row-q-col', 'row-col-q'}
         Index order of the ``m1(i, j, k)`` entries.
     allow_clamped : bool
         Export a body of a supported (clamped) model, whose mass properties miss the supported
         nodes (:func:`flexmor.invariants.check_free_model`); refused by default.
+    remove_rigid : bool
+        See :func:`sid_from_reduced`.
 
     Raises
     ------
@@ -225,7 +231,7 @@ def write_sid(reduced, path, *, model=None, nodes=None, m1_order: str = "row-q-c
         from ...invariants import check_free_model
 
         check_free_model(model, allow_clamped=allow_clamped)
-        sid = sid_from_reduced(reduced, model, nodes=nodes)
+        sid = sid_from_reduced(reduced, model, nodes=nodes, remove_rigid=remove_rigid)
     text = sid_text(sid, m1_order=m1_order)
     atomic_write(path, lambda tmp: Path(tmp).write_text(text))
 
