@@ -10,6 +10,7 @@ the independent reference of the mounted tests.
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import warnings
 
@@ -104,15 +105,17 @@ def test_the_slaves_move_rigidly_with_the_master(beam):
     assert sorted(data["interfaceSlaveNodes"].tolist()) == sorted(ids.index(int(k)) for k in free.node_sets["FIX"])
 
 
-def test_export_refuses_the_coupled_model(beam):
-    _, _, c, bodies = beam
+def test_export_refuses_the_coupled_model_and_another_model(beam):
+    free, clamped, c, bodies = beam
     with pytest.raises(ModelError, match="coupled model.*as read"):
         expand_body(c.model, bodies["krylov"])
+    with pytest.raises(ModelError, match="reduced from a model with"):
+        expand_body(dataclasses.replace(free, K=free.K * 2), bodies["krylov"])
 
 
 def _mounted_tip_z(red, model, via_file=None):
     """Tip deflection (m, z) of ``red`` in Exudyn, held at its interface by a rigid marker and a
-    GenericJoint locking all six axes, under gravity -z (static solve)."""
+    GenericJoint locking all six axes, under gravity -z (static solve); ``model`` as read, or its file."""
     exu = pytest.importorskip("exudyn")
     import exudyn.itemInterface as eii
 
@@ -123,7 +126,8 @@ def _mounted_tip_z(red, model, via_file=None):
         body = add_to_exudyn(mbs, red, model, gravity=[0.0, 0.0, -9.81])
     else:
         body = add_npz_to_exudyn(mbs, via_file, gravity=[0.0, 0.0, -9.81])
-    held = add_marker(mbs, body, model, SPEC)
+    model = body.get("model", model)  # add_to_exudyn takes the file too, and records the model it read
+    held = add_marker(mbs, body, None if via_file is None else model, SPEC)
     ground = mbs.AddMarker(eii.MarkerBodyRigid(bodyNumber=mbs.AddObject(eii.ObjectGround()),
                                                localPosition=[0.0, 0.05, 0.05]))
     mbs.AddObject(eii.GenericJoint(markerNumbers=[ground, held], constrainedAxes=[1] * 6))
@@ -154,7 +158,7 @@ def test_mounted_by_its_interface_it_sags_like_the_clamped_beam(beam, tmp_path):
     full = u[sel].mean()
     assert full == pytest.approx(-3.822e-5, rel=1e-3)
     red = bodies["craig-bampton"]
-    z, _, _ = _mounted_tip_z(red, free)
+    z, _, _ = _mounted_tip_z(red, DATA + "beam8_free_mat.sti")  # the plain model file
     assert z == pytest.approx(full, rel=2e-3)
     write_exudyn(red, tmp_path / "cb.exudyn.npz", model=free)
     z_file, mbs, body = _mounted_tip_z(red, free, via_file=tmp_path / "cb.exudyn.npz")

@@ -257,9 +257,9 @@ def add_to_exudyn(mbs, reduced, model, *, position=(0.0, 0.0, 0.0), velocity=(0.
     ----------
     mbs : exudyn.MainSystem
     reduced : ReducedModel
-    model : FEModel
-        The full model the body was reduced from, as read (``flexmor.io.read(path)``): the body
-        applies its own couplings (:func:`exudyn_data`).
+    model : FEModel or path
+        The full model the body was reduced from, as read (or its file): the body applies its
+        own couplings (:func:`exudyn_data`).
     position, velocity : sequence of 3 float
         Reference position and initial velocity of the floating frame.
     rotation : array (3, 3), optional
@@ -282,12 +282,18 @@ def add_to_exudyn(mbs, reduced, model, *, position=(0.0, 0.0, 0.0), velocity=(0.
     dict
         Exudyn's ``nRigidBody``, ``nGenericODE2``, ``oFFRFreducedOrder``, ``loadGravity``, and
         ``cms`` (the interface object), ``node_index`` (FE node id -> Exudyn mesh node, coupling
-        masters included) and ``interfaces`` (coupling name, e.g. ``HOLE@RBE2`` -> ``master``
-        and ``slaves`` mesh nodes, ``master_id``, ``xyz``): :func:`add_marker` puts markers on them.
+        masters included), ``interfaces`` (coupling name, e.g. ``HOLE@RBE2`` -> ``master``
+        and ``slaves`` mesh nodes, ``master_id``, ``xyz``): :func:`add_marker` puts markers on them,
+        and ``model`` (the model as read).
     """
+    from ..expansion import as_model
+
+    model = as_model(model)
     data = exudyn_data(reduced, model, node_type=node_type, remove_rigid=remove_rigid)
-    return _add(mbs, data, position=position, velocity=velocity, rotation=rotation, angular_velocity=angular_velocity,
-                gravity=gravity, rayleigh=rayleigh, name=name, color=color)
+    res = _add(mbs, data, position=position, velocity=velocity, rotation=rotation, angular_velocity=angular_velocity,
+               gravity=gravity, rayleigh=rayleigh, name=name, color=color)
+    res["model"] = model
+    return res
 
 
 def add_full_to_exudyn(mbs, model, *, position=(0.0, 0.0, 0.0), velocity=(0.0, 0.0, 0.0),
@@ -377,8 +383,8 @@ def add_marker(mbs, body: dict, model, target, *, kind: str | None = None) -> in
     mbs : exudyn.MainSystem
     body : dict
         As returned by :func:`add_to_exudyn`, :func:`add_npz_to_exudyn` or :func:`add_full_to_exudyn`.
-    model : FEModel
-        The model as read (its node sets).
+    model : FEModel or None
+        The model as read (its node sets); None: the one :func:`add_to_exudyn` recorded.
     target : int or str
         Node id, node-set name, or a coupling of the body (``HOLE@rbe2``, its set ``HOLE@RBE2``
         or its master's node id).
@@ -404,6 +410,7 @@ def add_marker(mbs, body: dict, model, target, *, kind: str | None = None) -> in
 
     from ..errors import check_choice
 
+    model = body.get("model") if model is None else model
     itf = _interface(body, target)
     kind = ("rigid" if itf is not None else "position") if kind is None else kind
     check_choice("kind", kind, ("position", "rigid"))
@@ -414,10 +421,13 @@ def add_marker(mbs, body: dict, model, target, *, kind: str | None = None) -> in
     if itf is not None:
         idx, point = list(itf["slaves"]), np.asarray(itf["xyz"], float)
     else:
-        if isinstance(target, str) and target.upper() in model.node_sets:
+        if isinstance(target, str) and model is not None and target.upper() in model.node_sets:
             ids = model.node_sets[target.upper()]
-        else:
+        elif str(target).strip().lstrip("-").isdigit():
             ids = [int(target)]
+        else:
+            raise ModelError(f"target={target!r} is neither a node id, nor a node set of the model, nor a coupling "
+                             f"of the body ({', '.join(body.get('interfaces', {})) or 'none'})", params=("target",))
         missing = [int(k) for k in ids if int(k) not in body["node_index"]]
         if missing:
             raise ModelError(f"target={target!r}: node(s) {missing[:5]} are not mesh nodes of the Exudyn body "
