@@ -176,26 +176,36 @@ def free_body(scenario: str, divisions, orders, end_time: float, step: float, me
     return out
 
 
-def hub(divisions, order: int, end_time: float, step: float) -> dict:
-    """Part 3: the clamped beam on the spinning hub, reduced with and without inertia-load inputs."""
-    from flexmor.io.exudyn import add_full_to_exudyn, add_to_exudyn
+def hub_body(model, method: str, order: int, port: str, loads: str):
+    """Part 3's reduced body: ``method`` at ``order`` for the input ``port``, inertia loads ``loads``.
+
+    The three real expansion points over the default band (krylov's earlier default), for which the
+    errors in tests/test_mbs_loop.py were measured; krylov's default is now a single checked point.
+    """
     from flexmor.options import DEFAULT_BAND
     from flexmor.ports import make_ports
     from flexmor.reduction import reduce
     from flexmor.reduction.krylov import default_points
 
+    points = ",".join(f"{p.real:g}" for p in default_points(DEFAULT_BAND))
+    red, _ = reduce(model, method, order, make_ports(model, [port]), inertia_loads=loads, points=points)
+    return red
+
+
+def hub(divisions, order: int, end_time: float, step: float) -> dict:
+    """Part 3: the clamped beam on the spinning hub, reduced with and without inertia-load inputs."""
+    from flexmor.io.exudyn import add_full_to_exudyn, add_to_exudyn
+
     model = beam(divisions, clamped=True)
     _, u_full, sec = simulate(model, lambda mbs: add_full_to_exudyn(mbs, model, constrain_rigid=False), "hub",
                               end_time, step)
-    out = {"n_dof": model.n_dof, "full_seconds": sec, "max_deflection_m": float(np.linalg.norm(u_full, axis=1).max()),
-           "rows": []}
-    # the three real expansion points over the default band (krylov's earlier default), for which the
-    # errors in tests/test_mbs_loop.py were measured; krylov's default is now a single checked point
-    points = ",".join(f"{p.real:g}" for p in default_points(DEFAULT_BAND))
+    deflection = np.linalg.norm(u_full, axis=1)
+    out = {"n_dof": model.n_dof, "full_seconds": sec, "max_deflection_m": float(deflection.max()),
+           "mean_deflection_m": float(deflection.mean()), "rows": []}
     for port in ("TIP:x", "TIP:y"):
         for method in ("krylov", "two-step"):
             for loads in ("off", "on"):
-                red, _ = reduce(model, method, order, make_ports(model, [port]), inertia_loads=loads, points=points)
+                red = hub_body(model, method, order, port, loads)
                 _, u, sec = simulate(model, lambda mbs: add_to_exudyn(mbs, red, model), "hub", end_time, step)
                 out["rows"].append({"method": method, "port": port, "inertia_loads": loads, "order": red.order,
                                     "seconds": sec, **errors(u, u_full)})

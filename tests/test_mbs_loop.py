@@ -35,9 +35,12 @@ def slider_crank():
     return res, {row["method"]: row for row in res["rows"]}
 
 
+HUB_DIVISIONS, HUB_ORDER = (10, 2, 2), 7
+
+
 @pytest.fixture(scope="module")
 def hub():
-    res = mbs_loop.hub((10, 2, 2), 7, end_time=0.4, step=1e-3)
+    res = mbs_loop.hub(HUB_DIVISIONS, HUB_ORDER, end_time=0.4, step=1e-3)
     return res, {(row["method"], row["port"], row["inertia_loads"]): row for row in res["rows"]}
 
 
@@ -82,17 +85,56 @@ def test_slider_crank_rod_follows_the_full_body(slider_crank):
     assert rows["krylov"]["max_error"] < rows["modal"]["max_error"] / 100
 
 
+def _bending(model, V) -> np.ndarray:
+    """Beam bending of each column of ``V``: its transverse (y, z) displacement averaged over the nodes of
+    each cross-section, relative to the column's norm. The Poisson contraction of an axial response is
+    antisymmetric over the section and averages out."""
+    x = np.round(model.node_xyz(model.dofs[:, 0])[:, 0], 9)
+    sq = np.zeros(V.shape[1])
+    for xs in np.unique(x):
+        for d in (2, 3):
+            rows = (x == xs) & (model.dofs[:, 1] == d)
+            sq += rows.sum() * V[rows].mean(axis=0) ** 2
+    return np.sqrt(sq) / np.linalg.norm(V, axis=0)
+
+
 def test_inertia_loads_beat_the_joint_force_alone_on_a_spinning_hub(hub):
-    """Clamped beam on a hub spun up to 2 rad/s, order 7. Reduced for the axial force at the
-    tip only (a rod), a Krylov or two-step body cannot bend: the tangential inertia load of the
-    hub's angular acceleration is outside its basis (measured mean / max error: krylov 0.22 /
-    0.92, two-step 0.24 / 1.0). With the inertia loads among the inputs it follows the full body
-    (krylov 6.3e-5 / 2.9e-4, two-step 3.3e-5 / 1.2e-4)."""
-    _, rows = hub
+    """Clamped beam on a hub spun up to 2 rad/s, order 7. With the frame's inertia loads among the
+    basis inputs the body follows the full one (measured mean / max error: krylov 6.3e-5 / 2.9e-4,
+    two-step 3.1e-5 / 1.2e-4).
+
+    Reduced for the axial force at the tip alone (a rod), the body cannot bend in exact arithmetic:
+    beam and load are symmetric about both midplanes, so is every moment of ``TIP:x``, and the
+    tangential inertia load of the spin-up is outside the basis. Such a body misses the whole
+    deflection: its error is ``|u_full(t)| / max |u_full|``, mean = the full body's mean over max
+    deflection (0.244), max 1 (the centrifugal stretching it does capture is 2.7e-4 of it).
+    Two-step measures exactly that (0.2439 / 1.0000): its balanced truncation keeps the six states
+    the port sees (Hankel values down to 5e-14 of the largest) and no round-off state.
+
+    Krylov's body depends on round-off instead. At the 10 Hz point, below the first bending
+    modes (11 Hz, y and z alike on the square section; first axial mode 230 Hz), each moment
+    amplifies the solves' round-off bending against the axial response (230² + 10²) / (11² + 10²)
+    = 240-fold, and the orthogonalization, which keeps about a ninth of each new vector, ten-fold
+    more (bending share of that point's Arnoldi vectors 6e-13, 1.3e-9, 9.4e-6). The seventh
+    column, its third moment, has 4e-7 of new axial content left after the other six against
+    9e-6 of bending: it is the round-off, a first bending mode at whatever angle between y and z
+    the sparse solver's rounding gave it, and the body bends along it (a 12.3 Hz Ritz mode the
+    port does not see). One machine, MKL PARDISO's kernels: mean / max error 0.10 / 0.28
+    (AVX-512), 0.22 / 0.87 (AVX2), 0.16 / 0.53 (SSE4.2); with the exact first y-bending mode as
+    seventh column 8e-4 / 3e-3, with the z-mode 0.244 / 1. Asserted for krylov is what survives the
+    round-off: the port's own solves, the leading column of each point, hold no bending (measured
+    at most 1e-10).
+    """
+    res, rows = hub
     for method in ("krylov", "two-step"):
-        off, on = rows[method, "TIP:x", "off"], rows[method, "TIP:x", "on"]
-        assert off["mean_error"] > 0.1 and off["max_error"] > 0.5, method
+        on = rows[method, "TIP:x", "on"]
         assert on["mean_error"] < 1e-3 and on["max_error"] < 2e-3, method
+    off = rows["two-step", "TIP:x", "off"]
+    np.testing.assert_allclose(off["mean_error"], res["mean_deflection_m"] / res["max_deflection_m"], rtol=1e-2)
+    np.testing.assert_allclose(off["max_error"], 1.0, rtol=1e-2)
+    model = mbs_loop.beam(HUB_DIVISIONS, clamped=True)
+    V = mbs_loop.hub_body(model, "krylov", HUB_ORDER, "TIP:x", "off").V
+    assert _bending(model, V[:, :3]).max() < 1e-8
 
 
 def test_transverse_port_bends_either_way_but_misses_the_stretching_without_inertia_loads(hub):
