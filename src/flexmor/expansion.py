@@ -31,14 +31,13 @@ from __future__ import annotations
 
 import dataclasses
 import logging
-import os
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from .errors import ModelError
 
-__all__ = ["MasterNode", "ExpandedBody", "expand_body", "expanded_reduced", "as_model"]
+__all__ = ["MasterNode", "ExpandedBody", "expand_body", "expanded_reduced"]
 
 log = logging.getLogger(__name__)
 
@@ -131,10 +130,10 @@ def expand_body(model, body, path="the body", *, elastic: bool = True, remove_ri
 
     Parameters
     ----------
-    model : FEModel or path
+    model : FEModel
         The FE model the body was reduced from, **as read** (its couplings not applied: the body
-        applies ``info['couplings']`` and ``info['selections']`` itself), or its file (read with
-        :func:`flexmor.io.read`). For a body without couplings, the model it was reduced on.
+        applies ``info['couplings']`` and ``info['selections']`` itself). For a body without
+        couplings, the model it was reduced on.
     body : ReducedModel
         With its basis ``V``.
     path : str
@@ -162,7 +161,6 @@ def expand_body(model, body, path="the body", *, elastic: bool = True, remove_ri
 
     if body.V is None:
         raise ModelError("the reduced body holds no basis V; re-run flexmor reduce (it stores V)")
-    model = as_model(model)
     couplings = tuple(body.info.get("couplings", ()))
     rows = np.shape(body.V)[0]
     if not couplings:
@@ -195,15 +193,6 @@ def expand_body(model, body, path="the body", *, elastic: bool = True, remove_ri
     Vx = np.asarray(c.T @ V)
     log.info("%s: basis expanded through %s to %d equations", body.method, ", ".join(couplings), ref.n_dof)
     return ExpandedBody(body, ref, Vx, masters, c.model)
-
-
-def as_model(model):
-    """``model`` itself, or the FE model read from the file ``model`` names (a str or path)."""
-    if isinstance(model, (str, os.PathLike)):
-        from .io import read
-
-        return read(model)
-    return model
 
 
 def _elastic(model, body, remove_rigid):

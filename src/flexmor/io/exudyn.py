@@ -30,6 +30,7 @@ R. Schwertassek, O. Wallrapp, *Dynamik flexibler Mehrkörpersysteme*, Vieweg, 19
 from __future__ import annotations
 
 import logging
+import os
 
 import numpy as np
 import scipy.sparse as sp
@@ -286,9 +287,10 @@ def add_to_exudyn(mbs, reduced, model, *, position=(0.0, 0.0, 0.0), velocity=(0.
         and ``slaves`` mesh nodes, ``master_id``, ``xyz``): :func:`add_marker` puts markers on them,
         and ``model`` (the model as read).
     """
-    from ..expansion import as_model
+    if isinstance(model, (str, os.PathLike)):  # the model file
+        from . import read
 
-    model = as_model(model)
+        model = read(model)
     data = exudyn_data(reduced, model, node_type=node_type, remove_rigid=remove_rigid)
     res = _add(mbs, data, position=position, velocity=velocity, rotation=rotation, angular_velocity=angular_velocity,
                gravity=gravity, rayleigh=rayleigh, name=name, color=color)

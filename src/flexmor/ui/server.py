@@ -184,7 +184,7 @@ class App:
         """The 3D scene of one body: full modes beside their MAC pairs, deformations; and its MAC matrix.
 
         The model is the one the body was reduced from (:func:`flexmor.workflow.body_model`: its
-        ``--select`` sets, couplings and damping, as ``flexmor export --model`` uses it).
+        ``--select`` sets, couplings and damping, as ``flexmor compare`` uses it).
         """
         import base64
 
