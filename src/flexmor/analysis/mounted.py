@@ -52,7 +52,8 @@ from ..errors import FlexmorError, ModelError, OptionError
 from ..linalg import factorize
 from ..linalg.context import SolverContext, as_solver
 from ..linalg.eigen import eigenmodes, frequencies_hz, rigid_body_threshold
-from ..reduction.free_body import interface_masters, rigid_body_modes, rigid_motions
+from ..couplings import coupling_masters
+from ..reduction.free_body import rigid_body_modes, rigid_motions
 
 __all__ = ["HELD", "Support", "supports", "FullMounted", "MountedCase", "MountedCheck", "mounted_check",
            "mounted_note", "mounted_record", "NOTE_FACTOR", "NOTE_FLOOR"]
@@ -101,7 +102,7 @@ def supports(model, body=None, *, interfaces=None, held=("clamped", "pinned")) -
         The coupled model (its node sets hold the couplings' master nodes, e.g. ``HOLE@RBE2``).
     body : ReducedModel, optional
         Its couplings (``info['couplings']``; without them the model's coupling masters,
-        :func:`flexmor.reduction.free_body.interface_masters`) and its interface nodes or sets
+        :func:`flexmor.couplings.coupling_masters`) and its interface nodes or sets
         without coupling (``info['options']['interface']``, not ``SET:DIR``) are the interfaces.
     interfaces : sequence of str, optional
         Node sets, nodes or coupling SPECs given explicitly (overrides the body's).
@@ -113,7 +114,7 @@ def supports(model, body=None, *, interfaces=None, held=("clamped", "pinned")) -
         raise OptionError(f"held={bad[0]!r} is not allowed; choose from: {', '.join(HELD)}", params=("held",))
     if interfaces is None:
         info = {} if body is None else body.info
-        names = [str(c).split(":")[0] for c in info.get("couplings", ())] or list(interface_masters(model))
+        names = [str(c).split(":")[0] for c in info.get("couplings", ())] or [m["name"] for m in coupling_masters(model)]
         interfaces = names + [str(s) for s in (info.get("options") or {}).get("interface") or ()
                               if not set("@:") & set(str(s))]
     out, seen = [], set()

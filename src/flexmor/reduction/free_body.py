@@ -44,7 +44,7 @@ from ..basis import Basis
 from ..errors import FlexmorWarning
 from ..linalg.eigen import rigid_body_threshold
 
-__all__ = ["rigid_motions", "rigid_body_modes", "interface_masters", "interface_loads", "rigid_head", "m_project", "elastic_loads", "inertia_relief_modes",
+__all__ = ["rigid_motions", "rigid_body_modes", "interface_loads", "rigid_head", "m_project", "elastic_loads", "inertia_relief_modes",
            "with_elastic_inputs", "with_inertia_loads", "INERTIA_LOAD_NAMES", "exclude_rigid", "elastic_body", "rigid_content", "rigid_residual", "check_body", "spurious_modes_hz"]
 
 log = logging.getLogger(__name__)
@@ -77,24 +77,6 @@ def rigid_motions(model, origin=None) -> np.ndarray:
             R[d == j + 1, 3 + a] = np.cross(e, xyz[d == j + 1])[:, j]
         R[d == a + 4, 3 + a] = 1.0
     return R
-
-
-def interface_masters(model) -> dict:
-    """The master nodes of the model's couplings, ``{set name: node id}`` (e.g. ``{"HOLE@RBE2": 1430}``).
-
-    :func:`flexmor.couplings.couple` puts each master into a node set named after its SPEC
-    (``SET@RBE2``, ``SET@RBE3``, with the master point if one was given); a set so named that
-    holds one node with six equations is an interface master.
-    """
-    out = {}
-    if model.dofs is None:
-        return out
-    for name, nodes in model.node_sets.items():
-        if "@RBE" in name.upper() and np.size(nodes) == 1:
-            node = int(np.asarray(nodes).ravel()[0])
-            if np.count_nonzero(model.dofs[:, 0] == node) == 6:
-                out[name] = node
-    return out
 
 
 def rigid_body_modes(model) -> np.ndarray:
@@ -239,7 +221,7 @@ def with_inertia_loads(model, ports, mode: str = "off"):
     frame: a frame acceleration ``a`` (gravity among them) loads the nodes with ``-M R a``,
     ``R`` the six rigid motions (:func:`rigid_motions`). ``mode='on'`` adds the elastic part
     of those six columns and, for a free body, the same accelerations of the body held at each
-    interface master (:func:`interface_loads`, for the masters of :func:`interface_masters`) to
+    interface master (:func:`interface_loads`, the masters of :func:`flexmor.couplings.coupling_masters`) to
     the inputs and, transposed, to the outputs, each column scaled to the mean norm of the port
     inputs (so that Gramian methods weigh them like a port); ``'auto'`` is ``on`` for a free body
     and records a note for a supported one, ``'off'`` never adds them. The reduced body keeps the
@@ -287,10 +269,12 @@ def with_inertia_loads(model, ports, mode: str = "off"):
     names = [n for n, k in zip(INERTIA_LOAD_NAMES, keep) if k]
     held = []
     if phi.shape[1] == 6:  # a free body: the accelerations of the body held at each interface
-        for name, node in interface_masters(model).items():
-            L = np.hstack([L, interface_loads(model, node)])
-            names += [f"inertia@{name}:{n.split(':')[1]}" for n in INERTIA_LOAD_NAMES]
-            held.append(name)
+        from ..couplings import coupling_masters
+
+        for master in coupling_masters(model):
+            L = np.hstack([L, interface_loads(model, master["id"])])
+            names += [f"inertia@{master['name']}:{n.split(':')[1]}" for n in INERTIA_LOAD_NAMES]
+            held.append(master["name"])
     if not L.shape[1]:
         return ports, record
     scale = np.mean(sp.linalg.norm(ports.B, axis=0)) if ports.n_inputs else 1.0
