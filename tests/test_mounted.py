@@ -61,7 +61,8 @@ def test_full_model_held_matches_an_independent_eigen_solve(plate):
     the pin, dropped); the master node is one past the largest node id."""
     model, _, _, full = plate
     cases = supports(model)
-    assert [(c.interface, c.held, len(c.eqs)) for c in cases] == [("HOLE@RBE2", "clamped", 6), ("HOLE@RBE2", "pinned", 3)]
+    assert [(c.interface, c.held, len(c.eqs)) for c in cases] == [("HOLE@RBE2", "clamped", 6),
+                                                                  ("HOLE@RBE2", "pinned", 3)]
     assert cases[0].node == int(model.node_ids.max())
     for sup, n_rigid in zip(cases, (0, 3)):
         free = np.setdiff1d(np.arange(model.n_dof), sup.eqs)
@@ -73,7 +74,8 @@ def test_full_model_held_matches_an_independent_eigen_solve(plate):
         np.testing.assert_allclose(np.sqrt(f) / (2 * np.pi), f_ref, rtol=1e-9)
         assert full.case(sup).n_rigid_left == n_rigid
     f_clamped = np.sqrt(full.case(cases[0]).lam) / (2 * np.pi)
-    assert f_clamped[0] == pytest.approx(81.05, abs=0.01) and f_clamped[0] == pytest.approx(f_clamped[1], rel=1e-8)  # the symmetric pair
+    assert f_clamped[0] == pytest.approx(81.05, abs=0.01)
+    assert f_clamped[0] == pytest.approx(f_clamped[1], rel=1e-8)  # the pair of the symmetric structure
 
 
 def test_interface_loads_are_in_equilibrium(plate):

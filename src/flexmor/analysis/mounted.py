@@ -48,11 +48,11 @@ from dataclasses import dataclass, field
 import numpy as np
 import scipy.linalg as sla
 
-from ..errors import FlexmorError, ModelError, OptionError
+from ..couplings import coupling_masters
+from ..errors import FlexmorError, ModelError, OptionError, check_choice
 from ..linalg import factorize
 from ..linalg.context import SolverContext, as_solver
 from ..linalg.eigen import eigenmodes, frequencies_hz, rigid_body_threshold
-from ..couplings import coupling_masters
 from ..reduction.free_body import rigid_body_modes, rigid_motions
 
 __all__ = ["HELD", "Support", "supports", "FullMounted", "MountedCase", "MountedCheck", "mounted_check",
@@ -109,12 +109,14 @@ def supports(model, body=None, *, interfaces=None, held=("clamped", "pinned")) -
     held : sequence of str
         Keys of :data:`HELD`.
     """
-    bad = [h for h in held if h not in HELD]
-    if bad:
-        raise OptionError(f"held={bad[0]!r} is not allowed; choose from: {', '.join(HELD)}", params=("held",))
+    for h in held:
+        check_choice("held", h, HELD)
+    if model.dofs is None:
+        return []
     if interfaces is None:
         info = {} if body is None else body.info
-        names = [str(c).split(":")[0] for c in info.get("couplings", ())] or [m["name"] for m in coupling_masters(model)]
+        names = ([str(c).split(":")[0] for c in info.get("couplings", ())]
+                 or [m["name"] for m in coupling_masters(model)])
         interfaces = names + [str(s) for s in (info.get("options") or {}).get("interface") or ()
                               if not set("@:") & set(str(s))]
     out, seen = [], set()
@@ -139,6 +141,9 @@ def _elastic(lam, threshold, k):
 
 @dataclass
 class _FullCase:
+    """A support case of the full model: free equations, rigid motions left, elastic eigenvalues,
+    the factorization (None when rigid motion is left) and the static deflections by load name."""
+
     free: np.ndarray
     n_rigid_left: int
     lam: np.ndarray
@@ -276,31 +281,21 @@ class MountedCase:
 
 @dataclass
 class MountedCheck:
-    """The body in its joints: one :class:`MountedCase` per interface and way of holding it."""
+    """The body in its joints: one :class:`MountedCase` per interface and way of holding it; the
+    frequency errors count for the modes in ``band_hz`` (all without a band)."""
 
     cases: list
     modes: int
     band_hz: tuple | None = None
 
-    def max_frequency_error(self) -> float | None:
-        """Largest relative frequency error of the modes within the band (all without a band)."""
-        fmax = None if self.band_hz is None else self.band_hz[1]
-        e = [c.max_frequency_error(fmax) for c in self.cases]
-        e = [x for x in e if x is not None]
-        return max(e) if e else None
-
-    def max_static_error(self) -> float | None:
-        """Largest static deflection error of all clamped cases."""
-        e = [x for x in (c.max_static_error() for c in self.cases) if x is not None]
-        return max(e) if e else None
-
     def to_dict(self) -> dict:
-        """The JSON record: ``modes``, ``band_hz``, ``cases`` (:meth:`MountedCase.to_dict`),
-        ``max_frequency_error`` (modes in the band), ``max_static_error``."""
-        return {"modes": self.modes, "band_hz": None if self.band_hz is None else list(self.band_hz),
-                "cases": [c.to_dict(None if self.band_hz is None else self.band_hz[1]) for c in self.cases],
-                "max_frequency_error": self.max_frequency_error(),
-                "max_static_error": self.max_static_error()}
+        """The JSON record: ``modes``, ``band_hz``, ``cases`` (:meth:`MountedCase.to_dict`), the largest
+        ``max_frequency_error`` and ``max_static_error`` of the cases (None where there is none)."""
+        fmax = None if self.band_hz is None else self.band_hz[1]
+        cases = [c.to_dict(fmax) for c in self.cases]
+        worst = {k: [c[k] for c in cases if c[k] is not None] for k in ("max_frequency_error", "max_static_error")}
+        return {"modes": self.modes, "band_hz": None if self.band_hz is None else list(self.band_hz), "cases": cases,
+                **{k: max(v) if v else None for k, v in worst.items()}}
 
 
 def _static_cases(model, body, full, support, X, T, Kt, ports):
@@ -423,9 +418,9 @@ def mounted_note(check: MountedCheck | dict, band_rms_error: float | None) -> st
         return None
     worst.sort(reverse=True)
     told = "" if band_rms_error is None else f" (its band RMS error is {100 * band_rms_error:.3g} %)"
-    return (f"mounted body: {'; '.join(w for _, w in worst[:3])}{told}; the basis misses the body as held in its "
-            "joint: raise the order, reduce with the interface's inertia loads (inertia_loads on/auto) or use "
-            "craig-bampton with the interface")
+    return (f"mounted body: {'; '.join(w for _, w in worst[:3])}{told}: the basis misses the body as held in its "
+            "joint; raise the order (methods that use the inputs: keep inertia_loads auto or on, which adds the "
+            "loads of the body held at each coupling master)")
 
 
 def mounted_record(model, body, *, band_rms_error: float | None = None, **options) -> dict | None:

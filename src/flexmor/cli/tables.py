@@ -79,10 +79,10 @@ def print_mounted(rows, label: str = "method") -> None:
                           fmt(c["max_frequency_error"], ".2e"), fmt(c["max_static_error"], ".2e")))
     if not lines:
         return
-    w = [max(len(h), *(len(x[i]) for x in lines)) + 2 for i, h in enumerate(("body", "interface", "held", "full [Hz]"))]
+    head = ("body", "interface", "held", "full [Hz]")
+    w = [max(len(h), *(len(x[i]) for x in lines)) + 2 for i, h in enumerate(head)]
     print("mounted: the body held at its interfaces against the full model held the same way")
-    print(f"{'body':<{w[0]}}{'interface':<{w[1]}}{'held':<{w[2]}}{'full [Hz]':<{w[3]}}{'freq error':>11}{'static error':>14}")
-    for x in lines:
-        print(f"{x[0]:<{w[0]}}{x[1]:<{w[1]}}{x[2]:<{w[2]}}{x[3]:<{w[3]}}{x[4]:>11}{x[5]:>14}")
+    for x in [head + ("freq error", "static error")] + lines:
+        print("".join(f"{v:<{n}}" for v, n in zip(x, w)) + f"{x[4]:>11}{x[5]:>14}")
     print("freq error = max |f_red/f_full - 1| of the lowest elastic modes in the band; static error = max relative "
           "error of the clamped deflection under gravity x y z and the inputs (at the outputs and over the field)")

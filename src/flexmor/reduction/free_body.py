@@ -44,8 +44,9 @@ from ..basis import Basis
 from ..errors import FlexmorWarning
 from ..linalg.eigen import rigid_body_threshold
 
-__all__ = ["rigid_motions", "rigid_body_modes", "interface_loads", "rigid_head", "m_project", "elastic_loads", "inertia_relief_modes",
-           "with_elastic_inputs", "with_inertia_loads", "INERTIA_LOAD_NAMES", "exclude_rigid", "elastic_body", "rigid_content", "rigid_residual", "check_body", "spurious_modes_hz"]
+__all__ = ["rigid_motions", "rigid_body_modes", "interface_loads", "rigid_head", "m_project", "elastic_loads",
+           "inertia_relief_modes", "with_elastic_inputs", "with_inertia_loads", "INERTIA_LOAD_NAMES", "exclude_rigid",
+           "elastic_body", "rigid_content", "rigid_residual", "check_body", "spurious_modes_hz"]
 
 log = logging.getLogger(__name__)
 
