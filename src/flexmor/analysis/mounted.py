@@ -52,6 +52,7 @@ from ..couplings import coupling_masters
 from ..errors import FlexmorError, ModelError, OptionError, check_choice
 from ..linalg import factorize
 from ..linalg.context import SolverContext, as_solver
+from ..linalg.distributed import is_partitioned
 from ..linalg.eigen import eigenmodes, frequencies_hz, rigid_body_threshold
 from ..reduction.free_body import rigid_body_modes, rigid_motions
 
@@ -360,7 +361,7 @@ def mounted_check(model, body, *, ports=None, full: FullMounted | None = None, m
     Returns
     -------
     MountedCheck
-        No cases for a body without interfaces.
+        No cases for a body without interfaces (or a model whose rows are spread over MPI ranks).
 
     Raises
     ------
@@ -368,8 +369,12 @@ def mounted_check(model, body, *, ports=None, full: FullMounted | None = None, m
         A body without basis ``V``, or one whose basis does not fit the model.
     """
     cases_ = supports(model, body, interfaces=interfaces, held=held)
+    band = None if band is None else (float(band[0]), float(band[1]))
+    if is_partitioned(model.K):  # rows spread over MPI ranks: the held matrices need the whole model
+        log.info("mounted check skipped: the model's rows are spread over MPI ranks")
+        return MountedCheck([], modes if full is None else full.modes, band)
     full = FullMounted(model, modes=modes, solver=solver) if full is None else full
-    check = MountedCheck([], full.modes, None if band is None else (float(band[0]), float(band[1])))
+    check = MountedCheck([], full.modes, band)
     if not cases_:
         return check
     if body.V is None or np.shape(body.V)[0] != model.n_dof:
