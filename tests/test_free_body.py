@@ -217,7 +217,10 @@ def test_clamped_body_is_refused_for_ffrf_export(clamped, tmp_path, capsys):
 @pytest.mark.parametrize("method", ["cms-krylov", "cms-gramian"])
 def test_cms_methods_on_a_free_body(method, coupled):
     model = coupled.with_rayleigh(0.0, 1e-6)
-    red, _ = reduce(model, method, 24, make_ports(model, ["TIP@rbe2:y"]), interface=IFACES, band=(10.0, 2000.0))
+    # the free-free spectrum at order 24 with the input alone (the default also spends internal vectors on the
+    # inertia loads of the body held at each of the two masters: first frequency 630.7 Hz, 1.6 % high, measured)
+    red, _ = reduce(model, method, 24, make_ports(model, ["TIP@rbe2:y"]), interface=IFACES, band=(10.0, 2000.0),
+                    inertia_loads="off")
     ref = elastic_hz(model, 1)
     assert red.order == 12 - 6 + red.info["n_internal"] and red.info["n_rigid_dropped"] == 6
     assert red.order == 24 or method == "cms-gramian"  # (its Hankel rank may end the internal vectors)

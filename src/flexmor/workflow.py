@@ -97,7 +97,7 @@ def body_model(model, reduced, path="the body", *, damping: Damping | None = Non
 def reduce_and_judge(model, method: str, order, ports, *, band=None, full: FullResponse | None = None,
                      n_freq: int = 50, grid_tol: float | None = None, full_frf: str = "auto", cache=True,
                      solver: SolverContext | None = None, progress=None, tol: float | None = None, method_band=None,
-                     tol_measure: str = "band_error", **options):
+                     tol_measure: str = "band_error", mounted: bool = True, **options):
     """Reduce ``model`` and evaluate the error measures over ``band``.
 
     Returns ``(reduced, result)``; ``result`` is the JSON record of ``flexmor reduce``:
@@ -119,7 +119,10 @@ def reduce_and_judge(model, method: str, order, ports, *, band=None, full: FullR
     (:func:`flexmor.checks.check_rigid_body_modes`). A body with modes below the full model's
     first elastic frequency that the full model does not have, or with band_error above 1, is
     reported by a :class:`~flexmor.errors.FlexmorWarning` (:func:`flexmor.reduction.free_body.check_body`);
-    ``result["warnings"]`` lists them.
+    ``result["warnings"]`` lists them. With ``mounted`` (and the error evaluation), a body with
+    interfaces (coupling masters, Craig-Bampton interface sets) is also judged as held in its
+    joints (:func:`flexmor.analysis.mounted.mounted_record`): ``result["mounted"]`` and
+    ``reduced.errors["mounted"]``, its note (if any) among the ``notes``, ``timings["mounted"]``.
     """
     solver = as_solver(solver)
     check_rigid_body_modes(model, solver=solver)
@@ -174,6 +177,8 @@ def reduce_and_judge(model, method: str, order, ports, *, band=None, full: FullR
         result["grid"] = full.summary()
         red.errors = {"band_hz": list(full.band), **measure_record(err), "freqs_hz": full.freqs,
                       "rel_error": err["rel_error"]}
+        if mounted:
+            _judge_mounted(model, red, ports, result, t, solver=solver)
     result["warnings"] = check_body(model, red, f1_hz=first_elastic_hz(model, solver=solver),
                                     band_error=result["band_error"])
     if tol is not None:
@@ -182,6 +187,23 @@ def reduce_and_judge(model, method: str, order, ports, *, band=None, full: FullR
         result["tol_reached"] = red.info["tol_search"]["tol_reached"]
     result["timings"] = t
     return red, result
+
+
+def _judge_mounted(model, red, ports, result, timings, *, solver=None) -> None:
+    """The body held in its joints (:func:`flexmor.analysis.mounted.mounted_record`) into ``result``,
+    ``red.errors`` and their notes."""
+    from .analysis.mounted import mounted_record
+
+    t0 = time.perf_counter()
+    rec = mounted_record(model, red, ports=ports, band=result["band_hz"], band_rms_error=result["band_rms_error"],
+                         solver=solver)
+    timings["mounted"] = time.perf_counter() - t0
+    if rec is None:
+        return
+    result["mounted"] = red.errors["mounted"] = rec
+    if rec["note"]:
+        result["notes"].append(rec["note"])
+        red.errors["notes"].append(rec["note"])
 
 
 def _method_options(method: str) -> list:

@@ -71,6 +71,7 @@ def info_body(args, emit_json) -> int:
         _row("errors", text)
     else:
         _row("errors", "not evaluated")
+    _mounted_rows(err.get("mounted"))
     m = out["model"]
     if m:
         _row("model", f"{m.get('name')} ({m.get('source') or 'no file'}): {m['n_dof']:,} DOF, {m['n_nodes']:,} nodes")
@@ -82,6 +83,20 @@ def info_body(args, emit_json) -> int:
     else:
         _row("model", f"{out['model_name'] or '?'} (no fingerprint: written by an older flexmor)")
     return 0
+
+
+def _mounted_rows(rec) -> None:
+    """The body held in its joints (``errors["mounted"]``, :mod:`flexmor.analysis.mounted`): one row per case."""
+    if not rec:
+        return
+    for k, c in enumerate(rec.get("cases", ())):
+        fe, se = c.get("max_frequency_error"), c.get("max_static_error")
+        text = (f"{c['held']} at {c['interface']}" + (f" (node {c['node']})" if c.get("node") is not None else "")
+                + ": full " + " ".join(f"{f:.4g}" for f in c["frequencies_full_hz"][:4]) + " Hz, freq error "
+                + ("-" if fe is None else f"{fe:.2e}") + ("" if se is None else f", static error {se:.2e}"))
+        _row("mounted" if k == 0 else "", text)
+    if rec.get("note"):
+        _row("", f"note: {rec['note']}")
 
 
 def info_backends(args) -> int:

@@ -166,9 +166,10 @@ def build_parser() -> argparse.ArgumentParser:
                    help="the error measure --tol targets (default band_error): "
                         + "; ".join(f"{k}: {v}" for k, v in MEASURES.items()).replace("%", "%%"))
     p.add_argument("--inertia-loads", choices=["auto", "on", "off"], default="auto",
-                   help="add the frame's inertia loads M R (6 unit accelerations, gravity among them) to the inputs "
-                   "the basis is built for; auto: on for a free body (no effect on the elastic coordinates of a "
-                   "free body with rigid motion excluded; use on for a supported body whose support moves). "
+                   help="add the frame's inertia loads (6 unit accelerations, gravity among them) to the inputs "
+                   "the basis is built for; auto: on for a free body, where they load the body held at each coupling "
+                   "master (--interface SET@rbe2) so that the mounted body sags like the full model (nothing for a "
+                   "free body without one); use on for a supported body whose support moves (M R). "
                    "Methods whose basis ignores the inputs (modal, guyan, craig-bampton) are not affected")
     _add_method_options(p)
     p.set_defaults(func=cmd_reduce)

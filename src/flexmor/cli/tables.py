@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-__all__ = ["fmt", "print_error_table"]
+__all__ = ["fmt", "print_error_table", "print_mounted"]
 
 
 def fmt(x, spec: str = ".3e") -> str:
@@ -64,3 +64,25 @@ def _notes(rows, label: str) -> None:
                 grouped.setdefault(n, []).append(name(r))
     for n, names in grouped.items():
         print(f"note: {', '.join(names)}: {n}")
+
+
+def print_mounted(rows, label: str = "method") -> None:
+    """Print the bodies held in their joints (``row["mounted"]``, :mod:`flexmor.analysis.mounted`), if any:
+    per body, interface and support, the lowest full frequencies and the largest relative frequency
+    (modes in the band) and static deflection errors."""
+    lines = []
+    for r in rows:
+        rec = r.get("mounted")
+        name = f"{r['method']} r={r['order']}" if label == "method" else str(r.get(label))
+        for c in (rec or {}).get("cases", ()):
+            lines.append((name, c["interface"], c["held"], " ".join(f"{f:.4g}" for f in c["frequencies_full_hz"][:4]),
+                          fmt(c["max_frequency_error"], ".2e"), fmt(c["max_static_error"], ".2e")))
+    if not lines:
+        return
+    head = ("body", "interface", "held", "full [Hz]")
+    w = [max(len(h), *(len(x[i]) for x in lines)) + 2 for i, h in enumerate(head)]
+    print("mounted: the body held at its interfaces against the full model held the same way")
+    for x in [head + ("freq error", "static error")] + lines:
+        print("".join(f"{v:<{n}}" for v, n in zip(x, w)) + f"{x[4]:>11}{x[5]:>14}")
+    print("freq error = max |f_red/f_full - 1| of the lowest elastic modes in the band; static error = max relative "
+          "error of the clamped deflection under gravity x y z and the inputs (at the outputs and over the field)")

@@ -119,7 +119,7 @@ def _load_builtin():
     )
 
 
-def reduce(model, method: str, order: int | None, ports, *, inertia_loads: str = "off",
+def reduce(model, method: str, order: int | None, ports, *, inertia_loads: str = "auto",
            **options) -> tuple[ReducedModel, dict]:
     """Reduce ``model`` with the registered ``method`` and project it.
 
@@ -132,11 +132,13 @@ def reduce(model, method: str, order: int | None, ports, *, inertia_loads: str =
         Reduced dimension r (for ``guyan`` the interface size; may be None).
     ports : Ports
         Inputs and outputs of the reduced body.
-    inertia_loads : {'off', 'on', 'auto'}
-        Add the frame's inertia loads ``M R`` (six unit accelerations, gravity among them) to
-        the inputs the basis is built for (:func:`flexmor.reduction.free_body.with_inertia_loads`;
-        ``auto``: for a free body). The reduced body keeps ``ports``. No effect on methods
-        whose basis does not use the inputs (modal, guyan, craig-bampton).
+    inertia_loads : {'auto', 'on', 'off'}
+        Add the frame's inertia loads (six unit accelerations, gravity among them) to the inputs
+        the basis is built for (:func:`flexmor.reduction.free_body.with_inertia_loads`): ``M R``
+        on a supported body (``on``), and on a free body with interface masters (``on`` and the
+        default ``auto``) the same accelerations of the body held at each master, so that the
+        mounted body sags like the full model. The reduced body keeps ``ports``. No effect on
+        methods whose basis does not use the inputs (modal, guyan, craig-bampton).
     **options
         Method options (the fields of the method's ``options_class``, e.g. ``interface``) and
         ``solver``; any other keyword raises OptionError listing the allowed ones. Options

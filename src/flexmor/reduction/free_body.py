@@ -44,8 +44,9 @@ from ..basis import Basis
 from ..errors import FlexmorWarning
 from ..linalg.eigen import rigid_body_threshold
 
-__all__ = ["rigid_motions", "rigid_body_modes", "rigid_head", "m_project", "elastic_loads", "inertia_relief_modes",
-           "with_elastic_inputs", "with_inertia_loads", "INERTIA_LOAD_NAMES", "exclude_rigid", "elastic_body", "rigid_content", "rigid_residual", "check_body", "spurious_modes_hz"]
+__all__ = ["rigid_motions", "rigid_body_modes", "interface_loads", "rigid_head", "m_project", "elastic_loads",
+           "inertia_relief_modes", "with_elastic_inputs", "with_inertia_loads", "INERTIA_LOAD_NAMES", "exclude_rigid",
+           "elastic_body", "rigid_content", "rigid_residual", "check_body", "spurious_modes_hz"]
 
 log = logging.getLogger(__name__)
 
@@ -187,31 +188,54 @@ def with_elastic_inputs(model, ports):
 INERTIA_LOAD_NAMES = ("inertia:ax", "inertia:ay", "inertia:az", "inertia:arx", "inertia:ary", "inertia:arz")
 
 
+def interface_loads(model, node) -> np.ndarray:
+    """The frame's six unit accelerations on a free body held at the master ``node``, (n_dof, 6).
+
+    Column k is ``f_k = M r_k + E_m λ_k`` (``r_k`` the k-th rigid motion, :func:`rigid_motions`;
+    ``E_m`` the master's six equations) with the reaction ``λ_k = -(R_mᵀ)⁻¹ Rᵀ M r_k`` at the master
+    (``R_m`` the rigid motions' rows there), so that ``Rᵀ f_k = 0``: the loads are in equilibrium,
+    and the free body's static response to ``f_k`` is the deflection of the body clamped at the
+    master under that acceleration, plus a rigid motion. A ModelError when ``node`` has not six
+    equations at which the rigid motions are defined.
+    """
+    from ..errors import ModelError
+
+    eqs = np.flatnonzero(model.dofs[:, 0] == int(node)) if model.dofs is not None else np.zeros(0, np.int64)
+    R = rigid_motions(model)
+    if eqs.size != 6 or np.linalg.cond(R[eqs]) > 1e12:
+        raise ModelError(f"node {node} is not a 6-DOF master node at which the rigid motions are defined")
+    MR = model.M @ R
+    F = np.asarray(MR, dtype=float).copy()
+    F[eqs] -= np.linalg.solve(R[eqs].T, R.T @ MR)
+    return F
+
+
 def with_inertia_loads(model, ports, mode: str = "off"):
-    """The ports a basis is built for, with the frame's inertia loads ``M R`` added as inputs.
+    """The ports a basis is built for, with the frame's inertia loads added as inputs.
 
     A body in the floating frame is loaded by its joints and by the inertia of its moving
     frame: a frame acceleration ``a`` (gravity among them) loads the nodes with ``-M R a``,
     ``R`` the six rigid motions (:func:`rigid_motions`). ``mode='on'`` adds the elastic part
-    of those six columns (scaled to the mean norm of the port inputs, so that Gramian methods
-    weigh them like a port) to the inputs and, transposed, to the outputs; ``'auto'`` is ``on``
-    for a free body (where it adds nothing, see below) and records a note for a supported
-    one, ``'off'`` never adds them. The reduced
-    body keeps the user's ports: only the basis sees the extra columns.
-
-    The elastic part of a load ``f`` is ``(I - M Φ Φᵀ) f`` (Φ the M-orthonormal rigid-body
-    modes; ``f`` itself for a supported body). For a free body ``M R`` lies in ``M span(Φ)``:
-    a uniform frame acceleration only accelerates the body rigidly and has no elastic part,
-    so no column is added (``n_inertia_loads = 0``); the joint forces carry the inertia relief.
-    The loads matter for a supported body whose support moves with the frame (base
-    excitation, gravity on a clamped body).
+    ``(I - M Φ Φᵀ) M R`` of those six columns (Φ the M-orthonormal rigid-body modes; all of
+    ``M R`` on a supported body, whose moving support they load) and, for a free body, the same
+    accelerations of the body held at each coupling master (:func:`interface_loads`; not for a
+    master whose six directions the inputs hold) to the inputs and, transposed, to the outputs,
+    each column scaled to the mean norm of the port inputs (so that Gramian methods weigh them
+    like a port); ``'auto'`` is ``on`` for a free body and records a note for a supported one,
+    ``'off'`` never adds them. The reduced body keeps the user's ports. On a free body ``M R``
+    lies in ``M span(Φ)`` (a uniform acceleration moves it rigidly); held in its joint it sags,
+    and with the master's columns the mounted body sags like the full model
+    (:mod:`flexmor.analysis.mounted` measures it).
 
     Returns
     -------
     ports : Ports
         ``ports`` itself, or a copy with the inertia loads appended.
     record : dict
-        ``inertia_loads`` (the mode asked for) and ``n_inertia_loads`` (columns added).
+        ``inertia_loads`` (the mode asked for), ``n_inertia_loads`` (columns added) and, when
+        some were added for interfaces, ``inertia_interfaces`` (their master node sets);
+        ``inertia_interfaces_in_inputs`` the masters whose six directions the inputs hold
+        (``f_k`` is then an inertia load plus a force the inputs give).
     """
     from ..errors import check_choice
     from ..ports import Ports
@@ -235,14 +259,32 @@ def with_inertia_loads(model, ports, mode: str = "off"):
         left = np.linalg.norm(L, axis=0) > RIGID_DEFLATION_TOL * L0
         keep[keep] = left
         L = L[:, left]
+    names = [n for n, k in zip(INERTIA_LOAD_NAMES, keep) if k]
+    held, given = [], []
+    if phi.shape[1] == 6:  # a free body: the accelerations of the body held at each interface
+        from ..couplings import coupling_masters
+
+        Q = sla.orth(ports.B.toarray()) if ports.n_inputs else np.zeros((model.n_dof, 0))
+        for master in coupling_masters(model):
+            E = np.flatnonzero(model.dofs[:, 0] == master["id"])
+            if np.linalg.norm(Q[E] @ Q[E].T - np.eye(E.size)) < 1e-10:  # the inputs hold any force at the master
+                given.append(master["name"])
+                continue
+            L = np.hstack([L, interface_loads(model, master["id"])])
+            names += [f"inertia@{master['name']}:{n.split(':')[1]}" for n in INERTIA_LOAD_NAMES]
+            held.append(master["name"])
+    if given:
+        record["inertia_interfaces_in_inputs"] = given
     if not L.shape[1]:
         return ports, record
     scale = np.mean(sp.linalg.norm(ports.B, axis=0)) if ports.n_inputs else 1.0
     L = sp.csr_matrix(L * (scale / np.linalg.norm(L, axis=0)))
-    names = [n for n, k in zip(INERTIA_LOAD_NAMES, keep) if k]
     aug = Ports(B=sp.hstack([ports.B, L]).tocsr(), C=sp.vstack([ports.C, L.T]).tocsr(),
                 input_names=list(ports.input_names) + names, output_names=list(ports.output_names) + names)
-    return aug, dict(record, n_inertia_loads=int(L.shape[1]))
+    record["n_inertia_loads"] = int(L.shape[1])
+    if held:
+        record["inertia_interfaces"] = held
+    return aug, record
 
 
 def rigid_residual(model, V, phi=None) -> float:

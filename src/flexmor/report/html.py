@@ -92,7 +92,7 @@ def build_report(model, ports, reduced, *, band, labels=None, seconds=None, full
                  dt: float | None = None, t_end: float | None = None, max_steps: int = 5000,
                  scheme: str = "newmark", rho_inf: float = 0.9, n_modes: int = 12, h2_max_dof: int = 1000,
                  solver: SolverContext | None = None, progress=None, time_progress=None,
-                 title: str | None = None, view3d: bool = True) -> Report:
+                 title: str | None = None, view3d: bool = True, mounted: bool = True) -> Report:
     """Compute the contents of a report on ``reduced`` bodies of ``model``.
 
     Parameters
@@ -130,6 +130,9 @@ def build_report(model, ports, reduced, *, band, labels=None, seconds=None, full
     view3d : bool
         Add the interactive 3D view (:mod:`flexmor.report.view3d`): surface, couplings, modes
         with MAC pairs, full vs reduced deformation.
+    mounted : bool
+        Judge bodies with interfaces as held in their joints (:mod:`flexmor.analysis.mounted`):
+        ``row["mounted"]`` and the section "The body in its joints".
 
     Returns
     -------
@@ -165,6 +168,15 @@ def build_report(model, ports, reduced, *, band, labels=None, seconds=None, full
         rep.rows[-1]["max_rel_error_where"] = (f"{err['max_rel_error_hz']:.4g} Hz" + (
             " (anti-resonance)" if err["max_rel_error_at_antiresonance"] else ""))
         notes.extend(f"{lb}: {n}" for n in err["notes"])
+    if mounted:
+        from ..analysis.mounted import FullMounted, mounted_record
+
+        held = FullMounted(model, solver=solver)  # the full model held at each interface: once for all bodies
+        for lb, row, red in zip(labels, rep.rows, reduced):
+            row["mounted"] = mounted_record(model, red, ports=ports, full=held, band=band,
+                                            band_rms_error=row["band_rms_error"])
+            if row["mounted"] and row["mounted"]["note"]:
+                notes.append(f"{lb}: {row['mounted']['note']}")
     damped = model.D is not None
     if damped and model.n_dof <= h2_max_dof:
         from ..analysis.norms import h2_error
@@ -292,6 +304,7 @@ def render_html(rep: Report) -> str:
         from .view3d import render_section
 
         out.append(render_section(rep.scene))
+    out += _mounted_section(rep.rows)
     out += ['<h2 id="frf">Transfer functions |H|</h2>', _img(rep.figures["frf"], "|H| full vs reduced"),
             '<h2 id="rel-error">rel_error(f)</h2>', _img(rep.figures["rel_error"], "rel_error per method")]
     if "singular_values" in rep.figures:
@@ -319,6 +332,27 @@ def render_html(rep: Report) -> str:
             (f"<p>{e(t['signal'])}; {e(t['scheme'])}, dt = {t['dt']:.3g} s, {t['n_steps']} steps to "
              f"{t['t_end']:.3g} s.</p>"), _img(rep.figures["time"], "time responses and errors"), "</body></html>"]
     return "\n".join(out)
+
+
+def _mounted_section(rows) -> list:
+    """The section "The body in its joints" (rows with a ``mounted`` record), or nothing."""
+    table = []
+    for r in rows:
+        for c in (r.get("mounted") or {}).get("cases", ()):
+            table.append([r["label"], c["interface"], c["held"],
+                          " ".join(fmt(f, ".4g") for f in c["frequencies_full_hz"]),
+                          " ".join(fmt(f, ".4g") for f in c["frequencies_reduced_hz"]),
+                          fmt(c["max_frequency_error"], ".2e"), fmt(c["max_static_error"], ".2e")])
+    if not table:
+        return []
+    return ['<h2 id="mounted">The body in its joints</h2>',
+            _table(["body", "interface", "held", "full [Hz]", "reduced [Hz]", "max Δf/f (band)", "static error"],
+                   table, (0, 1, 2, 3, 4)),
+            "<p class=note>Each interface clamped (its six master DOFs held) and pinned (three translations held), "
+            "the reduced body (its floating frame and elastic coordinates under the same constraint) against the full "
+            "model supported the same way: the lowest elastic eigenfrequencies, and the relative error of the clamped "
+            "static deflection under gravity in x, y, z and under each input (at the outputs and the largest "
+            "displacement error over the body).</p>"]
 
 
 def write_report(rep: Report, path) -> None:

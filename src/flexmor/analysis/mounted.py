@@ -1,0 +1,440 @@
+"""The body in its joint: a reduced body clamped or pinned at its interfaces, against the full model.
+
+What counts for a multibody user is the body *as mounted*. Held at an interface, the reduced
+body must behave like the full FE model supported the same way. For each interface (the master
+node of a coupling ``SET@rbe2``/``SET@rbe3``, or a Craig-Bampton ``interface`` node or set) and
+each way of holding it (:data:`HELD`: ``clamped``, all six master DOFs; ``pinned``, the three
+translations) :func:`mounted_check` compares
+
+* the lowest ``modes`` elastic eigenfrequencies: the full model with the held equations removed
+  (sparse shift-invert, :func:`flexmor.linalg.eigen.eigenmodes`) against the Ritz values of the
+  reduced body under the same constraint (dense ``eigh``); matched by order, the relative errors
+  ``f_red / f_full - 1`` are >= 0 up to round-off (Rayleigh-Ritz: the mounted reduced body is a
+  Galerkin projection of the mounted full model);
+* the static deflection of the clamped body under gravity in x, y and z (the loads ``M R_a``, R the
+  rigid translations, :func:`flexmor.reduction.free_body.rigid_motions`) and under each input of
+  the body that does not act on the held equations: ``output_error = ||C (u_red - u)|| / ||C u||``
+  at the body's outputs and ``field_error = max|u_red - u| / max|u|`` over the translations.
+
+**The mounted reduced body.** A free body in the floating frame of reference moves as its frame
+(the rigid motions Φ, M-orthonormal) plus its elastic coordinates: ``u = Φ a + V q``. The MBS code
+holds the interface by constraining that total motion, ``Φ_b a + V_b q = 0`` (``b`` the held
+equations); the mounted coordinates are the null space ``Z`` of ``[Φ_b  V_b]`` (SVD), in which
+``(Zᵀ Ka Z, Zᵀ Ma Z)`` with ``Ma = [[I, ΦᵀMV], [VᵀMΦ, Mr]]``, ``Ka = diag(0, Kr)`` is the mounted
+body (``ΦᵀMV`` are the body's inertia invariants). A basis made mass-orthogonal to the rigid
+modes (``rigid='exclude'``) could not be held by ``V_b q = 0`` alone: its fixed-interface modes
+carry a rigid part that the frame takes. A supported model has no frame: ``V_b q = 0``.
+
+The full-model side, one factorization per support case, is kept by :class:`FullMounted` and
+reused for every body judged against the same model (``compare`` of several bodies pays once).
+
+References
+----------
+Craig, R. R., Bampton, M. C. C. (1968). Coupling of substructures for dynamic analyses. AIAA
+Journal 6(7), 1313-1319 (fixed-interface modes: the clamped body's modes).
+
+Géradin, M., Rixen, D. J. (2015). Mechanical Vibrations: Theory and Application to Structural
+Dynamics, 3rd ed., Wiley, ch. 4 (Rayleigh-Ritz bounds of constrained systems) and ch. 8.
+
+Schwertassek, R., Wallrapp, O. (1999). Dynamik flexibler Mehrkörpersysteme. Vieweg, ch. 6
+(reference frames and joints of elastic bodies).
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.linalg as sla
+
+from ..couplings import coupling_masters
+from ..errors import FlexmorError, ModelError, OptionError, check_choice
+from ..linalg import factorize
+from ..linalg.context import SolverContext, as_solver
+from ..linalg.distributed import is_partitioned
+from ..linalg.eigen import eigenmodes, frequencies_hz, rigid_body_threshold
+from ..reduction.free_body import rigid_body_modes, rigid_motions
+
+__all__ = ["HELD", "Support", "supports", "FullMounted", "MountedCase", "MountedCheck", "mounted_check",
+           "mounted_note", "mounted_record", "NOTE_FACTOR", "NOTE_FLOOR"]
+
+log = logging.getLogger(__name__)
+
+#: Ways of holding an interface: the directions held at each of its nodes.
+HELD = {"clamped": (1, 2, 3, 4, 5, 6), "pinned": (1, 2, 3)}
+
+#: A mounted error above ``max(NOTE_FACTOR * band_rms_error, NOTE_FLOOR)`` is worth a note.
+NOTE_FACTOR = 10.0
+NOTE_FLOOR = 1e-3
+
+#: Relative singular value (of the constraint rows) and eigenvalue (of the mounted mass) below which
+#: a direction counts as absent.
+RANK_TOL = 1e-10
+
+
+@dataclass(frozen=True)
+class Support:
+    """One interface held one way: ``interface`` (set or SPEC), its ``node`` (the master node, None
+    for a set of several nodes), ``held`` (a key of :data:`HELD`) and the held equations ``eqs``."""
+
+    interface: str
+    node: int | None
+    held: str
+    eqs: tuple
+
+
+def _interface_nodes(model, target: str) -> np.ndarray:
+    key = str(target).replace(" ", "").upper()
+    if key in model.node_sets:
+        return np.asarray(model.node_sets[key], dtype=np.int64)
+    if key.lstrip("-").isdigit() and model.has_node(int(key)):
+        return np.array([int(key)], dtype=np.int64)
+    raise ModelError(f"interface {target!r} is neither a node set nor a node of {model.name}",
+                     params=("interfaces",))
+
+
+def supports(model, body=None, *, interfaces=None, held=("clamped", "pinned")) -> list[Support]:
+    """The support cases of a body: each interface, held each way of ``held``.
+
+    Parameters
+    ----------
+    model : FEModel
+        The coupled model (its node sets hold the couplings' master nodes, e.g. ``HOLE@RBE2``).
+    body : ReducedModel, optional
+        Its couplings (``info['couplings']``; without them the model's coupling masters,
+        :func:`flexmor.couplings.coupling_masters`) and its interface nodes or sets
+        without coupling (``info['options']['interface']``, not ``SET:DIR``) are the interfaces.
+    interfaces : sequence of str, optional
+        Node sets, nodes or coupling SPECs given explicitly (overrides the body's).
+    held : sequence of str
+        Keys of :data:`HELD`.
+    """
+    for h in held:
+        check_choice("held", h, HELD)
+    if model.dofs is None:
+        return []
+    if interfaces is None:
+        info = {} if body is None else body.info
+        names = ([str(c).split(":")[0] for c in info.get("couplings", ())]
+                 or [m["name"] for m in coupling_masters(model)])
+        interfaces = names + [str(s) for s in (info.get("options") or {}).get("interface") or ()
+                              if not set("@:") & set(str(s))]
+    out, seen = [], set()
+    for name in interfaces:
+        key = str(name).replace(" ", "").upper()
+        if key in seen:
+            continue
+        seen.add(key)
+        nodes = _interface_nodes(model, key)
+        done = []
+        for h in held:
+            eqs = np.flatnonzero(np.isin(model.dofs[:, 0], nodes) & np.isin(model.dofs[:, 1], HELD[h]))
+            if eqs.size and not any(np.array_equal(eqs, d) for d in done):  # a solid node: pinned is clamped
+                done.append(eqs)
+                out.append(Support(key, int(nodes[0]) if nodes.size == 1 else None, h, tuple(int(e) for e in eqs)))
+    return out
+
+
+def _elastic(lam, threshold, k):
+    return np.sort(lam[lam >= threshold])[:k]
+
+
+@dataclass
+class _FullCase:
+    """A support case of the full model: free equations, rigid motions left, elastic eigenvalues,
+    the factorization (None when rigid motion is left) and the static deflections by load name."""
+
+    free: np.ndarray
+    n_rigid_left: int
+    lam: np.ndarray
+    F: object = None
+    static: dict = field(default_factory=dict)
+
+
+class FullMounted:
+    """The full model held at its interfaces, each support case computed once and reused.
+
+    Parameters
+    ----------
+    model : FEModel
+        The (coupled) full model the bodies are judged against.
+    modes : int
+        Elastic eigenfrequencies per support case.
+    solver : SolverContext, optional
+        Solver of the factorizations and eigen solves.
+
+    Attributes
+    ----------
+    n_factorizations : int
+        Sparse factorizations spent so far (one per support case).
+    """
+
+    def __init__(self, model, *, modes: int = 6, solver: SolverContext | None = None):
+        if int(modes) != modes or modes < 1:
+            raise OptionError(f"modes must be a positive integer, got {modes!r}", params=("modes",))
+        self.model, self.modes, self.solver = model, int(modes), as_solver(solver)
+        self.phi = rigid_body_modes(model)
+        self.threshold = rigid_body_threshold(model.K, model.M)
+        self._cases: dict = {}
+        self.n_factorizations = 0
+
+    def case(self, support: Support) -> _FullCase:
+        """The support case: its free equations, elastic eigenvalues and (when the support leaves no
+        rigid motion) the factorization of the held stiffness matrix."""
+        key = (support.interface, support.held)
+        if key in self._cases:
+            return self._cases[key]
+        m = self.model
+        free = np.setdiff1d(np.arange(m.n_dof), np.asarray(support.eqs))
+        Kf = m.K[free][:, free].tocsr()
+        Mf = m.M[free][:, free].tocsr()
+        rank = 0
+        if self.phi.shape[1]:
+            s = np.linalg.svd(self.phi[list(support.eqs)], compute_uv=False)
+            rank = int(np.sum(s > RANK_TOL * s[0])) if s.size and s[0] > 0 else 0
+        left = self.phi.shape[1] - rank
+        k = min(self.modes + left, free.size)
+        c0 = self.solver.stats.count
+        F = None
+        if left == 0:
+            F = factorize(Kf, solver=self.solver, positive=True)
+            lam, _ = eigenmodes(Kf, Mf, k, sigma=0.0, factorization=F, solver=self.solver)
+        else:
+            lam, _ = eigenmodes(Kf, Mf, k, solver=self.solver)
+        self.n_factorizations += self.solver.stats.count - c0
+        case = _FullCase(free, left, _elastic(lam, self.threshold, self.modes), F)
+        log.info("%s %s at %s: full model %s Hz", m.name, support.held, support.interface,
+                 np.array2string(frequencies_hz(case.lam), precision=5))
+        self._cases[key] = case
+        return case
+
+    def deflection(self, support: Support, name: str, load) -> np.ndarray:
+        """Static deflection (all equations, zero at the held ones) under ``load`` (named ``name``)."""
+        case = self.case(support)
+        if case.F is None:
+            raise ModelError(f"{support.held} at {support.interface} leaves {case.n_rigid_left} rigid motion(s): "
+                             "no static deflection")
+        if name not in case.static:
+            u = np.zeros(self.model.n_dof)
+            u[case.free] = case.F.solve(np.asarray(load, dtype=float)[case.free])
+            case.static[name] = u
+        return case.static[name]
+
+
+def _mounted_body(model, body, eqs, phi):
+    """``(X, T, Kt)``: the mounted reduced body's displacements ``u = X T y`` with ``Tᵀ Ma T = I`` and
+    stiffness ``Kt`` (see the module docstring)."""
+    V = np.asarray(body.V, dtype=float)
+    r, k = V.shape[1], phi.shape[1]
+    X = np.hstack([phi, V]) if k else V
+    Ma = np.zeros((k + r, k + r))
+    Ka = np.zeros_like(Ma)
+    Ma[k:, k:], Ka[k:, k:] = body.M, body.K
+    if k:
+        Ma[:k, :k] = np.eye(k)
+        Ma[:k, k:] = phi.T @ (model.M @ V)
+        Ma[k:, :k] = Ma[:k, k:].T
+    _, s, Wt = np.linalg.svd(X[list(eqs)], full_matrices=True)
+    rank = int(np.sum(s > RANK_TOL * s[0])) if s.size and s[0] > 0 else 0
+    Z = Wt[rank:].T
+    Mz, Kz = Z.T @ Ma @ Z, Z.T @ Ka @ Z
+    w, U = np.linalg.eigh(0.5 * (Mz + Mz.T))
+    keep = w > RANK_TOL * w[-1] if w.size else np.zeros(0, bool)
+    T = Z @ (U[:, keep] / np.sqrt(w[keep]))
+    Kt = T.T @ Ka @ T
+    return X, T, 0.5 * (Kt + Kt.T)
+
+
+@dataclass
+class MountedCase:
+    """One interface held one way: full and reduced frequencies (Hz), their relative errors, and the
+    static deflection errors (``static``: one dict per load with ``load``, ``output_error``,
+    ``field_error``; empty for a support that leaves rigid motion)."""
+
+    interface: str
+    node: int | None
+    held: str
+    n_held: int
+    frequencies_full_hz: list
+    frequencies_reduced_hz: list
+    rel_error: list
+    static: list
+
+    def max_frequency_error(self, fmax: float | None = None) -> float | None:
+        """Largest |relative frequency error| (of the modes up to ``fmax`` Hz when given)."""
+        e = [abs(x) for x, f in zip(self.rel_error, self.frequencies_full_hz)
+             if x is not None and (fmax is None or f <= fmax)]
+        return max(e) if e else None
+
+    def max_static_error(self) -> float | None:
+        """Largest static error (output or field) over the loads."""
+        e = [v for s in self.static for v in (s["output_error"], s["field_error"]) if v is not None]
+        return max(e) if e else None
+
+    def to_dict(self, fmax: float | None = None) -> dict:
+        """The JSON record; ``max_frequency_error`` of the modes up to ``fmax`` Hz."""
+        return {"interface": self.interface, "node": self.node, "held": self.held, "n_held": self.n_held,
+                "frequencies_full_hz": self.frequencies_full_hz, "frequencies_reduced_hz": self.frequencies_reduced_hz,
+                "rel_error": self.rel_error, "max_frequency_error": self.max_frequency_error(fmax),
+                "static": self.static, "max_static_error": self.max_static_error()}
+
+
+@dataclass
+class MountedCheck:
+    """The body in its joints: one :class:`MountedCase` per interface and way of holding it; the
+    frequency errors count for the modes in ``band_hz`` (all without a band)."""
+
+    cases: list
+    modes: int
+    band_hz: tuple | None = None
+
+    def to_dict(self) -> dict:
+        """The JSON record: ``modes``, ``band_hz``, ``cases`` (:meth:`MountedCase.to_dict`), the largest
+        ``max_frequency_error`` and ``max_static_error`` of the cases (None where there is none)."""
+        fmax = None if self.band_hz is None else self.band_hz[1]
+        cases = [c.to_dict(fmax) for c in self.cases]
+        worst = {k: [c[k] for c in cases if c[k] is not None] for k in ("max_frequency_error", "max_static_error")}
+        return {"modes": self.modes, "band_hz": None if self.band_hz is None else list(self.band_hz), "cases": cases,
+                **{k: max(v) if v else None for k, v in worst.items()}}
+
+
+def _static_cases(model, body, full, support, X, T, Kt, ports):
+    """The static errors of the clamped ``support``: gravity x, y, z and the body's inputs."""
+    R = rigid_motions(model)
+    loads = [(f"gravity:{a}", model.M @ R[:, i]) for i, a in enumerate("xyz") if np.any(R[:, i])]
+    held = np.asarray(support.eqs)
+    if ports is not None:
+        B = ports.B.toarray()
+        for j, name in enumerate(ports.input_names):
+            b = B[:, j].copy()
+            b[held] = 0.0
+            if np.linalg.norm(b) > 1e-12 * np.linalg.norm(B[:, j]):
+                loads.append((f"input:{name}", B[:, j]))
+    trans = np.flatnonzero(model.dofs[:, 1] <= 3) if model.dofs is not None else np.arange(model.n_dof)
+    trans = trans if trans.size else np.arange(model.n_dof)
+    C = None if ports is None or not ports.n_outputs else ports.C
+    out = []
+    for name, f in loads:
+        u = full.deflection(support, name, f)
+        y = np.linalg.solve(Kt, T.T @ (X.T @ f))
+        ur = X @ (T @ y)
+        du = ur - u
+        umax = np.max(np.abs(u[trans]))
+        rec = {"load": name, "field_error": float(np.max(np.abs(du[trans])) / umax) if umax > 0 else None,
+               "output_error": None}
+        if C is not None:
+            cu = np.linalg.norm(C @ u)
+            if cu > 1e-10 * umax * np.sqrt(C.multiply(C).sum()):
+                rec["output_error"] = float(np.linalg.norm(C @ du) / cu)
+        out.append(rec)
+    return out
+
+
+def mounted_check(model, body, *, ports=None, full: FullMounted | None = None, modes: int = 6,
+                  interfaces=None, held=("clamped", "pinned"), band=None,
+                  solver: SolverContext | None = None) -> MountedCheck:
+    """The reduced ``body`` held at each of its interfaces, against the full ``model`` held the same way.
+
+    Parameters
+    ----------
+    model : FEModel
+        The model the body was projected from (the coupled one, e.g.
+        :func:`flexmor.origin.reference_model`); its damping plays no part.
+    body : ReducedModel
+        With its basis ``V``.
+    ports : Ports, optional
+        The body's inputs and outputs on ``model`` (loads and output errors); default rebuilt from
+        its port names, none when that fails.
+    full : FullMounted, optional
+        The full side, reused between bodies of one model; made here when not given.
+    modes : int
+        Elastic eigenfrequencies per case (when ``full`` is not given).
+    interfaces : sequence of str, optional
+        See :func:`supports`.
+    held : sequence of str
+        Ways of holding an interface (:data:`HELD`).
+    band : (float, float), optional
+        The band in Hz: :meth:`MountedCheck.max_frequency_error` counts the modes below its top.
+    solver : SolverContext, optional
+
+    Returns
+    -------
+    MountedCheck
+        No cases for a body without interfaces (or a model whose rows are spread over MPI ranks).
+
+    Raises
+    ------
+    ModelError
+        A body without basis ``V``, or one whose basis does not fit the model.
+    """
+    cases_ = supports(model, body, interfaces=interfaces, held=held)
+    band = None if band is None else (float(band[0]), float(band[1]))
+    if is_partitioned(model.K):  # rows spread over MPI ranks: the held matrices need the whole model
+        log.info("mounted check skipped: the model's rows are spread over MPI ranks")
+        return MountedCheck([], modes if full is None else full.modes, band)
+    full = FullMounted(model, modes=modes, solver=solver) if full is None else full
+    check = MountedCheck([], full.modes, band)
+    if not cases_:
+        return check
+    if body.V is None or np.shape(body.V)[0] != model.n_dof:
+        raise ModelError(f"the {body.method} body has no basis at the {model.n_dof} equations of {model.name}: "
+                         "its mounted behaviour cannot be checked")
+    if ports is None:
+        from ..ports import make_ports
+
+        try:
+            ports = make_ports(model, body.input_names, body.output_names)
+        except FlexmorError as exc:
+            log.info("mounted check without the body's ports: %s", exc)
+    for sup in cases_:
+        fc = full.case(sup)
+        X, T, Kt = _mounted_body(model, body, sup.eqs, full.phi)
+        lam_r = _elastic(sla.eigh(Kt, eigvals_only=True), full.threshold, full.modes)
+        f_full = frequencies_hz(fc.lam).tolist()
+        f_red = frequencies_hz(lam_r).tolist()
+        rel = [f_red[i] / f_full[i] - 1.0 if i < len(f_red) and f_full[i] > 0 else None
+               for i in range(len(f_full))]
+        static = _static_cases(model, body, full, sup, X, T, Kt, ports) if fc.F is not None else []
+        check.cases.append(MountedCase(sup.interface, sup.node, sup.held, len(sup.eqs), f_full, f_red, rel, static))
+    return check
+
+
+def mounted_note(check: MountedCheck | dict, band_rms_error: float | None) -> str | None:
+    """A one-line note when the mounted body is off by more than its band error suggests, else None.
+
+    The threshold is ``max(NOTE_FACTOR * band_rms_error, NOTE_FLOOR)`` (``NOTE_FLOOR`` without a band
+    error); frequencies count for the modes in the band. ``check`` may be the JSON record.
+    """
+    rec = check.to_dict() if isinstance(check, MountedCheck) else check
+    limit = max(NOTE_FACTOR * (band_rms_error or 0.0), NOTE_FLOOR)
+    fmax = (rec.get("band_hz") or [None, None])[1]
+    worst = []
+    for c in rec.get("cases", ()):
+        fe = [(abs(e), f"mode {i + 1} ({f:.4g} Hz)") for i, (e, f) in
+              enumerate(zip(c["rel_error"], c["frequencies_full_hz"])) if e is not None and (fmax is None or f <= fmax)]
+        se = [(v, s["load"]) for s in c["static"] for v in (s["output_error"], s["field_error"]) if v is not None]
+        for what, errs in (("frequency of", fe), ("static deflection under", se)):
+            if errs:
+                e, name = max(errs)
+                if e > limit:
+                    worst.append((e, f"{c['held']} at {c['interface']}: {what} {name} off by {100 * e:.3g} %"))
+    if not worst:
+        return None
+    worst.sort(reverse=True)
+    told = "" if band_rms_error is None else f" (its band RMS error is {100 * band_rms_error:.3g} %)"
+    return (f"mounted body: {'; '.join(w for _, w in worst[:3])}{told}: the basis misses the body as held in its "
+            "joint; raise the order (methods that use the inputs: keep inertia_loads auto or on, which adds the "
+            "loads of the body held at each coupling master)")
+
+
+def mounted_record(model, body, *, band_rms_error: float | None = None, **options) -> dict | None:
+    """The JSON record of :func:`mounted_check` (``options`` are its keywords) with ``note``
+    (:func:`mounted_note`, None when the body is as good mounted as its band error says), or
+    None for a body without interfaces."""
+    check = mounted_check(model, body, **options)
+    if not check.cases:
+        return None
+    rec = check.to_dict()
+    rec["note"] = mounted_note(rec, band_rms_error)
+    return rec
