@@ -126,8 +126,10 @@ def test_krylov_rigid_exclude_cli(capsys, tmp_path):
 
 
 def test_krylov_rigid_include_has_no_spurious_mode(free):
+    """``rigid='include'`` (no longer the default: a free body's default basis excludes rigid motion)."""
     model = apply_damping(free, modal_damping=0.01, band=(10.0, 2000.0))
-    red, _ = reduce(model, "krylov", 24, make_ports(model, ["TIP:y", "TIP:z"]), band=(10.0, 2000.0))
+    red, _ = reduce(model, "krylov", 24, make_ports(model, ["TIP:y", "TIP:z"]), band=(10.0, 2000.0),
+                    rigid="include")
     f = red.frequencies_hz()
     n = red.info["n_rigid_included"]
     assert n == 4 and np.all(f[:n] < 1e-2) and f[n] == pytest.approx(620.6715, rel=1e-5)  # once a 290 Hz mode
@@ -281,10 +283,11 @@ def test_inertia_loads_have_no_elastic_part_on_a_free_body(free):
 
 
 def test_a_body_with_rigid_motion_is_exported_elastic(free, tmp_path):
-    """krylov's default (rigid='include') puts the rigid motion the ports excite into the basis; the
-    floating frame carries it, so SID and Exudyn export the basis made M-orthogonal to it (with a warning)."""
+    """krylov with rigid='include' (the old default) puts the rigid motion the ports excite into the basis;
+    the floating frame carries it, so SID and Exudyn export the basis made M-orthogonal to it (with a warning)."""
     model = apply_damping(free, modal_damping=0.01, band=(10.0, 2000.0))
-    red, _ = reduce(model, "krylov", 16, make_ports(model, ["TIP:y", "TIP:z"]), band=(10.0, 2000.0))
+    red, _ = reduce(model, "krylov", 16, make_ports(model, ["TIP:y", "TIP:z"]), band=(10.0, 2000.0),
+                    rigid="include")
     assert red.info["n_rigid_included"] == 4 and red.frequencies_hz()[3] < 1.0
     with pytest.warns(FlexmorWarning, match=r"order 16 -> 12"):
         write_sid(red, tmp_path / "k.SID_FEM", model=model)
