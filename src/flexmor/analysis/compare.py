@@ -269,7 +269,7 @@ class FullResponse:
         out = error_measures(self.freqs, H, Hr, resonances=self.resonances)
         out["judged"] = judged
         sr = spurious_resonances(reduced, self.freqs, H, self.resonances, self.zeta, band=self.band,
-                                 max_rel_error_hz=out["max_rel_error_hz"])
+                                 max_rel_error_hz=out["max_rel_error_hz"], max_rel_error=out["max_rel_error"])
         note = sr.pop("note")
         out.update(sr)
         out["notes"] = error_notes(out, damped=reduced.D is not None) + ([note] if note else [])

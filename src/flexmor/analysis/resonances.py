@@ -72,7 +72,8 @@ def _interp_norm(freqs, H, f) -> np.ndarray:
     return np.exp(np.interp(np.log(f), np.log(freqs), np.log(np.maximum(h, tiny))))
 
 
-def spurious_resonances(reduced, freqs, H, resonances, zeta=None, *, band=None, max_rel_error_hz=None) -> dict:
+def spurious_resonances(reduced, freqs, H, resonances, zeta=None, *, band=None, max_rel_error_hz=None,
+                        max_rel_error=None) -> dict:
     """The body's resonances in the band where the full model has none (see the module docstring).
 
     Parameters
@@ -88,8 +89,8 @@ def spurious_resonances(reduced, freqs, H, resonances, zeta=None, *, band=None, 
         Their modal damping ratios (0 when unknown).
     band : (float, float), optional
         Default the ends of ``freqs``.
-    max_rel_error_hz : float, optional
-        Where the body's max_rel_error occurs.
+    max_rel_error_hz, max_rel_error : float, optional
+        Where the body's max_rel_error occurs, and its value (named in the note).
 
     Returns
     -------
@@ -123,10 +124,14 @@ def spurious_resonances(reduced, freqs, H, resonances, zeta=None, *, band=None, 
     near = []
     for f in bad[:4]:
         lo, hi = res[res < f], res[res > f]
-        near.append(f"{f:.4g} Hz (full: " + ", ".join(
-            [f"{lo.max():.4g}" if lo.size else "none below", f"{hi.min():.4g} Hz" if hi.size else "none above"]) + ")")
+        near.append(f"{f:.4g} Hz (nearest full resonances in the band: "
+                    + (f"{lo.max():.4g} Hz" if lo.size else "none") + " below, "
+                    + (f"{hi.min():.4g} Hz" if hi.size else "none") + " above)")
+    where = (f"; max_rel_error {max_rel_error:.3g} lies there" if out["max_rel_error_at_spurious_resonance"]
+             and max_rel_error is not None else "")
     out["note"] = (f"spurious resonance{'s' if bad.size > 1 else ''}: the body resonates at {'; '.join(near)}"
-                   f"{' ...' if bad.size > 4 else ''} where the full model has no resonance (none within "
-                   f"{100 * SPURIOUS_REL:g} % or two damping ratios); its FRF there exceeds the full one by {ratio[ratio >= SPURIOUS_PEAK].min():.3g}x "
-                   "or more; raise the order or check the expansion points / band of the method")
+                   f"{' ...' if bad.size > 4 else ''}, where the full model has none (none within "
+                   f"{100 * SPURIOUS_REL:g} % or two damping ratios) and the body's |H| is "
+                   f"{ratio[ratio >= SPURIOUS_PEAK].min():.3g}x the full one or more{where}; raise the order, or check "
+                   "the method's expansion points / band")
     return out

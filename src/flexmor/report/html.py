@@ -51,7 +51,7 @@ COLUMNS = [("label", "body", "s"), ("method", "method", "s"), ("order", "order",
            ("hinf_error", "H∞ error (rel., band)", ".3e"), ("max_rel_error", "max_rel_error", ".3e"),
            ("max_rel_error_where", "max_rel_error at", "s"), ("h2_error", "H2 error (rel.)", ".3e"), ("time_mean_error", "time_mean_error", ".3e"),
            ("time_max_error", "time_max_error", ".3e"), ("time_seconds", "time integration [s]", ".3f"),
-           ("seconds", "reduction [s]", ".3f"), ("judged", "judged against", "s")]
+           ("seconds", "reduction [s]", ".3f"), ("judged_short", "judged against", "s")]
 
 
 @dataclass
@@ -71,6 +71,10 @@ class Report:
     reference: str = "full model"
     #: The coupling record (:func:`flexmor.checks.coupling_frequencies`) of a coupled model, else empty.
     coupling: dict = field(default_factory=dict)
+    #: What the plots draw: ``frf_references`` (name -> full FRF on ``freqs_hz``), ``time_references``
+    #: (name -> displacement), ``reference_of`` / ``time_reference_of`` (body label -> name) and
+    #: ``time_error`` (label -> the error curve, whose peak is the row's ``time_max_error``).
+    plot_data: dict = field(default_factory=dict)
 
 
 def fmt(value, spec: str) -> str:
@@ -186,6 +190,7 @@ def build_report(model, ports, reduced, *, band, labels=None, seconds=None, full
         H_refs.setdefault(ref_of[lb], H_ref)
         rep.rows.append({"label": lb, "method": red.method, "order": red.order, **measure_record(err),
                          "h2_error": None, "seconds": sec})
+        rep.rows[-1]["judged_short"] = _SHORT.get(judged, judged)
         rep.rows[-1]["max_rel_error_where"] = (f"{err['max_rel_error_hz']:.4g} Hz" + (
             " (anti-resonance)" if err["max_rel_error_at_antiresonance"] else "") + (
             " (spurious resonance)" if err["max_rel_error_at_spurious_resonance"] else ""))
@@ -203,6 +208,7 @@ def build_report(model, ports, reduced, *, band, labels=None, seconds=None, full
         notes.append("H2 errors not computed: " + (f"the model has {model.n_dof} > {h2_max_dof} DOF (dense method)"
                                                    if damped else "undamped bodies have no finite H2 norm"))
     rep.figures["frf"] = plots.frf_png(full.freqs, H_refs, H_red, ports.input_names, ports.output_names)
+    rep.plot_data.update(freqs_hz=full.freqs, frf_references=H_refs, reference_of=ref_of)
     rep.figures["rel_error"] = plots.rel_error_png(full.freqs, curves, title=f"{model.name}, {model.n_dof} DOF")
     svs = {}
     for lb, red in zip(labels, reduced):
@@ -253,6 +259,8 @@ def build_report(model, ports, reduced, *, band, labels=None, seconds=None, full
     chan = {(i, j): f"{ports.output_names[i]} / {ports.input_names[j] if y_full.displacement.shape[2] > 1 else 'u'}"
             for i in range(ports.n_outputs) for j in range(y_full.displacement.shape[2])}
     rep.figures["time"] = plots.time_png(y_full.t, y_refs, y_red, chan, reference_of=t_ref_of)
+    rep.plot_data.update(time_references=y_refs, time_reference_of=t_ref_of,
+                         time_error=plots.time_error_curves(y_refs, y_red, t_ref_of))
 
     # the body
     marks = {"inputs": model.node_xyz(port_nodes(model, ports.input_names)) if model.n_nodes else [],
@@ -379,6 +387,10 @@ def write_report(rep: Report, path) -> None:
             fh.write(text)
 
     atomic_write(path, write)
+
+
+#: The summary table's short form of ``judged``.
+_SHORT = {JUDGED_ELASTIC: "elastic part", JUDGED_RIGID: "with rigid motion"}
 
 
 def _reference_label(ref_name: str, judged: str) -> str:

@@ -5,7 +5,7 @@ from __future__ import annotations
 from ..io import atomic_write
 
 __all__ = ["body_png", "figure_png", "frf_png", "mac_png", "plot_rel_error", "rel_error_png", "singular_values_png",
-           "time_png"]
+           "time_error_curves", "time_png"]
 
 
 def plot_rel_error(freqs, curves: dict, path, *, title: str = "") -> None:
@@ -144,6 +144,24 @@ def mac_png(macs: dict) -> bytes:
     return figure_png(fig)
 
 
+def time_error_curves(references: dict, reduced: dict, reference_of: dict) -> dict:
+    """``||y - ŷ||(t) / max_t ||y||`` of each body against its reference (the curves of :func:`time_png`).
+
+    ``references`` maps names to responses (n_t, n_outputs, n_cases), ``reduced`` labels to responses
+    of that shape and ``reference_of`` labels to reference names. The Frobenius norm runs over all
+    channels at each time, as in :func:`flexmor.dynamics.time.time_errors`: the peak of a curve is
+    the body's ``time_max_error``.
+    """
+    import numpy as np
+
+    out = {}
+    for label, yr in reduced.items():
+        yk = references[reference_of[label]]
+        peak = max(np.max(np.linalg.norm(yk.reshape(yk.shape[0], -1), axis=1)), np.finfo(float).tiny)
+        out[label] = np.linalg.norm((yk - yr).reshape(yk.shape[0], -1), axis=1) / peak
+    return out
+
+
 def time_png(t, y, reduced: dict, labels, *, quantity: str = "displacement", max_channels: int = 4,
              reference_of: dict | None = None) -> bytes:
     """Time responses (top) and the error norm ``||y - ŷ||(t) / max_t ||y||`` per body (bottom).
@@ -166,22 +184,24 @@ def time_png(t, y, reduced: dict, labels, *, quantity: str = "displacement", max
     chans = [(i, j) for j in range(y0.shape[2]) for i in range(y0.shape[1])][:max_channels]
     fig, axes = plt.subplots(2, 1, figsize=(9, 6.4), sharex=True)
     fig.subplots_adjust(left=0.1, right=0.98, bottom=0.08, top=0.96, hspace=0.06)
+    from matplotlib.lines import Line2D
+
+    ref_ls, red_ls = ["-", "--", ":"], ["-", "--", ":", "-."]
     for n, (i, j) in enumerate(chans):
-        ax = axes[0]
-        for k, (name, yk) in enumerate(refs.items()):
-            ax.plot(t, yk[:, i, j], color=f"C{n}", lw=2.2, alpha=0.5, ls=["-", "--", ":"][k % 3],
-                    label=f"{name} {labels[(i, j)]}")
-        for k, (label, yr) in enumerate(reduced.items()):
-            ax.plot(t, yr[:, i, j], color=f"C{n}", lw=0.9, ls=["-", "--", ":", "-."][k % 4],
-                    label=f"{label}" if n == 0 else None)
+        for k, yk in enumerate(refs.values()):
+            axes[0].plot(t, yk[:, i, j], color=f"C{n}", lw=2.2, alpha=0.5, ls=ref_ls[k % 3])
+        for k, yr in enumerate(reduced.values()):
+            axes[0].plot(t, yr[:, i, j], color=f"C{n}", lw=0.9, ls=red_ls[k % 4])
+    # one legend entry per channel (colour), reference (thick) and body (thin)
+    handles = [Line2D([], [], color=f"C{n}", lw=2.2, alpha=0.5, label=labels[c]) for n, c in enumerate(chans)]
+    handles += [Line2D([], [], color="k", lw=2.2, alpha=0.5, ls=ref_ls[k % 3], label=name)
+                for k, name in enumerate(refs)]
+    handles += [Line2D([], [], color="k", lw=0.9, ls=red_ls[k % 4], label=label) for k, label in enumerate(reduced)]
     axes[0].set_ylabel(quantity)
-    axes[0].legend(fontsize=7, ncol=2)
+    axes[0].legend(handles=handles, fontsize=7, ncol=2)
     axes[0].grid(True, alpha=0.3)
     tops = []
-    for label, yr in reduced.items():
-        yk = refs[reference_of[label]]
-        peak = max(np.max(np.linalg.norm(yk.reshape(yk.shape[0], -1), axis=1)), np.finfo(float).tiny)
-        e = np.linalg.norm((yk - yr).reshape(yk.shape[0], -1), axis=1) / peak
+    for label, e in time_error_curves(refs, reduced, reference_of).items():
         tops.append(max(float(np.max(e)), 1e-16))
         name = label if len(refs) == 1 else f"{label} (vs {reference_of[label]})"
         axes[1].semilogy(t, np.maximum(e, 1e-16), lw=1.0, label=name)
