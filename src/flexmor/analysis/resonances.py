@@ -39,26 +39,33 @@ MAX_ZETA = 1 / np.sqrt(2)
 def body_resonances(reduced) -> tuple[np.ndarray, np.ndarray]:
     """The resonances of a reduced body: ``(f_hz, zeta)`` of its underdamped poles, sorted.
 
-    The poles are the eigenvalues of the quadratic pencil ``λ² Mr + λ Dr + Kr`` (dense, of the
-    first-order companion form); each complex pair gives ``f = |λ| / 2π`` (the undamped natural
-    frequency for proportional damping) and ``ζ = -Re λ / |λ|``. Without damping, the
-    eigenfrequencies with ``ζ = 0``. Rigid-body (zero) poles and poles with ``ζ >=`` 1/√2 (no
+    The poles are the eigenvalues ``λ`` of the quadratic pencil ``λ² Mr + λ Dr + Kr``; each complex
+    pair gives ``f = |λ| / 2π`` (the undamped natural frequency for proportional damping) and
+    ``ζ = -Re λ / |λ|``. Damping that the undamped modes diagonalize (none, Rayleigh, modal: what
+    flexmor projects) needs only the symmetric eigenproblem of ``(Kr, Mr)``; other damping the
+    dense first-order companion form. Rigid-body (zero) poles and poles with ``ζ >=`` 1/√2 (no
     peak) are left out.
     """
     M, K = np.asarray(reduced.M, float), np.asarray(reduced.K, float)
     r = M.shape[0]
+    lam, phi = sla.eigh(0.5 * (K + K.T), 0.5 * (M + M.T))
+    w = np.sqrt(np.clip(lam, 0.0, None))
     if reduced.D is None:
-        lam = sla.eigh(0.5 * (K + K.T), 0.5 * (M + M.T), eigvals_only=True)
-        f = np.sqrt(np.clip(lam, 0.0, None)) / (2 * np.pi)
-        z = np.zeros_like(f)
+        f, z = w / (2 * np.pi), np.zeros_like(w)
     else:
         D = np.asarray(reduced.D, float)
-        A = np.block([[np.zeros((r, r)), np.eye(r)], [-K, -D]])
-        E = np.block([[np.eye(r), np.zeros((r, r))], [np.zeros((r, r)), M]])
-        mu = sla.eig(A, E, right=False)
-        mu = mu[np.isfinite(mu) & (mu.imag > 0)]
-        f = np.abs(mu) / (2 * np.pi)
-        z = -mu.real / np.where(np.abs(mu) > 0, np.abs(mu), 1.0)
+        Dm = phi.T @ D @ phi
+        d = np.diag(Dm).copy()
+        off = Dm - np.diag(d)
+        if np.abs(off).max(initial=0.0) <= 1e-10 * max(np.abs(d).max(initial=0.0), 1e-300):  # proportional
+            f, z = w / (2 * np.pi), d / (2 * np.where(w > 0, w, np.inf))
+        else:
+            A = np.block([[np.zeros((r, r)), np.eye(r)], [-K, -D]])
+            E = np.block([[np.eye(r), np.zeros((r, r))], [np.zeros((r, r)), M]])
+            mu = sla.eig(A, E, right=False)
+            mu = mu[np.isfinite(mu) & (mu.imag > 0)]
+            f = np.abs(mu) / (2 * np.pi)
+            z = -mu.real / np.where(np.abs(mu) > 0, np.abs(mu), 1.0)
     scale = f.max(initial=0.0)
     keep = (f > 1e-6 * scale) & (z < MAX_ZETA)
     order = np.argsort(f[keep])

@@ -420,7 +420,9 @@ def cmd_report(args) -> int:
     write_report(rep, _check_new(args.output_file, args))
     if args.json:
         _emit_json({"file": str(args.output_file), "model": model.name, "band_hz": list(band), "results": rep.rows,
-                    "time": rep.time, "notes": rep.notes, "timings": {"read": t_read, "full_frf": full.seconds}})
+                    "time": rep.time, "notes": rep.notes, "reference": rep.reference,
+                    "coupling_frequencies": rep.coupling or None,
+                    "timings": {"read": t_read, "full_frf": full.seconds}})
         return 0
     print_error_table(rep.rows, label="label", header="body")
     print("time_max_error: " + ", ".join(f"{r['label']} {fmt(r['time_max_error'])}" for r in rep.rows))

@@ -149,8 +149,8 @@ def coupling_lines(rec) -> list[str]:
         return []
     ch = rec["rel_change"]
     lines = [f"{describe_couplings(rec['couplings'])} changes the lowest elastic frequencies by "
-             f"{100 * min(ch):+.2f} to {100 * max(ch):+.2f} % over the FE model as read "
-             "(right for the coupled model the body stands for)"]
+             f"{100 * min(ch):+.2f} to {100 * max(ch):+.2f} % against the FE model as read "
+             "(the coupled model is the one reduced and judged against)"]
     lines.append("mode  FE model [Hz]  coupled [Hz]  change")
     lines += [f"{i:4d}  {a:13.6g}  {b:12.6g}  {100 * c:+.3f} %"
               for i, (a, b, c) in enumerate(zip(rec["uncoupled_hz"], rec["coupled_hz"], ch), 1)]
