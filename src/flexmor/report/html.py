@@ -199,9 +199,10 @@ def build_report(model, ports, reduced, *, band, labels=None, seconds=None, full
     if damped and model.n_dof <= h2_max_dof:
         from ..analysis.norms import h2_error
 
+        e_ports = _elastic_ports(model, ports)
         for row, red in zip(rep.rows, reduced):
-            try:
-                row["h2_error"] = h2_error(model, ports, red)
+            try:  # against the row's reference: the elastic part for a body without rigid motion
+                row["h2_error"] = h2_error(model, e_ports if row["judged"] == JUDGED_ELASTIC else ports, red)
             except (FlexmorError, np.linalg.LinAlgError) as exc:
                 notes.append(f"H2 error of {row['label']} not computed: {exc}")
     else:
@@ -400,6 +401,18 @@ def _reference_label(ref_name: str, judged: str) -> str:
     if judged == JUDGED_RIGID:
         return f"{ref_name}, with rigid motion"
     return ref_name
+
+
+def _elastic_ports(model, ports):
+    """``ports`` with the inputs' elastic part ``(I - M Φ Φᵀ) B`` as inputs (``ports`` for a supported model)."""
+    from ..ports import Ports
+    from ..reduction.free_body import with_elastic_inputs
+
+    aug = with_elastic_inputs(model, ports)
+    if aug is ports:
+        return ports
+    return Ports(B=aug.B[:, ports.n_inputs:].tocsr(), C=ports.C, input_names=list(ports.input_names),
+                 output_names=list(ports.output_names))
 
 
 def _split_inputs(y, m: int):
