@@ -214,6 +214,8 @@ def test_report_plots_judge_what_the_table_judges(free, tmp_path):
     for row in rep.rows:
         assert np.max(data["time_error"][row["label"]]) == pytest.approx(row["time_max_error"], rel=1e-12)
     assert cb_row["time_max_error"] < 0.1 and cb_row["judged"] == JUDGED_ELASTIC
+    # the H2 error against the same elastic part (measured 5.4e-2; against the whole response it was 1.0)
+    assert cb_row["h2_error"] < 0.1 and kr_row["h2_error"] is None
     assert kr_row["judged"] == JUDGED_RIGID
     page = render_html(rep)
     assert "judged against the <b>full model with RBE2 at FIX, RBE2 at TIP</b>" in page

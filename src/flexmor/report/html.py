@@ -202,7 +202,13 @@ def build_report(model, ports, reduced, *, band, labels=None, seconds=None, full
         e_ports = _elastic_ports(model, ports)
         for row, red in zip(rep.rows, reduced):
             try:  # against the row's reference: the elastic part for a body without rigid motion
-                row["h2_error"] = h2_error(model, e_ports if row["judged"] == JUDGED_ELASTIC else ports, red)
+                with np.errstate(divide="ignore", invalid="ignore"):
+                    h2 = h2_error(model, e_ports if row["judged"] == JUDGED_ELASTIC else ports, red)
+                if np.isfinite(h2):
+                    row["h2_error"] = h2
+                else:
+                    notes.append(f"H2 error of {row['label']} not computed: the H2 norm of a response with "
+                                 "undamped rigid-body motion is infinite")
             except (FlexmorError, np.linalg.LinAlgError) as exc:
                 notes.append(f"H2 error of {row['label']} not computed: {exc}")
     else:
