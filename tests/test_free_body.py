@@ -126,8 +126,10 @@ def test_krylov_rigid_exclude_cli(capsys, tmp_path):
 
 
 def test_krylov_rigid_include_has_no_spurious_mode(free):
+    """``rigid='include'`` (no longer the default: a free body's default basis excludes rigid motion)."""
     model = apply_damping(free, modal_damping=0.01, band=(10.0, 2000.0))
-    red, _ = reduce(model, "krylov", 24, make_ports(model, ["TIP:y", "TIP:z"]), band=(10.0, 2000.0))
+    red, _ = reduce(model, "krylov", 24, make_ports(model, ["TIP:y", "TIP:z"]), band=(10.0, 2000.0),
+                    rigid="include")
     f = red.frequencies_hz()
     n = red.info["n_rigid_included"]
     assert n == 4 and np.all(f[:n] < 1e-2) and f[n] == pytest.approx(620.6715, rel=1e-5)  # once a 290 Hz mode

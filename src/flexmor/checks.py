@@ -19,7 +19,8 @@ import numpy as np
 from .errors import FlexmorWarning, ModelError
 from .linalg.context import SolverContext, as_solver
 
-__all__ = ["MAX_RIGID_BODY_MODES", "check_rigid_body_modes", "first_elastic_hz", "mechanism_error"]
+__all__ = ["MAX_RIGID_BODY_MODES", "COUPLING_MODES", "check_rigid_body_modes", "first_elastic_hz", "lowest_elastic_hz",
+           "coupling_frequencies", "describe_couplings", "mechanism_error"]
 
 #: Zero-energy modes an elastic body can have (3 translations + 3 rotations).
 MAX_RIGID_BODY_MODES = 6
@@ -63,14 +64,17 @@ def check_rigid_body_modes(model, *, solver: SolverContext | None = None) -> int
     return n_zero
 
 
-def _lowest_eigenvalues(model, solver: SolverContext) -> np.ndarray:
-    """The seven lowest eigenvalues of ``(K, M)``, remembered by ``solver`` per matrix pair."""
+def _lowest_eigenvalues(model, solver: SolverContext, k: int = MAX_RIGID_BODY_MODES + 1) -> np.ndarray:
+    """The ``k`` (at least seven) lowest eigenvalues of ``(K, M)``, remembered by ``solver`` per matrix pair."""
     from .linalg.eigen import eigenmodes
 
-    def compute():
-        return eigenmodes(model.K, model.M, min(MAX_RIGID_BODY_MODES + 1, model.n_dof), solver=solver)[0]
+    k = min(max(int(k), MAX_RIGID_BODY_MODES + 1), model.n_dof)
+    name = "lowest_eigenvalues" if k == min(MAX_RIGID_BODY_MODES + 1, model.n_dof) else f"lowest_eigenvalues:{k}"
 
-    return solver.remember("lowest_eigenvalues", (model.K, model.M), compute)
+    def compute():
+        return eigenmodes(model.K, model.M, k, solver=solver)[0]
+
+    return solver.remember(name, (model.K, model.M), compute)
 
 
 def first_elastic_hz(model, *, solver: SolverContext | None = None) -> float:
@@ -81,3 +85,63 @@ def first_elastic_hz(model, *, solver: SolverContext | None = None) -> float:
     lam = _lowest_eigenvalues(model, as_solver(solver))
     flex = lam[~is_rigid(lam, model.K, model.M)]
     return float(frequencies_hz(flex[:1])[0]) if flex.size else float("inf")
+
+
+#: Elastic eigenfrequencies compared by :func:`coupling_frequencies`.
+COUPLING_MODES = 6
+
+
+def lowest_elastic_hz(model, n: int, *, solver: SolverContext | None = None) -> np.ndarray:
+    """The ``n`` lowest elastic (non rigid-body) eigenfrequencies of ``model`` in Hz (fewer if the
+    model has fewer DOF); one eigen solve of ``n + 6`` pairs, remembered by ``solver``."""
+    from .linalg.eigen import frequencies_hz, is_rigid
+
+    lam = _lowest_eigenvalues(model, as_solver(solver), int(n) + MAX_RIGID_BODY_MODES)
+    return frequencies_hz(lam[~is_rigid(lam, model.K, model.M)][: int(n)])
+
+
+def coupling_frequencies(uncoupled, coupled, couplings, *, n: int = COUPLING_MODES, coupled_hz=None,
+                         solver: SolverContext | None = None) -> dict:
+    """How couplings (RBE2/RBE3 interfaces) change a model: its lowest elastic eigenfrequencies before and after.
+
+    An RBE2 makes the nodes of its set move as one rigid body: the coupled model is stiffer than
+    the FE model as exported (its frequencies are higher; Rayleigh-Ritz: the coupled model is the
+    FE model restricted to displacements that satisfy the constraints). That is right for the
+    assembly the coupling stands for, but a reduced body judged against the coupled model is not
+    judged against the FE model as exported; this record says by how much the two differ.
+
+    Parameters
+    ----------
+    uncoupled, coupled : FEModel
+        The model as read (node selections applied) and with ``couplings``.
+    couplings : list of str
+        The coupling SPECs (e.g. ``HOLE@rbe2``).
+    n : int
+        Elastic frequencies compared.
+    coupled_hz : array_like, optional
+        The coupled model's lowest elastic frequencies when already known (e.g. the resonances of
+        the error grid's modal pre-pass); at least ``n`` of them, else they are computed.
+    solver : SolverContext, optional
+
+    Returns
+    -------
+    dict
+        ``couplings``, ``uncoupled_hz``, ``coupled_hz`` (the ``n`` lowest elastic frequencies) and
+        ``rel_change`` (coupled / uncoupled - 1, per mode).
+    """
+    solver = as_solver(solver)
+    f0 = lowest_elastic_hz(uncoupled, n, solver=solver)
+    f1 = (np.asarray(coupled_hz, float)[: int(n)] if coupled_hz is not None and np.size(coupled_hz) >= n
+          else lowest_elastic_hz(coupled, n, solver=solver))
+    k = min(f0.size, f1.size)
+    return {"couplings": [str(c) for c in couplings], "uncoupled_hz": f0[:k].tolist(), "coupled_hz": f1[:k].tolist(),
+            "rel_change": (f1[:k] / f0[:k] - 1.0).tolist()}
+
+
+def describe_couplings(couplings) -> str:
+    """``RBE2 at HOLE, RBE3 at TIP`` for the coupling SPECs ``HOLE@rbe2``, ``TIP@rbe3`` (the SPECs as they are otherwise)."""
+    parts = []
+    for c in couplings:
+        target, _, kind = str(c).partition("@")
+        parts.append(f"{kind.upper()} at {target}" if kind else str(c))
+    return ", ".join(parts)

@@ -8,7 +8,7 @@ from pathlib import Path
 
 from .analysis.compare import FullResponse
 from .analysis.frequency import measure_record
-from .checks import check_rigid_body_modes, first_elastic_hz
+from .checks import check_rigid_body_modes, coupling_frequencies, first_elastic_hz
 from .damping import Damping, NoDamping, Rayleigh, band_matched
 from .damping import modal_damping as _modal_damping
 from .errors import OptionError
@@ -97,7 +97,8 @@ def body_model(model, reduced, path="the body", *, damping: Damping | None = Non
 def reduce_and_judge(model, method: str, order, ports, *, band=None, full: FullResponse | None = None,
                      n_freq: int = 50, grid_tol: float | None = None, full_frf: str = "auto", cache=True,
                      solver: SolverContext | None = None, progress=None, tol: float | None = None, method_band=None,
-                     tol_measure: str = "band_error", mounted: bool = True, **options):
+                     tol_measure: str = "band_error", mounted: bool = True, uncoupled=None, couplings=(),
+                     **options):
     """Reduce ``model`` and evaluate the error measures over ``band``.
 
     Returns ``(reduced, result)``; ``result`` is the JSON record of ``flexmor reduce``:
@@ -123,6 +124,10 @@ def reduce_and_judge(model, method: str, order, ports, *, band=None, full: FullR
     interfaces (coupling masters, Craig-Bampton interface sets) is also judged as held in its
     joints (:func:`flexmor.analysis.mounted.mounted_record`): ``result["mounted"]`` and
     ``reduced.errors["mounted"]``, its note (if any) among the ``notes``, ``timings["mounted"]``.
+    With ``uncoupled`` (the model before its ``couplings`` were
+    applied), ``result["coupling_frequencies"]`` (also in the body's ``info``) compares the lowest
+    elastic frequencies of both (:func:`flexmor.checks.coupling_frequencies`; the coupled ones
+    from the error grid's modal pre-pass when it holds them).
     """
     solver = as_solver(solver)
     check_rigid_body_modes(model, solver=solver)
@@ -177,10 +182,16 @@ def reduce_and_judge(model, method: str, order, ports, *, band=None, full: FullR
         result["grid"] = full.summary()
         red.errors = {"band_hz": list(full.band), **measure_record(err), "freqs_hz": full.freqs,
                       "rel_error": err["rel_error"]}
-        if mounted:
-            _judge_mounted(model, red, ports, result, t, solver=solver)
-    result["warnings"] = check_body(model, red, f1_hz=first_elastic_hz(model, solver=solver),
-                                    band_error=result["band_error"])
+    if full is not None and mounted:
+        _judge_mounted(model, red, ports, result, t, solver=solver)
+    f1 = first_elastic_hz(model, solver=solver)
+    result["warnings"] = check_body(model, red, f1_hz=f1, band_error=result["band_error"])
+    if uncoupled is not None and couplings:
+        known = None
+        if full is not None and full.band[0] <= f1:  # the pre-pass found every elastic mode below the band top
+            known = full.resonances[full.resonances >= f1 * (1 - 1e-6)]
+        rec = coupling_frequencies(uncoupled, model, couplings, coupled_hz=known, solver=solver)
+        red.info["coupling_frequencies"] = result["coupling_frequencies"] = rec
     if tol is not None:
         result["tol"] = tol
         result["tol_measure"] = tol_measure

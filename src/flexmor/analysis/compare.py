@@ -20,8 +20,9 @@ from ..reduction.free_body import with_elastic_inputs
 from . import cache as frf_cache
 from .frequency import error_measures, error_notes
 from .grid import DEFAULT_TOL, adaptive_grid, initial_grid
+from .resonances import spurious_resonances
 
-__all__ = ["FullResponse", "PATHS"]
+__all__ = ["FullResponse", "PATHS", "JUDGED_ELASTIC", "JUDGED_RIGID", "JUDGED_FULL"]
 
 log = logging.getLogger(__name__)
 
@@ -33,6 +34,13 @@ log = logging.getLogger(__name__)
 #: to :data:`~flexmor.dynamics.dense_frf.DENSE_FRF_MAX_DOF` DOF, else direct; modal damping takes
 #: the dense path up to that size (its ratio exact in every mode).
 PATHS = ("auto", "direct", "dense", "surrogate")
+
+#: ``judged`` of a body without rigid-body motion on a free model: the elastic part of H.
+JUDGED_ELASTIC = "elastic part (rigid-body motion carried by the frame)"
+#: ``judged`` of a body with rigid-body motion on a free model: the whole response.
+JUDGED_RIGID = "full response, rigid-body motion included"
+#: ``judged`` of a body of a supported model: the whole response.
+JUDGED_FULL = "full response"
 
 #: Damped models with at least this many DOF use the verified surrogate under ``path="auto"``.
 #: Measured (``bench/small_frf.py``, cantilever, band 10-3000 Hz, ~750 grid points, one thread):
@@ -244,8 +252,11 @@ class FullResponse:
     def evaluate(self, reduced) -> dict:
         """Error measures of ``reduced``: those of :func:`flexmor.analysis.frequency.error_measures`
         (``band_error``, ``rms_rel_error_pct``, ``hinf_error``, ``max_rel_error`` and where it
-        occurs ...), ``notes`` (:func:`~flexmor.analysis.frequency.error_notes`) and the curve
-        ``rel_error``.
+        occurs ...), ``judged`` (which reference, :meth:`reference`), ``spurious_resonances_hz`` and
+        ``max_rel_error_at_spurious_resonance`` (:func:`flexmor.analysis.resonances.spurious_resonances`:
+        resonances of the body in the band where the full model has none), ``notes``
+        (:func:`~flexmor.analysis.frequency.error_notes`, and the spurious resonances) and the
+        curve ``rel_error``.
 
         A free body whose basis excludes the rigid-body modes (``info['n_rigid_excluded']``, the
         floating-frame case: the frame carries the rigid motion) is judged on the elastic part
@@ -254,13 +265,26 @@ class FullResponse:
         response, which at low frequencies exceeds it by orders of magnitude).
         """
         Hr = frf_reduced(reduced, self.freqs)
-        H = self.H
-        if reduced.info.get("n_rigid_excluded") and self.H_elastic is not None:
-            H = self.H_elastic
+        H, judged = self.reference(reduced)
         out = error_measures(self.freqs, H, Hr, resonances=self.resonances)
-        out["notes"] = error_notes(out, damped=reduced.D is not None)
+        out["judged"] = judged
+        sr = spurious_resonances(reduced, self.freqs, H, self.resonances, self.zeta, band=self.band,
+                                 max_rel_error_hz=out["max_rel_error_hz"], max_rel_error=out["max_rel_error"])
+        note = sr.pop("note")
+        out.update(sr)
+        out["notes"] = error_notes(out, damped=reduced.D is not None) + ([note] if note else [])
         out["rel_error"] = rel_error(H, Hr)
         return out
+
+    def reference(self, reduced):
+        """``(H, judged)``: the full FRF that ``reduced`` is judged against and its description,
+        :data:`JUDGED_ELASTIC` (:attr:`H_elastic`, for a free body whose basis excludes the
+        rigid-body modes) or :attr:`H` (:data:`JUDGED_RIGID` on a free model, else :data:`JUDGED_FULL`)."""
+        if self.H_elastic is None:
+            return self.H, JUDGED_FULL
+        if reduced.info.get("n_rigid_excluded"):
+            return self.H_elastic, JUDGED_ELASTIC
+        return self.H, JUDGED_RIGID
 
 def _modal_correction(evaluate, damping, f_modes, phi, ports):
     """``evaluate`` (the FRF of the sparse Rayleigh realization of modal damping) with the share of

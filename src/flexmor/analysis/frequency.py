@@ -41,9 +41,12 @@ MEASURES = {
 }
 #: Measures ``--tol`` can target (``band_rms_error`` = rms_rel_error_pct / 100 is JSON only).
 TOL_MEASURES = tuple(MEASURES)
-#: The scalar fields of :func:`error_measures` in every JSON record and error table, in order.
+#: The fields of a body's judgement in every JSON record and error table, in order: those of
+#: :func:`error_measures`, then those of :meth:`flexmor.analysis.compare.FullResponse.evaluate`
+#: (``judged``: the reference, full response or its elastic part; the spurious resonances).
 MEASURE_KEYS = ("band_error", "band_rms_error", "rms_rel_error_pct", "hinf_error", "max_rel_error",
-                "max_rel_error_hz", "max_rel_error_at_antiresonance", "resonance_share")
+                "max_rel_error_hz", "max_rel_error_at_antiresonance", "resonance_share",
+                "max_rel_error_at_spurious_resonance", "spurious_resonances_hz", "judged")
 #: ``||H||_F`` at an anti-resonance is at most the band median divided by this factor.
 ANTIRESONANCE_FACTOR = 10.0
 #: Relative frequency window (±) in which an anti-resonance is a local minimum of ``||H||_F``.

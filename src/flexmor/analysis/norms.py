@@ -52,13 +52,17 @@ def _h2_modal(model, ports, red):
     a2, b2, R2 = _modal_terms(red.M, red.K, red.B, red.C, d.alpha, d.beta)
     a, b = np.concatenate([a1, a2]), np.concatenate([b1, b2])
     R = np.concatenate([R1, -R2]).reshape(a.size, -1)
-    if np.any(a <= 0):
+    # modes the ports do not see (e.g. rigid-body modes of the inputs' elastic part) do not count
+    r = np.linalg.norm(R, axis=1)
+    seen = r > 1e-10 * r.max(initial=0.0)
+    if np.any(a[seen] <= 0):
         raise OptionError("the H2 norm needs damping of every mode (alpha > 0 for rigid-body modes)")
+    a, b, R = a[seen], b[seen], R[seen]
+    n1 = int(np.sum(seen[: a1.size]))
     S = a[:, None] + a[None, :]
     G = S / ((b[:, None] - b[None, :]) ** 2 + S * (a[:, None] * b[None, :] + a[None, :] * b[:, None]))
     W = R @ R.T
     err2 = float(np.sum(W * G))
-    n1 = a1.size
     full2 = float(np.sum(W[:n1, :n1] * G[:n1, :n1]))
     return np.sqrt(max(err2, 0.0)), np.sqrt(full2)
 

@@ -14,7 +14,7 @@ from ..errors import OptionError
 from ..jsonutil import jsonable
 from ..linalg.context import step
 from ..linalg.distributed import is_partitioned, on_root, row_blocks
-from .info import info_backends, info_body, info_formats, interface_lines, is_body_file, print_mass_properties
+from .info import coupling_lines, info_backends, info_body, info_formats, interface_lines, is_body_file, print_mass_properties
 from .options import method_options
 from .tables import fmt, print_error_table, print_mounted
 
@@ -90,10 +90,10 @@ def _factor_note(out: dict, solver) -> str:
     return f"factor: {describe_factor(solver.stats)}" if solver.stats.mixed or solver.stats.ooc else ""
 
 
-def _read_model(args, couplings=(), *, damped=True):
+def _read_model(args, couplings=(), *, damped=True, keep=None):
     """The model of ``args.model`` (selections and ``couplings`` applied), the read time and the
     band; with ``damped`` the damping flags applied, else they are left to the caller
-    (:func:`_asked_damping`)."""
+    (:func:`_asked_damping`). ``keep["uncoupled"]`` (a dict given) gets the model before the couplings."""
     from ..io import read
     from ..options import Band
     from ..workflow import prepare_model
@@ -104,6 +104,8 @@ def _read_model(args, couplings=(), *, damped=True):
             from ..selection import with_selections
 
             model = with_selections(model, args.select)
+        if keep is not None:
+            keep["uncoupled"] = model
         return prepare_model(model, couplings)
 
     t0 = time.perf_counter()
@@ -156,7 +158,11 @@ def cmd_info(args) -> int:
 
     if is_body_file(args.model, args.format):
         return info_body(args, _emit_json)
-    model, t_read, _ = _read_model(args)
+    from ..workflow import coupling_specs
+
+    couplings = coupling_specs(args.interface)
+    keep = {}
+    model, t_read, _ = _read_model(args, couplings, keep=keep)
     out = model.summary()
     out.update(model.mass_properties())
     out["selections"] = {name: model.node_sets[name].tolist() for name in _selected_names(args)}
@@ -176,12 +182,22 @@ def cmd_info(args) -> int:
 
         out["reference"] = dict(compare_modes(model, read_frd(args.reference), solver=solver),
                                 file=str(args.reference))
+    if couplings and "uncoupled" in keep:
+        from ..checks import COUPLING_MODES, coupling_frequencies
+
+        out["couplings"] = couplings
+        out["coupling_frequencies"] = coupling_frequencies(keep["uncoupled"], model, couplings,
+                                                           n=max(args.modes, COUPLING_MODES), solver=solver)
     out["timings"] = {"read": t_read}
     factor = _factor_note(out, solver)
     if args.json:
         _emit_json(out)
         return 0
     print(f"model     {model.name}  ({model.source})")
+    if out.get("couplings"):
+        from ..checks import describe_couplings
+
+        print(f"coupled   with {describe_couplings(out['couplings'])} (sizes and frequencies below are the coupled model's)")
     print(f"DOF       {model.n_dof}    nodes {model.n_nodes}    nnz(K) {out['nnz_K']}")
     print(f"damping   {describe_damping(model.damping)}")
     if model.node_sets:
@@ -196,6 +212,10 @@ def cmd_info(args) -> int:
         for i, f in enumerate(out["frequencies_hz"], 1):
             tag = "  rigid" if i <= out["n_rigid"] else ""
             print(f"{i:5d}   {f:14.6f}{tag}")
+    if out.get("coupling_frequencies"):
+        print()
+        for line in coupling_lines(out["coupling_frequencies"]):
+            print(line)
     if args.reference:
         ref = out["reference"]
         print(f"\n mode   {args.reference} [Hz]   model [Hz]   rel. diff   MAC")
@@ -228,15 +248,17 @@ def cmd_reduce(args) -> int:
     if args.output_file:
         _check_new(args.output_file, args)
     couplings = coupling_specs(args.interface, args.input + args.output)
-    model, t_read, given_band = _read_model(args, couplings)
+    keep = {}
+    model, t_read, given_band = _read_model(args, couplings, keep=keep)
     ports = make_ports(model, args.input, args.output)
+    uncoupled = None if is_partitioned(model.K) else keep.get("uncoupled")  # (MPI: the coupled model only)
     band = None if args.no_error else (given_band or DEFAULT_BAND)
     solver = _solver(args)
     red, res = reduce_and_judge(model, args.method, args.order, ports, band=band, method_band=given_band,
                                 n_freq=args.n_freq, grid_tol=args.grid_tol, full_frf=args.full_frf,
                                 cache=not args.no_cache, solver=solver, progress=_progress(args, "full FRF"),
                                 tol=args.tol, tol_measure=args.tol_measure, inertia_loads=args.inertia_loads,
-                                **options)
+                                uncoupled=uncoupled, couplings=couplings, **options)
     res["timings"]["read"] = t_read
     if is_partitioned(model.K):  # under mpirun with --backend petsc: the rows of K held by each rank
         res["partition"] = row_blocks(model.K)
@@ -267,6 +289,8 @@ def cmd_reduce(args) -> int:
               f"{describe_damping(model.damping)}:")
         print_error_table([res])
         print_mounted([res])
+    for line in coupling_lines(res.get("coupling_frequencies")):
+        print(f"coupling: {line}")
     fr = res["frequencies_hz"]
     print("reduced frequencies [Hz]: " + " ".join(f"{f:.4g}" for f in fr[:12]) + (" ..." if len(fr) > 12 else ""))
     if factor:
@@ -329,7 +353,10 @@ def cmd_compare(args) -> int:
     print_error_table(rows, label="file")
     print_mounted(rows, label="file")
     damp = sorted({r["reference_damping"] for r in rows})
-    print(f"reference: the full model with each body's own damping ({'; '.join(damp)})")
+    from ..checks import describe_couplings
+
+    refs = sorted({"full model" + (f" with {describe_couplings(k[2])}" if k[2] else "") for k in fulls})
+    print(f"reference: the {' / '.join(refs)} with each body's own damping ({'; '.join(damp)})")
     return 0
 
 
@@ -427,22 +454,32 @@ def cmd_report(args) -> int:
         raise OptionError(f"a report judges its bodies against one full model: {args.reduced[0]} was reduced with "
                           f"damping {describe_damping(reds[0].damping)}, these with another: {', '.join(other)}; "
                           "compare them with flexmor compare, or make one report per damping")
+    as_read = model
     model = [reference_model(model, r, p, damping=asked) for p, r in zip(args.reduced, reds)][0]
     ports = make_ports(model, *key[:2])
     solver = _solver(args)
     full = _full_response(args, model, ports, band, solver)
+    coupling = reds[0].info.get("coupling_frequencies")
+    if key[2] and not coupling and not is_partitioned(model.K):  # a body written before it was recorded
+        from ..checks import coupling_frequencies
+
+        coupling = coupling_frequencies(as_read, model, key[2], solver=solver)
     rep = build_report(model, ports, reds, band=band, full=full, signal=args.signal, dt=args.dt, t_end=args.t_end,
-                       scheme=args.scheme, n_modes=args.modes, solver=solver,
+                       scheme=args.scheme, n_modes=args.modes, solver=solver, coupling=coupling,
                        time_progress=_progress(args, "time steps", unit="step"))
     write_report(rep, _check_new(args.output_file, args))
     if args.json:
         _emit_json({"file": str(args.output_file), "model": model.name, "band_hz": list(band), "results": rep.rows,
-                    "time": rep.time, "notes": rep.notes, "timings": {"read": t_read, "full_frf": full.seconds}})
+                    "time": rep.time, "notes": rep.notes, "reference": rep.reference,
+                    "coupling_frequencies": rep.coupling or None,
+                    "timings": {"read": t_read, "full_frf": full.seconds}})
         return 0
     print_error_table(rep.rows, label="label", header="body")
     print_mounted(rep.rows, label="label")
     print("time_max_error: " + ", ".join(f"{r['label']} {fmt(r['time_max_error'])}" for r in rep.rows))
-    print(f"reference: the full model with the bodies' damping ({describe_damping(model.damping)})")
+    print(f"reference: the {rep.reference} with the bodies' damping ({describe_damping(model.damping)})")
+    for line in coupling_lines(rep.coupling):
+        print(f"coupling: {line}")
     print(f"written {args.output_file}")
     return 0
 

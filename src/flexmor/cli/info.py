@@ -6,7 +6,8 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-__all__ = ["is_body_file", "info_body", "interface_lines", "info_backends", "info_formats", "print_mass_properties"]
+__all__ = ["is_body_file", "info_body", "interface_lines", "info_backends", "info_formats", "print_mass_properties",
+           "coupling_lines"]
 
 
 def is_body_file(path, format: str | None) -> bool:
@@ -35,7 +36,7 @@ def info_body(args, emit_json) -> int:
     from ..origin import describe_damping
 
     red = read_body(args.model, format=args.format)
-    out = dict(red.summary(), file=str(args.model))
+    out = dict(red.summary(), file=str(args.model), coupling_frequencies=red.info.get("coupling_frequencies"))
     if args.json:
         emit_json(out)
         return 0
@@ -54,6 +55,8 @@ def info_body(args, emit_json) -> int:
         _row("couplings", ", ".join(out["couplings"]))
     for line in interface_lines(out["masters"]):
         _row("interface", line)
+    for line in coupling_lines(red.info.get("coupling_frequencies")):
+        _row("", line)
     _row("damping", describe_damping(damping_from_dict(out["damping"])))
     fr = out["frequencies_hz"]
     if fr is not None:
@@ -65,10 +68,15 @@ def info_body(args, emit_json) -> int:
         if err.get("rms_rel_error_pct") is not None:
             text += (f", rms_rel_error {err['rms_rel_error_pct']:.3g} %, hinf_error {err['hinf_error']:.3e}, "
                      f"max_rel_error {err['max_rel_error']:.3e} at {err['max_rel_error_hz']:.4g} Hz"
-                     + (" (anti-resonance)" if err.get("max_rel_error_at_antiresonance") else ""))
+                     + (" (anti-resonance)" if err.get("max_rel_error_at_antiresonance") else "")
+                     + (" (spurious resonance)" if err.get("max_rel_error_at_spurious_resonance") else ""))
         elif err.get("max_rel_error") is not None:
             text += f", max_rel_error {err['max_rel_error']:.3e}"
         _row("errors", text)
+        if err.get("judged"):
+            _row("judged", err["judged"])
+        for note in err.get("notes") or ():
+            _row("note", note)
     else:
         _row("errors", "not evaluated")
     _mounted_rows(err.get("mounted"))
@@ -155,3 +163,19 @@ def print_mass_properties(out: dict) -> None:
         _row("mass", text + " (mass unit of the file; DOFs constrained in the export carry none)", 10)
     if out.get("center_of_mass"):
         _row("c.o.m.", "({:.6g}, {:.6g}, {:.6g})".format(*out["center_of_mass"]), 10)
+
+
+def coupling_lines(rec) -> list[str]:
+    """Lines on the coupling record of :func:`flexmor.checks.coupling_frequencies` (none without one)."""
+    from ..checks import describe_couplings
+
+    if not rec or not rec.get("coupled_hz"):
+        return []
+    ch = rec["rel_change"]
+    lines = [f"{describe_couplings(rec['couplings'])} changes the lowest elastic frequencies by "
+             f"{100 * min(ch):+.2f} to {100 * max(ch):+.2f} % against the FE model as read "
+             "(the coupled model is the one reduced and judged against)"]
+    lines.append("mode  FE model [Hz]  coupled [Hz]  change")
+    lines += [f"{i:4d}  {a:13.6g}  {b:12.6g}  {100 * c:+.3f} %"
+              for i, (a, b, c) in enumerate(zip(rec["uncoupled_hz"], rec["coupled_hz"], ch), 1)]
+    return lines

@@ -141,6 +141,9 @@ def build_parser() -> argparse.ArgumentParser:
                    "bodies) and exports, with their suffixes")
     p.add_argument("--reference", metavar="FRD", help="CalculiX .frd with the FE program's own modes: compare "
                    "frequencies and mode shapes (MAC) with the model's")
+    p.add_argument("--interface", action="append", default=[], metavar="SPEC",
+                   help="couple SET@rbe2 / SET@rbe3 as reduce does: the model shown is the coupled one, and its "
+                        "lowest elastic frequencies are compared with those of the FE model as read")
     for action in p._actions:  # MODEL is optional with --backends and --formats
         if action.dest == "model":
             action.nargs, action.required = "?", False

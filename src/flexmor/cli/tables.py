@@ -11,10 +11,12 @@ def fmt(x, spec: str = ".3e") -> str:
 
 
 def _where(r) -> str:
-    """Where max_rel_error occurs: ``1234 Hz`` or ``1234 Hz (AR)`` at an anti-resonance."""
+    """Where max_rel_error occurs: ``1234 Hz``, ``1234 Hz AR`` at an anti-resonance, ``1234 Hz SR`` at a
+    spurious resonance of the body (one the full model does not have)."""
     if r.get("max_rel_error_hz") is None:
         return "-"
-    return f"{r['max_rel_error_hz']:.4g} Hz" + (" AR" if r.get("max_rel_error_at_antiresonance") else "")
+    return (f"{r['max_rel_error_hz']:.4g} Hz" + (" AR" if r.get("max_rel_error_at_antiresonance") else "")
+            + (" SR" if r.get("max_rel_error_at_spurious_resonance") else ""))
 
 
 def print_error_table(rows, label: str = "method", header: str | None = None) -> None:
@@ -40,9 +42,11 @@ def print_error_table(rows, label: str = "method", header: str | None = None) ->
               f"{'-' if rms is None else format(rms, '.3g'):>9}{fmt(r.get('hinf_error'), '.2e'):>12}"
               f"{fmt(r.get('max_rel_error'), '.2e'):>15}{_where(r):>14}{fmt(r.get('seconds'), '.3f'):>9}")
     _notes(rows, label)
+    _judged(rows, label)
     if any(r.get("band_error") is not None for r in rows):
         print("band_error = ∫|H-Hr|²/∫|H|² over the band; rms % = 100 sqrt(band_error); hinf_error = max|H-Hr| / "
-              "max|H|; max_rel_error = max |H-Hr|/|H| (AR: at an anti-resonance, where |H| is small)")
+              "max|H|; max_rel_error = max |H-Hr|/|H| (AR: at an anti-resonance, where |H| is small; SR: at a spurious "
+              "resonance, one the full model does not have)")
 
 
 def _notes(rows, label: str) -> None:
@@ -86,3 +90,20 @@ def print_mounted(rows, label: str = "method") -> None:
         print("".join(f"{v:<{n}}" for v, n in zip(x, w)) + f"{x[4]:>11}{x[5]:>14}")
     print("freq error = max |f_red/f_full - 1| of the lowest elastic modes in the band; static error = max relative "
           "error of the clamped deflection under gravity x y z and the inputs (at the outputs and over the field)")
+
+
+def _judged(rows, label: str) -> None:
+    """The ``judged:`` line of bodies of a free model: which part of the full response they were judged
+    against (the elastic part, or the response with its rigid motion); with both kinds, the bodies of each."""
+    from ..analysis.compare import JUDGED_FULL
+
+    kinds = {r.get("judged") for r in rows if r.get("judged")}
+    if not kinds - {JUDGED_FULL}:
+        return
+    if len(kinds) == 1:
+        print(f"judged: {kinds.pop()}")
+        return
+    for kind in sorted(kinds):
+        names = [str(r.get(label)) if label != "method" else f"{r['method']} r={r['order']}" for r in rows
+                 if r.get("judged") == kind]
+        print(f"judged: {kind}: {', '.join(names)}")

@@ -63,7 +63,7 @@ class AdaptiveOptions:
 
 @register_method("adaptive", "greedy expansion points in the band from a cheap error estimate", options=AdaptiveOptions)
 def adaptive(model, ports, order, *, band=None, estimate_tol: float | None = None, moments: int = 1,
-             side: str = "input", n_candidates: int = 400, max_points: int = 60, rigid: str = "include",
+             side: str = "input", n_candidates: int = 400, max_points: int = 60, rigid: str = "exclude",
              solver: SolverContext | None = None) -> Basis:
     """Krylov basis with greedily chosen expansion points in the band.
 
@@ -89,10 +89,10 @@ def adaptive(model, ports, order, *, band=None, estimate_tol: float | None = Non
         Log-spaced candidate frequencies in the band.
     max_points : int
         Upper limit of expansion points.
-    rigid : {'include', 'exclude'}
-        Free bodies, as in :func:`flexmor.reduction.krylov.krylov`: ``include`` puts the
-        rigid-body modes the ports excite first, ``exclude`` leaves them out; the Krylov
-        vectors are M-orthogonal to all rigid-body modes either way.
+    rigid : {'exclude', 'include'}
+        Free bodies, as in :func:`flexmor.reduction.krylov.krylov`: ``exclude`` (default)
+        leaves them to the floating frame, ``include`` puts the rigid-body modes the ports
+        excite first; the Krylov vectors are M-orthogonal to all rigid-body modes either way.
     solver : SolverContext, optional
         Solver (backend, statistics) of :func:`flexmor.linalg.factorize` (one factorization per point).
 

@@ -45,7 +45,7 @@ SOBT_CUTOFF = 2.0
 
 
 def balanced_basis(model, ports, order, band, *, method: str, variant: str = "position", nodes: int = 4,
-                   cutoff=None, rigid: str = "include", solves: str = "auto",
+                   cutoff=None, rigid: str = "exclude", solves: str = "auto",
                    solver: SolverContext | None = None) -> Basis:
     """Shared body of ``sobt`` and ``fw-sobt``: Gramian factors over ``band``, balancing, basis."""
     solver = as_solver(solver)
@@ -103,7 +103,7 @@ class SobtOptions:
 @register_method("sobt", "second-order balanced truncation, full-band Gramians (low rank)", options=SobtOptions,
                  survives_coupling=False)
 def sobt(model, ports, order, *, variant: str = "position", nodes: int = 4, band=None, cutoff: float | None = None,
-         rigid: str = "include", solves: str = "auto", solver: SolverContext | None = None) -> Basis:
+         rigid: str = "exclude", solves: str = "auto", solver: SolverContext | None = None) -> Basis:
     """Second-order balanced truncation with full-band (``[0, inf)``) Gramians.
 
     Parameters
@@ -130,9 +130,10 @@ def sobt(model, ports, order, *, variant: str = "position", nodes: int = 4, band
         each, bounded in total by one static solve); with the direct solves the rest of
         ``[0, inf)`` is one tail cell. Small models (up to 600 DOF) get the exact dense
         Lyapunov solutions (:func:`flexmor.reduction.dense_gramians.dense_gramians`).
-    rigid : {'include', 'exclude'}
-        Free bodies: the rigid-body modes excited by the inputs lead the basis (include) or
-        are left to the floating frame (exclude); the Gramians are those of the flexible part.
+    rigid : {'exclude', 'include'}
+        Free bodies: the rigid-body modes are left to the floating frame (exclude, default: the
+        body reduced and judged is the one exported) or the ones the inputs excite lead the basis
+        (include); the Gramians are those of the flexible part.
     solves : {'auto', 'direct', 'dense', 'surrogate'}
         How the quadrature nodes are solved (:func:`flexmor.reduction.gramians.gramian_factors`):
         ``auto`` is the exact dense Lyapunov solution up to 600 DOF, else the verified surrogate
@@ -175,7 +176,7 @@ class FwSobtOptions:
 
 @register_method("fw-sobt", "second-order balanced truncation, frequency-limited Gramians of the band",
                  options=FwSobtOptions, survives_coupling=False)
-def fw_sobt(model, ports, order, *, band=None, variant: str = "position", nodes: int = 4, rigid: str = "include",
+def fw_sobt(model, ports, order, *, band=None, variant: str = "position", nodes: int = 4, rigid: str = "exclude",
             solves: str = "auto", solver: SolverContext | None = None) -> Basis:
     """Frequency-limited second-order balanced truncation over the band of interest.
 
@@ -195,7 +196,7 @@ def fw_sobt(model, ports, order, *, band=None, variant: str = "position", nodes:
         See :func:`sobt`.
     nodes : int
         Gauss points per panel of the quadrature (see :func:`sobt`).
-    rigid : {'include', 'exclude'}
+    rigid : {'exclude', 'include'}
         See :func:`sobt`.
     solves : {'auto', 'direct', 'dense', 'surrogate'}
         How the quadrature nodes are solved (:func:`flexmor.reduction.gramians.gramian_factors`):

@@ -7,12 +7,13 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..basis import Basis
-from ..errors import OptionError
+from ..errors import OptionError, check_choice
 from ..linalg import factorize
 from ..linalg.context import SolverContext, as_solver
 from ..options import option
 from ..ports import interface_dofs
 from . import register_method
+from .free_body import inertia_relief_modes, rigid_body_modes
 
 
 def interface_option():
@@ -52,11 +53,14 @@ class GuyanOptions:
     """Options of :func:`guyan`."""
 
     interface: list | None = interface_option()
+    rigid: str = option("exclude", "free bodies: rigid-body motion in the basis or not (exclude: the interface's "
+                        "inertia-relief attachment modes replace the constraint modes)", choices=("exclude", "include"))
 
 
 @register_method("guyan", "static condensation onto the interface DOFs", options=GuyanOptions,
                  uses_inputs=False)
-def guyan(model, ports, order, *, interface=None, solver: SolverContext | None = None) -> Basis:
+def guyan(model, ports, order, *, interface=None, rigid: str = "exclude",
+          solver: SolverContext | None = None) -> Basis:
     """Guyan reduction: the static constraint modes of the interface DOFs.
 
     Parameters
@@ -68,21 +72,41 @@ def guyan(model, ports, order, *, interface=None, solver: SolverContext | None =
         Must equal the number of interface DOFs if given.
     interface : list of str
         Interface SPECs (``NODE``, ``SET``, ``NODE:DIR``, ``SET:DIR``).
+    rigid : {'exclude', 'include'}
+        Free bodies: the constraint modes of an interface that holds the body span its rigid-body
+        motions (six of them for one RBE2 master: the whole Guyan basis is rigid motion, nothing
+        of it is left in the floating frame). ``exclude`` (default) uses the interface's
+        inertia-relief attachment modes instead (:func:`flexmor.reduction.free_body.inertia_relief_modes`,
+        as :func:`flexmor.reduction.craig_bampton.craig_bampton` does): the quasi-static elastic
+        response to interface loads balanced by the body's inertia, M-orthogonal to the rigid-body
+        modes, ``n_b`` columns. ``include`` keeps the constraint modes (interface coordinates).
+        No effect on a supported body.
     solver : SolverContext, optional
         Solver (backend, statistics) of :func:`flexmor.linalg.factorize` for ``K_ii``.
 
     Returns
     -------
     Basis
-        Exact for static loads at the interface DOFs.
+        Exact for static loads at the interface DOFs (for a free body without rigid motion:
+        for their elastic, inertia-relieved part).
 
     References
     ----------
     Guyan, R. J. (1965). Reduction of stiffness and mass matrices. AIAA Journal 3(2), 380.
     """
     solver = as_solver(solver)
-    V, b, _, _ = constraint_modes(model, interface, solver)
+    check_choice("rigid", rigid, ("exclude", "include"))
+    phi = rigid_body_modes(model) if rigid == "exclude" else np.zeros((model.n_dof, 0))
+    if phi.shape[1]:  # a free body: the elastic, inertia-relieved responses to the interface loads
+        if not interface:
+            raise OptionError("this method needs interface SPECs (NODE, SET or SET:DIR)", params=("interface",))
+        b = interface_dofs(model, interface)
+        V = inertia_relief_modes(model, b, phi=phi, solver=solver)
+        info = {"rigid": "exclude", "attachment": "inertia-relief", "n_rigid_body_modes": int(phi.shape[1])}
+    else:
+        V, b, _, _ = constraint_modes(model, interface, solver)
+        info = {}
     if order is not None and order != b.size:
         raise OptionError(f"guyan's order is the number of interface DOFs ({b.size}), not {order}",
                           params=("order",))
-    return Basis(V, "guyan", {"n_interface_dofs": int(b.size)})
+    return Basis(V, "guyan", {"n_interface_dofs": int(b.size), **info})

@@ -61,9 +61,10 @@ def side_option(default: str = "input", choices=SIDES):
     return option(default, "space of the inputs B, the outputs C^T or both", choices=choices)
 
 
-def rigid_option(default: str = "include"):
+def rigid_option(default: str = "exclude"):
     """The ``rigid`` option: the rigid-body modes of a free body in the basis or not."""
-    return option(default, "rigid-body modes of a free body in the basis", choices=RIGID)
+    return option(default, "rigid-body modes of a free body in the basis (exclude: the floating frame carries "
+                  "them, the body is the one an FFRF export writes)", choices=RIGID)
 
 
 def parse_points(points) -> np.ndarray:
@@ -296,7 +297,7 @@ class KrylovOptions:
 
 @register_method("krylov", "second-order block Krylov moment matching at expansion points", options=KrylovOptions)
 def krylov(model, ports, order, *, points=None, moments: int | None = None, side: str = "input",
-           band=None, rigid: str = "include", points_tol: float = POINTS_TOL,
+           band=None, rigid: str = "exclude", points_tol: float = POINTS_TOL,
            solver: SolverContext | None = None) -> Basis:
     """Second-order block Krylov (moment matching) basis at one or several expansion points.
 
@@ -329,16 +330,17 @@ def krylov(model, ports, order, *, points=None, moments: int | None = None, side
         Band (Hz) for the default points; default (1, 1000).
     points_tol : float
         Largest estimated band error of the default single point (see ``points``).
-    rigid : {'include', 'exclude'}
+    rigid : {'exclude', 'include'}
         Free bodies (rigid-body modes found from the geometry, :func:`rigid_body_modes`):
         the Krylov vectors are kept M-orthogonal to the rigid-body modes (moments of the
         flexible part of ``H``; for proportional damping ``H`` is rigid part + flexible part,
         so nothing is lost), which removes the round-off that nearly singular shifts would
-        otherwise put into the basis. ``include`` (default) puts the rigid-body modes that
+        otherwise put into the basis. ``exclude`` (default) leaves them out, as the floating
+        frame of reference wants (it describes rigid motion itself): the moments of the
+        flexible part are matched, and the body reduced, judged (on the elastic part of ``H``)
+        and stored is the one an FFRF export writes. ``include`` puts the rigid-body modes that
         the ports excite first in the basis: the reduced body moves rigidly like the full one
-        and all moments of ``H`` are matched. ``exclude`` leaves them out, as the floating
-        frame of reference wants (it describes rigid motion itself); then the moments of the
-        flexible part are matched. A point 0 on a free body (singular ``K``) is moved to a
+        and all moments of ``H`` are matched (an FFRF export removes them again). A point 0 on a free body (singular ``K``) is moved to a
         small real shift.
     solver : SolverContext, optional
         Solver (backend, statistics) of :func:`flexmor.linalg.factorize` (one factorization per point).

@@ -97,7 +97,7 @@ class PodOptions:
 @register_method("pod", "proper orthogonal decomposition of frequency (and time) snapshots", options=PodOptions,
                  survives_coupling=False)
 def pod(model, ports, order, *, band=None, energy: float | None = None, snapshots: str = "frequency",
-        side: str = "input", nodes: int = 4, rigid: str = "include", solves: str = "auto",
+        side: str = "input", nodes: int = 4, rigid: str = "exclude", solves: str = "auto",
         solver: SolverContext | None = None) -> Basis:
     """POD basis from snapshots of the full body's response.
 
@@ -124,10 +124,10 @@ def pod(model, ports, order, *, band=None, energy: float | None = None, snapshot
         Snapshots of ``B`` only, or of ``B`` and ``C^T`` (the dual body).
     nodes : int
         Gauss points per quadrature panel (see :func:`flexmor.reduction.balanced.sobt`).
-    rigid : {'include', 'exclude'}
+    rigid : {'exclude', 'include'}
         Free bodies: the snapshots are those of the flexible part (M-orthogonal to the rigid-body
-        modes); ``include`` puts the rigid-body modes the inputs excite first, ``exclude`` leaves
-        them to the floating frame.
+        modes); ``exclude`` (default) leaves the rigid motion to the
+        floating frame, ``include`` puts the rigid-body modes the inputs excite first.
     solves : {'auto', 'direct', 'dense', 'surrogate'}
         How the frequency snapshots are solved (see :func:`flexmor.reduction.balanced.fw_sobt`).
     solver : SolverContext, optional

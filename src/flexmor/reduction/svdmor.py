@@ -76,7 +76,7 @@ class SvdmorOptions:
 @register_method("svdmor", "SVD compression of many inputs/outputs from sampled transfer data, then krylov",
                  options=SvdmorOptions, survives_coupling=False)
 def svdmor(model, ports, order, *, directions: int | None = None, band=None, points=None, side: str = "both",
-           rigid: str = "include", solver: SolverContext | None = None) -> Basis:
+           rigid: str = "exclude", solver: SolverContext | None = None) -> Basis:
     """SVDMOR: Krylov reduction of the body with its inputs and outputs compressed by an SVD.
 
     A body with many inputs (``m``) makes block Krylov spaces grow by ``m`` per moment. SVDMOR
@@ -103,7 +103,7 @@ def svdmor(model, ports, order, *, directions: int | None = None, band=None, poi
         Points (Hz) of the sampling and of the Krylov spaces (default three real points).
     side : {'input', 'output', 'both'}
         Krylov space of the compressed ``B``, ``C^T`` or both.
-    rigid : {'include', 'exclude'}
+    rigid : {'exclude', 'include'}
         See :func:`flexmor.reduction.krylov.krylov`.
     solver : SolverContext, optional
         Solver (backend, statistics) of :func:`flexmor.linalg.factorize`.

@@ -42,7 +42,7 @@ class TwoStepOptions:
 @register_method("two-step", "krylov to an intermediate order, then balanced truncation with exact Gramians",
                  options=TwoStepOptions, survives_coupling=False)
 def two_step(model, ports, order, *, intermediate: int = 120, band=None, gramian: str = "band",
-             variant: str = "position", points=None, rigid: str = "include",
+             variant: str = "position", points=None, rigid: str = "exclude",
              solver: SolverContext | None = None) -> Basis:
     """Krylov reduction to ``intermediate`` (r1), then second-order balanced truncation to ``order`` (r2).
 
@@ -68,7 +68,7 @@ def two_step(model, ports, order, *, intermediate: int = 120, band=None, gramian
         Controllability Gramian of positions or velocities (see :func:`flexmor.reduction.balanced.sobt`).
     points : str, optional
         Krylov expansion points (Hz), see :func:`flexmor.reduction.krylov.parse_points`.
-    rigid : {'include', 'exclude'}
+    rigid : {'exclude', 'include'}
         Rigid-body modes of a free body (see :func:`flexmor.reduction.krylov.krylov`); the
         included ones are kept in front of the balanced vectors (they have no finite Gramian).
     solver : SolverContext, optional

@@ -26,6 +26,8 @@ import numpy as np
 from .. import __version__
 from ..errors import FlexmorError, OptionError, check_choice
 from ..analysis.frequency import ANTIRESONANCE_FACTOR, MEASURES, measure_record
+from ..analysis.compare import JUDGED_ELASTIC, JUDGED_RIGID
+from ..checks import describe_couplings
 from ..damping import damping_from_dict
 from ..io import atomic_write
 from ..origin import describe_damping
@@ -49,7 +51,7 @@ COLUMNS = [("label", "body", "s"), ("method", "method", "s"), ("order", "order",
            ("hinf_error", "H∞ error (rel., band)", ".3e"), ("max_rel_error", "max_rel_error", ".3e"),
            ("max_rel_error_where", "max_rel_error at", "s"), ("h2_error", "H2 error (rel.)", ".3e"), ("time_mean_error", "time_mean_error", ".3e"),
            ("time_max_error", "time_max_error", ".3e"), ("time_seconds", "time integration [s]", ".3f"),
-           ("seconds", "reduction [s]", ".3f")]
+           ("seconds", "reduction [s]", ".3f"), ("judged_short", "judged against", "s")]
 
 
 @dataclass
@@ -65,6 +67,14 @@ class Report:
     time: dict = field(default_factory=dict)
     notes: list = field(default_factory=list)
     scene: dict = field(default_factory=dict)
+    #: What the bodies are judged against: ``full model`` or ``full model with RBE2 at HOLE``.
+    reference: str = "full model"
+    #: The coupling record (:func:`flexmor.checks.coupling_frequencies`) of a coupled model, else empty.
+    coupling: dict = field(default_factory=dict)
+    #: What the plots draw: ``frf_references`` (name -> full FRF on ``freqs_hz``), ``time_references``
+    #: (name -> displacement), ``reference_of`` / ``time_reference_of`` (body label -> name) and
+    #: ``time_error`` (label -> the error curve, whose peak is the row's ``time_max_error``).
+    plot_data: dict = field(default_factory=dict)
 
 
 def fmt(value, spec: str) -> str:
@@ -92,7 +102,8 @@ def build_report(model, ports, reduced, *, band, labels=None, seconds=None, full
                  dt: float | None = None, t_end: float | None = None, max_steps: int = 5000,
                  scheme: str = "newmark", rho_inf: float = 0.9, n_modes: int = 12, h2_max_dof: int = 1000,
                  solver: SolverContext | None = None, progress=None, time_progress=None,
-                 title: str | None = None, view3d: bool = True, mounted: bool = True) -> Report:
+                 title: str | None = None, view3d: bool = True, mounted: bool = True,
+                 coupling: dict | None = None) -> Report:
     """Compute the contents of a report on ``reduced`` bodies of ``model``.
 
     Parameters
@@ -133,6 +144,15 @@ def build_report(model, ports, reduced, *, band, labels=None, seconds=None, full
     mounted : bool
         Judge bodies with interfaces as held in their joints (:mod:`flexmor.analysis.mounted`):
         ``row["mounted"]`` and the section "The body in its joints".
+    coupling : dict, optional
+        How the bodies' couplings change the FE model's lowest elastic frequencies
+        (:func:`flexmor.checks.coupling_frequencies`); default the record stored in the first
+        body's ``info`` at reduce time.
+
+    The plots judge each body against what its table row judges: a free body without rigid-body
+    motion against the elastic part of the full response (|H| and time responses), any other
+    against the full response; the reference is named in the legends, ``full model with RBE2 at
+    HOLE`` for a coupled model.
 
     Returns
     -------
@@ -155,18 +175,29 @@ def build_report(model, ports, reduced, *, band, labels=None, seconds=None, full
     if full is None:
         full = FullResponse(model, ports, band, solver=solver, progress=progress)
     notes = []
+    couplings = list(reduced[0].info.get("couplings", []))
+    ref_name = "full model" + (f" with {describe_couplings(couplings)}" if couplings else "")
+    coupling = dict(coupling if coupling is not None else reduced[0].info.get("coupling_frequencies") or {})
     rep = Report(title=title or f"flexmor report: {model.name}", model=model.summary(), band=band, rows=[],
-                 notes=notes)
+                 notes=notes, reference=ref_name, coupling=coupling)
+    if couplings and not coupling:
+        notes.append(f"the bodies are judged against the {ref_name}; how the coupling changes the FE model's "
+                     "frequencies was not recorded with them")
 
     # frequency domain
-    H_red, curves = {}, {}
+    H_red, curves, H_refs, ref_of = {}, {}, {}, {}
     for lb, red, sec in zip(labels, reduced, seconds):
         err = full.evaluate(red)
         H_red[lb], curves[lb] = frf_reduced(red, full.freqs), err["rel_error"]
+        H_ref, judged = full.reference(red)
+        ref_of[lb] = _reference_label(ref_name, judged)
+        H_refs.setdefault(ref_of[lb], H_ref)
         rep.rows.append({"label": lb, "method": red.method, "order": red.order, **measure_record(err),
                          "h2_error": None, "seconds": sec})
+        rep.rows[-1]["judged_short"] = _SHORT.get(judged, judged)
         rep.rows[-1]["max_rel_error_where"] = (f"{err['max_rel_error_hz']:.4g} Hz" + (
-            " (anti-resonance)" if err["max_rel_error_at_antiresonance"] else ""))
+            " (anti-resonance)" if err["max_rel_error_at_antiresonance"] else "") + (
+            " (spurious resonance)" if err["max_rel_error_at_spurious_resonance"] else ""))
         notes.extend(f"{lb}: {n}" for n in err["notes"])
     if mounted:
         from ..analysis.mounted import FullMounted, mounted_record
@@ -181,15 +212,23 @@ def build_report(model, ports, reduced, *, band, labels=None, seconds=None, full
     if damped and model.n_dof <= h2_max_dof:
         from ..analysis.norms import h2_error
 
+        e_ports = _elastic_ports(model, ports)
         for row, red in zip(rep.rows, reduced):
-            try:
-                row["h2_error"] = h2_error(model, ports, red)
+            try:  # against the row's reference: the elastic part for a body without rigid motion
+                with np.errstate(divide="ignore", invalid="ignore"):
+                    h2 = h2_error(model, e_ports if row["judged"] == JUDGED_ELASTIC else ports, red)
+                if np.isfinite(h2):
+                    row["h2_error"] = h2
+                else:
+                    notes.append(f"H2 error of {row['label']} not computed: the H2 norm of a response with "
+                                 "undamped rigid-body motion is infinite")
             except (FlexmorError, np.linalg.LinAlgError) as exc:
                 notes.append(f"H2 error of {row['label']} not computed: {exc}")
     else:
         notes.append("H2 errors not computed: " + (f"the model has {model.n_dof} > {h2_max_dof} DOF (dense method)"
                                                    if damped else "undamped bodies have no finite H2 norm"))
-    rep.figures["frf"] = plots.frf_png(full.freqs, full.H, H_red, ports.input_names, ports.output_names)
+    rep.figures["frf"] = plots.frf_png(full.freqs, H_refs, H_red, ports.input_names, ports.output_names)
+    rep.plot_data.update(freqs_hz=full.freqs, frf_references=H_refs, reference_of=ref_of)
     rep.figures["rel_error"] = plots.rel_error_png(full.freqs, curves, title=f"{model.name}, {model.n_dof} DOF")
     svs = {}
     for lb, red in zip(labels, reduced):
@@ -205,8 +244,9 @@ def build_report(model, ports, reduced, *, band, labels=None, seconds=None, full
     elastic = [bool(red.info.get("n_rigid_excluded")) for red in reduced]
     if n_rig:
         notes.append(f"free body ({n_rig} rigid-body modes): bodies without rigid-body motion (rigid excluded, the "
-                     "floating frame carries it) are compared with the full model's elastic response, that to the "
-                     "inputs made orthogonal to the rigid-body modes; the others with the whole response")
+                     f"floating frame carries it) are compared with the {ref_name}'s elastic response, that to the "
+                     "inputs made orthogonal to the rigid-body modes, in the table and the plots; the others with "
+                     "the whole response")
     for lb, red in zip(labels, reduced):
         rep.modal["bodies"][lb] = modal_check(model, red, full=(f, phi, n_rig))
     rep.figures["mac"] = plots.mac_png({lb: c["mac"] for lb, c in rep.modal["bodies"].items()})
@@ -222,18 +262,25 @@ def build_report(model, ports, reduced, *, band, labels=None, seconds=None, full
     y_all = simulate(model, u, dt=dt, t_end=t_end, ports=sim_ports, scheme=scheme, rho_inf=rho_inf, solver=solver,
                      progress=time_progress)
     y_full, y_elastic = _split_inputs(y_all, ports.n_inputs)
-    y_red = {}
+    y_red, y_refs, t_ref_of = {}, {}, {}
     for lb, red, row, el in zip(labels, reduced, rep.rows, elastic):
         yr = simulate(red, u, dt=dt, t_end=t_end, scheme=scheme, rho_inf=rho_inf)
-        e = time_errors(y_elastic if el and y_elastic is not None else y_full, yr)
+        y_ref = y_elastic if el and y_elastic is not None else y_full
+        e = time_errors(y_ref, yr)
         row.update(time_mean_error=e["time_mean_error"], time_max_error=e["time_max_error"], time_seconds=yr.seconds)
         y_red[lb] = yr.displacement
+        t_ref_of[lb] = ref_of[lb] if y_ref is y_elastic or not el else _reference_label(ref_name, JUDGED_RIGID)
+        y_refs.setdefault(t_ref_of[lb], y_ref.displacement)
+        if y_ref is y_full and el:
+            notes.append(f"{lb}: time errors against the whole response (the elastic part needs a single-channel "
+                         "signal)")
     rep.time = {"signal": desc, "dt": dt, "t_end": float(y_full.t[-1]), "n_steps": int(y_full.t.size - 1),
                 "scheme": scheme, "seconds_full": y_full.seconds}
     chan = {(i, j): f"{ports.output_names[i]} / {ports.input_names[j] if y_full.displacement.shape[2] > 1 else 'u'}"
             for i in range(ports.n_outputs) for j in range(y_full.displacement.shape[2])}
-    y_plot = y_elastic if y_elastic is not None and all(elastic) else y_full
-    rep.figures["time"] = plots.time_png(y_plot.t, y_plot.displacement, y_red, chan)
+    rep.figures["time"] = plots.time_png(y_full.t, y_refs, y_red, chan, reference_of=t_ref_of)
+    rep.plot_data.update(time_references=y_refs, time_reference_of=t_ref_of,
+                         time_error=plots.time_error_curves(y_refs, y_red, t_ref_of))
 
     # the body
     marks = {"inputs": model.node_xyz(port_nodes(model, ports.input_names)) if model.n_nodes else [],
@@ -284,7 +331,7 @@ def render_html(rep: Report) -> str:
             f"<style>{_CSS}</style></head><body><h1>{e(rep.title)}</h1>"),
            (f"<p>Model <b>{e(str(m['name']))}</b> ({e(str(m.get('source', '')))}): {m['n_dof']} DOF, "
            f"{m['n_nodes']} nodes, damping {e(describe_damping(damping_from_dict(m['damping'])))}. "
-           f"Band {rep.band[0]:g}-{rep.band[1]:g} Hz. "
+           f"Band {rep.band[0]:g}-{rep.band[1]:g} Hz. Bodies judged against the <b>{e(rep.reference)}</b>. "
            f"flexmor {e(__version__)}, {datetime.datetime.now().isoformat(timespec='seconds')}.</p>"),
            '<h2 id="summary">Summary</h2>',
            _table([c[1] for c in COLUMNS], [[fmt(r.get(k), s) for k, _, s in COLUMNS] for r in rep.rows],
@@ -295,9 +342,10 @@ def render_html(rep: Report) -> str:
               "band median. ")
            + ("Time errors of the "
            "output displacements: mean<sub>t</sub>&Vert;y&minus;&ycirc;&Vert; / mean<sub>t</sub>&Vert;y&Vert; and "
-           "max<sub>t</sub>&Vert;y&minus;&ycirc;&Vert; / max<sub>t</sub>&Vert;y&Vert;. Full model time "
-           f"integration: {rep.time.get('seconds_full', float('nan')):.3f} s.</p>")]
+           f"max<sub>t</sub>&Vert;y&minus;&ycirc;&Vert; / max<sub>t</sub>&Vert;y&Vert;. Time integration of the "
+           f"{e(rep.reference)}: {rep.time.get('seconds_full', float('nan')):.3f} s.</p>")]
     out += [f"<p class=note>{e(n)}</p>" for n in rep.notes]
+    out += _coupling_section(rep)
     if "body" in rep.figures:
         out += ['<h2 id="body">The body</h2>', _img(rep.figures["body"], "nodes with ports and interface")]
     if rep.scene:
@@ -313,7 +361,7 @@ def render_html(rep: Report) -> str:
     out.append('<h2 id="modal">Eigenfrequencies and MAC</h2>')
     if rep.modal:
         bodies = rep.modal["bodies"]
-        header = ["mode", "full [Hz]"] + [h for lb in bodies for h in (f"{lb} [Hz]", "Δf/f", "MAC")]
+        header = ["mode", f"{rep.reference} [Hz]"] + [h for lb in bodies for h in (f"{lb} [Hz]", "Δf/f", "MAC")]
         rows = []
         for i, f in enumerate(rep.modal["full_hz"]):
             row = [i + 1, fmt(float(f), ".4f")]
@@ -355,6 +403,23 @@ def _mounted_section(rows) -> list:
             "displacement error over the body).</p>"]
 
 
+def _coupling_section(rep: Report) -> list:
+    """The coupling paragraph and table: the lowest elastic frequencies of the FE model as read and coupled."""
+    c = rep.coupling
+    if not c or not c.get("coupled_hz"):
+        return []
+    e = html.escape
+    ch = c["rel_change"]
+    rows = [[i, fmt(float(a), ".4f"), fmt(float(b), ".4f"), f"{100 * d:+.3f} %"]
+            for i, (a, b, d) in enumerate(zip(c["uncoupled_hz"], c["coupled_hz"], ch), 1)]
+    return ['<h2 id="coupling">Coupling</h2>',
+            (f"<p>{e(describe_couplings(c['couplings']))} changes the lowest elastic frequencies by "
+             f"{100 * min(ch):+.2f} to {100 * max(ch):+.2f} % over the FE model as read: the {e(rep.reference)} "
+             "is what the bodies are reduced from and judged against (right for the assembly the coupling "
+             "stands for; the FE model as read is another model).</p>"),
+            _table(["mode (by rank)", "FE model as read [Hz]", "coupled [Hz]", "change"], rows, ())]
+
+
 def write_report(rep: Report, path) -> None:
     """Write :func:`render_html` of ``rep`` to ``path`` atomically (UTF-8)."""
     text = render_html(rep)
@@ -364,6 +429,31 @@ def write_report(rep: Report, path) -> None:
             fh.write(text)
 
     atomic_write(path, write)
+
+
+#: The summary table's short form of ``judged``.
+_SHORT = {JUDGED_ELASTIC: "elastic part", JUDGED_RIGID: "with rigid motion"}
+
+
+def _reference_label(ref_name: str, judged: str) -> str:
+    """The legend name of a reference: ``full model with RBE2 at HOLE, elastic part`` ..."""
+    if judged == JUDGED_ELASTIC:
+        return f"{ref_name}, elastic part"
+    if judged == JUDGED_RIGID:
+        return f"{ref_name}, with rigid motion"
+    return ref_name
+
+
+def _elastic_ports(model, ports):
+    """``ports`` with the inputs' elastic part ``(I - M Φ Φᵀ) B`` as inputs (``ports`` for a supported model)."""
+    from ..ports import Ports
+    from ..reduction.free_body import with_elastic_inputs
+
+    aug = with_elastic_inputs(model, ports)
+    if aug is ports:
+        return ports
+    return Ports(B=aug.B[:, ports.n_inputs:].tocsr(), C=ports.C, input_names=list(ports.input_names),
+                 output_names=list(ports.output_names))
 
 
 def _split_inputs(y, m: int):

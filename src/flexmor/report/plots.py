@@ -5,7 +5,7 @@ from __future__ import annotations
 from ..io import atomic_write
 
 __all__ = ["body_png", "figure_png", "frf_png", "mac_png", "plot_rel_error", "rel_error_png", "singular_values_png",
-           "time_png"]
+           "time_error_curves", "time_png"]
 
 
 def plot_rel_error(freqs, curves: dict, path, *, title: str = "") -> None:
@@ -71,15 +71,19 @@ def rel_error_png(freqs, curves: dict, *, title: str = "") -> bytes:
 def frf_png(freqs, H, reduced: dict, input_names, output_names, *, max_pairs: int = 9) -> bytes:
     """``|H_ij(f)|`` of the full model (black) and each reduced body, one panel per pair.
 
-    ``H`` has shape (n_freq, n_outputs, n_inputs); ``reduced`` maps labels to arrays of the
-    same shape. At most ``max_pairs`` pairs are drawn (outputs fastest); pairs whose peak is
-    below ``1e-8`` of the largest one (zero by symmetry, round-off only) are left out.
+    ``H`` has shape (n_freq, n_outputs, n_inputs), or is a dict of such arrays: the references
+    the bodies are judged against, by name (e.g. ``{"full model, elastic part": ...}``; drawn
+    black, solid then dashed); a plain array is named ``full``. ``reduced`` maps labels to arrays
+    of the same shape. At most ``max_pairs`` pairs are drawn (outputs fastest); pairs whose peak
+    is below ``1e-8`` of the largest one (zero by symmetry, round-off only) are left out.
     """
     import numpy as np
 
     plt = _pyplot()
-    peak = np.abs(H).max(axis=0)
-    pairs = [(i, j) for j in range(H.shape[2]) for i in range(H.shape[1])
+    refs = dict(H) if isinstance(H, dict) else {"full": H}
+    H0 = next(iter(refs.values()))
+    peak = np.max([np.abs(R).max(axis=0) for R in refs.values()], axis=0)
+    pairs = [(i, j) for j in range(H0.shape[2]) for i in range(H0.shape[1])
              if peak[i, j] >= 1e-8 * peak.max()][:max_pairs]  # numerically zero cross terms are left out
     nc = min(3, len(pairs))
     nr = -(-len(pairs) // nc)
@@ -87,7 +91,8 @@ def frf_png(freqs, H, reduced: dict, input_names, output_names, *, max_pairs: in
     fig.subplots_adjust(left=0.32 / nc, right=0.98, bottom=0.5 / (3.2 * nr), top=1 - 0.3 / (3.2 * nr), wspace=0.3,
                         hspace=0.45)
     for ax, (i, j) in zip(axes.flat, pairs):
-        ax.loglog(freqs, np.abs(H[:, i, j]), "k-", lw=2.0, label="full")
+        for k, (name, R) in enumerate(refs.items()):
+            ax.loglog(freqs, np.abs(R[:, i, j]), "k", ls=["-", "--", ":"][k % 3], lw=2.0, label=name)
         for label, Hr in reduced.items():
             ax.loglog(freqs, np.abs(Hr[:, i, j]), lw=1.0, label=label)
         ax.set_title(f"{output_names[i]} / {input_names[j]}", fontsize=9)
@@ -139,33 +144,67 @@ def mac_png(macs: dict) -> bytes:
     return figure_png(fig)
 
 
-def time_png(t, y, reduced: dict, labels, *, quantity: str = "displacement", max_channels: int = 4) -> bytes:
-    """Time responses (top) and the error norm ``||y - ŷ||(t)`` per body (bottom).
+def time_error_curves(references: dict, reduced: dict, reference_of: dict) -> dict:
+    """``||y - ŷ||(t) / max_t ||y||`` of each body against its reference (the curves of :func:`time_png`).
 
-    ``y`` has shape (n_t, n_outputs, n_cases); ``reduced`` maps labels to arrays of that
-    shape; ``labels[(i, j)]`` names channel ``y[:, i, j]``.
+    ``references`` maps names to responses (n_t, n_outputs, n_cases), ``reduced`` labels to responses
+    of that shape and ``reference_of`` labels to reference names. The Frobenius norm runs over all
+    channels at each time, as in :func:`flexmor.dynamics.time.time_errors`: the peak of a curve is
+    the body's ``time_max_error``.
+    """
+    import numpy as np
+
+    out = {}
+    for label, yr in reduced.items():
+        yk = references[reference_of[label]]
+        peak = max(np.max(np.linalg.norm(yk.reshape(yk.shape[0], -1), axis=1)), np.finfo(float).tiny)
+        out[label] = np.linalg.norm((yk - yr).reshape(yk.shape[0], -1), axis=1) / peak
+    return out
+
+
+def time_png(t, y, reduced: dict, labels, *, quantity: str = "displacement", max_channels: int = 4,
+             reference_of: dict | None = None) -> bytes:
+    """Time responses (top) and the error norm ``||y - ŷ||(t) / max_t ||y||`` per body (bottom).
+
+    ``y`` has shape (n_t, n_outputs, n_cases), or is a dict of such arrays: the references the
+    bodies are judged against, by name (drawn thick, solid then dashed); a plain array is named
+    ``full``. ``reduced`` maps labels to arrays of that shape, ``reference_of`` labels to the
+    name of their reference (default the first); each body's error is taken against its own
+    reference and divided by that reference's peak, so the peak of its curve is its
+    ``time_max_error`` (:func:`flexmor.dynamics.time.time_errors`). ``labels[(i, j)]`` names
+    channel ``y[:, i, j]``.
     """
     import numpy as np
 
     plt = _pyplot()
-    chans = [(i, j) for j in range(y.shape[2]) for i in range(y.shape[1])][:max_channels]
+    refs = dict(y) if isinstance(y, dict) else {"full": y}
+    first = next(iter(refs))
+    reference_of = {lb: (reference_of or {}).get(lb, first) for lb in reduced}
+    y0 = refs[first]
+    chans = [(i, j) for j in range(y0.shape[2]) for i in range(y0.shape[1])][:max_channels]
     fig, axes = plt.subplots(2, 1, figsize=(9, 6.4), sharex=True)
     fig.subplots_adjust(left=0.1, right=0.98, bottom=0.08, top=0.96, hspace=0.06)
+    from matplotlib.lines import Line2D
+
+    ref_ls, red_ls = ["-", "--", ":"], ["-", "--", ":", "-."]
     for n, (i, j) in enumerate(chans):
-        ax = axes[0]
-        ax.plot(t, y[:, i, j], color=f"C{n}", lw=2.2, alpha=0.5, label=f"full {labels[(i, j)]}")
-        for k, (label, yr) in enumerate(reduced.items()):
-            ax.plot(t, yr[:, i, j], color=f"C{n}", lw=0.9, ls=["-", "--", ":", "-."][k % 4],
-                    label=f"{label}" if n == 0 else None)
+        for k, yk in enumerate(refs.values()):
+            axes[0].plot(t, yk[:, i, j], color=f"C{n}", lw=2.2, alpha=0.5, ls=ref_ls[k % 3])
+        for k, yr in enumerate(reduced.values()):
+            axes[0].plot(t, yr[:, i, j], color=f"C{n}", lw=0.9, ls=red_ls[k % 4])
+    # one legend entry per channel (colour), reference (thick) and body (thin)
+    handles = [Line2D([], [], color=f"C{n}", lw=2.2, alpha=0.5, label=labels[c]) for n, c in enumerate(chans)]
+    handles += [Line2D([], [], color="k", lw=2.2, alpha=0.5, ls=ref_ls[k % 3], label=name)
+                for k, name in enumerate(refs)]
+    handles += [Line2D([], [], color="k", lw=0.9, ls=red_ls[k % 4], label=label) for k, label in enumerate(reduced)]
     axes[0].set_ylabel(quantity)
-    axes[0].legend(fontsize=7, ncol=2)
+    axes[0].legend(handles=handles, fontsize=7, ncol=2)
     axes[0].grid(True, alpha=0.3)
-    peak = max(np.max(np.linalg.norm(y.reshape(y.shape[0], -1), axis=1)), np.finfo(float).tiny)
     tops = []
-    for label, yr in reduced.items():
-        e = np.linalg.norm((y - yr).reshape(y.shape[0], -1), axis=1) / peak
+    for label, e in time_error_curves(refs, reduced, reference_of).items():
         tops.append(max(float(np.max(e)), 1e-16))
-        axes[1].semilogy(t, np.maximum(e, 1e-16), lw=1.0, label=label)
+        name = label if len(refs) == 1 else f"{label} (vs {reference_of[label]})"
+        axes[1].semilogy(t, np.maximum(e, 1e-16), lw=1.0, label=name)
     if tops:
         axes[1].set_ylim(bottom=max(1e-3 * min(tops), 1e-16))
     axes[1].set_ylabel(r"$\|y-\hat y\|(t) / \max_t\|y\|$")

@@ -1,0 +1,224 @@
+"""The body reduced, judged and stored is the body exported; what it was judged against is said.
+
+Regression tests of a user's run on a free plate-rods-plate solid (issue 29): krylov, fw-sobt,
+pod ... kept the rigid-body modes in the basis by default, were judged at that order on the full
+response, and export wrote another body (order - rigid modes); a Krylov body resonated where the
+full model has no resonance without a word; the RBE2 at the hole stiffened the model unsaid; the
+report's plots drew another reference than its table.
+"""
+
+import json
+import warnings
+
+import numpy as np
+import pytest
+import scipy.linalg as sla
+import scipy.sparse.linalg as spla
+
+from conftest import CCX
+from flexmor.analysis.compare import JUDGED_ELASTIC, JUDGED_RIGID, FullResponse
+from flexmor.checks import coupling_frequencies
+from flexmor.cli import main
+from flexmor.couplings import couple
+from flexmor.errors import FlexmorWarning
+from flexmor.io import read_body
+from flexmor.models import plate_structure
+from flexmor.ports import make_ports
+from flexmor.reduction import reduce
+from flexmor.basis import Basis
+from flexmor.reduction.free_body import elastic_body, exclude_rigid, rigid_content, rigid_residual
+from flexmor.workflow import apply_damping, reduce_and_judge
+
+FREE = str(CCX / "beam8_free_mat.sti")
+BAND = (10.0, 2000.0)
+
+
+def run_json(capsys, *argv):
+    assert main(list(argv)) == 0
+    return json.loads(capsys.readouterr().out)
+
+
+@pytest.fixture(scope="module")
+def damped(free):
+    return apply_damping(free, modal_damping=0.01, band=BAND)
+
+
+@pytest.fixture(scope="module")
+def full(damped):
+    return FullResponse(damped, make_ports(damped, ["TIP:y", "TIP:z"]), BAND, cache=False)
+
+
+def _elastic_hz(model, k):
+    """The k lowest elastic eigenfrequencies from a dense eigen solve of its own (rigid-body modes skipped)."""
+    lam = sla.eigh(model.K.toarray(), model.M.toarray(), eigvals_only=True, subset_by_index=[0, k + 5])
+    return np.sqrt(lam[6:]) / (2 * np.pi)
+
+
+@pytest.mark.parametrize("method, order", [("krylov", 12), ("pod", 12), ("fw-sobt", 10), ("sobt", 10),
+                                           ("two-step", 10), ("svdmor", 10), ("adaptive", 12)])
+def test_free_body_default_is_the_exported_body(damped, full, method, order):
+    """The defaults exclude rigid-body motion: stored order = judged order = exported order. Before,
+    krylov 12 on TIP:y, TIP:z held the 4 rigid motions those forces excite and export wrote order 8
+    (fw-sobt 10 -> 6, two-step 10 -> 6 ...), judged on the whole response with its rigid motion."""
+    ports = make_ports(damped, ["TIP:y", "TIP:z"])
+    red, res = reduce_and_judge(damped, method, order, ports, band=BAND, full=full)
+    assert red.info["n_rigid_excluded"] == 6 and rigid_residual(damped, red.V) < 1e-10
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", FlexmorWarning)  # export keeps the body as it is: no warning
+        exported = elastic_body(damped, red)
+    assert exported is red and res["order"] == red.order == order
+    assert res["judged"] == JUDGED_ELASTIC
+    # Rayleigh-Ritz on the elastic subspace: the first reduced mode is an upper bound of the first elastic one
+    f1 = _elastic_hz(damped, 1)[0]
+    assert f1 * (1 - 1e-9) <= red.frequencies_hz()[0] < 1.01 * f1
+
+
+def test_rigid_include_is_still_there_and_judged_on_the_full_response(damped, full):
+    red, res = reduce_and_judge(damped, "krylov", 12, make_ports(damped, ["TIP:y", "TIP:z"]), band=BAND, full=full,
+                                rigid="include")
+    assert red.info["n_rigid_included"] == 4 and res["judged"] == JUDGED_RIGID
+    # it holds rigid motion: the floating frame's body would be the basis without it, of order 8
+    assert rigid_content(damped, red.V) < 1e-6
+    assert exclude_rigid(damped, Basis(red.V, "krylov", {"rigid": "exclude"})).V.shape[1] == 8
+
+
+def test_cli_reduce_stores_the_order_it_judged_and_export_writes(capsys, tmp_path):
+    """``flexmor reduce`` of a free body with krylov's defaults: the JSON, the .h5 and the body an FFRF
+    export makes of it have one order; the table says what was judged."""
+    body = tmp_path / "k.h5"
+    out = run_json(capsys, "reduce", FREE, "--method", "krylov", "--order", "12", "--input", "TIP:y", "--input",
+                   "TIP:z", "--modal-damping", "0.01", "--band", "10:2000", "-o", str(body), "--json")
+    assert out["order"] == 12 and out["judged"] == JUDGED_ELASTIC and out["info"]["rigid"] == "exclude"
+    stored = read_body(body)
+    assert stored.order == 12 and stored.errors["judged"] == JUDGED_ELASTIC
+    from flexmor.io import read
+
+    assert elastic_body(read(FREE), stored) is stored
+    assert main(["reduce", FREE, "--method", "krylov", "--order", "12", "--input", "TIP:y", "--modal-damping", "0.01",
+                 "--band", "10:2000", "-o", str(tmp_path / "t.h5")]) == 0
+    assert f"judged: {JUDGED_ELASTIC}" in capsys.readouterr().out
+
+
+def test_modal_excludes_the_six_rigid_modes(damped):
+    red, _ = reduce(damped, "modal", 8, make_ports(damped, ["TIP:y"]))
+    assert red.order == 8 and red.info["n_rigid"] == 6 and red.info["n_rigid_excluded"] == 6
+    np.testing.assert_allclose(red.frequencies_hz(), _elastic_hz(damped, 8), rtol=1e-8)
+    assert elastic_body(damped, red) is red
+
+
+def test_guyan_on_a_free_body_is_inertia_relief_not_rigid_motion(free):
+    """One RBE2 interface on the free beam: its 6 constraint modes are pure rigid motion, so the Guyan
+    body had no elastic coordinate at all (export: 'empty basis'). By default it now has the 6
+    inertia-relief attachment modes: measured rel_error 6.8e-6 at 10 Hz (quasi-static), first
+    frequency 654.7 Hz above the first elastic one (620.68 Hz, Rayleigh-Ritz)."""
+    model = apply_damping(couple(free, ["TIP@rbe2"]).model, modal_damping=0.01, band=BAND)
+    ports = make_ports(model, ["TIP@rbe2:y", "TIP@rbe2:z"])
+    red, res = reduce_and_judge(model, "guyan", None, ports, band=BAND, interface=["TIP@rbe2"])
+    assert red.order == 6 and red.info["attachment"] == "inertia-relief" and rigid_residual(model, red.V) < 1e-12
+    assert elastic_body(model, red) is red and res["judged"] == JUDGED_ELASTIC
+    assert red.errors["rel_error"][0] < 1e-4  # 10 Hz: the static elastic response is exact
+    assert red.frequencies_hz()[0] == pytest.approx(654.71, rel=1e-4) and red.frequencies_hz()[0] > 620.68
+    old, _ = reduce(model, "guyan", None, ports, interface=["TIP@rbe2"], rigid="include")
+    assert np.all(old.frequencies_hz() < 1.0)  # the classic basis: rigid motion only
+
+
+def test_spurious_resonance_is_noted_and_marked(capsys, tmp_path):
+    """krylov 3 for FIX:y, TIP:y on the free beam: the body resonates at 1760.9 Hz where the full model
+    has none in the band (its resonances: 620.7, 1610.4, 1668.6 Hz); measured max_rel_error 6.35 at
+    1765 Hz, 6.6x the full |H| at 1761 Hz. The resonance is the body's own eigenfrequency (undamped
+    pencil, modal damping keeps it)."""
+    out = run_json(capsys, "reduce", FREE, "--method", "krylov", "--order", "3", "--input", "FIX:y", "--input",
+                   "TIP:y", "--modal-damping", "0.01", "--band", "10:2000", "-o", str(tmp_path / "k3.h5"), "--json")
+    body = read_body(tmp_path / "k3.h5")
+    f_body = np.sqrt(sla.eigh(body.K, body.M, eigvals_only=True)) / (2 * np.pi)
+    assert out["spurious_resonances_hz"] == pytest.approx([f_body[1]], rel=1e-6)
+    assert f_body[1] == pytest.approx(1760.9, rel=1e-4)
+    assert out["max_rel_error_at_spurious_resonance"] and out["max_rel_error_hz"] == pytest.approx(1765.2, rel=1e-3)
+    assert any(n.startswith("spurious resonance: the body resonates at 1761 Hz") for n in out["notes"])
+    assert main(["info", str(tmp_path / "k3.h5")]) == 0
+    assert "(spurious resonance)" in capsys.readouterr().out
+    assert main(["reduce", FREE, "--method", "krylov", "--order", "3", "--input", "FIX:y", "--input", "TIP:y",
+                 "--modal-damping", "0.01", "--band", "10:2000", "-o", str(tmp_path / "t.h5")]) == 0
+    text = capsys.readouterr().out
+    assert "1765 Hz SR" in text and "note: krylov r=3: spurious resonance" in text
+
+
+def test_an_accurate_body_has_no_spurious_resonance(damped, full):
+    red, res = reduce_and_judge(damped, "krylov", 16, make_ports(damped, ["TIP:y", "TIP:z"]), band=BAND, full=full)
+    assert res["spurious_resonances_hz"] == [] and not res["max_rel_error_at_spurious_resonance"]
+    assert res["band_error"] < 1e-12
+
+
+@pytest.fixture(scope="module")
+def plate():
+    m0 = plate_structure(n=6, lower="mass")
+    return m0, couple(m0, ["HOLE@rbe2"]).model
+
+
+def _eigsh_elastic_hz(model, k):
+    """SciPy's shift-invert Lanczos below the first elastic mode (about 250 Hz): an eigen solve of its own."""
+    lam = spla.eigsh(model.K.tocsc(), k=k + 6, M=model.M.tocsc(), sigma=-(2 * np.pi * 50.0) ** 2, tol=1e-14,
+                     return_eigenvectors=False)
+    return np.sqrt(np.sort(lam)[6:]) / (2 * np.pi)
+
+
+def test_rbe2_at_the_hole_stiffens_the_plate_structure(plate):
+    """An RBE2 makes the hole's wall move rigidly: the coupled model's displacements are a subspace of the
+    FE model's, so each elastic frequency rises (Rayleigh-Ritz). Measured at n=6: 247.89 -> 247.91 Hz
+    (first), 857.97 -> 891.61 Hz (fourth, +3.9 %); checked against a shift-invert eigsh of each model."""
+    m0, cm = plate
+    rec = coupling_frequencies(m0, cm, ["HOLE@rbe2"])
+    np.testing.assert_allclose(rec["uncoupled_hz"], _eigsh_elastic_hz(m0, 6), rtol=1e-8)
+    np.testing.assert_allclose(rec["coupled_hz"], _eigsh_elastic_hz(cm, 6), rtol=1e-8)
+    assert np.all(np.array(rec["coupled_hz"]) >= np.array(rec["uncoupled_hz"]) * (1 - 1e-10))
+    assert rec["rel_change"][3] == pytest.approx(891.61 / 857.97 - 1, abs=2e-4)
+
+
+def test_coupling_frequencies_in_info_reduce_and_the_body(capsys, tmp_path, free):
+    """``info MODEL --interface``, ``reduce`` (JSON, text, the .h5) and ``info BODY.h5`` give the coupled and
+    the uncoupled frequencies; coupled ones from the error grid's pre-pass equal the eigen solve's."""
+    args = ["--interface", "FIX@rbe2", "--interface", "TIP@rbe2"]
+    info = run_json(capsys, "info", FREE, *args, "--json")
+    rec = info["coupling_frequencies"]
+    coupled = couple(free, ["FIX@rbe2", "TIP@rbe2"]).model
+    np.testing.assert_allclose(rec["uncoupled_hz"], _elastic_hz(free, 6), rtol=1e-8)
+    np.testing.assert_allclose(rec["coupled_hz"], _elastic_hz(coupled, 6), rtol=1e-8)
+    assert info["n_dof"] == coupled.n_dof and rec["coupled_hz"][5] > rec["uncoupled_hz"][5]
+    out = run_json(capsys, "reduce", FREE, "--method", "craig-bampton", "--order", "16", *args, "--input",
+                   "TIP@rbe2:y", "--modal-damping", "0.01", "--band", "10:3000", "-o", str(tmp_path / "cb.h5"), "--json")
+    np.testing.assert_allclose(out["coupling_frequencies"]["coupled_hz"], rec["coupled_hz"], rtol=1e-8)
+    np.testing.assert_allclose(out["coupling_frequencies"]["uncoupled_hz"], rec["uncoupled_hz"], rtol=1e-10)
+    body = run_json(capsys, "info", str(tmp_path / "cb.h5"), "--json")
+    assert body["coupling_frequencies"] == out["coupling_frequencies"]
+    assert main(["info", str(tmp_path / "cb.h5")]) == 0
+    assert "RBE2 at FIX, RBE2 at TIP changes the lowest elastic frequencies by" in capsys.readouterr().out
+
+
+def test_report_plots_judge_what_the_table_judges(free, tmp_path):
+    """A mixed report (a body without rigid motion, one with it): each body's |H| reference and time-error
+    curve are those of its table row. Before, the time plot compared every body with the whole response
+    when not all were elastic: the Craig-Bampton curve rose to 1.0 while its row said 3e-2."""
+    from flexmor.report.html import build_report, render_html
+
+    model = apply_damping(couple(free, ["FIX@rbe2", "TIP@rbe2"]).model, modal_damping=0.01, band=BAND)
+    ports = make_ports(model, ["TIP@rbe2:y"])
+    full = FullResponse(model, ports, BAND, cache=False)
+    cb, _ = reduce(model, "craig-bampton", 16, ports, interface=["FIX@rbe2", "TIP@rbe2"])
+    kr, _ = reduce(model, "krylov", 12, ports, band=BAND, rigid="include")
+    for red in (cb, kr):
+        red.info["couplings"] = ["FIX@rbe2", "TIP@rbe2"]
+    rep = build_report(model, ports, [cb, kr], band=BAND, full=full, view3d=False, n_modes=4)
+    data = rep.plot_data
+    cb_row, kr_row = rep.rows
+    assert data["reference_of"][cb_row["label"]] == "full model with RBE2 at FIX, RBE2 at TIP, elastic part"
+    np.testing.assert_array_equal(data["frf_references"][data["reference_of"][cb_row["label"]]], full.H_elastic)
+    np.testing.assert_array_equal(data["frf_references"][data["reference_of"][kr_row["label"]]], full.H)
+    for row in rep.rows:
+        assert np.max(data["time_error"][row["label"]]) == pytest.approx(row["time_max_error"], rel=1e-12)
+    assert cb_row["time_max_error"] < 0.1 and cb_row["judged"] == JUDGED_ELASTIC
+    # the H2 error against the same elastic part (measured 5.4e-2; against the whole response it was 1.0)
+    assert cb_row["h2_error"] < 0.1 and kr_row["h2_error"] is None
+    assert kr_row["judged"] == JUDGED_RIGID
+    page = render_html(rep)
+    assert "judged against the <b>full model with RBE2 at FIX, RBE2 at TIP</b>" in page
+    assert "full [Hz]" not in page and "full model with RBE2 at FIX, RBE2 at TIP [Hz]" in page
