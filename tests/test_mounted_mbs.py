@@ -196,3 +196,18 @@ def test_sid_interface_node_is_the_expanded_master(beam, plate, method, tmp_path
     for (case, bodies, _), name in ((beam, "beam"), (plate, "plate")):
         ratio = _check_sid(bodies[method], case.model, tmp_path / f"{name}.SID_FEM")
         assert ratio > 1.0, (name, ratio)
+
+
+def test_benchmark_command_line_prints_the_tables(tmp_path, capsys):
+    """``bench/mounted.py`` end to end on the smallest plate (one method, no error evaluation, 1 ms):
+    each case in its own process, a static and a transient table, the JSON with their rows."""
+    import json
+
+    out = tmp_path / "m.json"
+    assert mounted.main(["--no-beam", "--static-n", "4", "--transient-n", "4", "--methods", "krylov", "--no-judge",
+                         "--end-time", "0.001", "--out", str(out)]) == 0
+    text = capsys.readouterr().out
+    res = json.loads(out.read_text())["results"]
+    assert [r["kind"] for r in res] == ["static", "transient"] and res[1]["steps"] == 10
+    assert res[0]["rows"][0]["rel_error"] < 1e-6 and res[0]["n_dof"] == 1122
+    assert "rel. error" in text and "full ObjectFFRF 1224 DOF" in text
