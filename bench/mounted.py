@@ -61,6 +61,8 @@ BEAM_ORDERS = {"craig-bampton": 16, "krylov": 16, "fw-sobt": 16, "pod": 16}
 BAND = (1.0, 2000.0)
 GRAVITY = (0.0, 0.0, -9.81)
 DIRECTIONS = ("x", "y", "z", "rx", "ry", "rz")
+#: The transient's ``max_error_late`` is the largest error from this time (s) on.
+LATE = 1e-3
 
 
 @dataclasses.dataclass
@@ -377,9 +379,12 @@ def transient_rows(case: Case, *, force=(0.0, 0.0, -1000.0), end_time: float = 0
         red = bodies[method] if bodies is not None else reduce_body(case, method, case.orders[method], judge=False,
                                                                    model=mc)[0]
         _, u, sec = step_response(case, _mounted_body(case, red, beta), force=force, end_time=end_time, step=step)
-        at = t[np.argmax(np.linalg.norm(u - u_full, axis=1))]  # where the max error is (the step's onset?)
+        e = np.linalg.norm(u - u_full, axis=1)
+        late = t >= LATE  # after the step's onset, where the full mesh answers the point force locally
         out["rows"].append({"method": method, "order": red.order, "seconds": sec, **errors(u, u_full),
-                            "max_error_at_s": float(at)})
+                            "max_error_at_s": float(t[np.argmax(e)]),
+                            "max_error_late": float(e[late].max() / np.linalg.norm(u_full, axis=1).max())
+                            if late.any() else float("nan")})
     return out
 
 
@@ -432,11 +437,11 @@ def print_transient(res: dict) -> str:
              f"full ObjectFFRF {res['full_n_dof']} DOF), {res['steps']} steps of {res['step']:g} s, damping "
              f"{res['beta']:g} K; full: {res['full_seconds']:.2f} cpu s, max deflection "
              f"{res['max_deflection_m']:.4g} m",
-             f"{'method':>14} {'order':>6} {'mean error':>11} {'max error':>11} {'at s':>7} {'MBS cpu s':>10} "
-             f"{'speed-up':>9}"]
+             f"{'method':>14} {'order':>6} {'mean error':>11} {'max error':>11} {'at s':>7} {'max t>=1ms':>11} "
+             f"{'MBS cpu s':>10} {'speed-up':>9}"]
     for r in res["rows"]:
         lines.append(f"{r['method']:>14} {r['order']:>6} {r['mean_error']:>11.2e} {r['max_error']:>11.2e} "
-                     f"{r['max_error_at_s']:>7.4f} {r['seconds']:>10.3f} {res['full_seconds'] / max(r['seconds'], 1e-9):>9.0f}")
+                     f"{r['max_error_at_s']:>7.4f} {r['max_error_late']:>11.2e} {r['seconds']:>10.3f} {res['full_seconds'] / max(r['seconds'], 1e-9):>9.0f}")
     return "\n".join(lines)
 
 
