@@ -10,8 +10,9 @@ master's point) and a ``GenericJoint`` to the ground locking all six axes.
 set, its mean) of the mounted ``ObjectFFRFreducedOrder`` against the full FE model held at its
 interface: a sparse static solve of the model **as read** without the slave nodes' DOFs
 (the RBE2 ring held rigidly at a fixed master is exactly that), under the consistent gravity
-load ``M g`` of the whole body. The table gives the relative error and the body's
-``band_error`` from :func:`flexmor.workflow.reduce_and_judge`.
+load ``M g`` of the whole body. The table gives the relative error, the body's ``band_error``
+from :func:`flexmor.workflow.reduce_and_judge` and, as *check*, the ``field_error`` of gravity z
+with the interface clamped from flexmor's own mounted check in the same record (no MBS code).
 
 *Transient* (a force step at the output, no gravity): the mounted reduced bodies against
 Exudyn's full, unreduced ``ObjectFFRF`` of the same body
@@ -280,8 +281,17 @@ def static_rows(case: Case, *, judge: bool = True, methods=METHODS) -> dict:
         z = mounted_static(red, case)
         out["rows"].append({"method": method, "order": red.order, "mounted_m": z, "full_m": full,
                             "rel_error": abs(z - full) / abs(full), "band_error": rec.get("band_error"),
-                            "reduce_seconds": rec.get("seconds")})
+                            "check_field_error": _check_field_error(rec), "reduce_seconds": rec.get("seconds")})
     return out
+
+
+def _check_field_error(rec: dict, load: str = "gravity:z"):
+    """``field_error`` of ``load`` with the interface clamped in flexmor's own mounted check
+    (:func:`flexmor.analysis.mounted.mounted_record`, ``rec['mounted']`` of ``reduce_and_judge``), or None."""
+    for case in (rec.get("mounted") or {}).get("cases", []):
+        if case["held"] == "clamped":
+            return next((s["field_error"] for s in case["static"] if s["load"] == load), None)
+    return None
 
 
 # -- transient: force step at the output ----------------------------------------------------------
@@ -424,11 +434,11 @@ def print_static(res: dict) -> str:
     lines = [f"static, gravity -z: {res['case']} ({res['n_dof']} DOF), output deflection of the held full model "
              f"{res['full_m']:.6e} m",
              f"{'method':>14} {'order':>6} {'mounted m':>14} {'full m':>14} {'rel. error':>11} {'band_error':>11} "
-             f"{'reduce s':>9}"]
+             f"{'check':>9} {'reduce s':>9}"]
     for r in res["rows"]:
-        be = "-" if r["band_error"] is None else f"{r['band_error']:.2e}"
+        be, ce = ("-" if v is None else f"{v:.2e}" for v in (r["band_error"], r["check_field_error"]))
         lines.append(f"{r['method']:>14} {r['order']:>6} {r['mounted_m']:>14.6e} {r['full_m']:>14.6e} "
-                     f"{r['rel_error']:>11.2e} {be:>11} {r['reduce_seconds']:>9.1f}")
+                     f"{r['rel_error']:>11.2e} {be:>11} {ce:>9} {r['reduce_seconds']:>9.1f}")
     return "\n".join(lines)
 
 
@@ -441,7 +451,8 @@ def print_transient(res: dict) -> str:
              f"{'MBS cpu s':>10} {'speed-up':>9}"]
     for r in res["rows"]:
         lines.append(f"{r['method']:>14} {r['order']:>6} {r['mean_error']:>11.2e} {r['max_error']:>11.2e} "
-                     f"{r['max_error_at_s']:>7.4f} {r['max_error_late']:>11.2e} {r['seconds']:>10.3f} {res['full_seconds'] / max(r['seconds'], 1e-9):>9.0f}")
+                     f"{r['max_error_at_s']:>7.4f} {r['max_error_late']:>11.2e} {r['seconds']:>10.3f} "
+                     f"{res['full_seconds'] / max(r['seconds'], 1e-9):>9.0f}")
     return "\n".join(lines)
 
 
