@@ -130,6 +130,20 @@ def simulate(model, add_body, scenario: str, end_time: float, step: float):
     for var in (exu.OutputVariableType.Position, exu.OutputVariableType.RotationMatrix):
         sensors.append(mbs.AddSensor(eii.SensorNode(nodeNumber=frame, storeInternal=True, outputVariableType=var)))
     mbs.Assemble()
+    t0 = time.process_time()
+    mbs.SolveDynamic(dynamic_settings(end_time, step))
+    seconds = time.process_time() - t0
+    tip, pos, rot = (mbs.GetSensorStoredData(k) for k in sensors)
+    A = rot[:, 1:].reshape(-1, 3, 3)
+    x_tip = model.xyz[model.node_sets["TIP"] - 1].mean(axis=0)
+    return tip[:, 0], np.einsum("kji,kj->ki", A, tip[:, 1:] - pos[:, 1:]) - x_tip, seconds
+
+
+def dynamic_settings(end_time: float, step: float):
+    """Exudyn's settings of a benchmark run: generalized-alpha (spectral radius 0.9) with ``step`` up
+    to ``end_time``, sparse solver, no solution file, sensors stored at every step."""
+    import exudyn as exu
+
     s = exu.SimulationSettings()
     s.timeIntegration.endTime = end_time
     s.timeIntegration.numberOfSteps = int(round(end_time / step))
@@ -138,13 +152,7 @@ def simulate(model, add_body, scenario: str, end_time: float, step: float):
     s.linearSolver.solverType = exu.LinearSolverType.EigenSparse
     s.solution.file.write = False
     s.solution.sensors.writePeriod = step
-    t0 = time.process_time()
-    mbs.SolveDynamic(s)
-    seconds = time.process_time() - t0
-    tip, pos, rot = (mbs.GetSensorStoredData(k) for k in sensors)
-    A = rot[:, 1:].reshape(-1, 3, 3)
-    x_tip = model.xyz[model.node_sets["TIP"] - 1].mean(axis=0)
-    return tip[:, 0], np.einsum("kji,kj->ki", A, tip[:, 1:] - pos[:, 1:]) - x_tip, seconds
+    return s
 
 
 def errors(u, u_full) -> dict:

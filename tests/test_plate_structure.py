@@ -75,3 +75,28 @@ def test_lower_plate_as_mass_is_free_with_its_inertia():
 def test_bad_options(kw):
     with pytest.raises(OptionError):
         plate_structure(**({"n": 8} | kw))
+
+
+def test_free_lower_ends_tied_to_the_rigid_plate_give_the_mass_variant():
+    """``lower='free'``: the solid alone (3-DOF nodes, six rigid-body modes). Its rods' lower faces
+    tied by the same RBE2 to the lower plate's centre give the ``mass`` variant's stiffness exactly,
+    and its mass up to the rigid plate's own inertia at the master (39.25 kg; 0.8177 and 1.635
+    kg m² about the centre)."""
+    from flexmor.couplings import couple
+
+    free, mass = plate_structure(8, lower="free"), plate_structure(8, lower="mass")
+    assert free.n_dof == 3 * free.n_nodes == 2160 and free.name == "plate-structure-n8-free"
+    lower = int(mass.node_sets["LOWER"][0])
+    c = couple(free, [f"BOTTOM@rbe2[0,0,{float(mass.node_xyz([lower])[0][2])!r}]"])
+    assert np.array_equal(c.model.dofs, mass.dofs)
+    assert abs(c.model.K - mass.K).max() <= 1e-12 * abs(mass.K).max()
+    extra = (mass.M - c.model.M).toarray()
+    eqs = [mass.dof_index(lower, d) for d in range(1, 7)]
+    m = RHO * 0.5 * 0.5 * 0.02
+    np.testing.assert_allclose(np.diag(extra)[eqs], [m, m, m, m * (0.25 + 0.02 ** 2) / 12, m * (0.25 + 0.02 ** 2) / 12,
+                                                     m * 0.25 / 6], rtol=1e-12)
+    extra[eqs, eqs] = 0.0
+    assert np.abs(extra).max() <= 1e-12 * m
+    lam, _ = eigenmodes(free.K, free.M, 8)
+    f = frequencies_hz(lam)
+    assert np.all(f[:6] < 1e-3 * f[6])

@@ -334,8 +334,8 @@ def frame_nodes(model, V, specs=None, reduced=None, *, masters=()) -> list[Frame
         name = str(spec).strip()
         master = next((m for m in masters if m.matches(name)), None)
         if master is not None:
-            out.append(FrameNode(master.id, name, np.array(master.xyz, float), master.rows[:3].copy(),
-                                 master.rows[3:].copy()))
+            out.append(FrameNode(master.id, master.name, np.array(master.xyz, float), master.rows[:3].copy(),
+                                 master.rows[3:].copy()))  # its one name, however the spec spells it
             continue
         target = parse_coupling(name)[0] if "@" in name else name
         if target.upper() in model.node_sets:

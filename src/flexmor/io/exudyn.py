@@ -300,7 +300,7 @@ def add_to_exudyn(mbs, reduced, model, *, position=(0.0, 0.0, 0.0), velocity=(0.
 
 def add_full_to_exudyn(mbs, model, *, position=(0.0, 0.0, 0.0), velocity=(0.0, 0.0, 0.0),
                        angular_velocity=(0.0, 0.0, 0.0), gravity=(0.0, 0.0, 0.0), constrain_rigid: bool = True,
-                       color=(0.9, 0.1, 0.1, 1.0)) -> dict:
+                       rayleigh=(0.0, 0.0), color=(0.9, 0.1, 0.1, 1.0)) -> dict:
     """Add the full FE body as Exudyn's unreduced ``ObjectFFRF`` (the reference of a reduced body).
 
     Every mesh node is a 3-DOF point node of the floating frame; the mass and stiffness matrices
@@ -319,7 +319,13 @@ def add_full_to_exudyn(mbs, model, *, position=(0.0, 0.0, 0.0), velocity=(0.0, 0
     constrain_rigid : bool
         Exudyn's reference conditions (the nodal displacements are mass-orthogonal to the rigid
         motions, the frame follows the body, as for a basis without rigid motion); ``False`` for
-        a supported model, whose clamped nodes fix the frame.
+        a supported model, whose clamped nodes fix the frame, or for a body whose frame is held
+        (fixed to the ground, its nodes then held where the body is mounted).
+    rayleigh : (alpha, beta)
+        Damping ``alpha M + beta K`` of the nodal coordinates (default none); the same as
+        ``rayleigh`` of :func:`add_to_exudyn` on a reduced body (``V^T (alpha M + beta K) V``).
+        Set here directly: Exudyn's ``AddObjectFFRF`` (1.13.6) drops a stiffness-proportional
+        damping without a mass-proportional one.
     color : sequence of 4 float
 
     Returns
@@ -357,6 +363,11 @@ def add_full_to_exudyn(mbs, model, *, position=(0.0, 0.0, 0.0), velocity=(0.0, 0
     res = dict(ffrf.AddObjectFFRF(exudyn, mbs, positionRef=list(position), initialVelocity=list(velocity),
                                   initialAngularVelocity=list(angular_velocity), gravity=list(gravity),
                                   constrainRigidBodyMotion=constrain_rigid, color=list(color)))
+    if any(rayleigh):
+        damping = exudyn.MatrixContainer()
+        damping.SetWithSparseMatrix(sp.csr_matrix(float(rayleigh[0]) * fem.massMatrix + float(rayleigh[1])
+                                                  * fem.stiffnessMatrix), useDenseMatrix=False)
+        mbs.SetObjectParameter(res["oFFRF"], "dampingMatrixFF", damping)
     if np.any(gravity):  # the consistent load M Φt g: a force m g at the nodes' mass-weighted mean
         share = np.asarray(fem.massMatrix @ np.tile([1.0, 0.0, 0.0], eq.size // 3))[0::3]
         mass = share.sum()

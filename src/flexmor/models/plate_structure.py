@@ -13,7 +13,9 @@ wall of a hole in its upper plate), built parametrically:
   lower end faces by an RBE2 (:func:`flexmor.couplings.couple`) to a master node (set
   ``LOWER``) at the centre of a steel plate ``a x a x lower_thickness`` hanging below the rods,
   carrying that plate's mass and rotary inertia; the structure is then free-free (six
-  rigid-body modes).
+  rigid-body modes). ``lower='free'`` leaves the lower end faces free (the solid alone, free-free,
+  translational DOFs only): tied to a rigid body by the same RBE2 it is the ``mass`` variant, the
+  form an MBS code with 3-DOF FE nodes (Exudyn's ``ObjectFFRF``) takes the structure in.
 
 All cells live on one rectilinear grid whose lines include the rods' faces and the hole's
 bounding square, so plate and rods share their nodes (no tie constraints). The matrices are
@@ -44,7 +46,7 @@ __all__ = ["LOWER", "plate_structure"]
 log = logging.getLogger(__name__)
 
 #: Choices of the lower plate.
-LOWER = ("clamped", "mass")
+LOWER = ("clamped", "mass", "free")
 
 
 def _lines(breaks, h: float, minimum) -> np.ndarray:
@@ -118,10 +120,11 @@ def plate_structure(n: int = 56, *, a: float = 0.5, t: float = 0.02, hole: float
         Distance of the rods' axes from the plate's edges in m.
     layers : int
         Elements through the plate thickness.
-    lower : {'clamped', 'mass'}
+    lower : {'clamped', 'mass', 'free'}
         The rigid lower plate fixed to the ground (rods' lower faces clamped), or a free rigid
         steel plate ``a x a x lower_thickness`` (mass and rotary inertia at its centre, node set
-        ``LOWER``) tied to the rods' lower faces by an RBE2.
+        ``LOWER``) tied to the rods' lower faces by an RBE2, or no lower plate (the rods' lower
+        faces free).
     lower_thickness : float
         Thickness of the lower plate in m (``lower='mass'`` only).
     E, nu, rho : float
@@ -159,7 +162,7 @@ def plate_structure(n: int = 56, *, a: float = 0.5, t: float = 0.02, hole: float
     mesh, sets, n_cells = _mesh(int(n), a, t, hole, rod, rod_length, rod_inset, layers)
     K, M, xyz = _assemble(mesh, "hex", lam, mu, rho)
     sets = {name: idx.astype(np.int64) + 1 for name, idx in sets.items()}
-    name = f"plate-structure-n{int(n)}" + ("" if lower == "clamped" else "-mass")
+    name = f"plate-structure-n{int(n)}" + ("" if lower == "clamped" else f"-{lower}")
     model = _finish(name, K, M, xyz, sets, "BOTTOM" if lower == "clamped" else None, cells=cell_mesh(mesh))
     if lower == "mass":
         model = _hang_lower_plate(model, a, lower_thickness, rod_length, rho)
