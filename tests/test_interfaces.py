@@ -16,6 +16,7 @@ import warnings
 
 import numpy as np
 import pytest
+import scipy.linalg as sla
 import scipy.sparse.linalg as spl
 
 from conftest import CCX
@@ -202,5 +203,34 @@ def test_vtu_of_a_coupled_body_moves_the_slaves(beam, tmp_path):
     fix = np.isin(free.node_ids, free.node_sets["FIX"])
     # the constraint modes move the interface: the highest modes of the body (its constraint modes'
     # share) displace the FIX nodes
-    moved = max(np.abs(grid.point_data[f"mode_{k}"][fix]).max() for k in range(1, red.order + 1))
+    moved = max(np.abs(grid.point_data[f"mode_{k}"][:free.n_nodes][fix]).max() for k in range(1, red.order + 1))
     assert moved > 1e-3
+    # the master is a point of its own, with its id, at its position, moving with its translations
+    mid, rows = _master_rows(c, red)
+    i = int(np.flatnonzero(grid.point_data["node_id"] == mid)[0])
+    assert i == free.n_nodes and grid.points.shape[0] == free.n_nodes + 1
+    np.testing.assert_allclose(grid.points[i], [0.0, 0.05, 0.05], atol=1e-12)
+    assert any(b.type == "vertex" and b.data.ravel().tolist() == [i] for b in grid.cells)
+    lam, phi = sla.eigh(red.K, red.M)
+    for k in (0, red.order - 1):  # the mode shapes' sign is free: compare magnitudes of the master's motion
+        np.testing.assert_allclose(np.abs(grid.point_data[f"mode_{k + 1}"][i]), np.abs(rows[:3] @ phi[:, k]),
+                                   rtol=1e-8, atol=1e-12)
+
+
+def test_cli_mounted_record_against_calculix_clamped_and_its_opt_out(tmp_path, capsys, clamped_ref):
+    """The free beam with FIX@rbe2, held clamped at the master, is the beam CalculiX clamped itself: the
+    mounted record's full frequencies are CalculiX's own (100.046, 100.046, 608.565 ... Hz) to the
+    printed digits, and the Craig-Bampton body's equal them (its fixed-interface modes). --no-mounted
+    leaves the check out."""
+    beam = DATA + "beam8_free_mat.sti"
+    args = ["reduce", beam, "--method", "craig-bampton", "--order", "16", "--interface", SPEC, "--input", "TIP:y",
+            "--band", "10:3000", "--json"]
+    assert main(args + ["-o", str(tmp_path / "a.h5")]) == 0
+    rec = json.loads(capsys.readouterr().out)
+    (case,) = [c for c in rec["mounted"]["cases"] if c["held"] == "clamped"]
+    assert case["node"] == 100
+    k = 4
+    np.testing.assert_allclose(case["frequencies_full_hz"][:k], clamped_ref[:k], rtol=2e-6)
+    np.testing.assert_allclose(case["frequencies_reduced_hz"][:k], clamped_ref[:k], rtol=2e-6)
+    assert main(args + ["-o", str(tmp_path / "b.h5"), "--no-mounted"]) == 0
+    assert "mounted" not in json.loads(capsys.readouterr().out)

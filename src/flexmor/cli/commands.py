@@ -258,7 +258,7 @@ def cmd_reduce(args) -> int:
                                 n_freq=args.n_freq, grid_tol=args.grid_tol, full_frf=args.full_frf,
                                 cache=not args.no_cache, solver=solver, progress=_progress(args, "full FRF"),
                                 tol=args.tol, tol_measure=args.tol_measure, inertia_loads=args.inertia_loads,
-                                uncoupled=uncoupled, couplings=couplings, **options)
+                                uncoupled=uncoupled, couplings=couplings, mounted=not args.no_mounted, **options)
     res["timings"]["read"] = t_read
     if is_partitioned(model.K):  # under mpirun with --backend petsc: the rows of K held by each rank
         res["partition"] = row_blocks(model.K)

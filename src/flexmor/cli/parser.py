@@ -160,6 +160,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("-o", "--output-file", metavar="FILE", help="reduced body file (.h5)")
     p.add_argument("--force", action="store_true", help="overwrite an existing output file")
     p.add_argument("--no-error", action="store_true", help="skip the error evaluation against the full model")
+    p.add_argument("--no-mounted", action="store_true", help="skip the check of the body held at its interfaces "
+                   "(clamped and pinned frequencies, static deflection against the full model held the same way; "
+                   "one factorization and eigen solve of the full model per interface and support)")
     p.add_argument("--tol", type=float,
                    help="target error: choose the smallest order whose verified error (--tol-measure) meets it; "
                         f"--order is then the largest order tried. Methods: {', '.join(tol_methods())} "

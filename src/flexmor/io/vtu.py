@@ -12,6 +12,7 @@ meshio (the optional extra ``flexmor[mesh]``), atomically.
 
 from __future__ import annotations
 
+import dataclasses
 from types import SimpleNamespace
 from xml.etree import ElementTree
 
@@ -105,8 +106,9 @@ def write_vtu(reduced, path, *, model=None) -> None:
     model : FEModel, optional
         The full model the body was reduced from, as read: its elements and nodes are written
         (and its nodes' own frames applied); a body with couplings is expanded to their slave
-        nodes (:func:`flexmor.expansion.expand_body`). Without it, the body's node table and outer surface
-        (triangles) are used.
+        nodes (:func:`flexmor.expansion.expand_body`), and each coupling master is a point of its
+        own (a ``vertex`` cell, ``node_id`` its id, its translations in ``mode_k``). Without it, the
+        body's node table and outer surface (triangles) are used.
 
     Raises
     ------
@@ -115,18 +117,28 @@ def write_vtu(reduced, path, *, model=None) -> None:
         missing (the message names the extra ``flexmor[mesh]``).
     """
     meshio = import_meshio()
+    masters = ()
     if model is not None and reduced.V is not None and reduced.info.get("couplings"):
         from ..expansion import expand_body, expanded_reduced
 
         xb = expand_body(model, reduced, elastic=False)  # the slaves move with their masters
-        reduced, model = expanded_reduced(xb), xb.model
-    freqs, shapes = body_modes(reduced)
+        reduced, model, masters = expanded_reduced(xb), xb.model, xb.masters
     geometry, mesh = _geometry(reduced, model)
-    nodal = nodal_modes(shapes, geometry)
     xyz = model.xyz if model is not None else reduced.xyz
+    if masters:  # each coupling master a point of its own (a vertex cell), its id as node_id
+        reduced = dataclasses.replace(reduced, V=np.vstack([reduced.V] + [m.rows for m in masters]))
+        dofs = np.vstack([model.dofs] + [np.column_stack([np.full(6, m.id), np.arange(1, 7)]) for m in masters])
+        geometry = SimpleNamespace(node_ids=xb.node_ids, dofs=dofs, n_nodes=xb.node_ids.size, n_dof=dofs.shape[0],
+                                   node_frames=model.node_frames)
+        xyz = xb.xyz
+    freqs, shapes = body_modes(reduced)
+    nodal = nodal_modes(shapes, geometry)
     point_data = {f"mode_{k + 1}": np.ascontiguousarray(nodal[:, :, k]) for k in range(nodal.shape[2])}
     grid = mesh.to_meshio(geometry.node_ids, xyz, point_data=point_data, field_data={"frequencies_hz": freqs},
                           vtk=True)
+    if masters:
+        n0 = model.n_nodes
+        grid.cells.append(meshio.CellBlock("vertex", np.arange(n0, n0 + len(masters), dtype=np.int64)[:, None]))
 
     def write(tmp):
         meshio.write(tmp, grid, file_format="vtu")
