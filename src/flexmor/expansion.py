@@ -91,19 +91,12 @@ class ExpandedBody:
         The basis at the model's equations (``T V``; the body's ``V`` without couplings).
     masters : list of MasterNode
         One per coupling, in the body's order.
-    coupled : FEModel or None
-        The model the body was reduced on (None without couplings: ``model``).
     """
 
     body: object
     model: object
     V: np.ndarray
     masters: list = field(default_factory=list)
-    coupled: object | None = None
-
-    def master(self, target) -> MasterNode | None:
-        """The master that ``target`` names (coupling SPEC, set name or node id), or None."""
-        return next((m for m in self.masters if m.matches(target)), None)
 
     @property
     def node_ids(self) -> np.ndarray:
@@ -114,15 +107,6 @@ class ExpandedBody:
     def xyz(self) -> np.ndarray:
         """Coordinates of :attr:`node_ids`."""
         return np.vstack([self.model.xyz] + [m.xyz[None, :] for m in self.masters])
-
-
-def _with_selections(model, body):
-    selections = body.info.get("selections", ())
-    if not selections or all(str(s).split("=", 1)[0].strip().upper() in model.node_sets for s in selections):
-        return model
-    from .selection import with_selections
-
-    return with_selections(model, selections)
 
 
 def expand_body(model, body, path="the body", *, elastic: bool = True, remove_rigid: bool = False) -> ExpandedBody:
@@ -156,30 +140,29 @@ def expand_body(model, body, path="the body", *, elastic: bool = True, remove_ri
         No basis, a model of another size or fingerprint, the coupled model given instead of
         the model as read.
     """
-    from .couplings import couple, parse_coupling
-    from .origin import check_origin, with_body_damping
+    from .couplings import parse_coupling
+    from .origin import applied_to, check_origin, with_body_damping
 
     if body.V is None:
         raise ModelError("the reduced body holds no basis V; re-run flexmor reduce (it stores V)")
     couplings = tuple(body.info.get("couplings", ()))
-    rows = np.shape(body.V)[0]
-    if not couplings:
-        if rows != model.n_dof:
-            raise ModelError(f"basis has {rows} rows, but the model {model.name!r} has {model.n_dof} equations; "
-                             "export needs the model the body was reduced from", params=("model",))
-        if elastic:
-            body = _elastic(with_body_damping(model, body, path), body, remove_rigid)
-        return ExpandedBody(body, model, np.asarray(body.V, dtype=float), [], None)
     keys = [c.replace(" ", "").upper() for c in couplings]
-    if all(k in model.node_sets for k in keys) and rows == model.n_dof:
+    rows = np.shape(body.V)[0]
+    if couplings and all(k in model.node_sets for k in keys) and rows == model.n_dof:
         raise ModelError(f"{model.source or model.name} is the coupled model ({', '.join(couplings)} applied); give "
                          "the FE model as read: the body applies its couplings itself and expands its basis to "
                          "their slave nodes", params=("model",))
-    ref = _with_selections(model, body)
-    c = couple(ref, list(couplings))
-    check_origin(body, c.model, path, couplings=couplings)
+    ref, c = applied_to(model, body)
+    reduced_on = ref if c is None else c.model
+    if reduced_on.n_dof != rows:
+        raise ModelError(f"basis has {rows} rows, but the model {reduced_on.name!r} has {reduced_on.n_dof} equations; "
+                         "export needs the model the body was reduced from", params=("model",))
+    if c is not None:
+        check_origin(body, reduced_on, path, couplings=couplings)
     if elastic:
-        body = _elastic(with_body_damping(c.model, body, path), body, remove_rigid)
+        body = _elastic(with_body_damping(reduced_on, body, path), body, remove_rigid)
+    if c is None:
+        return ExpandedBody(body, ref, np.asarray(body.V, dtype=float), [])
     V = np.asarray(body.V, dtype=float)
     eq = {(int(n), int(d)): i for i, (n, d) in enumerate(c.model.dofs)}
     masters = []
@@ -192,7 +175,7 @@ def expand_body(model, body, path="the body", *, elastic: bool = True, remove_ri
         masters.append(MasterNode(mid, key, kind, c.model.node_xyz([mid])[0].copy(), slaves, V[idx].copy()))
     Vx = np.asarray(c.T @ V)
     log.info("%s: basis expanded through %s to %d equations", body.method, ", ".join(couplings), ref.n_dof)
-    return ExpandedBody(body, ref, Vx, masters, c.model)
+    return ExpandedBody(body, ref, Vx, masters)
 
 
 def _elastic(model, body, remove_rigid):

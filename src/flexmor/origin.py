@@ -30,7 +30,7 @@ from .damping import Damping, GivenDamping, ModalDamping, NoDamping, Rayleigh
 from .errors import FlexmorWarning, ModelError, OptionError
 from .linalg.distributed import is_partitioned
 
-__all__ = ["with_body_damping", "fingerprint", "matrix_hash", "check_origin", "origin_differences", "reference_model",
+__all__ = ["applied_to", "with_body_damping", "fingerprint", "matrix_hash", "check_origin", "origin_differences", "reference_model",
            "same_damping", "describe_damping"]
 
 #: Version of the fingerprint record (bumped when what it hashes changes).
@@ -195,19 +195,31 @@ def reference_model(model, body, path, *, damping: Damping | None = None):
                           f"asked for here ({describe_damping(damping)}) differs. A body is compared against the "
                           "full model with its own damping: drop rayleigh / modal_damping / band_rayleigh, or "
                           "reduce again with it", params=("rayleigh", "modal_damping", "band_rayleigh"))
-    ref = model
+    selected, coupled = applied_to(model, body)
+    ref = selected if coupled is None else coupled.model
+    check_origin(body, ref, path, couplings=tuple(body.info.get("couplings", ())))
+    return with_body_damping(ref, body, path)
+
+
+def applied_to(model, body):
+    """``(selected, coupled)``: ``model`` (as read) with the body's node selections
+    (``info['selections']``), and the :class:`flexmor.couplings.Coupled` of its couplings
+    (``info['couplings']``) on that model, None without couplings. A selection whose set the model
+    has already (a model the selections were applied to) is not made again. Not checked against the
+    body's fingerprint (:func:`check_origin` does that)."""
+    selected = model
     selections = body.info.get("selections", ())
     if selections:
-        from .selection import with_selections
+        from .selection import parse_selection, with_selections
 
-        ref = with_selections(ref, selections)
-    couplings = tuple(body.info.get("couplings", ()))
-    if couplings:
-        from .couplings import couple
+        selected = with_selections(selected, [s for s in selections
+                                              if parse_selection(s)[0].upper() not in model.node_sets])
+    couplings = list(body.info.get("couplings", ()))
+    if not couplings:
+        return selected, None
+    from .couplings import couple
 
-        ref = couple(ref, list(couplings)).model
-    check_origin(body, ref, path, couplings=couplings)
-    return with_body_damping(ref, body, path)
+    return selected, couple(selected, couplings)
 
 
 def with_body_damping(ref, body, path):

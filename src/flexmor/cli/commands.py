@@ -14,11 +14,12 @@ from ..errors import OptionError
 from ..jsonutil import jsonable
 from ..linalg.context import step
 from ..linalg.distributed import is_partitioned, on_root, row_blocks
-from .info import coupling_lines, info_backends, info_body, info_formats, interface_lines, is_body_file, print_mass_properties
+from .info import (coupling_lines, info_backends, info_body, info_formats, interface_lines, is_body_file,
+                   print_mass_properties)
 from .options import method_options
 from .tables import fmt, print_error_table, print_mounted
 
-__all__ = ["cmd_info", "cmd_reduce", "cmd_compare", "cmd_export", "cmd_report", "cmd_demo"]
+__all__ = ["cmd_info", "cmd_reduce", "cmd_compare", "cmd_report", "cmd_demo"]
 
 
 def _emit_json(obj) -> None:
@@ -367,67 +368,6 @@ def _full_response(args, model, ports, band, solver):
     grid_opts = {} if args.grid_tol is None else {"tol": args.grid_tol}
     return FullResponse(model, ports, band, n=args.n_freq, solver=solver, path=args.full_frf,
                         cache=not args.no_cache, progress=_progress(args, "full FRF"), **grid_opts)
-
-
-# -- export ------------------------------------------------------------------------------------
-def cmd_export(args) -> int:
-    from ..io import export, export_format, read, read_body
-    from ..origin import reference_model
-
-    _check_new(args.output_file, args)
-    red = read_body(args.reduced)
-    fmt = export_format(args.output_file, args.format)
-    if args.mesh and not args.model:
-        raise OptionError("--mesh attaches a mesh file to the --model; give --model too")
-    model = _with_mesh(read(args.model, format=args.model_format), args) if args.model else None
-    out = {"file": str(args.output_file), "format": fmt, "order": red.order, "method": red.method}
-    if model is not None:  # the body's own model (refused otherwise); the exporters apply its couplings
-        ref = reference_model(model, red, args.reduced)
-        if args.remove_rigid:
-            out.update(_removed_rigid(args, model, ref, red))
-    opts = {"nodes": args.node or None} if fmt in ("sid", "mat") else {}
-    if fmt == "sid":
-        opts["m1_order"] = args.m1_order
-    if args.allow_clamped:
-        opts["allow_clamped"] = True
-    if args.remove_rigid and fmt in ("sid", "exudyn"):
-        opts["remove_rigid"] = True
-    export(red, args.output_file, fmt, model=model, **opts)
-    if args.json:
-        _emit_json(out)
-        return 0
-    print(f"exported {args.reduced} ({red.method}, order {red.order}) as {fmt}: {args.output_file}")
-    if "order_exported" in out:
-        print(f"note: rigid-body motion removed from the basis: order {red.order} -> {out['order_exported']}; "
-              f"the body written has band_error {_g(out['band_error'])} (rms {_g(out['rms_rel_error_pct'])} %) "
-              f"over {out['band_hz'][0]:g}-{out['band_hz'][1]:g} Hz, judged on the elastic part")
-    return 0
-
-
-def _g(x) -> str:
-    return fmt(x, ".3g")
-
-
-def _removed_rigid(args, model, ref, red) -> dict:
-    """``--remove-rigid``: when the body holds rigid motion, the order and the error measures of the
-    body export writes (its basis made mass-orthogonal to the rigid-body modes) over the body's band."""
-    import warnings
-
-    from ..analysis.compare import FullResponse
-    from ..analysis.frequency import measure_record
-    from ..expansion import expand_body
-    from ..linalg.context import SolverContext
-    from ..options import DEFAULT_BAND, Band
-    from ..ports import make_ports
-
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        body = expand_body(model, red, args.reduced, remove_rigid=True).body
-    if "rigid_removed_at_export" not in body.info:
-        return {}
-    band = Band.of(red.errors.get("band_hz") or DEFAULT_BAND)
-    full = FullResponse(ref, make_ports(ref, red.input_names, red.output_names), band, solver=SolverContext())
-    return {"order_exported": body.order, "band_hz": list(band), **measure_record(full.evaluate(body))}
 
 
 # -- report ------------------------------------------------------------------------------------

@@ -18,7 +18,8 @@ from ..io import EXPORT_FORMATS
 from ..linalg.memory import FACTOR_MEMORY
 from ..options import DEFAULT_BAND, option_fields
 from ..tolerance import tol_methods
-from .commands import cmd_compare, cmd_demo, cmd_export, cmd_info, cmd_reduce, cmd_report
+from .commands import cmd_compare, cmd_demo, cmd_info, cmd_reduce, cmd_report
+from .export import cmd_export
 from .options import COMMON, all_options, flag
 from .ui import add_ui_parser
 

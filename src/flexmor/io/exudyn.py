@@ -38,8 +38,8 @@ import scipy.sparse as sp
 from ..errors import ModelError, OptionError
 from . import EXPORT_FORMATS, atomic_write
 
-__all__ = ["NODE_TYPES", "EXTRA_KEYS", "add_full_to_exudyn", "add_marker", "add_npz_to_exudyn", "add_to_exudyn", "exudyn_data",
-           "write_exudyn"]
+__all__ = ["NODE_TYPES", "EXTRA_KEYS", "add_full_to_exudyn", "add_marker", "add_npz_to_exudyn", "add_to_exudyn",
+           "exudyn_data", "write_exudyn"]
 
 log = logging.getLogger(__name__)
 

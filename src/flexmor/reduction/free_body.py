@@ -436,9 +436,7 @@ def elastic_body(model, reduced, *, remove_rigid: bool = False):
                          "the default for free bodies), or allow the change with remove_rigid=True (flexmor export "
                          "--remove-rigid, which states the error of the body it writes)", params=("remove_rigid",))
     body.info["rigid_removed_at_export"] = {"order_reduced": reduced.order, "order_exported": body.order}
-    body.info["couplings"] = list(reduced.info.get("couplings", ()))
-    body.info["selections"] = list(reduced.info.get("selections", ()))
-    body.origin = dict(reduced.origin)
+    body.origin = dict(reduced.origin)  # with the couplings and selections the body was made with
     warnings.warn(f"{reduced.method} body: its basis holds rigid-body motion, which the floating frame carries; "
                   f"exported with its basis {change}", FlexmorWarning, stacklevel=2)
     return body

@@ -340,7 +340,8 @@ def krylov(model, ports, order, *, points=None, moments: int | None = None, side
         flexible part are matched, and the body reduced, judged (on the elastic part of ``H``)
         and stored is the one an FFRF export writes. ``include`` puts the rigid-body modes that
         the ports excite first in the basis: the reduced body moves rigidly like the full one
-        and all moments of ``H`` are matched (an FFRF export removes them again). A point 0 on a free body (singular ``K``) is moved to a
+        and all moments of ``H`` are matched (an FFRF export refuses such a body unless asked to
+        remove them, ``remove_rigid``). A point 0 on a free body (singular ``K``) is moved to a
         small real shift.
     solver : SolverContext, optional
         Solver (backend, statistics) of :func:`flexmor.linalg.factorize` (one factorization per point).
