@@ -433,8 +433,8 @@ def elastic_body(model, reduced, *, remove_rigid: bool = False):
     if not remove_rigid:
         raise ModelError(f"the {reduced.method} body holds rigid-body motion, which the floating frame carries; "
                          f"exporting it would need its basis {change}. Reduce with rigid='exclude' (--rigid exclude, "
-                         "the default for free bodies), or allow the change with remove_rigid=True (flexmor export "
-                         "--remove-rigid, which states the error of the body it writes)", params=("remove_rigid",))
+                         "the default for free bodies), or pass remove_rigid to allow the change (flexmor export then "
+                         "states the error of the body it writes)", params=("remove_rigid",))
     body.info["rigid_removed_at_export"] = {"order_reduced": reduced.order, "order_exported": body.order}
     body.origin = dict(reduced.origin)  # with the couplings and selections the body was made with
     warnings.warn(f"{reduced.method} body: its basis holds rigid-body motion, which the floating frame carries; "
