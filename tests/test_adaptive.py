@@ -4,6 +4,7 @@ import json
 
 import numpy as np
 import pytest
+from conftest import CCX
 
 from flexmor.analysis.compare import FullResponse
 from flexmor.cli import main
@@ -12,8 +13,6 @@ from flexmor.models import cantilever
 from flexmor.ports import make_ports
 from flexmor.reduction import reduce
 from flexmor.workflow import reduce_and_judge
-
-from conftest import CCX
 
 BAND = (1.0, 3000.0)
 

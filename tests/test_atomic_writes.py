@@ -23,8 +23,7 @@ from conftest import CCX
 import flexmor
 from flexmor.analysis import cache
 from flexmor.cli import main
-from flexmor.io import atomic_write
-from flexmor.io import export
+from flexmor.io import atomic_write, export
 from flexmor.io.hdf5 import read_reduced, write_reduced
 from flexmor.ports import make_ports
 from flexmor.reduction import reduce

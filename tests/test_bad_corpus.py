@@ -5,7 +5,6 @@ tests/data/bad/MANIFEST.tsv (regenerate the files with tests/data/bad/make_corpu
 """
 
 import csv
-import shutil
 
 import pytest
 from conftest import DATA

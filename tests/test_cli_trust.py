@@ -211,7 +211,7 @@ def test_orders_that_differ_from_the_request_say_why(capsys, tmp_path):
     assert out["order"] < 8 and out["order_requested"] == 8
     assert f"order {out['order']} instead of 8" in out["order_note"] and "Hankel singular values" in out["order_note"]
     code, text, _ = run(capsys, "info", tmp_path / "fw.h5")
-    assert f"(8 requested)" in text and "Hankel singular values" in text
+    assert "(8 requested)" in text and "Hankel singular values" in text
     out = run_json(capsys, "reduce", CLAMPED, "--method", "modal", "--order", "8", "--input", "TIP:y", "--no-error",
                    "-o", tmp_path / "m.h5")
     assert out["order"] == 8 and out["order_note"] is None

@@ -11,8 +11,9 @@ import warnings
 import numpy as np
 import pytest
 import scipy.linalg as sla
-
 from conftest import CCX
+
+from flexmor.basis import Basis
 from flexmor.cli import main
 from flexmor.couplings import couple
 from flexmor.errors import FlexmorWarning, ModelError, OptionError
@@ -22,7 +23,6 @@ from flexmor.linalg.eigen import eigenmodes, frequencies_hz
 from flexmor.models import cantilever
 from flexmor.ports import make_ports
 from flexmor.projection import project
-from flexmor.basis import Basis
 from flexmor.reduction import reduce
 from flexmor.reduction.free_body import check_body, rigid_body_modes, rigid_residual
 from flexmor.workflow import apply_damping, reduce_and_judge

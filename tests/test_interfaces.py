@@ -18,8 +18,8 @@ import numpy as np
 import pytest
 import scipy.linalg as sla
 import scipy.sparse.linalg as spl
-
 from conftest import CCX
+
 from flexmor.cli import main
 from flexmor.couplings import couple
 from flexmor.errors import ModelError

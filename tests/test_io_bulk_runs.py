@@ -159,20 +159,20 @@ def test_bad_grid_deep_in_a_run_names_its_line(tmp_path, free, bad, words):
 
 @pytest.mark.parametrize("free", [False, True])
 def test_run_errors_of_ids_and_systems(tmp_path, free):
-    p = _run_deck(tmp_path, f"GRID,17,,0.,0.,0." if free else _small(17, "", ["0.", "0.", "0."]), 200, free)
+    p = _run_deck(tmp_path, "GRID,17,,0.,0.,0." if free else _small(17, "", ["0.", "0.", "0."]), 200, free)
     with pytest.raises(ReadError, match=r"GRID 17 defined twice \(first on line 18\)") as exc:
         read_bulk(p)
     assert exc.value.line == 201
-    p = _run_deck(tmp_path, f"GRID,150,9,0.,0.,0." if free else _small(150, "9", ["0.", "0.", "0."]), 150, free)
+    p = _run_deck(tmp_path, "GRID,150,9,0.,0.,0." if free else _small(150, "9", ["0.", "0.", "0."]), 150, free)
     with pytest.raises(ReadError, match="CP=9 is not defined") as exc:
         read_bulk(p)
     assert exc.value.line == 151
-    p = _run_deck(tmp_path, f"GRID,150,,0.,0.,0.,8" if free else _small(150, "", ["0.", "0.", "0."], "8"), 150,
+    p = _run_deck(tmp_path, "GRID,150,,0.,0.,0.,8" if free else _small(150, "", ["0.", "0.", "0."], "8"), 150,
                   free)
     with pytest.raises(ReadError, match="CD=8 is not defined") as exc:
         read_bulk(p)
     assert exc.value.line == 151
-    p = _run_deck(tmp_path, f"GRID,150,1.5,0.,0.,0." if free else _small(150, "1.5", ["0.", "0.", "0."]), 150,
+    p = _run_deck(tmp_path, "GRID,150,1.5,0.,0.,0." if free else _small(150, "1.5", ["0.", "0.", "0."]), 150,
                   free)
     with pytest.raises(ReadError, match="CP/CD must be integers") as exc:
         read_bulk(p)

@@ -4,14 +4,13 @@ import logging
 
 import numpy as np
 import pytest
+from conftest import DATA
 
 from flexmor.analysis.norms import h2_error
 from flexmor.io import read
 from flexmor.models import cantilever
 from flexmor.ports import make_ports
 from flexmor.reduction import reduce
-
-from conftest import DATA
 
 
 @pytest.fixture(scope="module")

@@ -14,9 +14,10 @@ import numpy as np
 import pytest
 import scipy.linalg as sla
 import scipy.sparse.linalg as spla
-
 from conftest import CCX
+
 from flexmor.analysis.compare import JUDGED_ELASTIC, JUDGED_RIGID, FullResponse
+from flexmor.basis import Basis
 from flexmor.checks import coupling_frequencies
 from flexmor.cli import main
 from flexmor.couplings import couple
@@ -25,7 +26,6 @@ from flexmor.io import read_body
 from flexmor.models import plate_structure
 from flexmor.ports import make_ports
 from flexmor.reduction import reduce
-from flexmor.basis import Basis
 from flexmor.reduction.free_body import elastic_body, exclude_rigid, rigid_content, rigid_residual
 from flexmor.workflow import apply_damping, reduce_and_judge
 

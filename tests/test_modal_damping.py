@@ -9,8 +9,8 @@ import json
 
 import numpy as np
 import pytest
-
 from conftest import CCX
+
 from flexmor.analysis.compare import FullResponse
 from flexmor.cli import main
 from flexmor.damping import ModalDamping, band_matched, damping_from_dict

@@ -12,8 +12,8 @@ import json
 import numpy as np
 import pytest
 import scipy.sparse.linalg as spla
-
 from conftest import CCX
+
 from flexmor.analysis.mounted import FullMounted, mounted_check, mounted_note, supports
 from flexmor.cli import main
 from flexmor.couplings import couple

@@ -22,7 +22,6 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
 import sid_check
 
 pytest.importorskip("exudyn")

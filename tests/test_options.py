@@ -17,8 +17,15 @@ import pytest
 from conftest import CCX
 
 from flexmor.cli import main
-from flexmor.damping import (BandMatched, GivenDamping, NoDamping, Rayleigh, band_matched, damping_from_dict,
-                             modal_damping)
+from flexmor.damping import (
+    BandMatched,
+    GivenDamping,
+    NoDamping,
+    Rayleigh,
+    band_matched,
+    damping_from_dict,
+    modal_damping,
+)
 from flexmor.errors import FlexmorError, OptionError, PortError
 from flexmor.options import DEFAULT_BAND, Band
 from flexmor.ports import make_ports

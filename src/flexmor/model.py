@@ -392,11 +392,11 @@ class FEModel:
         return out
 
     # -- derived models ---------------------------------------------------------------------
-    def with_rayleigh(self, alpha: float, beta: float) -> "FEModel":
+    def with_rayleigh(self, alpha: float, beta: float) -> FEModel:
         """Return a copy with Rayleigh damping ``D = alpha M + beta K`` (alpha in 1/s, beta in s)."""
         return self.with_damping(Rayleigh(float(alpha), float(beta)))
 
-    def with_damping(self, damping: Damping) -> "FEModel":
+    def with_damping(self, damping: Damping) -> FEModel:
         """Return a copy with the damping matrix of ``damping`` (a :class:`~flexmor.damping.Rayleigh`,
         e.g. :func:`~flexmor.damping.band_matched`); :class:`~flexmor.damping.NoDamping` returns the model."""
         if isinstance(damping, NoDamping):

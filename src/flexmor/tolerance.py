@@ -16,8 +16,8 @@ from __future__ import annotations
 import logging
 import time
 
-from .basis import Basis
 from .analysis.frequency import TOL_MEASURES
+from .basis import Basis
 from .errors import OptionError, check_choice
 from .linalg.context import SolverContext, as_solver, step
 from .projection import project

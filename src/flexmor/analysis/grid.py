@@ -13,7 +13,7 @@ made (the grid is shared by every reduced body); their peaks sit at the same res
 from __future__ import annotations
 
 import logging
-from typing import Callable
+from collections.abc import Callable
 
 import numpy as np
 

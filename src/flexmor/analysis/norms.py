@@ -21,8 +21,8 @@ import numpy as np
 import scipy.linalg as sla
 import scipy.sparse as sp
 
-from ..dynamics.frf import frf_full, frf_reduced
 from ..damping import Rayleigh
+from ..dynamics.frf import frf_full, frf_reduced
 from ..errors import OptionError, check_choice
 from ..linalg.distributed import is_partitioned
 from ..linalg.eigen import dense_eigenmodes

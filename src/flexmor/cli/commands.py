@@ -14,8 +14,15 @@ from ..errors import OptionError
 from ..jsonutil import jsonable
 from ..linalg.context import step
 from ..linalg.distributed import is_partitioned, on_root, row_blocks
-from .info import (coupling_lines, info_backends, info_body, info_formats, interface_lines, is_body_file,
-                   print_mass_properties)
+from .info import (
+    coupling_lines,
+    info_backends,
+    info_body,
+    info_formats,
+    interface_lines,
+    is_body_file,
+    print_mass_properties,
+)
 from .options import method_options
 from .tables import fmt, print_error_table, print_mounted
 

@@ -2,8 +2,8 @@
 
 from __future__ import annotations
 
-from .commands import _check_new, _emit_json, _with_mesh
 from ..errors import OptionError
+from .commands import _check_new, _emit_json, _with_mesh
 from .tables import fmt
 
 __all__ = ["cmd_export"]

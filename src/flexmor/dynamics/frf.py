@@ -14,7 +14,7 @@ built on it are in :mod:`flexmor.analysis.frequency`.
 
 from __future__ import annotations
 
-from typing import Callable
+from collections.abc import Callable
 
 import numpy as np
 import scipy.sparse as sp

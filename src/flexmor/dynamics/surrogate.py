@@ -46,11 +46,11 @@ import numpy as np
 import scipy.linalg as sla
 
 from ..basis import extend_orthonormal
-from .frf import ShiftedMatrices, angular_frequency
 from ..errors import check_choice
 from ..linalg import factorize
 from ..linalg.backends import MEMORY_FRACTION
 from ..linalg.context import SolverContext, as_solver, step
+from .frf import ShiftedMatrices, angular_frequency
 
 __all__ = ["Surrogate", "DEFAULT_SURROGATE_TOL"]
 

@@ -339,10 +339,10 @@ def add_full_to_exudyn(mbs, model, *, position=(0.0, 0.0, 0.0), velocity=(0.0, 0
     ModelError
         A model with rotational DOFs (Exudyn's mesh has 3-DOF nodes only).
     """
-    from exudyn.FEM import FEMinterface, ObjectFFRFinterface
-    from ..invariants import node_triples
-
     import exudyn
+    from exudyn.FEM import FEMinterface, ObjectFFRFinterface
+
+    from ..invariants import node_triples
 
     trans, rot = node_triples(model)
     if np.any(rot >= 0):

@@ -216,7 +216,7 @@ def _read_one(path: Path, role: str) -> sp.csr_matrix:
     return A
 
 
-def read_matrix_market(path) -> "FEModel":  # noqa: F821
+def read_matrix_market(path) -> FEModel:  # noqa: F821
     """Read a stiffness/mass (/damping) triple of Matrix Market files.
 
     Parameters

@@ -33,9 +33,9 @@ from __future__ import annotations
 import importlib.util
 import logging
 import time
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from types import MappingProxyType
-from typing import Callable, Mapping
 
 import numpy as np
 import scipy.sparse as sp

@@ -23,9 +23,9 @@ neither share counts nor caches.
 from __future__ import annotations
 
 import weakref
+from collections.abc import Callable
 from contextlib import contextmanager
 from dataclasses import dataclass, field
-from typing import Callable
 
 from ..errors import OptionError, SolverError
 from . import backends as _backends

@@ -25,8 +25,17 @@ from ..options import Band, band_option, option
 from . import register_method
 from .dense_gramians import dense_gramians, psd_factor
 from .free_body import rigid_head
-from .gramians import (VARIANTS, _regularized, balance, balance_note, gramian_factors, nodes_option, solves_option,
-                       truncation_basis, variant_option)
+from .gramians import (
+    VARIANTS,
+    _regularized,
+    balance,
+    balance_note,
+    gramian_factors,
+    nodes_option,
+    solves_option,
+    truncation_basis,
+    variant_option,
+)
 from .krylov import rigid_option
 
 __all__ = ["sobt", "fw_sobt", "balanced_basis", "SobtOptions", "FwSobtOptions"]

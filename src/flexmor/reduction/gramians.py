@@ -55,9 +55,9 @@ import numpy as np
 import scipy.linalg as sla
 
 from ..basis import orthonormalize
+from ..damping import band_matched
 from ..dynamics.frf import ShiftedMatrices
 from ..dynamics.modes import modal_damping_ratios, modes_below
-from ..damping import band_matched
 from ..errors import ModelError, OptionError, check_choice
 from ..linalg import factorize
 from ..linalg.context import SolverContext, as_solver, track

@@ -24,15 +24,15 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .. import __version__
-from ..errors import FlexmorError, OptionError, check_choice
-from ..analysis.frequency import ANTIRESONANCE_FACTOR, MEASURES, measure_record
 from ..analysis.compare import JUDGED_ELASTIC, JUDGED_RIGID
+from ..analysis.frequency import ANTIRESONANCE_FACTOR, MEASURES, measure_record
 from ..checks import describe_couplings
 from ..damping import damping_from_dict
+from ..errors import FlexmorError, OptionError, check_choice
 from ..io import atomic_write
-from ..origin import describe_damping
 from ..linalg.context import SolverContext, as_solver
 from ..linalg.distributed import is_partitioned
+from ..origin import describe_damping
 from . import plots
 from .view3d import interface_nodes, port_nodes
 

@@ -47,8 +47,8 @@ import scipy.sparse as sp
 
 from ...errors import ReadError
 from .. import MODEL_FORMATS
-from .._mass import QUADRATIC_TYPES, check_mass
 from .._cells import abaqus_cell, mesh_of_elements
+from .._mass import QUADRATIC_TYPES, check_mass
 from .._sparse import assemble, rows_in_use
 from .._text import build_model, check_text, entry_line, parse_triplets, read_text
 from .abaqus_inp import AbaqusDeck, read_deck
@@ -244,7 +244,7 @@ def _compress(A: sp.csr_matrix, code: np.ndarray, number: np.ndarray) -> sp.csr_
     return sp.csr_matrix((A.data, A.indices, indptr), shape=(code.size, code.size))
 
 
-def read_abaqus(path, *, dof_per_node: int | None = None) -> "FEModel":  # noqa: F821
+def read_abaqus(path, *, dof_per_node: int | None = None) -> FEModel:  # noqa: F821
     """Read an Abaqus ``*MATRIX GENERATE`` export with its input deck.
 
     Parameters

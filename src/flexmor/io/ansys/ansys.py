@@ -362,7 +362,7 @@ def _read_cdb(path: Path):
     return np.asarray(a.nnum, dtype=np.int64), np.asarray(a.nodes, dtype=np.float64)[:, :3], sets, mesh
 
 
-def read_ansys(path, *, coordinates=None) -> "FEModel":  # noqa: F821
+def read_ansys(path, *, coordinates=None) -> FEModel:  # noqa: F821
     """Read an Ansys matrix export (Matrix Market set or binary ``.full``).
 
     Parameters

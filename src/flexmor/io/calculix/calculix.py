@@ -35,9 +35,9 @@ import scipy.sparse as sp
 
 from ...errors import ReadError
 from .. import MODEL_FORMATS
+from .._cells import build_mesh
 from .._mass import QUADRATIC_TYPES, check_mass
 from .._sparse import assemble
-from .._cells import build_mesh
 from .._text import build_model, entry_line, parse_triplets, read_bytes, read_text
 from .deck import read_inp
 from .expanded import expanded_dofs
@@ -173,7 +173,7 @@ def _geometry_file(path: Path) -> Path:
                                               "node block)")
 
 
-def read_calculix(path) -> "FEModel":  # noqa: F821
+def read_calculix(path) -> FEModel:  # noqa: F821
     """Read a CalculiX ``.sti`` file with its ``.mas``, ``.dof`` and ``.inp`` siblings.
 
     Parameters

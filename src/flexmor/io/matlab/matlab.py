@@ -59,7 +59,7 @@ def _get(path: Path, data: dict, name: str):
     return A
 
 
-def read_matlab(path) -> "FEModel":  # noqa: F821
+def read_matlab(path) -> FEModel:  # noqa: F821
     """Read ``M``, ``K`` and optional ``D``, ``B``, ``C`` from a MATLAB ``.mat`` file.
 
     Parameters

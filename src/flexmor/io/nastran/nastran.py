@@ -370,7 +370,7 @@ def op4_matrices(path, mats, names) -> dict:
 
 
 def read_nastran(path, *, stiffness=None, mass=None, damping=None, geometry=None,
-                 directions: str = "basic") -> "FEModel":  # noqa: F821
+                 directions: str = "basic") -> FEModel:  # noqa: F821
     """Read stiffness and mass (and damping) from a DMIG punch file or an OP4 file.
 
     Parameters
