@@ -185,7 +185,7 @@ def _elastic(model, body, remove_rigid):
 
 
 def expanded_reduced(xb: ExpandedBody):
-    """The body of ``xb`` as a :class:`~flexmor.projection.ReducedModel` at the model's equations
+    """The body of ``xb`` as a :class:`~flexmor.body.ReducedModel` at the model's equations
     (``V`` expanded, the model's node table and equation map)."""
     m = xb.model
     return dataclasses.replace(xb.body, V=xb.V, node_ids=m.node_ids, xyz=m.xyz, dofs=m.dofs)

@@ -26,7 +26,7 @@ _OPTIONAL = {"origin": {}}
 
 
 def write_reduced(red, path) -> None:
-    """Write a :class:`~flexmor.projection.ReducedModel` to ``path`` (HDF5), atomically."""
+    """Write a :class:`~flexmor.body.ReducedModel` to ``path`` (HDF5), atomically."""
     import h5py
 
     errors = {k: v for k, v in red.errors.items() if k not in ("rel_error", "freqs_hz")}
@@ -98,7 +98,7 @@ def read_reduced(path):
     """
     import h5py
 
-    from ..projection import ReducedModel
+    from ..body import ReducedModel
 
     try:
         h = h5py.File(path, "r")

@@ -18,9 +18,10 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass
 
+from ..body import ReducedModel
 from ..errors import OptionError
 from ..options import option_fields
-from ..projection import ReducedModel, project
+from ..projection import project
 from .free_body import exclude_rigid, with_inertia_loads
 
 __all__ = ["register_method", "METHODS", "methods", "reduce", "Method", "check_keywords"]
