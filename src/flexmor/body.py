@@ -50,6 +50,16 @@ class ReducedModel:
     origin : dict
         Fingerprint of the full model (:func:`flexmor.origin.fingerprint`); empty for bodies
         written before fingerprints existed.
+    selections : list of str
+        Node selections (:mod:`flexmor.selection`) made on the model as read before reducing;
+        applied again with the couplings wherever the body meets that model
+        (:func:`flexmor.origin.applied_to`).
+    couplings : list of str
+        RBE2/RBE3 couplings (:mod:`flexmor.couplings`, e.g. ``TIP@rbe2``) applied to the model
+        (after the selections) before reducing; empty for a body reduced on the model as read.
+    order_note : str or None
+        Why the order differs from the one asked for (e.g. a Craig-Bampton basis bounded by the
+        interior DOFs, Hankel singular values at round-off); None when it does not.
     """
 
     M: np.ndarray
@@ -71,6 +81,9 @@ class ReducedModel:
     errors: dict = field(default_factory=dict)
     version: str = __version__
     origin: dict = field(default_factory=dict)
+    selections: list = field(default_factory=list)
+    couplings: list = field(default_factory=list)
+    order_note: str | None = None
 
     def __post_init__(self):
         if not isinstance(self.damping, Damping):  # the stored form, e.g. {"type": "rayleigh", ...}
@@ -103,8 +116,8 @@ class ReducedModel:
         except ModelError:
             freqs = None
         return {"method": self.method, "order": self.order, "order_requested": self.info.get("order_requested"),
-                "order_note": self.info.get("order_note"), "inputs": list(self.input_names),
-                "outputs": list(self.output_names), "couplings": list(self.info.get("couplings", [])),
+                "order_note": self.order_note, "inputs": list(self.input_names),
+                "outputs": list(self.output_names), "couplings": list(self.couplings),
                 "masters": list(self.info.get("masters", [])),
                 "options": dict(self.info.get("options", {})), "frequencies_hz": freqs,
                 "damping": self.damping.to_dict(), "model_name": self.model_name,

@@ -103,6 +103,7 @@ def project(model: FEModel, basis: Basis, ports: Ports) -> ReducedModel:
         Dr = model.damping.reduced_matrix(Mr, Kr)
     Br, Cr = ports.reduced(V)
     info = dict(basis.info)
+    order_note = info.pop("order_note", None)  # a method's word on the order it returned: a field of the body
     masters = coupling_masters(model)
     if masters:  # the interfaces of the body: one master id everywhere (info, SID, Exudyn, report)
         info["masters"] = [{"name": m["name"], "id": m["id"], "kind": m["kind"], "xyz": m["xyz"],
@@ -112,5 +113,5 @@ def project(model: FEModel, basis: Basis, ports: Ports) -> ReducedModel:
         input_names=list(ports.input_names), output_names=list(ports.output_names),
         node_ids=model.node_ids, xyz=model.xyz, dofs=model.dofs, model_name=model.name,
         damping=model.damping, triangles=None if model.mesh is None else outer_surface(model.mesh).triangles,
-        origin=fingerprint(model),
+        origin=fingerprint(model), order_note=order_note,
     )

@@ -85,7 +85,7 @@ def prepare_model(model, couplings=()):
 
 
 def body_model(model, reduced, path="the body", *, damping: Damping | None = None):
-    """The full model ``reduced`` was made from: the body's node selections (``info['selections']``,
+    """The full model ``reduced`` was made from: the body's node selections (``reduced.selections``,
     the ``--select`` of ``flexmor reduce``), couplings and damping applied to ``model`` as read,
     checked against the body's fingerprint (:func:`flexmor.origin.reference_model`, which
     explains ``path`` and ``damping``)."""
@@ -153,7 +153,7 @@ def reduce_and_judge(model, method: str, order, ports, *, band=None, full: FullR
         red, t, _ = reduce_to_tolerance(model, method, ports, tol=tol, full=full, max_order=order,
                                         measure=tol_measure, solver=solver, **options)
         red.info["order_requested"] = None if order is None else int(order)
-        red.info.pop("order_note", None)  # the order was chosen by the search (its record says how)
+        red.order_note = None  # the order was chosen by the search (its record says how)
     else:
         red, t = reduce(model, method, order, ports, solver=solver, **options)
     t["factorize"] = solver.stats.seconds - f0
@@ -163,7 +163,7 @@ def reduce_and_judge(model, method: str, order, ports, *, band=None, full: FullR
         "method": method,
         "order": red.order,
         "order_requested": red.info.get("order_requested"),
-        "order_note": red.info.get("order_note"),
+        "order_note": red.order_note,
         "seconds": t["basis"] + t["project"],
         "band_hz": None, **measure_record(None),
         "frequencies_hz": red.frequencies_hz().tolist(),

@@ -20,7 +20,7 @@ from dataclasses import dataclass
 
 from ..body import ReducedModel
 from ..errors import OptionError
-from ..options import option_fields
+from ..options import check_order, option_fields
 from ..projection import project
 from .free_body import exclude_rigid, with_inertia_loads
 
@@ -152,7 +152,7 @@ def reduce(model, method: str, order: int | None, ports, *, inertia_loads: str =
     reduced : ReducedModel
         Its ``info`` holds the method's own record plus ``order_requested`` and ``options`` (the
         options passed, as JSON values); with ``version`` the result says how it was made. When
-        the order differs from the one asked, ``info['order_note']`` says what was returned and
+        the order differs from the one asked, ``order_note`` says what was returned and
         why (the method's own reason where it gives one).
     timings : dict
         Wall times in seconds: ``basis``, ``project``.
@@ -164,8 +164,7 @@ def reduce(model, method: str, order: int | None, ports, *, inertia_loads: str =
     m = METHODS[method]
     check_keywords(method, options, m.keywords)
     opts = {k: v for k, v in options.items() if v is not None}
-    if order is not None and (int(order) != order or order < 1):
-        raise OptionError(f"order must be a positive integer, got {order}", params=("order",))
+    order = check_order(order)
     t0 = time.perf_counter()
     basis_ports, inertia = with_inertia_loads(model, ports, inertia_loads if m.uses_inputs else "off")
     basis = exclude_rigid(model, m.function(model, basis_ports, order, **opts))
@@ -175,8 +174,8 @@ def reduce(model, method: str, order: int | None, ports, *, inertia_loads: str =
     red.info.update(inertia)
     red.info.setdefault("order_requested", order)
     red.info.setdefault("options", _recorded(opts))
-    if order is not None and red.order != order and not red.info.get("order_note"):
-        red.info["order_note"] = f"order {red.order} instead of {order}: {method} returned a basis of that size"
+    if order is not None and red.order != order and not red.order_note:
+        red.order_note = f"order {red.order} instead of {order}: {method} returned a basis of that size"
     return red, {"basis": t1 - t0, "project": t2 - t1}
 
 
