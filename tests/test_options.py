@@ -29,9 +29,8 @@ from flexmor.damping import (
 from flexmor.errors import FlexmorError, OptionError, PortError
 from flexmor.options import DEFAULT_BAND, Band
 from flexmor.ports import make_ports
-from flexmor.reduction import METHODS, _load_builtin, reduce
+from flexmor.reduction import METHODS, reduce
 
-_load_builtin()
 CLAMPED = str(CCX / "beam8_clamped_mat.sti")
 #: The solver parameter every method takes besides its options.
 SOLVER = {"backend", "solver"}

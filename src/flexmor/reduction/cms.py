@@ -26,11 +26,9 @@ from ..linalg.context import SolverContext, as_solver
 from ..model import FEModel
 from ..options import Band, band_option
 from ..ports import Ports
-from . import register_method
+from ._options import interface_option, nodes_option, points_option, rigid_option, solves_option, variant_option
+from ._registry import register_method
 from .craig_bampton import cb_frame, cb_order_note
-from .gramians import nodes_option, solves_option, variant_option
-from .guyan import interface_option
-from .krylov import points_option, rigid_option
 
 __all__ = ["cms_krylov", "cms_gramian", "fixed_interface_body", "CmsKrylovOptions", "CmsGramianOptions"]
 

@@ -11,10 +11,10 @@ from ..errors import OptionError, check_choice
 from ..linalg.context import SolverContext, as_solver
 from ..linalg.eigen import eigenmodes, frequencies_hz
 from ..ports import interface_dofs
-from . import register_method
+from ._options import interface_option, rigid_option
+from ._registry import register_method
 from .free_body import inertia_relief_modes, rigid_body_modes
-from .guyan import constraint_modes, interface_option
-from .krylov import rigid_option
+from .guyan import constraint_modes
 
 #: How a CMS method treats the constraint modes of a free body whose rigid motion it excludes:
 #: ``inertia-relief`` replaces them by the interface's inertia-relief attachment modes

@@ -12,14 +12,9 @@ from ..linalg import factorize
 from ..linalg.context import SolverContext, as_solver
 from ..options import option
 from ..ports import interface_dofs
-from . import register_method
+from ._options import interface_option
+from ._registry import register_method
 from .free_body import inertia_relief_modes, rigid_body_modes
-
-
-def interface_option():
-    """The ``interface`` option of the component-mode methods: a list of interface SPECs."""
-    return option(None, "interface NODE, SET, SET:DIR, or SET@rbe2 / SET@rbe3 (6-DOF master node at the centroid)",
-                  metavar="SPEC")
 
 
 def constraint_modes(model, interface, solver: SolverContext | None = None):

@@ -27,7 +27,7 @@ from ..errors import OptionError, SolverError
 from ..linalg.context import SolverContext, as_solver
 from ..options import Band, band_option, option
 from ..projection import project
-from . import register_method
+from ._registry import register_method
 from .free_body import rigid_body_modes
 from .krylov import krylov, merge_blocks, shifted_factorization
 

@@ -12,10 +12,10 @@ from ..basis import Basis
 from ..errors import OptionError, check_choice
 from ..linalg.context import SolverContext, as_solver
 from ..options import Band, band_option, option
-from . import register_method
+from ._options import nodes_option, rigid_option, side_option, solves_option
+from ._registry import register_method
 from .free_body import m_project, rigid_head
-from .gramians import compress, gramian_factors, nodes_option, solves_option
-from .krylov import rigid_option, side_option
+from .gramians import compress, gramian_factors
 
 __all__ = ["pod", "PodOptions", "pod_modes", "SNAPSHOTS"]
 

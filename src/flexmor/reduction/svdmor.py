@@ -13,16 +13,9 @@ from ..errors import OptionError
 from ..linalg.context import SolverContext, as_solver
 from ..options import Band, band_option, option
 from ..ports import Ports
-from . import register_method
-from .krylov import (
-    default_points,
-    krylov,
-    parse_points,
-    points_option,
-    rigid_option,
-    shifted_factorization,
-    side_option,
-)
+from ._options import points_option, rigid_option, side_option
+from ._registry import register_method
+from .krylov import default_points, krylov, parse_points, shifted_factorization
 
 __all__ = ["svdmor", "SvdmorOptions", "port_directions"]
 
