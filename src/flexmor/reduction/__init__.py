@@ -18,6 +18,7 @@ import time
 
 from ..errors import OptionError
 from ..projection import ReducedModel, project
+from ..rigid import exclude_rigid
 from . import (  # noqa: F401  (each method module registers its methods in METHODS)
     adaptive,
     balanced,  # sobt, fw-sobt; gramians.py holds the Gramians
@@ -32,7 +33,7 @@ from . import (  # noqa: F401  (each method module registers its methods in METH
     two_step,
 )
 from ._registry import METHODS, Method, check_keywords, methods, register_method
-from .free_body import exclude_rigid, with_inertia_loads
+from .free_body import with_inertia_loads
 
 __all__ = ["register_method", "METHODS", "methods", "reduce", "Method", "check_keywords"]
 
@@ -62,7 +63,7 @@ def reduce(model, method: str, order: int | None, ports, *, inertia_loads: str =
         ``solver``; any other keyword raises OptionError listing the allowed ones. Options
         not given take their defaults.
         A basis that excludes rigid-body modes (``info['rigid'] == 'exclude'``) is made
-        mass-orthogonal to them (:func:`flexmor.reduction.free_body.exclude_rigid`).
+        mass-orthogonal to them (:func:`flexmor.rigid.exclude_rigid`).
 
     Returns
     -------

@@ -23,9 +23,9 @@ from ..errors import OptionError, check_choice
 from ..linalg.context import SolverContext, as_solver
 from ..options import Band, band_option, option
 from ..projection import project
+from ..rigid import rigid_body_modes
 from ._options import RIGID, SIDES, rigid_option, side_option
 from ._registry import register_method
-from .free_body import rigid_body_modes
 from .krylov import DEFLATION_TOL, blocks_at_points, start_block
 
 __all__ = ["adaptive", "AdaptiveOptions"]

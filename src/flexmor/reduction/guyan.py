@@ -12,9 +12,10 @@ from ..linalg import factorize
 from ..linalg.context import SolverContext, as_solver
 from ..options import option
 from ..ports import interface_dofs
+from ..rigid import rigid_body_modes
 from ._options import interface_option
 from ._registry import register_method
-from .free_body import inertia_relief_modes, rigid_body_modes
+from .free_body import inertia_relief_modes
 
 
 def constraint_modes(model, interface, solver: SolverContext | None = None):

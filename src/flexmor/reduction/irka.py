@@ -27,8 +27,8 @@ from ..errors import OptionError, SolverError
 from ..linalg.context import SolverContext, as_solver
 from ..options import Band, band_option, option
 from ..projection import project
+from ..rigid import rigid_body_modes
 from ._registry import register_method
-from .free_body import rigid_body_modes
 from .krylov import krylov, merge_blocks, shifted_factorization
 
 __all__ = ["irka", "IrkaOptions", "reduced_poles", "select_shifts"]

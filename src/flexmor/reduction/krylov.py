@@ -309,7 +309,7 @@ def krylov(model, ports, order, *, points=None, moments: int | None = None, side
     points_tol : float
         Largest estimated band error of the default single point (see ``points``).
     rigid : {'exclude', 'include'}
-        Free bodies (rigid-body modes found from the geometry, :func:`rigid_body_modes`):
+        Free bodies (rigid-body modes found from the geometry, :func:`flexmor.rigid.rigid_body_modes`):
         the Krylov vectors are kept M-orthogonal to the rigid-body modes (moments of the
         flexible part of ``H``; for proportional damping ``H`` is rigid part + flexible part,
         so nothing is lost), which removes the round-off that nearly singular shifts would

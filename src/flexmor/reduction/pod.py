@@ -12,9 +12,10 @@ from ..basis import Basis
 from ..errors import OptionError, check_choice
 from ..linalg.context import SolverContext, as_solver
 from ..options import Band, band_option, option
+from ..rigid import m_project
 from ._options import nodes_option, rigid_option, side_option, solves_option
 from ._registry import register_method
-from .free_body import m_project, rigid_head
+from .free_body import rigid_head
 from .gramians import compress, gramian_factors
 
 __all__ = ["pod", "PodOptions", "pod_modes", "SNAPSHOTS"]

@@ -14,10 +14,10 @@ from ..linalg.context import SolverContext, as_solver
 from ..linalg.threads import blas_threads
 from ..options import Band, band_option, option
 from ..projection import project
+from ..rigid import exclude_rigid
 from ._options import VARIANTS, points_option, rigid_option, variant_option
 from ._registry import register_method
 from .dense_gramians import dense_gramians, psd_factor
-from .free_body import exclude_rigid
 from .gramians import UNDAMPED_ZETA, balance, balance_note
 from .krylov import krylov
 
