@@ -106,10 +106,11 @@ def cms_krylov(model, ports, order, *, interface=None, band=None, points=None, r
         External inputs on interior DOFs load the fixed-interface body.
     order : int
         Interface DOFs plus internal vectors.
-    interface : list of str
+    interface : list of str, optional
         Interface SPECs (``NODE``, ``SET``, ``NODE:DIR``, ``SET:DIR``).
     band : (float, float), optional
-        Band (Hz) of the default Krylov point (see :func:`flexmor.reduction.krylov.krylov`; default 1:1000).
+        Band (Hz) of the default Krylov point (see :func:`flexmor.reduction.krylov.krylov`; default
+        :data:`flexmor.options.DEFAULT_BAND`).
     points : str, optional
         Krylov expansion points (Hz), see :func:`flexmor.reduction.krylov.parse_points`.
     rigid : {'exclude', 'include'}
@@ -172,10 +173,10 @@ def cms_gramian(model, ports, order, *, interface=None, band=None, variant: str 
     ports : Ports
     order : int
         Interface DOFs plus internal vectors.
-    interface : list of str
+    interface : list of str, optional
         Interface SPECs.
     band : (float, float), optional
-        Band (Hz) of the frequency-limited Gramians (default 1:1000).
+        Band (Hz) of the frequency-limited Gramians (default :data:`flexmor.options.DEFAULT_BAND`).
     variant : {'position', 'velocity'}
         See :func:`flexmor.reduction.balanced.sobt`.
     nodes : int

@@ -107,7 +107,7 @@ def craig_bampton(model, ports, order, *, interface=None, rigid: str = "exclude"
     order : int
         Total reduced dimension: interface DOFs plus fixed-interface modes
         (``order - n_b`` modes; ``order == n_b`` is Guyan).
-    interface : list of str
+    interface : list of str, optional
         Interface SPECs (``NODE``, ``SET``, ``NODE:DIR``, ``SET:DIR``).
     rigid : {'exclude', 'include'}
         Free bodies: the constraint modes of an interface that holds the body span its

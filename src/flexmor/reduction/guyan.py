@@ -66,7 +66,7 @@ def guyan(model, ports, order, *, interface=None, rigid: str = "exclude",
         Unused by the basis.
     order : int or None
         Must equal the number of interface DOFs if given.
-    interface : list of str
+    interface : list of str, optional
         Interface SPECs (``NODE``, ``SET``, ``NODE:DIR``, ``SET:DIR``).
     rigid : {'exclude', 'include'}
         Free bodies: the constraint modes of an interface that holds the body span its rigid-body

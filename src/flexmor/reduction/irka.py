@@ -141,7 +141,7 @@ def irka(model, ports, order, *, max_iter: int = 50, shift_tol: float = 1e-4, ba
         Convergence when every new point lies within ``shift_tol`` (relative) of an old one.
     band : (float, float), optional
         Band (Hz) of the :func:`flexmor.reduction.krylov.krylov` start basis, whose
-        reduced poles give the initial points; default (1, 1000).
+        reduced poles give the initial points; default :data:`flexmor.options.DEFAULT_BAND`.
     solver : SolverContext, optional
         Solver (backend, statistics) of :func:`flexmor.linalg.factorize`.
 

@@ -305,7 +305,7 @@ def krylov(model, ports, order, *, points=None, moments: int | None = None, side
     side : {'input', 'output', 'both'}
         Krylov space of ``B`` (input), of ``C^T`` (output) or of both.
     band : (float, float), optional
-        Band (Hz) for the default points; default (1, 1000).
+        Band (Hz) for the default points; default :data:`flexmor.options.DEFAULT_BAND`.
     points_tol : float
         Largest estimated band error of the default single point (see ``points``).
     rigid : {'exclude', 'include'}

@@ -116,7 +116,7 @@ def pod(model, ports, order, *, band=None, energy: float | None = None, snapshot
     order : int or None
         Number of modes (upper bound when ``energy`` is given).
     band : (float, float), optional
-        Band in Hz (default 1:1000).
+        Band in Hz (default :data:`flexmor.options.DEFAULT_BAND`).
     energy : float, optional
         Keep the fewest modes whose share of the snapshot energy reaches ``energy`` (0, 1].
     snapshots : {'frequency', 'time', 'both'}

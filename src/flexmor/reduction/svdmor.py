@@ -91,7 +91,7 @@ def svdmor(model, ports, order, *, directions: int | None = None, band=None, poi
         Number of input (and output) directions kept; default: those with singular values
         above ``1e-3`` of the largest (at least 1).
     band : (float, float), optional
-        Band in Hz of the sampling and Krylov points (default 1:1000).
+        Band in Hz of the sampling and Krylov points (default :data:`flexmor.options.DEFAULT_BAND`).
     points : str, optional
         Points (Hz) of the sampling and of the Krylov spaces (default three real points).
     side : {'input', 'output', 'both'}

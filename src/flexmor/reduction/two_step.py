@@ -62,7 +62,8 @@ def two_step(model, ports, order, *, intermediate: int = 120, band=None, gramian
     intermediate : int
         Krylov order r1 (typically 100-200; at least ``order``).
     band : (float, float), optional
-        Band in Hz: the Krylov points and the frequency-limited Gramians (default 1:1000).
+        Band in Hz: the Krylov points and the frequency-limited Gramians (default
+        :data:`flexmor.options.DEFAULT_BAND`).
     gramian : {'band', 'full'}
         Frequency-limited Gramians of ``band`` or full-band Gramians.
     variant : {'position', 'velocity'}
