@@ -78,7 +78,7 @@ def stationary_refine(A, low_solve, b, *, anorm, tol, max_iter=30):
 
 
 def run_case(size: int, variant: str, order: int) -> dict:
-    from flexmor.linalg import SolverContext, available_backends, backends
+    from flexmor.linalg import SolverContext, available_backends, factorization
     from flexmor.models import cantilever, size_for_dofs
     from flexmor.ports import make_ports
     from flexmor.reduction import reduce
@@ -87,7 +87,7 @@ def run_case(size: int, variant: str, order: int) -> dict:
     model = cantilever(size_for_dofs(size))
     ports = make_ports(model, INPUTS)
     if variant == "stationary":
-        backends.refine = stationary_refine
+        factorization.refine = stationary_refine
     solver = SolverContext() if variant == "double" else SolverContext(factor_memory="mixed")
     t0 = time.perf_counter()
     red, _ = reduce(model, "krylov", order, ports, band=BAND, solver=solver)

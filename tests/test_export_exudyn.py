@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 
 from flexmor.basis import Basis
-from flexmor.invariants import compute_invariants, rigid_fields
 from flexmor.io.exudyn import add_marker, add_to_exudyn, exudyn_data, write_exudyn
+from flexmor.io.invariants import compute_invariants, rigid_fields
 from flexmor.ports import make_ports
 from flexmor.projection import project
 

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from flexmor.errors import ModelError, PortError, ReadError
-from flexmor.invariants import compute_invariants, node_triples, rigid_fields
+from flexmor.io.invariants import compute_invariants, node_triples, rigid_fields
 from flexmor.io.sid import read_sid, sid_from_reduced, write_sid
 from flexmor.models import cantilever
 from flexmor.ports import make_ports

@@ -26,7 +26,7 @@ from flexmor.io import read_body
 from flexmor.models import plate_structure
 from flexmor.ports import make_ports
 from flexmor.reduction import reduce
-from flexmor.reduction.free_body import elastic_body, exclude_rigid, rigid_content, rigid_residual
+from flexmor.rigid import elastic_body, exclude_rigid, rigid_content, rigid_residual
 from flexmor.workflow import apply_damping, reduce_and_judge
 
 FREE = str(CCX / "beam8_free_mat.sti")

@@ -20,7 +20,8 @@ from flexmor.couplings import couple
 from flexmor.models import plate_structure
 from flexmor.ports import make_ports
 from flexmor.reduction import reduce
-from flexmor.reduction.free_body import interface_loads, rigid_motions
+from flexmor.reduction.free_body import interface_loads
+from flexmor.rigid import rigid_motions
 from flexmor.workflow import apply_damping
 
 BAND = (1.0, 2000.0)

@@ -11,6 +11,7 @@ import dataclasses
 import inspect
 import json
 import pickle
+import re
 
 import numpy as np
 import pytest
@@ -27,11 +28,10 @@ from flexmor.damping import (
     modal_damping,
 )
 from flexmor.errors import FlexmorError, OptionError, PortError
-from flexmor.options import DEFAULT_BAND, Band
+from flexmor.options import DEFAULT_BAND, Band, option_fields
 from flexmor.ports import make_ports
-from flexmor.reduction import METHODS, _load_builtin, reduce
+from flexmor.reduction import METHODS, reduce
 
-_load_builtin()
 CLAMPED = str(CCX / "beam8_clamped_mat.sti")
 #: The solver parameter every method takes besides its options.
 SOLVER = {"backend", "solver"}
@@ -54,6 +54,41 @@ def test_options_dataclass_matches_the_signature(name):
         if f.metadata["choices"]:
             assert f.default in f.metadata["choices"]
     cls()  # all options have defaults
+
+
+def _documented(function) -> dict:
+    """``name -> (type, description)`` of the Parameters section of a numpydoc docstring."""
+    section = inspect.getdoc(function).split("Parameters\n----------\n", 1)[1]
+    section = re.split(r"\n\n?[A-Z][a-z]+(?: [A-Z][a-z]+)?\n-{3,}\n", section)[0]
+    out, names = {}, []
+    for line in section.splitlines():
+        if m := re.match(r"^(\w+(?:, \w+)*) : (.*)$", line):
+            names = m.group(1).split(", ")
+            out.update({n: [m.group(2), ""] for n in names})
+        elif line.startswith("    "):
+            for n in names:
+                out[n][1] += " " + line.strip()
+    return out
+
+
+@pytest.mark.parametrize("name", sorted(METHODS))
+def test_docstring_documents_each_option_as_its_dataclass_declares_it(name):
+    """The options dataclass holds each default and choice list once: the function's docstring
+    documents every option, with the dataclass's choices and ``optional`` exactly for a None
+    default, and restates no default value (it names the dataclass's, e.g. DEFAULT_BAND)."""
+    m = METHODS[name]
+    documented = _documented(m.function)
+    keywords = set(inspect.signature(m.function).parameters) - {"model", "ports", "order"} - SOLVER
+    assert set(documented) - {"model", "ports", "order"} - SOLVER <= keywords, name
+    for option, f in option_fields(m.options_class).items():
+        assert option in documented, (name, option)
+        kind, text = documented[option]
+        choices = re.match(r"^\{(.*)\}", kind)
+        listed = {c.strip().strip("'") for c in choices.group(1).split(",")} if choices else set()
+        assert listed == set(f.metadata["choices"]), (name, option, kind)
+        assert ("optional" in kind) == (f.default is None), (name, option, kind)
+        assert text.strip(), (name, option)
+        assert not re.search(r"[Dd]efault:? \(?[-+]?\d", text), (name, option, text)
 
 
 @pytest.mark.parametrize("name", sorted(METHODS))

@@ -84,7 +84,7 @@ class ExpandedBody:
     ----------
     body : ReducedModel
         The body (its reduced matrices; for a free body the elastic body the floating frame
-        takes, :func:`flexmor.reduction.free_body.elastic_body`).
+        takes, :func:`flexmor.rigid.elastic_body`).
     model : FEModel
         The model as read, with the body's node selections.
     V : ndarray, shape (model.n_dof, r)
@@ -124,7 +124,7 @@ def expand_body(model, body, path="the body", *, elastic: bool = True, remove_ri
         Where the body was read from (named in errors).
     elastic : bool
         Take the body the floating frame needs: a basis without rigid-body motion
-        (:func:`flexmor.reduction.free_body.elastic_body`, which refuses a body that holds
+        (:func:`flexmor.rigid.elastic_body`, which refuses a body that holds
         rigid motion unless ``remove_rigid``).
     remove_rigid : bool
         Allow the export to remove rigid-body motion from the basis (another body than the one
@@ -179,7 +179,7 @@ def expand_body(model, body, path="the body", *, elastic: bool = True, remove_ri
 
 
 def _elastic(model, body, remove_rigid):
-    from .reduction.free_body import elastic_body
+    from .rigid import elastic_body
 
     return elastic_body(model, body, remove_rigid=remove_rigid)
 

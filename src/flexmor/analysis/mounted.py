@@ -12,7 +12,7 @@ translations) :func:`mounted_check` compares
   ``f_red / f_full - 1`` are >= 0 up to round-off (Rayleigh-Ritz: the mounted reduced body is a
   Galerkin projection of the mounted full model);
 * the static deflection of the clamped body under gravity in x, y and z (the loads ``M R_a``, R the
-  rigid translations, :func:`flexmor.reduction.free_body.rigid_motions`) and under each input of
+  rigid translations, :func:`flexmor.rigid.rigid_motions`) and under each input of
   the body that does not act on the held equations: ``output_error = ||C (u_red - u)|| / ||C u||``
   at the body's outputs and ``field_error = max|u_red - u| / max|u|`` over the translations.
 
@@ -54,7 +54,7 @@ from ..linalg import factorize
 from ..linalg.context import SolverContext, as_solver
 from ..linalg.distributed import is_partitioned
 from ..linalg.eigen import eigenmodes, frequencies_hz, rigid_body_threshold
-from ..reduction.free_body import rigid_body_modes, rigid_motions
+from ..rigid import rigid_body_modes, rigid_motions
 
 __all__ = ["HELD", "Support", "supports", "FullMounted", "MountedCase", "MountedCheck", "mounted_check",
            "mounted_note", "mounted_record", "NOTE_FACTOR", "NOTE_FLOOR"]

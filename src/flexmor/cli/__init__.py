@@ -6,8 +6,9 @@ terminated (SIGTERM). Output files are written atomically (:func:`flexmor.io.ato
 so an interrupted run leaves neither a partial nor a temporary file; an existing output file
 is only replaced with ``--force``.
 
-Modules: :mod:`.parser` (arguments, generated per-method options), :mod:`.commands` (the
-subcommands and their output), :mod:`.tables` (the error table), :mod:`.info` (info on a body,
+Modules: :mod:`.parser` (arguments, generated per-method options), :mod:`.method_flags` (the
+method options as flags), :mod:`.commands` (the subcommands and their output), :mod:`.ui` (the
+``ui`` subcommand), :mod:`.tables` (the error table), :mod:`.info` (info on a body,
 the backends and the formats).
 """
 
@@ -108,6 +109,7 @@ def main(argv=None) -> int:
     decided: a signal that arrives while the interpreter shuts down no longer changes it.
     """
     parser = build_parser()
+    parser.set_defaults(main=main)  # handed to the ui subcommand, whose jobs run this command line
     args = parser.parse_args(argv)
     level = [logging.WARNING, logging.INFO, logging.DEBUG][min(args.verbose, 2)]
     logging.basicConfig(level=level, format="%(levelname)s %(name)s: %(message)s")

@@ -23,7 +23,7 @@ from .info import (
     is_body_file,
     print_mass_properties,
 )
-from .options import method_options
+from .method_flags import method_options
 from .tables import fmt, print_error_table, print_mounted
 
 __all__ = ["cmd_info", "cmd_reduce", "cmd_compare", "cmd_report", "cmd_demo"]

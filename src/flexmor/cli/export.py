@@ -53,7 +53,7 @@ def _without_rigid(ref, red):
     from ..linalg.context import SolverContext
     from ..options import DEFAULT_BAND, Band
     from ..ports import make_ports
-    from ..reduction.free_body import elastic_body
+    from ..rigid import elastic_body
 
     body = elastic_body(ref, red, remove_rigid=True)
     if "rigid_removed_at_export" not in body.info:

@@ -3,7 +3,7 @@
 The per-method options of ``flexmor reduce`` are generated from the options dataclasses of
 the registered methods (:attr:`flexmor.reduction.Method.options_class`): one flag per option
 name (``max_iter`` -> ``--max-iter``), and in ``--help`` one group per method listing its
-options with their defaults (:mod:`.options` collects the ones given and refuses a flag the
+options with their defaults (:mod:`.method_flags` collects the ones given and refuses a flag the
 chosen method does not take). :func:`flag_names` maps the parameters that library errors
 name (:attr:`flexmor.errors.FlexmorError.params`) to the flags of a command.
 """
@@ -20,7 +20,7 @@ from ..options import DEFAULT_BAND, option_fields
 from ..tolerance import tol_methods
 from .commands import cmd_compare, cmd_demo, cmd_info, cmd_reduce, cmd_report
 from .export import cmd_export
-from .options import COMMON, all_options, flag
+from .method_flags import COMMON, all_options, flag
 from .ui import add_ui_parser
 
 __all__ = ["build_parser", "flag_names"]
@@ -118,9 +118,8 @@ def _add_model_args(p, damping=True):
 
 
 def build_parser() -> argparse.ArgumentParser:
-    from ..reduction import METHODS, methods
+    from ..reduction import METHODS
 
-    methods()
     ap = argparse.ArgumentParser(prog="flexmor", description="Model order reduction of elastic bodies for EMBS.")
     ap.add_argument("--version", action="version", version=f"flexmor {__version__}")
     ap.add_argument("-v", "--verbose", action="count", default=0, help="log more (-vv: debug); long steps show their progress on stderr, "

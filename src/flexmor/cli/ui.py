@@ -20,9 +20,8 @@ def add_ui_parser(sub) -> None:
 
 def cmd_ui(args) -> int:
     from ..ui import make_server
-    from . import main
 
-    server, app, url = make_server(args.folder, main, args.port)
+    server, app, url = make_server(args.folder, args.main, args.port)  # jobs run the command line's own main
     print(f"flexmor ui: serving {app.ws.root} at {url}  (Ctrl-C stops)", flush=True)
     if not args.no_browser:
         webbrowser.open(url)

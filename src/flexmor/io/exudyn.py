@@ -10,7 +10,7 @@ node-major), the reference positions ``xRef`` and the inertia terms
     mPhitTPsiTilde = Φtᵀ M Ψ̃,  mXRefTildePsi = x̃ᵀ M Ψ,  mXRefTildePsiTilde = x̃ᵀ M Ψ̃,
 
 (``Φt`` rigid translations, ``x̃``/``Ψ̃`` node-wise skew matrices of the positions/modes), the
-same integrals as the SID invariants (:mod:`flexmor.invariants`). :func:`exudyn_data`
+same integrals as the SID invariants (:mod:`flexmor.io.invariants`). :func:`exudyn_data`
 computes them with one sparse product (O(nnz(M)·r)) without Exudyn; :func:`write_exudyn`
 stores them in the ``.npz`` layout of ``exudyn.FEM.ObjectFFRFreducedOrderInterface``
 (``cms.LoadFromFile(path)``), and :func:`add_to_exudyn` adds the body to a ``MainSystem``.
@@ -90,7 +90,7 @@ def exudyn_data(reduced, model, *, node_type: str = NODE_TYPES[0], remove_rigid:
         No basis, a basis that does not match the model, no node table.
     """
     from ..expansion import expand_body
-    from ..invariants import node_triples, rigid_fields
+    from .invariants import node_triples, rigid_fields
 
     if node_type not in NODE_TYPES:
         raise OptionError(f"node_type={node_type!r} is not allowed; choose one of: {', '.join(NODE_TYPES)}")
@@ -177,7 +177,7 @@ def write_exudyn(reduced, path, *, model=None, node_type: str = NODE_TYPES[0], a
 
     (:func:`add_npz_to_exudyn` does both.) A body of a supported (clamped) model is refused
     unless ``allow_clamped`` (its mass properties miss the supported nodes,
-    :func:`flexmor.invariants.check_free_model`). ``model`` is the FE model as read; see
+    :func:`flexmor.io.invariants.check_free_model`). ``model`` is the FE model as read; see
     :func:`exudyn_data` for the coupling masters and ``remove_rigid``.
 
     Raises
@@ -189,7 +189,7 @@ def write_exudyn(reduced, path, *, model=None, node_type: str = NODE_TYPES[0], a
     if model is None:
         raise ModelError("Exudyn export needs the FE data the body was reduced from, given as model: "
                          "the inertia terms are integrals over its mass matrix", params=("model",))
-    from ..invariants import check_free_model
+    from .invariants import check_free_model
 
     check_free_model(model, allow_clamped=allow_clamped)
     data = exudyn_data(reduced, model, node_type=node_type, remove_rigid=remove_rigid)
@@ -342,7 +342,7 @@ def add_full_to_exudyn(mbs, model, *, position=(0.0, 0.0, 0.0), velocity=(0.0, 0
     import exudyn
     from exudyn.FEM import FEMinterface, ObjectFFRFinterface
 
-    from ..invariants import node_triples
+    from .invariants import node_triples
 
     trans, rot = node_triples(model)
     if np.any(rot >= 0):

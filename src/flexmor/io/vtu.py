@@ -20,7 +20,7 @@ import numpy as np
 import scipy.linalg as sla
 
 from ..errors import ModelError
-from ..invariants import node_triples
+from .invariants import node_triples
 from ..mesh import CellBlock, Mesh, import_meshio
 from . import EXPORT_FORMATS, atomic_write
 

@@ -2,7 +2,7 @@
 
 The Krylov space of the spectral transformation ``S = (K - sigma M)^{-1} M`` is built block by
 block: every step is ONE solve with ``p`` right-hand sides through an existing
-:class:`~flexmor.linalg.backends.Factorization`, so the sparse direct solver works on
+:class:`~flexmor.linalg.factorization.Factorization`, so the sparse direct solver works on
 BLAS-3 blocks instead of single vectors. The basis is kept M-orthonormal by two passes of
 block classical Gram-Schmidt (full reorthogonalization, Grimes et al. 1994 use selective
 reorthogonalization; full is affordable for the few hundred columns needed here), blocks are

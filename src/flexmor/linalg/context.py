@@ -29,12 +29,12 @@ from dataclasses import dataclass, field
 
 from ..errors import OptionError, SolverError
 from . import backends as _backends
-from .backends import BACKENDS, SolverStats
+from .backends import BACKENDS
 from .distributed import MPILayout, layout
+from .factorization import OrderingCache, SolverStats
 from .memory import FACTOR_MEMORY, REFINE_TOL
-from .pardiso import OrderingCache
 
-__all__ = ["SolverContext", "track", "step", "SolverStats", "OrderingCache", "EigenPolicy", "DENSE_LIMIT", "LANCZOS_MAX_K",
+__all__ = ["SolverContext", "track", "step", "EigenPolicy", "DENSE_LIMIT", "LANCZOS_MAX_K",
            "EIGEN_METHODS", "as_solver"]
 
 #: Problems up to this size are solved densely (LAPACK), larger ones by shift-invert Lanczos.

@@ -18,9 +18,10 @@ import numpy as np
 import scipy.sparse as sp
 
 from ..errors import SolverError
-from .backends import BACKENDS, Factorization
+from .backends import BACKENDS
 from .context import SolverContext, as_solver
 from .distributed import is_partitioned
+from .factorization import Factorization
 
 __all__ = ["factorize", "RESIDUAL_TOL"]
 

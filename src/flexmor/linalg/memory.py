@@ -29,7 +29,7 @@ into :data:`MEMORY_FRACTION` of the available memory (``memory_limit``, default 
 ``max(iparm[14], iparm[15] + iparm[16])`` KB; see :func:`pardiso_estimates`) or from the
 SuperLU heuristic of :func:`estimate_memory`; the mixed mode counts the double matrix it keeps
 for the residuals. The choice and its reason are logged and counted in
-:class:`~flexmor.linalg.backends.SolverStats` (summarized by :func:`factor_record`).
+:class:`~flexmor.linalg.factorization.SolverStats` (summarized by :func:`factor_record`).
 """
 
 from __future__ import annotations

@@ -5,7 +5,7 @@ The library is the one located by *pypardiso* (``pip install flexmor[fast]``); o
 factorizes real symmetric positive definite (Cholesky), real symmetric indefinite
 (Bunch-Kaufman, with the inertia), complex symmetric (``K - w^2 M + i w D``) and unsymmetric
 matrices with nested-dissection ordering (METIS); the orderings of recent sparsity patterns are
-reused (:class:`OrderingCache`). After the analysis phase it chooses a memory mode from the
+reused (:class:`flexmor.linalg.factorization.OrderingCache`). After the analysis phase it chooses a memory mode from the
 estimate of PARDISO (:mod:`flexmor.linalg.memory`): double precision in core, mixed precision
 or out of core. It is the ``pardiso`` entry of :data:`flexmor.linalg.backends.BACKENDS`;
 pypardiso and MKL are loaded only when that backend is checked or used.
@@ -14,16 +14,15 @@ pypardiso and MKL are loaded only when that backend is checked or used.
 from __future__ import annotations
 
 import functools
-import hashlib
 
 import numpy as np
 import scipy.sparse as sp
 
 from ..errors import SolverError
-from .backends import Factorization
+from .factorization import Factorization
 from .memory import OutOfCore, pardiso_estimates
 
-__all__ = ["PARDISO_ERRORS", "OrderingCache", "PardisoFactorization", "mkl_pardiso"]
+__all__ = ["PARDISO_ERRORS", "PardisoFactorization", "mkl_pardiso"]
 
 
 @functools.cache
@@ -46,45 +45,6 @@ PARDISO_ERRORS = {-1: "input inconsistent", -2: "not enough memory", -3: "reorde
                   -4: "zero pivot (singular matrix)", -5: "unclassified internal error",
                   -6: "reordering failed", -7: "diagonal matrix is singular", -8: "32-bit integer overflow",
                   -9: "not enough memory for out-of-core", -10: "error opening out-of-core files"}
-
-
-class OrderingCache:
-    """Fill-reducing orderings of the last few sparsity patterns factorized by PARDISO.
-
-    Shifted matrices ``K - w^2 M + i w D`` of one model share a pattern, so frequency sweeps,
-    quadrature nodes and expansion points compute METIS' nested dissection once and reuse it
-    (``iparm[4] = 1``); the symbolic factorization still runs. Keyed by :meth:`key`.
-
-    Parameters
-    ----------
-    kept : int
-        Patterns remembered (the oldest is dropped first).
-    """
-
-    def __init__(self, kept: int = 4):
-        self.kept = int(kept)
-        self._perms: dict = {}
-
-    def __len__(self) -> int:
-        return len(self._perms)
-
-    @staticmethod
-    def key(mtype: int, ia: np.ndarray, ja: np.ndarray) -> tuple:
-        """Identity of a sparsity pattern (and of the matrix class): size, nnz and a digest."""
-        h = hashlib.blake2b(ia.view(np.uint8), digest_size=16)
-        h.update(ja.view(np.uint8))
-        return (int(mtype), ia.size - 1, ja.size, h.hexdigest())
-
-    def get(self, key: tuple) -> np.ndarray | None:
-        """The ordering stored for ``key``, or None."""
-        return self._perms.get(key)
-
-    def remember(self, key: tuple, perm: np.ndarray) -> None:
-        """Store a copy of ``perm`` for ``key`` as the newest entry."""
-        self._perms.pop(key, None)
-        self._perms[key] = perm.copy()
-        while len(self._perms) > self.kept:
-            self._perms.pop(next(iter(self._perms)))
 
 
 class PardisoFactorization(Factorization):

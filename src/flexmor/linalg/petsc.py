@@ -39,7 +39,7 @@ import scipy.sparse as sp
 
 from ..errors import ConvergenceError, OptionError, SolverError
 from . import distributed as dist
-from .backends import Factorization
+from .factorization import Factorization
 
 __all__ = ["INSTALL_HINT", "PetscFactorization", "available", "require", "slepc_eigenmodes"]
 
@@ -133,7 +133,7 @@ class PetscFactorization(Factorization):
     """MUMPS factorization of a (possibly partitioned) sparse matrix on all ranks; see the module docs.
 
     The ``petsc`` entry of :data:`flexmor.linalg.backends.BACKENDS`. Attributes beyond
-    :class:`~flexmor.linalg.backends.Factorization`: ``mat`` (the PETSc matrix), ``ksp``, ``rows``
+    :class:`~flexmor.linalg.factorization.Factorization`: ``mat`` (the PETSc matrix), ``ksp``, ``rows``
     (this rank's ``[start, stop)`` of the factorized matrix), ``memory_per_rank`` (MUMPS
     INFOG(21), bytes, largest over ranks), ``memory_total`` (INFOG(22)), ``factor_entries`` (INFOG(29)).
     """

@@ -1,9 +1,11 @@
 """Reduction methods, one family per module, each a function returning a :class:`Basis`.
 
-A method is registered with :func:`register_method` together with the dataclass of its
-options (defaults and documentation, :func:`flexmor.options.option`), and called through
-:func:`reduce`, which validates its options, builds the basis, and projects with the one
-:func:`flexmor.projection.project`. Every method has the signature::
+A method is registered with :func:`register_method` (:mod:`flexmor.reduction._registry`)
+together with the dataclass of its options (defaults and one-line help,
+:func:`flexmor.options.option`; the shared ones in :mod:`flexmor.reduction._options`).
+Importing the package imports every built-in method module, so :data:`METHODS` is complete.
+A method is called through :func:`reduce`, which validates its options, builds the basis,
+and projects with the one :func:`flexmor.projection.project`. Every method has the signature::
 
     method(model, ports, order, *, <one keyword per options field>, solver=None) -> Basis
 
@@ -12,112 +14,30 @@ and raises :class:`~flexmor.errors.OptionError` for a keyword it does not take.
 
 from __future__ import annotations
 
-import functools
-import inspect
 import time
-from collections.abc import Callable
-from dataclasses import dataclass
 
 from ..body import ReducedModel
 from ..errors import OptionError
-from ..options import check_order, option_fields
+from ..options import check_order
 from ..projection import project
-from .free_body import exclude_rigid, with_inertia_loads
+from ..rigid import exclude_rigid
+from . import (  # noqa: F401  (each method module registers its methods in METHODS)
+    adaptive,
+    balanced,  # sobt, fw-sobt; gramians.py holds the Gramians
+    cms,
+    craig_bampton,
+    guyan,
+    irka,
+    krylov,
+    modal,
+    pod,
+    svdmor,
+    two_step,
+)
+from ._registry import METHODS, Method, check_keywords, methods, register_method
+from .free_body import with_inertia_loads
 
 __all__ = ["register_method", "METHODS", "methods", "reduce", "Method", "check_keywords"]
-
-
-@dataclass(frozen=True)
-class Method:
-    """A registered reduction method.
-
-    Attributes
-    ----------
-    name, description : str
-    function : callable
-        ``function(model, ports, order, **options) -> Basis``.
-    survives_coupling : bool
-        Whether the method's guarantee (moment matching) holds for an assembly of bodies.
-    options_class : type
-        The dataclass of the method's options (:func:`flexmor.options.option` fields).
-    uses_inputs : bool
-        Whether the basis depends on the inputs (and outputs); False for modal, guyan and
-        craig-bampton, whose bases inertia-load inputs cannot change.
-    """
-
-    name: str
-    function: Callable
-    description: str
-    survives_coupling: bool
-    options_class: type
-    uses_inputs: bool = True
-
-    @property
-    def options(self) -> list[str]:
-        """Names of the method options (the fields of ``options_class``)."""
-        return list(option_fields(self.options_class))
-
-    @property
-    def keywords(self) -> list[str]:
-        """Keyword options the function accepts: the method options and the solver one."""
-        sig = inspect.signature(self.function)
-        return [p.name for p in sig.parameters.values() if p.kind is p.KEYWORD_ONLY]
-
-
-#: name -> Method
-METHODS: dict[str, Method] = {}
-
-
-def check_keywords(method: str, given, allowed) -> None:
-    """An :class:`OptionError` naming the keywords of ``given`` that are not in ``allowed`` (all listed)."""
-    unknown = [k for k in given if k not in allowed]
-    if unknown:
-        raise OptionError(f"method {method!r} does not take option(s) {', '.join(unknown)}; "
-                          f"it takes: {', '.join(allowed)}", params=tuple(unknown) + tuple(allowed))
-
-
-def register_method(name: str, description: str, *, options: type, survives_coupling: bool = True,
-                    uses_inputs: bool = True):
-    """Decorator registering a basis function under ``name`` with its options dataclass ``options``.
-
-    The function returned raises :class:`OptionError` (not ``TypeError``) for keywords the
-    method does not take, listing those it takes.
-    """
-
-    def deco(fn):
-        allowed = [p.name for p in inspect.signature(fn).parameters.values() if p.kind is p.KEYWORD_ONLY]
-
-        @functools.wraps(fn)
-        def method(model, ports, order=None, **kwargs):
-            check_keywords(name, kwargs, allowed)
-            return fn(model, ports, order, **kwargs)
-
-        METHODS[name] = Method(name, method, description, survives_coupling, options, uses_inputs)
-        return method
-
-    return deco
-
-
-def methods() -> dict[str, Method]:
-    """All registered methods (importing the built-in modules first)."""
-    _load_builtin()
-    return dict(METHODS)
-
-
-def _load_builtin():
-    from . import (  # noqa: F401
-        adaptive,
-        balanced,  # noqa: F401  (sobt, fw-sobt; gramians.py holds the Gramians)
-        cms,
-        craig_bampton,
-        guyan,
-        irka,
-        krylov,
-        modal,
-        pod,
-        svdmor,
-        two_step,
-    )
 
 
 def reduce(model, method: str, order: int | None, ports, *, inertia_loads: str = "auto",
@@ -145,7 +65,7 @@ def reduce(model, method: str, order: int | None, ports, *, inertia_loads: str =
         ``solver``; any other keyword raises OptionError listing the allowed ones. Options
         not given take their defaults.
         A basis that excludes rigid-body modes (``info['rigid'] == 'exclude'``) is made
-        mass-orthogonal to them (:func:`flexmor.reduction.free_body.exclude_rigid`).
+        mass-orthogonal to them (:func:`flexmor.rigid.exclude_rigid`).
 
     Returns
     -------
@@ -157,7 +77,6 @@ def reduce(model, method: str, order: int | None, ports, *, inertia_loads: str =
     timings : dict
         Wall times in seconds: ``basis``, ``project``.
     """
-    _load_builtin()
     if method not in METHODS:
         raise OptionError(f"method={method!r} is not allowed; choose one of: {', '.join(sorted(METHODS))}",
                           params=("method",))

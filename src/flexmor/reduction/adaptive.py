@@ -23,17 +23,10 @@ from ..errors import OptionError, check_choice
 from ..linalg.context import SolverContext, as_solver
 from ..options import Band, band_option, option
 from ..projection import project
-from . import register_method
-from .krylov import (
-    DEFLATION_TOL,
-    RIGID,
-    SIDES,
-    blocks_at_points,
-    rigid_body_modes,
-    rigid_option,
-    side_option,
-    start_block,
-)
+from ..rigid import rigid_body_modes
+from ._options import RIGID, SIDES, rigid_option, side_option
+from ._registry import register_method
+from .krylov import DEFLATION_TOL, blocks_at_points, start_block
 
 __all__ = ["adaptive", "AdaptiveOptions"]
 

@@ -22,21 +22,11 @@ from ..errors import OptionError, check_choice
 from ..linalg.context import SolverContext, as_solver
 from ..linalg.eigen import DENSE_LIMIT
 from ..options import Band, band_option, option
-from . import register_method
+from ._options import VARIANTS, nodes_option, rigid_option, solves_option, variant_option
+from ._registry import register_method
 from .dense_gramians import dense_gramians, psd_factor
 from .free_body import rigid_head
-from .gramians import (
-    VARIANTS,
-    _regularized,
-    balance,
-    balance_note,
-    gramian_factors,
-    nodes_option,
-    solves_option,
-    truncation_basis,
-    variant_option,
-)
-from .krylov import rigid_option
+from .gramians import _regularized, balance, balance_note, gramian_factors, truncation_basis
 
 __all__ = ["sobt", "fw_sobt", "balanced_basis", "SobtOptions", "FwSobtOptions"]
 

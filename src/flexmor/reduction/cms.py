@@ -26,11 +26,9 @@ from ..linalg.context import SolverContext, as_solver
 from ..model import FEModel
 from ..options import Band, band_option
 from ..ports import Ports
-from . import register_method
+from ._options import interface_option, nodes_option, points_option, rigid_option, solves_option, variant_option
+from ._registry import register_method
 from .craig_bampton import cb_frame, cb_order_note
-from .gramians import nodes_option, solves_option, variant_option
-from .guyan import interface_option
-from .krylov import points_option, rigid_option
 
 __all__ = ["cms_krylov", "cms_gramian", "fixed_interface_body", "CmsKrylovOptions", "CmsGramianOptions"]
 
@@ -108,10 +106,11 @@ def cms_krylov(model, ports, order, *, interface=None, band=None, points=None, r
         External inputs on interior DOFs load the fixed-interface body.
     order : int
         Interface DOFs plus internal vectors.
-    interface : list of str
+    interface : list of str, optional
         Interface SPECs (``NODE``, ``SET``, ``NODE:DIR``, ``SET:DIR``).
     band : (float, float), optional
-        Band (Hz) of the default Krylov point (see :func:`flexmor.reduction.krylov.krylov`; default 1:1000).
+        Band (Hz) of the default Krylov point (see :func:`flexmor.reduction.krylov.krylov`; default
+        :data:`flexmor.options.DEFAULT_BAND`).
     points : str, optional
         Krylov expansion points (Hz), see :func:`flexmor.reduction.krylov.parse_points`.
     rigid : {'exclude', 'include'}
@@ -174,10 +173,10 @@ def cms_gramian(model, ports, order, *, interface=None, band=None, variant: str 
     ports : Ports
     order : int
         Interface DOFs plus internal vectors.
-    interface : list of str
+    interface : list of str, optional
         Interface SPECs.
     band : (float, float), optional
-        Band (Hz) of the frequency-limited Gramians (default 1:1000).
+        Band (Hz) of the frequency-limited Gramians (default :data:`flexmor.options.DEFAULT_BAND`).
     variant : {'position', 'velocity'}
         See :func:`flexmor.reduction.balanced.sobt`.
     nodes : int

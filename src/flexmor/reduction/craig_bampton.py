@@ -11,15 +11,16 @@ from ..errors import OptionError, check_choice
 from ..linalg.context import SolverContext, as_solver
 from ..linalg.eigen import eigenmodes, frequencies_hz
 from ..ports import interface_dofs
-from . import register_method
-from .free_body import inertia_relief_modes, rigid_body_modes
-from .guyan import constraint_modes, interface_option
-from .krylov import rigid_option
+from ..rigid import rigid_body_modes
+from ._options import interface_option, rigid_option
+from ._registry import register_method
+from .free_body import inertia_relief_modes
+from .guyan import constraint_modes
 
 #: How a CMS method treats the constraint modes of a free body whose rigid motion it excludes:
 #: ``inertia-relief`` replaces them by the interface's inertia-relief attachment modes
 #: (:func:`flexmor.reduction.free_body.inertia_relief_modes`; the n_b columns stay), the default
-#: keeps them and :func:`flexmor.reduction.free_body.exclude_rigid` drops their rigid motion
+#: keeps them and :func:`flexmor.rigid.exclude_rigid` drops their rigid motion
 #: afterwards (n_rigid columns leave).
 FREE_ATTACHMENT = {"craig-bampton": "inertia-relief"}
 
@@ -46,7 +47,7 @@ def cb_frame(model, interface, order, method: str, solver: SolverContext | None 
     span its ``n_rigid`` rigid motions (the interface holds the body). Per
     :data:`FREE_ATTACHMENT`, the first ``n_b`` columns are then the inertia-relief attachment
     modes, or the constraint modes, whose rigid motion
-    :func:`flexmor.reduction.free_body.exclude_rigid` removes afterwards (``n_rigid`` more
+    :func:`flexmor.rigid.exclude_rigid` removes afterwards (``n_rigid`` more
     internal columns keep the requested order). ``info`` asks for the removal either way.
     """
     solver = as_solver(solver)
@@ -106,7 +107,7 @@ def craig_bampton(model, ports, order, *, interface=None, rigid: str = "exclude"
     order : int
         Total reduced dimension: interface DOFs plus fixed-interface modes
         (``order - n_b`` modes; ``order == n_b`` is Guyan).
-    interface : list of str
+    interface : list of str, optional
         Interface SPECs (``NODE``, ``SET``, ``NODE:DIR``, ``SET:DIR``).
     rigid : {'exclude', 'include'}
         Free bodies: the constraint modes of an interface that holds the body span its

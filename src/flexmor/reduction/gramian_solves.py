@@ -52,14 +52,12 @@ from ..errors import ModelError, check_choice
 from ..linalg import factorize
 from ..linalg.context import step, track
 from ..linalg.distributed import is_partitioned
+from ._options import SOLVES
 
-__all__ = ["DENSE_GRAMIAN_MAX_DOF", "SOLVES", "SURROGATE_GRAMIAN_TOL", "choose_solves", "projected_factors",
+__all__ = ["DENSE_GRAMIAN_MAX_DOF", "SURROGATE_GRAMIAN_TOL", "choose_solves", "projected_factors",
            "tail_boundable", "tail_share"]
 
 log = logging.getLogger(__name__)
-
-#: Choices of ``gramian_factors(solves=...)`` (and the ``solves`` option of the Gramian methods).
-SOLVES = ("auto", "direct", "dense", "surrogate")
 
 #: Largest model (DOF) whose Gramian solves are ``dense`` under ``auto``. Measured with
 #: ``bench/gramian_solves.py`` (cantilever, two tip inputs/outputs, band 10-3000 Hz, ~300 nodes):

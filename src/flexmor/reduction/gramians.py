@@ -62,34 +62,14 @@ from ..errors import ModelError, OptionError, check_choice
 from ..linalg import factorize
 from ..linalg.context import SolverContext, as_solver, track
 from ..linalg.eigen import DENSE_LIMIT, default_shift, eigenmodes, frequencies_hz, is_rigid
-from ..options import option
+from ._options import VARIANTS
 from .gramian_quadrature import quadrature_rule
-from .gramian_solves import SOLVES, choose_solves, projected_factors, tail_boundable
+from .gramian_solves import choose_solves, projected_factors, tail_boundable
 
 __all__ = ["GramianFactors", "quadrature_rule", "gramian_factors", "balance", "balance_note", "compress",
-           "truncation_basis", "VARIANTS", "UNDAMPED_ZETA", "variant_option", "nodes_option", "solves_option"]
+           "truncation_basis", "UNDAMPED_ZETA"]
 
 log = logging.getLogger(__name__)
-
-#: Variants of second-order balancing: the controllability Gramian of positions or velocities.
-VARIANTS = ("position", "velocity")
-
-
-def variant_option():
-    """The ``variant`` option: balance the position or the velocity controllability Gramian."""
-    return option("position", "balance position or velocity Gramians", choices=VARIANTS)
-
-
-def solves_option():
-    """The ``solves`` option: how the quadrature nodes are solved (see :func:`gramian_factors`)."""
-    return option("auto", "solves at the quadrature nodes: direct (one factorization each), dense (exact modal "
-                  "form, small models), surrogate (verified reduced model; a full band up to its cutoff) or auto",
-                  choices=SOLVES)
-
-
-def nodes_option():
-    """The ``nodes`` option: Gauss points per panel of the Gramian quadrature."""
-    return option(4, "Gauss points per panel of the Gramian quadrature")
 
 #: Damping ratio given to undamped models for their Gramians (see module docstring).
 UNDAMPED_ZETA = 1e-3

@@ -12,14 +12,10 @@ from ..linalg import factorize
 from ..linalg.context import SolverContext, as_solver
 from ..options import option
 from ..ports import interface_dofs
-from . import register_method
-from .free_body import inertia_relief_modes, rigid_body_modes
-
-
-def interface_option():
-    """The ``interface`` option of the component-mode methods: a list of interface SPECs."""
-    return option(None, "interface NODE, SET, SET:DIR, or SET@rbe2 / SET@rbe3 (6-DOF master node at the centroid)",
-                  metavar="SPEC")
+from ..rigid import rigid_body_modes
+from ._options import interface_option
+from ._registry import register_method
+from .free_body import inertia_relief_modes
 
 
 def constraint_modes(model, interface, solver: SolverContext | None = None):
@@ -70,7 +66,7 @@ def guyan(model, ports, order, *, interface=None, rigid: str = "exclude",
         Unused by the basis.
     order : int or None
         Must equal the number of interface DOFs if given.
-    interface : list of str
+    interface : list of str, optional
         Interface SPECs (``NODE``, ``SET``, ``NODE:DIR``, ``SET:DIR``).
     rigid : {'exclude', 'include'}
         Free bodies: the constraint modes of an interface that holds the body span its rigid-body

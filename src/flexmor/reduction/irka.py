@@ -27,8 +27,8 @@ from ..errors import OptionError, SolverError
 from ..linalg.context import SolverContext, as_solver
 from ..options import Band, band_option, option
 from ..projection import project
-from . import register_method
-from .free_body import rigid_body_modes
+from ..rigid import rigid_body_modes
+from ._registry import register_method
 from .krylov import krylov, merge_blocks, shifted_factorization
 
 __all__ = ["irka", "IrkaOptions", "reduced_poles", "select_shifts"]
@@ -141,7 +141,7 @@ def irka(model, ports, order, *, max_iter: int = 50, shift_tol: float = 1e-4, ba
         Convergence when every new point lies within ``shift_tol`` (relative) of an old one.
     band : (float, float), optional
         Band (Hz) of the :func:`flexmor.reduction.krylov.krylov` start basis, whose
-        reduced poles give the initial points; default (1, 1000).
+        reduced poles give the initial points; default :data:`flexmor.options.DEFAULT_BAND`.
     solver : SolverContext, optional
         Solver (backend, statistics) of :func:`flexmor.linalg.factorize`.
 

@@ -35,37 +35,15 @@ from ..linalg.eigen import default_shift
 from ..linalg.threads import blas_threads
 from ..options import Band, band_option, option
 from ..projection import reduced_matrices
-from . import register_method
+from ._options import RIGID, SIDES, points_option, rigid_option, side_option
+from ._registry import register_method
 from .arnoldi import DEFLATION_TOL, SecondOrderArnoldi
-from .free_body import rigid_body_modes, rigid_head
+from .free_body import rigid_head
 from .krylov_check import POINTS_TOL, nested_estimate
 
-__all__ = ["krylov", "KrylovOptions", "parse_points", "default_points", "SecondOrderArnoldi", "start_block",
-           "rigid_body_modes", "points_option", "side_option", "rigid_option"]
+__all__ = ["krylov", "KrylovOptions", "parse_points", "default_points", "start_block"]
 
 log = logging.getLogger(__name__)
-
-SIDES = ("input", "output", "both")
-RIGID = ("include", "exclude")
-
-
-def points_option(what: str = "expansion points", default: str = "krylov's (one real point at the band's geometric "
-                  "mean, checked by points_tol)"):
-    """The ``points`` option (text or numbers in Hz, :func:`parse_points`) of the Krylov-based methods."""
-    return option(None, f"{what} in Hz, s = 2 pi p: 0, 300j (frequency axis), -5 (real); default {default}",
-                  metavar="P1,P2")
-
-
-def side_option(default: str = "input", choices=SIDES):
-    """The ``side`` option: Krylov (or snapshot) space of ``B``, ``C^T`` or both."""
-    return option(default, "space of the inputs B, the outputs C^T or both", choices=choices)
-
-
-def rigid_option(default: str = "exclude"):
-    """The ``rigid`` option: the rigid-body modes of a free body in the basis or not."""
-    return option(default, "rigid-body modes of a free body in the basis (exclude: the floating frame carries "
-                  "them, the body is the one an FFRF export writes)", choices=RIGID)
-
 
 def parse_points(points) -> np.ndarray:
     """Expansion points in Hz as a complex array; ``s = 2 pi p``.
@@ -327,11 +305,11 @@ def krylov(model, ports, order, *, points=None, moments: int | None = None, side
     side : {'input', 'output', 'both'}
         Krylov space of ``B`` (input), of ``C^T`` (output) or of both.
     band : (float, float), optional
-        Band (Hz) for the default points; default (1, 1000).
+        Band (Hz) for the default points; default :data:`flexmor.options.DEFAULT_BAND`.
     points_tol : float
         Largest estimated band error of the default single point (see ``points``).
     rigid : {'exclude', 'include'}
-        Free bodies (rigid-body modes found from the geometry, :func:`rigid_body_modes`):
+        Free bodies (rigid-body modes found from the geometry, :func:`flexmor.rigid.rigid_body_modes`):
         the Krylov vectors are kept M-orthogonal to the rigid-body modes (moments of the
         flexible part of ``H``; for proportional damping ``H`` is rigid part + flexible part,
         so nothing is lost), which removes the round-off that nearly singular shifts would

@@ -13,8 +13,8 @@ from ..errors import OptionError, check_choice
 from ..linalg.context import SolverContext, as_solver
 from ..linalg.eigen import eigenmodes, frequencies_hz, is_rigid
 from ..options import option
-from . import register_method
-from .krylov import rigid_option
+from ._options import rigid_option
+from ._registry import register_method
 
 log = logging.getLogger(__name__)
 

@@ -12,10 +12,11 @@ from ..basis import Basis
 from ..errors import OptionError, check_choice
 from ..linalg.context import SolverContext, as_solver
 from ..options import Band, band_option, option
-from . import register_method
-from .free_body import m_project, rigid_head
-from .gramians import compress, gramian_factors, nodes_option, solves_option
-from .krylov import rigid_option, side_option
+from ..rigid import m_project
+from ._options import nodes_option, rigid_option, side_option, solves_option
+from ._registry import register_method
+from .free_body import rigid_head
+from .gramians import compress, gramian_factors
 
 __all__ = ["pod", "PodOptions", "pod_modes", "SNAPSHOTS"]
 
@@ -115,7 +116,7 @@ def pod(model, ports, order, *, band=None, energy: float | None = None, snapshot
     order : int or None
         Number of modes (upper bound when ``energy`` is given).
     band : (float, float), optional
-        Band in Hz (default 1:1000).
+        Band in Hz (default :data:`flexmor.options.DEFAULT_BAND`).
     energy : float, optional
         Keep the fewest modes whose share of the snapshot energy reaches ``energy`` (0, 1].
     snapshots : {'frequency', 'time', 'both'}

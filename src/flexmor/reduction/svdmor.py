@@ -13,16 +13,9 @@ from ..errors import OptionError
 from ..linalg.context import SolverContext, as_solver
 from ..options import Band, band_option, option
 from ..ports import Ports
-from . import register_method
-from .krylov import (
-    default_points,
-    krylov,
-    parse_points,
-    points_option,
-    rigid_option,
-    shifted_factorization,
-    side_option,
-)
+from ._options import points_option, rigid_option, side_option
+from ._registry import register_method
+from .krylov import default_points, krylov, parse_points, shifted_factorization
 
 __all__ = ["svdmor", "SvdmorOptions", "port_directions"]
 
@@ -98,7 +91,7 @@ def svdmor(model, ports, order, *, directions: int | None = None, band=None, poi
         Number of input (and output) directions kept; default: those with singular values
         above ``1e-3`` of the largest (at least 1).
     band : (float, float), optional
-        Band in Hz of the sampling and Krylov points (default 1:1000).
+        Band in Hz of the sampling and Krylov points (default :data:`flexmor.options.DEFAULT_BAND`).
     points : str, optional
         Points (Hz) of the sampling and of the Krylov spaces (default three real points).
     side : {'input', 'output', 'both'}

@@ -14,11 +14,12 @@ from ..linalg.context import SolverContext, as_solver
 from ..linalg.threads import blas_threads
 from ..options import Band, band_option, option
 from ..projection import project
-from . import register_method
+from ..rigid import exclude_rigid
+from ._options import VARIANTS, points_option, rigid_option, variant_option
+from ._registry import register_method
 from .dense_gramians import dense_gramians, psd_factor
-from .free_body import exclude_rigid
-from .gramians import UNDAMPED_ZETA, VARIANTS, balance, balance_note, variant_option
-from .krylov import krylov, points_option, rigid_option
+from .gramians import UNDAMPED_ZETA, balance, balance_note
+from .krylov import krylov
 
 __all__ = ["two_step", "TwoStepOptions", "GRAMIANS"]
 
@@ -61,7 +62,8 @@ def two_step(model, ports, order, *, intermediate: int = 120, band=None, gramian
     intermediate : int
         Krylov order r1 (typically 100-200; at least ``order``).
     band : (float, float), optional
-        Band in Hz: the Krylov points and the frequency-limited Gramians (default 1:1000).
+        Band in Hz: the Krylov points and the frequency-limited Gramians (default
+        :data:`flexmor.options.DEFAULT_BAND`).
     gramian : {'band', 'full'}
         Frequency-limited Gramians of ``band`` or full-band Gramians.
     variant : {'position', 'velocity'}

@@ -18,7 +18,7 @@ Variables (MATLAB names; all present, empty where not available):
 ``inv``             struct      inertia invariants when the FE model is given
                                 (``mass mdCM J Ct Cr Cr1 Gr Ge Oe Oe1 Me Ke``, frame
                                 nodes ``node_id origin phi psi``; see
-                                :mod:`flexmor.invariants`); otherwise ``[]``
+                                :mod:`flexmor.io.invariants`); otherwise ``[]``
 ==================  ==========  ====================================================
 
 References
@@ -73,7 +73,7 @@ def mat_variables(reduced, model=None, *, nodes=None) -> dict:
         "inv": np.zeros((0, 0)),
     }
     if model is not None and reduced.V is not None:
-        from ...invariants import compute_invariants, frame_nodes
+        from ..invariants import compute_invariants, frame_nodes
 
         try:
             fn = frame_nodes(model, reduced.V, nodes, reduced, masters=masters)

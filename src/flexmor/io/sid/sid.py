@@ -97,7 +97,7 @@ def sid_from_reduced(reduced, model, *, nodes=None, remove_rigid: bool = False) 
         Basis missing or not matching the model; no frame nodes.
     """
     from ...expansion import expand_body
-    from ...invariants import compute_invariants, frame_nodes
+    from ..invariants import compute_invariants, frame_nodes
 
     xb = expand_body(model, reduced, remove_rigid=remove_rigid)  # the floating frame carries the rigid motion
     reduced, model, V = xb.body, xb.model, xb.V
@@ -210,7 +210,7 @@ def write_sid(reduced, path, *, model=None, nodes=None, m1_order: str = "row-q-c
         Index order of the ``m1(i, j, k)`` entries.
     allow_clamped : bool
         Export a body of a supported (clamped) model, whose mass properties miss the supported
-        nodes (:func:`flexmor.invariants.check_free_model`); refused by default.
+        nodes (:func:`flexmor.io.invariants.check_free_model`); refused by default.
     remove_rigid : bool
         See :func:`sid_from_reduced`.
 
@@ -228,7 +228,7 @@ def write_sid(reduced, path, *, model=None, nodes=None, m1_order: str = "row-q-c
         if model is None:
             raise ModelError("SID export needs the FE data the body was reduced from, given as model: "
                              "the inertia invariants are integrals over its mass matrix", params=("model",))
-        from ...invariants import check_free_model
+        from ..invariants import check_free_model
 
         check_free_model(model, allow_clamped=allow_clamped)
         sid = sid_from_reduced(reduced, model, nodes=nodes, remove_rigid=remove_rigid)

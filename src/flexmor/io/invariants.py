@@ -48,7 +48,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .errors import ModelError, PortError
+from ..errors import ModelError, PortError
+from ..rigid import rigid_body_modes, rigid_motions
 
 __all__ = ["FrameNode", "Invariants", "compute_invariants", "frame_nodes", "node_triples", "check_free_model",
            "rigid_fields"]
@@ -167,10 +168,8 @@ def _cross_fields(W, trans, rot, n):
 
 def rigid_fields(model):
     """Translations St (n, 3), rotations about the origin Sr (n, 3) and position X (n,) as nodal
-    vectors (:func:`flexmor.reduction.free_body.rigid_motions` about the origin; X holds the
+    vectors (:func:`flexmor.rigid.rigid_motions` about the origin; X holds the
     coordinate of each translational equation's node along its direction)."""
-    from .reduction.free_body import rigid_motions
-
     R = rigid_motions(model, origin=np.zeros(3))
     X = np.zeros(model.n_dof)
     xyz, d = model.node_xyz(model.dofs[:, 0]), model.dofs[:, 1]
@@ -260,16 +259,14 @@ def check_free_model(model, *, allow_clamped: bool = False) -> int:
     ModelError
         The model has fewer than six rigid-body modes and ``allow_clamped`` is False.
     """
-    from .reduction.free_body import rigid_body_modes
-
     n = int(rigid_body_modes(model).shape[1])
     if n < 6 and not allow_clamped:
         raise ModelError(
             f"{model.source or model.name} is supported ({n} of 6 rigid-body modes): the nodes held by its boundary "
             "conditions and their mass are not in the model, so the floating-frame body would carry a wrong mass, "
             "centre of mass and inertia; reduce the free model (no boundary conditions; rigid-body modes "
-            "excluded) for FFRF export, or pass --allow-clamped (allow_clamped=True) for a body whose frame "
-            "does not move")
+            "excluded) for FFRF export, or pass allow_clamped for a body whose frame does not move",
+            params=("allow_clamped",))
     return n
 
 
@@ -315,7 +312,7 @@ def frame_nodes(model, V, specs=None, reduced=None, *, masters=()) -> list[Frame
     PortError
         No frame node could be found, or an unknown node/set.
     """
-    from .couplings import parse_coupling, rbe3_matrix
+    from ..couplings import parse_coupling, rbe3_matrix
 
     masters = list(masters)
     if specs is None:
