@@ -12,7 +12,8 @@ from pathlib import Path
 import numpy as np
 import scipy.sparse as sp
 
-from . import EXPORT_FORMATS, atomic_write
+from .._registry import EXPORT_FORMATS
+from ..atomic import atomic_write
 from .matrix_market import _ROLE_NAME, _role_of
 
 __all__ = ["write_matrix_market"]
