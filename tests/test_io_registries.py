@@ -45,7 +45,7 @@ def test_every_format_is_registered_right_after_import_flexmor_io():
     """A fresh interpreter: the families register themselves when flexmor.io imports them, in a fixed order."""
     code = ("import flexmor.io as io; print({k: [f['name'] for f in v] for k, v in io.describe_formats().items()})")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
-    assert eval(out) == {"model": ["abaqus", "calculix", "sid", "matlab", "matrix-market", "ansys", "nastran"],
+    assert eval(out) == {"model": ["calculix", "abaqus", "sid", "matlab", "matrix-market", "ansys", "nastran"],
                          "body": ["hdf5", "nastran-se"],
                          "export": ["hdf5", "sid", "exudyn", "mat", "statespace", "matrix-market", "nastran-dmig",
                                     "op4", "vtu"]}
