@@ -85,9 +85,9 @@ class AbaqusDeck:
         """Map ``(instance, label)`` and, for unambiguous labels, ``('', label)`` to node ids."""
         out = {k: int(i) for k, i in zip(self.keys, self.node_ids)}
         counts: dict = {}
-        for inst, lab in self.keys:
+        for _, lab in self.keys:
             counts[lab] = counts.get(lab, 0) + 1
-        for (inst, lab), i in zip(self.keys, self.node_ids):
+        for (_, lab), i in zip(self.keys, self.node_ids):
             if counts[lab] == 1:
                 out.setdefault(("", lab), int(i))
         return out
