@@ -2,7 +2,12 @@
 
 from __future__ import annotations
 
+import ast
+import importlib.util
 import json
+import subprocess
+import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -34,6 +39,54 @@ def test_the_registries_hold_the_built_in_formats():
     assert set(BODY_FORMATS.names()) == {"hdf5", "nastran-se"}
     assert set(EXPORT_FORMATS.names()) == {"hdf5", "sid", "exudyn", "mat", "statespace", "matrix-market",
                                            "nastran-dmig", "op4", "vtu"}
+
+
+def test_every_format_is_registered_right_after_import_flexmor_io():
+    """A fresh interpreter: the families register themselves when flexmor.io imports them, in a fixed order."""
+    code = ("import flexmor.io as io; print({k: [f['name'] for f in v] for k, v in io.describe_formats().items()})")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert eval(out) == {"model": ["calculix", "abaqus", "sid", "matlab", "matrix-market", "ansys", "nastran"],
+                         "body": ["hdf5", "nastran-se"],
+                         "export": ["hdf5", "sid", "exudyn", "mat", "statespace", "matrix-market", "nastran-dmig",
+                                    "op4", "vtu"]}
+
+
+def _is_module(name: str) -> bool:
+    try:
+        return importlib.util.find_spec(name) is not None
+    except ModuleNotFoundError:
+        return False
+
+
+def _imported_modules(path: Path, module: str) -> set:
+    """The modules named by every import statement of ``path`` (module ``module``), functions included."""
+    package = module if path.name == "__init__.py" else module.rpartition(".")[0]
+    out = set()
+    for node in ast.walk(ast.parse(path.read_text())):
+        if isinstance(node, ast.Import):
+            out.update(a.name for a in node.names)
+        elif isinstance(node, ast.ImportFrom):
+            base = package
+            for _ in range(node.level - 1):
+                base = base.rpartition(".")[0]
+            base = (f"{base}.{node.module}" if node.module else base) if node.level else node.module
+            out.update(f"{base}.{a.name}" if _is_module(f"{base}.{a.name}") else base for a in node.names)
+    return out
+
+
+def test_no_module_of_flexmor_io_imports_the_package_itself():
+    """The registries and atomic_write live in leaf modules: a format module never imports flexmor.io's __init__."""
+    root = Path(flexmor.io.__file__).parent
+    offenders = []
+    for path in sorted(root.rglob("*.py")):
+        if path == root / "__init__.py":
+            continue
+        parts = path.relative_to(root.parent.parent).with_suffix("").parts
+        module = ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+        if "flexmor.io" in _imported_modules(path, module):
+            offenders.append(module)
+    assert offenders == []
+    assert "flexmor.io" in _imported_modules(root.parent / "cli" / "__init__.py", "flexmor.cli")  # the check sees
 
 
 def test_registering_a_taken_suffix_or_name_is_refused():

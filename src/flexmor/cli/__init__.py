@@ -40,7 +40,7 @@ class _Run:
     The handler both sets :attr:`terminated` and raises :class:`_Terminated`. The exception
     can be lost: raised inside a destructor (e.g. a solver's ``__del__``) Python only reports it
     as unraisable and carries on. The flag is not lost: :meth:`guard`, wrapped around the
-    final rename of every written file (:data:`flexmor.io.commit_guard`), refuses to commit
+    final rename of every written file (:data:`flexmor.io.atomic.commit_guard`), refuses to commit
     once it is set, with SIGTERM blocked so that check, rename and record are not split; and
     :func:`main` ends a flagged run with 143, removing the files it committed.
     """
@@ -119,7 +119,7 @@ def main(argv=None) -> int:
     run, previous, hook, code = _Run(), None, sys.unraisablehook, None
     try:
         previous = signal.signal(signal.SIGTERM, run.on_sigterm)
-        io.commit_guard, sys.unraisablehook = run.guard, run.unraisable(hook)
+        io.atomic.commit_guard, sys.unraisablehook = run.guard, run.unraisable(hook)
     except ValueError:  # not the main thread: leave signal handling alone
         pass
     blocked = None
@@ -143,7 +143,7 @@ def main(argv=None) -> int:
     finally:
         if previous is not None:
             signal.signal(signal.SIGTERM, previous)
-            io.commit_guard, sys.unraisablehook = None, hook
+            io.atomic.commit_guard, sys.unraisablehook = None, hook
         # the process's own command line: the run's outcome is decided above (143 and no file, or its
         # code and its files), so SIGTERM stays blocked while the interpreter ends; at the end of
         # finalization Python restores the default action, which would kill a finished run

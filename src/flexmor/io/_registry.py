@@ -9,6 +9,11 @@ error), so the suffix of a file names its format; the longest matching suffix wi
 ``.ss.npz`` can belong to another format than ``.npz``. A format may also *claim* files by
 their name ahead of the suffixes (Abaqus ``<job>_STIF1.mtx`` among Matrix Market ``.mtx``).
 The same suffix may appear in different registries: each is asked for its own purpose.
+
+The three registries of flexmor (:data:`MODEL_FORMATS`, :data:`BODY_FORMATS`,
+:data:`EXPORT_FORMATS`) and their entry points (:func:`read`, :func:`read_body`,
+:func:`export`) live here, below every format module; :mod:`flexmor.io` imports the format
+families, which fill them.
 """
 
 from __future__ import annotations
@@ -17,9 +22,10 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
-from ..errors import OptionError
+from ..errors import OptionError, ReadError
 
-__all__ = ["Format", "Registry"]
+__all__ = ["BODY_FORMATS", "EXPORT_FORMATS", "MODEL_FORMATS", "Format", "Registry", "describe_formats", "export",
+           "export_format", "read", "read_body"]
 
 
 @dataclass(frozen=True)
@@ -134,3 +140,152 @@ class Registry:
     def known(self) -> str:
         """The suffixes by format, for messages: ``.sti (calculix), .inp (abaqus), ...``."""
         return ", ".join(f"{' '.join(f.suffixes)} ({f.name})" for f in self._formats.values())
+
+
+#: FE model readers: ``reader(path, **options) -> FEModel``.
+MODEL_FORMATS = Registry("FE model", "an")
+#: Reduced-body readers: ``reader(path, **options) -> ReducedModel``.
+BODY_FORMATS = Registry("reduced body")
+#: Exporters of reduced bodies: ``writer(reduced, path, *, model=None, **options)``, atomic.
+EXPORT_FORMATS = Registry("export", "an")
+
+_REGISTRIES = {"model": MODEL_FORMATS, "body": BODY_FORMATS, "export": EXPORT_FORMATS}
+
+
+def _checked(path: Path) -> Path:
+    if not path.exists():
+        raise ReadError(path, "file not found")
+    if path.is_dir():
+        raise ReadError(path, "is a directory, expected a file")
+    return path
+
+
+def _other_purpose(path, registry: Registry) -> str:
+    """``" ('.h5' is a reduced body file)"`` when another reader registry knows the suffix of ``path``."""
+    for other in (MODEL_FORMATS, BODY_FORMATS):
+        fmt = other.by_path(path) if other is not registry else None
+        if fmt is not None:
+            return f" ({Path(path).name} is {other.noun} file: {fmt.name})"
+    return ""
+
+
+def _choose_reader(registry: Registry, path: Path, format: str | None, hint: str = "") -> Format:
+    if format is not None:
+        return registry.by_name(format)
+    fmt = registry.by_path(path)
+    if fmt is None:
+        ext = path.suffix.lower() or "(none)"
+        raise ReadError(path, f"unknown {registry.purpose} file type {ext!r}{_other_purpose(path, registry)}; "
+                              f"known: {registry.known()}{hint}", params=("format",) if hint else ())
+    return fmt
+
+
+def read(path, format: str | None = None, **options):
+    """Read an FE model from ``path``.
+
+    Parameters
+    ----------
+    path : str or path-like
+        The main file of the FE export (e.g. CalculiX ``.sti``); files that belong with it
+        are found beside it.
+    format : str, optional
+        A name from :data:`MODEL_FORMATS`; by default chosen from the file name.
+    **options
+        Passed to the reader.
+
+    Returns
+    -------
+    FEModel
+
+    Raises
+    ------
+    ReadError
+        Missing, unreadable or malformed file, or unknown suffix.
+    OptionError
+        Unknown ``format``.
+    """
+    path = Path(path)
+    fmt = _choose_reader(MODEL_FORMATS, path, format, " (or give format)")
+    return fmt.function(_checked(path), **options)
+
+
+def read_body(path, format: str | None = None, **options):
+    """Read a reduced body: flexmor's own ``.h5`` or a Nastran superelement (``.op4``, ``.pch``).
+
+    Parameters
+    ----------
+    path : str or path-like
+        The body file.
+    format : str, optional
+        A name from :data:`BODY_FORMATS`; by default chosen from the suffix.
+    **options
+        Passed to the reader (e.g. ``geometry=`` for a superelement).
+
+    Returns
+    -------
+    ReducedModel
+
+    Raises
+    ------
+    ReadError
+        Missing or malformed file, or a suffix no body format has (the message lists them).
+    OptionError
+        Unknown ``format``.
+    """
+    path = Path(path)
+    fmt = _choose_reader(BODY_FORMATS, path, format)
+    return fmt.function(_checked(path), **options)
+
+
+def export_format(path, format: str | None = None) -> str:
+    """The export format name for ``path``: ``format`` (a name or alias) or the one its suffix names.
+
+    Raises
+    ------
+    OptionError
+        Unknown ``format``, or a suffix no export format has (the message lists the formats).
+    """
+    if format is not None:
+        return EXPORT_FORMATS.by_name(format).name
+    fmt = EXPORT_FORMATS.by_path(path)
+    if fmt is None:
+        ext = Path(path).suffix.lower() or "(none)"
+        raise OptionError(f"cannot tell the export type from the suffix {ext!r} (known: {EXPORT_FORMATS.known()}); "
+                          f"give format ({', '.join(EXPORT_FORMATS.names())})", params=("format",))
+    return fmt.name
+
+
+def export(reduced, path, format: str | None = None, *, model=None, **options) -> str:
+    """Write ``reduced`` to ``path`` in an export format, atomically.
+
+    The inertia invariants of SID and Exudyn bodies are integrals over the full model's mass
+    matrix and node coordinates, which the reduced body does not store (it stores the basis
+    ``V``): those exports need the FE model the body was reduced from, and flexmor checks that
+    its equation count matches ``V``.
+
+    Parameters
+    ----------
+    reduced : ReducedModel
+    path : str or path-like
+    format : str, optional
+        A name or alias from :data:`EXPORT_FORMATS` (``sid``, ``exudyn``, ``mat``, ``statespace``
+        or ``ss``, ``hdf5``); default from the suffix (``.SID_FEM``, ``.mat``, ``.h5``, ...).
+    model : FEModel, optional
+        The full model the body was reduced from (required by ``sid`` and ``exudyn``).
+    **options
+        Passed to the writer (e.g. ``nodes=[...]`` frame nodes, ``m1_order=`` for SID).
+
+    Returns
+    -------
+    str
+        The format name used.
+    """
+    name = export_format(path, format)
+    EXPORT_FORMATS.by_name(name).function(reduced, path, model=model, **options)
+    return name
+
+
+def describe_formats() -> dict[str, list[dict]]:
+    """Every registered format: ``{"model": [...], "body": [...], "export": [...]}``, each a list of
+    ``{"name", "suffixes", "claims", "aliases", "description"}`` in registration order."""
+    return {kind: [f.row() for f in reg.formats().values()] for kind, reg in _REGISTRIES.items()}

@@ -15,10 +15,10 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import ModelError, ReadError
+from ..errors import ReadError
 from ._fastparse import fast_triplets
 
-__all__ = ["read_text", "read_bytes", "check_text", "parse_triplets", "entry_line", "build_model"]
+__all__ = ["read_text", "read_bytes", "check_text", "parse_triplets", "entry_line"]
 
 _COMMENT_CHARS = "#%*!"
 _COMMENT_BYTES = (b"#", b"%", b"*", b"!")
@@ -326,32 +326,3 @@ def entry_line(path, k: int) -> int | None:
         if count == k:
             return lineno
     return None
-
-
-def build_model(path, roles: dict | None = None, **fields):
-    """Construct a :class:`~flexmor.model.FEModel`, turning ModelError into ReadError.
-
-    Parameters
-    ----------
-    path : str or path-like
-        The main file, named in the error.
-    roles : dict of str to path, optional
-        File of each matrix (``{"M": mass_path, ...}``): a ModelError whose message starts
-        with that matrix name (or ``mass``, ``stiffness``, ``damping``) is reported against
-        that file.
-    **fields
-        Passed to ``FEModel``.
-    """
-    from ..model import FEModel
-
-    try:
-        return FEModel(**fields)
-    except ModelError as exc:
-        msg = str(exc)
-        target = path
-        words = {"M": "mass", "K": "stiffness", "D": "damping"}
-        for name, p in (roles or {}).items():
-            if msg.startswith((f"{name} ", f"{name}[", words.get(name, name))):
-                target = p
-                break
-        raise ReadError(target, msg) from None

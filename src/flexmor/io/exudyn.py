@@ -36,7 +36,8 @@ import numpy as np
 import scipy.sparse as sp
 
 from ..errors import ModelError, OptionError
-from . import EXPORT_FORMATS, atomic_write
+from ._registry import EXPORT_FORMATS
+from .atomic import atomic_write
 
 __all__ = ["NODE_TYPES", "EXTRA_KEYS", "add_full_to_exudyn", "add_marker", "add_npz_to_exudyn", "add_to_exudyn",
            "exudyn_data", "write_exudyn"]
@@ -288,7 +289,7 @@ def add_to_exudyn(mbs, reduced, model, *, position=(0.0, 0.0, 0.0), velocity=(0.
         and ``model`` (the model as read).
     """
     if isinstance(model, (str, os.PathLike)):  # the model file
-        from . import read
+        from ._registry import read
 
         model = read(model)
     data = exudyn_data(reduced, model, node_type=node_type, remove_rigid=remove_rigid)

@@ -18,7 +18,8 @@ import numpy as np
 
 from ..errors import ReadError
 from ..jsonutil import jsonable
-from . import BODY_FORMATS, EXPORT_FORMATS, atomic_write
+from ._registry import BODY_FORMATS, EXPORT_FORMATS
+from .atomic import atomic_write
 
 FORMAT_TAG = "flexmor-reduced"
 _ARRAYS = ("M", "K", "D", "B", "C", "V", "node_ids", "xyz", "dofs", "triangles")

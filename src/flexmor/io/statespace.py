@@ -24,7 +24,8 @@ import numpy as np
 import scipy.linalg as sla
 
 from ..errors import ModelError
-from . import EXPORT_FORMATS, atomic_write
+from ._registry import EXPORT_FORMATS
+from .atomic import atomic_write
 
 __all__ = ["StateSpace", "state_space", "write_statespace"]
 

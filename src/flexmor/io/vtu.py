@@ -22,7 +22,8 @@ import scipy.linalg as sla
 from ..errors import ModelError
 from .invariants import node_triples
 from ..mesh import CellBlock, Mesh, import_meshio
-from . import EXPORT_FORMATS, atomic_write
+from ._registry import EXPORT_FORMATS
+from .atomic import atomic_write
 
 __all__ = ["body_modes", "nodal_modes", "write_vtu"]
 

@@ -46,11 +46,12 @@ import numpy as np
 import scipy.sparse as sp
 
 from ...errors import ReadError
-from .. import MODEL_FORMATS
+from .._build import build_model
 from .._cells import abaqus_cell, mesh_of_elements
 from .._mass import QUADRATIC_TYPES, check_mass
+from .._registry import MODEL_FORMATS
 from .._sparse import assemble, rows_in_use
-from .._text import build_model, check_text, entry_line, parse_triplets, read_text
+from .._text import check_text, entry_line, parse_triplets, read_text
 from .abaqus_inp import AbaqusDeck, read_deck
 
 __all__ = ["read_abaqus", "read_deck", "AbaqusDeck", "MATRIX_FILE"]

@@ -5,7 +5,8 @@ Interpreted keywords (case-insensitive, abbreviations such as ``*Nset`` are the 
 ``INSTANCE=``, set names as members), ``*PART``/``*END PART``, ``*ASSEMBLY``,
 ``*INSTANCE`` (``PART=``, translation and rotation data lines)/``*END INSTANCE``,
 ``*MATERIAL``, ``*DENSITY``, ``*ELASTIC``, ``*SOLID SECTION`` and ``*INCLUDE``. Everything
-else is skipped.
+else is skipped. The lines are read by :mod:`flexmor.io._abaqus_syntax`, as the CalculiX
+reader's.
 
 Node numbering of the result
 ----------------------------
@@ -28,13 +29,11 @@ from pathlib import Path
 import numpy as np
 
 from ...errors import ReadError
-from .._text import read_text
+from .._abaqus_syntax import Data, Keyword, walk
 
 __all__ = ["AbaqusDeck", "read_deck"]
 
 log = logging.getLogger(__name__)
-
-_MAX_INCLUDE_DEPTH = 10
 
 
 @dataclass
@@ -86,36 +85,12 @@ class AbaqusDeck:
         """Map ``(instance, label)`` and, for unambiguous labels, ``('', label)`` to node ids."""
         out = {k: int(i) for k, i in zip(self.keys, self.node_ids)}
         counts: dict = {}
-        for inst, lab in self.keys:
+        for _, lab in self.keys:
             counts[lab] = counts.get(lab, 0) + 1
-        for (inst, lab), i in zip(self.keys, self.node_ids):
+        for (_, lab), i in zip(self.keys, self.node_ids):
             if counts[lab] == 1:
                 out.setdefault(("", lab), int(i))
         return out
-
-
-def include_path(path: Path, opts: dict, depth: int, lineno: int) -> Path:
-    """The file named by ``*INCLUDE, INPUT=file`` (relative to ``path``'s folder), checked to exist
-    and to nest at most ``_MAX_INCLUDE_DEPTH`` levels (``depth`` is the current level)."""
-    inc = opts.get("INPUT", "").strip("\"'")
-    if not inc:
-        raise ReadError(path, "*INCLUDE without INPUT=file", lineno)
-    if depth >= _MAX_INCLUDE_DEPTH:
-        raise ReadError(path, f"*INCLUDE nested deeper than {_MAX_INCLUDE_DEPTH} levels", lineno)
-    p = Path(inc) if Path(inc).is_absolute() else path.parent / inc
-    if not p.exists():
-        raise ReadError(path, f"included file {inc} not found", lineno)
-    return p
-
-
-def keyword_options(card: str) -> tuple[str, dict]:
-    parts = [p.strip() for p in card.lstrip("*").split(",")]
-    opts = {}
-    for p in parts[1:]:
-        if p:
-            key, _, val = p.partition("=")
-            opts[key.strip().upper()] = val.strip().strip('"')
-    return " ".join(parts[0].upper().split()), opts
 
 
 def _floats(path, lineno, s, what):
@@ -145,30 +120,31 @@ class _Parser:
         self.materials: dict = {}
         self.has_assembly = False
 
-    def parse(self, path: Path, depth: int = 0):
-        text = read_text(path)
-        lines = text.splitlines()
-        st = getattr(self, "_state", None) or {"block": None, "opts": {}, "part": None, "inst": None,
-                                               "mat": None, "elem": None, "cont": []}
-        self._state = st
-        i, n = 0, len(lines)
-        while i < n:
-            s = lines[i].strip()
-            i += 1
-            if not s or s.startswith("**"):
-                continue
-            if s.startswith("*"):
-                self._keyword(path, i, s, st, depth)
-                continue
-            if st["block"] == "NODE":  # a run of node lines at once
-                j = i
-                while j < n and lines[j][:1] not in ("*", "") and not lines[j].isspace():
-                    j += 1
-                if self._node_run(path, i, [s] + lines[i:j], st):
-                    i = j
-                    continue
-            self._data(path, i, s, st)
+    def parse(self, path: Path):
+        st = {"block": None, "opts": {}, "part": None, "inst": None, "mat": None, "elem": None, "cont": []}
+        for item in walk(path):
+            if isinstance(item, Keyword):
+                self._keyword(item.path, item.line, item, st)
+            elif item.keyword is not None:  # data lines of st["block"]
+                self._data_lines(item, st)
         return self
+
+    def _data_lines(self, item: Data, st) -> None:
+        """The data lines of a keyword; runs of node lines on consecutive lines at once where they allow."""
+        path, lines, linenos = item.path, item.lines, item.linenos
+        k, n = 0, len(lines)
+        while k < n:
+            if st["block"] == "NODE":
+                j = k + 1
+                while j < n and linenos[j] == linenos[j - 1] + 1:
+                    j += 1
+                if not self._node_run(path, linenos[k], lines[k:j], st):
+                    for m in range(k, j):
+                        self._data(path, linenos[m], lines[m], st)
+                k = j
+                continue
+            self._data(path, linenos[k], lines[k], st)
+            k += 1
 
     def _node_run(self, path, lineno, data, st) -> bool:
         """Store the node lines ``data`` (the first on line ``lineno``) if all are plain
@@ -200,8 +176,8 @@ class _Parser:
         return True
 
     # -- keywords ---------------------------------------------------------------------------
-    def _keyword(self, path, lineno, s, st, depth):
-        kw, opts = keyword_options(s)
+    def _keyword(self, path, lineno, keyword: Keyword, st):
+        kw, opts = keyword.name, keyword.options
         st["block"], st["opts"], st["cont"] = kw, opts, []
         if kw == "PART":
             name = opts.get("NAME", "").upper()
@@ -239,8 +215,7 @@ class _Parser:
         elif kw == "SOLID SECTION":
             tgt = st["part"] or self.flat
             tgt.sections.append((opts.get("ELSET", "").upper(), opts.get("MATERIAL", "").upper()))
-        elif kw == "INCLUDE":
-            self.parse(include_path(path, opts, depth, lineno), depth + 1)
+        elif kw == "INCLUDE":  # the included file's lines follow
             st["block"] = None
 
     def _target(self, st):

@@ -34,11 +34,12 @@ import numpy as np
 import scipy.sparse as sp
 
 from ...errors import ReadError
-from .. import MODEL_FORMATS
+from .._build import build_model
 from .._cells import ansys_cell, build_mesh
+from .._registry import MODEL_FORMATS
 from .._sparse import rows_in_use
-from .._text import build_model, read_text
-from ..matrix_market import _check_header, _read_one, find_siblings
+from .._text import read_text
+from ..matrix_market.matrix_market import _check_header, _read_one, find_siblings
 
 __all__ = ["read_ansys", "read_mapping", "read_coordinates"]
 

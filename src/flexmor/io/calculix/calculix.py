@@ -34,11 +34,12 @@ import numpy as np
 import scipy.sparse as sp
 
 from ...errors import ReadError
-from .. import MODEL_FORMATS
+from .._build import build_model
 from .._cells import build_mesh
 from .._mass import QUADRATIC_TYPES, check_mass
+from .._registry import MODEL_FORMATS
 from .._sparse import assemble
-from .._text import build_model, entry_line, parse_triplets, read_bytes, read_text
+from .._text import entry_line, parse_triplets, read_bytes, read_text
 from .deck import read_inp
 from .expanded import expanded_dofs
 from .frd import read_frd

@@ -14,21 +14,20 @@ import numpy as np
 
 from ...errors import ReadError
 from ...mesh import NODES_PER_CELL
+from .._abaqus_syntax import Keyword, walk
 from .._cells import abaqus_cell
-from .._text import read_text
-from ..abaqus.abaqus_inp import include_path, keyword_options
 
 __all__ = ["read_inp"]
 
 log = logging.getLogger(__name__)
 
 
-def read_inp(path, _depth: int = 0, _state: dict | None = None, *, element_types: set | None = None,
-             cells: list | None = None):
+def read_inp(path, *, element_types: set | None = None, cells: list | None = None):
     """Read the node table, node sets and elements of a CalculiX/Abaqus-style input deck.
 
     Only ``*NODE``, ``*NSET`` (with ``GENERATE`` and set names as members), ``*ELEMENT`` and
-    ``*INCLUDE, INPUT=...`` are interpreted; everything else is skipped.
+    ``*INCLUDE, INPUT=...`` are interpreted (the syntax of :mod:`flexmor.io._abaqus_syntax`);
+    everything else is skipped.
 
     Parameters
     ----------
@@ -53,52 +52,22 @@ def read_inp(path, _depth: int = 0, _state: dict | None = None, *, element_types
         members that are no node.
     """
     path = Path(path)
-    top = _state is None
-    st = _state if _state is not None else {"ids": [], "xyz": [], "src": [], "sets": {}, "set_lines": []}
-    lines = read_text(path).splitlines()
-    block, opts, cur_set = None, {}, None
-    i, n = 0, len(lines)
-    while i < n:
-        s = lines[i].strip()
-        if not s or s.startswith("**"):
-            i += 1
+    st = {"ids": [], "xyz": [], "src": [], "sets": {}, "set_lines": []}
+    cur_set = None
+    for item in walk(path):
+        if isinstance(item, Keyword):
+            cur_set = _keyword(item, st, element_types)
             continue
-        if s.startswith("*"):
-            block, opts = keyword_options(s)
-            cur_set = None
-            if block == "NODE" and opts.get("NSET"):
-                cur_set = opts["NSET"].upper()
-                st["sets"].setdefault(cur_set, [])
-            elif block == "NSET":
-                if not opts.get("NSET"):
-                    raise ReadError(path, "*NSET without NSET=name", i + 1)
-                cur_set = opts["NSET"].upper()
-                st["sets"].setdefault(cur_set, [])
-            elif block == "INCLUDE":
-                read_inp(include_path(path, opts, _depth, i + 1), _depth + 1, st, element_types=element_types,
-                         cells=cells)
-            elif block == "ELEMENT" and element_types is not None:
-                element_types.add(opts.get("TYPE", "").upper())
-            i += 1
+        kw = item.keyword
+        if kw is None:
             continue
-        data, linenos = [], []
-        while i < n:
-            t = lines[i].strip()
-            if t.startswith("*") and not t.startswith("**"):
-                break
-            if t and not t.startswith("**"):
-                data.append(t)
-                linenos.append(i + 1)
-            i += 1
-        if block == "NODE":
-            _node_block(path, data, linenos, st, cur_set)
-        elif block == "NSET":
-            for lineno, t in zip(linenos, data):
-                _nset_line(path, lineno, t, st, cur_set, "GENERATE" in opts)
-        elif block == "ELEMENT" and cells is not None:
-            _element_block(path, data, linenos, opts.get("TYPE", "").upper(), cells)
-    if not top:
-        return None
+        if kw.name == "NODE":
+            _node_block(item.path, item.lines, item.linenos, st, cur_set)
+        elif kw.name == "NSET":
+            for lineno, t in zip(item.linenos, item.lines):
+                _nset_line(item.path, lineno, t, st, cur_set, "GENERATE" in kw.options)
+        elif kw.name == "ELEMENT" and cells is not None:
+            _element_block(item.path, item.lines, item.linenos, kw.options.get("TYPE", "").upper(), cells)
     ids = np.concatenate(st["ids"]) if st["ids"] else np.zeros(0, np.int64)
     xyz = np.concatenate(st["xyz"]) if st["xyz"] else np.zeros((0, 3))
     _check_unique(ids, st["src"])
@@ -114,6 +83,22 @@ def read_inp(path, _depth: int = 0, _state: dict | None = None, *, element_types
             log.warning("%s: node set %s is empty", path, name)
         sets[name] = arr
     return ids, xyz, sets
+
+
+def _keyword(kw: Keyword, st: dict, element_types: set | None) -> str | None:
+    """Take note of a keyword line; the node set its data lines go to (upper case), or None."""
+    cur_set = None
+    if kw.name == "NODE" and kw.options.get("NSET"):
+        cur_set = kw.options["NSET"].upper()
+        st["sets"].setdefault(cur_set, [])
+    elif kw.name == "NSET":
+        if not kw.options.get("NSET"):
+            raise ReadError(kw.path, "*NSET without NSET=name", kw.line)
+        cur_set = kw.options["NSET"].upper()
+        st["sets"].setdefault(cur_set, [])
+    elif kw.name == "ELEMENT" and element_types is not None:
+        element_types.add(kw.options.get("TYPE", "").upper())
+    return cur_set
 
 
 def _check_unique(ids: np.ndarray, src: list) -> None:

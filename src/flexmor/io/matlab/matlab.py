@@ -25,8 +25,8 @@ import scipy.io
 import scipy.sparse as sp
 
 from ...errors import ReadError
-from .. import MODEL_FORMATS
-from .._text import build_model
+from .._build import build_model
+from .._registry import MODEL_FORMATS
 from ._mat5 import checked_v5_stream
 
 __all__ = ["read_matlab"]

@@ -31,7 +31,8 @@ from __future__ import annotations
 import numpy as np
 import scipy.io
 
-from .. import EXPORT_FORMATS, atomic_write
+from .._registry import EXPORT_FORMATS
+from ..atomic import atomic_write
 
 __all__ = ["MAT_FIELDS", "write_mat"]
 

@@ -33,10 +33,10 @@ import numpy as np
 import scipy.sparse as sp
 
 from ...errors import ReadError
-from .. import MODEL_FORMATS
+from .._build import build_model
 from .._cells import mesh_of_elements, nastran_cell
+from .._registry import MODEL_FORMATS
 from .._sparse import assemble
-from .._text import build_model
 from .dmig_fast import DmigColumns, fast_dmig, scan_dmig
 from .nastran_bulk import Bulk, cards, num, read_bulk
 from .op4 import read_op4

@@ -34,7 +34,8 @@ import numpy as np
 import scipy.linalg as sla
 
 from ...errors import ModelError
-from .. import EXPORT_FORMATS, atomic_write
+from .._registry import EXPORT_FORMATS
+from ..atomic import atomic_write
 
 __all__ = ["superelement", "write_dmig", "write_op4"]
 
@@ -68,7 +69,7 @@ def superelement(reduced) -> dict:
             dofs.append((int(m.group(1)), _DIRS[m.group(2).lower()]))
     if not rows:
         raise ModelError("a Nastran superelement needs boundary DOFs: the body has no displacement output at a "
-                         "grid DOF (an output named NODE:DIR, e.g. --output 12:x)")
+                         "grid DOF (reduce with outputs that name NODE:DIR, e.g. 12:x)", params=("outputs",))
     order = sorted(range(len(dofs)), key=lambda i: dofs[i])
     dofs = [dofs[i] for i in order]
     Cb = np.asarray(reduced.C, dtype=float)[[rows[i] for i in order]]

@@ -42,7 +42,7 @@ import scipy.linalg as sla
 
 from ...errors import ReadError
 from ...model import direction_name
-from .. import BODY_FORMATS
+from .._registry import BODY_FORMATS
 from .nastran import SEQGP_REFUSED, bulk_of, dmig_matrices, dof_transform, load_matrices, op4_matrices
 
 __all__ = ["MAX_ORDER", "read_superelement"]

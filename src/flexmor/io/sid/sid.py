@@ -38,7 +38,8 @@ import numpy as np
 
 from ... import __version__
 from ...errors import OptionError
-from .. import EXPORT_FORMATS, MODEL_FORMATS, atomic_write
+from .._registry import EXPORT_FORMATS, MODEL_FORMATS
+from ..atomic import atomic_write
 from .sid_reader import read_sid
 from .sid_types import BODY_OBJECTS, M1_ORDERS, NODE_OBJECTS, SIDFile, SIDNode, Taylor
 

@@ -76,6 +76,152 @@ def _evidence(raw):
     return votes
 
 
+_TAYLOR_KEYS = ("order", "nrow", "ncol", "nq", "nqn", "structure")
+
+
+class _Scan:
+    """The objects of a SID file as read line by line, before their sizes are checked.
+
+    A Taylor object is a dict ``{"name", "h" (header integers), "m0", "m1" (entries with their
+    line), "line"}``; a node ``{"id", "rframe", "objs", "line"}``.
+    """
+
+    def __init__(self, path: Path):
+        self.path = path
+        self.header, self.mass, self.nelastq = "", None, None
+        self.ielastq: dict = {}
+        self.nodes: list = []
+        self.body: dict = {}
+        self.stack: list = []  # open blocks other than nodes and Taylor objects
+        self.node = None  # the node being read
+        self.obj = None  # the Taylor object being read
+
+    def line(self, ln: int, line: str) -> None:
+        s = line.strip()
+        if not s:
+            return
+        if ln == 1 and ":" in s and not s.lower().startswith("part"):
+            self.header = line.rstrip()
+        elif self.obj is not None:
+            self._object_line(ln, s)
+        elif s.lower().startswith("end"):
+            self._end(ln, s.lower()[3:].strip())
+        elif not self._key_value(ln, s):
+            name = s.split()[0]
+            if name in (NODE_OBJECTS if self.node is not None else BODY_OBJECTS):
+                self.obj = {"name": name, "h": {}, "m0": [], "m1": [], "line": ln}
+            else:
+                self.stack.append(s.lower())
+
+    def _object_line(self, ln: int, s: str) -> None:
+        """A line inside a Taylor object: an entry, a header integer, or its end."""
+        obj, path = self.obj, self.path
+        m = _ENTRY.match(s)
+        if m:
+            key = m.group(1).lower()
+            idx = tuple(int(g) for g in m.group(2, 3, 4) if g is not None)
+            if (key == "m0") != (len(idx) == 2):
+                raise ReadError(path, f"{key} needs {2 if key == 'm0' else 3} indices: {s!r}", line=ln)
+            obj[key].append((idx, _float(path, ln, m.group(5)), ln))
+            return
+        if s.lower() == "end " + obj["name"].lower():
+            (self.node["objs"] if self.node is not None else self.body)[obj["name"]] = obj
+            self.obj = None
+            return
+        m = _KEYVAL.match(s)
+        if m and m.group(1).lower() in _TAYLOR_KEYS:
+            try:
+                obj["h"][m.group(1).lower()] = int(m.group(3))
+            except ValueError:
+                raise ReadError(path, f"{m.group(1)} must be an integer: {s!r}", line=ln) from None
+            return
+        raise ReadError(path, f"unexpected line in Taylor object {obj['name']}: {s!r}", line=ln)
+
+    def _end(self, ln: int, what: str) -> None:
+        """``end node`` closes the node; ``end <block>`` the innermost open block of that name."""
+        if what == "node":
+            if self.node is None:
+                raise ReadError(self.path, "'end node' without a 'new node' before it", line=ln)
+            self.nodes.append(self.node)
+            self.node = None
+        if self.stack and self.stack[-1] == what:
+            self.stack.pop()
+
+    def _key_value(self, ln: int, s: str) -> bool:
+        """A ``key = value`` line (``new node``, ``mass``, ``nelastq``, ``ielastq(i)``, ``rframe``); False if none."""
+        m = _KEYVAL.match(s)
+        if not m:
+            return False
+        path, key, val = self.path, m.group(1).strip().lower(), m.group(3).strip()
+        if key == "new node":
+            try:
+                self.node = {"id": int(val), "rframe": "", "objs": {}, "line": ln}
+            except ValueError:
+                raise ReadError(path, f"node id must be an integer: {s!r}", line=ln) from None
+        elif key == "mass":
+            self.mass = _float(path, ln, val)
+        elif key == "nelastq":
+            try:
+                self.nelastq = int(val)
+            except ValueError:
+                raise ReadError(path, f"nelastq must be an integer: {s!r}", line=ln) from None
+        elif key == "ielastq":
+            self.ielastq[int(m.group(2))] = val
+        elif key == "rframe" and self.node is not None:
+            self.node["rframe"] = val
+        return True
+
+    def check_complete(self) -> None:
+        """Refuse a file that ends inside a Taylor object, or lacks the mass or a body object."""
+        if self.obj is not None:
+            raise ReadError(self.path, f"Taylor object {self.obj['name']} not closed (truncated file?)",
+                            line=self.obj["line"])
+        if self.mass is None:
+            raise ReadError(self.path, "no refmod mass found: not a SID file")
+        missing = [n for n in BODY_OBJECTS if n not in self.body]
+        if missing:
+            raise ReadError(self.path, f"missing SID objects: {', '.join(missing)}")
+
+    def taylor_objects(self) -> list:
+        """Every Taylor object read, of the body and of the nodes."""
+        return list(self.body.values()) + [o for nd in self.nodes for o in nd["objs"].values()]
+
+
+def _read_lines(path: Path) -> list:
+    try:
+        return path.read_text(errors="replace").splitlines()
+    except OSError as exc:
+        raise ReadError(path, f"cannot read: {exc.strerror}") from None
+
+
+def _m1_order(path, raws: list, m1_order: str) -> str:
+    """The index order of ``m1`` entries: ``m1_order``, or for ``auto`` the one the index ranges show."""
+    if m1_order != "auto":
+        return m1_order
+    votes = set().union(*[_evidence(r) for r in raws])
+    if len(votes) > 1:
+        raise ReadError(path, "m1 entries contradict each other in their index order")
+    m1_order = votes.pop() if votes else M1_ORDERS[0]
+    log.debug("%s: m1 index order %s", path, m1_order)
+    return m1_order
+
+
+def _sid_file(scan: _Scan, m1_order: str) -> SIDFile:
+    """The :class:`SIDFile` of a complete scan, every Taylor object checked against its sizes."""
+    path = scan.path
+    objects = {n: _finish(path, scan.body[n], m1_order) for n in BODY_OBJECTS}
+    nodes = []
+    for nd in scan.nodes:
+        miss = [n for n in NODE_OBJECTS if n not in nd["objs"]]
+        if miss:
+            raise ReadError(path, f"node {nd['id']} lacks {', '.join(miss)}", line=nd["line"])
+        t = {n: _finish(path, nd["objs"][n], m1_order) for n in NODE_OBJECTS}
+        nodes.append(SIDNode(nd["id"], rframe=nd["rframe"], **t))
+    nq = scan.nelastq if scan.nelastq is not None else objects["Me"].m0.shape[0]
+    names = [scan.ielastq.get(a + 1, f"q{a + 1}") for a in range(nq)]
+    return SIDFile(mass=scan.mass, ielastq=names, nodes=nodes, objects=objects, header=scan.header)
+
+
 def read_sid(path, *, m1_order: str = "auto") -> SIDFile:
     """Read a ``.SID_FEM`` file.
 
@@ -99,99 +245,8 @@ def read_sid(path, *, m1_order: str = "auto") -> SIDFile:
     path = Path(path)
     if m1_order not in ("auto",) + M1_ORDERS:
         raise OptionError(f"m1_order={m1_order!r} is not allowed; choose one of: auto, {', '.join(M1_ORDERS)}")
-    try:
-        lines = path.read_text(errors="replace").splitlines()
-    except OSError as exc:
-        raise ReadError(path, f"cannot read: {exc.strerror}") from None
-    header, mass, ielastq, nodes_raw, body_raw = "", None, {}, [], {}
-    stack, cur_node, cur_obj, nelastq = [], None, None, None
-    for ln, line in enumerate(lines, 1):
-        s = line.strip()
-        if not s:
-            continue
-        if ln == 1 and ":" in s and not s.lower().startswith("part"):
-            header = line.rstrip()
-            continue
-        low = s.lower()
-        if cur_obj is not None:
-            m = _ENTRY.match(s)
-            if m:
-                key = m.group(1).lower()
-                idx = tuple(int(g) for g in m.group(2, 3, 4) if g is not None)
-                if (key == "m0") != (len(idx) == 2):
-                    raise ReadError(path, f"{key} needs {2 if key == 'm0' else 3} indices: {s!r}", line=ln)
-                cur_obj[key].append((idx, _float(path, ln, m.group(5)), ln))
-                continue
-            if low == "end " + cur_obj["name"].lower():
-                (cur_node["objs"] if cur_node is not None else body_raw)[cur_obj["name"]] = cur_obj
-                cur_obj = None
-                continue
-            m = _KEYVAL.match(s)
-            if m and m.group(1).lower() in ("order", "nrow", "ncol", "nq", "nqn", "structure"):
-                try:
-                    cur_obj["h"][m.group(1).lower()] = int(m.group(3))
-                except ValueError:
-                    raise ReadError(path, f"{m.group(1)} must be an integer: {s!r}", line=ln) from None
-                continue
-            raise ReadError(path, f"unexpected line in Taylor object {cur_obj['name']}: {s!r}", line=ln)
-        if low.startswith("end"):
-            what = low[3:].strip()
-            if what == "node":
-                if cur_node is None:
-                    raise ReadError(path, "'end node' without a 'new node' before it", line=ln)
-                nodes_raw.append(cur_node)
-                cur_node = None
-            if stack and stack[-1] == what:
-                stack.pop()
-            continue
-        m = _KEYVAL.match(s)
-        if m:
-            key, val = m.group(1).strip().lower(), m.group(3).strip()
-            if key == "new node":
-                try:
-                    cur_node = {"id": int(val), "rframe": "", "objs": {}, "line": ln}
-                except ValueError:
-                    raise ReadError(path, f"node id must be an integer: {s!r}", line=ln) from None
-            elif key == "mass":
-                mass = _float(path, ln, val)
-            elif key == "nelastq":
-                try:
-                    nelastq = int(val)
-                except ValueError:
-                    raise ReadError(path, f"nelastq must be an integer: {s!r}", line=ln) from None
-            elif key == "ielastq":
-                ielastq[int(m.group(2))] = val
-            elif key == "rframe" and cur_node is not None:
-                cur_node["rframe"] = val
-            continue
-        name = s.split()[0]
-        names = NODE_OBJECTS if cur_node is not None else BODY_OBJECTS
-        if name in names:
-            cur_obj = {"name": name, "h": {}, "m0": [], "m1": [], "line": ln}
-        else:
-            stack.append(low)
-    if cur_obj is not None:
-        raise ReadError(path, f"Taylor object {cur_obj['name']} not closed (truncated file?)", line=cur_obj["line"])
-    if mass is None:
-        raise ReadError(path, "no refmod mass found: not a SID file")
-    missing = [n for n in BODY_OBJECTS if n not in body_raw]
-    if missing:
-        raise ReadError(path, f"missing SID objects: {', '.join(missing)}")
-    raws = list(body_raw.values()) + [o for nd in nodes_raw for o in nd["objs"].values()]
-    if m1_order == "auto":
-        votes = set().union(*[_evidence(r) for r in raws])
-        if len(votes) > 1:
-            raise ReadError(path, "m1 entries contradict each other in their index order")
-        m1_order = votes.pop() if votes else M1_ORDERS[0]
-        log.debug("%s: m1 index order %s", path, m1_order)
-    objects = {n: _finish(path, body_raw[n], m1_order) for n in BODY_OBJECTS}
-    nodes = []
-    for nd in nodes_raw:
-        miss = [n for n in NODE_OBJECTS if n not in nd["objs"]]
-        if miss:
-            raise ReadError(path, f"node {nd['id']} lacks {', '.join(miss)}", line=nd["line"])
-        t = {n: _finish(path, nd["objs"][n], m1_order) for n in NODE_OBJECTS}
-        nodes.append(SIDNode(nd["id"], rframe=nd["rframe"], **t))
-    nq = nelastq if nelastq is not None else objects["Me"].m0.shape[0]
-    names = [ielastq.get(a + 1, f"q{a + 1}") for a in range(nq)]
-    return SIDFile(mass=mass, ielastq=names, nodes=nodes, objects=objects, header=header)
+    scan = _Scan(path)
+    for ln, line in enumerate(_read_lines(path), 1):
+        scan.line(ln, line)
+    scan.check_complete()
+    return _sid_file(scan, _m1_order(path, scan.taylor_objects(), m1_order))

@@ -12,7 +12,8 @@ from pathlib import Path
 import numpy as np
 import scipy.sparse as sp
 
-from . import EXPORT_FORMATS, atomic_write
+from .._registry import EXPORT_FORMATS
+from ..atomic import atomic_write
 from .matrix_market import _ROLE_NAME, _role_of
 
 __all__ = ["write_matrix_market"]
@@ -39,7 +40,8 @@ def write_matrix_market(reduced, path, *, model=None) -> None:
                  f"{L.shape[0]} {L.shape[1]} {L.nnz}"]
         lines += [f"{i + 1} {j + 1} {v!r}" for i, j, v in zip(L.row.tolist(), L.col.tolist(), L.data.tolist())]
         text = "\n".join(lines) + "\n"
-        atomic_write(path.with_name(f"{base}{role}{path.suffix or '.mtx'}"), lambda tmp: Path(tmp).write_text(text))
+        atomic_write(path.with_name(f"{base}{role}{path.suffix or '.mtx'}"),
+                     lambda tmp, text=text: Path(tmp).write_text(text))
 
 
 EXPORT_FORMATS.register("matrix-market", [".mtx"], write_matrix_market, aliases=["mtx"],

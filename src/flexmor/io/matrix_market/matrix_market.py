@@ -27,10 +27,11 @@ import numpy as np
 import scipy.io
 import scipy.sparse as sp
 
-from ..errors import ReadError
-from . import MODEL_FORMATS
-from ._sparse import assemble
-from ._text import build_model, entry_line, parse_triplets
+from ...errors import ReadError
+from .._build import build_model
+from .._registry import MODEL_FORMATS
+from .._sparse import assemble
+from .._text import entry_line, parse_triplets
 
 __all__ = ["read_matrix_market", "find_siblings"]
 

@@ -1,0 +1,128 @@
+"""The line syntax of Abaqus-style input decks, shared by the Abaqus and the CalculiX readers.
+
+A deck is a sequence of keyword lines (``*KEYWORD, PARAM=VALUE, FLAG``, case-insensitive),
+each followed by its data lines; lines starting with ``**`` are comments and blank lines are
+skipped. ``*INCLUDE, INPUT=file`` inserts another file (relative to the folder of the file that
+includes it), nested at most :data:`MAX_INCLUDE_DEPTH` levels. :func:`walk` reads a deck as
+:class:`Keyword` and :class:`Data` items, includes inlined, each naming its file and line; the
+readers interpret the keywords they know. Data lines continued on the next line (an element
+whose line ends in a comma) are the reader's to join.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from dataclasses import dataclass
+from pathlib import Path
+
+from ..errors import ReadError
+from ._text import read_text
+
+__all__ = ["MAX_INCLUDE_DEPTH", "Data", "Keyword", "include_path", "keyword_options", "walk"]
+
+#: Deepest nesting of ``*INCLUDE`` files.
+MAX_INCLUDE_DEPTH = 10
+
+
+@dataclass(frozen=True)
+class Keyword:
+    """A keyword line.
+
+    Attributes
+    ----------
+    name : str
+        Upper case, inner blanks single (``END PART``).
+    options : dict of str to str
+        ``PARAM=VALUE`` pairs, parameter names upper case, values unquoted; a flag maps to ``""``.
+    path : Path
+        The file of the line.
+    line : int
+        1-based line number.
+    """
+
+    name: str
+    options: dict
+    path: Path
+    line: int
+
+
+@dataclass(frozen=True)
+class Data:
+    """The data lines between a keyword line and the next one in the same file.
+
+    Attributes
+    ----------
+    keyword : Keyword or None
+        The keyword above the lines in their file; None for lines before the first keyword of
+        a file and for lines after an ``*INCLUDE`` line, which belong to no keyword.
+    lines : list of str
+        The lines, stripped, without comments and blank lines.
+    linenos : list of int
+        1-based line number of each.
+    path : Path
+        The file of the lines.
+    """
+
+    keyword: Keyword | None
+    lines: list
+    linenos: list
+    path: Path
+
+
+def keyword_options(card: str) -> tuple[str, dict]:
+    """The name and the options of the keyword line ``card`` (see :class:`Keyword`)."""
+    parts = [p.strip() for p in card.lstrip("*").split(",")]
+    opts = {}
+    for p in parts[1:]:
+        if p:
+            key, _, val = p.partition("=")
+            opts[key.strip().upper()] = val.strip().strip('"')
+    return " ".join(parts[0].upper().split()), opts
+
+
+def include_path(path: Path, opts: dict, depth: int, lineno: int) -> Path:
+    """The file named by ``*INCLUDE, INPUT=file`` (relative to ``path``'s folder), checked to exist
+    and to nest at most :data:`MAX_INCLUDE_DEPTH` levels (``depth`` is the current level)."""
+    inc = opts.get("INPUT", "").strip("\"'")
+    if not inc:
+        raise ReadError(path, "*INCLUDE without INPUT=file", lineno)
+    if depth >= MAX_INCLUDE_DEPTH:
+        raise ReadError(path, f"*INCLUDE nested deeper than {MAX_INCLUDE_DEPTH} levels", lineno)
+    p = Path(inc) if Path(inc).is_absolute() else path.parent / inc
+    if not p.exists():
+        raise ReadError(path, f"included file {inc} not found", lineno)
+    return p
+
+
+def walk(path, _depth: int = 0) -> Iterator[Keyword | Data]:
+    """The keyword lines and data blocks of the deck ``path``, in file order, includes inlined.
+
+    An ``*INCLUDE`` keyword comes before the items of the file it includes.
+
+    Raises
+    ------
+    ReadError
+        An unreadable file, or an ``*INCLUDE`` without ``INPUT=``, of a missing file or nested
+        too deep (naming the including file and line).
+    """
+    path = Path(path)
+    keyword, data, linenos = None, [], []
+    for lineno, line in enumerate(read_text(path).splitlines(), 1):
+        s = line.strip()
+        if not s or s.startswith("**"):
+            continue
+        if not s.startswith("*"):
+            data.append(s)
+            linenos.append(lineno)
+            continue
+        if data:
+            yield Data(keyword, data, linenos, path)
+            data, linenos = [], []
+        name, opts = keyword_options(s)
+        keyword = Keyword(name, opts, path, lineno)
+        yield keyword
+        if name == "INCLUDE":
+            yield from walk(include_path(path, opts, _depth, lineno), _depth + 1)
+            keyword = None
+    if data:
+        yield Data(keyword, data, linenos, path)
