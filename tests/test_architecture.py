@@ -43,11 +43,6 @@ LAYERS = [
     ["flexmor.errors", "flexmor.jsonutil", "flexmor"],  # errors, JSON values, the version
 ]
 
-# The cycles between ``flexmor.io`` and its format modules (``io/__init__`` registers them, they
-# import the registries back from it) are removed by the io layout with ``io/_registry.py``;
-# until that lands, a cycle whose modules all lie in one of these packages is tolerated.
-# Remove this set (and its use in ``_cycles``) once the io layout is in.
-_PENDING_IO_CYCLES = frozenset({"flexmor.io"})
 
 
 def module_name(path: Path, root: Path = ROOT) -> str:
@@ -204,7 +199,7 @@ def _within(module: str, package: str) -> bool:
     return module == package or module.startswith(package + ".")
 
 
-def _cycles(graph, tolerated=_PENDING_IO_CYCLES) -> list[str]:
+def _cycles(graph, tolerated=()) -> list[str]:
     """One cycle (with the file and line of each edge) per strongly connected component of
     ``graph``, except components that lie entirely within a package of ``tolerated``."""
     out = []
@@ -298,18 +293,18 @@ def test_cycle_detector_finds_synthetic_cycles(graph, expected):
     assert bool(strongly_connected(graph)) == (expected is not None)
 
 
-def test_every_cycle_is_reported_and_only_io_cycles_are_tolerated():
+def test_every_cycle_is_reported_and_a_tolerated_package_is_left_out():
     graph = {"flexmor.io": {"flexmor.io.x": "io/__init__.py:3"}, "flexmor.io.x": {"flexmor.io": "io/x.py:7"},
              "flexmor.a": {"flexmor.b": "a.py:1"}, "flexmor.b": {"flexmor.c": "b.py:2"},
              "flexmor.c": {"flexmor.a": "c.py:5", "flexmor.io": "c.py:6"},
              "flexmor.d": {"flexmor.d.e": "d/__init__.py:1"}, "flexmor.d.e": {"flexmor.d": "d/e.py:9"}}
     assert strongly_connected(graph) == [["flexmor.a", "flexmor.b", "flexmor.c"], ["flexmor.d", "flexmor.d.e"],
                                          ["flexmor.io", "flexmor.io.x"]]
-    cycles = _cycles(graph)
+    cycles = _cycles(graph, tolerated=("flexmor.io",))
     assert len(cycles) == 2
     assert cycles[0].startswith("flexmor.a -> flexmor.b -> flexmor.c -> flexmor.a\n") and "(c.py:5)" in cycles[0]
     assert "(d/e.py:9)" in cycles[1] and not any("io/x.py" in c for c in cycles)
-    assert len(_cycles(graph, tolerated=())) == 3
+    assert len(_cycles(graph)) == 3
 
 
 def test_upward_import_is_found_with_its_file_and_line():
