@@ -320,7 +320,6 @@ def _model_and_bodies(args):
 
 
 def cmd_compare(args) -> int:
-    from ..analysis.frequency import measure_record
     from ..analysis.mounted import FullMounted, mounted_record
     from ..origin import describe_damping, reference_model
     from ..ports import make_ports
@@ -339,7 +338,7 @@ def cmd_compare(args) -> int:
         err = fulls[key].evaluate(red)
         t_err = time.perf_counter() - t0
         row = {"file": str(path), "method": red.method, "order": red.order, "band_hz": list(band),
-               **measure_record(err), "damping": ref.damping.to_dict(),
+               **err.to_dict(), "damping": ref.damping.to_dict(),
                "reference_damping": describe_damping(ref.damping), "timings": {"error": t_err}}
         t0 = time.perf_counter()  # the body in its joints; the full side once per model (couplings, selections)
         mkey = key[2:4]
