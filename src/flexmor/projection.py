@@ -17,7 +17,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import scipy.linalg as sla
 
-from . import __version__
+from ._version import __version__
 from .basis import Basis
 from .couplings import coupling_masters
 from .damping import Damping, ModalDamping, NoDamping, damping_from_dict

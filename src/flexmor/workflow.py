@@ -19,7 +19,7 @@ from .reduction import reduce
 from .reduction.free_body import check_body
 
 __all__ = ["coupling_specs", "prepare_model", "body_model", "parse_band", "parse_pair", "apply_damping", "damping_of",
-           "with_method_band", "reduce_and_judge", "run_demo", "DEFAULT_BAND"]
+           "with_method_band", "reduce_and_judge", "record_setup", "run_demo", "DEFAULT_BAND"]
 
 log = logging.getLogger(__name__)
 
@@ -204,6 +204,17 @@ def reduce_and_judge(model, method: str, order, ports, *, band=None, full: FullR
         result["tol_reached"] = red.info["tol_search"]["tol_reached"]
     result["timings"] = t
     return red, result
+
+
+def record_setup(body, *, couplings=(), interfaces=(), selections=()) -> None:
+    """Record on ``body`` what was applied to the model it was reduced from: ``info['couplings']``
+    and ``info['selections']`` (when any; :func:`flexmor.origin.reference_model` applies them again
+    to the model as read), and all three in its fingerprint ``origin``."""
+    if couplings:
+        body.info["couplings"] = list(couplings)
+    if selections:
+        body.info["selections"] = list(selections)
+    body.origin.update(couplings=list(couplings), interfaces=list(interfaces), selections=list(selections))
 
 
 def _judge_mounted(model, red, ports, result, timings, *, solver=None) -> None:

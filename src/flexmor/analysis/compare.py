@@ -25,7 +25,7 @@ from .frequency import MEASURE_KEYS, error_measures, error_notes
 from .grid import DEFAULT_TOL, adaptive_grid, initial_grid
 from .resonances import spurious_resonances
 
-__all__ = ["FullResponse", "ErrorMeasures", "PATHS", "JUDGED_ELASTIC", "JUDGED_RIGID", "JUDGED_FULL"]
+__all__ = ["FullResponse", "ErrorMeasures", "check_body", "PATHS", "JUDGED_ELASTIC", "JUDGED_RIGID", "JUDGED_FULL"]
 
 log = logging.getLogger(__name__)
 
@@ -354,41 +354,10 @@ class FullResponse:
                              freqs_hz=self.freqs, rel_error=rel_error(H, Hr))
 
     def check_body(self, reduced) -> None:
-        """Refuse a body that was not reduced from this response's model, damping and ports.
-
-        Raises
-        ------
-        ModelError
-            The body's fingerprint (:func:`flexmor.origin.fingerprint`) names another model (DOF
-            count, equation map, K, M, D), or its damping is another. A body without a
-            fingerprint (written by an older flexmor, or made by hand) only gets a
-            :class:`~flexmor.errors.FlexmorWarning`.
-        PortError
-            Its inputs or outputs are others (names, or their number).
-        """
-        name = f"body ({reduced.method or 'reduced'}, order {reduced.order})"
-        if reduced.origin:
-            diffs = origin_differences(reduced.origin, self.origin)
-            if diffs:
-                came = reduced.origin.get("source") or reduced.origin.get("name") or "unknown"
-                raise ModelError(f"{name} was reduced from a model with {'; '.join(diffs)} (the body's model: "
-                                 f"{came}; this reference: {self.model_label}); judge it against the model it was "
-                                 "reduced from", params=("model",))
-        else:
-            warnings.warn(f"{name} records no fingerprint of the model it was reduced from: it cannot be checked "
-                          f"against {self.model_label}", FlexmorWarning, stacklevel=3)
-        if not same_damping(reduced.damping, self.damping):
-            raise ModelError(f"{name} was reduced with damping {describe_damping(reduced.damping)}; this reference "
-                             f"has {describe_damping(self.damping)}. A body is judged against the full model with "
-                             "its own damping: give the model that damping (rayleigh / modal_damping / "
-                             "band_rayleigh), or reduce again", params=("damping",))
-        for role, mine, theirs, count in (("inputs", self.input_names, reduced.input_names, reduced.B.shape[1]),
-                                          ("outputs", self.output_names, reduced.output_names, reduced.C.shape[0])):
-            names = [str(n).strip().lower() for n in theirs]
-            if count != len(mine) or (names and names != [str(n).strip().lower() for n in mine]):
-                raise PortError(f"{name} has {count} {role} ({', '.join(map(str, theirs)) or 'unnamed'}); this "
-                                f"reference has {len(mine)} ({', '.join(map(str, mine))}): judge it with the ports "
-                                "it was reduced for", params=("ports",))
+        """Refuse a body that was not reduced from this response's model, damping and ports
+        (:func:`check_body`)."""
+        check_body(reduced, origin=self.origin, damping=self.damping, inputs=self.input_names,
+                   outputs=self.output_names, label=self.model_label)
 
     def reference(self, reduced):
         """``(H, judged)``: the full FRF that ``reduced`` is judged against and its description,
@@ -399,6 +368,46 @@ class FullResponse:
         if reduced.info.get("n_rigid_excluded"):
             return self.H_elastic, JUDGED_ELASTIC
         return self.H, JUDGED_RIGID
+
+
+def check_body(reduced, *, origin: dict, damping, inputs, outputs, label: str = "this model") -> None:
+    """Refuse a body that was not reduced from the model of fingerprint ``origin``
+    (:func:`flexmor.origin.fingerprint`), with ``damping`` and the ports named ``inputs`` and
+    ``outputs`` (``label`` names that model in the messages).
+
+    Raises
+    ------
+    ModelError
+        The body's fingerprint names another model (DOF count, equation map, K, M, D), or its
+        damping is another. A body without a fingerprint (written by an older flexmor, or made by
+        hand) only gets a :class:`~flexmor.errors.FlexmorWarning`.
+    PortError
+        Its inputs or outputs are others (names, or their number).
+    """
+    name = f"body ({reduced.method or 'reduced'}, order {reduced.order})"
+    if reduced.origin:
+        diffs = origin_differences(reduced.origin, origin)
+        if diffs:
+            came = reduced.origin.get("source") or reduced.origin.get("name") or "unknown"
+            raise ModelError(f"{name} was reduced from a model with {'; '.join(diffs)} (the body's model: "
+                             f"{came}; this reference: {label}); judge it against the model it was "
+                             "reduced from", params=("model",))
+    else:
+        warnings.warn(f"{name} records no fingerprint of the model it was reduced from: it cannot be checked "
+                      f"against {label}", FlexmorWarning, stacklevel=4)
+    if not same_damping(reduced.damping, damping):
+        raise ModelError(f"{name} was reduced with damping {describe_damping(reduced.damping)}; this reference "
+                         f"has {describe_damping(damping)}. A body is judged against the full model with "
+                         "its own damping: give the model that damping (rayleigh / modal_damping / "
+                         "band_rayleigh), or reduce again", params=("damping",))
+    for role, mine, theirs, count in (("inputs", list(inputs), reduced.input_names, reduced.B.shape[1]),
+                                      ("outputs", list(outputs), reduced.output_names, reduced.C.shape[0])):
+        names = [str(n).strip().lower() for n in theirs]
+        if count != len(mine) or (names and names != [str(n).strip().lower() for n in mine]):
+            raise PortError(f"{name} has {count} {role} ({', '.join(map(str, theirs)) or 'unnamed'}); this "
+                            f"reference has {len(mine)} ({', '.join(map(str, mine))}): judge it with the ports "
+                            "it was reduced for", params=("ports",))
+
 
 def _modal_correction(evaluate, damping, f_modes, phi, ports):
     """``evaluate`` (the FRF of the sparse Rayleigh realization of modal damping) with the share of

@@ -23,7 +23,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .. import __version__
+from .._version import __version__
 from ..analysis.compare import JUDGED_ELASTIC, JUDGED_RIGID
 from ..analysis.frequency import ANTIRESONANCE_FACTOR, MEASURES
 from ..checks import describe_couplings
