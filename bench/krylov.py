@@ -156,10 +156,10 @@ def _pymor_worker(inp: str, out: str) -> None:
 def compare(size: int, order: int, pymor_python: str | None, maxit: int) -> dict:
     from flexmor.analysis.compare import FullResponse
     from flexmor.analysis.frequency import band_error
+    from flexmor.body import ReducedModel
     from flexmor.dynamics.frf import frf_reduced
     from flexmor.models import cantilever, size_for_dofs
     from flexmor.ports import make_ports
-    from flexmor.projection import ReducedModel
     from flexmor.workflow import reduce_and_judge
 
     band = (1.0, 3000.0)

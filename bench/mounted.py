@@ -193,7 +193,7 @@ def coupled_model(case: Case):
 
 
 def reduce_body(case: Case, method: str, order: int, *, judge: bool = True, model=None):
-    """The body of ``method`` at ``order`` on the coupled model, with ``info['couplings']`` as the
+    """The body of ``method`` at ``order`` on the coupled model, with ``couplings`` as the
     command line records it; returns ``(body, record)`` (``record`` of ``reduce_and_judge``, or
     ``{'seconds': ...}`` without ``judge``)."""
     from flexmor.ports import make_ports
@@ -213,7 +213,7 @@ def reduce_body(case: Case, method: str, order: int, *, judge: bool = True, mode
             t0 = time.perf_counter()
             red = reduce(mc, method, order, ports, **opts)
             rec = {"seconds": time.perf_counter() - t0}
-    red.info["couplings"] = [case.spec]
+    red.couplings = [case.spec]
     return red, rec
 
 

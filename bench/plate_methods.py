@@ -153,8 +153,8 @@ def _cpu_of(pid: int) -> float | None:
 def pymor_rows(work: pathlib.Path, orders, model, full) -> dict:
     """The pyMOR rows: band_error of every body that is there, else the state of the run."""
     from flexmor.analysis.frequency import band_error
+    from flexmor.body import ReducedModel
     from flexmor.dynamics.frf import frf_reduced
-    from flexmor.projection import ReducedModel
 
     rows = {}
     for name in PYMOR:

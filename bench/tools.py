@@ -227,8 +227,9 @@ def judge_external(name: str, out: str, model, ports, full) -> dict:
     """Row of an external run that finished: its times and the band_error of its reduced body."""
     from flexmor.analysis.frequency import band_error
     from flexmor.basis import Basis
+    from flexmor.body import ReducedModel
     from flexmor.dynamics.frf import frf_reduced
-    from flexmor.projection import ReducedModel, project
+    from flexmor.projection import project
 
     d = np.load(out)
     if name.startswith("pymor"):

@@ -26,7 +26,7 @@ def test_reduce_with_a_selected_hole_coupled_by_rbe2(tmp_path, capsys):
                  "--input", "RING@rbe2:y", "--no-error", "-o", str(out), "--json"])
     assert code == 0, capsys.readouterr().err
     red = read_reduced(out)
-    assert red.info["selections"] == [RING] and red.info["couplings"] == ["RING@rbe2"]
+    assert red.selections == [RING] and red.couplings == ["RING@rbe2"]
     assert red.input_names == ["RING@rbe2:y"] and red.B.shape == (10, 1)
 
 

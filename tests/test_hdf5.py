@@ -36,7 +36,7 @@ def test_foreign_hdf5_is_refused(tmp_path):
 
 
 def _tiny_body(path):
-    from flexmor.projection import ReducedModel
+    from flexmor.body import ReducedModel
 
     r = 3
     red = ReducedModel(M=np.eye(r), K=np.diag([1.0, 2.0, 3.0]), D=None, B=np.ones((r, 1)), C=np.ones((2, r)),

@@ -50,7 +50,7 @@ def beam():
                               ("krylov", {"rigid": "exclude", "band": (10.0, 3000.0)},
                                [f"{SPEC}:y", f"{SPEC}:z", "TIP:y", "TIP:z"])):
         red = reduce(mc, method, 16, make_ports(mc, ins), **opts)
-        red.info["couplings"] = [SPEC]
+        red.couplings = [SPEC]
         bodies[method] = red
     return free, clamped, c, bodies
 

@@ -8,10 +8,10 @@ import numpy as np
 import pytest
 
 import flexmor.io
+from flexmor.body import ReducedModel
 from flexmor.cli import main
 from flexmor.errors import OptionError, ReadError
 from flexmor.io import BODY_FORMATS, EXPORT_FORMATS, MODEL_FORMATS, Registry
-from flexmor.projection import ReducedModel
 
 REGISTRIES = {"model": MODEL_FORMATS, "body": BODY_FORMATS, "export": EXPORT_FORMATS}
 

@@ -206,7 +206,7 @@ def test_report_plots_judge_what_the_table_judges(free, tmp_path):
     cb = reduce(model, "craig-bampton", 16, ports, interface=["FIX@rbe2", "TIP@rbe2"])
     kr = reduce(model, "krylov", 12, ports, band=BAND, rigid="include")
     for red in (cb, kr):
-        red.info["couplings"] = ["FIX@rbe2", "TIP@rbe2"]
+        red.couplings = ["FIX@rbe2", "TIP@rbe2"]
     rep = build_report(model, ports, [cb, kr], band=BAND, full=full, view3d=False, n_modes=4)
     data = rep.plot_data
     cb_row, kr_row = rep.rows

@@ -116,7 +116,7 @@ def expand_body(model, body, path="the body", *, elastic: bool = True, remove_ri
     ----------
     model : FEModel
         The FE model the body was reduced from, **as read** (its couplings not applied: the body
-        applies ``info['couplings']`` and ``info['selections']`` itself). For a body without
+        applies ``body.couplings`` and ``body.selections`` itself). For a body without
         couplings, the model it was reduced on.
     body : ReducedModel
         With its basis ``V``.
@@ -145,7 +145,7 @@ def expand_body(model, body, path="the body", *, elastic: bool = True, remove_ri
 
     if body.V is None:
         raise ModelError("the reduced body holds no basis V; re-run flexmor reduce (it stores V)")
-    couplings = tuple(body.info.get("couplings", ()))
+    couplings = tuple(body.couplings)
     keys = [c.replace(" ", "").upper() for c in couplings]
     rows = np.shape(body.V)[0]
     if couplings and all(k in model.node_sets for k in keys) and rows == model.n_dof:
@@ -185,7 +185,7 @@ def _elastic(model, body, remove_rigid):
 
 
 def expanded_reduced(xb: ExpandedBody):
-    """The body of ``xb`` as a :class:`~flexmor.projection.ReducedModel` at the model's equations
+    """The body of ``xb`` as a :class:`~flexmor.body.ReducedModel` at the model's equations
     (``V`` expanded, the model's node table and equation map)."""
     m = xb.model
     return dataclasses.replace(xb.body, V=xb.V, node_ids=m.node_ids, xyz=m.xyz, dofs=m.dofs)

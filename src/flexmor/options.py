@@ -12,10 +12,11 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import numbers
 
 from .errors import OptionError
 
-__all__ = ["Band", "DEFAULT_BAND", "option", "band_option", "option_fields", "parse_pair"]
+__all__ = ["Band", "DEFAULT_BAND", "option", "band_option", "option_fields", "parse_pair", "check_order"]
 
 
 def parse_pair(text, name: str) -> tuple[float, float]:
@@ -25,6 +26,27 @@ def parse_pair(text, name: str) -> tuple[float, float]:
     except ValueError:
         raise OptionError(f"{name} must look like A:B with two numbers, got {text!r}", params=(name,)) from None
     return a, b
+
+
+def check_order(order, name: str = "order") -> int | None:
+    """``order`` as a positive ``int`` (None stays None): the reduced dimension asked for.
+
+    An integer (also a NumPy one) or a float with an integer value is taken; a bool, a string,
+    a fraction or a value below 1 is refused.
+
+    Raises
+    ------
+    OptionError
+        Naming the parameter ``name`` and what was given.
+    """
+    if order is None:
+        return None
+    if isinstance(order, bool | str | bytes) or not isinstance(order, numbers.Real):
+        raise OptionError(f"{name} must be a positive integer, got {order!r} of type {type(order).__name__}",
+                          params=(name,))
+    if not (math.isfinite(order) and int(order) == order and order >= 1):
+        raise OptionError(f"{name} must be a positive integer, got {order!r}", params=(name,))
+    return int(order)
 
 
 class Band(tuple):

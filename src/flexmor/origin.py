@@ -184,8 +184,8 @@ def reference_model(model, body, path, *, damping: Damping | None = None):
     Returns
     -------
     FEModel
-        ``model`` with the body's node selections (``info['selections']``) and couplings
-        (``info['couplings']``) applied, checked against the body's fingerprint
+        ``model`` with the body's node selections (``body.selections``) and couplings
+        (``body.couplings``) applied, checked against the body's fingerprint
         (:func:`check_origin`), with the body's damping: its Rayleigh or modal damping, none for
         an undamped body, the model's own ``D`` for a body reduced with it.
     """
@@ -197,24 +197,24 @@ def reference_model(model, body, path, *, damping: Damping | None = None):
                           "reduce again with it", params=("rayleigh", "modal_damping", "band_rayleigh"))
     selected, coupled = applied_to(model, body)
     ref = selected if coupled is None else coupled.model
-    check_origin(body, ref, path, couplings=tuple(body.info.get("couplings", ())))
+    check_origin(body, ref, path, couplings=tuple(body.couplings))
     return with_body_damping(ref, body, path)
 
 
 def applied_to(model, body):
     """``(selected, coupled)``: ``model`` (as read) with the body's node selections
-    (``info['selections']``), and the :class:`flexmor.couplings.Coupled` of its couplings
-    (``info['couplings']``) on that model, None without couplings. A selection whose set the model
+    (``body.selections``), and the :class:`flexmor.couplings.Coupled` of its couplings
+    (``body.couplings``) on that model, None without couplings. A selection whose set the model
     has already (a model the selections were applied to) is not made again. Not checked against the
     body's fingerprint (:func:`check_origin` does that)."""
     selected = model
-    selections = body.info.get("selections", ())
+    selections = body.selections
     if selections:
         from .selection import parse_selection, with_selections
 
         selected = with_selections(selected, [s for s in selections
                                               if parse_selection(s)[0].upper() not in model.node_sets])
-    couplings = list(body.info.get("couplings", ()))
+    couplings = list(body.couplings)
     if not couplings:
         return selected, None
     from .couplings import couple

@@ -15,12 +15,11 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
-import scipy.linalg as sla
 
-from ._version import __version__
 from .basis import Basis
+from .body import ReducedModel
 from .couplings import coupling_masters
-from .damping import Damping, ModalDamping, NoDamping, damping_from_dict
+from .damping import ModalDamping
 from .errors import ModelError
 from .linalg.threads import sparse_dense
 from .mesh import outer_surface
@@ -28,109 +27,11 @@ from .model import FEModel
 from .origin import fingerprint
 from .ports import Ports
 
-__all__ = ["ReducedModel", "ReducedMatrices", "project", "reduced_matrices"]
+__all__ = ["ReducedMatrices", "project", "reduced_matrices"]
 
 
 def _sym(A: np.ndarray) -> np.ndarray:
     return 0.5 * (A + A.T)
-
-
-@dataclass
-class ReducedModel:
-    """A reduced elastic body ``Mr qr'' + Dr qr' + Kr qr = Br u``, ``y = Cr qr``.
-
-    Attributes
-    ----------
-    M, K : ndarray, shape (r, r)
-        Reduced mass and stiffness (symmetric).
-    D : ndarray, shape (r, r) or None
-        Reduced damping.
-    B : ndarray, shape (r, m)
-    C : ndarray, shape (p, r)
-    V : ndarray, shape (n_dof, r) or None
-        The basis (mode shapes at the equations ``dofs``), for expansion and export.
-    method, info
-        Method name and its parameters / diagnostics.
-    input_names, output_names : list of str
-        Port SPECs (or names) of the inputs and outputs.
-    node_ids, xyz, dofs
-        Node table and equation map of the full model.
-    triangles : ndarray of int, shape (n_tri, 3), or None
-        Outer surface of the full model's mesh as triangles over node ids
-        (:func:`flexmor.mesh.outer_surface`), for drawing the body (Exudyn's ``trigList``); None
-        where the model has no elements.
-    model_name : str
-        Name of the full model; ``errors`` holds error measures once evaluated.
-    damping : Damping
-        The damping of the full model it was projected from (``D`` is its projection).
-    origin : dict
-        Fingerprint of the full model (:func:`flexmor.origin.fingerprint`); empty for bodies
-        written before fingerprints existed.
-    """
-
-    M: np.ndarray
-    K: np.ndarray
-    D: np.ndarray | None
-    B: np.ndarray
-    C: np.ndarray
-    V: np.ndarray | None = None
-    method: str = ""
-    info: dict = field(default_factory=dict)
-    input_names: list = field(default_factory=list)
-    output_names: list = field(default_factory=list)
-    node_ids: np.ndarray | None = None
-    xyz: np.ndarray | None = None
-    dofs: np.ndarray | None = None
-    triangles: np.ndarray | None = None
-    model_name: str = ""
-    damping: Damping = field(default_factory=NoDamping)
-    errors: dict = field(default_factory=dict)
-    version: str = __version__
-    origin: dict = field(default_factory=dict)
-
-    def __post_init__(self):
-        if not isinstance(self.damping, Damping):  # the stored form, e.g. {"type": "rayleigh", ...}
-            self.damping = damping_from_dict(self.damping)
-
-    @property
-    def order(self) -> int:
-        """Reduced dimension r."""
-        return int(self.M.shape[0])
-
-    def eigenvalues(self) -> np.ndarray:
-        """Eigenvalues ``omega^2`` of ``(Kr, Mr)``, ascending."""
-        try:
-            return sla.eigh(self.K, self.M, eigvals_only=True)
-        except np.linalg.LinAlgError:
-            raise ModelError("the reduced mass matrix is not positive definite") from None
-
-    def summary(self) -> dict:
-        """What the body is, as a plain dict (used by ``flexmor info BODY.h5``).
-
-        Keys: ``method``, ``order``, ``order_requested``, ``order_note``, ``inputs``,
-        ``outputs``, ``couplings``, ``masters`` (each coupling's master node: ``name``, ``id``,
-        ``kind``, ``xyz``, ``n_slaves``), ``options`` (the method options recorded), ``frequencies_hz``,
-        ``damping`` (stored form), ``errors`` (the stored measures, without the curves),
-        ``model`` (the fingerprint of the full model it came from, empty for older bodies),
-        ``version`` (of the flexmor that wrote it).
-        """
-        try:
-            freqs = self.frequencies_hz().tolist()
-        except ModelError:
-            freqs = None
-        return {"method": self.method, "order": self.order, "order_requested": self.info.get("order_requested"),
-                "order_note": self.info.get("order_note"), "inputs": list(self.input_names),
-                "outputs": list(self.output_names), "couplings": list(self.info.get("couplings", [])),
-                "masters": list(self.info.get("masters", [])),
-                "options": dict(self.info.get("options", {})), "frequencies_hz": freqs,
-                "damping": self.damping.to_dict(), "model_name": self.model_name,
-                "errors": {k: v for k, v in self.errors.items() if k not in ("freqs_hz", "rel_error")},
-                "model": dict(self.origin), "version": self.version}
-
-    def frequencies_hz(self) -> np.ndarray:
-        """Undamped eigenfrequencies in Hz (round-off negatives reported as 0)."""
-        lam = self.eigenvalues()
-        return np.sqrt(np.clip(lam, 0.0, None)) / (2 * np.pi)
 
 
 @dataclass(frozen=True)
@@ -202,6 +103,7 @@ def project(model: FEModel, basis: Basis, ports: Ports) -> ReducedModel:
         Dr = model.damping.reduced_matrix(Mr, Kr)
     Br, Cr = ports.reduced(V)
     info = dict(basis.info)
+    order_note = info.pop("order_note", None)  # a method's word on the order it returned: a field of the body
     masters = coupling_masters(model)
     if masters:  # the interfaces of the body: one master id everywhere (info, SID, Exudyn, report)
         info["masters"] = [{"name": m["name"], "id": m["id"], "kind": m["kind"], "xyz": m["xyz"],
@@ -211,5 +113,5 @@ def project(model: FEModel, basis: Basis, ports: Ports) -> ReducedModel:
         input_names=list(ports.input_names), output_names=list(ports.output_names),
         node_ids=model.node_ids, xyz=model.xyz, dofs=model.dofs, model_name=model.name,
         damping=model.damping, triangles=None if model.mesh is None else outer_surface(model.mesh).triangles,
-        origin=fingerprint(model),
+        origin=fingerprint(model), order_note=order_note,
     )

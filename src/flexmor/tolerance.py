@@ -118,8 +118,7 @@ def reduce_to_tolerance(model, method: str, ports, *, tol: float, full, max_orde
     def error(r):
         if r not in tried:
             if big is not None and (big.info.get("nested") or method in NESTED) and r <= big.order:
-                info = {k: v for k, v in big.info.items() if k != "order_note"}
-                tried[r] = trial(r, project(model, Basis(big.V[:, :r], method, info), ports))
+                tried[r] = trial(r, project(model, Basis(big.V[:, :r], method, dict(big.info)), ports))
             else:
                 tried[r] = trial(r)
         return tried[r][0]

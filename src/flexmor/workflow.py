@@ -85,7 +85,7 @@ def prepare_model(model, couplings=()):
 
 
 def body_model(model, reduced, path="the body", *, damping: Damping | None = None):
-    """The full model ``reduced`` was made from: the body's node selections (``info['selections']``,
+    """The full model ``reduced`` was made from: the body's node selections (``reduced.selections``,
     the ``--select`` of ``flexmor reduce``), couplings and damping applied to ``model`` as read,
     checked against the body's fingerprint (:func:`flexmor.origin.reference_model`, which
     explains ``path`` and ``damping``)."""
@@ -158,7 +158,7 @@ def reduce_and_judge(model, method: str, order, ports, *, band=None, full: FullR
                                         measure=tol_measure, solver=solver, **options)
         red.info["timings"] = t
         red.info["order_requested"] = None if order is None else int(order)
-        red.info.pop("order_note", None)  # the order was chosen by the search (its record says how)
+        red.order_note = None  # the order was chosen by the search (its record says how)
     else:
         red = reduce(model, method, order, ports, solver=solver, **options)
         t = red.info["timings"]
@@ -169,7 +169,7 @@ def reduce_and_judge(model, method: str, order, ports, *, band=None, full: FullR
         "method": method,
         "order": red.order,
         "order_requested": red.info.get("order_requested"),
-        "order_note": red.info.get("order_note"),
+        "order_note": red.order_note,
         "seconds": t["basis"] + t["project"],
         "band_hz": None, **measure_record(None),
         "frequencies_hz": red.frequencies_hz().tolist(),
@@ -207,13 +207,13 @@ def reduce_and_judge(model, method: str, order, ports, *, band=None, full: FullR
 
 
 def record_setup(body, *, couplings=(), interfaces=(), selections=()) -> None:
-    """Record on ``body`` what was applied to the model it was reduced from: ``info['couplings']``
-    and ``info['selections']`` (when any; :func:`flexmor.origin.reference_model` applies them again
-    to the model as read), and all three in its fingerprint ``origin``."""
+    """Record on ``body`` what was applied to the model it was reduced from: its ``couplings``
+    and ``selections`` (when any; :func:`flexmor.origin.reference_model` applies them again to
+    the model as read), and all three in its fingerprint ``origin``."""
     if couplings:
-        body.info["couplings"] = list(couplings)
+        body.couplings = list(couplings)
     if selections:
-        body.info["selections"] = list(selections)
+        body.selections = list(selections)
     body.origin.update(couplings=list(couplings), interfaces=list(interfaces), selections=list(selections))
 
 

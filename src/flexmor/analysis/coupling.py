@@ -1,7 +1,7 @@
 """Assemblies of full and reduced bodies coupled by springs, dampers and point masses.
 
 An :class:`Assembly` holds bodies (a full :class:`~flexmor.model.FEModel` with its ports, or a
-reduced :class:`~flexmor.projection.ReducedModel`) and discrete elements between *points*. A
+reduced :class:`~flexmor.body.ReducedModel`) and discrete elements between *points*. A
 point is ``(body, SPEC)``: a port SPEC of that body (``NODE:DIR`` or ``SET:DIR``, see
 :mod:`flexmor.ports`), or ``None`` for the ground. Every point is one vector ``g`` in the
 coordinates of its body: for a full body the port vector ``b`` (the column of ``B`` that the
@@ -51,12 +51,12 @@ import numpy as np
 import scipy.linalg as sla
 import scipy.sparse as sp
 
+from ..body import ReducedModel
 from ..errors import FlexmorWarning, ModelError, OptionError, PortError
 from ..linalg import factorize
 from ..linalg.context import SolverContext, as_solver
 from ..model import FEModel
 from ..ports import Ports, make_ports
-from ..projection import ReducedModel
 from ..reduction import methods
 
 __all__ = ["Assembly", "Body", "coupling_warning"]

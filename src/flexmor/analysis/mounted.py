@@ -102,7 +102,7 @@ def supports(model, body=None, *, interfaces=None, held=("clamped", "pinned")) -
     model : FEModel
         The coupled model (its node sets hold the couplings' master nodes, e.g. ``HOLE@RBE2``).
     body : ReducedModel, optional
-        Its couplings (``info['couplings']``; without them the model's coupling masters,
+        Its couplings (``body.couplings``; without them the model's coupling masters,
         :func:`flexmor.couplings.coupling_masters`) and its interface nodes or sets
         without coupling (``info['options']['interface']``, not ``SET:DIR``) are the interfaces.
     interfaces : sequence of str, optional
@@ -116,7 +116,7 @@ def supports(model, body=None, *, interfaces=None, held=("clamped", "pinned")) -
         return []
     if interfaces is None:
         info = {} if body is None else body.info
-        names = ([str(c).split(":")[0] for c in info.get("couplings", ())]
+        names = ([str(c).split(":")[0] for c in (() if body is None else body.couplings)]
                  or [m["name"] for m in coupling_masters(model)])
         interfaces = names + [str(s) for s in (info.get("options") or {}).get("interface") or ()
                               if not set("@:") & set(str(s))]

@@ -272,6 +272,10 @@ def cmd_reduce(args) -> int:
         res["partition"] = row_blocks(model.K)
     # the fingerprint (of the coupled model) also names what made it: couplings, interfaces, selections
     record_setup(red, couplings=couplings, interfaces=args.interface, selections=args.select)
+    if couplings:
+        res["couplings"] = list(couplings)
+    if args.select:
+        res["selections"] = list(args.select)
     path = _check_new(args.output_file or f"{model.name}_{args.method}_{red.order}.h5", args)
     on_root(write_reduced, red, path)  # under MPI: written once, by rank 0
     res["file"] = str(path)
@@ -324,9 +328,9 @@ def cmd_compare(args) -> int:
     solver = _solver(args)
     fulls, mounts, rows = {}, {}, []
     for path, red in zip(args.reduced, reds):
-        couplings = tuple(red.info.get("couplings", ()))
+        couplings = tuple(red.couplings)
         ref = reference_model(model, red, path, damping=asked)
-        key = (tuple(red.input_names), tuple(red.output_names), couplings, tuple(red.info.get("selections", ())),
+        key = (tuple(red.input_names), tuple(red.output_names), couplings, tuple(red.selections),
                str(ref.damping.to_dict()))
         if key not in fulls:
             fulls[key] = _full_response(args, ref, make_ports(ref, *key[:2]), band, solver)
@@ -382,8 +386,7 @@ def cmd_report(args) -> int:
     model, t_read, band, reds, asked = _model_and_bodies(args)
 
     def key_of(r):
-        return (list(r.input_names), list(r.output_names), list(r.info.get("couplings", [])),
-                list(r.info.get("selections", [])))
+        return (list(r.input_names), list(r.output_names), list(r.couplings), list(r.selections))
 
     key = key_of(reds[0])
     other = [str(p) for p, r in zip(args.reduced, reds) if key_of(r) != key]

@@ -2,7 +2,7 @@
 
 * :func:`read` — an FE model (:class:`~flexmor.model.FEModel`) from an FE program's export
   (:data:`MODEL_FORMATS`: CalculiX, Abaqus, Ansys, Nastran, Matrix Market, MATLAB, SID);
-* :func:`read_body` — a reduced body (:class:`~flexmor.projection.ReducedModel`)
+* :func:`read_body` — a reduced body (:class:`~flexmor.body.ReducedModel`)
   (:data:`BODY_FORMATS`: flexmor's own HDF5, Nastran superelements);
 * :func:`export` — a reduced body to a file for another program (:data:`EXPORT_FORMATS`:
   SID, Exudyn, MATLAB, state space, HDF5).

@@ -3,13 +3,15 @@
 Layout: datasets ``M K B C`` (and ``D``, ``V``, ``node_ids``, ``xyz``, ``dofs`` when present),
 ``errors/freqs_hz`` and ``errors/rel_error`` when evaluated; attributes ``format``
 (= ``flexmor-reduced``), ``version``, ``method``, ``model_name`` and JSON strings ``info``,
-``damping``, ``errors``, ``input_names``, ``output_names`` and ``origin`` (the fingerprint of
-the full model, :mod:`flexmor.origin`; absent in bodies written before it existed). Written
-atomically.
+``damping``, ``errors``, ``input_names``, ``output_names``, ``origin`` (the fingerprint of
+the full model, :mod:`flexmor.origin`; absent in bodies written before it existed),
+``selections``, ``couplings`` and ``order_note`` (older bodies hold these three as keys of
+``info``; they are read from there). Written atomically.
 """
 
 from __future__ import annotations
 
+import copy
 import json
 
 import numpy as np
@@ -20,13 +22,16 @@ from . import BODY_FORMATS, EXPORT_FORMATS, atomic_write
 
 FORMAT_TAG = "flexmor-reduced"
 _ARRAYS = ("M", "K", "D", "B", "C", "V", "node_ids", "xyz", "dofs", "triangles")
-_JSON = ("info", "damping", "errors", "input_names", "output_names", "origin")
+_JSON = ("info", "damping", "errors", "input_names", "output_names", "origin", "selections", "couplings",
+         "order_note")
 #: JSON attributes that older bodies lack: name -> value then
-_OPTIONAL = {"origin": {}}
+_OPTIONAL = {"origin": {}, "selections": [], "couplings": [], "order_note": None}
+#: fields of the body that older bodies kept as keys of ``info``
+_FROM_INFO = ("selections", "couplings", "order_note")
 
 
 def write_reduced(red, path) -> None:
-    """Write a :class:`~flexmor.projection.ReducedModel` to ``path`` (HDF5), atomically."""
+    """Write a :class:`~flexmor.body.ReducedModel` to ``path`` (HDF5), atomically."""
     import h5py
 
     errors = {k: v for k, v in red.errors.items() if k not in ("rel_error", "freqs_hz")}
@@ -90,6 +95,15 @@ def _check_layout(path, h) -> None:
             raise ReadError(path, f"attribute {name!r} is not a string")
 
 
+def _check_fields(path, meta) -> None:
+    """Refuse ``selections``/``couplings`` that are not lists of strings, an ``order_note`` not a string."""
+    for n in ("selections", "couplings"):
+        if not (isinstance(meta[n], list) and all(isinstance(s, str) for s in meta[n])):
+            raise ReadError(path, f"attribute {n!r} must be a JSON list of strings")
+    if not (meta["order_note"] is None or isinstance(meta["order_note"], str)):
+        raise ReadError(path, "attribute 'order_note' must be a JSON string or null")
+
+
 def read_reduced(path):
     """Read a reduced body written by :func:`write_reduced`.
 
@@ -98,7 +112,7 @@ def read_reduced(path):
     """
     import h5py
 
-    from ..projection import ReducedModel
+    from ..body import ReducedModel
 
     try:
         h = h5py.File(path, "r")
@@ -110,13 +124,17 @@ def read_reduced(path):
         _check_layout(path, h)
         try:
             arrays = {n: (h[n][()] if n in h else None) for n in _ARRAYS}
-            meta = {n: json.loads(h.attrs[n]) if n in h.attrs or n not in _OPTIONAL else dict(_OPTIONAL[n])
+            meta = {n: json.loads(h.attrs[n]) if n in h.attrs or n not in _OPTIONAL else copy.copy(_OPTIONAL[n])
                     for n in _JSON}
             if "errors" in h:
                 meta["errors"]["freqs_hz"] = h["errors/freqs_hz"][()]
                 meta["errors"]["rel_error"] = h["errors/rel_error"][()]
             if not all(isinstance(meta[n], dict) for n in ("info", "damping", "errors", "origin")):
                 raise ReadError(path, "attributes info, damping, errors and origin must be JSON objects")
+            for n in _FROM_INFO:  # a body written when these were keys of info
+                if n not in h.attrs and n in meta["info"]:
+                    meta[n] = meta["info"].pop(n)
+            _check_fields(path, meta)
             red = ReducedModel(**arrays, **meta, method=str(h.attrs["method"]),
                                model_name=str(h.attrs["model_name"]), version=str(h.attrs["version"]))
         except (KeyError, ValueError, TypeError, OSError) as exc:  # an unknown damping type is an OptionError

@@ -118,7 +118,7 @@ def write_vtu(reduced, path, *, model=None) -> None:
     """
     meshio = import_meshio()
     masters = ()
-    if model is not None and reduced.V is not None and reduced.info.get("couplings"):
+    if model is not None and reduced.V is not None and reduced.couplings:
         from ..expansion import expand_body, expanded_reduced
 
         xb = expand_body(model, reduced, elastic=False)  # the slaves move with their masters

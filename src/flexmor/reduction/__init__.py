@@ -18,9 +18,10 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass
 
+from ..body import ReducedModel
 from ..errors import OptionError
-from ..options import Band, option_fields
-from ..projection import ReducedModel, project
+from ..options import Band, check_order, option_fields
+from ..projection import project
 from .free_body import exclude_rigid, with_inertia_loads
 
 __all__ = ["register_method", "METHODS", "methods", "reduce", "Method", "check_keywords"]
@@ -156,7 +157,7 @@ def reduce(model, method: str, order: int | None, ports, *, inertia_loads: str =
         options passed, as JSON values), ``band`` (``[fmin, fmax]`` in Hz the basis was built for,
         given or the default; None for a method without a band) and ``timings`` (wall times in
         seconds: ``basis``, ``project``); with ``version`` the result says how it was made. When
-        the order differs from the one asked, ``info['order_note']`` says what was returned and
+        the order differs from the one asked, ``order_note`` says what was returned and
         why (the method's own reason where it gives one).
     """
     _load_builtin()
@@ -166,8 +167,7 @@ def reduce(model, method: str, order: int | None, ports, *, inertia_loads: str =
     m = METHODS[method]
     check_keywords(method, options, m.keywords)
     opts = {k: v for k, v in options.items() if v is not None}
-    if order is not None and (int(order) != order or order < 1):
-        raise OptionError(f"order must be a positive integer, got {order}", params=("order",))
+    order = check_order(order)
     t0 = time.perf_counter()
     basis_ports, inertia = with_inertia_loads(model, ports, inertia_loads if m.uses_inputs else "off")
     basis = exclude_rigid(model, m.function(model, basis_ports, order, **opts))
@@ -178,8 +178,8 @@ def reduce(model, method: str, order: int | None, ports, *, inertia_loads: str =
     red.info.setdefault("order_requested", order)
     red.info.setdefault("options", _recorded(opts))
     red.info["band"] = list(Band.of(opts.get("band"))) if "band" in m.options else None
-    if order is not None and red.order != order and not red.info.get("order_note"):
-        red.info["order_note"] = f"order {red.order} instead of {order}: {method} returned a basis of that size"
+    if order is not None and red.order != order and not red.order_note:
+        red.order_note = f"order {red.order} instead of {order}: {method} returned a basis of that size"
     red.info["timings"] = {"basis": t1 - t0, "project": t2 - t1}
     return red
 

@@ -437,6 +437,8 @@ def elastic_body(model, reduced, *, remove_rigid: bool = False):
                          "states the error of the body it writes)", params=("remove_rigid",))
     body.info["rigid_removed_at_export"] = {"order_reduced": reduced.order, "order_exported": body.order}
     body.origin = dict(reduced.origin)  # with the couplings and selections the body was made with
+    body.couplings, body.selections = list(reduced.couplings), list(reduced.selections)
+    body.order_note = reduced.order_note
     warnings.warn(f"{reduced.method} body: its basis holds rigid-body motion, which the floating frame carries; "
                   f"exported with its basis {change}", FlexmorWarning, stacklevel=2)
     return body

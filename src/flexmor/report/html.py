@@ -175,7 +175,7 @@ def build_report(model, ports, reduced, *, band, labels=None, seconds=None, full
     if full is None:
         full = FullResponse(model, ports, band, solver=solver, progress=progress)
     notes = []
-    couplings = list(reduced[0].info.get("couplings", []))
+    couplings = list(reduced[0].couplings)
     ref_name = "full model" + (f" with {describe_couplings(couplings)}" if couplings else "")
     coupling = dict(coupling if coupling is not None else reduced[0].info.get("coupling_frequencies") or {})
     rep = Report(title=title or f"flexmor report: {model.name}", model=model.summary(), band=band, rows=[],

@@ -3,7 +3,7 @@
 Nastran delivers a reduced component (``EXTSEOUT``, or a CB reduction written with
 ``OUTPUT4``/``DMIGPCH``) as matrices on the a-set: the **boundary** DOFs (grid components
 1-6, ``ASET``/``BSET``) followed, in id order, by the **modal** DOFs (scalar points,
-``SPOINT`` + ``QSET``). flexmor reads them as a :class:`~flexmor.projection.ReducedModel`
+``SPOINT`` + ``QSET``). flexmor reads them as a :class:`~flexmor.body.ReducedModel`
 that can be evaluated (frequencies, FRF between boundary DOFs, assembly) and exported
 (``mat``, ``statespace``, flexmor ``.h5``); exports that integrate over the full mass matrix
 (SID, Exudyn) need the full FE model and are not possible from a superelement alone.
@@ -100,7 +100,7 @@ def read_superelement(path, *, bulk=None, stiffness=None, mass=None, damping=Non
         non-square, non-symmetric or complex matrices, a mass matrix that is not positive
         definite, no boundary DOF.
     """
-    from ...projection import ReducedModel
+    from ...body import ReducedModel
 
     path = Path(path)
     op4, mats, names = load_matrices(path, stiffness, mass, damping)
