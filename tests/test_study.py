@@ -1,0 +1,112 @@
+"""The study object flexmor.System, the flat namespace of ``import flexmor`` and the notebook plots."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+from conftest import CCX
+
+import flexmor
+from flexmor.damping import Rayleigh
+from flexmor.errors import ModelError, PortError
+
+BAND = (10.0, 3000.0)
+
+
+@pytest.fixture(scope="module")
+def beam():
+    return flexmor.System(CCX / "beam8_clamped_mat.sti", inputs=["TIP:y"], band=BAND,
+                          damping=Rayleigh(0.0, 1e-6), cache=False)
+
+
+def test_system_reduces_for_its_band_and_judges(beam):
+    body = beam.reduce("krylov", 8)
+    assert body.info["band"] == list(BAND) and body.info["options"]["band"] == list(BAND)
+    err = beam.judge(body)
+    assert isinstance(err, flexmor.ErrorMeasures) and err.band_hz == BAND
+    assert err.band_error < 1e-6 and not any("built for" in n for n in err.notes)
+    # the same as the library steps it is made of
+    model = flexmor.read(CCX / "beam8_clamped_mat.sti").with_rayleigh(0.0, 1e-6)
+    ports = flexmor.make_ports(model, ["TIP:y"])
+    same = flexmor.reduce(model, "krylov", 8, ports, band=BAND)
+    assert np.allclose(same.K, body.K) and flexmor.FullResponse(model, ports, BAND).evaluate(same).band_error == \
+        pytest.approx(err.band_error, rel=1e-6)
+
+
+def test_system_refuses_a_body_of_another_study_with_the_reason(beam, clamped):
+    undamped = flexmor.System(clamped, inputs=["TIP:y"], band=BAND)
+    with pytest.raises(ModelError, match="damping"):
+        beam.judge(undamped.reduce("modal", 6))
+    other_ports = flexmor.System(beam.model, inputs=["TIP:z"], band=BAND)
+    with pytest.raises(PortError, match="TIP:z"):
+        beam.judge(other_ports.reduce("modal", 6))
+    free = flexmor.System(CCX / "beam8_free_mat.sti", inputs=["TIP:y"], band=BAND, damping=Rayleigh(0.0, 1e-6))
+    with pytest.raises(ModelError, match="297 DOF, this model has 270"):
+        beam.judge(free.reduce("modal", 6))
+
+
+def test_system_passes_its_interfaces_and_damping_by_keywords(clamped):
+    s = flexmor.System(clamped, inputs=["TIP:y"], interfaces=["TIP"], band=BAND, damping={"band_rayleigh": 0.02})
+    assert s.model.damping.zeta == 0.02 and tuple(s.model.damping.band) == BAND
+    body = s.reduce("craig-bampton", 33)
+    assert body.info["options"]["interface"] == ["TIP"]
+    assert s.judge(body).band_error < 1e-2
+
+
+def test_system_frf_and_simulate_are_the_full_models(beam):
+    full = beam.full
+    H = beam.frf(full.freqs[:3])
+    np.testing.assert_allclose(H, full.H[:3], rtol=1e-7)
+    from flexmor.dynamics.time import step
+
+    y = beam.simulate(step(), dt=5e-5, t_end=2e-3)
+    assert y.displacement.shape == (41, 1, 1) and y.displacement[-1, 0, 0] > 0
+
+
+def test_flat_namespace():
+    for name in flexmor.__all__:
+        assert getattr(flexmor, name) is not None, name
+    assert flexmor.io.read is flexmor.read and flexmor.System.__module__ == "flexmor.study"
+    assert {"System", "read", "make_ports", "project", "reduce", "simulate", "state_space", "FullResponse",
+            "ErrorMeasures", "FlexmorError", "io"} <= set(flexmor.__all__)
+
+
+def _run(code: str) -> str:
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
+    assert out.returncode == 0, out.stderr
+    return out.stdout
+
+
+def test_import_flexmor_fills_the_method_registry_without_h5py_or_matplotlib():
+    out = _run("import sys; sys.modules['h5py'] = None; sys.modules['matplotlib'] = None\n"
+               "import flexmor; print(len(flexmor.reduction.METHODS), flexmor.io.__name__)")
+    n, io = out.split()
+    assert int(n) >= 13 and io == "flexmor.io"
+
+
+def test_report_plots_leave_the_backend_alone():
+    out = _run("import matplotlib; matplotlib.use('svg')\n"
+               "import numpy as np, flexmor.report.plots as p\n"
+               "png = p.rel_error_png(np.array([1.0, 2.0]), {'a': np.array([1e-3, 2e-3])})\n"
+               "print(matplotlib.get_backend(), png[:4] == b'\\x89PNG')")
+    assert out.split() == ["svg", "True"]
+
+
+def test_notebook_plots_draw_on_the_axes_given(beam):
+    from matplotlib.figure import Figure
+
+    from flexmor.report.plots import plot_error, plot_frf, plot_modes
+
+    full = beam.full
+    body = beam.reduce("modal", 6)
+    ax = Figure().subplots()
+    assert plot_frf(full.freqs, full.H, ax=ax, label="full") is ax
+    assert plot_error(beam.judge(body), ax=ax, label="modal 6") is ax
+    np.testing.assert_allclose(ax.lines[0].get_ydata(), np.abs(full.H[:, 0, 0]))
+    np.testing.assert_allclose(ax.lines[1].get_ydata(), beam.judge(body).rel_error)
+    assert [t.get_text() for t in ax.get_legend().get_texts()] == ["full", "modal 6"]
+    ax2 = Figure().subplots()
+    assert plot_modes(np.eye(3), ax=ax2, title="MAC") is ax2 and len(ax2.images) == 1
