@@ -37,7 +37,8 @@ def test_a_body_of_the_clamped_beam_is_refused_by_the_free_beam(clamped, free):
 def test_a_damped_body_is_refused_by_the_undamped_model(clamped, damped, full_y):
     body = reduce(damped, "modal", 8, make_ports(damped, ["TIP:y"]))
     undamped = FullResponse(clamped, make_ports(clamped, ["TIP:y"]), BAND, cache=False)
-    with pytest.raises(ModelError, match=r"reduced with damping Rayleigh alpha 0 1/s, beta 1e-06 s; this reference has none"):
+    with pytest.raises(ModelError, match=r"reduced with damping Rayleigh alpha 0 1/s, beta 1e-06 s; this reference "
+                                         r"has none"):
         undamped.evaluate(body)
     assert full_y.evaluate(body).band_error < 1e-2  # against its own damping: judged
 
