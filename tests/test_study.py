@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+import os
 import subprocess
 import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -74,8 +76,14 @@ def test_flat_namespace():
             "ErrorMeasures", "FlexmorError", "io"} <= set(flexmor.__all__)
 
 
+def _env(**extra) -> dict:
+    """The environment of a child interpreter that imports this flexmor, from any working directory."""
+    src = str(Path(flexmor.__file__).parents[1])
+    return {**os.environ, **extra, "PYTHONPATH": os.pathsep.join([src, os.environ.get("PYTHONPATH", "")])}
+
+
 def _run(code: str) -> str:
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300, env=_env())
     assert out.returncode == 0, out.stderr
     return out.stdout
 
@@ -110,3 +118,18 @@ def test_notebook_plots_draw_on_the_axes_given(beam):
     assert [t.get_text() for t in ax.get_legend().get_texts()] == ["full", "modal 6"]
     ax2 = Figure().subplots()
     assert plot_modes(np.eye(3), ax=ax2, title="MAC") is ax2 and len(ax2.images) == 1
+
+
+def test_the_readme_python_section_runs_and_prints_its_numbers(tmp_path):
+    text = (Path(__file__).parents[1] / "README.md").read_text()
+    section = text.split("\n## Python\n", 1)[1].split("\n## ", 1)[0]
+    blocks = section.split("```python\n")[1:]
+    code = "\n".join(b.split("```", 1)[0] for b in blocks)
+    printed = section.split("this prints\n\n```\n", 1)[1].split("```", 1)[0]
+    for ext in ("sti", "mas", "dof", "inp"):
+        (tmp_path / f"beam.{ext}").write_bytes((CCX / f"beam8_clamped_mat.{ext}").read_bytes())
+    out = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, capture_output=True, text=True, timeout=600,
+                         env=_env(MPLBACKEND="Agg"))
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.startswith(printed)
+    assert (tmp_path / "body.h5").exists()
