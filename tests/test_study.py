@@ -133,3 +133,15 @@ def test_the_readme_python_section_runs_and_prints_its_numbers(tmp_path):
     assert out.returncode == 0, out.stderr
     assert out.stdout.startswith(printed)
     assert (tmp_path / "body.h5").exists()
+
+
+def test_system_on_a_free_body_with_an_interface_coupling(free):
+    s = flexmor.System(free, inputs=["TIP@rbe2:y"], interfaces=["TIP@rbe2"], band=BAND, damping=Rayleigh(0.0, 1e-6))
+    body = s.reduce("craig-bampton", 20)
+    assert body.couplings == ["TIP@rbe2"] and body.info["options"]["interface"] == ["TIP@rbe2"]
+    mounted = s.mounted(body)
+    assert [c["held"] for c in mounted["cases"]] == ["clamped", "pinned"] and mounted["max_frequency_error"] < 1e-5
+    same, record = s.reduce_and_judge("craig-bampton", 20)  # the command line's job, on the study's full FRF
+    assert record["band_hz"] == list(BAND) and record["mounted"]["cases"][0]["interface"] == "TIP@RBE2"
+    assert {k: record[k] for k in ("band_error", "hinf_error", "judged")} == \
+        {k: s.judge(body).to_dict()[k] for k in ("band_error", "hinf_error", "judged")}
