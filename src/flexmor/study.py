@@ -20,7 +20,7 @@ from __future__ import annotations
 
 from os import PathLike
 
-from .analysis.compare import ErrorMeasures, FullResponse, check_body
+from .analysis.compare import ErrorMeasures, FullResponse, check_judgeable
 from .damping import Damping
 from .linalg.context import SolverContext, as_solver
 from .options import Band
@@ -142,10 +142,10 @@ class System:
 
     def check(self, body) -> None:
         """Refuse ``body`` when it was not reduced from this model, with this damping and these
-        ports (:func:`flexmor.analysis.compare.check_body`: ModelError or PortError, with the reason)."""
+        ports (:func:`flexmor.analysis.compare.check_judgeable`: ModelError or PortError, with the reason)."""
         from .origin import fingerprint
 
-        check_body(body, origin=fingerprint(self.model), damping=self.model.damping,
+        check_judgeable(body, origin=fingerprint(self.model), damping=self.model.damping,
                    inputs=self.ports.input_names, outputs=self.ports.output_names,
                    label=str(self.model.source or self.model.name))
 

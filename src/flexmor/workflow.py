@@ -110,8 +110,7 @@ def reduce_and_judge(model, method: str, order, ports, *, band=None, full: FullR
     band of ``full``, else for ``method_band`` (unless ``options`` give ``band``). ``n_freq``,
     ``grid_tol``, ``full_frf`` (the path: auto, direct, surrogate) and ``cache`` are passed to
     :class:`FullResponse`; ``result["grid"]`` describes the grid (size, tolerance, resonances,
-    path, ``cache_hit``) and
-    ``timings["full_frf"]`` is the wall time of the full FRF computed here.
+    path, ``cache_hit``) and ``timings["full_frf"]`` is the wall time of the full FRF computed here.
     ``tol`` switches to the target-error mode (:func:`flexmor.tolerance.reduce_to_tolerance`):
     the smallest order whose verified ``tol_measure`` (default band_error) is ``<= tol``,
     ``order`` then being the largest order tried; ``result`` gets ``tol``, ``tol_measure`` and

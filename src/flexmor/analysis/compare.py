@@ -25,7 +25,7 @@ from .frequency import MEASURE_KEYS, error_measures, error_notes
 from .grid import DEFAULT_TOL, adaptive_grid, initial_grid
 from .resonances import spurious_resonances
 
-__all__ = ["FullResponse", "ErrorMeasures", "check_body", "PATHS", "JUDGED_ELASTIC", "JUDGED_RIGID", "JUDGED_FULL"]
+__all__ = ["FullResponse", "ErrorMeasures", "check_judgeable", "PATHS", "JUDGED_ELASTIC", "JUDGED_RIGID", "JUDGED_FULL"]
 
 log = logging.getLogger(__name__)
 
@@ -229,7 +229,7 @@ class FullResponse:
         self.seconds = time.perf_counter() - t0
         log.info("full FRF: %d frequencies in %.2f s (%s%s)", self.freqs.size, self.seconds, path,
                  ", cached" if self.cache_hit else "")
-        #: what a body judged here must have been reduced from (:meth:`check_body`)
+        #: what a body judged here must have been reduced from (:meth:`check_judgeable`)
         self.origin = fingerprint(model)
         self.damping = model.damping
         self.input_names, self.output_names = list(ports.input_names[:m]), list(ports.output_names)
@@ -327,7 +327,7 @@ class FullResponse:
         the spurious resonances, and a body built for another band), the band and the curve
         ``rel_error``.
 
-        A body of another model, damping or ports is refused (:meth:`check_body`).
+        A body of another model, damping or ports is refused (:meth:`check_judgeable`).
 
         A free body whose basis excludes the rigid-body modes (``info['n_rigid_excluded']``, the
         floating-frame case: the frame carries the rigid motion) is judged on the elastic part
@@ -335,7 +335,7 @@ class FullResponse:
         for proportional damping, and computed directly rather than as ``H`` minus the rigid-body
         response, which at low frequencies exceeds it by orders of magnitude).
         """
-        self.check_body(reduced)
+        self.check_judgeable(reduced)
         Hr = frf_reduced(reduced, self.freqs)
         H, judged = self.reference(reduced)
         out = error_measures(self.freqs, H, Hr, resonances=self.resonances)
@@ -353,10 +353,10 @@ class FullResponse:
         return ErrorMeasures(**{k: out.get(k) for k in MEASURE_KEYS}, band_hz=self.band, notes=tuple(notes),
                              freqs_hz=self.freqs, rel_error=rel_error(H, Hr))
 
-    def check_body(self, reduced) -> None:
+    def check_judgeable(self, reduced) -> None:
         """Refuse a body that was not reduced from this response's model, damping and ports
-        (:func:`check_body`)."""
-        check_body(reduced, origin=self.origin, damping=self.damping, inputs=self.input_names,
+        (:func:`check_judgeable`)."""
+        check_judgeable(reduced, origin=self.origin, damping=self.damping, inputs=self.input_names,
                    outputs=self.output_names, label=self.model_label)
 
     def reference(self, reduced):
@@ -370,7 +370,7 @@ class FullResponse:
         return self.H, JUDGED_RIGID
 
 
-def check_body(reduced, *, origin: dict, damping, inputs, outputs, label: str = "this model") -> None:
+def check_judgeable(reduced, *, origin: dict, damping, inputs, outputs, label: str = "this model") -> None:
     """Refuse a body that was not reduced from the model of fingerprint ``origin``
     (:func:`flexmor.origin.fingerprint`), with ``damping`` and the ports named ``inputs`` and
     ``outputs`` (``label`` names that model in the messages).
