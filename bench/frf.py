@@ -118,10 +118,10 @@ def main(argv=None):
     bodies, t_red = [], 0.0
     for method, order, opts in jobs:
         t1 = time.perf_counter()
-        bodies.append(reduce(model, method, order, ports, **opts)[0])
+        bodies.append(reduce(model, method, order, ports, **opts))
         t_red += time.perf_counter() - t1
     t1 = time.perf_counter()
-    errs = [full.evaluate(b)["band_error"] for b in bodies]
+    errs = [full.evaluate(b).band_error for b in bodies]
     t_eval = time.perf_counter() - t1
     g = full.summary()
     print(f"  grid {g['n_points']} points ({g['n_initial']} initial, {g['rounds']} rounds, tol {g['tol']:g}, "

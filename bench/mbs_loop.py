@@ -178,7 +178,7 @@ def free_body(scenario: str, divisions, orders, end_time: float, step: float, me
     for r in orders:
         for method in methods:
             opts = {"interface": joints} if method == "craig-bampton" else {"rigid": "exclude"}
-            red, _ = reduce(model, method, r, ports, **opts)
+            red = reduce(model, method, r, ports, **opts)
             _, u, sec = simulate(model, lambda mbs: add_to_exudyn(mbs, red, model, gravity=g), scenario, end_time, step)
             out["rows"].append({"method": method, "order": red.order, "seconds": sec, **errors(u, u_full)})
     return out
@@ -196,7 +196,7 @@ def hub_body(model, method: str, order: int, port: str, loads: str):
     from flexmor.reduction.krylov import default_points
 
     points = ",".join(f"{p.real:g}" for p in default_points(DEFAULT_BAND))
-    red, _ = reduce(model, method, order, make_ports(model, [port]), inertia_loads=loads, points=points)
+    red = reduce(model, method, order, make_ports(model, [port]), inertia_loads=loads, points=points)
     return red
 
 

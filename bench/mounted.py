@@ -211,7 +211,7 @@ def reduce_body(case: Case, method: str, order: int, *, judge: bool = True, mode
             if method != "craig-bampton":
                 opts["band"] = BAND
             t0 = time.perf_counter()
-            red, _ = reduce(mc, method, order, ports, **opts)
+            red = reduce(mc, method, order, ports, **opts)
             rec = {"seconds": time.perf_counter() - t0}
     red.couplings = [case.spec]
     return red, rec

@@ -54,7 +54,7 @@ def run_case(size: int, method: str) -> dict:
     tracemalloc.start()
     t0 = time.perf_counter()
     solver = SolverContext()
-    red, _ = reduce(model, method, order, ports, solver=solver, **opts)
+    red = reduce(model, method, order, ports, solver=solver, **opts)
     seconds = time.perf_counter() - t0
     traced = tracemalloc.get_traced_memory()[1]
     tracemalloc.stop()

@@ -237,14 +237,15 @@ def main(argv=None) -> int:
     for method in [m for m in args.methods.split(",") if m]:
         for r in args.orders:
             c0, w0 = time.process_time(), time.perf_counter()
-            red, t = reduce(model, method, r, ports, band=band)
+            red = reduce(model, method, r, ports, band=band)
+            t = red.info["timings"]
             row = {"order": red.order, "seconds": t["basis"] + t["project"], "wall_s": time.perf_counter() - w0,
                    "cpu_s": time.process_time() - c0, "load": os.getloadavg()[0]}
             sinfo = red.info.get("solves")
             if isinstance(sinfo, dict):
                 row["solves"] = {k: v for k, v in sinfo.items() if k != "checks"}
             if full is not None:
-                row["band_error"] = float(full.evaluate(red)["band_error"])
+                row["band_error"] = float(full.evaluate(red).band_error)
             rec["flexmor"][f"{method} {r}"] = row
             print(f"{method:9s} {red.order:3d}  {row['seconds']:8.1f} s  CPU {row['cpu_s']:8.1f} s  "
                   f"band_error {row.get('band_error', float('nan')):.3e}  load {row['load']:.1f}", flush=True)

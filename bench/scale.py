@@ -127,7 +127,8 @@ def run_case(size: int, methods: list[str], order: int, order_krylov: int, band:
         ctx = SolverContext(**(memory or {}))
         _reset_peak()
         t0, c0 = time.perf_counter(), _cpu()
-        red, timings = reduce(body, method.removesuffix("-1pt"), r, p, solver=ctx, **opts)
+        red = reduce(body, method.removesuffix("-1pt"), r, p, solver=ctx, **opts)
+        timings = red.info["timings"]
         wall, cpu = time.perf_counter() - t0, _cpu() - c0
         d = dataclasses.asdict(ctx.stats)
         solver = d["seconds"] + d["solve_seconds"]

@@ -93,7 +93,7 @@ def run(nx: int = 40, order: int = 8, band=(1.0, 1000.0), n_freq: int = 200, fac
            "full_seconds": time.perf_counter() - t0, "methods": {}, "freqs": f, "curves": {}}
     for name in methods:
         opts = {"band": band}
-        red, _ = reduce(model, name, order, ports, **opts)
+        red = reduce(model, name, order, ports, **opts)
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", FlexmorWarning)
             a0, a1 = Assembly(), Assembly()

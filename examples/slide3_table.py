@@ -100,7 +100,8 @@ def run(n: int = 56, *, band=(1.0, 2000.0), zeta: float = 0.01, pod_nodes: int =
             opts["band"] = band
         if name == "pod":
             opts["nodes"] = pod_nodes
-        red, t = reduce(model, name, order, ports, **opts)
+        red = reduce(model, name, order, ports, **opts)
+        t = red.info["timings"]
         err = full.evaluate(red)
         info = {k: red.info[k] for k in ("points_hz", "n_nodes", "energy_captured", "intermediate")
                 if k in red.info}
@@ -108,9 +109,9 @@ def run(n: int = 56, *, band=(1.0, 2000.0), zeta: float = 0.01, pod_nodes: int =
             info["n_snapshots"] = int(red.info["n_nodes"]) * ports.n_inputs
         if name == "modal":
             info["highest_mode_hz"] = float(red.info["frequencies_hz"][-1])
-        out["methods"][name] = {"label": label, "order": int(red.order), "band_error": float(err["band_error"]),
-                                "max_rel_error": float(err["max_rel_error"]), "seconds": t["basis"] + t["project"],
-                                "slides_band_error": slides, "rel_error": err["rel_error"], "info": info}
+        out["methods"][name] = {"label": label, "order": int(red.order), "band_error": float(err.band_error),
+                                "max_rel_error": float(err.max_rel_error), "seconds": t["basis"] + t["project"],
+                                "slides_band_error": slides, "rel_error": err.rel_error, "info": info}
         if on_result is not None:
             on_result(out)
     return out

@@ -27,9 +27,10 @@ ROOT = Path(flexmor.__file__).parent
 #: (the package with all its modules); the root entry ``flexmor`` is the root ``__init__`` alone.
 #: A module belongs to its longest entry and may import its own layer and those below it.
 LAYERS = [
+    ["flexmor"],  # the public namespace (the root __init__)
     ["flexmor.__main__", "flexmor.cli"],  # the command line: alone prints and exits
     ["flexmor.ui"],  # web app (runs cli's main, handed in)
-    ["flexmor.workflow", "flexmor.tolerance"],  # jobs: reduce and judge, target-error mode
+    ["flexmor.workflow", "flexmor.study", "flexmor.tolerance"],  # jobs: reduce and judge, study, target-error mode
     ["flexmor.report"],  # plots, HTML report, 3D view
     ["flexmor.analysis"],  # judging reduced bodies, assemblies, the body held in its joints
     ["flexmor.reduction"],  # methods -> Basis, METHODS registry, reduce()
@@ -40,7 +41,7 @@ LAYERS = [
      "flexmor.options"],  # model fingerprint, ports, node sets, RBE2/RBE3, bases, option values
     ["flexmor.model", "flexmor.damping", "flexmor.mesh"],  # the FE model, damping values, mesh surface
     ["flexmor.linalg"],  # solver layer
-    ["flexmor.errors", "flexmor.jsonutil", "flexmor"],  # errors, JSON values, the version
+    ["flexmor.errors", "flexmor.jsonutil", "flexmor._version"],  # errors, JSON values, the version
 ]
 
 

@@ -41,7 +41,7 @@ class Boom(Exception):
 @pytest.fixture(scope="module")
 def body(free):
     model = free.with_rayleigh(2.0, 1e-6)
-    red, _ = reduce(model, "modal", 6, make_ports(model, ["TIP:y"]))
+    red = reduce(model, "modal", 6, make_ports(model, ["TIP:y"]))
     return red, model
 
 

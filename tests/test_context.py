@@ -31,7 +31,7 @@ def test_two_contexts_keep_separate_statistics(clamped):
 def test_factorization_count_read_from_the_context_passed_in(clamped):
     ports = make_ports(clamped, ["TIP:y"])
     solver = SolverContext()
-    red, _ = reduce(clamped, "krylov", 6, ports, points=[0.0, 500.0], solver=solver)
+    red = reduce(clamped, "krylov", 6, ports, points=[0.0, 500.0], solver=solver)
     assert solver.stats.count == 2  # one factorization per expansion point
     assert red.info["options"]["backend"] == "auto"
     guyan = SolverContext()

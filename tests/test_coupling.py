@@ -62,7 +62,7 @@ def test_fig1_moment_matching_holds_for_the_coupled_system(fig1):
 def beam_and_krylov():
     model = cb.beam(20)
     ports = make_ports(model, inputs=[cb.TIP, cb.MID], outputs=[cb.TIP])
-    red, _ = reduce(model, "krylov", 6, ports, band=(1.0, 1000.0))
+    red = reduce(model, "krylov", 6, ports, band=(1.0, 1000.0))
     return model, ports, red
 
 
@@ -118,7 +118,7 @@ def test_two_bodies_through_ports(beam_and_krylov):
 
 def test_warning_names_the_method_that_does_not_survive(beam_and_krylov):
     model, ports, red = beam_and_krylov
-    modal, _ = reduce(model, "modal", 6, ports)
+    modal = reduce(model, "modal", 6, ports)
     with pytest.warns(FlexmorWarning, match="'modal'"):
         Assembly().add_body("beam", modal)
     with warnings.catch_warnings():

@@ -25,7 +25,7 @@ def body(request):
     tip = int(model.dofs[-1, 0])
     mid = int(model.dofs[model.n_dof // 2, 0])
     ports = make_ports(model, [f"{tip}:y", f"{mid}:z"], [f"{tip}:y", f"{tip}:x", f"{mid}:z"])
-    red, _ = reduce(model, "krylov", 12, ports)
+    red = reduce(model, "krylov", 12, ports)
     return red, model, {tip, mid}
 
 
@@ -48,7 +48,7 @@ def test_superelement_round_trip(tmp_path, body, fmt, suffix, rtol):
 def test_matrix_market_round_trip(tmp_path, clamped):
     # (a free body's Kr may have diagonal entries of -1e-12 relative, which an FE model refuses)
     node = int(clamped.dofs[-1, 0])
-    red, _ = reduce(clamped.with_rayleigh(2.0, 1e-6), "krylov", 12, make_ports(clamped, [f"{node}:y"]))
+    red = reduce(clamped.with_rayleigh(2.0, 1e-6), "krylov", 12, make_ports(clamped, [f"{node}:y"]))
     assert export(red, tmp_path / "body.mtx") == "matrix-market"
     back = read(tmp_path / "body_K.mtx")
     np.testing.assert_array_equal(back.K.toarray(), np.tril(red.K) + np.tril(red.K, -1).T)
@@ -61,7 +61,7 @@ def test_matrix_market_round_trip(tmp_path, clamped):
 
 def test_superelement_needs_grid_outputs(tmp_path, clamped):
     node = int(clamped.dofs[-1, 0])
-    red, _ = reduce(clamped, "modal", 4, make_ports(clamped, [f"{node}:y"]))
+    red = reduce(clamped, "modal", 4, make_ports(clamped, [f"{node}:y"]))
     red.output_names = ["tip deflection"]
     with pytest.raises(ModelError, match="boundary DOFs"):
         export(red, tmp_path / "x.pch")

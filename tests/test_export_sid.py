@@ -28,7 +28,7 @@ def block():
 
 @pytest.fixture(scope="module")
 def modal(block):
-    red, _ = reduce(block, "modal", 6, make_ports(block, ["TIP_CENTER:y"]))
+    red = reduce(block, "modal", 6, make_ports(block, ["TIP_CENTER:y"]))
     return red
 
 

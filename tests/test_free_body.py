@@ -81,7 +81,7 @@ def test_craig_bampton_free_body_upper_bounds_converging(name, coupled, solid):
     ref = elastic_hz(model, 4)
     errs = []
     for r in (16, 24, 36):
-        red, _ = reduce(model, "craig-bampton", r, ports, interface=IFACES)
+        red = reduce(model, "craig-bampton", r, ports, interface=IFACES)
         # inertia-relief attachment modes in place of the constraint modes: nothing rigid to drop
         assert red.order == r and red.info["n_rigid_dropped"] == 0 and red.info["attachment"] == "inertia-relief"
         assert rigid_residual(model, red.V) < 1e-12
@@ -93,7 +93,7 @@ def test_craig_bampton_free_body_upper_bounds_converging(name, coupled, solid):
 
 
 def test_craig_bampton_rigid_include_keeps_the_classic_basis(coupled):
-    red, _ = reduce(coupled, "craig-bampton", 20, make_ports(coupled, ["TIP@rbe2:y"]), interface=IFACES,
+    red = reduce(coupled, "craig-bampton", 20, make_ports(coupled, ["TIP@rbe2:y"]), interface=IFACES,
                     rigid="include")
     assert np.sum(red.frequencies_hz() < 1.0) == 6 and red.order == 20
 
@@ -129,7 +129,7 @@ def test_krylov_rigid_exclude_cli(capsys, tmp_path):
 def test_krylov_rigid_include_has_no_spurious_mode(free):
     """``rigid='include'`` (no longer the default: a free body's default basis excludes rigid motion)."""
     model = apply_damping(free, modal_damping=0.01, band=(10.0, 2000.0))
-    red, _ = reduce(model, "krylov", 24, make_ports(model, ["TIP:y", "TIP:z"]), band=(10.0, 2000.0),
+    red = reduce(model, "krylov", 24, make_ports(model, ["TIP:y", "TIP:z"]), band=(10.0, 2000.0),
                     rigid="include")
     f = red.frequencies_hz()
     n = red.info["n_rigid_included"]
@@ -166,7 +166,7 @@ def test_craig_bampton_free_body_cli_and_exports(capsys, tmp_path, coupled):
 def test_krylov_free_solid_exports_exact_mass_properties(solid, tmp_path):
     model = solid.with_rayleigh(0.0, 1e-6)
     ports = make_ports(model, ["TIP_CENTER:y", "TIP_CENTER:z"])
-    red, _ = reduce(model, "krylov", 16, ports, band=(10.0, 3000.0), rigid="exclude")
+    red = reduce(model, "krylov", 16, ports, band=(10.0, 3000.0), rigid="exclude")
     ref = elastic_hz(model, 2)
     np.testing.assert_allclose(red.frequencies_hz()[:2], ref, rtol=1e-6)
     mass, com, J = mass_properties(model)
@@ -201,7 +201,7 @@ def test_rigid_body_modes_are_exact(coupled):
 
 
 def test_clamped_body_is_refused_for_ffrf_export(clamped, tmp_path, capsys):
-    red, _ = reduce(clamped, "modal", 4, make_ports(clamped, ["TIP:y"]))
+    red = reduce(clamped, "modal", 4, make_ports(clamped, ["TIP:y"]))
     with pytest.raises(ModelError, match="supported.*mass"):
         write_exudyn(red, tmp_path / "c.npz", model=clamped)
     with pytest.raises(ModelError, match="pass allow_clamped for a body whose frame does not move"):
@@ -222,7 +222,7 @@ def test_cms_methods_on_a_free_body(method, coupled):
     model = coupled.with_rayleigh(0.0, 1e-6)
     # the free-free spectrum at order 24 with the input alone (the default also spends internal vectors on the
     # inertia loads of the body held at each of the two masters: first frequency 630.7 Hz, 1.6 % high, measured)
-    red, _ = reduce(model, method, 24, make_ports(model, ["TIP@rbe2:y"]), interface=IFACES, band=(10.0, 2000.0),
+    red = reduce(model, method, 24, make_ports(model, ["TIP@rbe2:y"]), interface=IFACES, band=(10.0, 2000.0),
                     inertia_loads="off")
     ref = elastic_hz(model, 1)
     assert red.order == 12 - 6 + red.info["n_internal"] and red.info["n_rigid_dropped"] == 6
@@ -268,8 +268,8 @@ def test_inertia_loads_make_a_supported_body_see_its_frame_acceleration(clamped,
     ports = make_ports(clamped, ["TIP:y"])
     C = make_ports(clamped, ["TIP:x"]).C
     load = clamped.M @ rigid_motions(clamped)[:, 0]  # uniform acceleration along x
-    off, _ = reduce(clamped, method, 12, ports, band=(10.0, 3000.0), inertia_loads="off")
-    on, _ = reduce(clamped, method, 12, ports, band=(10.0, 3000.0), inertia_loads="on")
+    off = reduce(clamped, method, 12, ports, band=(10.0, 3000.0), inertia_loads="off")
+    on = reduce(clamped, method, 12, ports, band=(10.0, 3000.0), inertia_loads="on")
     assert off.info["n_inertia_loads"] == 0 and on.info["n_inertia_loads"] == 6
     assert on.input_names == ["TIP:y"] and on.B.shape[1] == 1  # the body keeps the user's ports
     assert _quasi_static_error(clamped, off, load, C) > off_min
@@ -280,8 +280,8 @@ def test_inertia_loads_have_no_elastic_part_on_a_free_body(free):
     """M R lies in M span(rigid modes): a uniform acceleration only moves a free body rigidly."""
     model = free.with_rayleigh(0.0, 1e-6)
     ports = make_ports(model, ["TIP:y", "TIP:z"])
-    a, _ = reduce(model, "krylov", 12, ports, band=(10.0, 2000.0), rigid="exclude", inertia_loads="auto")
-    b, _ = reduce(model, "krylov", 12, ports, band=(10.0, 2000.0), rigid="exclude", inertia_loads="off")
+    a = reduce(model, "krylov", 12, ports, band=(10.0, 2000.0), rigid="exclude", inertia_loads="auto")
+    b = reduce(model, "krylov", 12, ports, band=(10.0, 2000.0), rigid="exclude", inertia_loads="off")
     assert a.info["inertia_loads"] == "auto" and a.info["n_inertia_loads"] == 0
     np.testing.assert_array_equal(a.V, b.V)
 
@@ -291,7 +291,7 @@ def test_a_body_with_rigid_motion_is_refused_at_export_unless_removed(free, tmp_
     frame takes: export refuses it (the body written would have another order and error than the one
     judged); with remove_rigid the basis is made M-orthogonal to it (with a warning naming the orders)."""
     model = apply_damping(free, modal_damping=0.01, band=(10.0, 2000.0))
-    red, _ = reduce(model, "krylov", 16, make_ports(model, ["TIP:y", "TIP:z"]), band=(10.0, 2000.0),
+    red = reduce(model, "krylov", 16, make_ports(model, ["TIP:y", "TIP:z"]), band=(10.0, 2000.0),
                     rigid="include")
     assert red.info["n_rigid_included"] == 4 and red.frequencies_hz()[3] < 1.0
     with pytest.raises(ModelError, match=r"order 16 -> 12.*remove_rigid"):
@@ -317,7 +317,7 @@ def test_pod_on_a_free_body_has_no_spurious_mode(free, rigid, n_head):
     modes the inputs excite (include) or without them (exclude)."""
     model = apply_damping(free, modal_damping=0.01, band=(10.0, 2000.0))
     ports = make_ports(model, ["TIP:y", "TIP:z"])
-    red, _ = reduce(model, "pod", 16, ports, band=(10.0, 2000.0), rigid=rigid)
+    red = reduce(model, "pod", 16, ports, band=(10.0, 2000.0), rigid=rigid)
     f = red.frequencies_hz()
     assert red.order == 16 and red.info["n_rigid_included"] == n_head
     assert np.all(f[:n_head] < 1e-2)

@@ -37,7 +37,7 @@ def reduced_bodies(beam):
     model, ports = beam
     jobs = [("modal", 3, {}), ("modal", 6, {}), ("modal", 10, {}), ("guyan", None, {"interface": ["TIP_CENTER"]}),
             ("craig-bampton", 9, {"interface": ["TIP_CENTER"]}), ("craig-bampton", 15, {"interface": ["TIP_CENTER"]})]
-    return [reduce(model, m, r, ports, **o)[0] for m, r, o in jobs]
+    return [reduce(model, m, r, ports, **o) for m, r, o in jobs]
 
 
 def _exact_frf(model, ports):
@@ -76,7 +76,7 @@ def test_adaptive_band_error_matches_brute_force(beam, full, reduced_bodies):
     tol = 3 * full.grid["tol"]
     for red in reduced_bodies:
         ref = band_error(fine, Hf, frf_reduced(red, fine))
-        got = full.evaluate(red)["band_error"]
+        got = full.evaluate(red).band_error
         assert abs(got / ref - 1) < tol, (red.method, red.order, got, ref)
 
 
@@ -87,9 +87,9 @@ def test_ten_compared_bodies_cost_one_sweep(beam, tmp_path):
     fr = FullResponse(model, ports, band, path="direct", cache=tmp_path, solver=solver)
     sweep = solver.stats.count
     assert sweep == fr.n_factorizations == fr.freqs.size  # dense pre-pass: one per grid point
-    bodies = [reduce(model, "modal", r, ports, solver=solver)[0] for r in range(1, 11)]
+    bodies = [reduce(model, "modal", r, ports, solver=solver) for r in range(1, 11)]
     n1 = solver.stats.count
-    errs = [fr.evaluate(b)["band_error"] for b in bodies]
+    errs = [fr.evaluate(b).band_error for b in bodies]
     assert solver.stats.count == n1  # judging costs no factorization
     assert errs[-1] < 1e-3 * errs[0]
     again = FullResponse(model, ports, band, path="direct", cache=tmp_path, solver=solver)  # next process: from the cache
@@ -139,7 +139,7 @@ def test_surrogate_agrees_with_direct_sweep(beam, full, reduced_bodies):
     H = frf_full(model, ports, sur.freqs[::40])
     assert np.abs(H - sur.H[::40]).max() < 1e-6 * np.abs(H).max()
     for red in reduced_bodies:  # two grids, each resolved to the grid tolerance (see above)
-        a, b = sur.evaluate(red)["band_error"], full.evaluate(red)["band_error"]
+        a, b = sur.evaluate(red).band_error, full.evaluate(red).band_error
         assert abs(a / b - 1) < 3 * full.grid["tol"]
 
 

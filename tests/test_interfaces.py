@@ -49,7 +49,7 @@ def beam():
     for method, opts, ins in (("craig-bampton", {"interface": [SPEC]}, ["TIP:y"]),
                               ("krylov", {"rigid": "exclude", "band": (10.0, 3000.0)},
                                [f"{SPEC}:y", f"{SPEC}:z", "TIP:y", "TIP:z"])):
-        red, _ = reduce(mc, method, 16, make_ports(mc, ins), **opts)
+        red = reduce(mc, method, 16, make_ports(mc, ins), **opts)
         red.couplings = [SPEC]
         bodies[method] = red
     return free, clamped, c, bodies

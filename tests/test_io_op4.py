@@ -172,7 +172,7 @@ def test_ascii_exporter_file(tmp_path, clamped):
     from flexmor.ports import make_ports
     from flexmor.reduction import reduce
 
-    red, _ = reduce(clamped, "krylov", 10, make_ports(clamped, [f"{int(clamped.dofs[-1, 0])}:y"]))
+    red = reduce(clamped, "krylov", 10, make_ports(clamped, [f"{int(clamped.dofs[-1, 0])}:y"]))
     p = tmp_path / "body.op4"
     export(red, p, model=clamped)
     m = _same(p)

@@ -32,7 +32,7 @@ def taylor_moments(M, D, K, B, C, s, k):
 def test_moment_matching_mimo(clamped, points, k, side):
     model = clamped.with_rayleigh(5.0, 1e-6)
     ports = make_ports(model, ["TIP:y", "TIP:z"], ["TIP:y", "TIP:x"])
-    red, _ = reduce(model, "krylov", None, ports, points=points, moments=k, side=side)
+    red = reduce(model, "krylov", None, ports, points=points, moments=k, side=side)
     B, C = ports.B.toarray(), ports.C.toarray()
     for p in parse_points(points):
         s = 2 * np.pi * p
@@ -58,12 +58,12 @@ def test_krylov_beats_modal_by_10x(clamped):
 def test_free_body_krylov_rigid_include_and_exclude(free, free_ref):
     ports = make_ports(free, ["TIP:y", "TIP:z"])
     # singular K: moved to a small shift; rigid="include" (no longer the default) keeps the excited rigid motion
-    red, _ = reduce(free, "krylov", 16, ports, points="0", rigid="include")
+    red = reduce(free, "krylov", 16, ports, points="0", rigid="include")
     f = red.frequencies_hz()
     assert red.order == 16
     assert np.sum(f < 1.0) >= 2  # rigid-body motion the loads excite is kept in the span
     assert abs(f[np.argmax(f > 1.0)] / free_ref[6] - 1) < 1e-3
-    red, _ = reduce(free, "krylov", 12, ports, rigid="exclude", band=(10.0, 3000.0))
+    red = reduce(free, "krylov", 12, ports, rigid="exclude", band=(10.0, 3000.0))
     f = red.frequencies_hz()
     assert red.info["n_rigid_excluded"] == 6
     assert np.all(f > 0.5 * free_ref[6])

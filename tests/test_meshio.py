@@ -284,7 +284,7 @@ def test_cli_reduce_matrix_market_with_mesh(tmp_path, free_beam, capsys):
 # -- mode shapes for ParaView -----------------------------------------------------------------------
 @pytest.fixture(scope="module")
 def ccx_body(free):
-    red, _ = reduce(free, "modal", 12, make_ports(free, ["TIP:y"]))
+    red = reduce(free, "modal", 12, make_ports(free, ["TIP:y"]))
     return red, free
 
 
@@ -315,7 +315,7 @@ def test_vtu_of_quadratic_tetrahedra_keeps_vtk_order(tmp_path):
     mid-edge in VTK's order and the volumes are positive (a permuted order fails)."""
     deck = DATA / "abaqus" / "blockC3D10.inp"
     model = flexmor.io.read(deck)
-    red, _ = reduce(model, "modal", 4, make_ports(model, [f"{int(model.node_ids[0])}:x"]))
+    red = reduce(model, "modal", 4, make_ports(model, [f"{int(model.node_ids[0])}:x"]))
     path = tmp_path / "tet10.vtu"
     flexmor.io.export(red, path, model=model)
     grid = meshio.read(path)

@@ -36,7 +36,7 @@ def test_the_body_has_the_ratio_in_every_mode(clamped, method):
     model = apply_damping(clamped, modal_damping=0.02, band=BAND)
     assert isinstance(model.damping, ModalDamping)
     opts = {"interface": ["TIP"]} if method == "craig-bampton" else {}
-    red, _ = reduce(model, method, 36 if opts else 20, make_ports(model, ["TIP:y"]), **opts)
+    red = reduce(model, method, 36 if opts else 20, make_ports(model, ["TIP:y"]), **opts)
     w, zeta, off = _body_ratios(red)
     np.testing.assert_allclose(zeta, 0.02, rtol=1e-9)
     assert off < 1e-9 * np.max(2 * 0.02 * w)  # diagonal in the body's modes
@@ -80,7 +80,7 @@ def test_exudyn_body_gets_the_modal_damping(free, tmp_path):
     from flexmor.io.exudyn import add_to_exudyn, write_exudyn
 
     model = apply_damping(free, modal_damping=0.02, band=BAND)
-    red, _ = reduce(model, "krylov", 12, make_ports(model, ["TIP:y", "TIP:z"]), band=BAND, rigid="exclude")
+    red = reduce(model, "krylov", 12, make_ports(model, ["TIP:y", "TIP:z"]), band=BAND, rigid="exclude")
     mbs = exu.SystemContainer().AddSystem()
     body = add_to_exudyn(mbs, red, model)
     D = mbs.GetObjectParameter(body["oFFRFreducedOrder"], "dampingMatrixReduced")

@@ -57,7 +57,7 @@ def test_no_dense_n_by_n(body, method):
     tracemalloc.start()
     try:
         tracemalloc.reset_peak()
-        red, _ = reduce(model, method, order, ports, **opts)
+        red = reduce(model, method, order, ports, **opts)
         _, peak = tracemalloc.get_traced_memory()
     finally:
         tracemalloc.stop()

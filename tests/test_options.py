@@ -105,7 +105,7 @@ def test_unknown_keyword_is_an_option_error(name, clamped):
 
 def test_reduce_records_given_options_and_uses_dataclass_defaults(clamped):
     ports = make_ports(clamped, ["TIP:y"])
-    red, _ = reduce(clamped, "krylov", 6, ports, side=None, moments=2)
+    red = reduce(clamped, "krylov", 6, ports, side=None, moments=2)
     assert red.info["options"] == {"moments": 2}  # None: the default ("input"), not recorded
     assert red.info["side"] == METHODS["krylov"].options_class().side == "input"
 

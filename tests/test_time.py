@@ -121,7 +121,7 @@ def test_full_vs_modal_error_decreases_with_order_within_truncation_bound(clampe
     assert 1.9 * np.sum(cb) < peak <= 2 * np.sum(cb)  # light damping: overshoot to nearly 2x static
     errs = []
     for r in (5, 10, 20):
-        red, _ = reduce(model, "modal", r, ports)
+        red = reduce(model, "modal", r, ports)
         e = time_errors(full, simulate(red, step(), dt=dt, t_end=t_end))
         assert e["time_max_error"] <= 2 * np.sum(cb[r:]) / peak
         assert e["time_max_error"] > 0.2 * np.sum(cb[r:]) / peak  # the bound is not vacuous

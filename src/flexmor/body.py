@@ -12,7 +12,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import scipy.linalg as sla
 
-from . import __version__
+from ._version import __version__
 from .damping import Damping, NoDamping, damping_from_dict
 from .errors import ModelError
 

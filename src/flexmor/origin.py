@@ -95,10 +95,10 @@ _MATRIX_WORDS = {"K": "stiffness matrix K", "M": "mass matrix M", "D": "damping 
 
 
 def origin_differences(recorded: dict, model) -> list[str]:
-    """What differs between a body's recorded fingerprint and ``model``: phrases completing
-    "the body was reduced from a model with ..." (empty if nothing differs). The damping is not
-    compared here (see :func:`reference_model`)."""
-    now = fingerprint(model)
+    """What differs between a body's recorded fingerprint and ``model`` (an FEModel, or its
+    :func:`fingerprint`): phrases completing "the body was reduced from a model with ..." (empty
+    if nothing differs). The damping is not compared here (see :func:`reference_model`)."""
+    now = model if isinstance(model, dict) else fingerprint(model)
     if recorded.get("n_dof") != now["n_dof"]:
         n = recorded.get("n_dof")
         return [f"{n:,} DOF, this model has {now['n_dof']:,}" if isinstance(n, int)

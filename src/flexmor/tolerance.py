@@ -110,8 +110,8 @@ def reduce_to_tolerance(model, method: str, ports, *, tol: float, full, max_orde
         """``(measure, body)`` of order ``r`` (``red`` given, else made), shown as one step."""
         with step(solver.progress, f"tol search: {method} order {r}") as note:
             if red is None:
-                red = reduce(model, method, r, ports, solver=solver, **options)[0]
-            value = full.evaluate(red)[measure]
+                red = reduce(model, method, r, ports, solver=solver, **options)
+            value = getattr(full.evaluate(red), measure)
             note["result"] = f"{measure} {value:.3g}" + (f" (order {red.order})" if red.order != r else "")
         return value, red
 

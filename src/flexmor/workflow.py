@@ -19,7 +19,7 @@ from .reduction import reduce
 from .reduction.free_body import check_body
 
 __all__ = ["coupling_specs", "prepare_model", "body_model", "parse_band", "parse_pair", "apply_damping", "damping_of",
-           "reduce_and_judge", "run_demo", "DEFAULT_BAND"]
+           "with_method_band", "reduce_and_judge", "record_setup", "run_demo", "DEFAULT_BAND"]
 
 log = logging.getLogger(__name__)
 
@@ -106,10 +106,11 @@ def reduce_and_judge(model, method: str, order, ports, *, band=None, full: FullR
     :data:`flexmor.analysis.frequency.MEASURE_KEYS` (``band_error``, ``rms_rel_error_pct``,
     ``hinf_error``, ``max_rel_error`` ...), ``notes``, ``frequencies_hz``, ``timings``.
     ``full`` (a :class:`FullResponse`) is reused when given, else computed (``band=None``
-    skips the error evaluation). ``n_freq``, ``grid_tol``, ``full_frf`` (the path: auto,
-    direct, surrogate) and ``cache`` are passed to :class:`FullResponse`; ``result["grid"]``
-    describes the grid (size, tolerance, resonances, path, ``cache_hit``) and
-    ``timings["full_frf"]`` is the wall time of the full FRF computed here.
+    skips the error evaluation); a method with a ``band`` option builds for ``band``, else for the
+    band of ``full``, else for ``method_band`` (unless ``options`` give ``band``). ``n_freq``,
+    ``grid_tol``, ``full_frf`` (the path: auto, direct, surrogate) and ``cache`` are passed to
+    :class:`FullResponse`; ``result["grid"]`` describes the grid (size, tolerance, resonances,
+    path, ``cache_hit``) and ``timings["full_frf"]`` is the wall time of the full FRF computed here.
     ``tol`` switches to the target-error mode (:func:`flexmor.tolerance.reduce_to_tolerance`):
     the smallest order whose verified ``tol_measure`` (default band_error) is ``<= tol``,
     ``order`` then being the largest order tried; ``result`` gets ``tol``, ``tol_measure`` and
@@ -131,9 +132,11 @@ def reduce_and_judge(model, method: str, order, ports, *, band=None, full: FullR
     """
     solver = as_solver(solver)
     check_rigid_body_modes(model, solver=solver)
-    method_band = band if band is not None else method_band
-    if method_band is not None and "band" in _method_options(method):
-        options.setdefault("band", tuple(method_band))  # default expansion points of krylov, adaptive, irka
+    if full is not None and band is not None and not _same_band(band, full.band):
+        raise OptionError(f"band {tuple(Band.of(band))} differs from the band of full {full.band}; give one of them",
+                          params=("band", "full"))
+    method_band = band if band is not None else full.band if full is not None else method_band
+    options = with_method_band(method, method_band, options)
     t_full = None
     if tol is not None:  # target-error mode: the order is chosen against the full FRF
         from .tolerance import check_tol_method
@@ -152,10 +155,12 @@ def reduce_and_judge(model, method: str, order, ports, *, band=None, full: FullR
 
         red, t, _ = reduce_to_tolerance(model, method, ports, tol=tol, full=full, max_order=order,
                                         measure=tol_measure, solver=solver, **options)
+        red.info["timings"] = t
         red.info["order_requested"] = None if order is None else int(order)
         red.order_note = None  # the order was chosen by the search (its record says how)
     else:
-        red, t = reduce(model, method, order, ports, solver=solver, **options)
+        red = reduce(model, method, order, ports, solver=solver, **options)
+        t = red.info["timings"]
     t["factorize"] = solver.stats.seconds - f0
     if t_full is not None:
         t["full_frf"] = t_full
@@ -178,10 +183,10 @@ def reduce_and_judge(model, method: str, order, ports, *, band=None, full: FullR
         t0 = time.perf_counter()
         err = full.evaluate(red)
         t["error"] = time.perf_counter() - t0
-        result.update(band_hz=list(full.band), **measure_record(err))
+        result.update(band_hz=list(full.band), **err.to_dict())
         result["grid"] = full.summary()
-        red.errors = {"band_hz": list(full.band), **measure_record(err), "freqs_hz": full.freqs,
-                      "rel_error": err["rel_error"]}
+        red.errors = {"band_hz": list(full.band), **err.to_dict(), "freqs_hz": full.freqs,
+                      "rel_error": err.rel_error}
     if full is not None and mounted:
         _judge_mounted(model, red, ports, result, t, solver=solver)
     f1 = first_elastic_hz(model, solver=solver)
@@ -198,6 +203,17 @@ def reduce_and_judge(model, method: str, order, ports, *, band=None, full: FullR
         result["tol_reached"] = red.info["tol_search"]["tol_reached"]
     result["timings"] = t
     return red, result
+
+
+def record_setup(body, *, couplings=(), interfaces=(), selections=()) -> None:
+    """Record on ``body`` what was applied to the model it was reduced from: its ``couplings``
+    and ``selections`` (when any; :func:`flexmor.origin.reference_model` applies them again to
+    the model as read), and all three in its fingerprint ``origin``."""
+    if couplings:
+        body.couplings = list(couplings)
+    if selections:
+        body.selections = list(selections)
+    body.origin.update(couplings=list(couplings), interfaces=list(interfaces), selections=list(selections))
 
 
 def _judge_mounted(model, red, ports, result, timings, *, solver=None) -> None:
@@ -217,11 +233,21 @@ def _judge_mounted(model, red, ports, result, timings, *, solver=None) -> None:
         red.errors["notes"].append(rec["note"])
 
 
-def _method_options(method: str) -> list:
+def with_method_band(method: str, band, options: dict) -> dict:
+    """``options`` with ``band`` (Hz) added when ``method`` has a ``band`` option (expansion points,
+    Gramian band) that ``options`` does not give; unchanged for other methods or without ``band``."""
+    if band is None or options.get("band") is not None:
+        return dict(options)
     from .reduction import methods
 
     registry = methods()
-    return registry[method].options if method in registry else []
+    if method not in registry or "band" not in registry[method].options:
+        return dict(options)
+    return {**options, "band": tuple(Band.of(band))}
+
+
+def _same_band(a, b) -> bool:
+    return all(abs(x - y) <= 1e-9 * abs(y) for x, y in zip(Band.of(a), Band.of(b)))
 
 
 def run_demo(out, *, n: int = 4, band=(10.0, 3000.0), progress=None, on_result=None, time_progress=None):

@@ -4,7 +4,9 @@ from __future__ import annotations
 
 import logging
 import time
+import warnings
 from collections.abc import Callable
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -13,16 +15,17 @@ from ..dynamics.dense_frf import DenseResolvent, dense_applicable
 from ..dynamics.frf import angular_frequency, frf_full, frf_reduced, rel_error
 from ..dynamics.modes import modal_damping_ratios, modes_below
 from ..dynamics.surrogate import DEFAULT_SURROGATE_TOL
-from ..errors import ModelError, OptionError
+from ..errors import FlexmorWarning, ModelError, OptionError, PortError
 from ..linalg.context import SolverContext, as_solver, step
 from ..linalg.eigen import frequencies_hz
+from ..origin import describe_damping, fingerprint, origin_differences, same_damping
 from ..reduction.free_body import with_elastic_inputs
 from . import cache as frf_cache
-from .frequency import error_measures, error_notes
+from .frequency import MEASURE_KEYS, error_measures, error_notes
 from .grid import DEFAULT_TOL, adaptive_grid, initial_grid
 from .resonances import spurious_resonances
 
-__all__ = ["FullResponse", "PATHS", "JUDGED_ELASTIC", "JUDGED_RIGID", "JUDGED_FULL"]
+__all__ = ["FullResponse", "ErrorMeasures", "check_judgeable", "PATHS", "JUDGED_ELASTIC", "JUDGED_RIGID", "JUDGED_FULL"]
 
 log = logging.getLogger(__name__)
 
@@ -48,6 +51,66 @@ JUDGED_FULL = "full response"
 #: 1.4 s against 0.24 s at 1,440 DOF and 13.4 s against 0.67 s at 3,000 DOF (both agree to the
 #: surrogate's tolerance, 1e-6 pointwise).
 SURROGATE_MIN_DOF = 700
+
+
+@dataclass(frozen=True)
+class ErrorMeasures:
+    """How well a reduced body reproduces the full model's FRF over a band
+    (:meth:`FullResponse.evaluate`).
+
+    The measures are those of :func:`flexmor.analysis.frequency.error_measures` (see
+    :data:`flexmor.analysis.frequency.MEASURES`); :meth:`to_dict` gives the JSON record of
+    ``flexmor reduce`` / ``flexmor compare`` (:data:`~flexmor.analysis.frequency.MEASURE_KEYS`
+    and ``notes``).
+
+    Attributes
+    ----------
+    band_error : float
+        ``∫|H-Hr|²df / ∫|H|²df`` over the band (squared relative L2 error).
+    band_rms_error, rms_rel_error_pct : float
+        ``sqrt(band_error)``, and the same in %.
+    hinf_error : float
+        ``max_f |H-Hr| / max_f |H|``.
+    max_rel_error, max_rel_error_hz : float
+        Largest pointwise relative error and the frequency (Hz) where it occurs.
+    max_rel_error_at_antiresonance, max_rel_error_at_spurious_resonance : bool
+        Whether that frequency is an anti-resonance of the full model, or a resonance of the
+        body where the full model has none.
+    resonance_share : float or None
+        Share of ``band_error`` within 1 % of the full model's resonances.
+    spurious_resonances_hz : list of float
+        Resonances of the body in the band where the full model has none.
+    judged : str
+        Which response the body was judged against (:data:`JUDGED_FULL`, :data:`JUDGED_RIGID`,
+        :data:`JUDGED_ELASTIC`: the elastic part for a free body without rigid-body modes).
+    band_hz : (float, float)
+        The band judged over (Hz).
+    notes : tuple of str
+        What a user should read about these numbers.
+    freqs_hz, rel_error : ndarray
+        The frequency grid (Hz) and the pointwise relative error on it.
+    """
+
+    band_error: float
+    band_rms_error: float
+    rms_rel_error_pct: float
+    hinf_error: float
+    max_rel_error: float
+    max_rel_error_hz: float
+    max_rel_error_at_antiresonance: bool
+    resonance_share: float | None
+    max_rel_error_at_spurious_resonance: bool
+    spurious_resonances_hz: list
+    judged: str
+    band_hz: tuple
+    notes: tuple = ()
+    freqs_hz: np.ndarray = field(default=None, repr=False, compare=False)
+    rel_error: np.ndarray = field(default=None, repr=False, compare=False)
+
+    def to_dict(self) -> dict:
+        """The JSON record: the :data:`~flexmor.analysis.frequency.MEASURE_KEYS` and ``notes``
+        (without the band and the curves, which the records carry elsewhere)."""
+        return {**{k: getattr(self, k) for k in MEASURE_KEYS}, "notes": list(self.notes)}
 
 
 class FullResponse:
@@ -166,6 +229,11 @@ class FullResponse:
         self.seconds = time.perf_counter() - t0
         log.info("full FRF: %d frequencies in %.2f s (%s%s)", self.freqs.size, self.seconds, path,
                  ", cached" if self.cache_hit else "")
+        #: what a body judged here must have been reduced from (:meth:`check_judgeable`)
+        self.origin = fingerprint(model)
+        self.damping = model.damping
+        self.input_names, self.output_names = list(ports.input_names[:m]), list(ports.output_names)
+        self.model_label = str(model.source or model.name)
 
     def _compute(self, model, ports, *, n, tol, max_points, solver, progress, surrogate_tol, check_solver):
         t0 = time.perf_counter()
@@ -249,14 +317,17 @@ class FullResponse:
         out.update(seconds=self.seconds, n_factorizations=self.n_factorizations, timings=dict(self.timings))
         return out
 
-    def evaluate(self, reduced) -> dict:
-        """Error measures of ``reduced``: those of :func:`flexmor.analysis.frequency.error_measures`
-        (``band_error``, ``rms_rel_error_pct``, ``hinf_error``, ``max_rel_error`` and where it
-        occurs ...), ``judged`` (which reference, :meth:`reference`), ``spurious_resonances_hz`` and
-        ``max_rel_error_at_spurious_resonance`` (:func:`flexmor.analysis.resonances.spurious_resonances`:
-        resonances of the body in the band where the full model has none), ``notes``
-        (:func:`~flexmor.analysis.frequency.error_notes`, and the spurious resonances) and the
-        curve ``rel_error``.
+    def evaluate(self, reduced) -> ErrorMeasures:
+        """Error measures of ``reduced`` (:class:`ErrorMeasures`): those of
+        :func:`flexmor.analysis.frequency.error_measures` (``band_error``, ``rms_rel_error_pct``,
+        ``hinf_error``, ``max_rel_error`` and where it occurs ...), ``judged`` (which reference,
+        :meth:`reference`), ``spurious_resonances_hz`` and ``max_rel_error_at_spurious_resonance``
+        (:func:`flexmor.analysis.resonances.spurious_resonances`: resonances of the body in the band
+        where the full model has none), ``notes`` (:func:`~flexmor.analysis.frequency.error_notes`,
+        the spurious resonances, and a body built for another band), the band and the curve
+        ``rel_error``.
+
+        A body of another model, damping or ports is refused (:meth:`check_judgeable`).
 
         A free body whose basis excludes the rigid-body modes (``info['n_rigid_excluded']``, the
         floating-frame case: the frame carries the rigid motion) is judged on the elastic part
@@ -264,6 +335,7 @@ class FullResponse:
         for proportional damping, and computed directly rather than as ``H`` minus the rigid-body
         response, which at low frequencies exceeds it by orders of magnitude).
         """
+        self.check_judgeable(reduced)
         Hr = frf_reduced(reduced, self.freqs)
         H, judged = self.reference(reduced)
         out = error_measures(self.freqs, H, Hr, resonances=self.resonances)
@@ -272,9 +344,20 @@ class FullResponse:
                                  max_rel_error_hz=out["max_rel_error_hz"], max_rel_error=out["max_rel_error"])
         note = sr.pop("note")
         out.update(sr)
-        out["notes"] = error_notes(out, damped=reduced.D is not None) + ([note] if note else [])
-        out["rel_error"] = rel_error(H, Hr)
-        return out
+        notes = error_notes(out, damped=reduced.D is not None) + ([note] if note else [])
+        built = (reduced.info or {}).get("band")
+        if built and not np.allclose(built, self.band, rtol=1e-9, atol=0.0):
+            notes.append(f"{reduced.method or 'the body'} was built for {built[0]:g}-{built[1]:g} Hz, "
+                         f"judged over {self.band[0]:g}-{self.band[1]:g} Hz: reduce with band={self.band} "
+                         "for this band")
+        return ErrorMeasures(**{k: out.get(k) for k in MEASURE_KEYS}, band_hz=self.band, notes=tuple(notes),
+                             freqs_hz=self.freqs, rel_error=rel_error(H, Hr))
+
+    def check_judgeable(self, reduced) -> None:
+        """Refuse a body that was not reduced from this response's model, damping and ports
+        (:func:`check_judgeable`)."""
+        check_judgeable(reduced, origin=self.origin, damping=self.damping, inputs=self.input_names,
+                   outputs=self.output_names, label=self.model_label)
 
     def reference(self, reduced):
         """``(H, judged)``: the full FRF that ``reduced`` is judged against and its description,
@@ -285,6 +368,46 @@ class FullResponse:
         if reduced.info.get("n_rigid_excluded"):
             return self.H_elastic, JUDGED_ELASTIC
         return self.H, JUDGED_RIGID
+
+
+def check_judgeable(reduced, *, origin: dict, damping, inputs, outputs, label: str = "this model") -> None:
+    """Refuse a body that was not reduced from the model of fingerprint ``origin``
+    (:func:`flexmor.origin.fingerprint`), with ``damping`` and the ports named ``inputs`` and
+    ``outputs`` (``label`` names that model in the messages).
+
+    Raises
+    ------
+    ModelError
+        The body's fingerprint names another model (DOF count, equation map, K, M, D), or its
+        damping is another. A body without a fingerprint (written by an older flexmor, or made by
+        hand) only gets a :class:`~flexmor.errors.FlexmorWarning`.
+    PortError
+        Its inputs or outputs are others (names, or their number).
+    """
+    name = f"body ({reduced.method or 'reduced'}, order {reduced.order})"
+    if reduced.origin:
+        diffs = origin_differences(reduced.origin, origin)
+        if diffs:
+            came = reduced.origin.get("source") or reduced.origin.get("name") or "unknown"
+            raise ModelError(f"{name} was reduced from a model with {'; '.join(diffs)} (the body's model: "
+                             f"{came}; this reference: {label}); judge it against the model it was "
+                             "reduced from", params=("model",))
+    else:
+        warnings.warn(f"{name} records no fingerprint of the model it was reduced from: it cannot be checked "
+                      f"against {label}", FlexmorWarning, stacklevel=4)
+    if not same_damping(reduced.damping, damping):
+        raise ModelError(f"{name} was reduced with damping {describe_damping(reduced.damping)}; this reference "
+                         f"has {describe_damping(damping)}. A body is judged against the full model with "
+                         "its own damping: give the model that damping (rayleigh / modal_damping / "
+                         "band_rayleigh), or reduce again", params=("damping",))
+    for role, mine, theirs, count in (("inputs", list(inputs), reduced.input_names, reduced.B.shape[1]),
+                                      ("outputs", list(outputs), reduced.output_names, reduced.C.shape[0])):
+        names = [str(n).strip().lower() for n in theirs]
+        if count != len(mine) or (names and names != [str(n).strip().lower() for n in mine]):
+            raise PortError(f"{name} has {count} {role} ({', '.join(map(str, theirs)) or 'unnamed'}); this "
+                            f"reference has {len(mine)} ({', '.join(map(str, mine))}): judge it with the ports "
+                            "it was reduced for", params=("ports",))
+
 
 def _modal_correction(evaluate, damping, f_modes, phi, ports):
     """``evaluate`` (the FRF of the sparse Rayleigh realization of modal damping) with the share of

@@ -9,7 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import __version__
+from .._version import __version__
 from ..errors import OptionError
 from ..jsonutil import jsonable
 from ..linalg.context import step
@@ -246,7 +246,7 @@ def cmd_reduce(args) -> int:
     from ..io.hdf5 import write_reduced
     from ..origin import describe_damping
     from ..ports import make_ports
-    from ..workflow import DEFAULT_BAND, coupling_specs, reduce_and_judge
+    from ..workflow import DEFAULT_BAND, coupling_specs, record_setup, reduce_and_judge
 
     options = method_options(args, args.method)  # before any work: flags the method does not take
     if args.tol is not None and args.no_error:
@@ -270,12 +270,12 @@ def cmd_reduce(args) -> int:
     res["timings"]["read"] = t_read
     if is_partitioned(model.K):  # under mpirun with --backend petsc: the rows of K held by each rank
         res["partition"] = row_blocks(model.K)
-    if couplings:
-        red.couplings = res["couplings"] = list(couplings)
-    if args.select:
-        red.selections = res["selections"] = list(args.select)
     # the fingerprint (of the coupled model) also names what made it: couplings, interfaces, selections
-    red.origin.update(couplings=list(couplings), interfaces=list(args.interface), selections=list(args.select))
+    record_setup(red, couplings=couplings, interfaces=args.interface, selections=args.select)
+    if couplings:
+        res["couplings"] = list(couplings)
+    if args.select:
+        res["selections"] = list(args.select)
     path = _check_new(args.output_file or f"{model.name}_{args.method}_{red.order}.h5", args)
     on_root(write_reduced, red, path)  # under MPI: written once, by rank 0
     res["file"] = str(path)
@@ -320,7 +320,6 @@ def _model_and_bodies(args):
 
 
 def cmd_compare(args) -> int:
-    from ..analysis.frequency import measure_record
     from ..analysis.mounted import FullMounted, mounted_record
     from ..origin import describe_damping, reference_model
     from ..ports import make_ports
@@ -339,7 +338,7 @@ def cmd_compare(args) -> int:
         err = fulls[key].evaluate(red)
         t_err = time.perf_counter() - t0
         row = {"file": str(path), "method": red.method, "order": red.order, "band_hz": list(band),
-               **measure_record(err), "damping": ref.damping.to_dict(),
+               **err.to_dict(), "damping": ref.damping.to_dict(),
                "reference_damping": describe_damping(ref.damping), "timings": {"error": t_err}}
         t0 = time.perf_counter()  # the body in its joints; the full side once per model (couplings, selections)
         mkey = key[2:4]

@@ -49,7 +49,6 @@ def _without_rigid(ref, red):
     rigid-body modes when it holds rigid motion, else ``red``) and, when it changed, its order and error
     measures over the band ``red`` was judged on, against ``ref`` (the model it was reduced on)."""
     from ..analysis.compare import FullResponse
-    from ..analysis.frequency import measure_record
     from ..linalg.context import SolverContext
     from ..options import DEFAULT_BAND, Band
     from ..ports import make_ports
@@ -60,4 +59,4 @@ def _without_rigid(ref, red):
         return red, {}
     band = Band.of(red.errors.get("band_hz") or DEFAULT_BAND)
     full = FullResponse(ref, make_ports(ref, red.input_names, red.output_names), band, solver=SolverContext())
-    return body, {"order_exported": body.order, "band_hz": list(band), **measure_record(full.evaluate(body))}
+    return body, {"order_exported": body.order, "band_hz": list(band), **full.evaluate(body).to_dict()}

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import argparse
 
-from .. import __version__
+from .._version import __version__
 from ..analysis.frequency import MEASURES, TOL_MEASURES
 from ..io import EXPORT_FORMATS
 from ..linalg.memory import FACTOR_MEMORY

@@ -18,7 +18,7 @@ import time
 
 from ..body import ReducedModel
 from ..errors import OptionError
-from ..options import check_order
+from ..options import Band, check_order
 from ..projection import project
 from ..rigid import exclude_rigid
 from . import (  # noqa: F401  (each method module registers its methods in METHODS)
@@ -41,8 +41,10 @@ __all__ = ["register_method", "METHODS", "methods", "reduce", "Method", "check_k
 
 
 def reduce(model, method: str, order: int | None, ports, *, inertia_loads: str = "auto",
-           **options) -> tuple[ReducedModel, dict]:
+           **options) -> ReducedModel:
     """Reduce ``model`` with the registered ``method`` and project it.
+
+    Every argument may be given by keyword: ``reduce(model=m, method="krylov", order=8, ports=p)``.
 
     Parameters
     ----------
@@ -63,19 +65,20 @@ def reduce(model, method: str, order: int | None, ports, *, inertia_loads: str =
     **options
         Method options (the fields of the method's ``options_class``, e.g. ``interface``) and
         ``solver``; any other keyword raises OptionError listing the allowed ones. Options
-        not given take their defaults.
+        not given take their defaults; a method with a ``band`` option not given one builds for
+        :data:`flexmor.options.DEFAULT_BAND`.
         A basis that excludes rigid-body modes (``info['rigid'] == 'exclude'``) is made
         mass-orthogonal to them (:func:`flexmor.rigid.exclude_rigid`).
 
     Returns
     -------
-    reduced : ReducedModel
-        Its ``info`` holds the method's own record plus ``order_requested`` and ``options`` (the
-        options passed, as JSON values); with ``version`` the result says how it was made. When
+    ReducedModel
+        Its ``info`` holds the method's own record plus ``order_requested``, ``options`` (the
+        options passed, as JSON values), ``band`` (``[fmin, fmax]`` in Hz the basis was built for,
+        given or the default; None for a method without a band) and ``timings`` (wall times in
+        seconds: ``basis``, ``project``); with ``version`` the result says how it was made. When
         the order differs from the one asked, ``order_note`` says what was returned and
         why (the method's own reason where it gives one).
-    timings : dict
-        Wall times in seconds: ``basis``, ``project``.
     """
     if method not in METHODS:
         raise OptionError(f"method={method!r} is not allowed; choose one of: {', '.join(sorted(METHODS))}",
@@ -93,9 +96,11 @@ def reduce(model, method: str, order: int | None, ports, *, inertia_loads: str =
     red.info.update(inertia)
     red.info.setdefault("order_requested", order)
     red.info.setdefault("options", _recorded(opts))
+    red.info["band"] = list(Band.of(opts.get("band"))) if "band" in m.options else None
     if order is not None and red.order != order and not red.order_note:
         red.order_note = f"order {red.order} instead of {order}: {method} returned a basis of that size"
-    return red, {"basis": t1 - t0, "project": t2 - t1}
+    red.info["timings"] = {"basis": t1 - t0, "project": t2 - t1}
+    return red
 
 
 def _recorded(opts: dict) -> dict:

@@ -23,9 +23,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .. import __version__
+from .._version import __version__
 from ..analysis.compare import JUDGED_ELASTIC, JUDGED_RIGID
-from ..analysis.frequency import ANTIRESONANCE_FACTOR, MEASURES, measure_record
+from ..analysis.frequency import ANTIRESONANCE_FACTOR, MEASURES
 from ..checks import describe_couplings
 from ..damping import damping_from_dict
 from ..errors import FlexmorError, OptionError, check_choice
@@ -188,17 +188,17 @@ def build_report(model, ports, reduced, *, band, labels=None, seconds=None, full
     H_red, curves, H_refs, ref_of = {}, {}, {}, {}
     for lb, red, sec in zip(labels, reduced, seconds):
         err = full.evaluate(red)
-        H_red[lb], curves[lb] = frf_reduced(red, full.freqs), err["rel_error"]
+        H_red[lb], curves[lb] = frf_reduced(red, full.freqs), err.rel_error
         H_ref, judged = full.reference(red)
         ref_of[lb] = _reference_label(ref_name, judged)
         H_refs.setdefault(ref_of[lb], H_ref)
-        rep.rows.append({"label": lb, "method": red.method, "order": red.order, **measure_record(err),
+        rep.rows.append({"label": lb, "method": red.method, "order": red.order, **err.to_dict(),
                          "h2_error": None, "seconds": sec})
         rep.rows[-1]["judged_short"] = _SHORT.get(judged, judged)
-        rep.rows[-1]["max_rel_error_where"] = (f"{err['max_rel_error_hz']:.4g} Hz" + (
-            " (anti-resonance)" if err["max_rel_error_at_antiresonance"] else "") + (
-            " (spurious resonance)" if err["max_rel_error_at_spurious_resonance"] else ""))
-        notes.extend(f"{lb}: {n}" for n in err["notes"])
+        rep.rows[-1]["max_rel_error_where"] = (f"{err.max_rel_error_hz:.4g} Hz" + (
+            " (anti-resonance)" if err.max_rel_error_at_antiresonance else "") + (
+            " (spurious resonance)" if err.max_rel_error_at_spurious_resonance else ""))
+        notes.extend(f"{lb}: {n}" for n in err.notes)
     if mounted:
         from ..analysis.mounted import FullMounted, mounted_record
 

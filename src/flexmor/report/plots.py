@@ -1,11 +1,130 @@
-"""Plots (matplotlib, Agg backend; written atomically)."""
+"""Plots: for notebooks (:func:`plot_frf`, :func:`plot_error`, :func:`plot_modes` draw on an Axes,
+given or made with pyplot, and return it) and for the report (PNG bytes or files, drawn on a
+:class:`matplotlib.figure.Figure` of their own: no pyplot, and the process's backend is left alone)."""
 
 from __future__ import annotations
 
 from ..io import atomic_write
 
-__all__ = ["body_png", "figure_png", "frf_png", "mac_png", "plot_rel_error", "rel_error_png", "singular_values_png",
-           "time_error_curves", "time_png"]
+__all__ = ["plot_frf", "plot_error", "plot_modes", "body_png", "figure_png", "frf_png", "mac_png", "plot_rel_error",
+           "rel_error_png", "singular_values_png", "time_error_curves", "time_png"]
+
+
+# -- notebook plots: draw on an Axes and return it -----------------------------------------------
+def _axes(ax):
+    """``ax``, or the Axes of a new pyplot figure (the backend the user has chosen)."""
+    if ax is not None:
+        return ax
+    import matplotlib.pyplot as plt
+
+    return plt.subplots()[1]
+
+
+def plot_frf(freqs, H, *, ax=None, output: int = 0, input: int = 0, label: str | None = None, **style):
+    """``|H(f)|`` of one input/output pair on log-log axes.
+
+    Parameters
+    ----------
+    freqs : array_like
+        Frequencies in Hz.
+    H : ndarray, shape (n_freq, n_outputs, n_inputs)
+        A frequency response (e.g. ``FullResponse.H``, :func:`flexmor.dynamics.frf.frf_reduced`).
+    ax : matplotlib Axes, optional
+        Drawn on; default a new pyplot figure.
+    output, input : int
+        The pair drawn.
+    label : str, optional
+        Legend entry.
+    **style
+        Passed to ``ax.loglog`` (``color``, ``lw``, ``ls`` ...).
+
+    Returns
+    -------
+    matplotlib Axes
+    """
+    import numpy as np
+
+    ax = _axes(ax)
+    _draw_frf(ax, np.asarray(freqs, float), np.abs(np.asarray(H)[:, output, input]), label=label, **style)
+    ax.set_xlabel("f [Hz]")
+    ax.set_ylabel("|H|")
+    if label is not None:
+        ax.legend(fontsize=8)
+    return ax
+
+
+def plot_error(measures, *, ax=None, label: str | None = None, **style):
+    """The pointwise relative error ``rel_error(f)`` of a judged body on log-log axes.
+
+    Parameters
+    ----------
+    measures : ErrorMeasures or (freqs, rel_error)
+        The judgement (:meth:`flexmor.analysis.compare.FullResponse.evaluate`), or a frequency
+        grid (Hz) and the error on it.
+    ax : matplotlib Axes, optional
+        Drawn on; default a new pyplot figure.
+    label : str, optional
+        Legend entry.
+    **style
+        Passed to ``ax.loglog``.
+
+    Returns
+    -------
+    matplotlib Axes
+    """
+    freqs, err = (measures.freqs_hz, measures.rel_error) if hasattr(measures, "rel_error") else measures
+    ax = _axes(ax)
+    _draw_rel_error(ax, {label: (freqs, err)}, legend=label is not None, **style)
+    return ax
+
+
+def plot_modes(check, *, ax=None, title: str | None = None):
+    """The MAC matrix (full modes x reduced modes) of a modal check as a heat map.
+
+    Parameters
+    ----------
+    check : dict or ndarray
+        The result of :func:`flexmor.analysis.modal_check.modal_check` (its ``mac``), or a MAC
+        matrix.
+    ax : matplotlib Axes, optional
+        Drawn on; default a new pyplot figure (with a colour bar).
+    title : str, optional
+
+    Returns
+    -------
+    matplotlib Axes
+    """
+    new = ax is None
+    ax = _axes(ax)
+    im = _draw_mac(ax, check["mac"] if isinstance(check, dict) else check, title or "")
+    if new:
+        ax.figure.colorbar(im, ax=ax, label="MAC")
+    return ax
+
+
+def _draw_frf(ax, freqs, mag, **style):
+    ax.loglog(freqs, mag, **style)
+    ax.grid(True, which="both", alpha=0.3)
+
+
+def _draw_rel_error(ax, curves: dict, *, freqs=None, legend: bool = True, **style):
+    """``rel_error(f)`` of each label on ``ax``; a curve is an array on ``freqs`` or an ``(f, err)`` pair."""
+    for label, err in curves.items():  # an (f, err) pair brings its own frequency grid
+        f, e = err if isinstance(err, tuple) else (freqs, err)
+        ax.loglog(f, e, label=label, **{"lw": 1.2, **style})
+    ax.set_xlabel("frequency f [Hz]")
+    ax.set_ylabel(r"rel_error(f) = $\|H-\hat H\|_F / \|H\|_F$")
+    ax.grid(True, which="both", alpha=0.3)
+    if legend:
+        ax.legend(fontsize=8)
+
+
+def _draw_mac(ax, A, title: str):
+    im = ax.imshow(A, vmin=0, vmax=1, cmap="viridis", origin="upper", aspect="auto")
+    ax.set_title(title, fontsize=9)
+    ax.set_xlabel("reduced mode", fontsize=8)
+    ax.set_ylabel("full mode", fontsize=8)
+    return im
 
 
 def plot_rel_error(freqs, curves: dict, path, *, title: str = "") -> None:
@@ -21,22 +140,13 @@ def plot_rel_error(freqs, curves: dict, path, *, title: str = "") -> None:
         Output PNG file.
     """
     fig = _rel_error_figure(freqs, curves, title)
-    try:
-        atomic_write(path, lambda tmp: fig.savefig(tmp, format="png"))
-    finally:
-        _pyplot().close(fig)
+    atomic_write(path, lambda tmp: fig.savefig(tmp, format="png"))
 
 
 def _rel_error_figure(freqs, curves: dict, title: str = ""):
-    plt = _pyplot()
-    fig, ax = plt.subplots(figsize=(8, 4.8), dpi=110)
-    for label, err in curves.items():  # an (f, err) pair brings its own frequency grid
-        f, e = err if isinstance(err, tuple) else (freqs, err)
-        ax.loglog(f, e, label=label, lw=1.2)
-    ax.set_xlabel("frequency f [Hz]")
-    ax.set_ylabel(r"rel_error(f) = $\|H-\hat H\|_F / \|H\|_F$")
-    ax.grid(True, which="both", alpha=0.3)
-    ax.legend(fontsize=8)
+    fig = _figure(figsize=(8, 4.8), dpi=110)
+    ax = fig.subplots()
+    _draw_rel_error(ax, curves, freqs=freqs)
     if title:
         ax.set_title(title)
     fig.subplots_adjust(left=0.1, right=0.97, bottom=0.11, top=0.92 if title else 0.96)  # fixed: no layout pass
@@ -44,22 +154,23 @@ def _rel_error_figure(freqs, curves: dict, title: str = ""):
 
 
 # -- report figures (PNG bytes for embedding) ---------------------------------------------------
-def _pyplot():
-    import matplotlib
+def _figure(**kwargs):
+    """A :class:`matplotlib.figure.Figure` outside pyplot (rendered by ``savefig`` alone)."""
+    from matplotlib.figure import Figure
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    return plt
+    return Figure(**kwargs)
 
 
 def figure_png(fig, *, dpi: int = 100) -> bytes:
-    """Render a matplotlib figure to PNG bytes and close it."""
+    """Render a matplotlib figure to PNG bytes (a pyplot figure is closed)."""
     import io
 
     buf = io.BytesIO()
     fig.savefig(buf, format="png", dpi=dpi)
-    _pyplot().close(fig)
+    import sys
+
+    if "matplotlib.pyplot" in sys.modules:
+        sys.modules["matplotlib.pyplot"].close(fig)
     return buf.getvalue()
 
 
@@ -79,7 +190,6 @@ def frf_png(freqs, H, reduced: dict, input_names, output_names, *, max_pairs: in
     """
     import numpy as np
 
-    plt = _pyplot()
     refs = dict(H) if isinstance(H, dict) else {"full": H}
     H0 = next(iter(refs.values()))
     peak = np.max([np.abs(R).max(axis=0) for R in refs.values()], axis=0)
@@ -87,17 +197,17 @@ def frf_png(freqs, H, reduced: dict, input_names, output_names, *, max_pairs: in
              if peak[i, j] >= 1e-8 * peak.max()][:max_pairs]  # numerically zero cross terms are left out
     nc = min(3, len(pairs))
     nr = -(-len(pairs) // nc)
-    fig, axes = plt.subplots(nr, nc, figsize=(4.2 * nc, 3.2 * nr), squeeze=False)
+    fig = _figure(figsize=(4.2 * nc, 3.2 * nr))
+    axes = fig.subplots(nr, nc, squeeze=False)
     fig.subplots_adjust(left=0.32 / nc, right=0.98, bottom=0.5 / (3.2 * nr), top=1 - 0.3 / (3.2 * nr), wspace=0.3,
                         hspace=0.45)
     for ax, (i, j) in zip(axes.flat, pairs):
         for k, (name, R) in enumerate(refs.items()):
-            ax.loglog(freqs, np.abs(R[:, i, j]), "k", ls=["-", "--", ":"][k % 3], lw=2.0, label=name)
+            _draw_frf(ax, freqs, np.abs(R[:, i, j]), color="k", ls=["-", "--", ":"][k % 3], lw=2.0, label=name)
         for label, Hr in reduced.items():
-            ax.loglog(freqs, np.abs(Hr[:, i, j]), lw=1.0, label=label)
+            _draw_frf(ax, freqs, np.abs(Hr[:, i, j]), lw=1.0, label=label)
         ax.set_title(f"{output_names[i]} / {input_names[j]}", fontsize=9)
         ax.set_xlabel("f [Hz]", fontsize=8)
-        ax.grid(True, which="both", alpha=0.3)
     for ax in list(axes.flat)[len(pairs):]:
         ax.axis("off")
     axes.flat[0].set_ylabel("|H|")
@@ -109,8 +219,8 @@ def singular_values_png(values: dict) -> bytes:
     """Semilog plot of decaying singular values (Hankel, POD) per label."""
     import numpy as np
 
-    plt = _pyplot()
-    fig, ax = plt.subplots(figsize=(7, 4))
+    fig = _figure(figsize=(7, 4))
+    ax = fig.subplots()
     fig.subplots_adjust(left=0.11, right=0.97, bottom=0.12, top=0.96)
     for label, s in values.items():
         s = np.asarray(s, float)
@@ -124,19 +234,16 @@ def singular_values_png(values: dict) -> bytes:
 
 def mac_png(macs: dict) -> bytes:
     """MAC matrices (full modes x reduced modes) as heat maps, one panel per body."""
-    plt = _pyplot()
     n = max(1, len(macs))
     nc = min(3, n)
     nr = -(-n // nc)
-    fig, axes = plt.subplots(nr, nc, figsize=(3.8 * nc, 3.4 * nr), squeeze=False)
+    fig = _figure(figsize=(3.8 * nc, 3.4 * nr))
+    axes = fig.subplots(nr, nc, squeeze=False)
     fig.subplots_adjust(left=0.3 / nc, right=0.98, bottom=0.4 / (3.4 * nr), top=1 - 0.3 / (3.4 * nr), wspace=0.35,
                         hspace=0.4)
     im = None
     for ax, (label, A) in zip(axes.flat, macs.items()):
-        im = ax.imshow(A, vmin=0, vmax=1, cmap="viridis", origin="upper", aspect="auto")
-        ax.set_title(label, fontsize=9)
-        ax.set_xlabel("reduced mode", fontsize=8)
-        ax.set_ylabel("full mode", fontsize=8)
+        im = _draw_mac(ax, A, label)
     for ax in list(axes.flat)[len(macs):]:
         ax.axis("off")
     if im is not None:
@@ -176,13 +283,13 @@ def time_png(t, y, reduced: dict, labels, *, quantity: str = "displacement", max
     """
     import numpy as np
 
-    plt = _pyplot()
     refs = dict(y) if isinstance(y, dict) else {"full": y}
     first = next(iter(refs))
     reference_of = {lb: (reference_of or {}).get(lb, first) for lb in reduced}
     y0 = refs[first]
     chans = [(i, j) for j in range(y0.shape[2]) for i in range(y0.shape[1])][:max_channels]
-    fig, axes = plt.subplots(2, 1, figsize=(9, 6.4), sharex=True)
+    fig = _figure(figsize=(9, 6.4))
+    axes = fig.subplots(2, 1, sharex=True)
     fig.subplots_adjust(left=0.1, right=0.98, bottom=0.08, top=0.96, hspace=0.06)
     from matplotlib.lines import Line2D
 
@@ -218,8 +325,7 @@ def body_png(xyz, marks: dict, *, title: str = "") -> bytes:
     """3D scatter of the nodes (grey) with marked node groups (label -> coordinates (k, 3))."""
     import numpy as np
 
-    plt = _pyplot()
-    fig = plt.figure(figsize=(7, 5))
+    fig = _figure(figsize=(7, 5))
     ax = fig.add_subplot(projection="3d")
     xyz = np.asarray(xyz, float).reshape(-1, 3)
     ax.scatter(xyz[:, 0], xyz[:, 1], xyz[:, 2], s=2, c="0.6", alpha=0.5, label=f"nodes ({len(xyz)})")

@@ -36,7 +36,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ... import __version__
+from ..._version import __version__
 from ...errors import OptionError
 from .._registry import EXPORT_FORMATS, MODEL_FORMATS
 from ..atomic import atomic_write

@@ -1,0 +1,147 @@
+"""The study object flexmor.System, the flat namespace of ``import flexmor`` and the notebook plots."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from conftest import CCX
+
+import flexmor
+from flexmor.damping import Rayleigh
+from flexmor.errors import ModelError, PortError
+
+BAND = (10.0, 3000.0)
+
+
+@pytest.fixture(scope="module")
+def beam():
+    return flexmor.System(CCX / "beam8_clamped_mat.sti", inputs=["TIP:y"], band=BAND,
+                          damping=Rayleigh(0.0, 1e-6), cache=False)
+
+
+def test_system_reduces_for_its_band_and_judges(beam):
+    body = beam.reduce("krylov", 8)
+    assert body.info["band"] == list(BAND) and body.info["options"]["band"] == list(BAND)
+    err = beam.judge(body)
+    assert isinstance(err, flexmor.ErrorMeasures) and err.band_hz == BAND
+    assert err.band_error < 1e-6 and not any("built for" in n for n in err.notes)
+    # the same as the library steps it is made of
+    model = flexmor.read(CCX / "beam8_clamped_mat.sti").with_rayleigh(0.0, 1e-6)
+    ports = flexmor.make_ports(model, ["TIP:y"])
+    same = flexmor.reduce(model, "krylov", 8, ports, band=BAND)
+    assert np.allclose(same.K, body.K) and flexmor.FullResponse(model, ports, BAND).evaluate(same).band_error == \
+        pytest.approx(err.band_error, rel=1e-6)
+
+
+def test_system_refuses_a_body_of_another_study_with_the_reason(beam, clamped):
+    undamped = flexmor.System(clamped, inputs=["TIP:y"], band=BAND)
+    with pytest.raises(ModelError, match="damping"):
+        beam.judge(undamped.reduce("modal", 6))
+    other_ports = flexmor.System(beam.model, inputs=["TIP:z"], band=BAND)
+    with pytest.raises(PortError, match="TIP:z"):
+        beam.judge(other_ports.reduce("modal", 6))
+    free = flexmor.System(CCX / "beam8_free_mat.sti", inputs=["TIP:y"], band=BAND, damping=Rayleigh(0.0, 1e-6))
+    with pytest.raises(ModelError, match="297 DOF, this model has 270"):
+        beam.judge(free.reduce("modal", 6))
+
+
+def test_system_passes_its_interfaces_and_damping_by_keywords(clamped):
+    s = flexmor.System(clamped, inputs=["TIP:y"], interfaces=["TIP"], band=BAND, damping={"band_rayleigh": 0.02})
+    assert s.model.damping.zeta == 0.02 and tuple(s.model.damping.band) == BAND
+    body = s.reduce("craig-bampton", 33)
+    assert body.info["options"]["interface"] == ["TIP"]
+    assert s.judge(body).band_error < 1e-2
+
+
+def test_system_frf_and_simulate_are_the_full_models(beam):
+    full = beam.full
+    H = beam.frf(full.freqs[:3])
+    np.testing.assert_allclose(H, full.H[:3], rtol=1e-7)
+    from flexmor.dynamics.time import step
+
+    y = beam.simulate(step(), dt=5e-5, t_end=2e-3)
+    assert y.displacement.shape == (41, 1, 1) and y.displacement[-1, 0, 0] > 0
+
+
+def test_flat_namespace():
+    for name in flexmor.__all__:
+        assert getattr(flexmor, name) is not None, name
+    assert flexmor.io.read is flexmor.read and flexmor.System.__module__ == "flexmor.study"
+    assert {"System", "read", "make_ports", "project", "reduce", "simulate", "state_space", "FullResponse",
+            "ErrorMeasures", "FlexmorError", "io"} <= set(flexmor.__all__)
+
+
+def _env(**extra) -> dict:
+    """The environment of a child interpreter that imports this flexmor, from any working directory."""
+    src = str(Path(flexmor.__file__).parents[1])
+    return {**os.environ, **extra, "PYTHONPATH": os.pathsep.join([src, os.environ.get("PYTHONPATH", "")])}
+
+
+def _run(code: str) -> str:
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300, env=_env())
+    assert out.returncode == 0, out.stderr
+    return out.stdout
+
+
+def test_import_flexmor_fills_the_method_registry_without_h5py_or_matplotlib():
+    out = _run("import sys; sys.modules['h5py'] = None; sys.modules['matplotlib'] = None\n"
+               "import flexmor; print(len(flexmor.reduction.METHODS), flexmor.io.__name__)")
+    n, io = out.split()
+    assert int(n) >= 13 and io == "flexmor.io"
+
+
+def test_report_plots_leave_the_backend_alone():
+    out = _run("import matplotlib; matplotlib.use('svg')\n"
+               "import numpy as np, flexmor.report.plots as p\n"
+               "png = p.rel_error_png(np.array([1.0, 2.0]), {'a': np.array([1e-3, 2e-3])})\n"
+               "print(matplotlib.get_backend(), png[:4] == b'\\x89PNG')")
+    assert out.split() == ["svg", "True"]
+
+
+def test_notebook_plots_draw_on_the_axes_given(beam):
+    from matplotlib.figure import Figure
+
+    from flexmor.report.plots import plot_error, plot_frf, plot_modes
+
+    full = beam.full
+    body = beam.reduce("modal", 6)
+    ax = Figure().subplots()
+    assert plot_frf(full.freqs, full.H, ax=ax, label="full") is ax
+    assert plot_error(beam.judge(body), ax=ax, label="modal 6") is ax
+    np.testing.assert_allclose(ax.lines[0].get_ydata(), np.abs(full.H[:, 0, 0]))
+    np.testing.assert_allclose(ax.lines[1].get_ydata(), beam.judge(body).rel_error)
+    assert [t.get_text() for t in ax.get_legend().get_texts()] == ["full", "modal 6"]
+    ax2 = Figure().subplots()
+    assert plot_modes(np.eye(3), ax=ax2, title="MAC") is ax2 and len(ax2.images) == 1
+
+
+def test_the_readme_python_section_runs_and_prints_its_numbers(tmp_path):
+    text = (Path(__file__).parents[1] / "README.md").read_text()
+    section = text.split("\n## Python\n", 1)[1].split("\n## ", 1)[0]
+    blocks = section.split("```python\n")[1:]
+    code = "\n".join(b.split("```", 1)[0] for b in blocks)
+    printed = section.split("this prints\n\n```\n", 1)[1].split("```", 1)[0]
+    for ext in ("sti", "mas", "dof", "inp"):
+        (tmp_path / f"beam.{ext}").write_bytes((CCX / f"beam8_clamped_mat.{ext}").read_bytes())
+    out = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, capture_output=True, text=True, timeout=600,
+                         env=_env(MPLBACKEND="Agg"))
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.startswith(printed)
+    assert (tmp_path / "body.h5").exists()
+
+
+def test_system_on_a_free_body_with_an_interface_coupling(free):
+    s = flexmor.System(free, inputs=["TIP@rbe2:y"], interfaces=["TIP@rbe2"], band=BAND, damping=Rayleigh(0.0, 1e-6))
+    body = s.reduce("craig-bampton", 20)
+    assert body.couplings == ["TIP@rbe2"] and body.info["options"]["interface"] == ["TIP@rbe2"]
+    mounted = s.mounted(body)
+    assert [c["held"] for c in mounted["cases"]] == ["clamped", "pinned"] and mounted["max_frequency_error"] < 1e-5
+    same, record = s.reduce_and_judge("craig-bampton", 20)  # the command line's job, on the study's full FRF
+    assert record["band_hz"] == list(BAND) and record["mounted"]["cases"][0]["interface"] == "TIP@RBE2"
+    assert {k: record[k] for k in ("band_error", "hinf_error", "judged")} == \
+        {k: s.judge(body).to_dict()[k] for k in ("band_error", "hinf_error", "judged")}
