@@ -5,7 +5,7 @@
     nice -n 5 .venv/bin/python bench/plate_methods.py                        # 35,988 DOF, orders 20 and 30
     .venv/bin/python bench/plate_methods.py --dofs 300000 --methods fw-sobt,pod --orders 30 --no-frf
 
-Model: the slides' structure of ``examples/slide3_table.py`` (:func:`flexmor.models.plate_structure`,
+Model: the structure of ``examples/plate_structure_table.py`` (:func:`flexmor.models.plate_structure`,
 ``n=56``: 35,988 DOF; ``--dofs`` picks the resolution of about that many DOF), Rayleigh damping
 ratio 1 % at the band ends, the six ports of an RBE3 at the hole (``HOLE@rbe3:x ... rz``) as
 collocated inputs and outputs, band ``--band`` (default 1-2000 Hz, 24 resonances).

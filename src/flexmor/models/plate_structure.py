@@ -1,7 +1,7 @@
 """A plate-and-rods steel structure meshed with hexahedra: upper plate with a central hole on rods.
 
-The structure of the seed slides' comparison table (a 35,000-DOF solid whose interface is the
-wall of a hole in its upper plate), built parametrically:
+The structure of a published comparison of reduction methods (a 35,000-DOF solid whose interface
+is the wall of a hole in its upper plate; ``examples/plate_structure_table.py``), built parametrically:
 
 * **upper plate** ``[-a/2, a/2]^2 x [0, t]`` with a central hole of diameter ``hole``; the hole
   is the set of grid cells whose centre lies inside the circle (a staircase polygon that is

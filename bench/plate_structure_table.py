@@ -1,11 +1,12 @@
-"""The slides' table (slide 3) at full size: examples/slide3_table.py on the 35,988-DOF structure.
+"""The plate-structure table at full size: examples/plate_structure_table.py on the 35,988-DOF structure.
 
-    nice .venv/bin/python bench/slide3.py                     # n=56: 35,988 DOF, band 1-2000 Hz, zeta 1 %
-    .venv/bin/python bench/slide3.py --n 40 --band 1:3000
+    nice .venv/bin/python bench/plate_structure_table.py          # n=56: 35,988 DOF, band 1-2000 Hz, zeta 1 %
+    .venv/bin/python bench/plate_structure_table.py --n 40 --band 1:3000
 
-Runs :func:`slide3_table.run` (the full FRF once, then ``krylov`` 173, ``two-step`` 35/173,
-``pod`` 24, ``modal`` 40 at the hole interface), prints the table with the times, writes
-``bench/results/slide3.json`` and the figure ``examples/figures/slide3_table.png``.
+Runs :func:`plate_structure_table.run` (the full FRF once, then ``krylov`` 173, ``two-step`` 35/173,
+``pod`` 24, ``modal`` 40 at the hole interface) with the full FRF in the disk cache, prints the
+table after each method, writes ``bench/results/plate_structure_table.json`` and the figure
+``bench/results/plate_structure_table.png``.
 """
 
 from __future__ import annotations
@@ -21,7 +22,8 @@ ROOT = Path(__file__).resolve().parents[1]
 
 
 def _example():
-    spec = importlib.util.spec_from_file_location("slide3_table", ROOT / "examples" / "slide3_table.py")
+    spec = importlib.util.spec_from_file_location("plate_structure_table",
+                                                  ROOT / "examples" / "plate_structure_table.py")
     mod = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(mod)
     return mod
@@ -34,8 +36,8 @@ def main(argv=None) -> int:
     p.add_argument("--zeta", type=float, default=0.01)
     p.add_argument("--pod-nodes", type=int, default=1)
     p.add_argument("--methods", default="krylov,two-step,modal,pod", help="comma-separated, in this order")
-    p.add_argument("--figure", default=str(ROOT / "examples" / "figures" / "slide3_table.png"))
-    p.add_argument("--json", default=str(ROOT / "bench" / "results" / "slide3.json"))
+    p.add_argument("--figure", default=str(ROOT / "bench" / "results" / "plate_structure_table.png"))
+    p.add_argument("--json", default=str(ROOT / "bench" / "results" / "plate_structure_table.json"))
     a = p.parse_args(argv)
     ex = _example()
     band = tuple(float(v) for v in a.band.split(":"))

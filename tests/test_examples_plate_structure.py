@@ -1,4 +1,4 @@
-"""The slides' table (examples/slide3_table.py) on a small plate-and-rods structure."""
+"""The plate-structure table (examples/plate_structure_table.py) on a small plate-and-rods structure."""
 
 from __future__ import annotations
 
@@ -6,23 +6,23 @@ import numpy as np
 import pytest
 from conftest import load_example
 
-s3 = load_example("slide3_table")
+ex = load_example("plate_structure_table")
 
 
 @pytest.fixture(scope="module")
 def table():
     """n=6 (1,728 DOF), band 1-2000 Hz (17 resonances), zeta 1 %, coarse grid and POD quadrature."""
-    return s3.run(6, band=(1.0, 2000.0), zeta=0.01, pod_nodes=1, grid_tol=0.1)
+    return ex.run(6, band=(1.0, 2000.0), zeta=0.01, pod_nodes=1, grid_tol=0.1)
 
 
 def test_ordering_krylov_two_step_pod_modal(table):
     e = {name: v["band_error"] for name, v in table["methods"].items()}
     mx = {name: v["max_rel_error"] for name, v in table["methods"].items()}
-    # measured: krylov 1.2e-18, two-step 1.4e-18 (all 31 non-zero Hankel values kept), pod 1.5e-12,
+    # measured: krylov 2.7e-20, two-step 7.9e-20 (all 31 non-zero Hankel values kept), pod 4.0e-14,
     # modal 3.1e-4. At this size krylov (173) and two-step (35/173) both reach the floor of the
     # error measure (max_rel_error ~1e-8, the accuracy of the full and reduced solves), so their
-    # mutual order is round-off and is not asserted here; at 35,988 DOF (bench/slide3.py) two-step
-    # truncates for real and krylov < two-step holds (1.1e-19 < 3.6e-16).
+    # mutual order is round-off and is not asserted here; at 35,988 DOF (examples/README.md) two-step
+    # truncates for real and krylov < two-step holds (4.1e-17 < 4.3e-16).
     for name in ("krylov", "two-step"):
         assert e[name] < 1e-14 and mx[name] < 1e-6
     assert 100 * max(e["krylov"], e["two-step"]) < e["pod"]
@@ -44,9 +44,9 @@ def test_orders_and_sizes(table):
 
 
 def test_table_and_figure(table, tmp_path):
-    text = s3.table(table)
+    text = ex.table(table)
     for label in ("Krylov (173)", "Krylov+Gram (35/173)", "POD (36/24)", "modal (40)", "2.06e-07", "0.00727"):
         assert label in text
-    s3.plot(table, tmp_path / "t.png")
+    ex.plot(table, tmp_path / "t.png")
     assert (tmp_path / "t.png").stat().st_size > 10_000
     assert np.all(np.isfinite(table["freqs"]))
