@@ -18,31 +18,21 @@ import matplotlib.figure
 import numpy as np
 import pytest
 import scipy.io
-from conftest import CCX
+from helpers import CLAMPED
 
 import flexmor
 from flexmor.analysis import cache
 from flexmor.cli import main
 from flexmor.io import atomic_write, export
 from flexmor.io.hdf5 import read_reduced, write_reduced
-from flexmor.ports import make_ports
-from flexmor.reduction import reduce
 from flexmor.report import html
 from flexmor.report.plots import plot_rel_error
 
-CLAMPED = str(CCX / "beam8_clamped_mat.sti")
 SRC = Path(flexmor.__file__).parent
 
 
 class Boom(Exception):
     pass
-
-
-@pytest.fixture(scope="module")
-def body(free):
-    model = free.with_rayleigh(2.0, 1e-6)
-    red, _ = reduce(model, "modal", 6, make_ports(model, ["TIP:y"]))
-    return red, model
 
 
 def _spill(target) -> None:

@@ -1,23 +1,14 @@
 """The command-line contract of DESIGN.md, on the real CalculiX exports."""
 
-import json
 import shutil
 import subprocess
 import sys
 
 import numpy as np
 import pytest
-from conftest import CCX
+from helpers import CCX, CLAMPED, FREE, run_json
 
 from flexmor.cli import main
-
-CLAMPED = str(CCX / "beam8_clamped_mat.sti")
-FREE = str(CCX / "beam8_free_mat.sti")
-
-
-def run_json(capsys, *argv):
-    assert main(list(argv)) == 0
-    return json.loads(capsys.readouterr().out)
 
 
 def test_info_clamped_matches_calculix(capsys, clamped_ref):
@@ -87,7 +78,7 @@ BAD = {
 
 
 def test_non_symmetric_exit_2(capsys, tmp_path):
-    from conftest import DATA
+    from helpers import DATA
 
     out = tmp_path / "o.h5"
     code = main(["reduce", str(DATA / "bad" / "asym_K.mtx"), "--method", "modal", "--order", "2", "--input", "1:x",

@@ -3,7 +3,7 @@ under --json, and stdout unchanged."""
 
 import json
 
-from conftest import CCX
+from helpers import CLAMPED
 
 from flexmor.analysis.compare import FullResponse
 from flexmor.cli import main
@@ -11,7 +11,6 @@ from flexmor.io import read
 from flexmor.linalg.context import SolverContext, step, track
 from flexmor.ports import make_ports
 
-CLAMPED = str(CCX / "beam8_clamped_mat.sti")
 REDUCE = ["reduce", CLAMPED, "--input", "TIP:z", "--rayleigh", "0:1e-5", "--full-frf", "dense", "--no-cache",
           "--force"]
 

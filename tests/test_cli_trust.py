@@ -3,7 +3,6 @@ damping, the error tables carry the measures an engineer reads, orders are hones
 always ends a run with 143 and no output."""
 
 import dataclasses
-import json
 import math
 import os
 import signal
@@ -16,7 +15,7 @@ import h5py
 import numpy as np
 import pytest
 import scipy.sparse as sp
-from conftest import CCX
+from helpers import CLAMPED, FREE, run, run_json
 
 import flexmor
 from flexmor.analysis.frequency import MEASURES, at_antiresonance, error_measures
@@ -25,21 +24,7 @@ from flexmor.errors import FlexmorWarning, ModelError
 from flexmor.io.hdf5 import read_reduced
 from flexmor.origin import check_origin, fingerprint
 
-CLAMPED = str(CCX / "beam8_clamped_mat.sti")
-FREE = str(CCX / "beam8_free_mat.sti")
 SRC = Path(flexmor.__file__).parent
-
-
-def run(capsys, *argv):
-    code = main([str(a) for a in argv])
-    out = capsys.readouterr()
-    return code, out.out, out.err
-
-
-def run_json(capsys, *argv):
-    code, out, err = run(capsys, *argv, "--json")
-    assert code == 0, err
-    return json.loads(out)
 
 
 @pytest.fixture(scope="module")

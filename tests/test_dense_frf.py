@@ -12,7 +12,7 @@ import dataclasses
 import numpy as np
 import pytest
 import scipy.sparse as sp
-from conftest import DATA, cond1
+from helpers import DATA, cond1
 
 from flexmor.analysis.compare import FullResponse
 from flexmor.dynamics.dense_frf import DenseResolvent

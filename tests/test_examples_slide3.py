@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from conftest import load_example
+from helpers import load_example
 
 s3 = load_example("slide3_table")
 

@@ -5,13 +5,12 @@ singular body, ``krylov --rigid exclude`` a body with modes at 44 and 73 Hz belo
 elastic one (620.7 Hz), clamped bodies exported without their supported nodes' mass.
 """
 
-import json
 import warnings
 
 import numpy as np
 import pytest
 import scipy.linalg as sla
-from conftest import CCX
+from helpers import CLAMPED, FREE, run_json
 
 from flexmor.basis import Basis
 from flexmor.cli import main
@@ -27,14 +26,7 @@ from flexmor.reduction import reduce
 from flexmor.reduction.free_body import check_body, rigid_body_modes, rigid_residual
 from flexmor.workflow import apply_damping, reduce_and_judge
 
-FREE = str(CCX / "beam8_free_mat.sti")
-CLAMPED = str(CCX / "beam8_clamped_mat.sti")
 IFACES = ["FIX@rbe2", "TIP@rbe2"]
-
-
-def run_json(capsys, *argv):
-    assert main(list(argv)) == 0
-    return json.loads(capsys.readouterr().out)
 
 
 def elastic_hz(model, k):

@@ -1,19 +1,10 @@
 """The full FRF in the command line: grid report, timings, disk cache and --no-cache."""
 
-import json
 
 import pytest
-from conftest import CCX
+from helpers import CLAMPED, run_json
 
-from flexmor.cli import main
-
-CLAMPED = str(CCX / "beam8_clamped_mat.sti")
 ARGS = ["--input", "TIP:y", "--band", "50:2000", "--rayleigh", "0:1e-6", "--json"]
-
-
-def run_json(capsys, *argv):
-    assert main(list(argv)) == 0
-    return json.loads(capsys.readouterr().out)
 
 
 @pytest.fixture

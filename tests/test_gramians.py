@@ -111,11 +111,11 @@ def test_band_singular_values_converge_on_beam(clamped):
 
 @pytest.fixture(scope="module")
 def beam():
-    from pathlib import Path
+    from helpers import CLAMPED
 
     from flexmor.io import read
 
-    model = read(Path(__file__).parent / "data" / "calculix" / "beam8_clamped_mat.sti").with_rayleigh(0.0, 1e-6)
+    model = read(CLAMPED).with_rayleigh(0.0, 1e-6)
     ports = make_ports(model, ["TIP:y"])
     return model, ports, FullResponse(model, ports, BAND, cache=False)
 

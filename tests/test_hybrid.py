@@ -95,11 +95,12 @@ def test_svdmor_many_inputs(clamped):
 
 def test_cli_options_of_gramian_methods(tmp_path, capsys):
     import json
-    from pathlib import Path
+
+    from helpers import CLAMPED
 
     from flexmor.cli import main
 
-    sti = Path(__file__).parent / "data" / "calculix" / "beam8_clamped_mat.sti"
+    sti = CLAMPED
     argv = ["reduce", str(sti), "--method", "two-step", "--order", "6", "--intermediate", "30", "--input", "TIP:y",
             "--band", "10:3000", "--rayleigh", "0:1e-6", "--variant", "velocity", "--no-cache", "--json",
             "-o", str(tmp_path / "ts.h5")]

@@ -8,13 +8,14 @@ from pathlib import Path
 import numpy as np
 import pytest
 import scipy.linalg as sla
+from helpers import CCX, DATA, SHARED
 
 import flexmor.io
 from flexmor.errors import ReadError
 from flexmor.io.abaqus import read_deck
 
-DATA = Path(__file__).parent / "data" / "abaqus"
-SHARED = Path(__file__).parents[2] / "shared" / "data" / "abaqus"
+ABAQUS = DATA / "abaqus"
+SHARED_ABAQUS = SHARED / "abaqus"
 
 # corner-node tetrahedra of a C3D8 (exact volume for planar faces)
 HEX_TETS = [(0, 1, 3, 4), (1, 2, 3, 6), (1, 4, 5, 6), (3, 4, 6, 7), (1, 3, 4, 6)]
@@ -45,7 +46,7 @@ def _rigid(model) -> np.ndarray:
 
 
 def _block(name):
-    folder = DATA if (DATA / f"{name}.inp").exists() else SHARED
+    folder = ABAQUS if (ABAQUS / f"{name}.inp").exists() else SHARED_ABAQUS
     if not (folder / f"{name}_STIF1.mtx").exists():
         pytest.skip(f"{name} not available")
     return folder / f"{name}.inp"
@@ -160,7 +161,7 @@ def test_deck_with_instances(tmp_path):
 
 
 def test_calculix_inp_goes_to_calculix():
-    ccx = Path(__file__).parent / "data" / "calculix" / "beam8_clamped_mat.inp"
+    ccx = CCX / "beam8_clamped_mat.inp"
     model = flexmor.io.read(ccx)
     assert model.n_dof == flexmor.io.read(ccx.with_suffix(".sti")).n_dof
 

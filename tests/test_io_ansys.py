@@ -3,16 +3,16 @@
 from __future__ import annotations
 
 import shutil
-from pathlib import Path
 
 import numpy as np
 import pytest
 import scipy.linalg as sla
+from helpers import DATA
 
 import flexmor.io
 from flexmor.errors import ReadError
 
-DATA = Path(__file__).parent / "data" / "ansys"
+ANSYS = DATA / "ansys"
 ROTOR = ["rotorAnsysStiffnessMatrixSparse.txt", "rotorAnsysMassMatrixSparse.txt",
          "rotorAnsysMatrixDofMappingVector.txt", "rotorAnsysNodalCoordinates.txt"]
 
@@ -30,7 +30,7 @@ def _rigid(model):
 
 @pytest.fixture(scope="module")
 def rotor():
-    return flexmor.io.read(DATA / ROTOR[0])
+    return flexmor.io.read(ANSYS / ROTOR[0])
 
 
 def test_rotor_first_flexible_mode_matches_exudyn(rotor):
@@ -54,7 +54,7 @@ def test_rotor_equations_map_to_nodes(rotor):
 
 def _rotor_copy(tmp_path, **texts):
     for name in ROTOR:
-        shutil.copy(DATA / name, tmp_path / name)
+        shutil.copy(ANSYS / name, tmp_path / name)
     for key, text in texts.items():
         (tmp_path / ROTOR[["K", "M", "map", "xyz"].index(key)]).write_text(text)
     return tmp_path / ROTOR[0]
@@ -75,7 +75,7 @@ def test_hbmat_mapping_file_and_decimal_points(tmp_path, rotor):
 
 
 def _text(i):
-    return (DATA / ROTOR[i]).read_text(encoding="latin-1")
+    return (ANSYS / ROTOR[i]).read_text(encoding="latin-1")
 
 
 @pytest.mark.parametrize("key, edit, fname, line, words", [
@@ -112,7 +112,7 @@ def test_hbmat_mapping_errors(tmp_path):
         flexmor.io.read(path)
 
 
-FULL = DATA / "ansys_file.full"
+FULL = ANSYS / "ansys_file.full"
 
 
 @pytest.fixture(scope="module")
@@ -120,7 +120,7 @@ def full_model():
     pytest.importorskip("ansys.mapdl.reader")
     if not FULL.exists():
         pytest.skip("ansys_file.full not available")
-    return flexmor.io.read(FULL, coordinates=DATA / "ansys_HexBeam.cdb")
+    return flexmor.io.read(FULL, coordinates=ANSYS / "ansys_HexBeam.cdb")
 
 
 def test_full_file_constrained_dofs_removed_and_reported(full_model):

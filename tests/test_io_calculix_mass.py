@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 import scipy.linalg as sla
 import scipy.sparse as sp
-from conftest import CCX
+from helpers import CCX
 
 import flexmor.io
 from flexmor.errors import FlexmorWarning, ReadError

@@ -133,17 +133,17 @@ def test_broken_binary_frd(tmp_path, clamped, clamped_ref):
 
 
 def test_info_reference(tmp_path, clamped, clamped_ref, capsys):
-    from conftest import CCX
+    from helpers import CLAMPED
 
     from flexmor.cli import main
 
     p = tmp_path / "job.frd"
     _write(p, clamped, clamped_ref[:N_MODES])
-    assert main(["info", str(CCX / "beam8_clamped_mat.sti"), "--reference", str(p), "--json"]) == 0
+    assert main(["info", CLAMPED, "--reference", str(p), "--json"]) == 0
     import json
 
     ref = json.loads(capsys.readouterr().out)["reference"]
     assert len(ref["mac"]) == N_MODES and max(ref["rel_diff"]) < 1e-5 and min(ref["mac"]) > 0.9999
     p.write_text(p.read_text().replace(" 9999\n", ""))
-    assert main(["info", str(CCX / "beam8_clamped_mat.sti"), "--reference", str(p)]) == 2
+    assert main(["info", CLAMPED, "--reference", str(p)]) == 2
     assert "job.frd" in capsys.readouterr().err

@@ -9,7 +9,7 @@ bricks and tetrahedra must have positive volume and wedges the orientation of VT
 
 import numpy as np
 import pytest
-from conftest import CCX, DATA
+from helpers import CCX, DATA
 
 import flexmor.io
 from flexmor.io._cells import abaqus_cell, ansys_cell, build_mesh, mesh_of_elements, nastran_cell

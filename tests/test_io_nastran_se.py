@@ -129,13 +129,13 @@ def test_cli_compare_and_export_superelement(tmp_path, clamped, capsys):
     import json
 
     import scipy.io
-    from conftest import CCX
+    from helpers import CLAMPED
 
     from flexmor.cli import main
 
     b, _ = _files(tmp_path, clamped, "binary")
     se = str(tmp_path / "se.op4")
-    assert main(["compare", str(CCX / "beam8_clamped_mat.sti"), se, "--band", "10:300", "--json"]) == 0
+    assert main(["compare", CLAMPED, se, "--band", "10:300", "--json"]) == 0
     row = json.loads(capsys.readouterr().out)["results"][0]
     assert row["method"] == "craig-bampton" and row["order"] == b.size + N_MODES
     assert row["band_error"] < 1e-4 and row["max_rel_error"] < 1e-2

@@ -4,7 +4,7 @@ import logging
 
 import numpy as np
 import pytest
-from conftest import DATA
+from helpers import DATA
 
 from flexmor.analysis.norms import h2_error
 from flexmor.io import read

@@ -7,14 +7,13 @@ full model has no resonance without a word; the RBE2 at the hole stiffened the m
 report's plots drew another reference than its table.
 """
 
-import json
 import warnings
 
 import numpy as np
 import pytest
 import scipy.linalg as sla
 import scipy.sparse.linalg as spla
-from conftest import CCX
+from helpers import FREE, run_json
 
 from flexmor.analysis.compare import JUDGED_ELASTIC, JUDGED_RIGID, FullResponse
 from flexmor.basis import Basis
@@ -29,13 +28,7 @@ from flexmor.reduction import reduce
 from flexmor.reduction.free_body import elastic_body, exclude_rigid, rigid_content, rigid_residual
 from flexmor.workflow import apply_damping, reduce_and_judge
 
-FREE = str(CCX / "beam8_free_mat.sti")
 BAND = (10.0, 2000.0)
-
-
-def run_json(capsys, *argv):
-    assert main(list(argv)) == 0
-    return json.loads(capsys.readouterr().out)
 
 
 @pytest.fixture(scope="module")

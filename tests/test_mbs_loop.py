@@ -9,17 +9,13 @@ DOF), reduced with and without the frame's inertia loads. Skipped without Exudyn
 
 from __future__ import annotations
 
-import importlib.util
-from pathlib import Path
-
 import numpy as np
 import pytest
+from helpers import ROOT, load_script
 
 pytest.importorskip("exudyn")
 
-_spec = importlib.util.spec_from_file_location("mbs_loop", Path(__file__).resolve().parents[1] / "bench" / "mbs_loop.py")
-mbs_loop = importlib.util.module_from_spec(_spec)
-_spec.loader.exec_module(mbs_loop)
+mbs_loop = load_script(ROOT / "bench" / "mbs_loop.py")
 
 
 @pytest.fixture(scope="module")

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import pathlib
 import subprocess
 import sys
 
@@ -11,6 +10,7 @@ import pytest
 import scipy.linalg as sla
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
+from helpers import CCX, calculix_frequencies
 
 pytest.importorskip("skfem")
 
@@ -20,7 +20,7 @@ from flexmor.models import cantilever, plate, size_for_dofs
 STEEL = {"E": 2.1e11, "nu": 0.3, "rho": 7850.0}
 
 #: CalculiX 2.x, C3D8, 10x2x2 elements on 1 x 0.1 x 0.1 m, steel, *FREQUENCY 20:
-#: column CYCLES/TIME of /work/shared/data/calculix/beam8_clamped_freq.dat (FIX, 1, 3 at x=0)
+#: column CYCLES/TIME of tests/data/calculix/beam8_clamped_freq.dat (FIX, 1, 3 at x=0)
 CCX_CLAMPED_HZ = [
     100.0459, 100.0459, 608.5650, 608.5650, 802.7393, 1306.773, 1648.371, 1648.371, 2428.061,
     3116.942, 3116.942, 3958.758, 4113.257, 4981.376, 4981.376, 5898.581, 6728.120, 7210.562,
@@ -31,7 +31,6 @@ CCX_FREE_HZ = [
     620.6715, 620.6715, 1610.433, 1668.565, 1668.565, 2598.190, 3183.976, 3183.976, 3260.649,
     4990.931, 5122.121, 5122.121, 5269.543, 6840.755,
 ]
-CCX_DIR = pathlib.Path("/work/shared/data/calculix")
 
 
 def _freqs_dense(model, k):
@@ -56,17 +55,6 @@ def _rigid_modes(model):
         u = np.cross(np.eye(3)[a], xyz)  # (n_dof, 3): displacement of each equation's node
         R[:, 3 + a] = u[np.arange(model.n_dof), d]
     return R
-
-
-def _ccx_column(name):
-    rows = []
-    for line in (CCX_DIR / name).read_text().splitlines():
-        parts = line.split()
-        if len(parts) == 5 and parts[0].isdigit():
-            rows.append(float(parts[3]))
-        elif rows:
-            break
-    return np.array(rows)
 
 
 # -- conservation: mass and rigid-body modes ---------------------------------------------------
@@ -146,10 +134,9 @@ def test_free_hex_beam_reproduces_calculix_c3d8():
     np.testing.assert_allclose(f[6:], CCX_FREE_HZ, rtol=2e-6)
 
 
-@pytest.mark.skipif(not CCX_DIR.is_dir(), reason="shared CalculiX data not present")
 def test_embedded_calculix_numbers_match_the_files():
-    np.testing.assert_allclose(_ccx_column("beam8_clamped_freq.dat"), CCX_CLAMPED_HZ, rtol=1e-12)
-    np.testing.assert_allclose(_ccx_column("beam8_free_freq.dat")[6:], CCX_FREE_HZ, rtol=1e-12)
+    np.testing.assert_allclose(calculix_frequencies(CCX / "beam8_clamped_freq.dat"), CCX_CLAMPED_HZ, rtol=1e-12)
+    np.testing.assert_allclose(calculix_frequencies(CCX / "beam8_free_freq.dat")[6:], CCX_FREE_HZ, rtol=1e-12)
 
 
 # -- Euler-Bernoulli -------------------------------------------------------------------------------

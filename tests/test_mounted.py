@@ -12,7 +12,7 @@ import json
 import numpy as np
 import pytest
 import scipy.sparse.linalg as spla
-from conftest import CCX
+from helpers import FREE
 
 from flexmor.analysis.mounted import FullMounted, mounted_check, mounted_note, supports
 from flexmor.cli import main
@@ -24,7 +24,6 @@ from flexmor.reduction.free_body import interface_loads, rigid_motions
 from flexmor.workflow import apply_damping
 
 BAND = (1.0, 2000.0)
-FREE = str(CCX / "beam8_free_mat.sti")
 
 
 @pytest.fixture(scope="module")

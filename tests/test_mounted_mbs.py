@@ -16,20 +16,15 @@ Skipped without Exudyn (extra ``exudyn``).
 from __future__ import annotations
 
 import dataclasses
-import importlib.util
-import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
 import sid_check
+from helpers import ROOT, load_script
 
 pytest.importorskip("exudyn")
 
-_spec = importlib.util.spec_from_file_location("mounted", Path(__file__).resolve().parents[1] / "bench" / "mounted.py")
-mounted = importlib.util.module_from_spec(_spec)
-sys.modules["mounted"] = mounted  # dataclasses look their module up
-_spec.loader.exec_module(mounted)
+mounted = load_script(ROOT / "bench" / "mounted.py")
 
 METHODS = mounted.METHODS
 PLATE_N = 12

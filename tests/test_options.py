@@ -14,7 +14,7 @@ import pickle
 
 import numpy as np
 import pytest
-from conftest import CCX
+from helpers import CLAMPED
 
 from flexmor.cli import main
 from flexmor.damping import (
@@ -32,7 +32,6 @@ from flexmor.ports import make_ports
 from flexmor.reduction import METHODS, _load_builtin, reduce
 
 _load_builtin()
-CLAMPED = str(CCX / "beam8_clamped_mat.sti")
 #: The solver parameter every method takes besides its options.
 SOLVER = {"backend", "solver"}
 

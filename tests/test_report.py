@@ -139,7 +139,7 @@ def test_report_opens_in_headless_chromium(report):
 def test_cli_report_writes_html_and_json(report, tmp_path, capsys):
     import json
 
-    from conftest import CCX
+    from helpers import CLAMPED
 
     from flexmor.cli import main
     from flexmor.io.hdf5 import write_reduced
@@ -150,7 +150,7 @@ def test_cli_report_writes_html_and_json(report, tmp_path, capsys):
         files.append(tmp_path / f"body{k}.h5")
         write_reduced(red, files[-1])
     out = tmp_path / "r.html"
-    code = main(["report", str(CCX / "beam8_clamped_mat.sti"), *map(str, files), "-o", str(out), "--band", "10:3000",
+    code = main(["report", CLAMPED, *map(str, files), "-o", str(out), "--band", "10:3000",
                  "--dt", "5e-5", "--t-end", "0.01", "--modes", "6", "--json"])
     assert code == 0
     res = json.loads(capsys.readouterr().out)
