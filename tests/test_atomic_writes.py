@@ -218,7 +218,8 @@ def test_cli_refuses_to_overwrite_without_force(tmp_path, capsys):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["body.SID_FEM", "body.h5"]
 
 
-@pytest.mark.parametrize("exc,code", [(KeyboardInterrupt(), 130), (OSError(errno.ENOSPC, "No space left on device"), 2)],
+@pytest.mark.parametrize("exc,code",
+                         [(KeyboardInterrupt(), 130), (OSError(errno.ENOSPC, "No space left on device"), 2)],
                          ids=["ctrl-c", "disk-full"])
 def test_cli_interrupted_while_writing_leaves_no_output(exc, code, tmp_path, monkeypatch, capsys):
     out = tmp_path / "body.h5"

@@ -130,7 +130,8 @@ def test_demo_writes_bodies_and_plot(capsys, tmp_path):
     png = (tmp_path / "rel_error.png").read_bytes()
     assert png[:8] == b"\x89PNG\r\n\x1a\n"
     page = (tmp_path / "report.html").read_text(encoding="utf-8")
-    assert out["report"] == str(tmp_path / "report.html") and page.count("data:image/png;base64,") == 6  # incl. fw-sobt's singular values
+    assert out["report"] == str(tmp_path / "report.html")
+    assert page.count("data:image/png;base64,") == 6  # incl. fw-sobt's singular values
     assert all(f"<td>{r['time_max_error']:.3e}</td>" in page for r in res)
 
 

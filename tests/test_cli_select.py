@@ -21,8 +21,8 @@ def test_info_lists_the_selected_set(capsys):
 
 def test_reduce_with_a_selected_hole_coupled_by_rbe2(tmp_path, capsys):
     out = tmp_path / "ring.h5"
-    code = main(["reduce", FREE, "--method", "craig-bampton", "--order", "10", "--select", RING, "--interface", "RING@rbe2",
-                 "--input", "RING@rbe2:y", "--no-error", "-o", str(out), "--json"])
+    code = main(["reduce", FREE, "--method", "craig-bampton", "--order", "10", "--select", RING,
+                 "--interface", "RING@rbe2", "--input", "RING@rbe2:y", "--no-error", "-o", str(out), "--json"])
     assert code == 0, capsys.readouterr().err
     red = read_reduced(out)
     assert red.info["selections"] == [RING] and red.info["couplings"] == ["RING@rbe2"]

@@ -156,7 +156,8 @@ def test_factor_compression_keeps_gramians_and_bounds_memory(clamped):
 
     model = clamped.with_rayleigh(0.0, 1e-6)
     ports = make_ports(model, ["TIP:y", "TIP:z"])
-    once = gramian_factors(model, ports, (50.0, 700.0), nodes=2, max_columns=10 ** 6, solves="direct")  # once, at the end
+    # once, at the end
+    once = gramian_factors(model, ports, (50.0, 700.0), nodes=2, max_columns=10 ** 6, solves="direct")
     often = gramian_factors(model, ports, (50.0, 700.0), nodes=2, max_columns=16, solves="direct")  # limit raised to 32
     assert once.info["compressions"] == 0 and once.info["factor_columns_peak"] == 4 * once.info["n_nodes"]
     assert often.info["compressions"] > 10 and often.info["factor_columns_peak"] < once.info["factor_columns_peak"] / 4

@@ -86,7 +86,8 @@ def test_abaqus_massless_equation(tmp_path, block, ok):
         with pytest.raises(ReadError, match="mass matrix diagonal is not positive at 1 equation"):
             flexmor.io.read(tmp_path / f"{block}.inp")
         return
-    with pytest.warns(FlexmorWarning, match=r"blockC3D10.inp: mass matrix diagonal is not positive at 1 equation.*shift-invert"):
+    with pytest.warns(FlexmorWarning,
+                      match=r"blockC3D10.inp: mass matrix diagonal is not positive at 1 equation.*shift-invert"):
         model = flexmor.io.read(tmp_path / f"{block}.inp")
     assert model.M.diagonal()[0] == 0.0 and np.count_nonzero(model.M.diagonal() <= 0) == 1
 

@@ -62,7 +62,8 @@ def _write(path, model, freqs, *, fmt=1, binary=False, perturb=None, gk=False):
         line(f"    1PGM  {1.0:12.6E}")
         if gk:
             line(f"    1PGK  {(2 * np.pi * f) ** 2:16.9E}")
-        line(f"  100CL{101 + i:5d}{f:12.5E}{ids.size:12d}{'':20s}{2:2d}{i + 1:5d}{'MODAL':10s}{2 if binary else fmt:2d}")
+        line(f"  100CL{101 + i:5d}{f:12.5E}{ids.size:12d}{'':20s}{2:2d}{i + 1:5d}{'MODAL':10s}"
+             f"{2 if binary else fmt:2d}")
         line(" -4  DISP        4    1")
         for k in range(3):
             line(f" -5  D{k + 1}          1    2{k + 1:5d}    0")

@@ -171,7 +171,7 @@ def test_ansys_full_with_cdb_has_the_mesh():
     assert block.type == "hexahedron20" and len(block.nodes) == 40
     x = model.xyz[np.searchsorted(model.node_ids, block.nodes)]
     for cell in x:
-        _check_midsides("hexahedron20", np.arange(20), lambda i: cell[i])
+        _check_midsides("hexahedron20", np.arange(20), lambda i, cell=cell: cell[i])
     vols = [_hex_volume(cell[:8]) for cell in x]
     assert min(vols) > 0
     assert sum(vols) == pytest.approx(np.prod(model.xyz.max(axis=0) - model.xyz.min(axis=0)))

@@ -49,7 +49,7 @@ def _files(tmp_path, model, fmt):
     local = set(tip[::2].tolist())  # every other tip grid in CD=7
     nb = b.size
     T = np.eye(nb + N_MODES)
-    for k, (g, d) in enumerate(model.dofs[b]):
+    for g in model.dofs[b, 0]:
         if g in local:
             Q = _cyl_frame(model.node_xyz([g])[0] - np.array([0.0, 0.05, 0.05]))
             rows = [j for j in range(nb) if model.dofs[b[j], 0] == g]

@@ -178,7 +178,7 @@ def test_coupling_frequencies_in_info_reduce_and_the_body(capsys, tmp_path, free
     np.testing.assert_allclose(rec["coupled_hz"], _elastic_hz(coupled, 6), rtol=1e-8)
     assert info["n_dof"] == coupled.n_dof and rec["coupled_hz"][5] > rec["uncoupled_hz"][5]
     out = run_json(capsys, "reduce", FREE, "--method", "craig-bampton", "--order", "16", *args, "--input",
-                   "TIP@rbe2:y", "--modal-damping", "0.01", "--band", "10:3000", "-o", str(tmp_path / "cb.h5"), "--json")
+                   "TIP@rbe2:y", "--modal-damping", "0.01", "--band", "10:3000", "-o", tmp_path / "cb.h5", "--json")
     np.testing.assert_allclose(out["coupling_frequencies"]["coupled_hz"], rec["coupled_hz"], rtol=1e-8)
     np.testing.assert_allclose(out["coupling_frequencies"]["uncoupled_hz"], rec["uncoupled_hz"], rtol=1e-10)
     body = run_json(capsys, "info", str(tmp_path / "cb.h5"), "--json")

@@ -20,7 +20,8 @@ mbs_loop = load_script(ROOT / "bench" / "mbs_loop.py")
 
 @pytest.fixture(scope="module")
 def pendulum():
-    res = mbs_loop.free_body("pendulum", (10, 2, 2), [18], end_time=0.2, step=1e-3, methods=("modal", "craig-bampton", "krylov"))
+    res = mbs_loop.free_body("pendulum", (10, 2, 2), [18], end_time=0.2, step=1e-3,
+                             methods=("modal", "craig-bampton", "krylov"))
     return res, {row["method"]: row for row in res["rows"]}
 
 
@@ -155,7 +156,8 @@ def test_benchmark_command_line_prints_the_tables(tmp_path, capsys):
     import json
 
     tiny = ["--divisions", "6,1,1", "--crank-divisions", "6,1,1", "--hub-divisions", "6,1,1", "--orders", "12",
-            "--end-time", "0.02", "--crank-end-time", "0.02", "--hub-end-time", "0.02", "--json", str(tmp_path / "r.json")]
+            "--end-time", "0.02", "--crank-end-time", "0.02", "--hub-end-time", "0.02",
+            "--json", str(tmp_path / "r.json")]
     assert mbs_loop.main(tiny) == 0
     out = capsys.readouterr().out
     res = json.loads((tmp_path / "r.json").read_text())

@@ -141,8 +141,8 @@ def test_embedded_calculix_numbers_match_the_files():
 
 # -- Euler-Bernoulli -------------------------------------------------------------------------------
 def _euler_bernoulli_f1(L=1.0, w=0.1, h=0.1, E=2.1e11, rho=7850.0):
-    I, A = w * h**3 / 12, w * h
-    return 1.8751040687**2 / (2 * np.pi * L**2) * np.sqrt(E * I / (rho * A))
+    inertia, area = w * h**3 / 12, w * h
+    return 1.8751040687**2 / (2 * np.pi * L**2) * np.sqrt(E * inertia / (rho * area))
 
 
 def test_cantilever_converges_to_euler_bernoulli():

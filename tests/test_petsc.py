@@ -23,8 +23,19 @@ from flexmor.errors import OptionError
 HERE = Path(__file__).parent
 HAVE_PETSC = all(importlib.util.find_spec(m) is not None for m in ("petsc4py", "slepc4py", "mpi4py"))
 MPIRUN = shutil.which("mpirun") or shutil.which("mpiexec")
-needs_petsc = pytest.mark.skipif(not HAVE_PETSC, reason="petsc4py/slepc4py/mpi4py not installed (make test-mpi)")
-needs_mpi = pytest.mark.skipif(not (HAVE_PETSC and MPIRUN), reason="needs petsc4py and mpirun (make test-mpi)")
+
+
+def needs_petsc(test):
+    """Mark ``test`` as ``mpi`` and skip it without petsc4py/slepc4py/mpi4py."""
+    skip = pytest.mark.skipif(not HAVE_PETSC, reason="petsc4py/slepc4py/mpi4py not installed (make test-mpi)")
+    return pytest.mark.mpi(skip(test))
+
+
+def needs_mpi(test):
+    """Mark ``test`` as ``mpi`` and skip it without petsc4py or mpirun."""
+    skip = pytest.mark.skipif(not (HAVE_PETSC and MPIRUN), reason="needs petsc4py and mpirun (make test-mpi)")
+    return pytest.mark.mpi(skip(test))
+
 
 #: Resolution of the built-in cantilever of the 2-rank comparisons: the replicated model always uses
 #: n=6 (8,820 DOF); the partitioned one (never assembled on one rank) uses FLEXMOR_MPI_TEST_N, default

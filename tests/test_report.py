@@ -5,7 +5,6 @@ from __future__ import annotations
 import base64
 import io
 import re
-import shutil
 import subprocess
 
 import numpy as np
@@ -120,10 +119,12 @@ def test_report_numbers_equal_the_computed_ones(report):
     assert f"<td>{rep.modal['full_hz'][0]:.4f}</td>" in text
 
 
+@pytest.mark.browser
 def test_report_opens_in_headless_chromium(report):
+    from browser import find_chromium
+
     *_, path, text = report
-    exe = next((shutil.which(n) for n in ("chromium", "chromium-browser", "google-chrome", "headless_shell")
-                if shutil.which(n)), None)
+    exe = find_chromium()
     if exe is None:
         pytest.skip("no chromium/chrome on PATH; images are checked by decoding them instead")
     js = ("<script>window.onload=()=>{const bad=[...document.images].filter(i=>!i.complete||i.naturalWidth==0)"
