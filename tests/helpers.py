@@ -78,3 +78,19 @@ def load_script(path: Path | str, name: str | None = None):
 def load_example(name: str):
     """Import ``examples/NAME.py`` as a module."""
     return load_script(ROOT / "examples" / f"{name}.py", name)
+
+
+def geometric_rigid_modes(model, about=None) -> np.ndarray:
+    """The ``(n_dof, 6)`` rigid-body motions at the equations of a model with translational DOFs
+    only: translations x y z, then rotations about the x y z axes through ``about`` (default: the
+    origin), built from the node coordinates and the equation map alone."""
+    n = model.n_dof
+    xyz = model.node_xyz(model.dofs[:, 0])
+    if about is not None:
+        xyz = xyz - np.asarray(about, dtype=float)
+    d = model.dofs[:, 1] - 1
+    R = np.zeros((n, 6))
+    for j in range(3):
+        R[d == j, j] = 1.0
+        R[:, 3 + j] = np.cross(np.eye(3)[j], xyz)[np.arange(n), d]  # u = e_j x r at each equation's node
+    return R

@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import scipy.linalg as sla
-from helpers import CCX, DATA, SHARED
+from helpers import CCX, DATA, SHARED, geometric_rigid_modes
 
 import flexmor.io
 from flexmor.errors import ReadError
@@ -30,19 +30,6 @@ def _volume(deck) -> float:
         for a, b, c, d in tets:
             vol += abs(np.linalg.det(np.stack([x[b] - x[a], x[c] - x[a], x[d] - x[a]]))) / 6
     return vol
-
-
-def _rigid(model) -> np.ndarray:
-    """The 6 rigid-body motions (x y z translations, rotations about x y z) at the equations."""
-    n = model.n_dof
-    xyz = model.node_xyz(model.dofs[:, 0])
-    d = model.dofs[:, 1] - 1
-    R = np.zeros((n, 6))
-    for j in range(3):
-        R[d == j, j] = 1.0
-        u = np.cross(np.eye(3)[j], xyz)
-        R[:, 3 + j] = u[np.arange(n), d]
-    return R
 
 
 def _block(name):
@@ -70,7 +57,7 @@ def test_block_sizes_and_sets(block):
 
 def test_block_rigid_body_motions_and_mass(block):
     inp, model = block
-    R = _rigid(model)
+    R = geometric_rigid_modes(model)
     # equations map to the right nodes: rigid translations AND rotations give no elastic force
     scale = abs(model.K).max() * np.abs(model.xyz).max()
     assert np.abs(model.K @ R).max() < 1e-12 * scale

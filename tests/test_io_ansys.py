@@ -7,7 +7,7 @@ import shutil
 import numpy as np
 import pytest
 import scipy.linalg as sla
-from helpers import DATA
+from helpers import DATA, geometric_rigid_modes
 
 import flexmor.io
 from flexmor.errors import ReadError
@@ -15,17 +15,6 @@ from flexmor.errors import ReadError
 ANSYS = DATA / "ansys"
 ROTOR = ["rotorAnsysStiffnessMatrixSparse.txt", "rotorAnsysMassMatrixSparse.txt",
          "rotorAnsysMatrixDofMappingVector.txt", "rotorAnsysNodalCoordinates.txt"]
-
-
-def _rigid(model):
-    n = model.n_dof
-    xyz = model.node_xyz(model.dofs[:, 0])
-    d = model.dofs[:, 1] - 1
-    R = np.zeros((n, 6))
-    for j in range(3):
-        R[d == j, j] = 1.0
-        R[:, 3 + j] = np.cross(np.eye(3)[j], xyz)[np.arange(n), d]
-    return R
 
 
 @pytest.fixture(scope="module")
@@ -44,7 +33,7 @@ def test_rotor_first_flexible_mode_matches_exudyn(rotor):
 def test_rotor_equations_map_to_nodes(rotor):
     # block i of 3 equations belongs to node vector[i]: rigid rotations give no elastic force
     np.testing.assert_array_equal(rotor.dofs[:4], [[3, 1], [3, 2], [3, 3], [31, 1]])
-    R = _rigid(rotor)
+    R = geometric_rigid_modes(rotor)
     assert np.abs(rotor.K @ R).max() < 1e-11 * abs(rotor.K).max()
     np.testing.assert_allclose(rotor.node_xyz([1])[0], [-4.996003611e-16, -4.996003611e-16, 0.15])
     np.testing.assert_allclose(rotor.node_xyz([2])[0], [-4.996003611e-16, -4.996003611e-16, 0.1])
@@ -132,7 +121,7 @@ def test_full_file_constrained_dofs_removed_and_reported(full_model):
     assert not np.any(np.isin(m.dofs[:, 0], gone[:, 0]))
     assert abs(m.K - m.K.T).max() == 0.0 and m.K.diagonal().min() > 0
     # away from the clamp, rigid motions of the nodes give no elastic force (the map is right)
-    res = np.abs(m.K @ _rigid(m)).max(axis=1) / abs(m.K).max()
+    res = np.abs(m.K @ geometric_rigid_modes(m)).max(axis=1) / abs(m.K).max()
     assert np.count_nonzero(res < 1e-10) >= 800
     w = sla.eigh(m.K.toarray(), m.M.toarray(), eigvals_only=True, subset_by_index=[0, 1])
     assert np.sqrt(w[0]) / (2 * np.pi) == pytest.approx(1283.2004, rel=1e-6)

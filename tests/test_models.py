@@ -10,7 +10,7 @@ import pytest
 import scipy.linalg as sla
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
-from helpers import CCX, calculix_frequencies
+from helpers import CCX, calculix_frequencies, geometric_rigid_modes
 
 pytest.importorskip("skfem")
 
@@ -43,25 +43,11 @@ def _f1_sparse(model):
     return float(np.sqrt(np.min(lam)) / (2 * np.pi))
 
 
-def _rigid_modes(model):
-    """(n_dof, 6) rigid translations and rotations built from xyz and the equation map."""
-    xyz = model.node_xyz(model.dofs[:, 0]) - model.xyz.mean(axis=0)
-    d = model.dofs[:, 1] - 1
-    R = np.zeros((model.n_dof, 6))
-    for j in range(3):
-        R[d == j, j] = 1.0
-    # rotation about axis a: u = e_a x r
-    for a in range(3):
-        u = np.cross(np.eye(3)[a], xyz)  # (n_dof, 3): displacement of each equation's node
-        R[:, 3 + a] = u[np.arange(model.n_dof), d]
-    return R
-
-
 # -- conservation: mass and rigid-body modes ---------------------------------------------------
 @pytest.mark.parametrize("element", ["hex", "hex27", "tet"])
 def test_total_mass_of_free_cantilever(element):
     m = cantilever(2, element=element, clamped=False, length=1.0, width=0.2, height=0.1, **STEEL)
-    R = _rigid_modes(m)
+    R = geometric_rigid_modes(m, about=m.xyz.mean(axis=0))
     exact = 7850.0 * 1.0 * 0.2 * 0.1
     for j in range(3):
         assert R[:, j] @ (m.M @ R[:, j]) == pytest.approx(exact, rel=1e-10)
@@ -71,7 +57,7 @@ def test_total_mass_of_free_cantilever(element):
 
 def test_total_mass_of_plate():
     m = plate(4, a=1.0, b=0.6, t=0.01)
-    r = _rigid_modes(m)[:, 2]
+    r = geometric_rigid_modes(m, about=m.xyz.mean(axis=0))[:, 2]
     assert r @ (m.M @ r) == pytest.approx(7850.0 * 1.0 * 0.6 * 0.01, rel=1e-10)
 
 
@@ -83,7 +69,7 @@ def test_total_mass_of_plate():
 ])
 def test_rigid_body_modes_are_in_the_null_space(maker):
     m = maker()
-    R = _rigid_modes(m)
+    R = geometric_rigid_modes(m, about=m.xyz.mean(axis=0))
     Knorm = spla.norm(m.K, ord=np.inf)
     for j in range(6):
         r = R[:, j]
