@@ -117,6 +117,7 @@ def test_console_script_exit_code(tmp_path):
     assert r.stderr.strip() == f"flexmor: error: {tmp_path / 'nope.sti'}: file not found"
 
 
+@pytest.mark.slow
 def test_demo_writes_bodies_and_plot(capsys, tmp_path):
     out = run_json(capsys, "demo", "--out", str(tmp_path), "--n", "2", "--json")
     res = out["results"]

@@ -233,6 +233,7 @@ def test_sigterm_lost_in_a_destructor_still_ends_with_143_and_no_output(capsys, 
     assert signal.getsignal(signal.SIGTERM) is signal.SIG_DFL  # the handler is removed again
 
 
+@pytest.mark.slow
 def test_sigterm_at_any_moment_gives_143_and_no_output(tmp_path):
     """``timeout -s TERM`` at several moments of a run: 143 and no file, or 0 and the file (-15, the
     default action, before the interpreter got to flexmor's handler: no file either). Once the

@@ -15,6 +15,7 @@ def table():
     return s3.run(6, band=(1.0, 2000.0), zeta=0.01, pod_nodes=1, grid_tol=0.1)
 
 
+@pytest.mark.slow
 def test_ordering_krylov_two_step_pod_modal(table):
     e = {name: v["band_error"] for name, v in table["methods"].items()}
     mx = {name: v["max_rel_error"] for name, v in table["methods"].items()}

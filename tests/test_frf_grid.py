@@ -52,6 +52,7 @@ def _exact_frf(model, ports):
     return H, np.sqrt(lam) / (2 * np.pi)
 
 
+@pytest.mark.slow
 def test_adaptive_band_error_matches_brute_force(beam, full, reduced_bodies):
     model, ports = beam
     H, fk = _exact_frf(model, ports)

@@ -85,6 +85,7 @@ def test_methods_give_the_same_body_with_every_solves(beam, method, order):
         assert abs(e / e0 - 1) < 1e-5, s
 
 
+@pytest.mark.slow
 def test_free_body_flexible_gramians_agree(free):
     model = free.with_rayleigh(0.0, 1e-6)
     ports = make_ports(model, ["TIP:y", "TIP:z"])
@@ -173,6 +174,7 @@ def test_full_band_surrogate_ends_at_the_cutoff_and_bounds_the_rest(clamped):
         assert 0 < share <= tail[name] < 1.1 * share, name
 
 
+@pytest.mark.slow
 def test_sobt_full_band_surrogate_equals_direct_to_its_tail(clamped):
     model = clamped.with_rayleigh(5.0, 1e-6)
     ports = make_ports(model, ["TIP:y", "TIP:z"])

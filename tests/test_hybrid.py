@@ -112,6 +112,7 @@ def test_cli_options_of_gramian_methods(tmp_path, capsys):
                  "-o", str(tmp_path / "p.h5")]) == 2
 
 
+@pytest.mark.slow
 def test_issue_comparison_on_the_cantilever():
     # the Gramian/hybrid comparison at reduced size: the built-in clamped cantilever cantilever(4)
     # (3,000 DOF), six ports at the tip (TIP and TIP_CENTER, x/y/z), 1 % Rayleigh damping at

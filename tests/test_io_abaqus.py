@@ -87,6 +87,7 @@ def _write_labels(path: Path, model, *, prefix="", triangle="both"):
             f.write(f"{prefix}{nd[i, 0]},{nd[i, 1]}, {prefix}{nd[j, 0]},{nd[j, 1]}, {float(v)!r}\n")
 
 
+@pytest.mark.slow
 def test_labels_form_gives_the_same_model(tmp_path):
     inp = _block("blockC3D8")
     ref = flexmor.io.read(inp)

@@ -46,6 +46,7 @@ def test_irka_lf10_converges_and_beats_krylov_in_h2(lf10, r):
     assert e_i <= e_k, (e_i, e_k)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("r", [6, 12])
 def test_irka_cantilever_three_inputs(cant3, r):
     model, ports = cant3

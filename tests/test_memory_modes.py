@@ -39,6 +39,7 @@ def _rhs(n, k=3):
     return np.random.default_rng(7).standard_normal((n, k))
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("kind", ["real", "complex"])
 @pytest.mark.parametrize("backend", MIXED)
 def test_mixed_precision_solves_equal_the_double_ones(beam, backend, kind):

@@ -44,6 +44,7 @@ def test_the_body_has_the_ratio_in_every_mode(clamped, method):
     assert band_matched(0.02, BAND).ratios([100.0])[0] < 0.15 * 0.02  # 0.27 % at 100 Hz
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", ["clamped", "free"])
 def test_sparse_full_frf_matches_the_exact_modal_sum(name, request):
     """The sparse sweep corrects the modes below the band's top to zeta; the rest (quasi-static in

@@ -126,6 +126,7 @@ def test_without_the_frame_a_clamped_body_is_far_too_stiff(plate, cb):
 
 @pytest.mark.parametrize("method, order, on_max, off_min", [("krylov", 24, 1e-6, 0.1), ("pod", 36, 1e-3, 0.1),
                                                             ("fw-sobt", 36, 1e-3, 0.1)])
+@pytest.mark.slow
 def test_inertia_loads_of_the_held_body_make_it_sag_like_the_full_model(plate, method, order, on_max, off_min):
     """Inputs HOLE@rbe2:z and a corner's z: gravity in x and y loads the mounted body through
     the master's forces and moments in x, y, which the inputs do not have. Measured clamped sag
