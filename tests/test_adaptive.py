@@ -24,6 +24,7 @@ def cant():
     return model, ports, FullResponse(model, ports, BAND)
 
 
+@pytest.mark.slow
 def test_tol_mode_needs_smaller_order_than_modal(cant):
     model, ports, full = cant
     orders = {}

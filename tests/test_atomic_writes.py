@@ -200,6 +200,7 @@ def _reduce_argv(out, *extra):
             "-o", str(out), *extra]
 
 
+@pytest.mark.slow
 def test_cli_refuses_to_overwrite_without_force(tmp_path, capsys):
     out = tmp_path / "body.h5"
     out.write_bytes(b"precious")
@@ -253,6 +254,7 @@ sys.exit(main(sys.argv[1:]))
 """
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("sig,code", [(signal.SIGINT, 130), (signal.SIGTERM, 143)], ids=["SIGINT", "SIGTERM"])
 def test_cli_process_signalled_mid_write_leaves_no_output(sig, code, tmp_path):
     folder, marker = tmp_path / "out", tmp_path / "stalled"

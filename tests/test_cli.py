@@ -136,6 +136,7 @@ def test_demo_writes_bodies_and_plot(capsys, tmp_path):
     assert all(f"<td>{r['time_max_error']:.3e}</td>" in page for r in res)
 
 
+@pytest.mark.slow
 def test_rbe2_interface_reduce_compare_export(capsys, tmp_path):
     body = tmp_path / "cb.h5"
     out = run_json(capsys, "reduce", CLAMPED, "--method", "craig-bampton", "--order", "10", "--interface", "TIP@rbe2",

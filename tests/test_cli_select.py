@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 
+import pytest
 from helpers import CLAMPED, FREE
 
 from flexmor.cli import main
@@ -19,6 +20,7 @@ def test_info_lists_the_selected_set(capsys):
     assert out["node_sets"]["TIPX"] == 9 and out["node_sets"]["MID"] == 1
 
 
+@pytest.mark.slow
 def test_reduce_with_a_selected_hole_coupled_by_rbe2(tmp_path, capsys):
     out = tmp_path / "ring.h5"
     code = main(["reduce", FREE, "--method", "craig-bampton", "--order", "10", "--select", RING,

@@ -149,6 +149,7 @@ def test_antiresonance_and_resonance_notes_on_an_analytic_curve():
     assert set(MEASURES) == {"band_error", "rms_rel_error_pct", "hinf_error", "max_rel_error"}
 
 
+@pytest.mark.slow
 def test_undamped_resonance_dominated_error_suggests_damping(capsys, tmp_path):
     out = run_json(capsys, "reduce", CLAMPED, "--method", "craig-bampton", "--interface", "TIP", "--order", "33",
                    "--input", "TIP:y", "-o", tmp_path / "cb.h5")
@@ -156,6 +157,7 @@ def test_undamped_resonance_dominated_error_suggests_damping(capsys, tmp_path):
     assert any(n.startswith("undamped model") and "--rayleigh" in n for n in out["notes"])
 
 
+@pytest.mark.slow
 def test_craig_bampton_tol_chooses_the_fixed_interface_modes(capsys, tmp_path):
     out = run_json(capsys, "reduce", CLAMPED, "--method", "craig-bampton", "--interface", "TIP", "--tol", "1e-4",
                    "--input", "TIP:y", "--output", "TIP:y", "-o", tmp_path / "cb.h5")
@@ -171,6 +173,7 @@ def test_craig_bampton_tol_chooses_the_fixed_interface_modes(capsys, tmp_path):
     assert code == 2 and "--tol does not apply to guyan" in err
 
 
+@pytest.mark.slow
 def test_tol_measure(capsys, tmp_path):
     out = run_json(capsys, "reduce", CLAMPED, "--method", "modal", "--tol", "1", "--tol-measure",
                    "rms_rel_error_pct", "--input", "TIP:y", "--rayleigh", "0:1e-5", "-o", tmp_path / "m.h5")
@@ -186,6 +189,7 @@ def test_tol_measure(capsys, tmp_path):
         assert method in text.split("--tol TOL target error")[1].split("not guyan")[0].split("Methods:")[1]
 
 
+@pytest.mark.slow
 def test_orders_that_differ_from_the_request_say_why(capsys, tmp_path):
     out = run_json(capsys, "reduce", CLAMPED, "--method", "craig-bampton", "--interface", "TIP", "--order", "400",
                    "--input", "TIP:y", "--no-error", "-o", tmp_path / "cb.h5")
@@ -277,6 +281,7 @@ def test_info_on_a_model_shows_mass_centre_box_and_selections(capsys):
     assert "mass      78.5 " in text and "c.o.m.    (0.5, 0.05, 0.05)" in text
 
 
+@pytest.mark.slow
 def test_a_coupled_body_matches_its_model_once_coupled_again(capsys, tmp_path):
     body = tmp_path / "c.h5"
     made = run_json(capsys, "reduce", FREE, "--method", "craig-bampton", "--interface", "TIP@rbe2", "--order", "10",
@@ -322,6 +327,7 @@ def test_files_written_by_other_threads_are_not_the_runs(tmp_path):
     assert type(exc.value).__name__ == "_Terminated" and run.written == [tmp_path / "mine.h5"]
 
 
+@pytest.mark.slow
 def test_craig_bampton_tol_on_a_free_body_starts_above_the_interface(capsys, tmp_path):
     """A free body's Craig-Bampton basis keeps n_b = 27 columns (inertia-relief attachment modes)."""
     out = run_json(capsys, "reduce", FREE, "--method", "craig-bampton", "--interface", "TIP", "--tol", "1e-3",

@@ -8,6 +8,9 @@ from helpers import load_example
 
 s3 = load_example("slide3_table")
 
+#: the table fixture alone runs every method on 1,728 DOF
+pytestmark = pytest.mark.slow
+
 
 @pytest.fixture(scope="module")
 def table():
@@ -15,7 +18,6 @@ def table():
     return s3.run(6, band=(1.0, 2000.0), zeta=0.01, pod_nodes=1, grid_tol=0.1)
 
 
-@pytest.mark.slow
 def test_ordering_krylov_two_step_pod_modal(table):
     e = {name: v["band_error"] for name, v in table["methods"].items()}
     mx = {name: v["max_rel_error"] for name, v in table["methods"].items()}

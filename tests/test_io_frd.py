@@ -80,6 +80,7 @@ def _write(path, model, freqs, *, fmt=1, binary=False, perturb=None, gk=False):
     return ids, xyz, U
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("fmt, binary", [(1, False), (0, False), (1, True)])
 def test_frd_modes_match_the_model(tmp_path, clamped, clamped_ref, fmt, binary):
     p = tmp_path / "beam.frd"

@@ -165,6 +165,7 @@ def test_abaqus_job_has_the_deck_mesh():
     assert vol.sum() == pytest.approx(np.prod(hi - lo))
 
 
+@pytest.mark.slow
 def test_ansys_full_with_cdb_has_the_mesh():
     model = flexmor.io.read(DATA / "ansys" / "ansys_file.full", coordinates=DATA / "ansys" / "ansys_HexBeam.cdb")
     (block,) = model.mesh.blocks

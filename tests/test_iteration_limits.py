@@ -44,6 +44,7 @@ def test_arpack_non_convergence_carries_the_converged_pairs(clamped, monkeypatch
     np.testing.assert_array_equal(phi[:, 0], np.eye(n)[:, 1])
 
 
+@pytest.mark.slow
 def test_irka_iteration_limit_on_the_command_line(tmp_path, capsys, caplog):
     out = tmp_path / "irka.h5"
     code = main(["reduce", CLAMPED, "--method", "irka", "--order", "6", "--input",
