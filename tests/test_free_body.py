@@ -249,6 +249,7 @@ def _quasi_static_error(model, red, load, C):
     return np.linalg.norm(C @ (ur - u)) / np.linalg.norm(C @ u)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("method, off_min, on_max", [("krylov", 0.5, 1e-6), ("fw-sobt", 0.5, 0.05)])
 def test_inertia_loads_make_a_supported_body_see_its_frame_acceleration(clamped, method, off_min, on_max):
     """A clamped beam loaded at the tip in y, its support accelerating along the axis (x):

@@ -81,6 +81,7 @@ def test_adaptive_band_error_matches_brute_force(beam, full, reduced_bodies):
         assert abs(got / ref - 1) < tol, (red.method, red.order, got, ref)
 
 
+@pytest.mark.slow
 def test_ten_compared_bodies_cost_one_sweep(beam, tmp_path):
     model, ports = beam
     solver = SolverContext()

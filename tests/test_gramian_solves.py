@@ -68,6 +68,7 @@ def test_surrogate_solves_report_their_checks(beam, factors):
     assert factors["dense"].info["solves"]["order"] == model.n_dof
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("method, order", [("fw-sobt", 4), ("pod", 4)])
 def test_methods_give_the_same_body_with_every_solves(beam, method, order):
     model, ports = beam
@@ -120,6 +121,7 @@ def test_auto_choice_and_bad_choice():
         choose_solves("fast", small, 3000.0)
 
 
+@pytest.mark.slow
 def test_non_proportional_damping(beam):
     # a damper at the tip: Phi^T D Phi is not diagonal; dense solves fall back to direct ones,
     # the surrogate solves the small projected systems and agrees with them
@@ -135,6 +137,7 @@ def test_non_proportional_damping(beam):
     assert _rel(G["surrogate"].R, G["direct"].R) < 1e-8 and _rel(G["surrogate"].L, G["direct"].L) < 1e-8
 
 
+@pytest.mark.slow
 def test_full_frf_auto_path_of_mid_size_models():
     # 810 DOF: damped models take the verified surrogate (measured 0.17 s against 0.32 s dense),
     # modal damping keeps the dense path (its ratio exact in every mode)

@@ -120,6 +120,7 @@ def beam():
     return model, ports, FullResponse(model, ports, BAND, cache=False)
 
 
+@pytest.mark.slow
 def test_fw_sobt_beats_modal_and_krylov_and_decreases(beam):
     # measured: r=1 fw-sobt 6.7e-4, modal 0.24; r=2 fw-sobt 1.2e-7, modal 6.7e-4, krylov 1.5e-3
     model, ports, full = beam
@@ -138,6 +139,7 @@ def test_fw_sobt_beats_modal_and_krylov_and_decreases(beam):
     assert hsv[0] > 1e3 * hsv[2] and red.info["n_nodes"] > 50
 
 
+@pytest.mark.slow
 def test_fw_sobt_velocity_variant_and_undamped(beam):
     model, ports, full = beam
     red, res = reduce_and_judge(model, "fw-sobt", 2, ports, full=full, band=BAND, variant="velocity")
@@ -151,6 +153,7 @@ def test_fw_sobt_velocity_variant_and_undamped(beam):
     assert full.evaluate(red0d)["band_error"] < 1e-6
 
 
+@pytest.mark.slow
 def test_factor_compression_keeps_gramians_and_bounds_memory(clamped):
     from flexmor.reduction.gramians import FACTOR_MEMORY, MIN_FACTOR_COLUMNS, factor_store_columns
 

@@ -28,6 +28,7 @@ def _err(beam, method, order, **opts):
     return res["band_error"], red
 
 
+@pytest.mark.slow
 def test_pod_beats_modal_and_energy_truncation(beam):
     # measured: pod 8 1.1e-9, modal 8 1.1e-7
     e_pod, red = _err(beam, "pod", 8)
@@ -42,6 +43,7 @@ def test_pod_beats_modal_and_energy_truncation(beam):
         reduce(beam[0], "pod", 4, beam[1], energy=1.5)
 
 
+@pytest.mark.slow
 def test_pod_time_snapshots(beam):
     pytest.importorskip("flexmor.dynamics.time")
     e, red = _err(beam, "pod", 6, snapshots="time")
@@ -49,6 +51,7 @@ def test_pod_time_snapshots(beam):
     assert e < 1e-5  # the sweep over the band excites its bending modes (measured 1.8e-7)
 
 
+@pytest.mark.slow
 def test_two_step(beam):
     model, ports, _ = beam
     # r2 = r1: the same space as the intermediate Krylov basis, hence the same reduced body

@@ -216,6 +216,7 @@ def test_vtu_of_a_coupled_body_moves_the_slaves(beam, tmp_path):
                                    rtol=1e-8, atol=1e-12)
 
 
+@pytest.mark.slow
 def test_cli_mounted_record_against_calculix_clamped_and_its_opt_out(tmp_path, capsys, clamped_ref):
     """The free beam with FIX@rbe2, held clamped at the master, is the beam CalculiX clamped itself: the
     mounted record's full frequencies are CalculiX's own (100.046, 100.046, 608.565 ... Hz) to the

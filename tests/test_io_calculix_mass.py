@@ -100,6 +100,7 @@ def _nearly_singular(M, delta_rel):
     return 0.5 * (Ms + Ms.T)
 
 
+@pytest.mark.slow
 def test_dense_path_ignores_whether_cholesky_fails(clamped):
     """Cholesky of M succeeds with tiny pivots, yet the dense path must not use ``L^-1 K L^-T``.
 

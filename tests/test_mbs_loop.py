@@ -150,6 +150,7 @@ def test_transverse_port_bends_either_way_but_misses_the_stretching_without_iner
         assert on["max_error"] < off["max_error"] / 5, method
 
 
+@pytest.mark.slow
 def test_benchmark_command_line_prints_the_tables(tmp_path, capsys):
     """``bench/mbs_loop.py`` end to end on an 84-DOF beam: three tables, one row per method
     (and port and inertia-load choice), the JSON with the same rows."""

@@ -237,6 +237,7 @@ def test_cli_reduce_records_the_memory_mode(capsys, tmp_path):
     assert "--memory-limit: 'lots' is not a memory size" in capsys.readouterr().err
 
 
+@pytest.mark.slow
 @needs_pardiso
 def test_memory_benchmark_smoke_run(tmp_path):
     """``bench/memory.py`` on a tiny model (the full benchmark is not part of the suite): same code."""

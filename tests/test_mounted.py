@@ -180,6 +180,7 @@ def test_report_table_of_the_body_in_its_joints(plate, cb):
     assert _mounted_section([{"label": "none", "mounted": None}]) == []
 
 
+@pytest.mark.slow
 def test_reduce_json_info_and_compare_carry_the_record(capsys, tmp_path):
     """The shared free beam with ``FIX@rbe2``: the record reaches ``reduce --json``, the body file
     (``info --json`` and its text) and ``compare --json``. Krylov r=12 for FIX@rbe2:z and TIP:y,

@@ -97,6 +97,7 @@ def test_report_is_self_contained_with_valid_images(report):
     assert list(rep.figures) == ["frf", "rel_error", "singular_values", "mac", "time", "body"]
 
 
+@pytest.mark.slow
 def test_report_numbers_equal_the_computed_ones(report):
     model, ports, reds, rep, _, text = report
     full = FullResponse(model, ports, BAND, cache=False)
@@ -137,6 +138,7 @@ def test_report_opens_in_headless_chromium(report):
     assert "BROKEN=0 OF 6" in out.stdout
 
 
+@pytest.mark.slow
 def test_cli_report_writes_html_and_json(report, tmp_path, capsys):
     import json
 

@@ -51,6 +51,7 @@ def _run(folder):
     return out
 
 
+@pytest.mark.slow
 def test_same_reduction_in_fresh_processes_gives_identical_bytes(tmp_path):
     (tmp_path / "a").mkdir()
     (tmp_path / "b").mkdir()

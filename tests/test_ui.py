@@ -87,6 +87,7 @@ def test_requests_need_the_token(server):
     assert exc.value.code == 400 and "without '..'" in json.load(exc.value)["error"]
 
 
+@pytest.mark.slow
 @pytest.mark.browser
 def test_workflow_in_chromium_equals_the_cli(server, folder, tmp_path_factory):
     exe = find_chromium()
