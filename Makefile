@@ -8,7 +8,7 @@ STAMP := $(VENV)/.installed
 EXTRAS := full,fast,test,ansys,exudyn,mesh
 MPI_EXTRAS := full,test
 
-.PHONY: demo test test-mpi install bench clean lock
+.PHONY: demo lint test test-mpi install bench clean lock
 
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
@@ -40,7 +40,17 @@ install: $(STAMP)
 demo: $(STAMP)
 	$(BIN)/flexmor demo --out demo-output
 
-test: $(STAMP)
+# ruff on src/ and tests/, mypy on the modules listed here (the target list is [tool.mypy] in pyproject.toml)
+MYPY_FILES := src/flexmor/model.py src/flexmor/ports.py src/flexmor/linalg/__init__.py \
+	src/flexmor/linalg/block_eigen.py src/flexmor/linalg/context.py src/flexmor/linalg/distributed.py \
+	src/flexmor/linalg/eigen.py src/flexmor/linalg/factorize.py src/flexmor/linalg/memory.py \
+	src/flexmor/linalg/threads.py
+
+lint: $(STAMP)
+	$(BIN)/ruff check src tests
+	$(BIN)/mypy $(MYPY_FILES)
+
+test: lint
 	$(BIN)/python -m pytest
 
 # The petsc backend under MPI: a second environment on the system Python, which sees Debian's

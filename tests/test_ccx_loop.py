@@ -47,6 +47,7 @@ def test_free_frequencies_and_mass(tmp_path, etype):
     assert model.node_sets["TIP"].size > 0 and np.allclose(model.node_xyz(model.node_sets["TIP"])[:, 0], 0.6)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("etype", SOLIDS)
 def test_clamped_frequencies_and_static_response(tmp_path, etype, capsys):
     from flexmor.cli import main

@@ -8,7 +8,7 @@ import warnings
 import numpy as np
 import pytest
 import scipy.sparse as sp
-from conftest import load_example
+from helpers import load_example
 
 from flexmor.analysis.coupling import Assembly
 from flexmor.basis import Basis

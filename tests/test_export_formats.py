@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import scipy.io
-from conftest import CCX
+from helpers import FREE
 
 from flexmor.cli import main
 from flexmor.errors import OptionError
@@ -14,17 +14,6 @@ from flexmor.io.hdf5 import write_reduced
 from flexmor.io.matlab import MAT_FIELDS
 from flexmor.io.sid import read_sid
 from flexmor.io.statespace import state_space
-from flexmor.ports import make_ports
-from flexmor.reduction import reduce
-
-FREE = str(CCX / "beam8_free_mat.sti")
-
-
-@pytest.fixture(scope="module")
-def body(free):
-    model = free.with_rayleigh(2.0, 1e-6)
-    red = reduce(model, "modal", 6, make_ports(model, ["TIP:y"]))
-    return red, model
 
 
 def test_mat_holds_every_documented_field(tmp_path, body):

@@ -8,7 +8,7 @@ of adapting flexmor's reader to it.
 import numpy as np
 import pytest
 import scipy.io
-from conftest import CCX, DATA
+from helpers import CCX, DATA
 from test_io_mesh import ABAQUS_EDGES, CORNERS, NASTRAN_EDGES, VTK_EDGES, _check_wedge, _deck, _element
 
 import flexmor.io

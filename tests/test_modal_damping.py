@@ -9,7 +9,7 @@ import json
 
 import numpy as np
 import pytest
-from conftest import CCX
+from helpers import CLAMPED
 
 from flexmor.analysis.compare import FullResponse
 from flexmor.cli import main
@@ -44,6 +44,7 @@ def test_the_body_has_the_ratio_in_every_mode(clamped, method):
     assert band_matched(0.02, BAND).ratios([100.0])[0] < 0.15 * 0.02  # 0.27 % at 100 Hz
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", ["clamped", "free"])
 def test_sparse_full_frf_matches_the_exact_modal_sum(name, request):
     """The sparse sweep corrects the modes below the band's top to zeta; the rest (quasi-static in
@@ -63,7 +64,7 @@ def test_sparse_full_frf_matches_the_exact_modal_sum(name, request):
 
 def test_stored_and_reported(capsys, tmp_path):
     out = tmp_path / "m.h5"
-    assert main(["reduce", str(CCX / "beam8_clamped_mat.sti"), "--method", "modal", "--order", "8", "--input",
+    assert main(["reduce", CLAMPED, "--method", "modal", "--order", "8", "--input",
                  "TIP:y", "--modal-damping", "0.02", "--band", "10:3000", "-o", str(out), "--json"]) == 0
     res = json.loads(capsys.readouterr().out)
     red = read_reduced(out)

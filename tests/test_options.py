@@ -15,7 +15,7 @@ import re
 
 import numpy as np
 import pytest
-from conftest import CCX
+from helpers import CLAMPED
 
 from flexmor.cli import main
 from flexmor.damping import (
