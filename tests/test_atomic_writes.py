@@ -23,8 +23,7 @@ from conftest import CCX
 import flexmor
 from flexmor.analysis import cache
 from flexmor.cli import main
-from flexmor.io import atomic_write, export
-from flexmor.io.hdf5 import read_reduced, write_reduced
+from flexmor.io import atomic_write, export, read_body, write_body
 from flexmor.ports import make_ports
 from flexmor.reduction import reduce
 from flexmor.report import html
@@ -103,7 +102,7 @@ def _inject(monkeypatch, name, exc, calls):
 def _write(name, body, path):
     red, model = body
     if name == "h5":
-        write_reduced(red, path)
+        write_body(red, path)
     elif name == "sid":
         export(red, path, "sid", model=model)
     elif name == "mat":
@@ -218,7 +217,7 @@ def test_cli_refuses_to_overwrite_without_force(tmp_path, capsys):
     assert err == f"flexmor: error: {out} exists; pass --force to overwrite it"
     assert out.read_bytes() == b"precious"
     assert main(_reduce_argv(out, "--force")) == 0
-    assert read_reduced(out).order == 4
+    assert read_body(out).order == 4
     sid = tmp_path / "body.SID_FEM"
     sid.write_text("old")
     argv = ["export", str(out), "--model", CLAMPED, "-o", str(sid), "--allow-clamped"]  # (a clamped body)

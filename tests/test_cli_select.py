@@ -7,7 +7,7 @@ import json
 from conftest import CCX
 
 from flexmor.cli import main
-from flexmor.io.hdf5 import read_reduced
+from flexmor.io import read_body
 
 FREE = str(CCX / "beam8_free_mat.sti")
 RING = "RING=cylinder:0,0.05,0.05,1,0,0,0.05,1e-9,0.45,0.55"
@@ -25,7 +25,7 @@ def test_reduce_with_a_selected_hole_coupled_by_rbe2(tmp_path, capsys):
     code = main(["reduce", FREE, "--method", "craig-bampton", "--order", "10", "--select", RING, "--interface", "RING@rbe2",
                  "--input", "RING@rbe2:y", "--no-error", "-o", str(out), "--json"])
     assert code == 0, capsys.readouterr().err
-    red = read_reduced(out)
+    red = read_body(out)
     assert red.info["selections"] == [RING] and red.info["couplings"] == ["RING@rbe2"]
     assert red.input_names == ["RING@rbe2:y"] and red.B.shape == (10, 1)
 

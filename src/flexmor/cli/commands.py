@@ -243,7 +243,7 @@ def _selected_names(args) -> list:
 
 # -- reduce ------------------------------------------------------------------------------------
 def cmd_reduce(args) -> int:
-    from ..io.hdf5 import write_reduced
+    from ..io import write_body
     from ..origin import describe_damping
     from ..ports import make_ports
     from ..workflow import DEFAULT_BAND, coupling_specs, reduce_and_judge
@@ -277,7 +277,7 @@ def cmd_reduce(args) -> int:
     # the fingerprint (of the coupled model) also names what made it: couplings, interfaces, selections
     red.origin.update(couplings=list(couplings), interfaces=list(args.interface), selections=list(args.select))
     path = _check_new(args.output_file or f"{model.name}_{args.method}_{red.order}.h5", args)
-    on_root(write_reduced, red, path)  # under MPI: written once, by rank 0
+    on_root(write_body, red, path)  # under MPI: written once, by rank 0
     res["file"] = str(path)
     factor = _factor_note(res, solver)
     if args.json:

@@ -3,7 +3,8 @@
 * :func:`read` — an FE model (:class:`~flexmor.model.FEModel`) from an FE program's export
   (:data:`MODEL_FORMATS`: CalculiX, Abaqus, Ansys, Nastran, Matrix Market, MATLAB, SID);
 * :func:`read_body` — a reduced body (:class:`~flexmor.projection.ReducedModel`)
-  (:data:`BODY_FORMATS`: flexmor's own HDF5, Nastran superelements);
+  (:data:`BODY_FORMATS`: flexmor's own HDF5, Nastran superelements); :func:`write_body`
+  writes flexmor's own HDF5 body file;
 * :func:`export` — a reduced body to a file for another program (:data:`EXPORT_FORMATS`:
   SID, Exudyn, MATLAB, state space, HDF5).
 
@@ -28,7 +29,7 @@ from ..errors import OptionError, ReadError
 from ._registry import Format, Registry
 
 __all__ = ["BODY_FORMATS", "EXPORT_FORMATS", "MODEL_FORMATS", "Format", "Registry", "atomic_write",
-           "describe_formats", "export", "export_format", "read", "read_body"]
+           "describe_formats", "export", "export_format", "read", "read_body", "write_body"]
 
 #: FE model readers: ``reader(path, **options) -> FEModel``.
 MODEL_FORMATS = Registry("FE model", "an")
@@ -215,3 +216,4 @@ from . import hdf5, calculix, abaqus, matrix_market, ansys, nastran, sid, exudyn
 from . import matrix_market_export  # noqa: F401, E402
 from .nastran import nastran_export  # noqa: F401, E402
 from . import vtu  # noqa: F401, E402
+from .hdf5 import write_body  # noqa: E402
