@@ -1,4 +1,4 @@
-"""Seed 000, Fig. 1: a reduced clamped beam coupled to a stiff spring afterwards.
+"""A reduced clamped beam coupled to a stiff spring after reduction: Krylov against balanced truncation.
 
 A slender clamped beam is excited and measured at its tip (``TIP:y``); the middle cross-section
 (node set ``MID``) is also declared as a force input during reduction. After reduction a stiff
@@ -35,7 +35,7 @@ from pathlib import Path
 
 import numpy as np
 
-from flexmor.analysis.coupling import Assembly
+from flexmor.analysis.assembly import Assembly
 from flexmor.analysis.frequency import band_error, band_grid, rel_error
 from flexmor.errors import FlexmorWarning
 from flexmor.models import cantilever

@@ -1,4 +1,4 @@
-"""Seed slides, table of slide 3: four reductions of a plate-and-rods structure at its hole interface.
+"""A reference table: four reductions of a plate-and-rods structure at its hole interface.
 
 The built-in :func:`flexmor.models.plate_structure` (steel upper plate 0.5 m x 0.5 m x 20 mm
 with a 100 mm central hole, on four 30 mm square rods of 0.4 m, clamped lower plate; 35,988 DOF

@@ -34,7 +34,7 @@ __all__ = ["rel_error", "band_error", "max_rel_error", "hinf_error", "band_grid"
 
 #: One line per error measure, in the order of the tables.
 MEASURES = {
-    "band_error": "∫|H-Hr|²df / ∫|H|²df over the band (squared relative L2 error; the seeds' measure)",
+    "band_error": "∫|H-Hr|²df / ∫|H|²df over the band (squared relative L2 error, the measure of the reference tables)",
     "rms_rel_error_pct": "100·sqrt(band_error): RMS relative error over the band in %",
     "hinf_error": "max_f |H-Hr| / max_f |H|: largest error relative to the band's peak response (H∞-type)",
     "max_rel_error": "max_f |H-Hr|/|H| (pointwise, Frobenius norms): large at anti-resonances, where |H| is small",

@@ -1,6 +1,7 @@
 """A plate-and-rods steel structure meshed with hexahedra: upper plate with a central hole on rods.
 
-The structure of the seed slides' comparison table (a 35,000-DOF solid whose interface is the
+The structure of a reference table comparing four reductions, Krylov, Krylov + Gramian, POD and
+modal, reproduced by ``examples/slide3_table.py`` (a 35,000-DOF solid whose interface is the
 wall of a hole in its upper plate), built parametrically:
 
 * **upper plate** ``[-a/2, a/2]^2 x [0, t]`` with a central hole of diameter ``hole``; the hole
