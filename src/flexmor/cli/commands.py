@@ -24,7 +24,7 @@ from .info import (
     print_mass_properties,
 )
 from .options import method_options
-from .tables import fmt, print_error_table, print_mounted
+from .tables import fmt, notes_as_flags, print_error_table, print_mounted
 
 __all__ = ["cmd_info", "cmd_reduce", "cmd_compare", "cmd_report", "cmd_demo"]
 
@@ -32,7 +32,7 @@ __all__ = ["cmd_info", "cmd_reduce", "cmd_compare", "cmd_report", "cmd_demo"]
 def _emit_json(obj) -> None:
     if isinstance(obj, dict):  # every JSON answer says which flexmor wrote it
         obj = {**obj, "flexmor_version": __version__}
-    print(json.dumps(jsonable(obj, finite=True)))
+    print(json.dumps(jsonable(notes_as_flags(obj), finite=True)))  # notes name flags, as messages do
 
 
 def _progress(args, label: str = "full FRF", unit: str = "freq"):
