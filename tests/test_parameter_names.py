@@ -3,16 +3,19 @@
 from __future__ import annotations
 
 import dataclasses
+import warnings
 
 import pytest
+from conftest import CCX
 
+import flexmor.io
 from flexmor.analysis import frequency, mounted
 from flexmor.analysis.compare import FullResponse
 from flexmor.analysis.frequency import error_notes
 from flexmor.analysis.mounted import mounted_note
 from flexmor.cli import main
 from flexmor.cli.tables import note_text, notes_as_flags
-from flexmor.errors import ModelError, OptionError, PortError, name_parameters
+from flexmor.errors import FlexmorWarning, ModelError, OptionError, PortError, name_parameters
 from flexmor.expansion import expand_body
 from flexmor.ports import make_ports
 from flexmor.reduction import reduce
@@ -83,3 +86,19 @@ def test_full_response_band_error_names_band(clamped):
         FullResponse(clamped, make_ports(clamped, ["TIP:y"]), (100.0, 10.0))
     assert exc.value.params == ("band",)
     assert exc.value.message({"band": "--band"}).startswith("--band must satisfy")
+
+
+def test_warnings_name_parameters_and_the_command_line_its_flags(monkeypatch, caplog, tmp_path):
+    w = FlexmorWarning("the body is coarse: raise order", params=("order",))
+    assert str(w) == "the body is coarse: raise order" and w.message({"order": "--order"}).endswith("raise --order")
+    real_read = flexmor.io.read
+
+    def read_and_warn(*args, **kwargs):
+        warnings.warn(FlexmorWarning("a warning naming a parameter: raise order", params=("order",)), stacklevel=2)
+        return real_read(*args, **kwargs)
+
+    monkeypatch.setattr(flexmor.io, "read", read_and_warn)
+    assert main(["reduce", str(CCX / "beam8_clamped_mat.sti"), "--method", "modal", "--order", "4", "--input",
+                 "TIP:y", "--no-error", "--no-cache", "-o", str(tmp_path / "b.h5")]) == 0
+    shown = [r.getMessage() for r in caplog.records if "a warning naming a parameter" in r.getMessage()]
+    assert shown == ["a warning naming a parameter: raise --order"]

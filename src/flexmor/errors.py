@@ -103,7 +103,26 @@ class OptionError(FlexmorError, ValueError):
 
 
 class FlexmorWarning(UserWarning):
-    """Warnings about legal but noteworthy situations (rigid-body modes, singular mass, ...)."""
+    """Warnings about legal but noteworthy situations (rigid-body modes, singular mass, ...).
+
+    Parameters
+    ----------
+    *args
+        The message (as for :class:`Warning`).
+    params : sequence of str, optional
+        The parameters the message names, as for :class:`FlexmorError`; issue such a warning as
+        ``warnings.warn(FlexmorWarning(text, params=("rigid",)))``.
+    """
+
+    params: tuple = ()
+
+    def __init__(self, *args, params=()):
+        super().__init__(*args)
+        self.params = tuple(params)
+
+    def message(self, names=None) -> str:
+        """The message with each parameter in ``params`` renamed by ``names`` (see :meth:`FlexmorError.message`)."""
+        return name_parameters(str(self), self.params, names)
 
 
 def name_parameters(text: str, params, names=None) -> str:
