@@ -8,7 +8,7 @@ import pytest
 from helpers import CLAMPED, FREE
 
 from flexmor.cli import main
-from flexmor.io.hdf5 import read_reduced
+from flexmor.io import read_body
 
 RING = "RING=cylinder:0,0.05,0.05,1,0,0,0.05,1e-9,0.45,0.55"
 
@@ -26,7 +26,7 @@ def test_reduce_with_a_selected_hole_coupled_by_rbe2(tmp_path, capsys):
     code = main(["reduce", FREE, "--method", "craig-bampton", "--order", "10", "--select", RING,
                  "--interface", "RING@rbe2", "--input", "RING@rbe2:y", "--no-error", "-o", str(out), "--json"])
     assert code == 0, capsys.readouterr().err
-    red = read_reduced(out)
+    red = read_body(out)
     assert red.selections == [RING] and red.couplings == ["RING@rbe2"]
     assert red.input_names == ["RING@rbe2:y"] and red.B.shape == (10, 1)
 

@@ -21,7 +21,7 @@ import flexmor
 from flexmor.analysis.frequency import MEASURES, at_antiresonance, error_measures
 from flexmor.cli import main
 from flexmor.errors import FlexmorWarning, ModelError
-from flexmor.io.hdf5 import read_reduced
+from flexmor.io import read_body
 from flexmor.origin import check_origin, fingerprint
 
 SRC = Path(flexmor.__file__).parent
@@ -75,7 +75,7 @@ def test_a_body_is_refused_with_another_model(capsys, bodies, tmp_path):
 
 
 def test_fingerprint_names_the_matrix_that_differs(clamped, bodies):
-    red = read_reduced(bodies / "undamped.h5")
+    red = read_body(bodies / "undamped.h5")
     assert fingerprint(clamped).items() <= red.origin.items() and red.origin["n_dof"] == 270
     assert red.origin["couplings"] == [] and red.origin["interfaces"] == []
     check_origin(red, clamped, "undamped.h5")  # the same model passes
@@ -96,7 +96,7 @@ def test_a_body_without_fingerprint_is_compared_with_a_warning(capsys, bodies, t
     old.write_bytes((bodies / "undamped.h5").read_bytes())
     with h5py.File(old, "r+") as h:
         del h.attrs["origin"]
-    assert read_reduced(old).origin == {}
+    assert read_body(old).origin == {}
     with pytest.warns(FlexmorWarning, match="old.h5 records no fingerprint"):
         out = run_json(capsys, "compare", CLAMPED, old)
     assert out["results"][0]["band_error"] < 1e-6

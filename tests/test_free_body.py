@@ -199,9 +199,9 @@ def test_clamped_body_is_refused_for_ffrf_export(clamped, tmp_path, capsys):
     with pytest.raises(ModelError, match="pass allow_clamped for a body whose frame does not move"):
         write_sid(red, tmp_path / "c.SID_FEM", model=clamped)
     assert not (tmp_path / "c.npz").exists() and not (tmp_path / "c.SID_FEM").exists()
-    from flexmor.io.hdf5 import write_reduced
+    from flexmor.io import write_body
 
-    write_reduced(red, tmp_path / "c.h5")
+    write_body(red, tmp_path / "c.h5")
     assert main(["export", str(tmp_path / "c.h5"), "--model", CLAMPED, "-o", str(tmp_path / "c.SID_FEM")]) == 2
     err = capsys.readouterr().err
     assert "supported (0 of 6 rigid-body modes)" in err and "Traceback" not in err

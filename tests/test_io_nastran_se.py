@@ -14,7 +14,7 @@ import scipy.linalg as sla
 from op4_writer import write_ascii, write_binary
 
 from flexmor.errors import ReadError
-from flexmor.io.hdf5 import read_reduced, write_reduced
+from flexmor.io import read_body, write_body
 from flexmor.io.nastran import read_superelement
 
 N_MODES = 12
@@ -100,8 +100,8 @@ def test_craig_bampton_superelement(tmp_path, clamped, clamped_ref, fmt):
     np.testing.assert_allclose(f[:4], clamped_ref[:4], rtol=1e-3)  # CB with 12 modes: 2.3e-4 off at 608 Hz
     np.testing.assert_allclose(red.xyz, clamped.node_xyz(red.node_ids), atol=1e-12)
     assert red.info["matrices"]["K"] == ("KAAX" if fmt.startswith("dmig") else "KAA")
-    write_reduced(red, tmp_path / "se.h5")
-    back = read_reduced(tmp_path / "se.h5")
+    write_body(red, tmp_path / "se.h5")
+    back = read_body(tmp_path / "se.h5")
     np.testing.assert_allclose(back.frequencies_hz(), f, rtol=1e-12)
 
 

@@ -15,7 +15,7 @@ from flexmor.analysis.compare import FullResponse
 from flexmor.cli import main
 from flexmor.damping import ModalDamping, band_matched, damping_from_dict
 from flexmor.dynamics.dense_frf import DenseResolvent
-from flexmor.io.hdf5 import read_reduced
+from flexmor.io import read_body
 from flexmor.linalg.eigen import dense_eigenmodes
 from flexmor.ports import make_ports
 from flexmor.reduction import reduce
@@ -67,7 +67,7 @@ def test_stored_and_reported(capsys, tmp_path):
     assert main(["reduce", CLAMPED, "--method", "modal", "--order", "8", "--input",
                  "TIP:y", "--modal-damping", "0.02", "--band", "10:3000", "-o", str(out), "--json"]) == 0
     res = json.loads(capsys.readouterr().out)
-    red = read_reduced(out)
+    red = read_body(out)
     assert isinstance(red.damping, ModalDamping) and red.damping.zeta == 0.02
     assert damping_from_dict(red.damping.to_dict()) == red.damping
     np.testing.assert_allclose(_body_ratios(red)[1], 0.02, rtol=1e-9)

@@ -176,8 +176,7 @@ def test_cli_two_ranks_beam8(method, tmp_path):
     """A file model under mpirun: rank 0 reads it, each rank holds only its rows; same body as SciPy."""
     from flexmor.cli import main
     from flexmor.dynamics.frf import frf_reduced
-    from flexmor.io import read
-    from flexmor.io.hdf5 import read_reduced
+    from flexmor.io import read, read_body
     from flexmor.linalg.distributed import row_range
 
     common = ["reduce", str(CLAMPED), "--method", method, "--order", "8", "--input", "5:y", "--input", "5:z",
@@ -194,7 +193,7 @@ def test_cli_two_ranks_beam8(method, tmp_path):
     with pytest.MonkeyPatch.context() as mp:
         mp.setenv("FLEXMOR_CACHE_DIR", str(tmp_path / "cache"))
         assert main([*common, "--backend", "scipy", "-o", str(tmp_path / "serial.h5")]) == 0
-    red_p, red_s = read_reduced(tmp_path / "mpi.h5"), read_reduced(tmp_path / "serial.h5")
+    red_p, red_s = read_body(tmp_path / "mpi.h5"), read_body(tmp_path / "serial.h5")
     assert _rel(red_p.frequencies_hz(), red_s.frequencies_hz()) < 1e-8
     assert _rel(par["frequencies_hz"], red_s.frequencies_hz()) < 1e-8
     f = np.geomspace(10, 3000, 40)

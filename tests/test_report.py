@@ -145,13 +145,13 @@ def test_cli_report_writes_html_and_json(report, tmp_path, capsys):
     from helpers import CLAMPED
 
     from flexmor.cli import main
-    from flexmor.io.hdf5 import write_reduced
+    from flexmor.io import write_body
 
     _, _, reds, rep, _, _ = report
     files = []
     for k, red in enumerate(reds):
         files.append(tmp_path / f"body{k}.h5")
-        write_reduced(red, files[-1])
+        write_body(red, files[-1])
     out = tmp_path / "r.html"
     code = main(["report", CLAMPED, *map(str, files), "-o", str(out), "--band", "10:3000",
                  "--dt", "5e-5", "--t-end", "0.01", "--modes", "6", "--json"])

@@ -179,8 +179,8 @@ def reference_model(model, body, path, *, damping: Damping | None = None):
     body : ReducedModel
         The reduced body, read from ``path`` (named in errors).
     damping : Damping, optional
-        Damping asked for by the user (``--rayleigh``, ``--modal-damping``, ``--band-rayleigh``);
-        must be the body's own, else an :class:`OptionError`.
+        Damping asked for by the user (``rayleigh``, ``modal_damping`` or ``band_rayleigh`` of
+        :func:`flexmor.workflow.damping_of`); must be the body's own, else an :class:`OptionError`.
 
     Returns
     -------

@@ -263,7 +263,7 @@ def run_demo(out, *, n: int = 4, band=(10.0, 3000.0), progress=None, on_result=N
 
     Returns the list of result records (as :func:`reduce_and_judge`) with ``file`` added.
     """
-    from .io.hdf5 import write_reduced
+    from .io import write_body
     from .models import cantilever
     from .report.plots import plot_rel_error
 
@@ -281,7 +281,7 @@ def run_demo(out, *, n: int = 4, band=(10.0, 3000.0), progress=None, on_result=N
         red, res = reduce_and_judge(model, method, order, ports, full=full, solver=solver, **opts)
         reds.append(red)
         path = out / f"{model.name}_{method}_{order}.h5"
-        write_reduced(red, path)
+        write_body(red, path)
         res["file"] = str(path)
         results.append(res)
         curves[f"{method} r={order}"] = red.errors["rel_error"]

@@ -188,7 +188,7 @@ class FullResponse:
             raise OptionError(f"path={path!r} is not allowed; choose one of: {', '.join(PATHS)}")
         self.band = (float(band[0]), float(band[1]))
         if not (np.isfinite(self.band[0]) and np.isfinite(self.band[1])) or not 0 < self.band[0] < self.band[1]:
-            raise OptionError(f"band must satisfy 0 < FMIN < FMAX (Hz), got {band[0]}:{band[1]}")
+            raise OptionError(f"band must satisfy 0 < FMIN < FMAX (Hz), got {band[0]}:{band[1]}", params=("band",))
         damped = model.D is not None
         if path == "auto":
             exact_modal = isinstance(model.damping, ModalDamping) and dense_applicable(model)

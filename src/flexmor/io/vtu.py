@@ -20,10 +20,10 @@ import numpy as np
 import scipy.linalg as sla
 
 from ..errors import ModelError
-from .invariants import node_triples
 from ..mesh import CellBlock, Mesh, import_meshio
 from ._registry import EXPORT_FORMATS
 from .atomic import atomic_write
+from .invariants import node_triples
 
 __all__ = ["body_modes", "nodal_modes", "write_vtu"]
 
