@@ -5,6 +5,11 @@ also those inside functions, relative imports resolved), so an import hidden in 
 to dodge a cycle at run time counts like any other. Nodes are the subpackages
 (``flexmor.reduction``, ``flexmor.analysis`` ...), the top-level modules (``flexmor.cli``,
 ``flexmor.projection`` ...) and the package root ``flexmor`` itself (its ``__init__``).
+
+One exception, :data:`DELEGATING`: the reduced body's methods (``body.frf``, ``.simulate``,
+``.expand``, ``.to_control``) hand the body to the modules that own each concern, which sit
+above ``body.py`` and import it. Only the module-level imports of ``body.py`` are edges; a test
+checks that its function-level imports are those delegations and nothing else.
 """
 
 from __future__ import annotations
@@ -18,6 +23,10 @@ import flexmor
 
 ROOT = Path(flexmor.__file__).parent
 
+#: Modules whose methods delegate upward, importing at call time: their imports inside functions
+#: are not edges of the graph (``test_body_delegates_only_to_its_concerns`` bounds them).
+DELEGATING = {"flexmor.body"}
+
 
 def module_name(path: Path, root: Path = ROOT) -> str:
     """Dotted module name of a source file below ``root`` (a package's ``__init__`` is the package)."""
@@ -25,17 +34,30 @@ def module_name(path: Path, root: Path = ROOT) -> str:
     return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
 
 
-def imports_of(path: Path, modules: set[str], root: Path = ROOT):
+def _nodes(tree, in_functions: bool):
+    """The AST nodes of ``tree``; without those inside functions unless ``in_functions``."""
+    todo = [tree]
+    while todo:
+        node = todo.pop()
+        yield node
+        for child in ast.iter_child_nodes(node):
+            if in_functions or not isinstance(child, ast.FunctionDef | ast.AsyncFunctionDef | ast.Lambda):
+                todo.append(child)
+
+
+def imports_of(path: Path, modules: set[str], root: Path = ROOT, *, in_functions: bool = True):
     """``(target, name, line)`` of every import of the package in ``path``.
 
     ``target`` is the module imported from (relative imports resolved); ``name`` is the
     imported name for ``from target import name`` (None for ``import target``). A name that
-    is itself a module (``from . import cache``) becomes the target.
+    is itself a module (``from . import cache``) becomes the target. ``in_functions=False``
+    leaves out the imports inside functions.
     """
     mod = module_name(path, root)
     package = mod if path.name == "__init__.py" else mod.rpartition(".")[0]
     top = root.name
-    for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"), filename=str(path))):
+    tree = ast.parse(path.read_text(encoding="utf-8"), filename=str(path))
+    for node in sorted(_nodes(tree, in_functions), key=lambda n: getattr(n, "lineno", 0)):
         if isinstance(node, ast.Import):
             for alias in node.names:
                 if alias.name == top or alias.name.startswith(top + "."):
@@ -66,7 +88,8 @@ def import_graph(root: Path = ROOT) -> dict[str, dict[str, str]]:
     for p in files:
         a = unit(module_name(p, root))
         graph.setdefault(a, {})
-        for target, _, line in imports_of(p, modules, root):
+        inside = module_name(p, root) not in DELEGATING
+        for target, _, line in imports_of(p, modules, root, in_functions=inside):
             b = unit(target)
             if b != a:
                 graph[a].setdefault(b, f"{p.relative_to(root.parent)}:{line}")
@@ -107,6 +130,18 @@ def test_no_import_cycle_between_subpackages():
     assert "flexmor.linalg" in graph["flexmor.reduction"]  # the graph sees real edges
     cycle = find_cycle(graph)
     assert cycle is None, "import cycle between subpackages:\n" + _describe(graph, cycle)
+
+
+def test_body_delegates_only_to_its_concerns():
+    """``body.py`` imports at module level only what lies below it; inside its methods only the
+    modules of the concerns it delegates to (FRF, time response, expansion, state space)."""
+    path = ROOT / "body.py"
+    modules = {module_name(p) for p in ROOT.rglob("*.py")}
+    top = {unit(t) for t, _, _ in imports_of(path, modules, in_functions=False)} - {"flexmor.body"}
+    assert top <= {"flexmor", "flexmor.damping", "flexmor.errors"}, top
+    called = {t for t, _, _ in imports_of(path, modules)} - {t for t, _, _ in imports_of(path, modules,
+                                                                                          in_functions=False)}
+    assert called == {"flexmor.dynamics.frf", "flexmor.dynamics.time", "flexmor.expansion", "flexmor.io.statespace"}
 
 
 def test_layers_shared_below_reduction_and_analysis():
