@@ -69,7 +69,7 @@ def as_basis(basis, n_dof: int) -> Basis:
     given = basis if isinstance(basis, Basis) else Basis(basis, CUSTOM)
     V = given.V
     if sp.issparse(V):
-        V = V.toarray()
+        V = sp.csr_matrix(V).toarray()
     try:
         A = np.asarray(V)
     except (TypeError, ValueError) as exc:

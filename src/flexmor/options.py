@@ -44,9 +44,10 @@ def check_order(order, name: str = "order") -> int | None:
     if isinstance(order, bool | str | bytes) or not isinstance(order, numbers.Real):
         raise OptionError(f"{name} must be a positive integer, got {order!r} of type {type(order).__name__}",
                           params=(name,))
-    if not (math.isfinite(order) and int(order) == order and order >= 1):
+    value = float(order)
+    if not (math.isfinite(value) and value.is_integer() and value >= 1):
         raise OptionError(f"{name} must be a positive integer, got {order!r}", params=(name,))
-    return int(order)
+    return int(value)
 
 
 class Band(tuple):
