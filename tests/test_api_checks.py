@@ -138,3 +138,14 @@ def test_check_order_takes_integers():
 def test_full_response_names_a_bad_band(setup, band, match):
     model, ports, _ = setup
     _refused(OptionError, "band", match, FullResponse, model, ports, band)
+
+
+@pytest.mark.parametrize("method, options, param, match", [
+    ("craig-bampton", {"interface": "TIP"}, "interface", r"interface must be a list \(e.g. \['TIP'\]\), got 'TIP'"),
+    ("modal", {"sigma": "x"}, "sigma", "sigma must be a number, got 'x' of type str"),
+    ("krylov", {"moments": True}, "moments", "moments must be an integer, got True of type bool"),
+    ("irka", {"max_iter": "50"}, "max_iter", "max_iter must be an integer, got '50' of type str"),
+])
+def test_reduce_refuses_method_options_of_the_wrong_type(setup, method, options, param, match):
+    model, ports, _ = setup
+    _refused(OptionError, param, match, reduce, model, method, 6, ports, **options)

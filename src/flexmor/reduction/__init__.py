@@ -20,7 +20,7 @@ from dataclasses import dataclass
 
 from ..body import ReducedModel
 from ..errors import OptionError
-from ..options import check_order, option_fields
+from ..options import check_option_types, check_order, option_fields
 from ..projection import project
 from .free_body import exclude_rigid, with_inertia_loads
 
@@ -164,6 +164,7 @@ def reduce(model, method: str, order: int | None, ports, *, inertia_loads: str =
     m = METHODS[method]
     check_keywords(method, options, m.keywords)
     opts = {k: v for k, v in options.items() if v is not None}
+    check_option_types(m.options_class, opts)
     order = check_order(order)
     t0 = time.perf_counter()
     basis_ports, inertia = with_inertia_loads(model, ports, inertia_loads if m.uses_inputs else "off")
