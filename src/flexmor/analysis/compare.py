@@ -18,6 +18,7 @@ from ..dynamics.surrogate import DEFAULT_SURROGATE_TOL
 from ..errors import FlexmorWarning, ModelError, OptionError, PortError
 from ..linalg.context import SolverContext, as_solver, step
 from ..linalg.eigen import frequencies_hz
+from ..options import Band
 from ..origin import describe_damping, fingerprint, origin_differences, same_damping
 from ..reduction.free_body import with_elastic_inputs
 from . import cache as frf_cache
@@ -186,9 +187,10 @@ class FullResponse:
         c0 = solver.stats.count
         if path not in PATHS:
             raise OptionError(f"path={path!r} is not allowed; choose one of: {', '.join(PATHS)}")
-        self.band = (float(band[0]), float(band[1]))
-        if not (np.isfinite(self.band[0]) and np.isfinite(self.band[1])) or not 0 < self.band[0] < self.band[1]:
-            raise OptionError(f"band must satisfy 0 < FMIN < FMAX (Hz), got {band[0]}:{band[1]}", params=("band",))
+        if band is None:
+            raise OptionError("band is needed: the band (FMIN, FMAX) in Hz the full FRF is computed on",
+                              params=("band",))
+        self.band = tuple(float(f) for f in Band.of(band))  # a pair of numbers 0 < FMIN < FMAX, else OptionError
         damped = model.D is not None
         if path == "auto":
             exact_modal = isinstance(model.damping, ModalDamping) and dense_applicable(model)
