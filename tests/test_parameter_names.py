@@ -6,7 +6,7 @@ import dataclasses
 import warnings
 
 import pytest
-from conftest import CCX
+from helpers import CCX
 
 import flexmor.io
 from flexmor.analysis import frequency, mounted
