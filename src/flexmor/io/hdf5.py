@@ -153,9 +153,9 @@ def _read(path):
     return red
 
 
-def _export(reduced, path, *, model=None) -> None:
+def _export(body, path, *, model=None) -> None:
     """:func:`write_body` as an exporter (``model`` is unused)."""
-    write_body(reduced, path)
+    write_body(body, path)
 
 
 BODY_FORMATS.register("hdf5", [".h5", ".hdf5"], _read, aliases=["flexmor"],
