@@ -216,7 +216,8 @@ def _add(mbs, data: dict, *, position, velocity, rotation, angular_velocity, gra
     cms.SetWithDictionary({k: v for k, v in data.items() if k not in EXTRA_KEYS})
     res = cms.AddObjectFFRFreducedOrder(
         mbs, positionRef=list(position), initialVelocity=list(velocity),
-        rotationMatrixRef=[] if rotation is None else np.asarray(rotation), initialAngularVelocity=list(angular_velocity),
+        rotationMatrixRef=[] if rotation is None else np.asarray(rotation),
+        initialAngularVelocity=list(angular_velocity),
         massProportionalDamping=float(rayleigh[0]), stiffnessProportionalDamping=float(rayleigh[1]),
         gravity=list(gravity), color=list(color), name=name)
     res = dict(res)

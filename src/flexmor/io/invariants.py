@@ -238,7 +238,10 @@ def compute_invariants(model, V, *, K=None, D=None, nodes=()) -> Invariants:
     Ke = np.asarray(V.T @ (model.K @ V)) if K is None else np.asarray(K, dtype=float)
     if D is None and model.D is not None:
         D = V.T @ (model.D @ V)
-    sym = lambda A: None if A is None else 0.5 * (A + A.T)
+
+    def sym(A):
+        return None if A is None else 0.5 * (A + A.T)
+
     return Invariants(
         mass=mass, mdCM0=mdCM0, J0=sym(J0), Ct=Ct, Cr0=Cr0, Cr1=Cr1, J1=J1,
         Gr=Gr_t.transpose(1, 0, 2).reshape(3, 3 * r),  # column 3a + l

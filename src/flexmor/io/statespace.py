@@ -95,13 +95,13 @@ def state_space(body) -> StateSpace:
         lu = sla.cho_factor(M)
     except np.linalg.LinAlgError:
         raise ModelError("the reduced mass matrix is not positive definite; no state-space form") from None
-    Z, I = np.zeros((r, r)), np.eye(r)
-    A = np.block([[Z, I], [-sla.cho_solve(lu, K), -sla.cho_solve(lu, Dm)]])
+    Z, Id = np.zeros((r, r)), np.eye(r)
+    A = np.block([[Z, Id], [-sla.cho_solve(lu, K), -sla.cho_solve(lu, Dm)]])
     B = np.vstack([np.zeros_like(Bm), sla.cho_solve(lu, Bm)])
     C = np.hstack([Cm, np.zeros_like(Cm)])
     D = np.zeros((Cm.shape[0], Bm.shape[1]))
-    E = np.block([[I, Z], [Z, M]])
-    Ae = np.block([[Z, I], [-K, -Dm]])
+    E = np.block([[Id, Z], [Z, M]])
+    Ae = np.block([[Z, Id], [-K, -Dm]])
     Be = np.vstack([np.zeros_like(Bm), Bm])
     return StateSpace(A, B, C, D, E, Ae, Be, input_names=list(getattr(body, "input_names", [])),
                       output_names=list(getattr(body, "output_names", [])))

@@ -40,9 +40,9 @@ def _linearize(body):
     """First-order form ``E x' = A x + B u``, ``y = C x`` of a reduced body (dense)."""
     r = body.M.shape[0]
     Dr = body.D if body.D is not None else np.zeros((r, r))
-    Z, I = np.zeros((r, r)), np.eye(r)
-    E = np.block([[I, Z], [Z, body.M]])
-    A = np.block([[Z, I], [-body.K, -Dr]])
+    Z, Id = np.zeros((r, r)), np.eye(r)
+    E = np.block([[Id, Z], [Z, body.M]])
+    A = np.block([[Z, Id], [-body.K, -Dr]])
     B = np.vstack([np.zeros_like(body.B), body.B])
     C = np.hstack([body.C, np.zeros_like(body.C)])
     return E, A, B, C

@@ -49,7 +49,8 @@ SINGULAR_VALUE_KEYS = ("hankel_sv", "hankel_singular_values", "hsv", "pod_sv", "
 COLUMNS = [("label", "body", "s"), ("method", "method", "s"), ("order", "order", "d"),
            ("band_error", "band_error", ".3e"), ("rms_rel_error_pct", "rms_rel_error [%]", ".3g"),
            ("hinf_error", "H∞ error (rel., band)", ".3e"), ("max_rel_error", "max_rel_error", ".3e"),
-           ("max_rel_error_where", "max_rel_error at", "s"), ("h2_error", "H2 error (rel.)", ".3e"), ("time_mean_error", "time_mean_error", ".3e"),
+           ("max_rel_error_where", "max_rel_error at", "s"), ("h2_error", "H2 error (rel.)", ".3e"),
+           ("time_mean_error", "time_mean_error", ".3e"),
            ("time_max_error", "time_max_error", ".3e"), ("time_seconds", "time integration [s]", ".3f"),
            ("seconds", "reduction [s]", ".3f"), ("judged_short", "judged against", "s")]
 
@@ -306,10 +307,12 @@ def build_report(model, ports, bodies, *, band, labels=None, seconds=None, full=
 
 
 # -- rendering ---------------------------------------------------------------------------------
-_CSS = """body{font-family:system-ui,sans-serif;margin:2em auto;max-width:1100px;color:#222}
-.t{overflow-x:auto;margin:1em 0}table{border-collapse:collapse;font-size:0.85em}th,td{border:1px solid #bbb;padding:3px 6px;
-text-align:right}th{background:#eee;font-weight:600}td{white-space:nowrap}td.l{text-align:left;white-space:normal}img{max-width:100%;display:block;margin:1em 0}
-.note{color:#666;font-size:0.9em}h2{border-bottom:1px solid #ccc;margin-top:2em}"""
+_CSS = ("body{font-family:system-ui,sans-serif;margin:2em auto;max-width:1100px;color:#222}\n"
+        ".t{overflow-x:auto;margin:1em 0}table{border-collapse:collapse;font-size:0.85em}"
+        "th,td{border:1px solid #bbb;padding:3px 6px;\n"
+        "text-align:right}th{background:#eee;font-weight:600}td{white-space:nowrap}"
+        "td.l{text-align:left;white-space:normal}img{max-width:100%;display:block;margin:1em 0}\n"
+        ".note{color:#666;font-size:0.9em}h2{border-bottom:1px solid #ccc;margin-top:2em}")
 
 
 def _img(png: bytes, alt: str) -> str:

@@ -174,9 +174,9 @@ def body_scene(model, *, inputs=(), outputs=(), interface=(), ports=(), max_node
     Returns
     -------
     scene : dict
-        JSON-ready: ``xyz`` (float64, base64; exact coordinates for selections), ``tris``/``lines`` (uint32 vertex indices,
-        base64), ``node_ids``, ``marks`` (name -> vertex coordinates), ``spiders``
-        (segments master-node), ``notes``.
+        JSON-ready: ``xyz`` (float64, base64; exact coordinates for selections), ``tris``/``lines``
+        (uint32 vertex indices, base64), ``node_ids``, ``marks`` (name -> vertex coordinates),
+        ``spiders`` (segments master-node), ``notes``.
     S : sparse matrix
         :func:`display_map` of the vertices.
     """

@@ -390,4 +390,5 @@ def read_ansys(path, *, coordinates=None) -> FEModel:  # noqa: F821
 
 
 MODEL_FORMATS.register("ansys", [".full", ".txt"], read_ansys,
-                       description="Ansys HBMAT/MMF export (stiffness, mass, mapping vector, coordinates) or binary .full")
+                       description="Ansys HBMAT/MMF export (stiffness, mass, mapping vector, coordinates) "
+                       "or binary .full")

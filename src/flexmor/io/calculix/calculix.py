@@ -248,4 +248,5 @@ def read_calculix(path) -> FEModel:  # noqa: F821
 
 
 MODEL_FORMATS.register("calculix", [".sti"], read_calculix,
-                       description="CalculiX *FREQUENCY, SOLVER=MATRIXSTORAGE export (.sti + .mas + .dof + .inp or .frd)")
+                       description="CalculiX *FREQUENCY, SOLVER=MATRIXSTORAGE export "
+                       "(.sti + .mas + .dof + .inp or .frd)")

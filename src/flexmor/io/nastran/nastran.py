@@ -430,4 +430,5 @@ def read_nastran(path, *, stiffness=None, mass=None, damping=None, geometry=None
 
 
 MODEL_FORMATS.register("nastran", [".pch", ".op4"], read_nastran,
-                       description="Nastran DMIG punch file (KAAX/MAAX ...) or OP4 (ASCII or binary), GRIDs from the .bdf")
+                       description="Nastran DMIG punch file (KAAX/MAAX ...) or OP4 (ASCII or binary), "
+                       "GRIDs from the .bdf")

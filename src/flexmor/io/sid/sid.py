@@ -110,7 +110,10 @@ def sid_from_reduced(body, model, *, nodes=None, remove_rigid: bool = False) -> 
         ap1 = np.stack([_skew(nd.psi[:, a]) for a in range(r)], axis=2)
         sid_nodes.append(SIDNode(nd.id, _taylor(nd.origin[:, None], nd.phi[:, None, :], r),
                                  _taylor(nd.phi, nq=r), _taylor(nd.psi, nq=r), _taylor(np.eye(3), ap1, r)))
-    jv = lambda J: np.array([J[0, 0], J[1, 1], J[2, 2], J[0, 1], J[0, 2], J[1, 2]])
+
+    def jv(J):
+        return np.array([J[0, 0], J[1, 1], J[2, 2], J[0, 1], J[0, 2], J[1, 2]])
+
     J1 = np.stack([jv(inv.J1[a]) for a in range(r)], axis=1)[:, None, :]
     De = inv.De if inv.De is not None else np.zeros((r, r))
     objects = {
@@ -126,7 +129,10 @@ def sid_from_reduced(body, model, *, nodes=None, remove_rigid: bool = False) -> 
         "Ke": _taylor(inv.Ke, nq=r, sym=True),
         "De": _taylor(De, nq=r, sym=True),
     }
-    off = lambda A: np.max(np.abs(A - np.diag(np.diag(A))), initial=0.0) <= 1e-9 * np.max(np.abs(A))
+
+    def off(A):
+        return np.max(np.abs(A - np.diag(np.diag(A))), initial=0.0) <= 1e-9 * np.max(np.abs(A))
+
     if off(inv.Ke) and off(inv.Me):
         f = np.sqrt(np.clip(np.diag(inv.Ke) / np.diag(inv.Me), 0, None)) / (2 * np.pi)
         names = [f"Eigen Mode {a + 1:4d} : {f[a]:12.3f} Hz" for a in range(r)]
