@@ -40,15 +40,10 @@ install: $(STAMP)
 demo: $(STAMP)
 	$(BIN)/flexmor demo --out demo-output
 
-# ruff on src/ and tests/, mypy on the modules listed here (the target list is [tool.mypy] in pyproject.toml)
-MYPY_FILES := src/flexmor/model.py src/flexmor/ports.py src/flexmor/linalg/__init__.py \
-	src/flexmor/linalg/block_eigen.py src/flexmor/linalg/context.py src/flexmor/linalg/distributed.py \
-	src/flexmor/linalg/eigen.py src/flexmor/linalg/factorize.py src/flexmor/linalg/memory.py \
-	src/flexmor/linalg/threads.py
-
+# ruff on src/ and tests/, mypy on the modules listed as files in [tool.mypy] of pyproject.toml
 lint: $(STAMP)
 	$(BIN)/ruff check src tests
-	$(BIN)/mypy $(MYPY_FILES)
+	$(BIN)/mypy
 
 test: lint
 	$(BIN)/python -m pytest

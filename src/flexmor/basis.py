@@ -4,11 +4,15 @@ from __future__ import annotations
 
 import dataclasses
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 import scipy.sparse as sp
 
 from .errors import ModelError
+
+if TYPE_CHECKING:  # projection imports this module
+    from .projection import ReducedMatrices
 
 __all__ = ["Basis", "as_basis", "check_rank", "orthonormalize", "extend_orthonormal", "rank_revealing_qr", "Columns"]
 
@@ -37,7 +41,7 @@ class Basis:
     V: np.ndarray
     method: str
     info: dict = field(default_factory=dict)
-    reduced: object = field(default=None, repr=False, compare=False)
+    reduced: ReducedMatrices | None = field(default=None, repr=False, compare=False)
 
     @property
     def order(self) -> int:

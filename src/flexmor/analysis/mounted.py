@@ -240,7 +240,7 @@ def _mounted_body(model, body, eqs, phi):
     _, s, Wt = np.linalg.svd(X[list(eqs)], full_matrices=True)
     rank = int(np.sum(s > RANK_TOL * s[0])) if s.size and s[0] > 0 else 0
     Z = Wt[rank:].T
-    Mz, Kz = Z.T @ Ma @ Z, Z.T @ Ka @ Z
+    Mz = Z.T @ Ma @ Z
     w, U = np.linalg.eigh(0.5 * (Mz + Mz.T))
     keep = w > RANK_TOL * w[-1] if w.size else np.zeros(0, bool)
     T = Z @ (U[:, keep] / np.sqrt(w[keep]))

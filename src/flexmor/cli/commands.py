@@ -205,7 +205,8 @@ def cmd_info(args) -> int:
     if out.get("couplings"):
         from ..checks import describe_couplings
 
-        print(f"coupled   with {describe_couplings(out['couplings'])} (sizes and frequencies below are the coupled model's)")
+        print(f"coupled   with {describe_couplings(out['couplings'])} "
+              "(sizes and frequencies below are the coupled model's)")
     print(f"DOF       {model.n_dof}    nodes {model.n_nodes}    nnz(K) {out['nnz_K']}")
     print(f"damping   {describe_damping(model.damping)}")
     if model.node_sets:
@@ -227,7 +228,8 @@ def cmd_info(args) -> int:
     if args.reference:
         ref = out["reference"]
         print(f"\n mode   {args.reference} [Hz]   model [Hz]   rel. diff   MAC")
-        for i, row in enumerate(zip(ref["frequencies_hz"], ref["model_frequencies_hz"], ref["rel_diff"], ref["mac"]), 1):
+        rows = zip(ref["frequencies_hz"], ref["model_frequencies_hz"], ref["rel_diff"], ref["mac"])
+        for i, row in enumerate(rows, 1):
             print(f"{i:5d}   {row[0]:14.6f}   {row[1]:14.6f}   {row[2]:9.2e}   {row[3]:.6f}")
     if factor:
         print(factor)

@@ -85,7 +85,8 @@ def _check_layout(path, h) -> None:
         d = h[name]
         if not isinstance(d, h5py.Dataset) or d.dtype.kind not in kinds or d.dtype.names:
             what = "a group" if not isinstance(d, h5py.Dataset) else f"of type {d.dtype}"
-            raise ReadError(path, f"dataset {name!r} is {what}; expected {'real numbers' if kinds == 'f' else 'integers'}")
+            expected = "real numbers" if kinds == "f" else "integers"
+            raise ReadError(path, f"dataset {name!r} is {what}; expected {expected}")
         if len(d.shape) != len(axes):
             raise ReadError(path, f"dataset {name!r} has shape {d.shape}; expected {len(axes)} dimensions")
         if int(np.prod(d.shape, dtype=object)) > MAX_VALUES:
@@ -153,9 +154,9 @@ def _read(path):
     return red
 
 
-def _export(reduced, path, *, model=None) -> None:
+def _export(body, path, *, model=None) -> None:
     """:func:`write_body` as an exporter (``model`` is unused)."""
-    write_body(reduced, path)
+    write_body(body, path)
 
 
 BODY_FORMATS.register("hdf5", [".h5", ".hdf5"], _read, aliases=["flexmor"],

@@ -79,7 +79,7 @@ class StateSpace:
         return {k: getattr(self, k) for k in ("A", "B", "C", "D", "E", "Ae", "Be")}
 
 
-def state_space(reduced) -> StateSpace:
+def state_space(body) -> StateSpace:
     """First-order form of a reduced body (see the module docstring).
 
     Raises
@@ -87,29 +87,29 @@ def state_space(reduced) -> StateSpace:
     ModelError
         When ``Mr`` is singular.
     """
-    M, K = np.asarray(reduced.M, float), np.asarray(reduced.K, float)
+    M, K = np.asarray(body.M, float), np.asarray(body.K, float)
     r = M.shape[0]
-    Dm = np.zeros((r, r)) if reduced.D is None else np.asarray(reduced.D, float)
-    Bm, Cm = np.asarray(reduced.B, float), np.asarray(reduced.C, float)
+    Dm = np.zeros((r, r)) if body.D is None else np.asarray(body.D, float)
+    Bm, Cm = np.asarray(body.B, float), np.asarray(body.C, float)
     try:
         lu = sla.cho_factor(M)
     except np.linalg.LinAlgError:
         raise ModelError("the reduced mass matrix is not positive definite; no state-space form") from None
-    Z, I = np.zeros((r, r)), np.eye(r)
-    A = np.block([[Z, I], [-sla.cho_solve(lu, K), -sla.cho_solve(lu, Dm)]])
+    Z, Id = np.zeros((r, r)), np.eye(r)
+    A = np.block([[Z, Id], [-sla.cho_solve(lu, K), -sla.cho_solve(lu, Dm)]])
     B = np.vstack([np.zeros_like(Bm), sla.cho_solve(lu, Bm)])
     C = np.hstack([Cm, np.zeros_like(Cm)])
     D = np.zeros((Cm.shape[0], Bm.shape[1]))
-    E = np.block([[I, Z], [Z, M]])
-    Ae = np.block([[Z, I], [-K, -Dm]])
+    E = np.block([[Id, Z], [Z, M]])
+    Ae = np.block([[Z, Id], [-K, -Dm]])
     Be = np.vstack([np.zeros_like(Bm), Bm])
-    return StateSpace(A, B, C, D, E, Ae, Be, input_names=list(getattr(reduced, "input_names", [])),
-                      output_names=list(getattr(reduced, "output_names", [])))
+    return StateSpace(A, B, C, D, E, Ae, Be, input_names=list(getattr(body, "input_names", [])),
+                      output_names=list(getattr(body, "output_names", [])))
 
 
-def write_statespace(reduced, path, *, model=None) -> None:
+def write_statespace(body, path, *, model=None) -> None:
     """Write ``A B C D E Ae Be`` to ``.npz`` (or ``.mat`` by suffix), atomically; ``model`` is unused."""
-    data = state_space(reduced).arrays()
+    data = state_space(body).arrays()
     if Path(path).suffix.lower() == ".mat":
         import scipy.io
 
