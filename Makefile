@@ -8,7 +8,7 @@ STAMP := $(VENV)/.installed
 EXTRAS := full,fast,test,ansys,exudyn,mesh
 MPI_EXTRAS := full,test
 
-.PHONY: demo test test-mpi install bench clean lock
+.PHONY: demo lint test test-mpi install bench clean lock
 
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
@@ -40,7 +40,12 @@ install: $(STAMP)
 demo: $(STAMP)
 	$(BIN)/flexmor demo --out demo-output
 
-test: $(STAMP)
+# ruff on src/ and tests/, mypy on the modules listed as files in [tool.mypy] of pyproject.toml
+lint: $(STAMP)
+	$(BIN)/ruff check src tests
+	$(BIN)/mypy
+
+test: lint
 	$(BIN)/python -m pytest
 
 # The petsc backend under MPI: a second environment on the system Python, which sees Debian's

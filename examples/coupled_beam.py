@@ -36,7 +36,7 @@ from pathlib import Path
 
 import numpy as np
 
-from flexmor.analysis.coupling import Assembly
+from flexmor.analysis.assembly import Assembly
 from flexmor.analysis.frequency import band_error, band_grid, rel_error
 from flexmor.errors import FlexmorWarning
 from flexmor.models import cantilever

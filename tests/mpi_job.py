@@ -2,7 +2,8 @@
 
 Run as ``mpirun -n 2 python tests/mpi_job.py N [--partitioned]``; rank 0 prints one JSON object:
 per method the reduced frequencies, band_error (full FRF by the verified modal surrogate) and
-the reduced transfer function on a fixed grid, plus the model size and the local nnz(K) per rank. ``--partitioned`` builds the model with
+the reduced transfer function on a fixed grid, plus the model size and the local nnz(K) per rank.
+``--partitioned`` builds the model with
 :func:`flexmor.models.distributed.partitioned_cantilever` (never assembled on one rank).
 """
 

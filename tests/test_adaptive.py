@@ -4,7 +4,7 @@ import json
 
 import numpy as np
 import pytest
-from conftest import CCX
+from helpers import CLAMPED
 
 from flexmor.analysis.compare import FullResponse
 from flexmor.cli import main
@@ -24,6 +24,7 @@ def cant():
     return model, ports, FullResponse(model, ports, BAND)
 
 
+@pytest.mark.slow
 def test_tol_mode_needs_smaller_order_than_modal(cant):
     model, ports, full = cant
     orders = {}
@@ -56,7 +57,7 @@ def test_adaptive_stops_on_its_estimate(cant):
 
 
 def test_cli_tol_reports_order_and_verified_error(capsys, tmp_path):
-    code = main(["reduce", str(CCX / "beam8_clamped_mat.sti"), "--method", "krylov", "--tol", "1e-6",
+    code = main(["reduce", CLAMPED, "--method", "krylov", "--tol", "1e-6",
                  "--band", "1:3000", "--input", "TIP:y", "--rayleigh", "0:1e-6", "-o", str(tmp_path / "k.h5"),
                  "--json"])
     out = json.loads(capsys.readouterr().out)
@@ -65,12 +66,12 @@ def test_cli_tol_reports_order_and_verified_error(capsys, tmp_path):
 
 
 def test_cli_method_options(capsys, tmp_path):
-    code = main(["reduce", str(CCX / "beam8_clamped_mat.sti"), "--method", "krylov", "--order", "6",
+    code = main(["reduce", CLAMPED, "--method", "krylov", "--order", "6",
                  "--points", "0,1000j", "--side", "both", "--input", "TIP:y", "--output", "TIP:z",
                  "--no-error", "-o", str(tmp_path / "k.h5"), "--json"])
     out = json.loads(capsys.readouterr().out)
     assert code == 0 and out["order"] == 6 and out["info"]["side"] == "both"
-    code = main(["reduce", str(CCX / "beam8_clamped_mat.sti"), "--method", "irka", "--order", "4",
+    code = main(["reduce", CLAMPED, "--method", "irka", "--order", "4",
                  "--points", "0", "--input", "TIP:y", "--no-error", "-o", str(tmp_path / "i.h5")])
     assert code == 2 and "does not take" in capsys.readouterr().err
 

@@ -10,6 +10,11 @@ edge to ``pkg.name`` when that is a module, else to ``pkg``.
 
 :data:`LAYERS` is the layer drawing of ``docs/architecture.md`` as data: a module may import
 modules of its own layer and of the layers below it, never of a layer above.
+
+One exception, :data:`DELEGATING`: the reduced body's methods (``body.frf``, ``.simulate``,
+``.expand``, ``.to_control``) hand the body to the modules that own each concern, which sit
+above ``body.py`` and import it. Only the module-level imports of ``body.py`` are edges; a test
+checks that its function-level imports are those delegations and nothing else.
 """
 
 from __future__ import annotations
@@ -44,6 +49,10 @@ LAYERS = [
     ["flexmor.errors", "flexmor.jsonutil", "flexmor._version"],  # errors, JSON values, the version
 ]
 
+#: Modules whose methods delegate upward, importing at call time: their imports inside functions
+#: are not edges of the graph (``test_body_delegates_only_to_its_concerns`` bounds them).
+DELEGATING = {"flexmor.body"}
+
 
 
 def module_name(path: Path, root: Path = ROOT) -> str:
@@ -57,8 +66,9 @@ def _type_checking(test: ast.expr) -> bool:
         (isinstance(test, ast.Attribute) and test.attr == "TYPE_CHECKING")
 
 
-def _import_nodes(tree: ast.AST):
-    """Every ``Import``/``ImportFrom`` node of ``tree`` except those under ``if TYPE_CHECKING:``."""
+def _import_nodes(tree: ast.AST, in_functions: bool = True):
+    """Every ``Import``/``ImportFrom`` node of ``tree`` except those under ``if TYPE_CHECKING:``
+    (and those inside functions unless ``in_functions``)."""
     stack = [tree]
     while stack:
         node = stack.pop()
@@ -67,20 +77,24 @@ def _import_nodes(tree: ast.AST):
         if isinstance(node, ast.If) and _type_checking(node.test):
             stack.extend(node.orelse)
             continue
-        stack.extend(ast.iter_child_nodes(node))
+        for child in ast.iter_child_nodes(node):
+            if in_functions or not isinstance(child, ast.FunctionDef | ast.AsyncFunctionDef | ast.Lambda):
+                stack.append(child)
 
 
-def imports_of(path: Path, modules: set[str], root: Path = ROOT):
+def imports_of(path: Path, modules: set[str], root: Path = ROOT, *, in_functions: bool = True):
     """``(target, name, line)`` of every import of the package in ``path``.
 
     ``target`` is the module imported from (relative imports resolved); ``name`` is the
     imported name for ``from target import name`` (None for ``import target``). A name that
-    is itself a module (``from . import cache``) becomes the target.
+    is itself a module (``from . import cache``) becomes the target. ``in_functions=False``
+    leaves out the imports inside functions.
     """
     mod = module_name(path, root)
     package = mod if path.name == "__init__.py" else mod.rpartition(".")[0]
     top = root.name
-    for node in _import_nodes(ast.parse(path.read_text(encoding="utf-8"), filename=str(path))):
+    tree = ast.parse(path.read_text(encoding="utf-8"), filename=str(path))
+    for node in sorted(_import_nodes(tree, in_functions), key=lambda n: n.lineno):
         if isinstance(node, ast.Import):
             for alias in node.names:
                 if alias.name == top or alias.name.startswith(top + "."):
@@ -115,7 +129,8 @@ def import_graph(root: Path = ROOT) -> dict[str, dict[str, str]]:
     for p in files:
         a = module_name(p, root)
         graph.setdefault(a, {})
-        for target, _, line in imports_of(p, modules, root):
+        inside = module_name(p, root) not in DELEGATING
+        for target, _, line in imports_of(p, modules, root, in_functions=inside):
             while target not in modules and "." in target:
                 target = target.rpartition(".")[0]
             if target != a and target in modules:
@@ -263,6 +278,18 @@ def test_every_module_has_a_layer():
 def test_no_import_up_the_layers():
     bad = upward_imports(import_graph())
     assert not bad, "imports of a higher layer (see LAYERS and docs/architecture.md):\n" + "\n".join(bad)
+
+
+def test_body_delegates_only_to_its_concerns():
+    """``body.py`` imports at module level only what lies below it; inside its methods only the
+    modules of the concerns it delegates to (FRF, time response, expansion, state space)."""
+    path = ROOT / "body.py"
+    modules = {module_name(p) for p in ROOT.rglob("*.py")}
+    top = {unit(t) for t, _, _ in imports_of(path, modules, in_functions=False)} - {"flexmor.body"}
+    assert top <= {"flexmor._version", "flexmor.damping", "flexmor.errors"}, top
+    called = {t for t, _, _ in imports_of(path, modules)} - {t for t, _, _ in imports_of(path, modules,
+                                                                                          in_functions=False)}
+    assert called == {"flexmor.dynamics.frf", "flexmor.dynamics.time", "flexmor.expansion", "flexmor.io.statespace"}
 
 
 def test_layers_shared_below_reduction_and_analysis():

@@ -18,31 +18,20 @@ import matplotlib.figure
 import numpy as np
 import pytest
 import scipy.io
-from conftest import CCX
+from helpers import CLAMPED
 
 import flexmor
 from flexmor.analysis import cache
 from flexmor.cli import main
-from flexmor.io import atomic_write, export
-from flexmor.io.hdf5 import read_reduced, write_reduced
-from flexmor.ports import make_ports
-from flexmor.reduction import reduce
+from flexmor.io import atomic_write, export, read_body, write_body
 from flexmor.report import html
 from flexmor.report.plots import plot_rel_error
 
-CLAMPED = str(CCX / "beam8_clamped_mat.sti")
 SRC = Path(flexmor.__file__).parent
 
 
 class Boom(Exception):
     pass
-
-
-@pytest.fixture(scope="module")
-def body(free):
-    model = free.with_rayleigh(2.0, 1e-6)
-    red = reduce(model, "modal", 6, make_ports(model, ["TIP:y"]))
-    return red, model
 
 
 def _spill(target) -> None:
@@ -103,7 +92,7 @@ def _inject(monkeypatch, name, exc, calls):
 def _write(name, body, path):
     red, model = body
     if name == "h5":
-        write_reduced(red, path)
+        write_body(red, path)
     elif name == "sid":
         export(red, path, "sid", model=model)
     elif name == "mat":
@@ -210,6 +199,7 @@ def _reduce_argv(out, *extra):
             "-o", str(out), *extra]
 
 
+@pytest.mark.slow
 def test_cli_refuses_to_overwrite_without_force(tmp_path, capsys):
     out = tmp_path / "body.h5"
     out.write_bytes(b"precious")
@@ -218,7 +208,7 @@ def test_cli_refuses_to_overwrite_without_force(tmp_path, capsys):
     assert err == f"flexmor: error: {out} exists; pass --force to overwrite it"
     assert out.read_bytes() == b"precious"
     assert main(_reduce_argv(out, "--force")) == 0
-    assert read_reduced(out).order == 4
+    assert read_body(out).order == 4
     sid = tmp_path / "body.SID_FEM"
     sid.write_text("old")
     argv = ["export", str(out), "--model", CLAMPED, "-o", str(sid), "--allow-clamped"]  # (a clamped body)
@@ -228,7 +218,8 @@ def test_cli_refuses_to_overwrite_without_force(tmp_path, capsys):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["body.SID_FEM", "body.h5"]
 
 
-@pytest.mark.parametrize("exc,code", [(KeyboardInterrupt(), 130), (OSError(errno.ENOSPC, "No space left on device"), 2)],
+@pytest.mark.parametrize("exc,code",
+                         [(KeyboardInterrupt(), 130), (OSError(errno.ENOSPC, "No space left on device"), 2)],
                          ids=["ctrl-c", "disk-full"])
 def test_cli_interrupted_while_writing_leaves_no_output(exc, code, tmp_path, monkeypatch, capsys):
     out = tmp_path / "body.h5"
@@ -262,6 +253,7 @@ sys.exit(main(sys.argv[1:]))
 """
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("sig,code", [(signal.SIGINT, 130), (signal.SIGTERM, 143)], ids=["SIGINT", "SIGTERM"])
 def test_cli_process_signalled_mid_write_leaves_no_output(sig, code, tmp_path):
     folder, marker = tmp_path / "out", tmp_path / "stalled"

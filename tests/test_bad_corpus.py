@@ -7,7 +7,7 @@ tests/data/bad/MANIFEST.tsv (regenerate the files with tests/data/bad/make_corpu
 import csv
 
 import pytest
-from conftest import DATA
+from helpers import DATA
 
 from flexmor.cli import main
 

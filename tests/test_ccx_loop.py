@@ -47,10 +47,11 @@ def test_free_frequencies_and_mass(tmp_path, etype):
     assert model.node_sets["TIP"].size > 0 and np.allclose(model.node_xyz(model.node_sets["TIP"])[:, 0], 0.6)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("etype", SOLIDS)
 def test_clamped_frequencies_and_static_response(tmp_path, etype, capsys):
     from flexmor.cli import main
-    from flexmor.io.hdf5 import read_reduced
+    from flexmor.io import read_body
 
     _, ids = deck(etype, clamped=True)
     node = int(ids[-1])  # the corner x = L, y = B, z = H
@@ -63,7 +64,7 @@ def test_clamped_frequencies_and_static_response(tmp_path, etype, capsys):
                  "--input", f"{node}:z", "--output", f"{node}:x", "--output", f"{node}:y", "--output", f"{node}:z",
                  "-o", str(body), "--no-error", "--json"]) == 0
     assert json.loads(capsys.readouterr().out)["order"] == 7
-    red = read_reduced(body)
+    red = read_body(body)
     u = red.C @ np.linalg.solve(red.K, red.B)[:, 0]
     ref = dat_displacement(sti.with_suffix(".dat"), node)
     np.testing.assert_allclose(u, ref, rtol=1e-6, atol=1e-6 * abs(ref[2]))

@@ -153,7 +153,8 @@ def test_shape_functions_interpolate_their_nodes():
         + [(r, s, t) for t in (0, 1) for r, s in ((0.5, 0), (0.5, 0.5), (0, 0.5))] + [(r, s, 0.5) for r, s in tri],
         "tetra10": [(0, 0, 0), (1, 0, 0), (0, 1, 0), (0, 0, 1), (0.5, 0, 0), (0.5, 0.5, 0), (0, 0.5, 0), (0, 0, 0.5),
                     (0.5, 0, 0.5), (0, 0.5, 0.5)],
-        "hexahedron20": [tuple((c + 1) / 2) for c in _HEX] + [tuple((_HEX[a] + _HEX[b] + 2) / 4) for a, b in _HEX_EDGES],
+        "hexahedron20": [tuple((c + 1) / 2) for c in _HEX]
+        + [tuple((_HEX[a] + _HEX[b] + 2) / 4) for a, b in _HEX_EDGES],
     }
     for cell_type, pts in nodes.items():
         shape = SHAPES[cell_type][0]

@@ -1,23 +1,14 @@
 """The command-line contract of DESIGN.md, on the real CalculiX exports."""
 
-import json
 import shutil
 import subprocess
 import sys
 
 import numpy as np
 import pytest
-from conftest import CCX
+from helpers import CCX, CLAMPED, FREE, run_json
 
 from flexmor.cli import main
-
-CLAMPED = str(CCX / "beam8_clamped_mat.sti")
-FREE = str(CCX / "beam8_free_mat.sti")
-
-
-def run_json(capsys, *argv):
-    assert main(list(argv)) == 0
-    return json.loads(capsys.readouterr().out)
 
 
 def test_info_clamped_matches_calculix(capsys, clamped_ref):
@@ -87,7 +78,7 @@ BAD = {
 
 
 def test_non_symmetric_exit_2(capsys, tmp_path):
-    from conftest import DATA
+    from helpers import DATA
 
     out = tmp_path / "o.h5"
     code = main(["reduce", str(DATA / "bad" / "asym_K.mtx"), "--method", "modal", "--order", "2", "--input", "1:x",
@@ -126,6 +117,7 @@ def test_console_script_exit_code(tmp_path):
     assert r.stderr.strip() == f"flexmor: error: {tmp_path / 'nope.sti'}: file not found"
 
 
+@pytest.mark.slow
 def test_demo_writes_bodies_and_plot(capsys, tmp_path):
     out = run_json(capsys, "demo", "--out", str(tmp_path), "--n", "2", "--json")
     res = out["results"]
@@ -139,10 +131,12 @@ def test_demo_writes_bodies_and_plot(capsys, tmp_path):
     png = (tmp_path / "rel_error.png").read_bytes()
     assert png[:8] == b"\x89PNG\r\n\x1a\n"
     page = (tmp_path / "report.html").read_text(encoding="utf-8")
-    assert out["report"] == str(tmp_path / "report.html") and page.count("data:image/png;base64,") == 6  # incl. fw-sobt's singular values
+    assert out["report"] == str(tmp_path / "report.html")
+    assert page.count("data:image/png;base64,") == 6  # incl. fw-sobt's singular values
     assert all(f"<td>{r['time_max_error']:.3e}</td>" in page for r in res)
 
 
+@pytest.mark.slow
 def test_rbe2_interface_reduce_compare_export(capsys, tmp_path):
     body = tmp_path / "cb.h5"
     out = run_json(capsys, "reduce", CLAMPED, "--method", "craig-bampton", "--order", "10", "--interface", "TIP@rbe2",

@@ -3,7 +3,8 @@ under --json, and stdout unchanged."""
 
 import json
 
-from conftest import CCX
+import pytest
+from helpers import CLAMPED
 
 from flexmor.analysis.compare import FullResponse
 from flexmor.cli import main
@@ -11,7 +12,6 @@ from flexmor.io import read
 from flexmor.linalg.context import SolverContext, step, track
 from flexmor.ports import make_ports
 
-CLAMPED = str(CCX / "beam8_clamped_mat.sti")
 REDUCE = ["reduce", CLAMPED, "--input", "TIP:z", "--rayleigh", "0:1e-5", "--full-frf", "dense", "--no-cache",
           "--force"]
 
@@ -38,11 +38,13 @@ def test_dense_path_and_tol_search_show_their_steps_under_verbose(capsys, tmp_pa
     assert f"read {CLAMPED} ..." in lines
 
 
+@pytest.mark.slow
 def test_quiet_without_verbose_off_a_terminal(capsys, tmp_path):
     _, err = run(capsys, *REDUCE, "--method", "modal", "--tol", "1e-3", "-o", tmp_path / "b.h5")
     assert progress_lines(err) == []
 
 
+@pytest.mark.slow
 def test_json_stays_one_object_and_shows_no_progress(capsys, tmp_path):
     argv = [*REDUCE, "--method", "modal", "--tol", "1e-3", "-o", tmp_path / "b.h5", "--json"]
     plain, _ = run(capsys, *argv)
@@ -59,6 +61,7 @@ def test_json_stays_one_object_and_shows_no_progress(capsys, tmp_path):
     assert a == b
 
 
+@pytest.mark.slow
 def test_library_steps_reach_the_callback():
     seen = []
 

@@ -3,7 +3,6 @@ damping, the error tables carry the measures an engineer reads, orders are hones
 always ends a run with 143 and no output."""
 
 import dataclasses
-import json
 import math
 import os
 import signal
@@ -16,30 +15,16 @@ import h5py
 import numpy as np
 import pytest
 import scipy.sparse as sp
-from conftest import CCX
+from helpers import CLAMPED, FREE, run, run_json
 
 import flexmor
 from flexmor.analysis.frequency import MEASURES, at_antiresonance, error_measures
 from flexmor.cli import main
 from flexmor.errors import FlexmorWarning, ModelError
-from flexmor.io.hdf5 import read_reduced
+from flexmor.io import read_body
 from flexmor.origin import check_origin, fingerprint
 
-CLAMPED = str(CCX / "beam8_clamped_mat.sti")
-FREE = str(CCX / "beam8_free_mat.sti")
 SRC = Path(flexmor.__file__).parent
-
-
-def run(capsys, *argv):
-    code = main([str(a) for a in argv])
-    out = capsys.readouterr()
-    return code, out.out, out.err
-
-
-def run_json(capsys, *argv):
-    code, out, err = run(capsys, *argv, "--json")
-    assert code == 0, err
-    return json.loads(out)
 
 
 @pytest.fixture(scope="module")
@@ -90,7 +75,7 @@ def test_a_body_is_refused_with_another_model(capsys, bodies, tmp_path):
 
 
 def test_fingerprint_names_the_matrix_that_differs(clamped, bodies):
-    red = read_reduced(bodies / "undamped.h5")
+    red = read_body(bodies / "undamped.h5")
     assert fingerprint(clamped).items() <= red.origin.items() and red.origin["n_dof"] == 270
     assert red.origin["couplings"] == [] and red.origin["interfaces"] == []
     check_origin(red, clamped, "undamped.h5")  # the same model passes
@@ -111,7 +96,7 @@ def test_a_body_without_fingerprint_is_compared_with_a_warning(capsys, bodies, t
     old.write_bytes((bodies / "undamped.h5").read_bytes())
     with h5py.File(old, "r+") as h:
         del h.attrs["origin"]
-    assert read_reduced(old).origin == {}
+    assert read_body(old).origin == {}
     with pytest.warns(FlexmorWarning, match="old.h5 records no fingerprint"):
         out = run_json(capsys, "compare", CLAMPED, old)
     assert out["results"][0]["band_error"] < 1e-6
@@ -164,6 +149,7 @@ def test_antiresonance_and_resonance_notes_on_an_analytic_curve():
     assert set(MEASURES) == {"band_error", "rms_rel_error_pct", "hinf_error", "max_rel_error"}
 
 
+@pytest.mark.slow
 def test_undamped_resonance_dominated_error_suggests_damping(capsys, tmp_path):
     out = run_json(capsys, "reduce", CLAMPED, "--method", "craig-bampton", "--interface", "TIP", "--order", "33",
                    "--input", "TIP:y", "-o", tmp_path / "cb.h5")
@@ -171,6 +157,7 @@ def test_undamped_resonance_dominated_error_suggests_damping(capsys, tmp_path):
     assert any(n.startswith("undamped model") and "--rayleigh" in n for n in out["notes"])
 
 
+@pytest.mark.slow
 def test_craig_bampton_tol_chooses_the_fixed_interface_modes(capsys, tmp_path):
     out = run_json(capsys, "reduce", CLAMPED, "--method", "craig-bampton", "--interface", "TIP", "--tol", "1e-4",
                    "--input", "TIP:y", "--output", "TIP:y", "-o", tmp_path / "cb.h5")
@@ -186,6 +173,7 @@ def test_craig_bampton_tol_chooses_the_fixed_interface_modes(capsys, tmp_path):
     assert code == 2 and "--tol does not apply to guyan" in err
 
 
+@pytest.mark.slow
 def test_tol_measure(capsys, tmp_path):
     out = run_json(capsys, "reduce", CLAMPED, "--method", "modal", "--tol", "1", "--tol-measure",
                    "rms_rel_error_pct", "--input", "TIP:y", "--rayleigh", "0:1e-5", "-o", tmp_path / "m.h5")
@@ -201,6 +189,7 @@ def test_tol_measure(capsys, tmp_path):
         assert method in text.split("--tol TOL target error")[1].split("not guyan")[0].split("Methods:")[1]
 
 
+@pytest.mark.slow
 def test_orders_that_differ_from_the_request_say_why(capsys, tmp_path):
     out = run_json(capsys, "reduce", CLAMPED, "--method", "craig-bampton", "--interface", "TIP", "--order", "400",
                    "--input", "TIP:y", "--no-error", "-o", tmp_path / "cb.h5")
@@ -248,6 +237,7 @@ def test_sigterm_lost_in_a_destructor_still_ends_with_143_and_no_output(capsys, 
     assert signal.getsignal(signal.SIGTERM) is signal.SIG_DFL  # the handler is removed again
 
 
+@pytest.mark.slow
 def test_sigterm_at_any_moment_gives_143_and_no_output(tmp_path):
     """``timeout -s TERM`` at several moments of a run: 143 and no file, or 0 and the file (-15, the
     default action, before the interpreter got to flexmor's handler: no file either). Once the
@@ -291,6 +281,7 @@ def test_info_on_a_model_shows_mass_centre_box_and_selections(capsys):
     assert "mass      78.5 " in text and "c.o.m.    (0.5, 0.05, 0.05)" in text
 
 
+@pytest.mark.slow
 def test_a_coupled_body_matches_its_model_once_coupled_again(capsys, tmp_path):
     body = tmp_path / "c.h5"
     made = run_json(capsys, "reduce", FREE, "--method", "craig-bampton", "--interface", "TIP@rbe2", "--order", "10",
@@ -336,6 +327,7 @@ def test_files_written_by_other_threads_are_not_the_runs(tmp_path):
     assert type(exc.value).__name__ == "_Terminated" and run.written == [tmp_path / "mine.h5"]
 
 
+@pytest.mark.slow
 def test_craig_bampton_tol_on_a_free_body_starts_above_the_interface(capsys, tmp_path):
     """A free body's Craig-Bampton basis keeps n_b = 27 columns (inertia-relief attachment modes)."""
     out = run_json(capsys, "reduce", FREE, "--method", "craig-bampton", "--interface", "TIP", "--tol", "1e-3",

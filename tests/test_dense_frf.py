@@ -12,7 +12,7 @@ import dataclasses
 import numpy as np
 import pytest
 import scipy.sparse as sp
-from conftest import DATA, cond1
+from helpers import DATA, cond1
 
 from flexmor.analysis.compare import FullResponse
 from flexmor.dynamics.dense_frf import DenseResolvent
@@ -67,6 +67,7 @@ def test_abaqus_block(block):
     _agree(model, ports, np.geomspace(100.0, 20000.0, 15))
 
 
+@pytest.mark.slow
 def test_non_proportional_damping(clamped):
     ray = clamped.with_rayleigh(2.0, 1e-6)
     dash = sp.csr_matrix((np.full(3, 50.0), (np.arange(3) + 30, np.arange(3) + 30)), shape=ray.K.shape)
@@ -75,6 +76,7 @@ def test_non_proportional_damping(clamped):
     assert res.kind == "state-space"
 
 
+@pytest.mark.slow
 def test_singular_mass_falls_back_to_sparse(clamped):
     M = clamped.M.tolil()
     M[5, :] = 0
@@ -88,6 +90,7 @@ def test_singular_mass_falls_back_to_sparse(clamped):
     assert fr.grid["path"] == "direct" and fr.n_factorizations == fr.freqs.size
 
 
+@pytest.mark.slow
 def test_full_response_paths_give_same_errors(clamped):
     model = clamped.with_rayleigh(2.0, 1e-6)
     ports = make_ports(model, ["TIP:y", "TIP:z"])

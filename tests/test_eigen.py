@@ -49,6 +49,7 @@ def test_lanczos_on_calculix_beams(request, which, n_rigid):
     _check(model.K, model.M, k, lam, phi, lam_ref, n_rigid)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("clamped", [True, False])
 def test_lanczos_square_section_pairs(clamped):
     """Square cross-section: bending modes come in pairs (equal eigenvalues to round-off)."""

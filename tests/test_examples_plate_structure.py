@@ -4,9 +4,12 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from conftest import load_example
+from helpers import load_example
 
 ex = load_example("plate_structure_table")
+
+#: the table fixture alone runs every method on 1,728 DOF
+pytestmark = pytest.mark.slow
 
 
 @pytest.fixture(scope="module")

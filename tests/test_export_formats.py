@@ -5,26 +5,14 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import scipy.io
-from conftest import CCX
+from helpers import FREE
 
 from flexmor.cli import main
 from flexmor.errors import OptionError
-from flexmor.io import export
-from flexmor.io.hdf5 import write_reduced
+from flexmor.io import export, write_body
 from flexmor.io.matlab import MAT_FIELDS
 from flexmor.io.sid import read_sid
 from flexmor.io.statespace import state_space
-from flexmor.ports import make_ports
-from flexmor.reduction import reduce
-
-FREE = str(CCX / "beam8_free_mat.sti")
-
-
-@pytest.fixture(scope="module")
-def body(free):
-    model = free.with_rayleigh(2.0, 1e-6)
-    red = reduce(model, "modal", 6, make_ports(model, ["TIP:y"]))
-    return red, model
 
 
 def test_mat_holds_every_documented_field(tmp_path, body):
@@ -71,7 +59,7 @@ def test_unknown_or_ambiguous_format(tmp_path, body):
 def test_cli_export_sid_and_statespace(tmp_path, body):
     red, model = body
     h5 = tmp_path / "b.h5"
-    write_reduced(red, h5)
+    write_body(red, h5)
     out = tmp_path / "b.SID_FEM"
     assert main(["export", str(h5), "--model", FREE, "-o", str(out), "--node", "TIP", "--json"]) == 0
     sid = read_sid(out)
@@ -85,7 +73,7 @@ def test_cli_export_sid_and_statespace(tmp_path, body):
 def test_cli_export_bad_input_exits_2(tmp_path, body, capsys):
     red, _ = body
     h5 = tmp_path / "b.h5"
-    write_reduced(red, h5)
+    write_body(red, h5)
     out = tmp_path / "b.SID_FEM"
     assert main(["export", str(h5), "-o", str(out)]) == 2  # no --model
     assert "--model" in capsys.readouterr().err

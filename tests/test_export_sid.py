@@ -4,10 +4,10 @@ the two sample files of ../shared/data/sid."""
 from __future__ import annotations
 
 import dataclasses
-from pathlib import Path
 
 import numpy as np
 import pytest
+from helpers import DATA
 
 from flexmor.errors import ModelError, PortError, ReadError
 from flexmor.io.invariants import compute_invariants, node_triples, rigid_fields
@@ -16,7 +16,7 @@ from flexmor.models import cantilever
 from flexmor.ports import make_ports
 from flexmor.reduction import reduce
 
-SID_DATA = Path(__file__).parent / "data" / "sid"
+SID_DATA = DATA / "sid"
 L, W, H, RHO = 1.0, 0.1, 0.1, 7850.0
 
 

@@ -7,19 +7,18 @@ its Hankel singular values ``hsv`` and the magnitude ``mag`` of its frequency re
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 import pytest
 import scipy.io as sio
 import scipy.linalg as sla
+from helpers import DATA
 
 from flexmor.analysis.norms import hinf_norm
 from flexmor.errors import ModelError, OptionError
 from flexmor.linalg.threads import blas_threads
 from flexmor.reduction.dense_gramians import balanced_truncation, hankel_singular_values
 
-BEAM = Path(__file__).parent / "data" / "mor" / "beam.mat"
+BEAM = DATA / "mor" / "beam.mat"
 
 
 @pytest.fixture(autouse=True)

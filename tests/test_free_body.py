@@ -5,13 +5,12 @@ singular body, ``krylov --rigid exclude`` a body with modes at 44 and 73 Hz belo
 elastic one (620.7 Hz), clamped bodies exported without their supported nodes' mass.
 """
 
-import json
 import warnings
 
 import numpy as np
 import pytest
 import scipy.linalg as sla
-from conftest import CCX
+from helpers import CLAMPED, FREE, run_json
 
 from flexmor.basis import Basis
 from flexmor.cli import main
@@ -28,14 +27,7 @@ from flexmor.reduction.free_body import check_body
 from flexmor.rigid import rigid_body_modes, rigid_residual
 from flexmor.workflow import apply_damping, reduce_and_judge
 
-FREE = str(CCX / "beam8_free_mat.sti")
-CLAMPED = str(CCX / "beam8_clamped_mat.sti")
 IFACES = ["FIX@rbe2", "TIP@rbe2"]
-
-
-def run_json(capsys, *argv):
-    assert main(list(argv)) == 0
-    return json.loads(capsys.readouterr().out)
 
 
 def elastic_hz(model, k):
@@ -207,9 +199,9 @@ def test_clamped_body_is_refused_for_ffrf_export(clamped, tmp_path, capsys):
     with pytest.raises(ModelError, match="pass allow_clamped for a body whose frame does not move"):
         write_sid(red, tmp_path / "c.SID_FEM", model=clamped)
     assert not (tmp_path / "c.npz").exists() and not (tmp_path / "c.SID_FEM").exists()
-    from flexmor.io.hdf5 import write_reduced
+    from flexmor.io import write_body
 
-    write_reduced(red, tmp_path / "c.h5")
+    write_body(red, tmp_path / "c.h5")
     assert main(["export", str(tmp_path / "c.h5"), "--model", CLAMPED, "-o", str(tmp_path / "c.SID_FEM")]) == 2
     err = capsys.readouterr().err
     assert "supported (0 of 6 rigid-body modes)" in err and "Traceback" not in err
@@ -258,6 +250,7 @@ def _quasi_static_error(model, red, load, C):
     return np.linalg.norm(C @ (ur - u)) / np.linalg.norm(C @ u)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("method, off_min, on_max", [("krylov", 0.5, 1e-6), ("fw-sobt", 0.5, 0.05)])
 def test_inertia_loads_make_a_supported_body_see_its_frame_acceleration(clamped, method, off_min, on_max):
     """A clamped beam loaded at the tip in y, its support accelerating along the axis (x):

@@ -52,6 +52,7 @@ def _exact_frf(model, ports):
     return H, np.sqrt(lam) / (2 * np.pi)
 
 
+@pytest.mark.slow
 def test_adaptive_band_error_matches_brute_force(beam, full, reduced_bodies):
     model, ports = beam
     H, fk = _exact_frf(model, ports)
@@ -80,6 +81,7 @@ def test_adaptive_band_error_matches_brute_force(beam, full, reduced_bodies):
         assert abs(got / ref - 1) < tol, (red.method, red.order, got, ref)
 
 
+@pytest.mark.slow
 def test_ten_compared_bodies_cost_one_sweep(beam, tmp_path):
     model, ports = beam
     solver = SolverContext()
@@ -92,7 +94,8 @@ def test_ten_compared_bodies_cost_one_sweep(beam, tmp_path):
     errs = [fr.evaluate(b).band_error for b in bodies]
     assert solver.stats.count == n1  # judging costs no factorization
     assert errs[-1] < 1e-3 * errs[0]
-    again = FullResponse(model, ports, band, path="direct", cache=tmp_path, solver=solver)  # next process: from the cache
+    # the next process: from the cache
+    again = FullResponse(model, ports, band, path="direct", cache=tmp_path, solver=solver)
     assert again.cache_hit and again.n_factorizations == 0 and solver.stats.count == n1
     np.testing.assert_array_equal(again.H, fr.H)
 

@@ -2,7 +2,7 @@
 
 import numpy as np
 import pytest
-from conftest import cond1
+from helpers import cond1
 
 from flexmor.dynamics.frf import ShiftedMatrices, frf_full
 from flexmor.linalg import SolverContext, available_backends, factorize

@@ -4,17 +4,15 @@ The mutations (delete / duplicate / swap lines, junk / NaN / huge tokens, trunca
 prefix) are those of bench/fuzz.py, which runs the same cases by the hundred thousand.
 """
 
-import importlib.util
 import random
 import tempfile
 from pathlib import Path
 
+from helpers import ROOT, load_script
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-_spec = importlib.util.spec_from_file_location("fuzz", Path(__file__).parent.parent / "bench" / "fuzz.py")
-fuzz = importlib.util.module_from_spec(_spec)
-_spec.loader.exec_module(fuzz)
+fuzz = load_script(ROOT / "bench" / "fuzz.py")
 
 
 @settings(max_examples=300, deadline=None, derandomize=True, suppress_health_check=list(HealthCheck))

@@ -3,7 +3,7 @@
 import shutil
 
 import pytest
-from conftest import DATA
+from helpers import DATA
 
 import flexmor.io
 from flexmor.errors import ReadError

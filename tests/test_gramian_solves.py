@@ -68,6 +68,7 @@ def test_surrogate_solves_report_their_checks(beam, factors):
     assert factors["dense"].info["solves"]["order"] == model.n_dof
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("method, order", [("fw-sobt", 4), ("pod", 4)])
 def test_methods_give_the_same_body_with_every_solves(beam, method, order):
     model, ports = beam
@@ -85,6 +86,7 @@ def test_methods_give_the_same_body_with_every_solves(beam, method, order):
         assert abs(e / e0 - 1) < 1e-5, s
 
 
+@pytest.mark.slow
 def test_free_body_flexible_gramians_agree(free):
     model = free.with_rayleigh(0.0, 1e-6)
     ports = make_ports(model, ["TIP:y", "TIP:z"])
@@ -119,6 +121,7 @@ def test_auto_choice_and_bad_choice():
         choose_solves("fast", small, 3000.0)
 
 
+@pytest.mark.slow
 def test_non_proportional_damping(beam):
     # a damper at the tip: Phi^T D Phi is not diagonal; dense solves fall back to direct ones,
     # the surrogate solves the small projected systems and agrees with them
@@ -134,6 +137,7 @@ def test_non_proportional_damping(beam):
     assert _rel(G["surrogate"].R, G["direct"].R) < 1e-8 and _rel(G["surrogate"].L, G["direct"].L) < 1e-8
 
 
+@pytest.mark.slow
 def test_full_frf_auto_path_of_mid_size_models():
     # 810 DOF: damped models take the verified surrogate (measured 0.17 s against 0.32 s dense),
     # modal damping keeps the dense path (its ratio exact in every mode)
@@ -173,6 +177,7 @@ def test_full_band_surrogate_ends_at_the_cutoff_and_bounds_the_rest(clamped):
         assert 0 < share <= tail[name] < 1.1 * share, name
 
 
+@pytest.mark.slow
 def test_sobt_full_band_surrogate_equals_direct_to_its_tail(clamped):
     model = clamped.with_rayleigh(5.0, 1e-6)
     ports = make_ports(model, ["TIP:y", "TIP:z"])

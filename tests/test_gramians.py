@@ -111,15 +111,16 @@ def test_band_singular_values_converge_on_beam(clamped):
 
 @pytest.fixture(scope="module")
 def beam():
-    from pathlib import Path
+    from helpers import CLAMPED
 
     from flexmor.io import read
 
-    model = read(Path(__file__).parent / "data" / "calculix" / "beam8_clamped_mat.sti").with_rayleigh(0.0, 1e-6)
+    model = read(CLAMPED).with_rayleigh(0.0, 1e-6)
     ports = make_ports(model, ["TIP:y"])
     return model, ports, FullResponse(model, ports, BAND, cache=False)
 
 
+@pytest.mark.slow
 def test_fw_sobt_beats_modal_and_krylov_and_decreases(beam):
     # measured: r=1 fw-sobt 6.7e-4, modal 0.24; r=2 fw-sobt 1.2e-7, modal 6.7e-4, krylov 1.5e-3
     model, ports, full = beam
@@ -138,6 +139,7 @@ def test_fw_sobt_beats_modal_and_krylov_and_decreases(beam):
     assert hsv[0] > 1e3 * hsv[2] and red.info["n_nodes"] > 50
 
 
+@pytest.mark.slow
 def test_fw_sobt_velocity_variant_and_undamped(beam):
     model, ports, full = beam
     red, res = reduce_and_judge(model, "fw-sobt", 2, ports, full=full, band=BAND, variant="velocity")
@@ -151,12 +153,14 @@ def test_fw_sobt_velocity_variant_and_undamped(beam):
     assert full.evaluate(red0d).band_error < 1e-6
 
 
+@pytest.mark.slow
 def test_factor_compression_keeps_gramians_and_bounds_memory(clamped):
     from flexmor.reduction.gramians import FACTOR_MEMORY, MIN_FACTOR_COLUMNS, factor_store_columns
 
     model = clamped.with_rayleigh(0.0, 1e-6)
     ports = make_ports(model, ["TIP:y", "TIP:z"])
-    once = gramian_factors(model, ports, (50.0, 700.0), nodes=2, max_columns=10 ** 6, solves="direct")  # once, at the end
+    # once, at the end
+    once = gramian_factors(model, ports, (50.0, 700.0), nodes=2, max_columns=10 ** 6, solves="direct")
     often = gramian_factors(model, ports, (50.0, 700.0), nodes=2, max_columns=16, solves="direct")  # limit raised to 32
     assert once.info["compressions"] == 0 and once.info["factor_columns_peak"] == 4 * once.info["n_nodes"]
     assert often.info["compressions"] > 10 and often.info["factor_columns_peak"] < once.info["factor_columns_peak"] / 4

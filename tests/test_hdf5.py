@@ -3,8 +3,7 @@ import numpy as np
 import pytest
 
 from flexmor.errors import ReadError
-from flexmor.io import read_body
-from flexmor.io.hdf5 import read_reduced, write_reduced
+from flexmor.io import read_body, write_body
 from flexmor.ports import make_ports
 from flexmor.workflow import reduce_and_judge
 
@@ -13,7 +12,7 @@ def test_round_trip(clamped, tmp_path):
     ports = make_ports(clamped.with_rayleigh(1.0, 1e-6), ["TIP:y"])
     red, res = reduce_and_judge(clamped.with_rayleigh(1.0, 1e-6), "modal", 6, ports, band=(10, 2000))
     path = tmp_path / "body.h5"
-    write_reduced(red, path)
+    write_body(red, path)
     back = read_body(path)
     for name in ("M", "K", "D", "B", "C", "V", "dofs", "xyz", "node_ids"):
         np.testing.assert_array_equal(getattr(back, name), getattr(red, name))
@@ -28,11 +27,11 @@ def test_foreign_hdf5_is_refused(tmp_path):
     with h5py.File(p, "w") as h:
         h["a"] = 1
     with pytest.raises(ReadError, match="not a flexmor reduced body"):
-        read_reduced(p)
+        read_body(p)
     q = tmp_path / "y.h5"
     q.write_text("hello")
     with pytest.raises(ReadError, match="not an HDF5 file"):
-        read_reduced(q)
+        read_body(q)
 
 
 def _tiny_body(path):
@@ -41,7 +40,7 @@ def _tiny_body(path):
     r = 3
     red = ReducedModel(M=np.eye(r), K=np.diag([1.0, 2.0, 3.0]), D=None, B=np.ones((r, 1)), C=np.ones((2, r)),
                        V=np.ones((12, r)), dofs=np.ones((12, 2), dtype=np.int64), method="modal")
-    write_reduced(red, path)
+    write_body(red, path)
 
 
 @pytest.mark.parametrize("edit,message", [
@@ -62,11 +61,11 @@ def _tiny_body(path):
 def test_damaged_reduced_body_is_refused_before_use(tmp_path, edit, message):
     p = tmp_path / "body.h5"
     _tiny_body(p)
-    assert read_reduced(p).order == 3
+    assert read_body(p).order == 3
     with h5py.File(p, "r+") as h:
         edit(h)
     with pytest.raises(ReadError, match="body.h5") as e:
-        read_reduced(p)
+        read_body(p)
     assert message in str(e.value)
 
 

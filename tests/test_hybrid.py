@@ -28,6 +28,7 @@ def _err(beam, method, order, **opts):
     return res["band_error"], red
 
 
+@pytest.mark.slow
 def test_pod_beats_modal_and_energy_truncation(beam):
     # measured: pod 8 1.1e-9, modal 8 1.1e-7
     e_pod, red = _err(beam, "pod", 8)
@@ -42,6 +43,7 @@ def test_pod_beats_modal_and_energy_truncation(beam):
         reduce(beam[0], "pod", 4, beam[1], energy=1.5)
 
 
+@pytest.mark.slow
 def test_pod_time_snapshots(beam):
     pytest.importorskip("flexmor.dynamics.time")
     e, red = _err(beam, "pod", 6, snapshots="time")
@@ -49,6 +51,7 @@ def test_pod_time_snapshots(beam):
     assert e < 1e-5  # the sweep over the band excites its bending modes (measured 1.8e-7)
 
 
+@pytest.mark.slow
 def test_two_step(beam):
     model, ports, _ = beam
     # r2 = r1: the same space as the intermediate Krylov basis, hence the same reduced body
@@ -95,11 +98,12 @@ def test_svdmor_many_inputs(clamped):
 
 def test_cli_options_of_gramian_methods(tmp_path, capsys):
     import json
-    from pathlib import Path
+
+    from helpers import CLAMPED
 
     from flexmor.cli import main
 
-    sti = Path(__file__).parent / "data" / "calculix" / "beam8_clamped_mat.sti"
+    sti = CLAMPED
     argv = ["reduce", str(sti), "--method", "two-step", "--order", "6", "--intermediate", "30", "--input", "TIP:y",
             "--band", "10:3000", "--rayleigh", "0:1e-6", "--variant", "velocity", "--no-cache", "--json",
             "-o", str(tmp_path / "ts.h5")]
@@ -111,6 +115,7 @@ def test_cli_options_of_gramian_methods(tmp_path, capsys):
                  "-o", str(tmp_path / "p.h5")]) == 2
 
 
+@pytest.mark.slow
 def test_issue_comparison_on_the_cantilever():
     # the Gramian/hybrid comparison at reduced size: the built-in clamped cantilever cantilever(4)
     # (3,000 DOF), six ports at the tip (TIP and TIP_CENTER, x/y/z), 1 % Rayleigh damping at

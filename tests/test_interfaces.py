@@ -18,7 +18,7 @@ import numpy as np
 import pytest
 import scipy.linalg as sla
 import scipy.sparse.linalg as spl
-from conftest import CCX
+from helpers import CLAMPED, FREE
 
 from flexmor.cli import main
 from flexmor.couplings import couple
@@ -31,7 +31,6 @@ from flexmor.ports import make_ports
 from flexmor.reduction import reduce
 from flexmor.workflow import apply_damping
 
-DATA = str(CCX) + "/"
 SPEC = "FIX@rbe2"
 
 
@@ -41,8 +40,8 @@ def beam():
     coupling, krylov body of order 16 for forces at the master and the tip)."""
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        free = read(DATA + "beam8_free_mat.sti")
-        clamped = read(DATA + "beam8_clamped_mat.sti")
+        free = read(FREE)
+        clamped = read(CLAMPED)
     c = couple(free, [SPEC])
     mc = apply_damping(c.model, modal_damping=0.01, band=(10.0, 3000.0))
     bodies = {}
@@ -161,7 +160,7 @@ def test_mounted_by_its_interface_it_sags_like_the_clamped_beam(beam, tmp_path):
     full = u[sel].mean()
     assert full == pytest.approx(-3.822e-5, rel=1e-3)
     red = bodies["craig-bampton"]
-    z, _, _ = _mounted_tip_z(red, DATA + "beam8_free_mat.sti")  # the plain model file
+    z, _, _ = _mounted_tip_z(red, FREE)  # the plain model file
     assert z == pytest.approx(full, rel=2e-3)
     write_exudyn(red, tmp_path / "cb.exudyn.npz", model=free)
     z_file, mbs, body = _mounted_tip_z(red, free, via_file=tmp_path / "cb.exudyn.npz")
@@ -175,7 +174,7 @@ def test_cli_export_refuses_a_body_with_rigid_motion_unless_asked(tmp_path, caps
     """krylov with rigid='include' on the free beam: the body judged has order 12 with 4 rigid-body
     modes; export refuses to write another body silently, and with --remove-rigid states the order
     and the error of what it writes."""
-    beam = DATA + "beam8_free_mat.sti"
+    beam = FREE
     body = tmp_path / "k.h5"
     assert main(["reduce", beam, "--method", "krylov", "--order", "12", "--rigid", "include", "--input", "TIP:y",
                  "--input", "TIP:z", "--modal-damping", "0.01", "--band", "10:3000", "-o", str(body), "--json"]) == 0
@@ -217,12 +216,13 @@ def test_vtu_of_a_coupled_body_moves_the_slaves(beam, tmp_path):
                                    rtol=1e-8, atol=1e-12)
 
 
+@pytest.mark.slow
 def test_cli_mounted_record_against_calculix_clamped_and_its_opt_out(tmp_path, capsys, clamped_ref):
     """The free beam with FIX@rbe2, held clamped at the master, is the beam CalculiX clamped itself: the
     mounted record's full frequencies are CalculiX's own (100.046, 100.046, 608.565 ... Hz) to the
     printed digits, and the Craig-Bampton body's equal them (its fixed-interface modes). --no-mounted
     leaves the check out."""
-    beam = DATA + "beam8_free_mat.sti"
+    beam = FREE
     args = ["reduce", beam, "--method", "craig-bampton", "--order", "16", "--interface", SPEC, "--input", "TIP:y",
             "--band", "10:3000", "--json"]
     assert main(args + ["-o", str(tmp_path / "a.h5")]) == 0

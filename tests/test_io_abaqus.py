@@ -8,13 +8,14 @@ from pathlib import Path
 import numpy as np
 import pytest
 import scipy.linalg as sla
+from helpers import CCX, DATA, SHARED, geometric_rigid_modes
 
 import flexmor.io
 from flexmor.errors import ReadError
 from flexmor.io.abaqus import read_deck
 
-DATA = Path(__file__).parent / "data" / "abaqus"
-SHARED = Path(__file__).parents[2] / "shared" / "data" / "abaqus"
+ABAQUS = DATA / "abaqus"
+SHARED_ABAQUS = SHARED / "abaqus"
 
 # corner-node tetrahedra of a C3D8 (exact volume for planar faces)
 HEX_TETS = [(0, 1, 3, 4), (1, 2, 3, 6), (1, 4, 5, 6), (3, 4, 6, 7), (1, 3, 4, 6)]
@@ -31,21 +32,8 @@ def _volume(deck) -> float:
     return vol
 
 
-def _rigid(model) -> np.ndarray:
-    """The 6 rigid-body motions (x y z translations, rotations about x y z) at the equations."""
-    n = model.n_dof
-    xyz = model.node_xyz(model.dofs[:, 0])
-    d = model.dofs[:, 1] - 1
-    R = np.zeros((n, 6))
-    for j in range(3):
-        R[d == j, j] = 1.0
-        u = np.cross(np.eye(3)[j], xyz)
-        R[:, 3 + j] = u[np.arange(n), d]
-    return R
-
-
 def _block(name):
-    folder = DATA if (DATA / f"{name}.inp").exists() else SHARED
+    folder = ABAQUS if (ABAQUS / f"{name}.inp").exists() else SHARED_ABAQUS
     if not (folder / f"{name}_STIF1.mtx").exists():
         pytest.skip(f"{name} not available")
     return folder / f"{name}.inp"
@@ -69,7 +57,7 @@ def test_block_sizes_and_sets(block):
 
 def test_block_rigid_body_motions_and_mass(block):
     inp, model = block
-    R = _rigid(model)
+    R = geometric_rigid_modes(model)
     # equations map to the right nodes: rigid translations AND rotations give no elastic force
     scale = abs(model.K).max() * np.abs(model.xyz).max()
     assert np.abs(model.K @ R).max() < 1e-12 * scale
@@ -99,6 +87,7 @@ def _write_labels(path: Path, model, *, prefix="", triangle="both"):
             f.write(f"{prefix}{nd[i, 0]},{nd[i, 1]}, {prefix}{nd[j, 0]},{nd[j, 1]}, {float(v)!r}\n")
 
 
+@pytest.mark.slow
 def test_labels_form_gives_the_same_model(tmp_path):
     inp = _block("blockC3D8")
     ref = flexmor.io.read(inp)
@@ -160,7 +149,7 @@ def test_deck_with_instances(tmp_path):
 
 
 def test_calculix_inp_goes_to_calculix():
-    ccx = Path(__file__).parent / "data" / "calculix" / "beam8_clamped_mat.inp"
+    ccx = CCX / "beam8_clamped_mat.inp"
     model = flexmor.io.read(ccx)
     assert model.n_dof == flexmor.io.read(ccx.with_suffix(".sti")).n_dof
 

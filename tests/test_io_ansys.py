@@ -3,34 +3,23 @@
 from __future__ import annotations
 
 import shutil
-from pathlib import Path
 
 import numpy as np
 import pytest
 import scipy.linalg as sla
+from helpers import DATA, geometric_rigid_modes
 
 import flexmor.io
 from flexmor.errors import ReadError
 
-DATA = Path(__file__).parent / "data" / "ansys"
+ANSYS = DATA / "ansys"
 ROTOR = ["rotorAnsysStiffnessMatrixSparse.txt", "rotorAnsysMassMatrixSparse.txt",
          "rotorAnsysMatrixDofMappingVector.txt", "rotorAnsysNodalCoordinates.txt"]
 
 
-def _rigid(model):
-    n = model.n_dof
-    xyz = model.node_xyz(model.dofs[:, 0])
-    d = model.dofs[:, 1] - 1
-    R = np.zeros((n, 6))
-    for j in range(3):
-        R[d == j, j] = 1.0
-        R[:, 3 + j] = np.cross(np.eye(3)[j], xyz)[np.arange(n), d]
-    return R
-
-
 @pytest.fixture(scope="module")
 def rotor():
-    return flexmor.io.read(DATA / ROTOR[0])
+    return flexmor.io.read(ANSYS / ROTOR[0])
 
 
 def test_rotor_first_flexible_mode_matches_exudyn(rotor):
@@ -44,7 +33,7 @@ def test_rotor_first_flexible_mode_matches_exudyn(rotor):
 def test_rotor_equations_map_to_nodes(rotor):
     # block i of 3 equations belongs to node vector[i]: rigid rotations give no elastic force
     np.testing.assert_array_equal(rotor.dofs[:4], [[3, 1], [3, 2], [3, 3], [31, 1]])
-    R = _rigid(rotor)
+    R = geometric_rigid_modes(rotor)
     assert np.abs(rotor.K @ R).max() < 1e-11 * abs(rotor.K).max()
     np.testing.assert_allclose(rotor.node_xyz([1])[0], [-4.996003611e-16, -4.996003611e-16, 0.15])
     np.testing.assert_allclose(rotor.node_xyz([2])[0], [-4.996003611e-16, -4.996003611e-16, 0.1])
@@ -54,7 +43,7 @@ def test_rotor_equations_map_to_nodes(rotor):
 
 def _rotor_copy(tmp_path, **texts):
     for name in ROTOR:
-        shutil.copy(DATA / name, tmp_path / name)
+        shutil.copy(ANSYS / name, tmp_path / name)
     for key, text in texts.items():
         (tmp_path / ROTOR[["K", "M", "map", "xyz"].index(key)]).write_text(text)
     return tmp_path / ROTOR[0]
@@ -75,7 +64,7 @@ def test_hbmat_mapping_file_and_decimal_points(tmp_path, rotor):
 
 
 def _text(i):
-    return (DATA / ROTOR[i]).read_text(encoding="latin-1")
+    return (ANSYS / ROTOR[i]).read_text(encoding="latin-1")
 
 
 @pytest.mark.parametrize("key, edit, fname, line, words", [
@@ -112,7 +101,7 @@ def test_hbmat_mapping_errors(tmp_path):
         flexmor.io.read(path)
 
 
-FULL = DATA / "ansys_file.full"
+FULL = ANSYS / "ansys_file.full"
 
 
 @pytest.fixture(scope="module")
@@ -120,7 +109,7 @@ def full_model():
     pytest.importorskip("ansys.mapdl.reader")
     if not FULL.exists():
         pytest.skip("ansys_file.full not available")
-    return flexmor.io.read(FULL, coordinates=DATA / "ansys_HexBeam.cdb")
+    return flexmor.io.read(FULL, coordinates=ANSYS / "ansys_HexBeam.cdb")
 
 
 def test_full_file_constrained_dofs_removed_and_reported(full_model):
@@ -132,7 +121,7 @@ def test_full_file_constrained_dofs_removed_and_reported(full_model):
     assert not np.any(np.isin(m.dofs[:, 0], gone[:, 0]))
     assert abs(m.K - m.K.T).max() == 0.0 and m.K.diagonal().min() > 0
     # away from the clamp, rigid motions of the nodes give no elastic force (the map is right)
-    res = np.abs(m.K @ _rigid(m)).max(axis=1) / abs(m.K).max()
+    res = np.abs(m.K @ geometric_rigid_modes(m)).max(axis=1) / abs(m.K).max()
     assert np.count_nonzero(res < 1e-10) >= 800
     w = sla.eigh(m.K.toarray(), m.M.toarray(), eigvals_only=True, subset_by_index=[0, 1])
     assert np.sqrt(w[0]) / (2 * np.pi) == pytest.approx(1283.2004, rel=1e-6)

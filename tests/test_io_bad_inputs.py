@@ -65,10 +65,10 @@ def test_op4_duplicate_rows_refused(tmp_path):
 
 def test_truncated_reduced_body(tmp_path, clamped):
     from flexmor.body import ReducedModel
-    from flexmor.io.hdf5 import write_reduced
+    from flexmor.io import write_body
 
     red = ReducedModel(M=np.eye(2), K=np.diag([1.0, 4.0]), D=None, B=np.ones((2, 1)), C=np.ones((1, 2)))
-    write_reduced(red, tmp_path / "r.h5")
+    write_body(red, tmp_path / "r.h5")
     raw = (tmp_path / "r.h5").read_bytes()
     (tmp_path / "r.h5").write_bytes(raw[: len(raw) // 2])
     with pytest.raises(ReadError, match=r"r\.h5"):

@@ -106,7 +106,8 @@ def test_grid_run_parses_fields_as_the_card_reader():
     assert grid_run(["GRID,1,,0.1,0.2,0.3", "GRID,2,,1.,2.,3.,0"], "free") is None  # field counts differ
     assert grid_run([_small(1, "", ["1.5-3", "0.", "0."])], "small") is None  # Nastran exponent: card reader
     assert grid_run([_small(1, "", ["inf", "0.", "0."])], "small") is None
-    assert grid_run(["GRID,1,,0.,0.,1.é"], "free") is None and grid_run([_small(1, "", ["1.é", "0.", "0."])], "small") is None
+    assert grid_run(["GRID,1,,0.,0.,1.é"], "free") is None
+    assert grid_run([_small(1, "", ["1.é", "0.", "0."])], "small") is None
     assert grid_run([_small("", "", ["1.", "0.", "0."])], "small") is None
     assert grid_form("GRID*          1") == "large" and grid_form("GRIDS   1") is None
     assert grid_form("GRID*,1,,1.,2.") is None  # free-field large: card reader

@@ -8,15 +8,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 import scipy.linalg as sla
+from helpers import CLAMPED, DATA, FREE
 
 import flexmor.io
 from flexmor.errors import FlexmorError, ReadError
 from flexmor.io._text import parse_triplets
 from flexmor.model import DIRECTIONS
 
-DATA = Path(__file__).parent / "data"
-CLAMPED = DATA / "calculix" / "beam8_clamped_mat.sti"
-FREE = DATA / "calculix" / "beam8_free_mat.sti"
 BAD = DATA / "bad"
 
 
@@ -39,7 +37,7 @@ def test_clamped_sizes_and_sets(clamped):
     assert clamped.n_dof == 270  # 99 nodes - 9 clamped, 3 DOF each
     assert clamped.n_nodes == 99
     assert clamped.name == "beam8_clamped_mat"
-    assert clamped.source == str(CLAMPED)
+    assert clamped.source == CLAMPED
     assert sorted(clamped.node_sets) == ["FIX", "NALL", "TIP"]
     assert clamped.node_sets["TIP"].tolist() == [11, 22, 33, 44, 55, 66, 77, 88, 99]
     np.testing.assert_allclose(clamped.node_xyz([99])[0], [1.0, 0.1, 0.1])
@@ -121,10 +119,10 @@ def test_parse_triplets_fast_and_slow_paths_agree(tmp_path):
 
 # -- broken files -----------------------------------------------------------------------------
 
-def _job(tmp_path: Path, src: Path = CLAMPED, **edits) -> Path:
+def _job(tmp_path: Path, src: Path | str = CLAMPED, **edits) -> Path:
     """Copy the four files of a CalculiX job to tmp_path/job.*; edits[suffix](text) -> text."""
     for suf in (".sti", ".mas", ".dof", ".inp"):
-        text = src.with_suffix(suf).read_text()
+        text = Path(src).with_suffix(suf).read_text()
         if suf[1:] in edits:
             text = edits[suf[1:]](text)
         (tmp_path / f"job{suf}").write_text(text)
@@ -218,7 +216,7 @@ def test_nodes_from_frd_without_deck(tmp_path, free, caplog):
     from flexmor.io.calculix import compare_modes, read_frd
 
     for suf in (".sti", ".mas", ".dof", ".frd"):
-        shutil.copy(FREE.with_suffix(suf), tmp_path / f"job{suf}")
+        shutil.copy(Path(FREE).with_suffix(suf), tmp_path / f"job{suf}")
     with caplog.at_level(logging.WARNING, logger="flexmor"):
         m = read(tmp_path / "job.sti")
     assert "no input deck job.inp beside it; nodes read from the node block of job.frd" in caplog.text
@@ -232,7 +230,7 @@ def test_nodes_from_frd_without_deck(tmp_path, free, caplog):
     assert cmp["frequencies_hz"][6] == pytest.approx(620.6715, rel=1e-6)
     assert np.max(np.abs(cmp["rel_diff"][6:])) < 1e-6 and np.min(cmp["mac"][6:]) > 0.999
     # with the deck beside it, nodes and node sets come from the deck
-    shutil.copy(FREE.with_suffix(".inp"), tmp_path / "job.inp")
+    shutil.copy(Path(FREE).with_suffix(".inp"), tmp_path / "job.inp")
     m2 = read(tmp_path / "job.sti")
     assert set(m2.node_sets) == set(free.node_sets) and "TIP" in m2.node_sets
     (tmp_path / "job.inp").unlink()

@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 import scipy.linalg as sla
 import scipy.sparse as sp
-from conftest import CCX
+from helpers import CCX
 
 import flexmor.io
 from flexmor.errors import FlexmorWarning, ReadError
@@ -86,7 +86,8 @@ def test_abaqus_massless_equation(tmp_path, block, ok):
         with pytest.raises(ReadError, match="mass matrix diagonal is not positive at 1 equation"):
             flexmor.io.read(tmp_path / f"{block}.inp")
         return
-    with pytest.warns(FlexmorWarning, match=r"blockC3D10.inp: mass matrix diagonal is not positive at 1 equation.*shift-invert"):
+    with pytest.warns(FlexmorWarning,
+                      match=r"blockC3D10.inp: mass matrix diagonal is not positive at 1 equation.*shift-invert"):
         model = flexmor.io.read(tmp_path / f"{block}.inp")
     assert model.M.diagonal()[0] == 0.0 and np.count_nonzero(model.M.diagonal() <= 0) == 1
 
@@ -99,6 +100,7 @@ def _nearly_singular(M, delta_rel):
     return 0.5 * (Ms + Ms.T)
 
 
+@pytest.mark.slow
 def test_dense_path_ignores_whether_cholesky_fails(clamped):
     """Cholesky of M succeeds with tiny pivots, yet the dense path must not use ``L^-1 K L^-T``.
 

@@ -3,7 +3,7 @@ does not fully understand."""
 
 import numpy as np
 import pytest
-from conftest import DATA
+from helpers import DATA
 
 import flexmor.io.nastran.nastran as nastran
 from flexmor.io.nastran.dmig_fast import fast_dmig

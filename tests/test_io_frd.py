@@ -62,7 +62,8 @@ def _write(path, model, freqs, *, fmt=1, binary=False, perturb=None, gk=False):
         line(f"    1PGM  {1.0:12.6E}")
         if gk:
             line(f"    1PGK  {(2 * np.pi * f) ** 2:16.9E}")
-        line(f"  100CL{101 + i:5d}{f:12.5E}{ids.size:12d}{'':20s}{2:2d}{i + 1:5d}{'MODAL':10s}{2 if binary else fmt:2d}")
+        line(f"  100CL{101 + i:5d}{f:12.5E}{ids.size:12d}{'':20s}{2:2d}{i + 1:5d}{'MODAL':10s}"
+             f"{2 if binary else fmt:2d}")
         line(" -4  DISP        4    1")
         for k in range(3):
             line(f" -5  D{k + 1}          1    2{k + 1:5d}    0")
@@ -79,6 +80,7 @@ def _write(path, model, freqs, *, fmt=1, binary=False, perturb=None, gk=False):
     return ids, xyz, U
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("fmt, binary", [(1, False), (0, False), (1, True)])
 def test_frd_modes_match_the_model(tmp_path, clamped, clamped_ref, fmt, binary):
     p = tmp_path / "beam.frd"
@@ -133,17 +135,17 @@ def test_broken_binary_frd(tmp_path, clamped, clamped_ref):
 
 
 def test_info_reference(tmp_path, clamped, clamped_ref, capsys):
-    from conftest import CCX
+    from helpers import CLAMPED
 
     from flexmor.cli import main
 
     p = tmp_path / "job.frd"
     _write(p, clamped, clamped_ref[:N_MODES])
-    assert main(["info", str(CCX / "beam8_clamped_mat.sti"), "--reference", str(p), "--json"]) == 0
+    assert main(["info", CLAMPED, "--reference", str(p), "--json"]) == 0
     import json
 
     ref = json.loads(capsys.readouterr().out)["reference"]
     assert len(ref["mac"]) == N_MODES and max(ref["rel_diff"]) < 1e-5 and min(ref["mac"]) > 0.9999
     p.write_text(p.read_text().replace(" 9999\n", ""))
-    assert main(["info", str(CCX / "beam8_clamped_mat.sti"), "--reference", str(p)]) == 2
+    assert main(["info", CLAMPED, "--reference", str(p)]) == 2
     assert "job.frd" in capsys.readouterr().err

@@ -2,18 +2,16 @@
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 import pytest
 import scipy.io
 import scipy.sparse as sp
+from helpers import DATA
 
 import flexmor.io
 from flexmor.damping import GivenDamping
 from flexmor.errors import ReadError
 
-DATA = Path(__file__).parent / "data"
 LF10 = DATA / "mor" / "LF10.mat"
 
 

@@ -9,13 +9,13 @@ import pytest
 import scipy.io
 import scipy.linalg as sla
 import scipy.sparse as sp
+from helpers import DATA
 
 import flexmor.io
 from flexmor.damping import GivenDamping, NoDamping
 from flexmor.errors import ReadError
 from flexmor.io.matrix_market import find_siblings
 
-DATA = Path(__file__).parent / "data"
 BAD = DATA / "bad"
 
 N, MASS, STIFF = 6, 2.0, 800.0

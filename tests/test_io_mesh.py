@@ -9,7 +9,7 @@ bricks and tetrahedra must have positive volume and wedges the orientation of VT
 
 import numpy as np
 import pytest
-from conftest import CCX, DATA
+from helpers import CCX, DATA
 
 import flexmor.io
 from flexmor.io._cells import abaqus_cell, ansys_cell, build_mesh, mesh_of_elements, nastran_cell
@@ -165,13 +165,14 @@ def test_abaqus_job_has_the_deck_mesh():
     assert vol.sum() == pytest.approx(np.prod(hi - lo))
 
 
+@pytest.mark.slow
 def test_ansys_full_with_cdb_has_the_mesh():
     model = flexmor.io.read(DATA / "ansys" / "ansys_file.full", coordinates=DATA / "ansys" / "ansys_HexBeam.cdb")
     (block,) = model.mesh.blocks
     assert block.type == "hexahedron20" and len(block.nodes) == 40
     x = model.xyz[np.searchsorted(model.node_ids, block.nodes)]
     for cell in x:
-        _check_midsides("hexahedron20", np.arange(20), lambda i: cell[i])
+        _check_midsides("hexahedron20", np.arange(20), lambda i, cell=cell: cell[i])
     vols = [_hex_volume(cell[:8]) for cell in x]
     assert min(vols) > 0
     assert sum(vols) == pytest.approx(np.prod(model.xyz.max(axis=0) - model.xyz.min(axis=0)))

@@ -2,19 +2,18 @@
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 import pytest
 import scipy.linalg as sla
+from helpers import DATA
 
 import flexmor.io
 from flexmor.errors import ReadError
 from flexmor.io.nastran import read_dmig, read_op4
 
-DATA = Path(__file__).parent / "data" / "nastran"
-PCH = DATA / "pyyeti_matrix_factory.pch"
-OP4 = DATA / "pyyeti_rd_ascii.op4"
+NASTRAN = DATA / "nastran"
+PCH = NASTRAN / "pyyeti_matrix_factory.pch"
+OP4 = NASTRAN / "pyyeti_rd_ascii.op4"
 
 
 def _dense(entry):

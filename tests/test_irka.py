@@ -4,7 +4,7 @@ import logging
 
 import numpy as np
 import pytest
-from conftest import DATA
+from helpers import DATA
 
 from flexmor.analysis.norms import h2_error
 from flexmor.io import read
@@ -25,6 +25,7 @@ def cant3():
     return model, make_ports(model, ["TIP:x", "TIP:y", "TIP:z"])
 
 
+@pytest.mark.slow
 def test_h2_modal_formula_equals_lyapunov():
     model = cantilever(1).with_rayleigh(10.0, 1e-6)
     ports = make_ports(model, ["TIP:y", "TIP:z"])
@@ -34,6 +35,7 @@ def test_h2_modal_formula_equals_lyapunov():
     assert abs(a / b - 1) < 1e-3 and 1e-3 < a < 1
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("r", [2, 4, 6, 8])
 def test_irka_lf10_converges_and_beats_krylov_in_h2(lf10, r):
     model, ports = lf10
@@ -46,6 +48,7 @@ def test_irka_lf10_converges_and_beats_krylov_in_h2(lf10, r):
     assert e_i <= e_k, (e_i, e_k)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("r", [6, 12])
 def test_irka_cantilever_three_inputs(cant3, r):
     model, ports = cant3

@@ -6,7 +6,7 @@ import json
 
 import numpy as np
 import pytest
-from conftest import CCX
+from helpers import CLAMPED
 from scipy.sparse.linalg import ArpackNoConvergence
 
 import flexmor.linalg.eigen as eigen_mod
@@ -44,9 +44,10 @@ def test_arpack_non_convergence_carries_the_converged_pairs(clamped, monkeypatch
     np.testing.assert_array_equal(phi[:, 0], np.eye(n)[:, 1])
 
 
+@pytest.mark.slow
 def test_irka_iteration_limit_on_the_command_line(tmp_path, capsys, caplog):
     out = tmp_path / "irka.h5"
-    code = main(["reduce", str(CCX / "beam8_clamped_mat.sti"), "--method", "irka", "--order", "6", "--input",
+    code = main(["reduce", CLAMPED, "--method", "irka", "--order", "6", "--input",
                  "TIP:y", "--rayleigh", "2:1e-6", "--max-iter", "1", "--no-error", "--json", "-o", str(out)])
     captured = capsys.readouterr()
     assert code == 0 and out.exists()

@@ -7,14 +7,13 @@ full model has no resonance without a word; the RBE2 at the hole stiffened the m
 report's plots drew another reference than its table.
 """
 
-import json
 import warnings
 
 import numpy as np
 import pytest
 import scipy.linalg as sla
 import scipy.sparse.linalg as spla
-from conftest import CCX
+from helpers import FREE, run_json
 
 from flexmor.analysis.compare import JUDGED_ELASTIC, JUDGED_RIGID, FullResponse
 from flexmor.basis import Basis
@@ -29,13 +28,7 @@ from flexmor.reduction import reduce
 from flexmor.rigid import elastic_body, exclude_rigid, rigid_content, rigid_residual
 from flexmor.workflow import apply_damping, reduce_and_judge
 
-FREE = str(CCX / "beam8_free_mat.sti")
 BAND = (10.0, 2000.0)
-
-
-def run_json(capsys, *argv):
-    assert main(list(argv)) == 0
-    return json.loads(capsys.readouterr().out)
 
 
 @pytest.fixture(scope="module")
@@ -56,6 +49,7 @@ def _elastic_hz(model, k):
 
 @pytest.mark.parametrize("method, order", [("krylov", 12), ("pod", 12), ("fw-sobt", 10), ("sobt", 10),
                                            ("two-step", 10), ("svdmor", 10), ("adaptive", 12)])
+@pytest.mark.slow
 def test_free_body_default_is_the_exported_body(damped, full, method, order):
     """The defaults exclude rigid-body motion: stored order = judged order = exported order. Before,
     krylov 12 on TIP:y, TIP:z held the 4 rigid motions those forces excite and export wrote order 8
@@ -82,6 +76,7 @@ def test_rigid_include_is_still_there_and_judged_on_the_full_response(damped, fu
     assert exclude_rigid(damped, Basis(red.V, "krylov", {"rigid": "exclude"})).V.shape[1] == 8
 
 
+@pytest.mark.slow
 def test_cli_reduce_stores_the_order_it_judged_and_export_writes(capsys, tmp_path):
     """``flexmor reduce`` of a free body with krylov's defaults: the JSON, the .h5 and the body an FFRF
     export makes of it have one order; the table says what was judged."""
@@ -106,6 +101,7 @@ def test_modal_excludes_the_six_rigid_modes(damped):
     assert elastic_body(damped, red) is red
 
 
+@pytest.mark.slow
 def test_guyan_on_a_free_body_is_inertia_relief_not_rigid_motion(free):
     """One RBE2 interface on the free beam: its 6 constraint modes are pure rigid motion, so the Guyan
     body had no elastic coordinate at all (export: 'empty basis'). By default it now has the 6
@@ -122,6 +118,7 @@ def test_guyan_on_a_free_body_is_inertia_relief_not_rigid_motion(free):
     assert np.all(old.frequencies_hz() < 1.0)  # the classic basis: rigid motion only
 
 
+@pytest.mark.slow
 def test_spurious_resonance_is_noted_and_marked(capsys, tmp_path):
     """krylov 3 for FIX:y, TIP:y on the free beam: the body resonates at 1760.9 Hz where the full model
     has none in the band (its resonances: 620.7, 1610.4, 1668.6 Hz); measured max_rel_error 6.35 at
@@ -174,6 +171,7 @@ def test_rbe2_at_the_hole_stiffens_the_plate_structure(plate):
     assert rec["rel_change"][3] == pytest.approx(891.61 / 857.97 - 1, abs=2e-4)
 
 
+@pytest.mark.slow
 def test_coupling_frequencies_in_info_reduce_and_the_body(capsys, tmp_path, free):
     """``info MODEL --interface``, ``reduce`` (JSON, text, the .h5) and ``info BODY.h5`` give the coupled and
     the uncoupled frequencies; coupled ones from the error grid's pre-pass equal the eigen solve's."""
@@ -185,7 +183,7 @@ def test_coupling_frequencies_in_info_reduce_and_the_body(capsys, tmp_path, free
     np.testing.assert_allclose(rec["coupled_hz"], _elastic_hz(coupled, 6), rtol=1e-8)
     assert info["n_dof"] == coupled.n_dof and rec["coupled_hz"][5] > rec["uncoupled_hz"][5]
     out = run_json(capsys, "reduce", FREE, "--method", "craig-bampton", "--order", "16", *args, "--input",
-                   "TIP@rbe2:y", "--modal-damping", "0.01", "--band", "10:3000", "-o", str(tmp_path / "cb.h5"), "--json")
+                   "TIP@rbe2:y", "--modal-damping", "0.01", "--band", "10:3000", "-o", tmp_path / "cb.h5", "--json")
     np.testing.assert_allclose(out["coupling_frequencies"]["coupled_hz"], rec["coupled_hz"], rtol=1e-8)
     np.testing.assert_allclose(out["coupling_frequencies"]["uncoupled_hz"], rec["uncoupled_hz"], rtol=1e-10)
     body = run_json(capsys, "info", str(tmp_path / "cb.h5"), "--json")
@@ -194,6 +192,7 @@ def test_coupling_frequencies_in_info_reduce_and_the_body(capsys, tmp_path, free
     assert "RBE2 at FIX, RBE2 at TIP changes the lowest elastic frequencies by" in capsys.readouterr().out
 
 
+@pytest.mark.slow
 def test_report_plots_judge_what_the_table_judges(free, tmp_path):
     """A mixed report (a body without rigid motion, one with it): each body's |H| reference and time-error
     curve are those of its table row. Before, the time plot compared every body with the whole response

@@ -44,6 +44,7 @@ def test_moment_matching_mimo(clamped, points, k, side):
             assert rel < 1e-8, (p, j, rel)
 
 
+@pytest.mark.slow
 def test_krylov_beats_modal_by_10x(clamped):
     model = clamped.with_rayleigh(0.0, 1e-6)
     ports = make_ports(model, ["TIP:y"])
@@ -82,6 +83,7 @@ def test_krylov_options_are_validated(clamped):
         reduce(clamped, "krylov", None, ports)
 
 
+@pytest.mark.slow
 def test_arnoldi_stores_one_n_by_r_basis():
     """Two-level Arnoldi: the 2n-vectors live as coefficients of one n x r basis (memory ~ n r)."""
     import tracemalloc
@@ -157,6 +159,7 @@ def test_arnoldi_orthogonalization_matches_block_gram_schmidt(dtype):
         assert np.abs(t - direct).max() < 1e-12 * np.abs(top).max()
 
 
+@pytest.mark.slow
 def test_arnoldi_basis_spans_the_leading_moments():
     """The orthonormal basis of four blocks spans the explicit moments X_0..X_3 (principal angles < 1e-8)."""
     import scipy.linalg as sla

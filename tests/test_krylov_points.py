@@ -52,6 +52,7 @@ def test_more_points_when_the_estimate_fails(beam):
     assert res["band_error"] == pytest.approx(res3["band_error"], rel=1e-6)
 
 
+@pytest.mark.slow
 def test_estimate_bounds_the_error_and_decreases(beam):
     model, ports, full = beam
     est, err = [], []

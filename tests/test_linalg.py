@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 import scipy.sparse as sp
-from conftest import cond1
+from helpers import cond1
 
 from flexmor.errors import OptionError, SolverError
 from flexmor.linalg import EigenPolicy, SolverContext, available_backends, eigenmodes, factorize

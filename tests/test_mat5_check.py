@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 import scipy.io
 import scipy.sparse as sp
-from conftest import DATA
+from helpers import DATA
 
 from flexmor.errors import ReadError
 from flexmor.io.matlab._mat5 import MAX_DEPTH, checked_v5_stream

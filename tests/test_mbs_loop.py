@@ -9,22 +9,19 @@ DOF), reduced with and without the frame's inertia loads. Skipped without Exudyn
 
 from __future__ import annotations
 
-import importlib.util
-from pathlib import Path
-
 import numpy as np
 import pytest
+from helpers import ROOT, load_script
 
 pytest.importorskip("exudyn")
 
-_spec = importlib.util.spec_from_file_location("mbs_loop", Path(__file__).resolve().parents[1] / "bench" / "mbs_loop.py")
-mbs_loop = importlib.util.module_from_spec(_spec)
-_spec.loader.exec_module(mbs_loop)
+mbs_loop = load_script(ROOT / "bench" / "mbs_loop.py")
 
 
 @pytest.fixture(scope="module")
 def pendulum():
-    res = mbs_loop.free_body("pendulum", (10, 2, 2), [18], end_time=0.2, step=1e-3, methods=("modal", "craig-bampton", "krylov"))
+    res = mbs_loop.free_body("pendulum", (10, 2, 2), [18], end_time=0.2, step=1e-3,
+                             methods=("modal", "craig-bampton", "krylov"))
     return res, {row["method"]: row for row in res["rows"]}
 
 
@@ -153,13 +150,15 @@ def test_transverse_port_bends_either_way_but_misses_the_stretching_without_iner
         assert on["max_error"] < off["max_error"] / 5, method
 
 
+@pytest.mark.slow
 def test_benchmark_command_line_prints_the_tables(tmp_path, capsys):
     """``bench/mbs_loop.py`` end to end on an 84-DOF beam: three tables, one row per method
     (and port and inertia-load choice), the JSON with the same rows."""
     import json
 
     tiny = ["--divisions", "6,1,1", "--crank-divisions", "6,1,1", "--hub-divisions", "6,1,1", "--orders", "12",
-            "--end-time", "0.02", "--crank-end-time", "0.02", "--hub-end-time", "0.02", "--json", str(tmp_path / "r.json")]
+            "--end-time", "0.02", "--crank-end-time", "0.02", "--hub-end-time", "0.02",
+            "--json", str(tmp_path / "r.json")]
     assert mbs_loop.main(tiny) == 0
     out = capsys.readouterr().out
     res = json.loads((tmp_path / "r.json").read_text())

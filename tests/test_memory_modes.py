@@ -7,6 +7,7 @@ import re
 import numpy as np
 import pytest
 import scipy.sparse as sp
+from helpers import ROOT
 
 from flexmor.cli import main
 from flexmor.errors import OptionError, SolverError
@@ -38,6 +39,7 @@ def _rhs(n, k=3):
     return np.random.default_rng(7).standard_normal((n, k))
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("kind", ["real", "complex"])
 @pytest.mark.parametrize("backend", MIXED)
 def test_mixed_precision_solves_equal_the_double_ones(beam, backend, kind):
@@ -208,9 +210,9 @@ def test_solver_context_checks_the_memory_options():
 
 @needs_pardiso
 def test_cli_reduce_records_the_memory_mode(capsys, tmp_path):
-    from conftest import CCX
+    from helpers import CLAMPED
 
-    model = str(CCX / "beam8_clamped_mat.sti")
+    model = CLAMPED
     base = ["reduce", model, "--method", "krylov", "--order", "6", "--input", "TIP:y", "--no-cache", "--json"]
 
     def run(*extra, name):
@@ -235,15 +237,15 @@ def test_cli_reduce_records_the_memory_mode(capsys, tmp_path):
     assert "--memory-limit: 'lots' is not a memory size" in capsys.readouterr().err
 
 
+@pytest.mark.slow
 @needs_pardiso
 def test_memory_benchmark_smoke_run(tmp_path):
     """``bench/memory.py`` on a tiny model (the full benchmark is not part of the suite): same code."""
     import subprocess
     import sys
-    from pathlib import Path
 
     out = tmp_path / "memory.json"
-    cmd = [sys.executable, str(Path(__file__).resolve().parents[1] / "bench" / "memory.py"), "--sizes", "3000",
+    cmd = [sys.executable, str(ROOT / "bench" / "memory.py"), "--sizes", "3000",
            "--mode", "double,mixed,ooc", "--nrhs", "2", "--scratch", str(tmp_path), "--out", str(out)]
     proc = subprocess.run(cmd, capture_output=True, text=True, timeout=600, check=False)
     assert proc.returncode == 0, proc.stderr

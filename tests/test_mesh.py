@@ -33,8 +33,8 @@ def test_model_refuses_elements_on_unknown_nodes():
 def test_body_carries_its_surface_into_hdf5_and_exudyn(tmp_path):
     """The reduced body stores the outer surface (triangles over node ids); Exudyn's trigList
     indexes the same nodes, and the triangles' area is the box's surface."""
+    from flexmor.io import read_body, write_body
     from flexmor.io.exudyn import exudyn_data
-    from flexmor.io.hdf5 import read_reduced, write_reduced
     from flexmor.models import cantilever
     from flexmor.ports import make_ports
     from flexmor.reduction import reduce
@@ -42,8 +42,8 @@ def test_body_carries_its_surface_into_hdf5_and_exudyn(tmp_path):
     model = cantilever(divisions=(8, 2, 2), clamped=False)
     red = reduce(model, "modal", 8, make_ports(model, ["TIP_CENTER:y"]))
     assert red.triangles is not None and red.triangles.shape[1] == 3
-    write_reduced(red, tmp_path / "b.h5")
-    np.testing.assert_array_equal(read_reduced(tmp_path / "b.h5").triangles, red.triangles)
+    write_body(red, tmp_path / "b.h5")
+    np.testing.assert_array_equal(read_body(tmp_path / "b.h5").triangles, red.triangles)
     trig = exudyn_data(red, model)["trigList"]
     np.testing.assert_array_equal(model.node_ids[trig], red.triangles)
     p = model.xyz[trig]

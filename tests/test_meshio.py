@@ -8,15 +8,15 @@ of adapting flexmor's reader to it.
 import numpy as np
 import pytest
 import scipy.io
-from conftest import CCX, DATA
+from helpers import CCX, DATA
 from test_io_mesh import ABAQUS_EDGES, CORNERS, NASTRAN_EDGES, VTK_EDGES, _check_wedge, _deck, _element
 
 import flexmor.io
 from flexmor.cli import main
 from flexmor.errors import ModelError, ReadError
+from flexmor.io import write_body
 from flexmor.io._cells import build_mesh, mesh_of_elements, nastran_cell
 from flexmor.io.calculix import read_inp
-from flexmor.io.hdf5 import write_reduced
 from flexmor.io.meshio_mesh import read_mesh, with_mesh
 from flexmor.io.nastran.nastran_bulk import read_bulk
 from flexmor.io.vtu import body_modes
@@ -331,7 +331,7 @@ def test_vtu_of_quadratic_tetrahedra_keeps_vtk_order(tmp_path):
 def test_vtu_without_model_draws_the_body_surface(tmp_path, ccx_body):
     red, _ = ccx_body
     body = tmp_path / "body.h5"
-    write_reduced(red, body)
+    write_body(red, body)
     out = tmp_path / "surface.vtu"
     assert main(["export", str(body), "-o", str(out)]) == 0
     grid = meshio.read(out)

@@ -9,13 +9,13 @@ import json
 
 import numpy as np
 import pytest
-from conftest import CCX
+from helpers import CLAMPED
 
 from flexmor.analysis.compare import FullResponse
 from flexmor.cli import main
 from flexmor.damping import ModalDamping, band_matched, damping_from_dict
 from flexmor.dynamics.dense_frf import DenseResolvent
-from flexmor.io.hdf5 import read_reduced
+from flexmor.io import read_body
 from flexmor.linalg.eigen import dense_eigenmodes
 from flexmor.ports import make_ports
 from flexmor.reduction import reduce
@@ -44,6 +44,7 @@ def test_the_body_has_the_ratio_in_every_mode(clamped, method):
     assert band_matched(0.02, BAND).ratios([100.0])[0] < 0.15 * 0.02  # 0.27 % at 100 Hz
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", ["clamped", "free"])
 def test_sparse_full_frf_matches_the_exact_modal_sum(name, request):
     """The sparse sweep corrects the modes below the band's top to zeta; the rest (quasi-static in
@@ -63,10 +64,10 @@ def test_sparse_full_frf_matches_the_exact_modal_sum(name, request):
 
 def test_stored_and_reported(capsys, tmp_path):
     out = tmp_path / "m.h5"
-    assert main(["reduce", str(CCX / "beam8_clamped_mat.sti"), "--method", "modal", "--order", "8", "--input",
+    assert main(["reduce", CLAMPED, "--method", "modal", "--order", "8", "--input",
                  "TIP:y", "--modal-damping", "0.02", "--band", "10:3000", "-o", str(out), "--json"]) == 0
     res = json.loads(capsys.readouterr().out)
-    red = read_reduced(out)
+    red = read_body(out)
     assert isinstance(red.damping, ModalDamping) and red.damping.zeta == 0.02
     assert damping_from_dict(red.damping.to_dict()) == red.damping
     np.testing.assert_allclose(_body_ratios(red)[1], 0.02, rtol=1e-9)

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import pathlib
 import subprocess
 import sys
 
@@ -11,6 +10,7 @@ import pytest
 import scipy.linalg as sla
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
+from helpers import CCX, calculix_frequencies, geometric_rigid_modes
 
 pytest.importorskip("skfem")
 
@@ -20,7 +20,7 @@ from flexmor.models import cantilever, plate, size_for_dofs
 STEEL = {"E": 2.1e11, "nu": 0.3, "rho": 7850.0}
 
 #: CalculiX 2.x, C3D8, 10x2x2 elements on 1 x 0.1 x 0.1 m, steel, *FREQUENCY 20:
-#: column CYCLES/TIME of /work/shared/data/calculix/beam8_clamped_freq.dat (FIX, 1, 3 at x=0)
+#: column CYCLES/TIME of tests/data/calculix/beam8_clamped_freq.dat (FIX, 1, 3 at x=0)
 CCX_CLAMPED_HZ = [
     100.0459, 100.0459, 608.5650, 608.5650, 802.7393, 1306.773, 1648.371, 1648.371, 2428.061,
     3116.942, 3116.942, 3958.758, 4113.257, 4981.376, 4981.376, 5898.581, 6728.120, 7210.562,
@@ -31,7 +31,6 @@ CCX_FREE_HZ = [
     620.6715, 620.6715, 1610.433, 1668.565, 1668.565, 2598.190, 3183.976, 3183.976, 3260.649,
     4990.931, 5122.121, 5122.121, 5269.543, 6840.755,
 ]
-CCX_DIR = pathlib.Path("/work/shared/data/calculix")
 
 
 def _freqs_dense(model, k):
@@ -44,36 +43,11 @@ def _f1_sparse(model):
     return float(np.sqrt(np.min(lam)) / (2 * np.pi))
 
 
-def _rigid_modes(model):
-    """(n_dof, 6) rigid translations and rotations built from xyz and the equation map."""
-    xyz = model.node_xyz(model.dofs[:, 0]) - model.xyz.mean(axis=0)
-    d = model.dofs[:, 1] - 1
-    R = np.zeros((model.n_dof, 6))
-    for j in range(3):
-        R[d == j, j] = 1.0
-    # rotation about axis a: u = e_a x r
-    for a in range(3):
-        u = np.cross(np.eye(3)[a], xyz)  # (n_dof, 3): displacement of each equation's node
-        R[:, 3 + a] = u[np.arange(model.n_dof), d]
-    return R
-
-
-def _ccx_column(name):
-    rows = []
-    for line in (CCX_DIR / name).read_text().splitlines():
-        parts = line.split()
-        if len(parts) == 5 and parts[0].isdigit():
-            rows.append(float(parts[3]))
-        elif rows:
-            break
-    return np.array(rows)
-
-
 # -- conservation: mass and rigid-body modes ---------------------------------------------------
 @pytest.mark.parametrize("element", ["hex", "hex27", "tet"])
 def test_total_mass_of_free_cantilever(element):
     m = cantilever(2, element=element, clamped=False, length=1.0, width=0.2, height=0.1, **STEEL)
-    R = _rigid_modes(m)
+    R = geometric_rigid_modes(m, about=m.xyz.mean(axis=0))
     exact = 7850.0 * 1.0 * 0.2 * 0.1
     for j in range(3):
         assert R[:, j] @ (m.M @ R[:, j]) == pytest.approx(exact, rel=1e-10)
@@ -83,7 +57,7 @@ def test_total_mass_of_free_cantilever(element):
 
 def test_total_mass_of_plate():
     m = plate(4, a=1.0, b=0.6, t=0.01)
-    r = _rigid_modes(m)[:, 2]
+    r = geometric_rigid_modes(m, about=m.xyz.mean(axis=0))[:, 2]
     assert r @ (m.M @ r) == pytest.approx(7850.0 * 1.0 * 0.6 * 0.01, rel=1e-10)
 
 
@@ -95,7 +69,7 @@ def test_total_mass_of_plate():
 ])
 def test_rigid_body_modes_are_in_the_null_space(maker):
     m = maker()
-    R = _rigid_modes(m)
+    R = geometric_rigid_modes(m, about=m.xyz.mean(axis=0))
     Knorm = spla.norm(m.K, ord=np.inf)
     for j in range(6):
         r = R[:, j]
@@ -146,16 +120,15 @@ def test_free_hex_beam_reproduces_calculix_c3d8():
     np.testing.assert_allclose(f[6:], CCX_FREE_HZ, rtol=2e-6)
 
 
-@pytest.mark.skipif(not CCX_DIR.is_dir(), reason="shared CalculiX data not present")
 def test_embedded_calculix_numbers_match_the_files():
-    np.testing.assert_allclose(_ccx_column("beam8_clamped_freq.dat"), CCX_CLAMPED_HZ, rtol=1e-12)
-    np.testing.assert_allclose(_ccx_column("beam8_free_freq.dat")[6:], CCX_FREE_HZ, rtol=1e-12)
+    np.testing.assert_allclose(calculix_frequencies(CCX / "beam8_clamped_freq.dat"), CCX_CLAMPED_HZ, rtol=1e-12)
+    np.testing.assert_allclose(calculix_frequencies(CCX / "beam8_free_freq.dat")[6:], CCX_FREE_HZ, rtol=1e-12)
 
 
 # -- Euler-Bernoulli -------------------------------------------------------------------------------
 def _euler_bernoulli_f1(L=1.0, w=0.1, h=0.1, E=2.1e11, rho=7850.0):
-    I, A = w * h**3 / 12, w * h
-    return 1.8751040687**2 / (2 * np.pi * L**2) * np.sqrt(E * I / (rho * A))
+    inertia, area = w * h**3 / 12, w * h
+    return 1.8751040687**2 / (2 * np.pi * L**2) * np.sqrt(E * inertia / (rho * area))
 
 
 def test_cantilever_converges_to_euler_bernoulli():

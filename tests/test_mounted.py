@@ -12,7 +12,7 @@ import json
 import numpy as np
 import pytest
 import scipy.sparse.linalg as spla
-from conftest import CCX
+from helpers import FREE
 
 from flexmor.analysis.mounted import FullMounted, mounted_check, mounted_note, supports
 from flexmor.cli import main
@@ -25,7 +25,6 @@ from flexmor.rigid import rigid_motions
 from flexmor.workflow import apply_damping
 
 BAND = (1.0, 2000.0)
-FREE = str(CCX / "beam8_free_mat.sti")
 
 
 @pytest.fixture(scope="module")
@@ -128,6 +127,7 @@ def test_without_the_frame_a_clamped_body_is_far_too_stiff(plate, cb):
 
 @pytest.mark.parametrize("method, order, on_max, off_min", [("krylov", 24, 1e-6, 0.1), ("pod", 36, 1e-3, 0.1),
                                                             ("fw-sobt", 36, 1e-3, 0.1)])
+@pytest.mark.slow
 def test_inertia_loads_of_the_held_body_make_it_sag_like_the_full_model(plate, method, order, on_max, off_min):
     """Inputs HOLE@rbe2:z and a corner's z: gravity in x and y loads the mounted body through
     the master's forces and moments in x, y, which the inputs do not have. Measured clamped sag
@@ -181,6 +181,7 @@ def test_report_table_of_the_body_in_its_joints(plate, cb):
     assert _mounted_section([{"label": "none", "mounted": None}]) == []
 
 
+@pytest.mark.slow
 def test_reduce_json_info_and_compare_carry_the_record(capsys, tmp_path):
     """The shared free beam with ``FIX@rbe2``: the record reaches ``reduce --json``, the body file
     (``info --json`` and its text) and ``compare --json``. Krylov r=12 for FIX@rbe2:z and TIP:y,

@@ -16,20 +16,15 @@ Skipped without Exudyn (extra ``exudyn``).
 from __future__ import annotations
 
 import dataclasses
-import importlib.util
-import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
 import sid_check
+from helpers import ROOT, load_script
 
 pytest.importorskip("exudyn")
 
-_spec = importlib.util.spec_from_file_location("mounted", Path(__file__).resolve().parents[1] / "bench" / "mounted.py")
-mounted = importlib.util.module_from_spec(_spec)
-sys.modules["mounted"] = mounted  # dataclasses look their module up
-_spec.loader.exec_module(mounted)
+mounted = load_script(ROOT / "bench" / "mounted.py")
 
 METHODS = mounted.METHODS
 PLATE_N = 12
@@ -105,6 +100,7 @@ def test_beam_mounted_sags_like_the_held_model(beam, method):
     assert z == pytest.approx(full, rel=1e-2)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("method", METHODS)
 def test_beam_mounted_without_master_moments(beam, method):
     """The ports of ``tests/test_interfaces.py`` (master forces y and z, tip y and z; no moments at
@@ -197,6 +193,7 @@ def test_sid_interface_node_is_the_expanded_master(beam, plate, method, tmp_path
         assert ratio > 1.0, (name, ratio)
 
 
+@pytest.mark.slow
 def test_benchmark_command_line_prints_the_tables(tmp_path, capsys):
     """``bench/mounted.py`` end to end on the smallest plate (one method, no error evaluation, 1 ms):
     each case in its own process, a static and a transient table, the JSON with their rows."""

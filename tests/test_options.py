@@ -15,7 +15,7 @@ import re
 
 import numpy as np
 import pytest
-from conftest import CCX
+from helpers import CLAMPED
 
 from flexmor.cli import main
 from flexmor.damping import (
@@ -32,7 +32,6 @@ from flexmor.options import DEFAULT_BAND, Band, option_fields
 from flexmor.ports import make_ports
 from flexmor.reduction import METHODS, reduce
 
-CLAMPED = str(CCX / "beam8_clamped_mat.sti")
 #: The solver parameter every method takes besides its options.
 SOLVER = {"backend", "solver"}
 

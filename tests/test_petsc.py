@@ -16,15 +16,26 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from helpers import CLAMPED
 
 from flexmor.errors import OptionError
 
 HERE = Path(__file__).parent
-BEAM = HERE / "data" / "calculix" / "beam8_clamped_mat.sti"
 HAVE_PETSC = all(importlib.util.find_spec(m) is not None for m in ("petsc4py", "slepc4py", "mpi4py"))
 MPIRUN = shutil.which("mpirun") or shutil.which("mpiexec")
-needs_petsc = pytest.mark.skipif(not HAVE_PETSC, reason="petsc4py/slepc4py/mpi4py not installed (make test-mpi)")
-needs_mpi = pytest.mark.skipif(not (HAVE_PETSC and MPIRUN), reason="needs petsc4py and mpirun (make test-mpi)")
+
+
+def needs_petsc(test):
+    """Mark ``test`` as ``mpi`` and skip it without petsc4py/slepc4py/mpi4py."""
+    skip = pytest.mark.skipif(not HAVE_PETSC, reason="petsc4py/slepc4py/mpi4py not installed (make test-mpi)")
+    return pytest.mark.mpi(skip(test))
+
+
+def needs_mpi(test):
+    """Mark ``test`` as ``mpi`` and skip it without petsc4py or mpirun."""
+    skip = pytest.mark.skipif(not (HAVE_PETSC and MPIRUN), reason="needs petsc4py and mpirun (make test-mpi)")
+    return pytest.mark.mpi(skip(test))
+
 
 #: Resolution of the built-in cantilever of the 2-rank comparisons: the replicated model always uses
 #: n=6 (8,820 DOF); the partitioned one (never assembled on one rank) uses FLEXMOR_MPI_TEST_N, default
@@ -165,17 +176,16 @@ def test_cli_two_ranks_beam8(method, tmp_path):
     """A file model under mpirun: rank 0 reads it, each rank holds only its rows; same body as SciPy."""
     from flexmor.cli import main
     from flexmor.dynamics.frf import frf_reduced
-    from flexmor.io import read
-    from flexmor.io.hdf5 import read_reduced
+    from flexmor.io import read, read_body
     from flexmor.linalg.distributed import row_range
 
-    common = ["reduce", str(BEAM), "--method", method, "--order", "8", "--input", "5:y", "--input", "5:z",
+    common = ["reduce", str(CLAMPED), "--method", method, "--order", "8", "--input", "5:y", "--input", "5:z",
               "--band", "10:3000", "--rayleigh", "0:1e-6", "--full-frf", "surrogate", "--json", "--no-cache"]
     out = _mpirun(["-m", "flexmor", *common, "--backend", "petsc", "-o", tmp_path / "mpi.h5"], tmp_path)
     lines = [ln for ln in out.splitlines() if ln.strip()]
     assert len(lines) == 1, out  # only rank 0 prints
     par = json.loads(lines[0])
-    K = read(BEAM).K
+    K = read(CLAMPED).K
     n = K.shape[0]
     assert par["partition"]["rows"] == [list(row_range(n, 2, r)) for r in range(2)]
     nnz = par["partition"]["local_nnz"]
@@ -183,7 +193,7 @@ def test_cli_two_ranks_beam8(method, tmp_path):
     with pytest.MonkeyPatch.context() as mp:
         mp.setenv("FLEXMOR_CACHE_DIR", str(tmp_path / "cache"))
         assert main([*common, "--backend", "scipy", "-o", str(tmp_path / "serial.h5")]) == 0
-    red_p, red_s = read_reduced(tmp_path / "mpi.h5"), read_reduced(tmp_path / "serial.h5")
+    red_p, red_s = read_body(tmp_path / "mpi.h5"), read_body(tmp_path / "serial.h5")
     assert _rel(red_p.frequencies_hz(), red_s.frequencies_hz()) < 1e-8
     assert _rel(par["frequencies_hz"], red_s.frequencies_hz()) < 1e-8
     f = np.geomspace(10, 3000, 40)
@@ -207,9 +217,9 @@ def test_cli_two_ranks_refuse_couplings_of_partitioned_model(tmp_path):
     from flexmor.cli import main
 
     body = tmp_path / "cb.h5"
-    assert main(["reduce", str(BEAM), "--method", "craig-bampton", "--order", "12", "--interface", "TIP@rbe2",
+    assert main(["reduce", str(CLAMPED), "--method", "craig-bampton", "--order", "12", "--interface", "TIP@rbe2",
                  "--input", "TIP@rbe2:y", "--no-error", "-o", str(body)]) == 0
-    err = _mpirun(["-m", "flexmor", "compare", BEAM, body, "--band", "10:3000", "--backend", "petsc", "--no-cache"],
+    err = _mpirun(["-m", "flexmor", "compare", CLAMPED, body, "--band", "10:3000", "--backend", "petsc", "--no-cache"],
                   tmp_path, timeout=120, returncode=2)
     assert err.count("need the whole model in one process") == 2, err
 

@@ -5,7 +5,6 @@ from __future__ import annotations
 import base64
 import io
 import re
-import shutil
 import subprocess
 
 import numpy as np
@@ -98,6 +97,7 @@ def test_report_is_self_contained_with_valid_images(report):
     assert list(rep.figures) == ["frf", "rel_error", "singular_values", "mac", "time", "body"]
 
 
+@pytest.mark.slow
 def test_report_numbers_equal_the_computed_ones(report):
     model, ports, reds, rep, _, text = report
     full = FullResponse(model, ports, BAND, cache=False)
@@ -120,10 +120,12 @@ def test_report_numbers_equal_the_computed_ones(report):
     assert f"<td>{rep.modal['full_hz'][0]:.4f}</td>" in text
 
 
+@pytest.mark.browser
 def test_report_opens_in_headless_chromium(report):
+    from browser import find_chromium
+
     *_, path, text = report
-    exe = next((shutil.which(n) for n in ("chromium", "chromium-browser", "google-chrome", "headless_shell")
-                if shutil.which(n)), None)
+    exe = find_chromium()
     if exe is None:
         pytest.skip("no chromium/chrome on PATH; images are checked by decoding them instead")
     js = ("<script>window.onload=()=>{const bad=[...document.images].filter(i=>!i.complete||i.naturalWidth==0)"
@@ -136,21 +138,22 @@ def test_report_opens_in_headless_chromium(report):
     assert "BROKEN=0 OF 6" in out.stdout
 
 
+@pytest.mark.slow
 def test_cli_report_writes_html_and_json(report, tmp_path, capsys):
     import json
 
-    from conftest import CCX
+    from helpers import CLAMPED
 
     from flexmor.cli import main
-    from flexmor.io.hdf5 import write_reduced
+    from flexmor.io import write_body
 
     _, _, reds, rep, _, _ = report
     files = []
     for k, red in enumerate(reds):
         files.append(tmp_path / f"body{k}.h5")
-        write_reduced(red, files[-1])
+        write_body(red, files[-1])
     out = tmp_path / "r.html"
-    code = main(["report", str(CCX / "beam8_clamped_mat.sti"), *map(str, files), "-o", str(out), "--band", "10:3000",
+    code = main(["report", CLAMPED, *map(str, files), "-o", str(out), "--band", "10:3000",
                  "--dt", "5e-5", "--t-end", "0.01", "--modes", "6", "--json"])
     assert code == 0
     res = json.loads(capsys.readouterr().out)

@@ -12,7 +12,7 @@ import warnings
 import h5py
 import numpy as np
 import pytest
-from conftest import CCX, DATA
+from helpers import CLAMPED, DATA, FREE
 
 import flexmor
 from flexmor.checks import check_rigid_body_modes
@@ -23,7 +23,6 @@ from flexmor.linalg.eigen import eigenmodes
 from flexmor.ports import make_ports
 from flexmor.reduction import reduce
 
-CLAMPED = str(CCX / "beam8_clamped_mat.sti")
 #: method -> extra options; the orders keep every method cheap on the 270-DOF beam
 METHODS = {"modal": ["--order", "8"], "krylov": ["--order", "8"], "irka": ["--order", "8"],
            "fw-sobt": ["--order", "8"], "pod": ["--order", "8"], "two-step": ["--order", "8", "--intermediate", "30"],
@@ -52,6 +51,7 @@ def _run(folder):
     return out
 
 
+@pytest.mark.slow
 def test_same_reduction_in_fresh_processes_gives_identical_bytes(tmp_path):
     (tmp_path / "a").mkdir()
     (tmp_path / "b").mkdir()
@@ -117,7 +117,7 @@ def test_free_body_is_legal_with_a_warning(free, tmp_path):
         assert check_rigid_body_modes(free) == 6
     assert any(issubclass(w.category, FlexmorWarning) and "6 rigid-body modes" in str(w.message) for w in caught)
     out = tmp_path / "free.h5"
-    assert main(["reduce", str(CCX / "beam8_free_mat.sti"), "--method", "modal", "--order", "4", "--input", "TIP:y",
+    assert main(["reduce", FREE, "--method", "modal", "--order", "4", "--input", "TIP:y",
                  "--no-error", "-o", str(out)]) == 0
     assert out.exists()
 

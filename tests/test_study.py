@@ -9,7 +9,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import CCX
+from helpers import CCX
 
 import flexmor
 from flexmor.damping import Rayleigh

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 import scipy.linalg as sla
 import scipy.sparse as sp
-from conftest import cond1
+from helpers import cond1
 
 from flexmor.dynamics.time import impulse, scheme_parameters, simulate, sine_sweep, step, time_errors
 from flexmor.errors import OptionError

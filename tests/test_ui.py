@@ -8,22 +8,20 @@ import shutil
 import threading
 import urllib.error
 import urllib.request
-from pathlib import Path
 
 import numpy as np
 import pytest
 from browser import Browser, canvas_pixels, find_chromium
+from helpers import CCX
 
 from flexmor.cli import build_parser, main
 from flexmor.errors import OptionError
 from flexmor.ui import App, Workspace, make_server
 
-DATA = Path(__file__).parent / "data" / "calculix"
-
 
 @pytest.fixture()
 def folder(tmp_path):
-    for p in DATA.glob("beam8_free_mat.*"):
+    for p in CCX.glob("beam8_free_mat.*"):
         shutil.copy(p, tmp_path / p.name)
     return tmp_path
 
@@ -89,6 +87,8 @@ def test_requests_need_the_token(server):
     assert exc.value.code == 400 and "without '..'" in json.load(exc.value)["error"]
 
 
+@pytest.mark.slow
+@pytest.mark.browser
 def test_workflow_in_chromium_equals_the_cli(server, folder, tmp_path_factory):
     exe = find_chromium()
     if exe is None:

@@ -164,6 +164,7 @@ def _set(b, ident, value, event="change"):
     b.js(f"var e=document.getElementById('{ident}'); e.value='{value}'; e.dispatchEvent(new Event('{event}'))")
 
 
+@pytest.mark.browser
 def test_report_3d_view_draws_and_follows_the_controls(report, chromium):
     *_, path = report
     b = chromium

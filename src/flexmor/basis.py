@@ -2,11 +2,22 @@
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
+import scipy.sparse as sp
 
-__all__ = ["Basis", "orthonormalize", "extend_orthonormal", "rank_revealing_qr", "Columns"]
+from .errors import ModelError
+
+if TYPE_CHECKING:  # projection imports this module
+    from .projection import ReducedMatrices
+
+__all__ = ["Basis", "as_basis", "check_rank", "orthonormalize", "extend_orthonormal", "rank_revealing_qr", "Columns"]
+
+#: Method name of a basis given as a plain array.
+CUSTOM = "custom"
 
 
 @dataclass
@@ -30,11 +41,94 @@ class Basis:
     V: np.ndarray
     method: str
     info: dict = field(default_factory=dict)
-    reduced: object = field(default=None, repr=False, compare=False)
+    reduced: ReducedMatrices | None = field(default=None, repr=False, compare=False)
 
     @property
     def order(self) -> int:
         return int(self.V.shape[1])
+
+
+def as_basis(basis, n_dof: int) -> Basis:
+    """``basis`` as a :class:`Basis` of real, finite columns with ``n_dof`` rows.
+
+    Parameters
+    ----------
+    basis : Basis or array_like, shape (n_dof, r)
+        A plain array (dense or sparse) becomes a Basis of method ``"custom"``. A Basis whose
+        ``V`` is a float array already is returned as it is (its ``reduced`` stays valid).
+    n_dof : int
+        Rows expected (the model's number of equations).
+
+    Returns
+    -------
+    Basis
+
+    Raises
+    ------
+    ModelError
+        Naming ``basis``: not an array of numbers, not 2-D, a number of rows other than ``n_dof``,
+        no column, NaN or Inf, or complex values (whose imaginary part a real projection would
+        drop).
+    """
+    given = basis if isinstance(basis, Basis) else Basis(basis, CUSTOM)
+    V = given.V
+    if sp.issparse(V):
+        V = sp.csr_matrix(V).toarray()
+    try:
+        A = np.asarray(V)
+    except (TypeError, ValueError) as exc:
+        raise ModelError(f"basis must be an array of real numbers (n_dof, r): {exc}", params=("basis",)) from None
+    if A.dtype.kind == "c":
+        if np.any(A.imag != 0):
+            raise ModelError("basis is complex; project() needs a real basis: split complex columns into their real "
+                             "and imaginary parts, e.g. np.hstack([V.real, V.imag]), and orthonormalize",
+                             params=("basis",))
+        A = A.real
+    if A.dtype.kind not in "fiu":
+        raise ModelError(f"basis must be an array of real numbers (n_dof, r), got {type(V).__name__} of "
+                         f"dtype {A.dtype}", params=("basis",))
+    if A.ndim != 2 or A.shape[0] != n_dof:
+        raise ModelError(f"basis has shape {A.shape}, expected ({n_dof}, r): one row per equation of the model",
+                         params=("basis",))
+    if A.shape[1] == 0:
+        raise ModelError(f"basis of method {given.method!r} has no column", params=("basis",))
+    A = np.asarray(A, dtype=float)
+    if not np.all(np.isfinite(A)):
+        bad = np.flatnonzero(~np.all(np.isfinite(A), axis=0))
+        raise ModelError(f"basis has NaN or Inf values (in {bad.size} of its {A.shape[1]} columns, the first "
+                         f"column {int(bad[0])})", params=("basis",))
+    return given if A is given.V else dataclasses.replace(given, V=A)
+
+
+def check_rank(V: np.ndarray, Mr: np.ndarray | None = None) -> None:
+    """Refuse a basis whose columns are linearly dependent (numerically).
+
+    The columns are scaled to unit length first (the test does not depend on their scaling).
+    With ``Mr = V^T M V`` given, a well-conditioned ``Mr`` (smallest eigenvalue of the scaled
+    ``Mr`` above ``1e-8`` of the largest) proves full rank at no cost; otherwise (a singular
+    mass matrix may cause it too) the singular values of the scaled ``V`` decide: rank deficient
+    when the smallest is below ``max(n, r) * eps`` of the largest (NumPy's ``matrix_rank``
+    tolerance).
+
+    Raises
+    ------
+    ModelError
+        Naming ``basis``: a zero column, or dependent columns with the numerical rank found.
+    """
+    d = np.sqrt(np.einsum("ij,ij->j", V, V))
+    if np.any(d == 0):
+        raise ModelError(f"basis has a zero column (column {int(np.flatnonzero(d == 0)[0])})", params=("basis",))
+    if Mr is not None:
+        w = np.linalg.eigvalsh(Mr / np.outer(d, d))
+        if w[-1] > 0 and w[0] > 1e-8 * w[-1]:
+            return
+    s = np.linalg.svd(V / d, compute_uv=False)
+    tol = max(V.shape) * np.finfo(float).eps * s[0]
+    if s[-1] <= tol:
+        rank = int(np.sum(s > tol))
+        raise ModelError(f"basis is rank deficient: its {V.shape[1]} columns span {rank} dimensions (smallest "
+                         f"singular value {s[-1] / s[0]:.1e} of the largest, columns scaled to unit length); drop "
+                         "the dependent columns, e.g. with flexmor.basis.orthonormalize", params=("basis",))
 
 
 def orthonormalize(V: np.ndarray, M=None, *, tol: float = 1e-10, passes: int = 2) -> np.ndarray:

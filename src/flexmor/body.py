@@ -128,3 +128,99 @@ class ReducedModel:
         """Undamped eigenfrequencies in Hz (round-off negatives reported as 0)."""
         lam = self.eigenvalues()
         return np.sqrt(np.clip(lam, 0.0, None)) / (2 * np.pi)
+
+    # The methods below hand the body to the module that owns each concern (imported when called:
+    # those modules sit above this one).
+
+    def frf(self, freqs_hz) -> np.ndarray:
+        """Frequency response ``H(f) = Cr (Kr - w² Mr + i w Dr)⁻¹ Br`` (:func:`flexmor.dynamics.frf.frf_reduced`).
+
+        Parameters
+        ----------
+        freqs_hz : array_like
+            Frequencies in Hz.
+
+        Returns
+        -------
+        ndarray, complex, shape (n_freq, n_outputs, n_inputs)
+            Outputs ``output_names`` over inputs ``input_names``.
+        """
+        from .dynamics.frf import frf_reduced
+
+        return frf_reduced(self, freqs_hz)
+
+    def simulate(self, u, *, dt: float, t_end: float, scheme: str = "newmark", rho_inf: float = 0.9, q0=None,
+                 v0=None, progress=None):
+        """Time response to the input signal ``u`` (:func:`flexmor.dynamics.time.simulate`).
+
+        Parameters
+        ----------
+        u : callable or array_like
+            ``u(t)`` on the array of times, or samples on them; shape ``(n_t,)`` (each input in
+            turn) or ``(n_t, n_inputs)`` (all at once), e.g. :func:`flexmor.dynamics.time.step`.
+        dt, t_end : float
+            Step and end time (s).
+        scheme : {'newmark', 'generalized-alpha'}
+        rho_inf : float
+            Spectral radius at infinity of ``generalized-alpha``.
+        q0, v0 : array_like, optional
+            Initial reduced displacement and velocity, shape (r,) or (r, n_cases).
+        progress : callable, optional
+            ``progress(iterable, total)`` wrapper of the step loop.
+
+        Returns
+        -------
+        flexmor.dynamics.time.TimeResponse
+            Outputs ``y = Cr qr`` (and their velocities and accelerations) over time.
+        """
+        from .dynamics.time import simulate
+
+        return simulate(self, u, dt=dt, t_end=t_end, scheme=scheme, rho_inf=rho_inf, q0=q0, v0=v0, progress=progress)
+
+    def expand(self, model, *, elastic: bool = False, remove_rigid: bool = False) -> ReducedModel:
+        """The body at every equation of ``model`` as read (:func:`flexmor.expansion.expand_body`).
+
+        The basis ``V`` is expanded through the body's couplings to their slave nodes, and the
+        node table and equation map become the model's, so that ``V @ qr`` is a displacement
+        field of ``model``. :func:`flexmor.expansion.expand_body` also gives the coupling masters.
+
+        Parameters
+        ----------
+        model : FEModel
+            The FE model the body was reduced from, as read (its couplings not applied).
+        elastic : bool
+            Take the body a floating frame needs (a basis without rigid-body motion; refused for a
+            body holding rigid motion unless ``remove_rigid``), as the exporters do.
+        remove_rigid : bool
+            With ``elastic``, allow rigid-body motion to be removed from the basis (another body).
+
+        Returns
+        -------
+        ReducedModel
+
+        Raises
+        ------
+        ModelError
+            No basis, a model of another size or fingerprint, the coupled model instead of the
+            model as read.
+        """
+        from .expansion import expand_body, expanded_reduced
+
+        return expanded_reduced(expand_body(model, self, elastic=elastic, remove_rigid=remove_rigid))
+
+    def state_space(self):
+        """First-order form ``x' = A x + B u``, ``y = C x`` with ``x = [qr; qr']``
+        (:func:`flexmor.io.statespace.state_space`), its signals labelled with the port names."""
+        from .io.statespace import state_space
+
+        return state_space(self)
+
+    def to_control(self):
+        """``control.StateSpace`` (python-control) of the body, inputs and outputs labelled with
+        ``input_names`` and ``output_names`` (:meth:`flexmor.io.statespace.StateSpace.to_control`)."""
+        return self.state_space().to_control()
+
+    def to_scipy(self):
+        """``scipy.signal.StateSpace`` of the body, with the attributes ``input_names`` and
+        ``output_names`` (:meth:`flexmor.io.statespace.StateSpace.to_scipy`)."""
+        return self.state_space().to_scipy()

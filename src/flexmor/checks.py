@@ -139,7 +139,8 @@ def coupling_frequencies(uncoupled, coupled, couplings, *, n: int = COUPLING_MOD
 
 
 def describe_couplings(couplings) -> str:
-    """``RBE2 at HOLE, RBE3 at TIP`` for the coupling SPECs ``HOLE@rbe2``, ``TIP@rbe3`` (the SPECs as they are otherwise)."""
+    """``RBE2 at HOLE, RBE3 at TIP`` for the coupling SPECs ``HOLE@rbe2``, ``TIP@rbe3`` (the SPECs as they
+    are otherwise)."""
     parts = []
     for c in couplings:
         target, _, kind = str(c).partition("@")

@@ -40,6 +40,7 @@ import dataclasses
 import logging
 import re
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 import scipy.linalg as sla
@@ -124,7 +125,7 @@ def rbe2_matrix(model: FEModel, nodes, master) -> tuple[np.ndarray, np.ndarray]:
     eqs = np.flatnonzero(np.isin(model.dofs[:, 0], nodes))
     G = np.zeros((eqs.size, 6))
     r = model.node_xyz(model.dofs[eqs, 0]) - master
-    for k, (e, d) in enumerate(zip(eqs, model.dofs[eqs, 1])):
+    for k, d in enumerate(model.dofs[eqs, 1]):
         if d <= 3:
             G[k, d - 1] = 1.0
             G[k, 3:] = -_skew(r[k])[d - 1]  # (theta x r)_d = (-[r]x theta)_d
@@ -218,6 +219,111 @@ class Coupled:
         return self.T @ V
 
 
+class _Constraint(NamedTuple):
+    """The kinematics of one coupling: ``q[dependent] = to_master @ u_m + to_others @ q[others]``.
+
+    The dependent equations leave the coupled model (the master's 6 DOFs replace them); the
+    others (RBE3: the set's translations beyond the 6 chosen ones) stay.
+    """
+
+    target: str
+    kind: str
+    nodes: np.ndarray
+    master_xyz: np.ndarray
+    dependent: np.ndarray
+    to_master: np.ndarray  # (dependent.size, 6)
+    others: np.ndarray
+    to_others: np.ndarray  # (dependent.size, others.size)
+
+
+def _coupling_targets(specs) -> list[str]:
+    """The coupling SPECs among ``specs`` (``:DIR`` suffixes dropped), each once, in order."""
+    targets = []
+    for s in specs:
+        t = str(s).rsplit(":", 1)[0] if re.search(r":\s*r?[xyz]\s*$", str(s), re.I) else str(s)
+        if is_coupling(t) and t.strip().upper() not in [x.strip().upper() for x in targets]:
+            targets.append(t.strip())
+    return targets
+
+
+def _constraint(model: FEModel, target: str, weights: dict | None) -> _Constraint:
+    """The dependent equations of one coupling and their coefficients."""
+    name, kind, pt = parse_coupling(target)
+    nodes = _set_nodes(model, name, target)
+    xm = _master(model, nodes, pt)
+    if kind == "rbe2":
+        eqs, G = rbe2_matrix(model, nodes, xm)
+        return _Constraint(target, kind, nodes, xm, eqs, G, np.zeros(0, np.int64), np.zeros((eqs.size, 0)))
+    eqs, W = rbe3_matrix(model, nodes, xm, (weights or {}).get(target.upper()))
+    if eqs.size < 6:
+        raise PortError(f"coupling {target!r}: {eqs.size} free translations, RBE3 needs at least 6")
+    _, _, piv = sla.qr(W, pivoting=True, mode="economic")
+    d_idx, o_idx = np.sort(piv[:6]), np.sort(piv[6:])
+    Wd_inv = np.linalg.inv(W[:, d_idx])  # q_d = Wd^-1 u_m - Wd^-1 Wo q_o
+    return _Constraint(target, kind, nodes, xm, eqs[d_idx], Wd_inv, eqs[o_idx], -Wd_inv @ W[:, o_idx])
+
+
+def _check_disjoint(constraints: list[_Constraint], n: int) -> np.ndarray:
+    """The dependent equations of all couplings (a mask), refusing couplings that share equations."""
+    dependent = np.zeros(n, bool)
+    for c in constraints:
+        if np.any(dependent[c.dependent]) or np.any(dependent[c.others]):
+            raise PortError(f"coupling {c.target!r} shares equations with another coupling")
+        dependent[c.dependent] = True
+    if any(np.any(dependent[c.others]) for c in constraints):
+        raise PortError("an RBE3 set uses equations that another coupling makes dependent")
+    return dependent
+
+
+def _transformation(constraints: list[_Constraint], dependent: np.ndarray) -> tuple[sp.csr_matrix, np.ndarray]:
+    """``T`` of ``q = T q_c`` and the kept equations: ``q_c`` is the kept equations, then 6 per master."""
+    n = dependent.size
+    keep = np.flatnonzero(~dependent)
+    col_of = -np.ones(n, np.int64)
+    col_of[keep] = np.arange(keep.size)
+    rows, cols, vals = [keep], [np.arange(keep.size)], [np.ones(keep.size)]
+    for k, c in enumerate(constraints):
+        rows.append(np.repeat(c.dependent, 6))
+        cols.append(np.tile(keep.size + 6 * k + np.arange(6), c.dependent.size))
+        vals.append(np.asarray(c.to_master, float).ravel())
+        rows.append(np.repeat(c.dependent, c.others.size))
+        cols.append(np.tile(col_of[c.others], c.dependent.size))
+        vals.append(np.asarray(c.to_others, float).ravel())
+    n_c = keep.size + 6 * len(constraints)
+    T = sp.csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))), shape=(n, n_c))
+    T.eliminate_zeros()
+    return T, keep
+
+
+def _coupled_model(model: FEModel, constraints: list[_Constraint], T: sp.csr_matrix, keep: np.ndarray):
+    """``T^T K T`` (M, D, B, C alike) with the master nodes added; returns ``(model, masters)``."""
+    first = int(model.node_ids.max()) + 1
+    new_ids = [first + k for k in range(len(constraints))]
+    masters, sets = {}, dict(model.node_sets)
+    for c, mid in zip(constraints, new_ids):
+        key = c.target.replace(" ", "").upper()
+        masters[key] = mid
+        sets[key] = np.array([mid], dtype=np.int64)
+        log.info("%s: %s over %d nodes, master node %d at %s", model.name, c.kind.upper(), c.nodes.size, mid,
+                 c.master_xyz)
+    master_dofs = np.stack([np.repeat(new_ids, 6), np.tile(np.arange(1, 7), len(new_ids))], axis=1)
+    Tt = T.T.tocsr()
+    try:
+        coupled = dataclasses.replace(
+            model,
+            M=(Tt @ model.M @ T).tocsr(), K=(Tt @ model.K @ T).tocsr(),
+            D=None if model.D is None else (Tt @ model.D @ T).tocsr(),
+            B=None if model.B is None else (Tt @ model.B).tocsr(),
+            C=None if model.C is None else (model.C @ T).tocsr(),
+            node_ids=np.concatenate([model.node_ids, new_ids]),
+            xyz=np.vstack([model.xyz] + [c.master_xyz for c in constraints]),
+            dofs=np.concatenate([model.dofs[keep], master_dofs]), node_sets=sets,
+            name=f"{model.name}+" + "+".join(c.target.upper() for c in constraints))
+    except ModelError as exc:
+        raise PortError(f"coupled model is invalid: {exc}") from None
+    return coupled, masters
+
+
 def couple(model: FEModel, specs, *, weights: dict | None = None) -> Coupled:
     """Apply RBE2/RBE3 couplings as a transformation of the model.
 
@@ -240,87 +346,17 @@ def couple(model: FEModel, specs, *, weights: dict | None = None) -> Coupled:
         Unknown sets, sets sharing equations, collinear RBE3 sets, a coupled model without
         mass at a master direction.
     """
-    targets = []
-    for s in specs:
-        t = str(s).rsplit(":", 1)[0] if re.search(r":\s*r?[xyz]\s*$", str(s), re.I) else str(s)
-        if is_coupling(t) and t.strip().upper() not in [x.strip().upper() for x in targets]:
-            targets.append(t.strip())
+    targets = _coupling_targets(specs)
     if not targets:
         raise PortError("no coupling SPEC (SET@rbe2 or SET@rbe3) given")
     if is_partitioned(model.K):  # T^T K T needs whole rows and columns of K
         raise PortError(f"couplings ({', '.join(targets)}) need the whole model in one process, but its rows are "
-                        "spread over MPI ranks; flexmor reduce applies them while rank 0 reads the file, "
-                        "compare and report need a serial backend for bodies with couplings")
-    n = model.n_dof
-    dep_rows, dep_cols, dep_vals = [], [], []
-    dependent = np.zeros(n, bool)
-    new_ids, new_xyz, masters, sets = [], [], {}, dict(model.node_sets)
-    next_id = int(model.node_ids.max()) + 1
-    for k, target in enumerate(targets):
-        name, kind, pt = parse_coupling(target)
-        nodes = _set_nodes(model, name, target)
-        xm = _master(model, nodes, pt)
-        mcol = 6 * k  # master columns, offset later by the number of kept equations
-        if kind == "rbe2":
-            eqs, G = rbe2_matrix(model, nodes, xm)
-            dep, rows, coef = eqs, np.arange(eqs.size), G
-            free_eqs, free_coef = np.zeros(0, np.int64), np.zeros((0, 0))
-        else:
-            w = (weights or {}).get(target.upper())
-            eqs, W = rbe3_matrix(model, nodes, xm, w)
-            if eqs.size < 6:
-                raise PortError(f"coupling {target!r}: {eqs.size} free translations, RBE3 needs at least 6")
-            _, _, piv = sla.qr(W, pivoting=True, mode="economic")
-            d_idx, o_idx = np.sort(piv[:6]), np.sort(piv[6:])
-            Wd_inv = np.linalg.inv(W[:, d_idx])
-            dep = eqs[d_idx]
-            coef = Wd_inv  # q_d = Wd^-1 u_m - Wd^-1 Wo q_o
-            free_eqs, free_coef = eqs[o_idx], -Wd_inv @ W[:, o_idx]
-            rows = np.arange(6)
-        if np.any(dependent[dep]) or np.any(dependent[free_eqs]):
-            raise PortError(f"coupling {target!r} shares equations with another coupling")
-        dependent[dep] = True
-        for r, e in zip(rows, dep):
-            dep_rows.append(np.full(6, e))
-            dep_cols.append(("m", mcol + np.arange(6)))
-            dep_vals.append(coef[r])
-            if free_eqs.size:
-                dep_rows.append(np.full(free_eqs.size, e))
-                dep_cols.append(("q", free_eqs))
-                dep_vals.append(free_coef[r])
-        mid = next_id + k
-        new_ids.append(mid)
-        new_xyz.append(xm)
-        key = target.replace(" ", "").upper()
-        masters[key] = mid
-        sets[key] = np.array([mid], dtype=np.int64)
-        log.info("%s: %s over %d nodes, master node %d at %s", model.name, kind.upper(), nodes.size, mid, xm)
-    if np.any(dependent & np.isin(np.arange(n), np.concatenate([c[1] for c in dep_cols if c[0] == "q"] or [[]])
-                                   .astype(np.int64))):
-        raise PortError("an RBE3 set uses equations that another coupling makes dependent")
-    keep = np.flatnonzero(~dependent)
-    col_of = -np.ones(n, np.int64)
-    col_of[keep] = np.arange(keep.size)
-    n_c = keep.size + 6 * len(targets)
-    rows = [keep] + [r for r in dep_rows]
-    cols = [np.arange(keep.size)] + [(keep.size + c[1]) if c[0] == "m" else col_of[c[1]] for c in dep_cols]
-    vals = [np.ones(keep.size)] + dep_vals
-    T = sp.csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))), shape=(n, n_c))
-    T.eliminate_zeros()
-    dofs = np.concatenate([model.dofs[keep], np.stack([np.repeat(new_ids, 6), np.tile(np.arange(1, 7),
-                                                                                      len(new_ids))], axis=1)])
-    Tt = T.T.tocsr()
-    try:
-        coupled = dataclasses.replace(
-            model,
-            M=(Tt @ model.M @ T).tocsr(), K=(Tt @ model.K @ T).tocsr(),
-            D=None if model.D is None else (Tt @ model.D @ T).tocsr(),
-            B=None if model.B is None else (Tt @ model.B).tocsr(),
-            C=None if model.C is None else (model.C @ T).tocsr(),
-            node_ids=np.concatenate([model.node_ids, new_ids]), xyz=np.vstack([model.xyz, new_xyz]),
-            dofs=dofs, node_sets=sets, name=f"{model.name}+" + "+".join(t.upper() for t in targets))
-    except ModelError as exc:
-        raise PortError(f"coupled model is invalid: {exc}") from None
+                        "spread over MPI ranks; apply them before the rows are distributed, or run serially "
+                        "(backend other than 'petsc')", params=("backend",))
+    constraints = [_constraint(model, t, weights) for t in targets]
+    dependent = _check_disjoint(constraints, model.n_dof)
+    T, keep = _transformation(constraints, dependent)
+    coupled, masters = _coupled_model(model, constraints, T, keep)
     return Coupled(coupled, T, masters)
 
 

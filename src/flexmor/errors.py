@@ -44,11 +44,7 @@ class FlexmorError(Exception):
 
     def message(self, names=None) -> str:
         """The message with each parameter in ``params`` renamed by ``names`` (e.g. ``{"inputs": "--input"}``)."""
-        text = str(self)
-        for p in self.params:
-            if names and p in names:
-                text = re.sub(rf"(?<![\w.-]){re.escape(p)}(?![\w-])", lambda _, f=names[p]: f, text)
-        return text
+        return name_parameters(str(self), self.params, names)
 
 
 class ReadError(FlexmorError):
@@ -107,7 +103,50 @@ class OptionError(FlexmorError, ValueError):
 
 
 class FlexmorWarning(UserWarning):
-    """Warnings about legal but noteworthy situations (rigid-body modes, singular mass, ...)."""
+    """Warnings about legal but noteworthy situations (rigid-body modes, singular mass, ...).
+
+    Parameters
+    ----------
+    *args
+        The message (as for :class:`Warning`).
+    params : sequence of str, optional
+        The parameters the message names, as for :class:`FlexmorError`; issue such a warning as
+        ``warnings.warn(FlexmorWarning(text, params=("rigid",)))``.
+    """
+
+    params: tuple = ()
+
+    def __init__(self, *args, params=()):
+        super().__init__(*args)
+        self.params = tuple(params)
+
+    def message(self, names=None) -> str:
+        """The message with each parameter in ``params`` renamed by ``names`` (see :meth:`FlexmorError.message`)."""
+        return name_parameters(str(self), self.params, names)
+
+
+def name_parameters(text: str, params, names=None) -> str:
+    """``text`` with each parameter of ``params`` that ``names`` maps renamed (``rayleigh`` -> ``--rayleigh``).
+
+    Parameters
+    ----------
+    text : str
+        A message or note that writes the parameters as their bare Python names.
+    params : sequence of str
+        The parameters ``text`` names.
+    names : dict of str to str, optional
+        The new name of each parameter (an application's flags); parameters it lacks stay.
+
+    Returns
+    -------
+    str
+        Only whole words are renamed: ``band`` in ``band_error``, ``method_band`` or
+        ``x.band`` stays.
+    """
+    for p in params:
+        if names and p in names:
+            text = re.sub(rf"(?<![\w.-]){re.escape(p)}(?![\w-])", lambda _, f=names[p]: f, text)
+    return text
 
 
 def check_choice(name: str, value: str, allowed) -> str:

@@ -144,7 +144,8 @@ def expand_body(model, body, path="the body", *, elastic: bool = True, remove_ri
     from .origin import applied_to, check_origin, with_body_damping
 
     if body.V is None:
-        raise ModelError("the reduced body holds no basis V; re-run flexmor reduce (it stores V)")
+        raise ModelError("the reduced body holds no basis V (e.g. a Nastran superelement); reduce "
+                         "the model with flexmor, whose bodies store V")
     couplings = tuple(body.couplings)
     keys = [c.replace(" ", "").upper() for c in couplings]
     rows = np.shape(body.V)[0]

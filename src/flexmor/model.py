@@ -20,6 +20,7 @@ import dataclasses
 import functools
 import warnings
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 import scipy.sparse as sp
@@ -368,12 +369,13 @@ class FEModel:
         None where the model has no such equations or no equation map), ``center_of_mass``
         and ``bounding_box`` (``[[xmin, ymin, zmin], [xmax, ymax, zmax]]``, None without nodes).
         """
-        out = {"mass": None, "center_of_mass": None, "bounding_box": None}
+        out: dict[str, Any] = {"mass": None, "center_of_mass": None, "bounding_box": None}
         if self.n_nodes:
             out["bounding_box"] = [self.xyz.min(axis=0).tolist(), self.xyz.max(axis=0).tolist()]
         if self.dofs is None or not self.n_nodes or is_partitioned(self.M):
             return out
-        mass, com = [], []
+        mass: list[float | None] = []
+        com: list[float | None] = []
         for d in (1, 2, 3):
             rows = np.flatnonzero(self.dofs[:, 1] == d)
             if rows.size == 0:

@@ -16,7 +16,8 @@ import numbers
 
 from .errors import OptionError
 
-__all__ = ["Band", "DEFAULT_BAND", "option", "band_option", "option_fields", "parse_pair", "check_order"]
+__all__ = ["Band", "DEFAULT_BAND", "option", "band_option", "option_fields", "parse_pair", "check_order",
+           "check_option_types"]
 
 
 def parse_pair(text, name: str) -> tuple[float, float]:
@@ -44,9 +45,10 @@ def check_order(order, name: str = "order") -> int | None:
     if isinstance(order, bool | str | bytes) or not isinstance(order, numbers.Real):
         raise OptionError(f"{name} must be a positive integer, got {order!r} of type {type(order).__name__}",
                           params=(name,))
-    if not (math.isfinite(order) and int(order) == order and order >= 1):
+    value = float(order)
+    if not (math.isfinite(value) and value.is_integer() and value >= 1):
         raise OptionError(f"{name} must be a positive integer, got {order!r}", params=(name,))
-    return int(order)
+    return int(value)
 
 
 class Band(tuple):
@@ -146,3 +148,42 @@ def band_option(what: str):
 def option_fields(options_class) -> dict:
     """``name -> dataclasses.Field`` of an options dataclass, in declaration order."""
     return {f.name: f for f in dataclasses.fields(options_class)}
+
+
+#: Kinds of option values checked by :func:`check_option_types` (from the field annotations):
+#: kind -> (test, the words of the message)
+_KINDS = {
+    "bool": (lambda v: isinstance(v, bool), "True or False"),
+    "int": (lambda v: isinstance(v, numbers.Real) and not isinstance(v, bool)
+            and math.isfinite(float(v)) and float(v).is_integer(), "an integer"),
+    "float": (lambda v: isinstance(v, numbers.Real) and not isinstance(v, bool), "a number"),
+    "list": (lambda v: not isinstance(v, str | bytes) and hasattr(v, "__iter__"), "a list"),
+}
+
+
+def check_option_types(options_class, values: dict) -> None:
+    """Refuse method option values of the wrong type, by the annotations of ``options_class``.
+
+    Fields annotated with ``int``, ``float``, ``bool`` or ``list`` (each optionally ``| None``)
+    are checked: a bool or a string is not a number (``moments=True``, ``max_iter="50"``), a
+    string is not a list (``interface="TIP"``: give ``["TIP"]``). None values and fields of other
+    types (text with choices, bands, points) are left to the method.
+
+    Raises
+    ------
+    OptionError
+        Naming the option, what it must be and what was given.
+    """
+    fields = option_fields(options_class)
+    for name, value in values.items():
+        f = fields.get(name)
+        if f is None or value is None:
+            continue
+        kinds = [k.strip() for k in str(f.type).split("|") if k.strip() != "None"]
+        if not kinds or not all(k in _KINDS for k in kinds):
+            continue
+        if not any(_KINDS[k][0](value) for k in kinds):
+            want = " or ".join(_KINDS[k][1] for k in kinds)
+            hint = f" (e.g. [{value!r}])" if "list" in kinds and isinstance(value, str) else ""
+            raise OptionError(f"{name} must be {want}{hint}, got {value!r} of type {type(value).__name__}",
+                              params=(name,))

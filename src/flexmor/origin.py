@@ -30,8 +30,8 @@ from .damping import Damping, GivenDamping, ModalDamping, NoDamping, Rayleigh
 from .errors import FlexmorWarning, ModelError, OptionError
 from .linalg.distributed import is_partitioned
 
-__all__ = ["applied_to", "with_body_damping", "fingerprint", "matrix_hash", "check_origin", "origin_differences", "reference_model",
-           "same_damping", "describe_damping"]
+__all__ = ["applied_to", "with_body_damping", "fingerprint", "matrix_hash", "check_origin", "origin_differences",
+           "reference_model", "same_damping", "describe_damping"]
 
 #: Version of the fingerprint record (bumped when what it hashes changes).
 FINGERPRINT_VERSION = 1
@@ -131,7 +131,8 @@ def check_origin(body, model, path, *, couplings=()) -> None:
     where = (model.source or model.name) + (f" with {', '.join(couplings)}" if couplings else "")
     if not recorded:
         warnings.warn(f"body {name} records no fingerprint of the model it was reduced from (written by an older "
-                      f"flexmor or another program): it cannot be checked against {where}", FlexmorWarning, stacklevel=2)
+                      f"flexmor or another program): it cannot be checked against {where}", FlexmorWarning,
+                      stacklevel=2)
         return
     diffs = origin_differences(recorded, model)
     if diffs:
@@ -178,8 +179,8 @@ def reference_model(model, body, path, *, damping: Damping | None = None):
     body : ReducedModel
         The reduced body, read from ``path`` (named in errors).
     damping : Damping, optional
-        Damping asked for by the user (``--rayleigh``, ``--modal-damping``, ``--band-rayleigh``);
-        must be the body's own, else an :class:`OptionError`.
+        Damping asked for by the user (``rayleigh``, ``modal_damping`` or ``band_rayleigh`` of
+        :func:`flexmor.workflow.damping_of`); must be the body's own, else an :class:`OptionError`.
 
     Returns
     -------

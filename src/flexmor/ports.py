@@ -25,6 +25,7 @@ Models read with their own ``B``/``C`` (MATLAB benchmarks) use those when no SPE
 
 from __future__ import annotations
 
+import numbers
 from dataclasses import dataclass
 
 import numpy as np
@@ -38,12 +39,80 @@ __all__ = ["Ports", "make_ports", "interface_dofs", "parse_spec"]
 
 @dataclass
 class Ports:
-    """Input matrix ``B`` (n_dof, m), output matrix ``C`` (p, n_dof) and their names/specs."""
+    """Input matrix ``B`` (n_dof, m), output matrix ``C`` (p, n_dof) and their names/specs.
+
+    Made by :func:`make_ports` from port SPECs, or from matrices by :meth:`from_arrays`.
+    ``B`` and ``C`` may be given dense or sparse; they are kept as sparse CSR matrices, and
+    their shapes and the numbers of names are checked when the ports are made.
+
+    Raises
+    ------
+    PortError
+        Naming ``B``, ``C``, ``input_names`` or ``output_names``: not a 2-D array of real finite
+        numbers, ``B`` and ``C`` of different numbers of rows and columns (``n_dof``), or another
+        number of names than of columns of ``B`` / rows of ``C``.
+    """
 
     B: sp.csr_matrix
     C: sp.csr_matrix
     input_names: list
     output_names: list
+
+    def __post_init__(self):
+        self.B, self.C = _port_matrix(self.B, "B"), _port_matrix(self.C, "C")
+        if self.B.shape[0] != self.C.shape[1]:
+            raise PortError(f"B has {self.B.shape[0]} rows (equations) but C has {self.C.shape[1]} columns; both are "
+                            "one per equation of the model: B (n_dof, n_inputs), C (n_outputs, n_dof)",
+                            params=("B", "C"))
+        for n, what, name in ((self.B.shape[1], "columns of B", "input_names"),
+                              (self.C.shape[0], "rows of C", "output_names")):
+            names = getattr(self, name)
+            names = [names] if isinstance(names, str) else list(names)
+            if len(names) != n:
+                raise PortError(f"{name} must name each of the {n} {what}, got {len(names)} name(s)", params=(name,))
+            setattr(self, name, names)
+
+    @classmethod
+    def from_arrays(cls, B, C=None, input_names=None, output_names=None, *, model=None) -> Ports:
+        """Ports from an input matrix ``B`` and an output matrix ``C`` (dense or sparse).
+
+        Parameters
+        ----------
+        B : array_like or sparse matrix, shape (n_dof, m)
+            Input matrix: column ``j`` is the load pattern of input ``j``. A 1-D ``B`` is refused
+            (give one column, ``B[:, None]``).
+        C : array_like or sparse matrix, shape (p, n_dof), optional
+            Output matrix; default ``B^T`` (collocated outputs).
+        input_names, output_names : sequence of str, optional
+            One name per input and per output; default ``u1 ... um`` and ``y1 ... yp`` (the
+            input names for collocated outputs).
+        model : FEModel or int, optional
+            The model (or its number of equations) the ports must fit.
+
+        Returns
+        -------
+        Ports
+
+        Raises
+        ------
+        PortError
+            Naming the argument: not a 2-D array of real finite numbers, shapes that do not fit
+            each other or the model, or the wrong number of names.
+        """
+        B = _port_matrix(B, "B")
+        collocated = C is None
+        C = B.T.tocsr() if collocated else _port_matrix(C, "C")
+        if model is not None:
+            n_dof = model if isinstance(model, numbers.Integral) else model.n_dof
+            for X, name, axis, what in ((B, "B", 0, "rows"), (C, "C", 1, "columns")):
+                if X.shape[axis] != n_dof:
+                    raise PortError(f"{name} has shape {X.shape}: {X.shape[axis]} {what}, but the model has "
+                                    f"{n_dof} equations", params=(name,))
+        if input_names is None:
+            input_names = [f"u{j + 1}" for j in range(B.shape[1])]
+        if output_names is None:
+            output_names = list(input_names) if collocated else [f"y{i + 1}" for i in range(C.shape[0])]
+        return cls(B, C, input_names, output_names)
 
     @property
     def n_inputs(self) -> int:
@@ -65,6 +134,37 @@ class Ports:
         Br = np.asarray((B[rows].T @ V[rows]).T)
         Cr = np.asarray(C[:, cols] @ V[cols])
         return Br, Cr
+
+
+def _port_matrix(X, name: str) -> sp.csr_matrix:
+    """``X`` (dense or sparse) as a CSR matrix of real finite numbers; a :class:`PortError` naming ``name``."""
+    if sp.issparse(X):
+        A = sp.csr_matrix(X)
+        data = A.data
+    else:
+        try:
+            data = np.asarray(X)
+        except (TypeError, ValueError) as exc:
+            raise PortError(f"{name} must be a 2-D array or sparse matrix of real numbers: {exc}",
+                            params=(name,)) from None
+        A = None
+    if data.dtype.kind == "c" and not np.any(data.imag):
+        data = data.real
+    if data.dtype.kind not in "fiub":
+        raise PortError(f"{name} must hold real numbers, got {type(X).__name__} of dtype {data.dtype}", params=(name,))
+    if A is None:
+        if data.ndim != 2:
+            raise PortError(f"{name} must be 2-D, got shape {data.shape}" + (" (one column: B[:, None])"
+                                                                            if data.ndim == 1 else ""),
+                            params=(name,))
+        A = sp.csr_matrix(np.asarray(data, dtype=float))
+        data = A.data
+    elif A.dtype != float:
+        A = A.astype(float) if A.dtype.kind != "c" else sp.csr_matrix(A.real, dtype=float)
+        data = A.data
+    if not np.all(np.isfinite(data)):
+        raise PortError(f"{name} has NaN or Inf entries", params=(name,))
+    return A
 
 
 def parse_spec(spec: str):

@@ -16,11 +16,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .basis import Basis
+from .basis import Basis, as_basis, check_rank
 from .body import ReducedModel
 from .couplings import coupling_masters
 from .damping import ModalDamping
-from .errors import ModelError
+from .errors import PortError
 from .linalg.threads import sparse_dense
 from .mesh import outer_surface
 from .model import FEModel
@@ -74,31 +74,45 @@ def reduced_matrices(model: FEModel, V: np.ndarray) -> ReducedMatrices:
     return ReducedMatrices(Mr, Kr, Dr, (V, model.M, model.K, model.D))
 
 
-def project(model: FEModel, basis: Basis, ports: Ports) -> ReducedModel:
+def project(model: FEModel, basis: Basis | np.ndarray, ports: Ports) -> ReducedModel:
     """Galerkin projection of ``model`` onto ``basis``; the one path used by every method.
 
     Parameters
     ----------
     model : FEModel
-    basis : Basis
+    basis : Basis or ndarray
         ``basis.V`` of shape (n_dof, r); ``basis.reduced`` (:class:`ReducedMatrices` of that
-        ``V``), when the method computed them, saves the sparse products.
+        ``V``), when the method computed them, saves the sparse products. A plain array
+        (n_dof, r) is a basis of method ``"custom"``.
     ports : Ports
         Inputs and outputs; projected to ``Br = V^T B`` and ``Cr = C V``.
 
     Returns
     -------
     ReducedModel
+
+    Raises
+    ------
+    ModelError
+        Naming ``basis``: not real numbers, NaN or Inf, complex, a number of rows other than
+        ``model.n_dof``, no column, or linearly dependent columns
+        (:func:`flexmor.basis.as_basis`, :func:`flexmor.basis.check_rank`).
+    PortError
+        ``ports`` not a :class:`~flexmor.ports.Ports`, or of another size than the model.
     """
-    V = np.asarray(basis.V, dtype=float)
-    if V.ndim != 2 or V.shape[0] != model.n_dof:
-        raise ModelError(f"basis has shape {V.shape}, expected ({model.n_dof}, r)")
-    if V.shape[1] == 0:
-        raise ModelError(f"method {basis.method!r} produced an empty basis")
+    if not isinstance(ports, Ports):
+        raise PortError(f"ports must be a Ports (flexmor.make_ports(model, inputs, outputs) or Ports.from_arrays), "
+                        f"got {type(ports).__name__}", params=("ports",))
+    if ports.B.shape[0] != model.n_dof:
+        raise PortError(f"ports have {ports.B.shape[0]} rows, the model has {model.n_dof} equations",
+                        params=("ports",))
+    basis = as_basis(basis, model.n_dof)
+    V = basis.V
     pre = basis.reduced
     if pre is None or not pre.of(model, basis.V):
         pre = reduced_matrices(model, V)
     Mr, Kr, Dr = pre.M, pre.K, pre.D
+    check_rank(V, Mr)
     if Dr is not None and isinstance(model.damping, ModalDamping):  # modal damping: zeta in the body's own modes
         Dr = model.damping.reduced_matrix(Mr, Kr)
     Br, Cr = ports.reduced(V)

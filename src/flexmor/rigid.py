@@ -215,7 +215,7 @@ def rigid_content(model, V) -> float:
 RIGID_CONTENT_TOL = 1e-6
 
 
-def elastic_body(model, reduced, *, remove_rigid: bool = False):
+def elastic_body(model, body, *, remove_rigid: bool = False):
     """The body for a floating-frame export: its basis without rigid-body motion.
 
     In the floating frame the rigid motion belongs to the frame. A body whose basis contains
@@ -238,26 +238,26 @@ def elastic_body(model, reduced, *, remove_rigid: bool = False):
         cannot be rebuilt on ``model`` (they are needed for the projection).
     """
     phi = rigid_body_modes(model)
-    if reduced.V is None or phi.shape[1] == 0 or rigid_content(model, reduced.V) >= RIGID_CONTENT_TOL:
-        return reduced
+    if body.V is None or phi.shape[1] == 0 or rigid_content(model, body.V) >= RIGID_CONTENT_TOL:
+        return body
     try:
-        ports = make_ports(model, reduced.input_names, reduced.output_names)
+        ports = make_ports(model, body.input_names, body.output_names)
     except FlexmorError as exc:
-        raise ModelError(f"the {reduced.method} body holds rigid-body motion, which the floating frame carries; "
+        raise ModelError(f"the {body.method} body holds rigid-body motion, which the floating frame carries; "
                          f"removing it needs the body's ports on the model: {exc}") from None
-    basis = exclude_rigid(model, Basis(reduced.V, reduced.method, dict(reduced.info, rigid="exclude")))
-    body = project(model, basis, ports)
-    change = (f"made mass-orthogonal to the {phi.shape[1]} rigid-body modes (order {reduced.order} -> {body.order}), "
+    basis = exclude_rigid(model, Basis(body.V, body.method, dict(body.info, rigid="exclude")))
+    elastic = project(model, basis, ports)
+    change = (f"made mass-orthogonal to the {phi.shape[1]} rigid-body modes (order {body.order} -> {elastic.order}), "
               "another body than the one reduced and judged")
     if not remove_rigid:
-        raise ModelError(f"the {reduced.method} body holds rigid-body motion, which the floating frame carries; "
+        raise ModelError(f"the {body.method} body holds rigid-body motion, which the floating frame carries; "
                          f"exporting it would need its basis {change}. Reduce with rigid='exclude' (the default for "
                          "free bodies), or pass remove_rigid to allow the change (flexmor export then "
                          "states the error of the body it writes)", params=("remove_rigid",))
-    body.info["rigid_removed_at_export"] = {"order_reduced": reduced.order, "order_exported": body.order}
-    body.origin = dict(reduced.origin)  # with the couplings and selections the body was made with
-    body.couplings, body.selections = list(reduced.couplings), list(reduced.selections)
-    body.order_note = reduced.order_note
-    warnings.warn(f"{reduced.method} body: its basis holds rigid-body motion, which the floating frame carries; "
+    elastic.info["rigid_removed_at_export"] = {"order_reduced": body.order, "order_exported": elastic.order}
+    elastic.origin = dict(body.origin)  # with the couplings and selections the body was made with
+    elastic.couplings, elastic.selections = list(body.couplings), list(body.selections)
+    elastic.order_note = body.order_note
+    warnings.warn(f"{body.method} body: its basis holds rigid-body motion, which the floating frame carries; "
                   f"exported with its basis {change}", FlexmorWarning, stacklevel=2)
-    return body
+    return elastic

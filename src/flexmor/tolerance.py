@@ -86,7 +86,7 @@ def reduce_to_tolerance(model, method: str, ports, *, tol: float, full, max_orde
 
     Returns
     -------
-    reduced : ReducedModel
+    body : ReducedModel
     timings : dict
         ``basis`` (the whole search, bases and trial projections) and ``project``.
     search : dict
@@ -106,14 +106,14 @@ def reduce_to_tolerance(model, method: str, ports, *, tol: float, full, max_orde
     t0 = time.perf_counter()
     tried, big, lo = {}, None, low - 1
 
-    def trial(r, red=None):
-        """``(measure, body)`` of order ``r`` (``red`` given, else made), shown as one step."""
+    def trial(r, body=None):
+        """``(measure, body)`` of order ``r`` (``body`` given, else made), shown as one step."""
         with step(solver.progress, f"tol search: {method} order {r}") as note:
-            if red is None:
-                red = reduce(model, method, r, ports, solver=solver, **options)
-            value = getattr(full.evaluate(red), measure)
-            note["result"] = f"{measure} {value:.3g}" + (f" (order {red.order})" if red.order != r else "")
-        return value, red
+            if body is None:
+                body = reduce(model, method, r, ports, solver=solver, **options)
+            value = getattr(full.evaluate(body), measure)
+            note["result"] = f"{measure} {value:.3g}" + (f" (order {red.order})" if body.order != r else "")
+        return value, body
 
     def error(r):
         if r not in tried:

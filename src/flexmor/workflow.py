@@ -84,14 +84,14 @@ def prepare_model(model, couplings=()):
     return model
 
 
-def body_model(model, reduced, path="the body", *, damping: Damping | None = None):
-    """The full model ``reduced`` was made from: the body's node selections (``reduced.selections``,
+def body_model(model, body, path="the body", *, damping: Damping | None = None):
+    """The full model ``body`` was made from: the body's node selections (``reduced.selections``,
     the ``--select`` of ``flexmor reduce``), couplings and damping applied to ``model`` as read,
     checked against the body's fingerprint (:func:`flexmor.origin.reference_model`, which
     explains ``path`` and ``damping``)."""
     from .origin import reference_model
 
-    return reference_model(model, reduced, path, damping=damping)
+    return reference_model(model, body, path, damping=damping)
 
 
 def reduce_and_judge(model, method: str, order, ports, *, band=None, full: FullResponse | None = None,
@@ -216,21 +216,21 @@ def record_setup(body, *, couplings=(), interfaces=(), selections=()) -> None:
     body.origin.update(couplings=list(couplings), interfaces=list(interfaces), selections=list(selections))
 
 
-def _judge_mounted(model, red, ports, result, timings, *, solver=None) -> None:
+def _judge_mounted(model, body, ports, result, timings, *, solver=None) -> None:
     """The body held in its joints (:func:`flexmor.analysis.mounted.mounted_record`) into ``result``,
     ``red.errors`` and their notes."""
     from .analysis.mounted import mounted_record
 
     t0 = time.perf_counter()
-    rec = mounted_record(model, red, ports=ports, band=result["band_hz"], band_rms_error=result["band_rms_error"],
+    rec = mounted_record(model, body, ports=ports, band=result["band_hz"], band_rms_error=result["band_rms_error"],
                          solver=solver)
     timings["mounted"] = time.perf_counter() - t0
     if rec is None:
         return
-    result["mounted"] = red.errors["mounted"] = rec
+    result["mounted"] = body.errors["mounted"] = rec
     if rec["note"]:
         result["notes"].append(rec["note"])
-        red.errors["notes"].append(rec["note"])
+        body.errors["notes"].append(rec["note"])
 
 
 def with_method_band(method: str, band, options: dict) -> dict:
@@ -263,7 +263,7 @@ def run_demo(out, *, n: int = 4, band=(10.0, 3000.0), progress=None, on_result=N
 
     Returns the list of result records (as :func:`reduce_and_judge`) with ``file`` added.
     """
-    from .io.hdf5 import write_reduced
+    from .io import write_body
     from .models import cantilever
     from .report.plots import plot_rel_error
 
@@ -281,7 +281,7 @@ def run_demo(out, *, n: int = 4, band=(10.0, 3000.0), progress=None, on_result=N
         red, res = reduce_and_judge(model, method, order, ports, full=full, solver=solver, **opts)
         reds.append(red)
         path = out / f"{model.name}_{method}_{order}.h5"
-        write_reduced(red, path)
+        write_body(red, path)
         res["file"] = str(path)
         results.append(res)
         curves[f"{method} r={order}"] = red.errors["rel_error"]

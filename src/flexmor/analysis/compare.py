@@ -18,6 +18,7 @@ from ..dynamics.surrogate import DEFAULT_SURROGATE_TOL
 from ..errors import FlexmorWarning, ModelError, OptionError, PortError
 from ..linalg.context import SolverContext, as_solver, step
 from ..linalg.eigen import frequencies_hz
+from ..options import Band
 from ..origin import describe_damping, fingerprint, origin_differences, same_damping
 from ..reduction.free_body import with_elastic_inputs
 from . import cache as frf_cache
@@ -186,9 +187,10 @@ class FullResponse:
         c0 = solver.stats.count
         if path not in PATHS:
             raise OptionError(f"path={path!r} is not allowed; choose one of: {', '.join(PATHS)}")
-        self.band = (float(band[0]), float(band[1]))
-        if not (np.isfinite(self.band[0]) and np.isfinite(self.band[1])) or not 0 < self.band[0] < self.band[1]:
-            raise OptionError(f"band must satisfy 0 < FMIN < FMAX (Hz), got {band[0]}:{band[1]}")
+        if band is None:
+            raise OptionError("band is needed: the band (FMIN, FMAX) in Hz the full FRF is computed on",
+                              params=("band",))
+        self.band = tuple(float(f) for f in Band.of(band))  # a pair of numbers 0 < FMIN < FMAX, else OptionError
         damped = model.D is not None
         if path == "auto":
             exact_modal = isinstance(model.damping, ModalDamping) and dense_applicable(model)
@@ -317,8 +319,8 @@ class FullResponse:
         out.update(seconds=self.seconds, n_factorizations=self.n_factorizations, timings=dict(self.timings))
         return out
 
-    def evaluate(self, reduced) -> ErrorMeasures:
-        """Error measures of ``reduced`` (:class:`ErrorMeasures`): those of
+    def evaluate(self, body) -> ErrorMeasures:
+        """Error measures of ``body`` (:class:`ErrorMeasures`): those of
         :func:`flexmor.analysis.frequency.error_measures` (``band_error``, ``rms_rel_error_pct``,
         ``hinf_error``, ``max_rel_error`` and where it occurs ...), ``judged`` (which reference,
         :meth:`reference`), ``spurious_resonances_hz`` and ``max_rel_error_at_spurious_resonance``
@@ -335,42 +337,42 @@ class FullResponse:
         for proportional damping, and computed directly rather than as ``H`` minus the rigid-body
         response, which at low frequencies exceeds it by orders of magnitude).
         """
-        self.check_judgeable(reduced)
-        Hr = frf_reduced(reduced, self.freqs)
-        H, judged = self.reference(reduced)
+        self.check_judgeable(body)
+        Hr = frf_reduced(body, self.freqs)
+        H, judged = self.reference(body)
         out = error_measures(self.freqs, H, Hr, resonances=self.resonances)
         out["judged"] = judged
-        sr = spurious_resonances(reduced, self.freqs, H, self.resonances, self.zeta, band=self.band,
+        sr = spurious_resonances(body, self.freqs, H, self.resonances, self.zeta, band=self.band,
                                  max_rel_error_hz=out["max_rel_error_hz"], max_rel_error=out["max_rel_error"])
         note = sr.pop("note")
         out.update(sr)
-        notes = error_notes(out, damped=reduced.D is not None) + ([note] if note else [])
-        built = (reduced.info or {}).get("band")
+        notes = error_notes(out, damped=body.D is not None) + ([note] if note else [])
+        built = (body.info or {}).get("band")
         if built and not np.allclose(built, self.band, rtol=1e-9, atol=0.0):
-            notes.append(f"{reduced.method or 'the body'} was built for {built[0]:g}-{built[1]:g} Hz, "
+            notes.append(f"{body.method or 'the body'} was built for {built[0]:g}-{built[1]:g} Hz, "
                          f"judged over {self.band[0]:g}-{self.band[1]:g} Hz: reduce with band={self.band} "
                          "for this band")
         return ErrorMeasures(**{k: out.get(k) for k in MEASURE_KEYS}, band_hz=self.band, notes=tuple(notes),
                              freqs_hz=self.freqs, rel_error=rel_error(H, Hr))
 
-    def check_judgeable(self, reduced) -> None:
+    def check_judgeable(self, body) -> None:
         """Refuse a body that was not reduced from this response's model, damping and ports
         (:func:`check_judgeable`)."""
-        check_judgeable(reduced, origin=self.origin, damping=self.damping, inputs=self.input_names,
+        check_judgeable(body, origin=self.origin, damping=self.damping, inputs=self.input_names,
                    outputs=self.output_names, label=self.model_label)
 
-    def reference(self, reduced):
-        """``(H, judged)``: the full FRF that ``reduced`` is judged against and its description,
+    def reference(self, body):
+        """``(H, judged)``: the full FRF that ``body`` is judged against and its description,
         :data:`JUDGED_ELASTIC` (:attr:`H_elastic`, for a free body whose basis excludes the
         rigid-body modes) or :attr:`H` (:data:`JUDGED_RIGID` on a free model, else :data:`JUDGED_FULL`)."""
         if self.H_elastic is None:
             return self.H, JUDGED_FULL
-        if reduced.info.get("n_rigid_excluded"):
+        if body.info.get("n_rigid_excluded"):
             return self.H_elastic, JUDGED_ELASTIC
         return self.H, JUDGED_RIGID
 
 
-def check_judgeable(reduced, *, origin: dict, damping, inputs, outputs, label: str = "this model") -> None:
+def check_judgeable(body, *, origin: dict, damping, inputs, outputs, label: str = "this model") -> None:
     """Refuse a body that was not reduced from the model of fingerprint ``origin``
     (:func:`flexmor.origin.fingerprint`), with ``damping`` and the ports named ``inputs`` and
     ``outputs`` (``label`` names that model in the messages).
@@ -384,24 +386,24 @@ def check_judgeable(reduced, *, origin: dict, damping, inputs, outputs, label: s
     PortError
         Its inputs or outputs are others (names, or their number).
     """
-    name = f"body ({reduced.method or 'reduced'}, order {reduced.order})"
-    if reduced.origin:
-        diffs = origin_differences(reduced.origin, origin)
+    name = f"body ({body.method or 'reduced'}, order {body.order})"
+    if body.origin:
+        diffs = origin_differences(body.origin, origin)
         if diffs:
-            came = reduced.origin.get("source") or reduced.origin.get("name") or "unknown"
+            came = body.origin.get("source") or body.origin.get("name") or "unknown"
             raise ModelError(f"{name} was reduced from a model with {'; '.join(diffs)} (the body's model: "
                              f"{came}; this reference: {label}); judge it against the model it was "
                              "reduced from", params=("model",))
     else:
         warnings.warn(f"{name} records no fingerprint of the model it was reduced from: it cannot be checked "
                       f"against {label}", FlexmorWarning, stacklevel=4)
-    if not same_damping(reduced.damping, damping):
-        raise ModelError(f"{name} was reduced with damping {describe_damping(reduced.damping)}; this reference "
+    if not same_damping(body.damping, damping):
+        raise ModelError(f"{name} was body with damping {describe_damping(body.damping)}; this reference "
                          f"has {describe_damping(damping)}. A body is judged against the full model with "
                          "its own damping: give the model that damping (rayleigh / modal_damping / "
                          "band_rayleigh), or reduce again", params=("damping",))
-    for role, mine, theirs, count in (("inputs", list(inputs), reduced.input_names, reduced.B.shape[1]),
-                                      ("outputs", list(outputs), reduced.output_names, reduced.C.shape[0])):
+    for role, mine, theirs, count in (("inputs", list(inputs), body.input_names, body.B.shape[1]),
+                                      ("outputs", list(outputs), body.output_names, body.C.shape[0])):
         names = [str(n).strip().lower() for n in theirs]
         if count != len(mine) or (names and names != [str(n).strip().lower() for n in mine]):
             raise PortError(f"{name} has {count} {role} ({', '.join(map(str, theirs)) or 'unnamed'}); this "

@@ -30,16 +30,20 @@ from ..errors import OptionError
 
 __all__ = ["rel_error", "band_error", "max_rel_error", "hinf_error", "band_grid", "error_measures", "MEASURES",
            "TOL_MEASURES", "MEASURE_KEYS", "measure_record", "at_antiresonance", "resonance_share", "error_notes",
-           "ANTIRESONANCE_FACTOR"]
+           "ANTIRESONANCE_FACTOR", "NOTE_PARAMS"]
 
 #: One line per error measure, in the order of the tables.
 MEASURES = {
-    "band_error": "∫|H-Hr|²df / ∫|H|²df over the band (squared relative L2 error; the seeds' measure)",
+    "band_error": "∫|H-Hr|²df / ∫|H|²df over the band (squared relative L2 error, the measure of the reference tables)",
     "rms_rel_error_pct": "100·sqrt(band_error): RMS relative error over the band in %",
     "hinf_error": "max_f |H-Hr| / max_f |H|: largest error relative to the band's peak response (H∞-type)",
     "max_rel_error": "max_f |H-Hr|/|H| (pointwise, Frobenius norms): large at anti-resonances, where |H| is small",
 }
-#: Measures ``--tol`` can target (``band_rms_error`` = rms_rel_error_pct / 100 is JSON only).
+#: The parameters the notes of :func:`error_notes` name, as bare words (an application may show them
+#: as its own names: :func:`flexmor.errors.name_parameters`).
+NOTE_PARAMS = ("rayleigh", "modal_damping")
+#: Measures the ``tol`` of :func:`flexmor.workflow.reduce_and_judge` can target (``band_rms_error`` =
+#: rms_rel_error_pct / 100 is JSON only).
 TOL_MEASURES = tuple(MEASURES)
 #: The fields of a body's judgement in every JSON record and error table, in order: those of
 #: :func:`error_measures`, then those of :meth:`flexmor.analysis.compare.FullResponse.evaluate`
@@ -173,7 +177,7 @@ def error_notes(measures: dict, *, damped: bool) -> list[str]:
     share = measures.get("resonance_share")
     if not damped and share is not None and share > RESONANCE_DOMINATED and measures["band_error"] > 1e-12:
         notes.append(f"undamped model: {100 * share:.0f} % of the error lies within 1 % of the resonances, where a "
-                     "tiny frequency shift gives a huge error; add damping (--rayleigh or --modal-damping) for a "
+                     "tiny frequency shift gives a huge error; add damping (rayleigh or modal_damping) for a "
                      "measure of the response")
     return notes
 

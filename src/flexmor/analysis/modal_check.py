@@ -95,14 +95,14 @@ def _align_clusters(f, phi, Psi, M) -> np.ndarray:
     return phi
 
 
-def modal_check(model, reduced, *, n_modes: int | None = None, full=None, solver: SolverContext | None = None) -> dict:
-    """Eigenfrequencies of ``reduced`` against the full model, and the MAC matrix.
+def modal_check(model, body, *, n_modes: int | None = None, full=None, solver: SolverContext | None = None) -> dict:
+    """Eigenfrequencies of ``body`` against the full model, and the MAC matrix.
 
     Parameters
     ----------
     model : FEModel
         The full model the body was reduced from.
-    reduced : ReducedModel
+    body : ReducedModel
         With its basis ``V`` (n_dof, r).
     n_modes : int, optional
         Number of full flexible modes compared; default ``min(r, 20)``.
@@ -128,19 +128,19 @@ def modal_check(model, reduced, *, n_modes: int | None = None, full=None, solver
     Sound and Vibration 37(8), 14-23.
     """
     solver = as_solver(solver)
-    if reduced.V is None:
+    if body.V is None:
         raise ModelError("the reduced body has no basis V; the MAC needs the expanded mode shapes")
-    V = np.asarray(reduced.V, float)
+    V = np.asarray(body.V, float)
     if V.shape[0] != model.n_dof:
         raise ModelError(f"the basis has {V.shape[0]} rows, the model {model.n_dof} DOF")
     try:
-        lam_r, psi = sla.eigh(reduced.K, reduced.M)
+        lam_r, psi = sla.eigh(body.K, body.M)
     except np.linalg.LinAlgError:
         raise ModelError("the reduced mass matrix is not positive definite") from None
     rig_r = is_rigid(lam_r, model.K, model.M)
     f_r, Psi = frequencies_hz(lam_r[~rig_r]), V @ psi[:, ~rig_r]
     if full is None:
-        n = min(reduced.order, 20) if n_modes is None else int(n_modes)
+        n = min(body.order, 20) if n_modes is None else int(n_modes)
         f, phi, n_rig = full_modes(model, n, solver=solver)
     else:
         f, phi, *rest = full
@@ -158,6 +158,6 @@ def modal_check(model, reduced, *, n_modes: int | None = None, full=None, solver
     out = {"full_hz": np.asarray(f, float), "reduced_hz": f_r, "mac": A, "pair": pair, "pair_hz": pair_hz,
            "pair_mac": pair_mac, "freq_rel_error": (pair_hz - f) / np.where(f > 0, f, 1.0),
            "n_rigid_full": n_rig, "n_rigid_reduced": int(rig_r.sum()), "full_shapes": phi, "reduced_shapes": Psi}
-    log.info("modal check of %s r=%d: %d full modes, min paired MAC %.3f", reduced.method, reduced.order, f.size,
+    log.info("modal check of %s r=%d: %d full modes, min paired MAC %.3f", body.method, body.order, f.size,
              float(np.nanmin(pair_mac)) if f.size else float("nan"))
     return out

@@ -57,7 +57,7 @@ from ..linalg.eigen import eigenmodes, frequencies_hz, rigid_body_threshold
 from ..rigid import rigid_body_modes, rigid_motions
 
 __all__ = ["HELD", "Support", "supports", "FullMounted", "MountedCase", "MountedCheck", "mounted_check",
-           "mounted_note", "mounted_record", "NOTE_FACTOR", "NOTE_FLOOR"]
+           "mounted_note", "mounted_record", "NOTE_FACTOR", "NOTE_FLOOR", "NOTE_PARAMS"]
 
 log = logging.getLogger(__name__)
 
@@ -67,6 +67,8 @@ HELD = {"clamped": (1, 2, 3, 4, 5, 6), "pinned": (1, 2, 3)}
 #: A mounted error above ``max(NOTE_FACTOR * band_rms_error, NOTE_FLOOR)`` is worth a note.
 NOTE_FACTOR = 10.0
 NOTE_FLOOR = 1e-3
+#: The parameters :func:`mounted_note` names, as bare words (see :func:`flexmor.errors.name_parameters`).
+NOTE_PARAMS = ("inertia_loads",)
 
 #: Relative singular value (of the constraint rows) and eigenvalue (of the mounted mass) below which
 #: a direction counts as absent.
@@ -238,7 +240,7 @@ def _mounted_body(model, body, eqs, phi):
     _, s, Wt = np.linalg.svd(X[list(eqs)], full_matrices=True)
     rank = int(np.sum(s > RANK_TOL * s[0])) if s.size and s[0] > 0 else 0
     Z = Wt[rank:].T
-    Mz, Kz = Z.T @ Ma @ Z, Z.T @ Ka @ Z
+    Mz = Z.T @ Ma @ Z
     w, U = np.linalg.eigh(0.5 * (Mz + Mz.T))
     keep = w > RANK_TOL * w[-1] if w.size else np.zeros(0, bool)
     T = Z @ (U[:, keep] / np.sqrt(w[keep]))

@@ -44,12 +44,12 @@ def _modal_terms(M, K, B, C, alpha, beta):
     return alpha + beta * lam, lam, R
 
 
-def _h2_modal(model, ports, red):
+def _h2_modal(model, ports, body):
     d = model.damping
     if not isinstance(d, Rayleigh):
         raise OptionError("h2_error(method='modal') needs Rayleigh damping")
     a1, b1, R1 = _modal_terms(model.M, model.K, ports.B, ports.C, d.alpha, d.beta)
-    a2, b2, R2 = _modal_terms(red.M, red.K, red.B, red.C, d.alpha, d.beta)
+    a2, b2, R2 = _modal_terms(body.M, body.K, body.B, body.C, d.alpha, d.beta)
     a, b = np.concatenate([a1, a2]), np.concatenate([b1, b2])
     R = np.concatenate([R1, -R2]).reshape(a.size, -1)
     # modes the ports do not see (e.g. rigid-body modes of the inputs' elastic part) do not count
@@ -67,11 +67,11 @@ def _h2_modal(model, ports, red):
     return np.sqrt(max(err2, 0.0)), np.sqrt(full2)
 
 
-def _h2_quadrature(model, ports, red, omega):
+def _h2_quadrature(model, ports, body, omega):
     w = np.asarray(omega, float)
     f = w / (2 * np.pi)
     H = frf_full(model, ports, f)
-    E = H - frf_reduced(red, f)
+    E = H - frf_reduced(body, f)
     e2 = np.sum(np.abs(E) ** 2, axis=(1, 2))
     h2 = np.sum(np.abs(H) ** 2, axis=(1, 2))
     u = np.log(w)
@@ -81,7 +81,7 @@ def _h2_quadrature(model, ports, red, omega):
     return np.sqrt(err2), np.sqrt(full2)
 
 
-def _h2_lyapunov(model, ports, red):
+def _h2_lyapunov(model, ports, body):
     def first_order(M, D, K, B, C):
         M, K = _dense(M), _dense(K)
         n = M.shape[0]
@@ -91,7 +91,7 @@ def _h2_lyapunov(model, ports, red):
             np.hstack([_dense(C), np.zeros((C.shape[0], n))])
 
     A1, B1, C1 = first_order(model.M, model.D, model.K, ports.B, ports.C)
-    A2, B2, C2 = first_order(red.M, red.D, red.K, red.B, red.C)
+    A2, B2, C2 = first_order(body.M, body.D, body.K, body.B, body.C)
 
     def norm(A, B, C):
         P = sla.solve_continuous_lyapunov(A, -B @ B.T)
@@ -100,7 +100,7 @@ def _h2_lyapunov(model, ports, red):
     return norm(sla.block_diag(A1, A2), np.vstack([B1, B2]), np.hstack([C1, -C2])), norm(A1, B1, C1)
 
 
-def h2_error(model, ports, reduced, *, method: str = "auto", omega=None, relative: bool = True) -> float:
+def h2_error(model, ports, body, *, method: str = "auto", omega=None, relative: bool = True) -> float:
     """H2 norm of the error ``H - Hr`` (relative to ``||H||_H2`` by default).
 
     Parameters
@@ -108,7 +108,7 @@ def h2_error(model, ports, reduced, *, method: str = "auto", omega=None, relativ
     model : FEModel
         With damping (the H2 norm of an undamped body is infinite).
     ports : Ports
-    reduced : ReducedModel
+    body : ReducedModel
     method : {'auto', 'modal', 'quadrature', 'lyapunov'}
         ``auto``: ``modal`` for Rayleigh damping, else ``quadrature``.
     omega : array_like, optional
@@ -127,9 +127,9 @@ def h2_error(model, ports, reduced, *, method: str = "auto", omega=None, relativ
     if method in ("modal", "lyapunov") and model.n_dof > DENSE_H2_LIMIT:
         raise OptionError(f"h2_error method {method!r} is dense; the model has {model.n_dof} > {DENSE_H2_LIMIT} DOF")
     if method == "modal":
-        err, full = _h2_modal(model, ports, reduced)
+        err, full = _h2_modal(model, ports, body)
     elif method == "lyapunov":
-        err, full = _h2_lyapunov(model, ports, reduced)
+        err, full = _h2_lyapunov(model, ports, body)
     else:
         if omega is None:
             lam = dense_eigenmodes(model.K, model.M)[0] if model.n_dof <= DENSE_H2_LIMIT else None
@@ -138,7 +138,7 @@ def h2_error(model, ports, reduced, *, method: str = "auto", omega=None, relativ
             lam = lam[lam > 1e-12 * lam[-1]]
             lo, hi = 1e-3 * np.sqrt(lam[0]), 1e3 * np.sqrt(lam[-1])
             omega = np.geomspace(lo, hi, int(100 * np.log10(hi / lo)) + 1)
-        err, full = _h2_quadrature(model, ports, reduced, omega)
+        err, full = _h2_quadrature(model, ports, body, omega)
     return err / full if relative else err
 
 

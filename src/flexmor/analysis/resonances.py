@@ -36,7 +36,7 @@ SPURIOUS_PEAK = 2.0
 MAX_ZETA = 1 / np.sqrt(2)
 
 
-def body_resonances(reduced) -> tuple[np.ndarray, np.ndarray]:
+def body_resonances(body) -> tuple[np.ndarray, np.ndarray]:
     """The resonances of a reduced body: ``(f_hz, zeta)`` of its underdamped poles, sorted.
 
     The poles are the eigenvalues ``λ`` of the quadratic pencil ``λ² Mr + λ Dr + Kr``; each complex
@@ -46,14 +46,14 @@ def body_resonances(reduced) -> tuple[np.ndarray, np.ndarray]:
     dense first-order companion form. Rigid-body (zero) poles and poles with ``ζ >=`` 1/√2 (no
     peak) are left out.
     """
-    M, K = np.asarray(reduced.M, float), np.asarray(reduced.K, float)
+    M, K = np.asarray(body.M, float), np.asarray(body.K, float)
     r = M.shape[0]
     lam, phi = sla.eigh(0.5 * (K + K.T), 0.5 * (M + M.T))
     w = np.sqrt(np.clip(lam, 0.0, None))
-    if reduced.D is None:
+    if body.D is None:
         f, z = w / (2 * np.pi), np.zeros_like(w)
     else:
-        D = np.asarray(reduced.D, float)
+        D = np.asarray(body.D, float)
         Dm = phi.T @ D @ phi
         d = np.diag(Dm).copy()
         off = Dm - np.diag(d)
@@ -79,13 +79,13 @@ def _interp_norm(freqs, H, f) -> np.ndarray:
     return np.exp(np.interp(np.log(f), np.log(freqs), np.log(np.maximum(h, tiny))))
 
 
-def spurious_resonances(reduced, freqs, H, resonances, zeta=None, *, band=None, max_rel_error_hz=None,
+def spurious_resonances(body, freqs, H, resonances, zeta=None, *, band=None, max_rel_error_hz=None,
                         max_rel_error=None) -> dict:
     """The body's resonances in the band where the full model has none (see the module docstring).
 
     Parameters
     ----------
-    reduced : ReducedModel
+    body : ReducedModel
     freqs : ndarray
         The error grid (Hz).
     H : ndarray, shape (n_freq, n_outputs, n_inputs)
@@ -111,7 +111,7 @@ def spurious_resonances(reduced, freqs, H, resonances, zeta=None, *, band=None, 
     res = np.atleast_1d(np.asarray(resonances if resonances is not None else [], float))
     zk = np.broadcast_to(np.asarray(0.0 if zeta is None else zeta, float), res.shape)
     out = {"spurious_resonances_hz": [], "max_rel_error_at_spurious_resonance": False, "note": None}
-    fr, zr = body_resonances(reduced)
+    fr, zr = body_resonances(body)
     inside = (fr * (1 - SPURIOUS_REL) >= fmin) & (fr * (1 + SPURIOUS_REL) <= fmax)
     win = np.maximum(SPURIOUS_REL, 2 * zk)  # per full resonance
     cand = [(f, z) for f, z in zip(fr[inside], zr[inside]) if not np.any(np.abs(res - f) <= win * res)]
@@ -119,7 +119,7 @@ def spurious_resonances(reduced, freqs, H, resonances, zeta=None, *, band=None, 
         return out
     f_c = np.array([c[0] for c in cand])
     at = f_c * (1 + np.where(np.array([c[1] for c in cand]) > 0, 0.0, 1e-3))  # an undamped pole: just beside it
-    ratio = np.linalg.norm(frf_reduced(reduced, at).reshape(at.size, -1), axis=1) / _interp_norm(freqs, H, at)
+    ratio = np.linalg.norm(frf_reduced(body, at).reshape(at.size, -1), axis=1) / _interp_norm(freqs, H, at)
     bad = f_c[ratio >= SPURIOUS_PEAK]
     if not bad.size:
         return out

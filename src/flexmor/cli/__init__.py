@@ -15,6 +15,7 @@ the backends and the formats).
 from __future__ import annotations
 
 import contextlib
+import functools
 import logging
 import os
 import signal
@@ -95,10 +96,11 @@ def _block_sigterm():
 _python_format_warning = warnings.formatwarning
 
 
-def _format_warning(message, category, filename, lineno, line=None):
-    """A :class:`FlexmorWarning` as its one-line message (no source path); others as Python does."""
+def _format_warning(message, category, filename, lineno, line=None, names=None):
+    """A :class:`FlexmorWarning` as its one-line message (no source path), the parameters it names
+    renamed by ``names`` (the command's flags); others as Python does."""
     if issubclass(category, FlexmorWarning):
-        return str(message)
+        return message.message(names) if isinstance(message, FlexmorWarning) else str(message)
     return _python_format_warning(message, category, filename, lineno, line)
 
 
@@ -114,7 +116,7 @@ def main(argv=None) -> int:
     level = [logging.WARNING, logging.INFO, logging.DEBUG][min(args.verbose, 2)]
     logging.basicConfig(level=level, format="%(levelname)s %(name)s: %(message)s")
     logging.captureWarnings(True)
-    warnings.formatwarning = _format_warning
+    warnings.formatwarning = functools.partial(_format_warning, names=getattr(args, "flag_names", None))
     quiet_other_ranks()  # mpirun -n P: only rank 0 prints
     run, previous, hook, code = _Run(), None, sys.unraisablehook, None
     try:

@@ -24,7 +24,7 @@ from .info import (
     print_mass_properties,
 )
 from .method_flags import method_options
-from .tables import fmt, print_error_table, print_mounted
+from .tables import fmt, notes_as_flags, print_error_table, print_mounted
 
 __all__ = ["cmd_info", "cmd_reduce", "cmd_compare", "cmd_report", "cmd_demo"]
 
@@ -32,7 +32,7 @@ __all__ = ["cmd_info", "cmd_reduce", "cmd_compare", "cmd_report", "cmd_demo"]
 def _emit_json(obj) -> None:
     if isinstance(obj, dict):  # every JSON answer says which flexmor wrote it
         obj = {**obj, "flexmor_version": __version__}
-    print(json.dumps(jsonable(obj, finite=True)))
+    print(json.dumps(jsonable(notes_as_flags(obj), finite=True)))  # notes name flags, as messages do
 
 
 def _progress(args, label: str = "full FRF", unit: str = "freq"):
@@ -205,7 +205,8 @@ def cmd_info(args) -> int:
     if out.get("couplings"):
         from ..checks import describe_couplings
 
-        print(f"coupled   with {describe_couplings(out['couplings'])} (sizes and frequencies below are the coupled model's)")
+        print(f"coupled   with {describe_couplings(out['couplings'])} "
+              "(sizes and frequencies below are the coupled model's)")
     print(f"DOF       {model.n_dof}    nodes {model.n_nodes}    nnz(K) {out['nnz_K']}")
     print(f"damping   {describe_damping(model.damping)}")
     if model.node_sets:
@@ -227,7 +228,8 @@ def cmd_info(args) -> int:
     if args.reference:
         ref = out["reference"]
         print(f"\n mode   {args.reference} [Hz]   model [Hz]   rel. diff   MAC")
-        for i, row in enumerate(zip(ref["frequencies_hz"], ref["model_frequencies_hz"], ref["rel_diff"], ref["mac"]), 1):
+        rows = zip(ref["frequencies_hz"], ref["model_frequencies_hz"], ref["rel_diff"], ref["mac"])
+        for i, row in enumerate(rows, 1):
             print(f"{i:5d}   {row[0]:14.6f}   {row[1]:14.6f}   {row[2]:9.2e}   {row[3]:.6f}")
     if factor:
         print(factor)
@@ -243,7 +245,7 @@ def _selected_names(args) -> list:
 
 # -- reduce ------------------------------------------------------------------------------------
 def cmd_reduce(args) -> int:
-    from ..io.hdf5 import write_reduced
+    from ..io import write_body
     from ..origin import describe_damping
     from ..ports import make_ports
     from ..workflow import DEFAULT_BAND, coupling_specs, record_setup, reduce_and_judge
@@ -277,7 +279,7 @@ def cmd_reduce(args) -> int:
     if args.select:
         res["selections"] = list(args.select)
     path = _check_new(args.output_file or f"{model.name}_{args.method}_{red.order}.h5", args)
-    on_root(write_reduced, red, path)  # under MPI: written once, by rank 0
+    on_root(write_body, red, path)  # under MPI: written once, by rank 0
     res["file"] = str(path)
     factor = _factor_note(res, solver)
     if args.json:

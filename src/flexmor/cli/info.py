@@ -6,6 +6,8 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+from .tables import note_text
+
 __all__ = ["is_body_file", "info_body", "interface_lines", "info_backends", "info_formats", "print_mass_properties",
            "coupling_lines"]
 
@@ -76,7 +78,7 @@ def info_body(args, emit_json) -> int:
         if err.get("judged"):
             _row("judged", err["judged"])
         for note in err.get("notes") or ():
-            _row("note", note)
+            _row("note", note_text(note))
     else:
         _row("errors", "not evaluated")
     _mounted_rows(err.get("mounted"))
@@ -104,7 +106,7 @@ def _mounted_rows(rec) -> None:
                 + ("-" if fe is None else f"{fe:.2e}") + ("" if se is None else f", static error {se:.2e}"))
         _row("mounted" if k == 0 else "", text)
     if rec.get("note"):
-        _row("", f"note: {rec['note']}")
+        _row("", f"note: {note_text(rec['note'])}")
 
 
 def info_backends(args) -> int:

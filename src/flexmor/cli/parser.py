@@ -122,7 +122,8 @@ def build_parser() -> argparse.ArgumentParser:
 
     ap = argparse.ArgumentParser(prog="flexmor", description="Model order reduction of elastic bodies for EMBS.")
     ap.add_argument("--version", action="version", version=f"flexmor {__version__}")
-    ap.add_argument("-v", "--verbose", action="count", default=0, help="log more (-vv: debug); long steps show their progress on stderr, "
+    ap.add_argument("-v", "--verbose", action="count", default=0,
+                    help="log more (-vv: debug); long steps show their progress on stderr, "
                     "also when it is not a terminal (never under --json)")
     sub = ap.add_subparsers(dest="command", required=True)
 

@@ -2,12 +2,40 @@
 
 from __future__ import annotations
 
-__all__ = ["fmt", "print_error_table", "print_mounted"]
+from ..errors import name_parameters
+
+__all__ = ["fmt", "note_text", "notes_as_flags", "print_error_table", "print_mounted"]
 
 
 def fmt(x, spec: str = ".3e") -> str:
     """``x`` formatted with ``spec``, or ``-`` when it is None."""
     return "-" if x is None else format(x, spec)
+
+
+def note_text(note: str) -> str:
+    """A note of the library (error measures, mounted check) with the parameters it names as flags
+    (``modal_damping`` -> ``--modal-damping``)."""
+    from ..analysis import frequency, mounted
+
+    params = frequency.NOTE_PARAMS + mounted.NOTE_PARAMS
+    return name_parameters(note, params, {p: "--" + p.replace("_", "-") for p in params})
+
+
+def notes_as_flags(record):
+    """A JSON record with the text of each ``notes`` list and ``...note`` key through :func:`note_text`."""
+    if isinstance(record, (list, tuple)):
+        return [notes_as_flags(v) for v in record]
+    if not isinstance(record, dict):
+        return record
+    out = {}
+    for k, v in record.items():
+        if isinstance(v, str) and k.endswith("note"):
+            out[k] = note_text(v)
+        elif k == "notes" and isinstance(v, list):
+            out[k] = [note_text(n) if isinstance(n, str) else n for n in v]
+        else:
+            out[k] = notes_as_flags(v)
+    return out
 
 
 def _where(r) -> str:
@@ -67,7 +95,7 @@ def _notes(rows, label: str) -> None:
             if not n.startswith("max_rel_error"):
                 grouped.setdefault(n, []).append(name(r))
     for n, names in grouped.items():
-        print(f"note: {', '.join(names)}: {n}")
+        print(f"note: {', '.join(names)}: {note_text(n)}")
 
 
 def print_mounted(rows, label: str = "method") -> None:

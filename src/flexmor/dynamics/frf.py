@@ -123,15 +123,15 @@ def frf_full(model, ports, freqs, *, solver: SolverContext | None = None,
     return H
 
 
-def frf_reduced(red, freqs) -> np.ndarray:
+def frf_reduced(body, freqs) -> np.ndarray:
     """Frequency response of a reduced body (dense, batched), shape (n_freq, n_outputs, n_inputs)."""
     w = angular_frequency(freqs)
-    A = red.K[None, :, :] - (w ** 2)[:, None, None] * red.M[None, :, :]
+    A = body.K[None, :, :] - (w ** 2)[:, None, None] * body.M[None, :, :]
     A = A.astype(complex)
-    if red.D is not None:
-        A = A + (1j * w)[:, None, None] * red.D[None, :, :]
-    X = np.linalg.solve(A, np.broadcast_to(red.B.astype(complex), (w.size, *red.B.shape)))
-    return np.einsum("pr,frm->fpm", red.C, X)
+    if body.D is not None:
+        A = A + (1j * w)[:, None, None] * body.D[None, :, :]
+    X = np.linalg.solve(A, np.broadcast_to(body.B.astype(complex), (w.size, *body.B.shape)))
+    return np.einsum("pr,frm->fpm", body.C, X)
 
 
 def rel_error(H, Hr) -> np.ndarray:

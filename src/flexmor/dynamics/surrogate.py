@@ -232,8 +232,8 @@ class Surrogate:
         """``A(w)^{-1} B`` by block Galerkin steps on ``span(V)`` enlarged by preconditioned residuals.
 
         Returns ``(X, residual, iterations)`` with the true relative residual
-        ``||B - A(w) X||_F / ||B||_F`` divided by its target (:meth:`_residual_target`). Only the basis ``W`` (real, orthonormal) and
-        ``W^T A W`` are stored: one sparse product per new block.
+        ``||B - A(w) X||_F / ||B||_F`` divided by its target (:meth:`_residual_target`). Only the basis
+        ``W`` (real, orthonormal) and ``W^T A W`` are stored: one sparse product per new block.
         """
         A = self.shifted(w)
         nb = np.linalg.norm(self.B)

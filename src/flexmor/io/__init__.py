@@ -3,7 +3,8 @@
 * :func:`read` — an FE model (:class:`~flexmor.model.FEModel`) from an FE program's export
   (:data:`MODEL_FORMATS`: CalculiX, Abaqus, Ansys, Nastran, Matrix Market, MATLAB, SID);
 * :func:`read_body` — a reduced body (:class:`~flexmor.body.ReducedModel`)
-  (:data:`BODY_FORMATS`: flexmor's own HDF5, Nastran superelements);
+  (:data:`BODY_FORMATS`: flexmor's own HDF5, Nastran superelements); :func:`write_body`
+  writes flexmor's own HDF5 body file;
 * :func:`export` — a reduced body to a file for another program (:data:`EXPORT_FORMATS`:
   SID, Exudyn, MATLAB, state space, HDF5).
 
@@ -36,6 +37,7 @@ from ._registry import (
     read_body,
 )
 from .atomic import atomic_write
+from .hdf5 import write_body
 
 __all__ = ["BODY_FORMATS", "EXPORT_FORMATS", "MODEL_FORMATS", "Format", "Registry", "atomic_write",
-           "describe_formats", "export", "export_format", "read", "read_body"]
+           "describe_formats", "export", "export_format", "read", "read_body", "write_body"]

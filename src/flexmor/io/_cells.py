@@ -81,14 +81,14 @@ def ansys_cell(etype: int, nodes) -> tuple | None:
     nodes = list(nodes)
     n = len(nodes)
     if etype in (185, 45, 65) and n >= 8:
-        i, j, k, l, m, nn, o, p = nodes[:8]
+        n_i, n_j, n_k, n_l, n_m, n_n, n_o, n_p = nodes[:8]  # the brick's nodes I ... P
         if len(set(nodes[:8])) == 8:
             return "hexahedron", nodes[:8]
-        if k == l and m == nn == o == p:
-            return "tetra", [i, j, k, m]
-        if m == nn == o == p:
-            return "pyramid", [i, j, k, l, m]
-        if k == l and o == p:
+        if n_k == n_l and n_m == n_n == n_o == n_p:
+            return "tetra", [n_i, n_j, n_k, n_m]
+        if n_m == n_n == n_o == n_p:
+            return "pyramid", [n_i, n_j, n_k, n_l, n_m]
+        if n_k == n_l and n_o == n_p:
             return "wedge", [nodes[x] for x in (0, 1, 2, 4, 5, 6)]
         return None
     if etype in (186, 95) and n >= 20:

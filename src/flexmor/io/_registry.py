@@ -255,8 +255,8 @@ def export_format(path, format: str | None = None) -> str:
     return fmt.name
 
 
-def export(reduced, path, format: str | None = None, *, model=None, **options) -> str:
-    """Write ``reduced`` to ``path`` in an export format, atomically.
+def export(body, path, format: str | None = None, *, model=None, **options) -> str:
+    """Write ``body`` to ``path`` in an export format, atomically.
 
     The inertia invariants of SID and Exudyn bodies are integrals over the full model's mass
     matrix and node coordinates, which the reduced body does not store (it stores the basis
@@ -265,7 +265,7 @@ def export(reduced, path, format: str | None = None, *, model=None, **options) -
 
     Parameters
     ----------
-    reduced : ReducedModel
+    body : ReducedModel
     path : str or path-like
     format : str, optional
         A name or alias from :data:`EXPORT_FORMATS` (``sid``, ``exudyn``, ``mat``, ``statespace``
@@ -281,7 +281,7 @@ def export(reduced, path, format: str | None = None, *, model=None, **options) -
         The format name used.
     """
     name = export_format(path, format)
-    EXPORT_FORMATS.by_name(name).function(reduced, path, model=model, **options)
+    EXPORT_FORMATS.by_name(name).function(body, path, model=model, **options)
     return name
 
 

@@ -59,12 +59,12 @@ def _skew_rows(U):
     return S.transpose(0, 1, 3, 2).reshape(n3, 3 * m)
 
 
-def exudyn_data(reduced, model, *, node_type: str = NODE_TYPES[0], remove_rigid: bool = False) -> dict:
+def exudyn_data(body, model, *, node_type: str = NODE_TYPES[0], remove_rigid: bool = False) -> dict:
     """The dictionary of ``ObjectFFRFreducedOrderInterface`` (file version 1) for a reduced body.
 
     Parameters
     ----------
-    reduced : ReducedModel
+    body : ReducedModel
         With its basis ``V``.
     model : FEModel
         The full model it was reduced from, as read: the body applies its own couplings, and
@@ -95,8 +95,8 @@ def exudyn_data(reduced, model, *, node_type: str = NODE_TYPES[0], remove_rigid:
 
     if node_type not in NODE_TYPES:
         raise OptionError(f"node_type={node_type!r} is not allowed; choose one of: {', '.join(NODE_TYPES)}")
-    xb = expand_body(model, reduced, remove_rigid=remove_rigid)  # the floating frame carries the rigid motion
-    reduced, model, V = xb.body, xb.model, xb.V
+    xb = expand_body(model, body, remove_rigid=remove_rigid)  # the floating frame carries the rigid motion
+    body, model, V = xb.body, xb.model, xb.V
     trans, rot = node_triples(model)
     if np.any(rot >= 0):
         log.warning("%s: rotational DOFs are not part of Exudyn's 3-DOF mesh and are dropped", model.name)
@@ -129,9 +129,9 @@ def exudyn_data(reduced, model, *, node_type: str = NODE_TYPES[0], remove_rigid:
     index = {int(k): i for i, k in enumerate(xb.node_ids)}
     slaves = [np.array([index[int(k)] for k in m.slaves], dtype=np.int64) for m in xb.masters]
     return {
-        "modeBasis": Psi, "trigList": _trig_list(reduced.triangles, model), "postProcessingModes": {},
-        "massMatrixReduced": np.asarray(reduced.M, float), "stiffnessMatrixReduced": np.asarray(reduced.K, float),
-        "dampingMatrixReduced": np.zeros((r, r)) if reduced.D is None else np.asarray(reduced.D, float),
+        "modeBasis": Psi, "trigList": _trig_list(body.triangles, model), "postProcessingModes": {},
+        "massMatrixReduced": np.asarray(body.M, float), "stiffnessMatrixReduced": np.asarray(body.K, float),
+        "dampingMatrixReduced": np.zeros((r, r)) if body.D is None else np.asarray(body.D, float),
         "infoList": np.array([r, n, 3, rot_dofs, 3 + rot_dofs, 3 + rot_dofs + r]),
         "rigidBodyNodeType": node_type, "xRef": x, "inertiaLocal": 0.5 * (inertia + inertia.T), "Mtt": Mtt,
         "totalMass": mass, "chiU": chi, "chiUtilde": _skew_rows(chi[:, None]),
@@ -164,7 +164,7 @@ def _trig_list(triangles, model) -> np.ndarray:
     return order[pos].astype(np.int64)
 
 
-def write_exudyn(reduced, path, *, model=None, node_type: str = NODE_TYPES[0], allow_clamped: bool = False,
+def write_exudyn(body, path, *, model=None, node_type: str = NODE_TYPES[0], allow_clamped: bool = False,
                  remove_rigid: bool = False) -> None:
     """Write the Exudyn data of a reduced body to ``path`` (``.npz``), atomically.
 
@@ -193,7 +193,7 @@ def write_exudyn(reduced, path, *, model=None, node_type: str = NODE_TYPES[0], a
     from .invariants import check_free_model
 
     check_free_model(model, allow_clamped=allow_clamped)
-    data = exudyn_data(reduced, model, node_type=node_type, remove_rigid=remove_rigid)
+    data = exudyn_data(body, model, node_type=node_type, remove_rigid=remove_rigid)
 
     def write(tmp):
         with open(tmp, "wb") as f:
@@ -216,7 +216,8 @@ def _add(mbs, data: dict, *, position, velocity, rotation, angular_velocity, gra
     cms.SetWithDictionary({k: v for k, v in data.items() if k not in EXTRA_KEYS})
     res = cms.AddObjectFFRFreducedOrder(
         mbs, positionRef=list(position), initialVelocity=list(velocity),
-        rotationMatrixRef=[] if rotation is None else np.asarray(rotation), initialAngularVelocity=list(angular_velocity),
+        rotationMatrixRef=[] if rotation is None else np.asarray(rotation),
+        initialAngularVelocity=list(angular_velocity),
         massProportionalDamping=float(rayleigh[0]), stiffnessProportionalDamping=float(rayleigh[1]),
         gravity=list(gravity), color=list(color), name=name)
     res = dict(res)
@@ -249,7 +250,7 @@ def add_npz_to_exudyn(mbs, path, *, position=(0.0, 0.0, 0.0), velocity=(0.0, 0.0
                 gravity=gravity, rayleigh=rayleigh, name=name, color=color)
 
 
-def add_to_exudyn(mbs, reduced, model, *, position=(0.0, 0.0, 0.0), velocity=(0.0, 0.0, 0.0), rotation=None,
+def add_to_exudyn(mbs, body, model, *, position=(0.0, 0.0, 0.0), velocity=(0.0, 0.0, 0.0), rotation=None,
                   angular_velocity=(0.0, 0.0, 0.0), gravity=(0.0, 0.0, 0.0), rayleigh=(0.0, 0.0),
                   node_type: str = NODE_TYPES[0], name: str = "", color=(0.1, 0.9, 0.1, 1.0),
                   remove_rigid: bool = False) -> dict:
@@ -258,7 +259,7 @@ def add_to_exudyn(mbs, reduced, model, *, position=(0.0, 0.0, 0.0), velocity=(0.
     Parameters
     ----------
     mbs : exudyn.MainSystem
-    reduced : ReducedModel
+    body : ReducedModel
     model : FEModel or path
         The full model the body was reduced from, as read (or its file): the body applies its
         own couplings (:func:`exudyn_data`).
@@ -292,7 +293,7 @@ def add_to_exudyn(mbs, reduced, model, *, position=(0.0, 0.0, 0.0), velocity=(0.
         from ._registry import read
 
         model = read(model)
-    data = exudyn_data(reduced, model, node_type=node_type, remove_rigid=remove_rigid)
+    data = exudyn_data(body, model, node_type=node_type, remove_rigid=remove_rigid)
     res = _add(mbs, data, position=position, velocity=velocity, rotation=rotation, angular_velocity=angular_velocity,
                gravity=gravity, rayleigh=rayleigh, name=name, color=color)
     res["model"] = model

@@ -1,4 +1,4 @@
-"""flexmor's own reduced-body file (HDF5).
+"""flexmor's own reduced-body file (HDF5): :func:`write_body`, read by :func:`flexmor.io.read_body`.
 
 Layout: datasets ``M K B C`` (and ``D``, ``V``, ``node_ids``, ``xyz``, ``dofs`` when present),
 ``errors/freqs_hz`` and ``errors/rel_error`` when evaluated; attributes ``format``
@@ -31,28 +31,36 @@ _OPTIONAL = {"origin": {}, "selections": [], "couplings": [], "order_note": None
 _FROM_INFO = ("selections", "couplings", "order_note")
 
 
-def write_reduced(red, path) -> None:
-    """Write a :class:`~flexmor.body.ReducedModel` to ``path`` (HDF5), atomically."""
+def write_body(body, path) -> None:
+    """Write a reduced body to ``path`` as flexmor's own HDF5 file, atomically.
+
+    Parameters
+    ----------
+    body : ReducedModel
+        The reduced body; :func:`flexmor.io.read_body` reads the file back.
+    path : str or path-like
+        The file to write (``.h5``).
+    """
     import h5py
 
-    errors = {k: v for k, v in red.errors.items() if k not in ("rel_error", "freqs_hz")}
+    errors = {k: v for k, v in body.errors.items() if k not in ("rel_error", "freqs_hz")}
 
     def write(tmp):
         with h5py.File(tmp, "w") as h:
             h.attrs["format"] = FORMAT_TAG
-            h.attrs["version"] = red.version
-            h.attrs["method"] = red.method
-            h.attrs["model_name"] = red.model_name
+            h.attrs["version"] = body.version
+            h.attrs["method"] = body.method
+            h.attrs["model_name"] = body.model_name
             for name in _ARRAYS:
-                val = getattr(red, name)
+                val = getattr(body, name)
                 if val is not None:
                     h.create_dataset(name, data=np.asarray(val), compression="gzip" if np.size(val) > 4096 else None)
             for name in _JSON:
-                h.attrs[name] = json.dumps(jsonable(errors if name == "errors" else getattr(red, name)))
-            if "rel_error" in red.errors and "freqs_hz" in red.errors:
+                h.attrs[name] = json.dumps(jsonable(errors if name == "errors" else getattr(body, name)))
+            if "rel_error" in body.errors and "freqs_hz" in body.errors:
                 g = h.create_group("errors")
-                g.create_dataset("freqs_hz", data=np.asarray(red.errors["freqs_hz"]))
-                g.create_dataset("rel_error", data=np.asarray(red.errors["rel_error"]))
+                g.create_dataset("freqs_hz", data=np.asarray(body.errors["freqs_hz"]))
+                g.create_dataset("rel_error", data=np.asarray(body.errors["rel_error"]))
 
     atomic_write(path, write)
 
@@ -77,7 +85,8 @@ def _check_layout(path, h) -> None:
         d = h[name]
         if not isinstance(d, h5py.Dataset) or d.dtype.kind not in kinds or d.dtype.names:
             what = "a group" if not isinstance(d, h5py.Dataset) else f"of type {d.dtype}"
-            raise ReadError(path, f"dataset {name!r} is {what}; expected {'real numbers' if kinds == 'f' else 'integers'}")
+            expected = "real numbers" if kinds == "f" else "integers"
+            raise ReadError(path, f"dataset {name!r} is {what}; expected {expected}")
         if len(d.shape) != len(axes):
             raise ReadError(path, f"dataset {name!r} has shape {d.shape}; expected {len(axes)} dimensions")
         if int(np.prod(d.shape, dtype=object)) > MAX_VALUES:
@@ -105,8 +114,8 @@ def _check_fields(path, meta) -> None:
         raise ReadError(path, "attribute 'order_note' must be a JSON string or null")
 
 
-def read_reduced(path):
-    """Read a reduced body written by :func:`write_reduced`.
+def _read(path):
+    """Read a reduced body written by :func:`write_body` (the ``hdf5`` reader of :func:`flexmor.io.read_body`).
 
     The datasets' kinds, types and shapes (consistent with the order ``r``) are checked before
     any data is read; attributes are JSON text (never pickles).
@@ -145,12 +154,12 @@ def read_reduced(path):
     return red
 
 
-def _export(reduced, path, *, model=None) -> None:
-    """:func:`write_reduced` as an exporter (``model`` is unused)."""
-    write_reduced(reduced, path)
+def _export(body, path, *, model=None) -> None:
+    """:func:`write_body` as an exporter (``model`` is unused)."""
+    write_body(body, path)
 
 
-BODY_FORMATS.register("hdf5", [".h5", ".hdf5"], read_reduced, aliases=["flexmor"],
+BODY_FORMATS.register("hdf5", [".h5", ".hdf5"], _read, aliases=["flexmor"],
                       description="flexmor reduced body (HDF5): M K D B C, basis V, nodes, ports, errors")
 EXPORT_FORMATS.register("hdf5", [".h5", ".hdf5"], _export, aliases=["flexmor"],
                         description="flexmor reduced body (HDF5), e.g. of a Nastran superelement")

@@ -238,7 +238,10 @@ def compute_invariants(model, V, *, K=None, D=None, nodes=()) -> Invariants:
     Ke = np.asarray(V.T @ (model.K @ V)) if K is None else np.asarray(K, dtype=float)
     if D is None and model.D is not None:
         D = V.T @ (model.D @ V)
-    sym = lambda A: None if A is None else 0.5 * (A + A.T)
+
+    def sym(A):
+        return None if A is None else 0.5 * (A + A.T)
+
     return Invariants(
         mass=mass, mdCM0=mdCM0, J0=sym(J0), Ct=Ct, Cr0=Cr0, Cr1=Cr1, J1=J1,
         Gr=Gr_t.transpose(1, 0, 2).reshape(3, 3 * r),  # column 3a + l
@@ -270,10 +273,10 @@ def check_free_model(model, *, allow_clamped: bool = False) -> int:
     return n
 
 
-def _spec_targets(reduced) -> list[str]:
+def _spec_targets(body) -> list[str]:
     out = []
-    specs = list(reduced.input_names) + list(reduced.output_names)
-    iface = reduced.info.get("interface") if isinstance(reduced.info, dict) else None
+    specs = list(body.input_names) + list(body.output_names)
+    iface = body.info.get("interface") if isinstance(body.info, dict) else None
     if isinstance(iface, (list, tuple)):
         specs += [str(s) for s in iface]
     elif isinstance(iface, str):
@@ -286,7 +289,7 @@ def _spec_targets(reduced) -> list[str]:
     return out
 
 
-def frame_nodes(model, V, specs=None, reduced=None, *, masters=()) -> list[FrameNode]:
+def frame_nodes(model, V, specs=None, body=None, *, masters=()) -> list[FrameNode]:
     """Frame nodes (marker/interface points) of the SID file.
 
     Parameters
@@ -302,8 +305,8 @@ def frame_nodes(model, V, specs=None, reduced=None, *, masters=()) -> list[Frame
         them, its rotational DOFs as ``psi`` (else zero). A set of several nodes (or
         ``SET@rbe3``) gives an RBE3 master at the set's centroid: the weighted least-squares
         rigid motion of the set's translations (:func:`flexmor.couplings.rbe3_matrix`).
-        Default: the port and interface targets of ``reduced`` and every master.
-    reduced : ReducedModel, optional
+        Default: the port and interface targets of ``body`` and every master.
+    body : ReducedModel, optional
     masters : sequence of MasterNode
         The body's coupling masters (:func:`flexmor.expansion.expand_body`).
 
@@ -316,7 +319,7 @@ def frame_nodes(model, V, specs=None, reduced=None, *, masters=()) -> list[Frame
 
     masters = list(masters)
     if specs is None:
-        specs = _spec_targets(reduced) if reduced is not None else []
+        specs = _spec_targets(body) if body is not None else []
         specs = [s for s in specs if not _is_generic(s)]
         named = {m.id for m in masters for s in specs if m.matches(s)}
         specs += [m.name for m in masters if m.id not in named]

@@ -17,7 +17,7 @@ A. C. Antoulas, *Approximation of Large-Scale Dynamical Systems*, SIAM, 2005, ch
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -32,7 +32,11 @@ __all__ = ["StateSpace", "state_space", "write_statespace"]
 
 @dataclass
 class StateSpace:
-    """``x' = A x + B u``, ``y = C x + D u`` and the descriptor form ``E x' = Ae x + Be u``."""
+    """``x' = A x + B u``, ``y = C x + D u`` and the descriptor form ``E x' = Ae x + Be u``.
+
+    ``input_names`` and ``output_names`` label the columns of ``B`` and the rows of ``C`` (the
+    body's port SPECs, e.g. ``TIP:y``); empty when the body has none.
+    """
 
     A: np.ndarray
     B: np.ndarray
@@ -41,24 +45,41 @@ class StateSpace:
     E: np.ndarray
     Ae: np.ndarray
     Be: np.ndarray
+    input_names: list = field(default_factory=list)
+    output_names: list = field(default_factory=list)
+
+    def _labels(self, names, n: int):
+        """``names`` as signal labels when there is one distinct name per signal, else None."""
+        names = [str(s) for s in names]
+        return names if len(names) == n and len(set(names)) == n else None
 
     def to_scipy(self):
-        """``scipy.signal.StateSpace`` of ``(A, B, C, D)``."""
+        """``scipy.signal.StateSpace`` of ``(A, B, C, D)``.
+
+        SciPy's systems hold no signal names: the labels are attached to the object returned as
+        its attributes ``input_names`` and ``output_names`` (lists of str, or None).
+        """
         import scipy.signal
 
-        return scipy.signal.StateSpace(self.A, self.B, self.C, self.D)
+        sys = scipy.signal.StateSpace(self.A, self.B, self.C, self.D)
+        sys.input_names = self._labels(self.input_names, self.B.shape[1])
+        sys.output_names = self._labels(self.output_names, self.C.shape[0])
+        return sys
 
     def to_control(self):
-        """``control.StateSpace`` (python-control, when installed)."""
+        """``control.StateSpace`` (python-control, when installed), its inputs and outputs
+        labelled with :attr:`input_names` and :attr:`output_names` (python-control's default
+        ``u[i]``, ``y[i]`` where a body has no names or repeats one)."""
         import control
 
-        return control.ss(self.A, self.B, self.C, self.D)
+        return control.ss(self.A, self.B, self.C, self.D, inputs=self._labels(self.input_names, self.B.shape[1]),
+                          outputs=self._labels(self.output_names, self.C.shape[0]))
 
     def arrays(self) -> dict:
         return {k: getattr(self, k) for k in ("A", "B", "C", "D", "E", "Ae", "Be")}
 
 
-def state_space(reduced) -> StateSpace:
+def state_space(body) -> StateSpace:
     """First-order form of a reduced body (see the module docstring).
 
     Raises
@@ -66,28 +87,29 @@ def state_space(reduced) -> StateSpace:
     ModelError
         When ``Mr`` is singular.
     """
-    M, K = np.asarray(reduced.M, float), np.asarray(reduced.K, float)
+    M, K = np.asarray(body.M, float), np.asarray(body.K, float)
     r = M.shape[0]
-    Dm = np.zeros((r, r)) if reduced.D is None else np.asarray(reduced.D, float)
-    Bm, Cm = np.asarray(reduced.B, float), np.asarray(reduced.C, float)
+    Dm = np.zeros((r, r)) if body.D is None else np.asarray(body.D, float)
+    Bm, Cm = np.asarray(body.B, float), np.asarray(body.C, float)
     try:
         lu = sla.cho_factor(M)
     except np.linalg.LinAlgError:
         raise ModelError("the reduced mass matrix is not positive definite; no state-space form") from None
-    Z, I = np.zeros((r, r)), np.eye(r)
-    A = np.block([[Z, I], [-sla.cho_solve(lu, K), -sla.cho_solve(lu, Dm)]])
+    Z, Id = np.zeros((r, r)), np.eye(r)
+    A = np.block([[Z, Id], [-sla.cho_solve(lu, K), -sla.cho_solve(lu, Dm)]])
     B = np.vstack([np.zeros_like(Bm), sla.cho_solve(lu, Bm)])
     C = np.hstack([Cm, np.zeros_like(Cm)])
     D = np.zeros((Cm.shape[0], Bm.shape[1]))
-    E = np.block([[I, Z], [Z, M]])
-    Ae = np.block([[Z, I], [-K, -Dm]])
+    E = np.block([[Id, Z], [Z, M]])
+    Ae = np.block([[Z, Id], [-K, -Dm]])
     Be = np.vstack([np.zeros_like(Bm), Bm])
-    return StateSpace(A, B, C, D, E, Ae, Be)
+    return StateSpace(A, B, C, D, E, Ae, Be, input_names=list(getattr(body, "input_names", [])),
+                      output_names=list(getattr(body, "output_names", [])))
 
 
-def write_statespace(reduced, path, *, model=None) -> None:
+def write_statespace(body, path, *, model=None) -> None:
     """Write ``A B C D E Ae Be`` to ``.npz`` (or ``.mat`` by suffix), atomically; ``model`` is unused."""
-    data = state_space(reduced).arrays()
+    data = state_space(body).arrays()
     if Path(path).suffix.lower() == ".mat":
         import scipy.io
 

@@ -20,15 +20,15 @@ import numpy as np
 import scipy.linalg as sla
 
 from ..errors import ModelError
-from .invariants import node_triples
 from ..mesh import CellBlock, Mesh, import_meshio
 from ._registry import EXPORT_FORMATS
 from .atomic import atomic_write
+from .invariants import node_triples
 
 __all__ = ["body_modes", "nodal_modes", "write_vtu"]
 
 
-def body_modes(reduced) -> tuple[np.ndarray, np.ndarray]:
+def body_modes(body) -> tuple[np.ndarray, np.ndarray]:
     """The reduced body's undamped modes, expanded to the full model's equations.
 
     Returns
@@ -44,13 +44,13 @@ def body_modes(reduced) -> tuple[np.ndarray, np.ndarray]:
     ModelError
         The body stores no basis ``V`` or its reduced mass matrix is not positive definite.
     """
-    if reduced.V is None:
+    if body.V is None:
         raise ModelError("the body stores no basis V, so its modes cannot be expanded to the nodes")
     try:
-        lam, phi = sla.eigh(reduced.K, reduced.M)
+        lam, phi = sla.eigh(body.K, body.M)
     except (np.linalg.LinAlgError, ValueError):
         raise ModelError("the reduced mass matrix is not positive definite") from None
-    shapes = np.asarray(reduced.V) @ phi
+    shapes = np.asarray(body.V) @ phi
     if shapes.size:
         big = shapes[np.argmax(np.abs(shapes), axis=0), np.arange(shapes.shape[1])]
         shapes *= np.where(big < 0, -1.0, 1.0)
@@ -75,9 +75,9 @@ def nodal_modes(shapes: np.ndarray, geometry) -> np.ndarray:
     return out
 
 
-def _geometry(reduced, model):
+def _geometry(body, model):
     """``(geometry, mesh)``: the node table and cells of ``model``, else the body's own nodes and surface."""
-    n_dof = reduced.V.shape[0]
+    n_dof = body.V.shape[0]
     if model is not None:
         if model.n_dof != n_dof:
             raise ModelError(f"the model has {model.n_dof} DOF but the body's basis V has {n_dof} rows; give model "
@@ -87,20 +87,20 @@ def _geometry(reduced, model):
                              "; a .vtu needs its mesh (attach one to matrices without geometry with a mesh file, "
                              "flexmor.io.meshio_mesh.with_mesh)", params=("model",))
         return model, model.mesh
-    if reduced.dofs is None or reduced.node_ids is None or not len(reduced.node_ids) or reduced.triangles is None:
+    if body.dofs is None or body.node_ids is None or not len(body.node_ids) or body.triangles is None:
         raise ModelError("the body has no node table and surface (its model had no elements); give model, the FE "
                          "model with elements it was reduced from", params=("model",))
-    geometry = SimpleNamespace(node_ids=np.asarray(reduced.node_ids), dofs=np.asarray(reduced.dofs),
-                               n_nodes=len(reduced.node_ids), n_dof=n_dof)
-    return geometry, Mesh([CellBlock("triangle", reduced.triangles)])
+    geometry = SimpleNamespace(node_ids=np.asarray(body.node_ids), dofs=np.asarray(body.dofs),
+                               n_nodes=len(body.node_ids), n_dof=n_dof)
+    return geometry, Mesh([CellBlock("triangle", body.triangles)])
 
 
-def write_vtu(reduced, path, *, model=None) -> None:
+def write_vtu(body, path, *, model=None) -> None:
     """Write the body's mesh and mode shapes as a ``.vtu`` file for ParaView, atomically.
 
     Parameters
     ----------
-    reduced : ReducedModel
+    body : ReducedModel
         A body with its basis ``V``.
     path : str or path-like
         The ``.vtu`` file.
@@ -119,20 +119,20 @@ def write_vtu(reduced, path, *, model=None) -> None:
     """
     meshio = import_meshio()
     masters = ()
-    if model is not None and reduced.V is not None and reduced.couplings:
+    if model is not None and body.V is not None and body.couplings:
         from ..expansion import expand_body, expanded_reduced
 
-        xb = expand_body(model, reduced, elastic=False)  # the slaves move with their masters
-        reduced, model, masters = expanded_reduced(xb), xb.model, xb.masters
-    geometry, mesh = _geometry(reduced, model)
-    xyz = model.xyz if model is not None else reduced.xyz
+        xb = expand_body(model, body, elastic=False)  # the slaves move with their masters
+        body, model, masters = expanded_reduced(xb), xb.model, xb.masters
+    geometry, mesh = _geometry(body, model)
+    xyz = model.xyz if model is not None else body.xyz
     if masters:  # each coupling master a point of its own (a vertex cell), its id as node_id
-        reduced = dataclasses.replace(reduced, V=np.vstack([reduced.V] + [m.rows for m in masters]))
+        body = dataclasses.replace(body, V=np.vstack([body.V] + [m.rows for m in masters]))
         dofs = np.vstack([model.dofs] + [np.column_stack([np.full(6, m.id), np.arange(1, 7)]) for m in masters])
         geometry = SimpleNamespace(node_ids=xb.node_ids, dofs=dofs, n_nodes=xb.node_ids.size, n_dof=dofs.shape[0],
                                    node_frames=model.node_frames)
         xyz = xb.xyz
-    freqs, shapes = body_modes(reduced)
+    freqs, shapes = body_modes(body)
     nodal = nodal_modes(shapes, geometry)
     point_data = {f"mode_{k + 1}": np.ascontiguousarray(nodal[:, :, k]) for k in range(nodal.shape[2])}
     grid = mesh.to_meshio(geometry.node_ids, xyz, point_data=point_data, field_data={"frequencies_hz": freqs},

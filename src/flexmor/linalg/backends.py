@@ -122,7 +122,7 @@ def _pardiso_ok() -> bool:
     try:
         mkl_pardiso()
         return True
-    except Exception:  # noqa: BLE001 - missing MKL runtime
+    except (OSError, ImportError, AttributeError):  # missing MKL runtime or no pardiso entry point in it
         return False
 
 

@@ -213,7 +213,11 @@ class SolverContext:
         value = compute()
         try:
             memo = self._memo
-            refs = tuple(weakref.ref(m, lambda _, key=key: memo.pop(key, None)) for m in matrices)
+
+            def forget(_ref: weakref.ref, key: tuple = key) -> None:
+                memo.pop(key, None)
+
+            refs = tuple(weakref.ref(m, forget) for m in matrices)
         except TypeError:  # not weak-referenceable: not remembered
             return value
         self._memo[key] = (refs, value)

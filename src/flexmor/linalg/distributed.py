@@ -14,8 +14,9 @@ are distributed by rows. Two ways of holding a model's matrices are supported:
     this way (:func:`scatter_rows`, :func:`flexmor.models.distributed.read_on_root`). Products
     with dense blocks (``A @ X``, ``X.T @ A``), the diagonal and dense copies are completed by
     an ``MPI_Allreduce``; sums, scalings, transposes and submatrices ``A[i][:, i]`` of
-    partitioned matrices stay partitioned. A model built this way (:func:`flexmor.models.distributed.partitioned_cantilever`) is never
-    assembled on one rank, and the methods above the solver layer run on it unchanged.
+    partitioned matrices stay partitioned. A model built this way
+    (:func:`flexmor.models.distributed.partitioned_cantilever`) is never assembled on one rank, and the
+    methods above the solver layer run on it unchanged.
 
 Dense blocks (right-hand sides, solutions, bases) are replicated on every rank. Nothing here
 imports MPI unless the process was started by an MPI launcher (or a partitioned matrix is made).

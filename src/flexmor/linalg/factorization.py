@@ -17,7 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import SolverError
-from .memory import norm_bound, plan_memory, refine
+from .memory import MemoryPlan, norm_bound, plan_memory, refine
 
 __all__ = ["Factorization", "SolverStats", "OrderingCache"]
 
@@ -90,8 +90,8 @@ class Factorization:
         self.dtype = A.dtype
         self.seconds = 0.0
         self.inertia = None
-        self.memory_estimate = None
-        self.memory = None
+        self.memory_estimate: float | None = None
+        self.memory: MemoryPlan | None = None
         self._A = None
 
     def _solve_factor(self, b: np.ndarray) -> np.ndarray:  # pragma: no cover - abstract
@@ -165,8 +165,8 @@ class OrderingCache:
     @staticmethod
     def key(mtype: int, ia: np.ndarray, ja: np.ndarray) -> tuple:
         """Identity of a sparsity pattern (and of the matrix class): size, nnz and a digest."""
-        h = hashlib.blake2b(ia.view(np.uint8), digest_size=16)
-        h.update(ja.view(np.uint8))
+        h = hashlib.blake2b(ia.view(np.uint8).data, digest_size=16)
+        h.update(ja.view(np.uint8).data)
         return (int(mtype), ia.size - 1, ja.size, h.hexdigest())
 
     def get(self, key: tuple) -> np.ndarray | None:

@@ -142,8 +142,8 @@ class PardisoFactorization(Factorization):
         self._fn(self._pt.ctypes.data_as(c.POINTER(c.c_int64)), one, one, c.byref(i32(self._mtype)),
                  c.byref(i32(phase)), c.byref(i32(self._n)), self._data.ctypes.data,
                  self._ia.ctypes.data_as(c.POINTER(i32)), self._ja.ctypes.data_as(c.POINTER(i32)),
-                 self._perm.ctypes.data_as(c.POINTER(i32)), c.byref(i32(nrhs)), self._iparm.ctypes.data_as(c.POINTER(i32)), c.byref(i32(0)),
-                 bp, xp, c.byref(err))
+                 self._perm.ctypes.data_as(c.POINTER(i32)), c.byref(i32(nrhs)),
+                 self._iparm.ctypes.data_as(c.POINTER(i32)), c.byref(i32(0)), bp, xp, c.byref(err))
         if err.value != 0:
             what = PARDISO_ERRORS.get(err.value, "unknown error")
             raise SolverError(f"PARDISO phase {phase} failed with error {err.value}: {what}")

@@ -20,6 +20,7 @@ import contextlib
 import ctypes
 import functools
 import logging
+from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
@@ -109,7 +110,7 @@ def sparse_dense(A, X: np.ndarray, threads: int | None = None) -> np.ndarray:
     return out
 
 
-_MKL_SET_LOCAL = []
+_MKL_SET_LOCAL: list[Callable[[int], int]] = []
 
 
 def _mkl_set_local():

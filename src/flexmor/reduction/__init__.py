@@ -18,7 +18,7 @@ import time
 
 from ..body import ReducedModel
 from ..errors import OptionError
-from ..options import Band, check_order
+from ..options import Band, check_option_types, check_order
 from ..projection import project
 from ..rigid import exclude_rigid
 from . import (  # noqa: F401  (each method module registers its methods in METHODS)
@@ -86,6 +86,7 @@ def reduce(model, method: str, order: int | None, ports, *, inertia_loads: str =
     m = METHODS[method]
     check_keywords(method, options, m.keywords)
     opts = {k: v for k, v in options.items() if v is not None}
+    check_option_types(m.options_class, opts)
     order = check_order(order)
     t0 = time.perf_counter()
     basis_ports, inertia = with_inertia_loads(model, ports, inertia_loads if m.uses_inputs else "off")

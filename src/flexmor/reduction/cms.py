@@ -9,8 +9,9 @@ the loads that the body's inputs put on the interior: the inertia (and damping) 
 constraint modes moving with the static interface motion under the inputs, and the external
 inputs on interior DOFs ``B[i]`` (:func:`fixed_interface_body`). For an assembly, give the
 coupling DOFs as inputs too (e.g. ``--input TIP:x --input TIP:y --input TIP:z``), so that the
-internal vectors also serve the interface motions the other components impose. The internal vectors come from :func:`flexmor.reduction.krylov.krylov` or from
-frequency-limited balancing (:func:`flexmor.reduction.balanced.balanced_basis`) of that body.
+internal vectors also serve the interface motions the other components impose. The internal vectors
+come from :func:`flexmor.reduction.krylov.krylov` or from frequency-limited balancing
+(:func:`flexmor.reduction.balanced.balanced_basis`) of that body.
 """
 
 from __future__ import annotations

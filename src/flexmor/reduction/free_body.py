@@ -212,7 +212,7 @@ def with_inertia_loads(model, ports, mode: str = "off"):
     return aug, record
 
 
-def spurious_modes_hz(model, reduced, f1_hz: float) -> np.ndarray:
+def spurious_modes_hz(model, body, f1_hz: float) -> np.ndarray:
     """Reduced frequencies (Hz) that are neither rigid-body modes nor at or above ``f1_hz``.
 
     ``f1_hz`` is the full model's first elastic frequency. A Galerkin body's Ritz values are
@@ -220,21 +220,21 @@ def spurious_modes_hz(model, reduced, f1_hz: float) -> np.ndarray:
     (:func:`flexmor.linalg.eigen.rigid_body_threshold`) and ``f1_hz`` (less a relative 1e-6)
     is a mixture of rigid and elastic motion that the full model does not have.
     """
-    lam = reduced.eigenvalues()
+    lam = body.eigenvalues()
     lo = rigid_body_threshold(model.K, model.M)
     hi = (2 * np.pi * f1_hz) ** 2 * (1 - 2e-6)
     bad = (lam > lo) & (lam < hi)
     return np.sqrt(lam[bad]) / (2 * np.pi)
 
 
-def check_body(model, reduced, *, f1_hz: float | None = None, band_error: float | None = None) -> list[str]:
+def check_body(model, body, *, f1_hz: float | None = None, band_error: float | None = None) -> list[str]:
     """Warn (one-line :class:`FlexmorWarning` each) about a reduced body that would be wrong.
 
     Parameters
     ----------
     model : FEModel
         The full model.
-    reduced : ReducedModel
+    body : ReducedModel
     f1_hz : float, optional
         The full model's first elastic frequency; without it the spectrum is not checked.
     band_error : float, optional
@@ -247,11 +247,11 @@ def check_body(model, reduced, *, f1_hz: float | None = None, band_error: float 
     """
     msgs = []
     if f1_hz is not None and np.isfinite(f1_hz):
-        bad = spurious_modes_hz(model, reduced, f1_hz)
+        bad = spurious_modes_hz(model, body, f1_hz)
         if bad.size:
             hint = ("reduce with rigid-body modes excluded (rigid='exclude') so that the floating frame carries "
                     "the rigid motion")
-            msgs.append(f"{reduced.method} body has {bad.size} mode(s) at {', '.join(f'{f:.4g}' for f in bad[:4])} Hz "
+            msgs.append(f"{body.method} body has {bad.size} mode(s) at {', '.join(f'{f:.4g}' for f in bad[:4])} Hz "
                         f"below the full model's first elastic frequency {f1_hz:.4g} Hz that the full model does not "
                         f"have (rigid motion mixed into the elastic coordinates); {hint}")
     if band_error is not None and np.isfinite(band_error) and band_error > 1:
@@ -259,7 +259,7 @@ def check_body(model, reduced, *, f1_hz: float | None = None, band_error: float 
             why = "the model is undamped, so its resonances dominate: add damping to judge the body, or raise the order"
         else:
             why = "raise the order, widen the expansion points or band, or use another method"
-        msgs.append(f"{reduced.method} body has band_error {band_error:.3g} > 1: it is worse than no body over the "
+        msgs.append(f"{body.method} body has band_error {band_error:.3g} > 1: it is worse than no body over the "
                     f"band; {why}")
     for m in msgs:
         warnings.warn(m, FlexmorWarning, stacklevel=2)

@@ -17,11 +17,11 @@ into one cell per resonance ``w_k`` (at the geometric midpoints between neighbou
 each cell Gauss-Legendre panels are graded geometrically towards the peak (half width
 ``g_k = zeta_k w_k``), so every panel is as far from the poles as it is long; an unbounded last
 cell ends with the substitution ``w = d0 / t``. The rule converges exponentially: doubling
-``nodes`` changes the Gramian by round-off once the peaks are resolved. Resonances and damping ratios come from the modal pre-pass of
-:mod:`flexmor.dynamics.modes`. Each node costs one complex symmetric factorization of
-``K - w^2 M + i w D`` (:func:`flexmor.linalg.factorize`) and one block solve with
-``[B, C^T]`` on the direct path (``[B]`` alone for collocated ports, ``C = B^T``: then
-``Q_p = P_p``); small models and finite bands get the same solves from the exact modal form or a
+``nodes`` changes the Gramian by round-off once the peaks are resolved. Resonances and damping
+ratios come from the modal pre-pass of :mod:`flexmor.dynamics.modes`. Each node costs one
+complex symmetric factorization of ``K - w^2 M + i w D`` (:func:`flexmor.linalg.factorize`) and
+one block solve with ``[B, C^T]`` on the direct path (``[B]`` alone for collocated ports,
+``C = B^T``: then ``Q_p = P_p``); small models and finite bands get the same solves from the exact modal form or a
 verified surrogate instead, the full band a surrogate up to the cutoff with a bound of the rest
 (:mod:`flexmor.reduction.gramian_solves`). The factors ``P ≈ R R^T`` have ``2 (m + p)`` columns
 per node before column compression and no N x N matrix is ever formed.

@@ -36,26 +36,26 @@ __all__ = ["irka", "IrkaOptions", "reduced_poles", "select_shifts"]
 log = logging.getLogger(__name__)
 
 
-def _linearize(red):
+def _linearize(body):
     """First-order form ``E x' = A x + B u``, ``y = C x`` of a reduced body (dense)."""
-    r = red.M.shape[0]
-    Dr = red.D if red.D is not None else np.zeros((r, r))
-    Z, I = np.zeros((r, r)), np.eye(r)
-    E = np.block([[I, Z], [Z, red.M]])
-    A = np.block([[Z, I], [-red.K, -Dr]])
-    B = np.vstack([np.zeros_like(red.B), red.B])
-    C = np.hstack([red.C, np.zeros_like(red.C)])
+    r = body.M.shape[0]
+    Dr = body.D if body.D is not None else np.zeros((r, r))
+    Z, Id = np.zeros((r, r)), np.eye(r)
+    E = np.block([[Id, Z], [Z, body.M]])
+    A = np.block([[Z, Id], [-body.K, -Dr]])
+    B = np.vstack([np.zeros_like(body.B), body.B])
+    C = np.hstack([body.C, np.zeros_like(body.C)])
     return E, A, B, C
 
 
-def reduced_poles(red):
+def reduced_poles(body):
     """Poles and right tangential directions of a reduced body.
 
     Returns ``(lam, b)``: the 2r poles of the first-order form and the directions
     ``b_j = (y_j^H B1)^T`` with the left eigenvectors ``y_j`` normalized so that
     ``y_j^H E x_j = 1`` (the residue is ``(C1 x_j)(y_j^H B1)``).
     """
-    E, A, B, _ = _linearize(red)
+    E, A, B, _ = _linearize(body)
     lam, Y, X = sla.eig(A, E, left=True, right=True)
     scale = np.einsum("ij,ij->j", Y.conj(), E @ X)
     return lam, (Y.conj().T @ B) / scale[:, None]

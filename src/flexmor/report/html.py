@@ -49,7 +49,8 @@ SINGULAR_VALUE_KEYS = ("hankel_sv", "hankel_singular_values", "hsv", "pod_sv", "
 COLUMNS = [("label", "body", "s"), ("method", "method", "s"), ("order", "order", "d"),
            ("band_error", "band_error", ".3e"), ("rms_rel_error_pct", "rms_rel_error [%]", ".3g"),
            ("hinf_error", "H∞ error (rel., band)", ".3e"), ("max_rel_error", "max_rel_error", ".3e"),
-           ("max_rel_error_where", "max_rel_error at", "s"), ("h2_error", "H2 error (rel.)", ".3e"), ("time_mean_error", "time_mean_error", ".3e"),
+           ("max_rel_error_where", "max_rel_error at", "s"), ("h2_error", "H2 error (rel.)", ".3e"),
+           ("time_mean_error", "time_mean_error", ".3e"),
            ("time_max_error", "time_max_error", ".3e"), ("time_seconds", "time integration [s]", ".3f"),
            ("seconds", "reduction [s]", ".3f"), ("judged_short", "judged against", "s")]
 
@@ -98,13 +99,13 @@ def _signal(name, dt: float, t_end: float, band):
     return tm.sine_sweep(band[0], band[1], t_end), f"linear sine sweep {band[0]:g}-{band[1]:g} Hz over {t_end:.3g} s"
 
 
-def build_report(model, ports, reduced, *, band, labels=None, seconds=None, full=None, signal="step",
+def build_report(model, ports, bodies, *, band, labels=None, seconds=None, full=None, signal="step",
                  dt: float | None = None, t_end: float | None = None, max_steps: int = 5000,
                  scheme: str = "newmark", rho_inf: float = 0.9, n_modes: int = 12, h2_max_dof: int = 1000,
                  solver: SolverContext | None = None, progress=None, time_progress=None,
                  title: str | None = None, view3d: bool = True, mounted: bool = True,
                  coupling: dict | None = None) -> Report:
-    """Compute the contents of a report on ``reduced`` bodies of ``model``.
+    """Compute the contents of a report on the reduced ``bodies`` of ``model``.
 
     Parameters
     ----------
@@ -112,7 +113,7 @@ def build_report(model, ports, reduced, *, band, labels=None, seconds=None, full
         The full model (with the damping the bodies were judged with).
     ports : Ports
         Inputs and outputs shared by all bodies.
-    reduced : list of ReducedModel
+    bodies : list of ReducedModel
     band : (float, float)
         Frequency band in Hz.
     labels : list of str, optional
@@ -165,19 +166,19 @@ def build_report(model, ports, reduced, *, band, labels=None, seconds=None, full
     from ..dynamics.time import simulate, time_errors
     from ..reduction.free_body import with_elastic_inputs
 
-    reduced = list(reduced)
-    if not reduced:
+    bodies = list(bodies)
+    if not bodies:
         raise OptionError("a report needs at least one reduced body")
-    labels = list(labels) if labels else [f"{r.method} r={r.order}" for r in reduced]
+    labels = list(labels) if labels else [f"{r.method} r={r.order}" for r in bodies]
     labels = [lb if labels.count(lb) == 1 else f"{lb} #{i + 1}" for i, lb in enumerate(labels)]
-    seconds = list(seconds) if seconds else [r.info.get("seconds") for r in reduced]
+    seconds = list(seconds) if seconds else [r.info.get("seconds") for r in bodies]
     band = (float(band[0]), float(band[1]))
     if full is None:
         full = FullResponse(model, ports, band, solver=solver, progress=progress)
     notes = []
-    couplings = list(reduced[0].couplings)
+    couplings = list(bodies[0].couplings)
     ref_name = "full model" + (f" with {describe_couplings(couplings)}" if couplings else "")
-    coupling = dict(coupling if coupling is not None else reduced[0].info.get("coupling_frequencies") or {})
+    coupling = dict(coupling if coupling is not None else bodies[0].info.get("coupling_frequencies") or {})
     rep = Report(title=title or f"flexmor report: {model.name}", model=model.summary(), band=band, rows=[],
                  notes=notes, reference=ref_name, coupling=coupling)
     if couplings and not coupling:
@@ -186,7 +187,7 @@ def build_report(model, ports, reduced, *, band, labels=None, seconds=None, full
 
     # frequency domain
     H_red, curves, H_refs, ref_of = {}, {}, {}, {}
-    for lb, red, sec in zip(labels, reduced, seconds):
+    for lb, red, sec in zip(labels, bodies, seconds):
         err = full.evaluate(red)
         H_red[lb], curves[lb] = frf_reduced(red, full.freqs), err.rel_error
         H_ref, judged = full.reference(red)
@@ -203,7 +204,7 @@ def build_report(model, ports, reduced, *, band, labels=None, seconds=None, full
         from ..analysis.mounted import FullMounted, mounted_record
 
         held = FullMounted(model, solver=solver)  # the full model held at each interface: once for all bodies
-        for lb, row, red in zip(labels, rep.rows, reduced):
+        for lb, row, red in zip(labels, rep.rows, bodies):
             row["mounted"] = mounted_record(model, red, ports=ports, full=held, band=band,
                                             band_rms_error=row["band_rms_error"])
             if row["mounted"] and row["mounted"]["note"]:
@@ -213,7 +214,7 @@ def build_report(model, ports, reduced, *, band, labels=None, seconds=None, full
         from ..analysis.norms import h2_error
 
         e_ports = _elastic_ports(model, ports)
-        for row, red in zip(rep.rows, reduced):
+        for row, red in zip(rep.rows, bodies):
             try:  # against the row's reference: the elastic part for a body without rigid motion
                 with np.errstate(divide="ignore", invalid="ignore"):
                     h2 = h2_error(model, e_ports if row["judged"] == JUDGED_ELASTIC else ports, red)
@@ -231,7 +232,7 @@ def build_report(model, ports, reduced, *, band, labels=None, seconds=None, full
     rep.plot_data.update(freqs_hz=full.freqs, frf_references=H_refs, reference_of=ref_of)
     rep.figures["rel_error"] = plots.rel_error_png(full.freqs, curves, title=f"{model.name}, {model.n_dof} DOF")
     svs = {}
-    for lb, red in zip(labels, reduced):
+    for lb, red in zip(labels, bodies):
         key = next((k for k in SINGULAR_VALUE_KEYS if np.size(red.info.get(k, [])) > 1), None)
         if key:
             svs[f"{lb} ({key})"] = np.asarray(red.info[key], float)
@@ -241,13 +242,13 @@ def build_report(model, ports, reduced, *, band, labels=None, seconds=None, full
     # eigenfrequencies and MAC
     f, phi, n_rig = full_modes(model, n_modes, solver=solver)
     rep.modal = {"full_hz": f, "n_rigid": n_rig, "bodies": {}}
-    elastic = [bool(red.info.get("n_rigid_excluded")) for red in reduced]
+    elastic = [bool(red.info.get("n_rigid_excluded")) for red in bodies]
     if n_rig:
         notes.append(f"free body ({n_rig} rigid-body modes): bodies without rigid-body motion (rigid excluded, the "
                      f"floating frame carries it) are compared with the {ref_name}'s elastic response, that to the "
                      "inputs made orthogonal to the rigid-body modes, in the table and the plots; the others with "
                      "the whole response")
-    for lb, red in zip(labels, reduced):
+    for lb, red in zip(labels, bodies):
         rep.modal["bodies"][lb] = modal_check(model, red, full=(f, phi, n_rig))
     rep.figures["mac"] = plots.mac_png({lb: c["mac"] for lb, c in rep.modal["bodies"].items()})
 
@@ -263,7 +264,7 @@ def build_report(model, ports, reduced, *, band, labels=None, seconds=None, full
                      progress=time_progress)
     y_full, y_elastic = _split_inputs(y_all, ports.n_inputs)
     y_red, y_refs, t_ref_of = {}, {}, {}
-    for lb, red, row, el in zip(labels, reduced, rep.rows, elastic):
+    for lb, red, row, el in zip(labels, bodies, rep.rows, elastic):
         yr = simulate(red, u, dt=dt, t_end=t_end, scheme=scheme, rho_inf=rho_inf)
         y_ref = y_elastic if el and y_elastic is not None else y_full
         e = time_errors(y_ref, yr)
@@ -285,7 +286,7 @@ def build_report(model, ports, reduced, *, band, labels=None, seconds=None, full
     # the body
     marks = {"inputs": model.node_xyz(port_nodes(model, ports.input_names)) if model.n_nodes else [],
              "outputs": model.node_xyz(port_nodes(model, ports.output_names)) if model.n_nodes else []}
-    iface = np.unique(np.concatenate([interface_nodes(model, r) for r in reduced]))
+    iface = np.unique(np.concatenate([interface_nodes(model, r) for r in bodies]))
     if iface.size and model.n_nodes:
         marks["interface"] = model.node_xyz(iface)
     if model.n_nodes:
@@ -297,19 +298,21 @@ def build_report(model, ports, reduced, *, band, labels=None, seconds=None, full
     elif view3d and model.n_nodes and model.dofs is not None:
         from .view3d import build_scene
 
-        rep.scene = build_scene(model, ports, reduced, labels, band=band, modal=rep.modal["bodies"],
+        rep.scene = build_scene(model, ports, bodies, labels, band=band, modal=rep.modal["bodies"],
                                 full_modes=(f, phi, n_rig), solver=solver,
                                 nodes={"inputs": port_nodes(model, ports.input_names),
                                        "outputs": port_nodes(model, ports.output_names), "interface": iface})
-    log.info("report on %d bodies: %d figures", len(reduced), len(rep.figures))
+    log.info("report on %d bodies: %d figures", len(bodies), len(rep.figures))
     return rep
 
 
 # -- rendering ---------------------------------------------------------------------------------
-_CSS = """body{font-family:system-ui,sans-serif;margin:2em auto;max-width:1100px;color:#222}
-.t{overflow-x:auto;margin:1em 0}table{border-collapse:collapse;font-size:0.85em}th,td{border:1px solid #bbb;padding:3px 6px;
-text-align:right}th{background:#eee;font-weight:600}td{white-space:nowrap}td.l{text-align:left;white-space:normal}img{max-width:100%;display:block;margin:1em 0}
-.note{color:#666;font-size:0.9em}h2{border-bottom:1px solid #ccc;margin-top:2em}"""
+_CSS = ("body{font-family:system-ui,sans-serif;margin:2em auto;max-width:1100px;color:#222}\n"
+        ".t{overflow-x:auto;margin:1em 0}table{border-collapse:collapse;font-size:0.85em}"
+        "th,td{border:1px solid #bbb;padding:3px 6px;\n"
+        "text-align:right}th{background:#eee;font-weight:600}td{white-space:nowrap}"
+        "td.l{text-align:left;white-space:normal}img{max-width:100%;display:block;margin:1em 0}\n"
+        ".note{color:#666;font-size:0.9em}h2{border-bottom:1px solid #ccc;margin-top:2em}")
 
 
 def _img(png: bytes, alt: str) -> str:

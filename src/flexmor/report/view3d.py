@@ -127,14 +127,14 @@ def port_nodes(model, specs) -> np.ndarray:
     return np.unique(np.asarray(nodes, dtype=np.int64))
 
 
-def interface_nodes(model, red) -> np.ndarray:
+def interface_nodes(model, body) -> np.ndarray:
     """Interface nodes of a Guyan/Craig-Bampton body: its physical DOFs are the unit rows of ``V``."""
-    if "interface" in red.info:
-        return port_nodes(model, red.info["interface"])
-    nb = red.info.get("n_interface_dofs")
-    if not nb or red.V is None or model.dofs is None:
+    if "interface" in body.info:
+        return port_nodes(model, body.info["interface"])
+    nb = body.info.get("n_interface_dofs")
+    if not nb or body.V is None or model.dofs is None:
         return np.zeros(0, dtype=np.int64)
-    A = np.abs(red.V)
+    A = np.abs(body.V)
     unit = (np.abs(A.max(axis=1) - 1) < 1e-9) & (np.abs(A.sum(axis=1) - 1) < 1e-9)
     return np.unique(model.dofs[unit, 0])
 
@@ -174,9 +174,9 @@ def body_scene(model, *, inputs=(), outputs=(), interface=(), ports=(), max_node
     Returns
     -------
     scene : dict
-        JSON-ready: ``xyz`` (float64, base64; exact coordinates for selections), ``tris``/``lines`` (uint32 vertex indices,
-        base64), ``node_ids``, ``marks`` (name -> vertex coordinates), ``spiders``
-        (segments master-node), ``notes``.
+        JSON-ready: ``xyz`` (float64, base64; exact coordinates for selections), ``tris``/``lines``
+        (uint32 vertex indices, base64), ``node_ids``, ``marks`` (name -> vertex coordinates),
+        ``spiders`` (segments master-node), ``notes``.
     S : sparse matrix
         :func:`display_map` of the vertices.
     """
@@ -223,7 +223,7 @@ def _deform_freqs(band, f_modes) -> np.ndarray:
     return fs
 
 
-def build_scene(model, ports, reduced, labels, *, band, modal, full_modes, nodes=None, solver=None,
+def build_scene(model, ports, bodies, labels, *, band, modal, full_modes, nodes=None, solver=None,
                 max_nodes: int = MAX_NODES) -> dict:
     """The report's 3D scene: body, modes with MAC pairs, full vs reduced deformation.
 
@@ -231,7 +231,7 @@ def build_scene(model, ports, reduced, labels, *, band, modal, full_modes, nodes
     ----------
     model, ports : FEModel, Ports
         The full model and the ports the bodies share.
-    reduced, labels : list
+    bodies, labels : list
         Reduced bodies and their names.
     band : (float, float)
         Band in Hz; the deformations are shown at :data:`N_FREQS` frequencies over it.
@@ -257,7 +257,7 @@ def build_scene(model, ports, reduced, labels, *, band, modal, full_modes, nodes
     f, phi, _ = full_modes
     scene["full"] = [{"hz": float(fi), "shape": shapes.add(phi[:, i])} for i, fi in enumerate(f)]
     scene["bodies"] = {}
-    for lb, red in zip(labels, reduced):
+    for lb, red in zip(labels, bodies):
         c = modal.get(lb)
         if c is None or red.V is None:
             scene["notes"].append(f"{lb}: no basis V, its modes cannot be shown on the body")
@@ -274,7 +274,7 @@ def build_scene(model, ports, reduced, labels, *, band, modal, full_modes, nodes
         pairs = [{"pair": int(c["pair"][i]) if c["pair"][i] < n_red else -1, "mac": float(c["pair_mac"][i])}
                  for i in range(f.size)]
         scene["bodies"][lb] = {"modes": modes, "full_shapes": full_idx, "pairs": pairs}
-    scene["deform"] = _deformations(model, ports, reduced, labels, band, f, shapes, solver)
+    scene["deform"] = _deformations(model, ports, bodies, labels, band, f, shapes, solver)
     if isinstance(model.damping, ModalDamping):
         scene["notes"].append("deformation of the full model with the sparse Rayleigh realization of the modal "
                               f"damping (ratio {model.damping.zeta:g} exact at the band ends only); the reduced "
@@ -283,7 +283,7 @@ def build_scene(model, ports, reduced, labels, *, band, modal, full_modes, nodes
     return scene
 
 
-def modes_scene(model, ports, reduced, labels, *, band, n_modes: int = 12, solver=None,
+def modes_scene(model, ports, bodies, labels, *, band, n_modes: int = 12, solver=None,
                 max_nodes: int = MAX_NODES):
     """:func:`build_scene` with the full modes and the MAC checks computed here (``flexmor ui``).
 
@@ -293,29 +293,29 @@ def modes_scene(model, ports, reduced, labels, *, band, n_modes: int = 12, solve
     from ..analysis.modal_check import full_modes, modal_check
 
     full = full_modes(model, n_modes, solver=solver)
-    modal = {lb: modal_check(model, red, full=full, solver=solver) for lb, red in zip(labels, reduced)}
-    iface = np.unique(np.concatenate([interface_nodes(model, r) for r in reduced]))
+    modal = {lb: modal_check(model, red, full=full, solver=solver) for lb, red in zip(labels, bodies)}
+    iface = np.unique(np.concatenate([interface_nodes(model, r) for r in bodies]))
     nodes = {"inputs": port_nodes(model, ports.input_names), "outputs": port_nodes(model, ports.output_names),
              "interface": iface}
-    scene = build_scene(model, ports, reduced, labels, band=band, modal=modal, full_modes=full, nodes=nodes,
+    scene = build_scene(model, ports, bodies, labels, band=band, modal=modal, full_modes=full, nodes=nodes,
                         solver=solver, max_nodes=max_nodes)
     return scene, modal
 
 
-def _deformations(model, ports, reduced, labels, band, f_modes, shapes, solver) -> dict:
+def _deformations(model, ports, bodies, labels, band, f_modes, shapes, solver) -> dict:
     """Full and reduced displacement fields per frequency and input, with their relative difference."""
     fs = _deform_freqs(band, f_modes)
     m = min(ports.n_inputs, MAX_INPUTS)
     B = ports.B[:, :m].toarray()
     A = ShiftedMatrices(model.K, model.M, model.D)
     out = {"freqs": fs.tolist(), "inputs": list(ports.input_names[:m]), "full": [],
-           "bodies": {lb: [] for lb, red in zip(labels, reduced) if red.V is not None}}
+           "bodies": {lb: [] for lb, red in zip(labels, bodies) if red.V is not None}}
     for w in angular_frequency(fs):
         Q = factorize(A(w), solver=solver, symmetric=True, check=False).solve(B.astype(complex))
         Q = Q.reshape(model.n_dof, m)
         out["full"].append([shapes.add(Q[:, j]) for j in range(m)])
         U = shapes.S @ Q
-        for lb, red in zip(labels, reduced):
+        for lb, red in zip(labels, bodies):
             if red.V is None:
                 continue
             Ar = red.K - w ** 2 * red.M + (1j * w * red.D if red.D is not None else 0)

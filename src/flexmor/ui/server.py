@@ -3,8 +3,8 @@
 The page (``app.html``) shows the body in the report's 3D viewer (:mod:`flexmor.report.view3d`)
 and composes the command lines of ``flexmor reduce``, ``compare``, ``report`` and ``export``;
 the server runs them in-process through the command line's ``main`` (handed in by
-``flexmor ui``: same parser, same validation, same library calls and files as typed in a shell) and shows each command so that
-it can be repeated. Long runs go to a background thread; the page polls their log (the
+``flexmor ui``: same parser, same validation, same library calls and files as typed in a shell) and shows each command
+so that it can be repeated. Long runs go to a background thread; the page polls their log (the
 library's ``logging`` records) and elapsed time.
 
 Safety: the server binds 127.0.0.1; every request carries the random token of the URL it

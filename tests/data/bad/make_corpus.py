@@ -99,7 +99,8 @@ mm("mm_zero_based", "mm_zero_based_K.mtx", K3.replace("1 1 2.0", "0 0 2.0"), M3)
 mm("mm_beyond", "mm_beyond_K.mtx", K3.replace("3 3 2.0", "4 3 2.0"), M3)
 mm("mm_no_banner", "mm_no_banner_K.mtx", K3.replace(SYM, "% stiffness\n"), M3)
 mm("mm_duplicate", "twice", K3.replace("3 3 5", "3 3 6") + "2 2 2.0\n", M3)
-mm("mm_mechanism", "mechanism", SYM + "9 9 1\n1 1 1.0\n", SYM + "9 9 9\n" + "".join(f"{i} {i} 1.0\n" for i in range(1, 10)))
+mm("mm_mechanism", "mechanism", SYM + "9 9 1\n1 1 1.0\n",
+   SYM + "9 9 9\n" + "".join(f"{i} {i} 1.0\n" for i in range(1, 10)))
 mm("mm_token", "mm_token_K.mtx", K3.replace("2 1 -1.0", "2 1 -1.0.0"), M3)
 
 # --- Abaqus (.inp + LABELS matrices) ---------------------------------------------------------------

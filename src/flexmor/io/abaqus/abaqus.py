@@ -46,6 +46,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from ...errors import ReadError
+from ...model import FEModel
 from .._build import build_model
 from .._cells import abaqus_cell, mesh_of_elements
 from .._mass import QUADRATIC_TYPES, check_mass
@@ -245,7 +246,7 @@ def _compress(A: sp.csr_matrix, code: np.ndarray, number: np.ndarray) -> sp.csr_
     return sp.csr_matrix((A.data, A.indices, indptr), shape=(code.size, code.size))
 
 
-def read_abaqus(path, *, dof_per_node: int | None = None) -> FEModel:  # noqa: F821
+def read_abaqus(path, *, dof_per_node: int | None = None) -> FEModel:
     """Read an Abaqus ``*MATRIX GENERATE`` export with its input deck.
 
     Parameters

@@ -34,6 +34,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from ...errors import ReadError
+from ...model import FEModel
 from .._build import build_model
 from .._cells import ansys_cell, build_mesh
 from .._registry import MODEL_FORMATS
@@ -350,7 +351,7 @@ def _read_cdb(path: Path):
 
     try:
         a = Archive(str(path), read_parameters=False, parse_vtk=False)
-    except Exception as exc:  # noqa: BLE001
+    except Exception as exc:  # noqa: BLE001 - the reader library raises many kinds on a damaged archive
         raise ReadError(path, f"not a readable Ansys archive ({type(exc).__name__}: {str(exc)[:120]})") from None
     sets = {str(k).upper(): np.asarray(v, dtype=np.int64) for k, v in dict(a.node_components).items()}
     types = {int(k): int(v) for k, v in np.asarray(a.ekey, dtype=np.int64).reshape(-1, 2)}
@@ -363,7 +364,7 @@ def _read_cdb(path: Path):
     return np.asarray(a.nnum, dtype=np.int64), np.asarray(a.nodes, dtype=np.float64)[:, :3], sets, mesh
 
 
-def read_ansys(path, *, coordinates=None) -> FEModel:  # noqa: F821
+def read_ansys(path, *, coordinates=None) -> FEModel:
     """Read an Ansys matrix export (Matrix Market set or binary ``.full``).
 
     Parameters
@@ -390,4 +391,5 @@ def read_ansys(path, *, coordinates=None) -> FEModel:  # noqa: F821
 
 
 MODEL_FORMATS.register("ansys", [".full", ".txt"], read_ansys,
-                       description="Ansys HBMAT/MMF export (stiffness, mass, mapping vector, coordinates) or binary .full")
+                       description="Ansys HBMAT/MMF export (stiffness, mass, mapping vector, coordinates) "
+                       "or binary .full")

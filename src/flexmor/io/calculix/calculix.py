@@ -34,6 +34,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from ...errors import ReadError
+from ...model import FEModel
 from .._build import build_model
 from .._cells import build_mesh
 from .._mass import QUADRATIC_TYPES, check_mass
@@ -174,7 +175,7 @@ def _geometry_file(path: Path) -> Path:
                                               "node block)")
 
 
-def read_calculix(path) -> FEModel:  # noqa: F821
+def read_calculix(path) -> FEModel:
     """Read a CalculiX ``.sti`` file with its ``.mas``, ``.dof`` and ``.inp`` siblings.
 
     Parameters
@@ -248,4 +249,5 @@ def read_calculix(path) -> FEModel:  # noqa: F821
 
 
 MODEL_FORMATS.register("calculix", [".sti"], read_calculix,
-                       description="CalculiX *FREQUENCY, SOLVER=MATRIXSTORAGE export (.sti + .mas + .dof + .inp or .frd)")
+                       description="CalculiX *FREQUENCY, SOLVER=MATRIXSTORAGE export "
+                       "(.sti + .mas + .dof + .inp or .frd)")

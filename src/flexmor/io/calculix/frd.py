@@ -284,7 +284,8 @@ def modes(res: FrdResult):
         The node numbers of the first modal DISP block (all blocks must have the same).
     shapes : ndarray, shape (k, n, 3)
     """
-    disp = [b for b in res.blocks if b["name"] == "DISP" and (b["analysis"].upper() == "MODAL" or "MODE" in b["params"])]
+    disp = [b for b in res.blocks
+            if b["name"] == "DISP" and (b["analysis"].upper() == "MODAL" or "MODE" in b["params"])]
     if not disp:
         raise ModelError("the frd file has no DISP block of a MODAL step (write it with *FREQUENCY and "
                          "*NODE FILE, U)")

@@ -25,6 +25,7 @@ import scipy.io
 import scipy.sparse as sp
 
 from ...errors import ReadError
+from ...model import FEModel
 from .._build import build_model
 from .._registry import MODEL_FORMATS
 from ._mat5 import checked_v5_stream
@@ -59,7 +60,7 @@ def _get(path: Path, data: dict, name: str):
     return A
 
 
-def read_matlab(path) -> FEModel:  # noqa: F821
+def read_matlab(path) -> FEModel:
     """Read ``M``, ``K`` and optional ``D``, ``B``, ``C`` from a MATLAB ``.mat`` file.
 
     Parameters

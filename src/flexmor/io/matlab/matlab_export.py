@@ -31,6 +31,7 @@ from __future__ import annotations
 import numpy as np
 import scipy.io
 
+from ...errors import PortError
 from .._registry import EXPORT_FORMATS
 from ..atomic import atomic_write
 
@@ -52,35 +53,35 @@ def _empty(a, shape=(0, 0)):
     return np.zeros(shape) if a is None else np.asarray(a)
 
 
-def mat_variables(reduced, model=None, *, nodes=None) -> dict:
+def mat_variables(body, model=None, *, nodes=None) -> dict:
     """The variables of the ``.mat`` file as a dict (see the module docstring). With ``model`` (as
     read) a body with couplings is written at the model's equations, its basis expanded to the
     slave nodes, and its masters are frame nodes (:func:`flexmor.expansion.expand_body`)."""
     masters = ()
-    if model is not None and reduced.V is not None:
+    if model is not None and body.V is not None:
         from ...expansion import expand_body, expanded_reduced
 
-        xb = expand_body(model, reduced, elastic=False)
-        reduced, model, masters = expanded_reduced(xb), xb.model, xb.masters
-    r = reduced.order
+        xb = expand_body(model, body, elastic=False)
+        body, model, masters = expanded_reduced(xb), xb.model, xb.masters
+    r = body.order
     out = {
-        "Mr": reduced.M, "Kr": reduced.K, "Dr": _empty(reduced.D, (r, r)) if reduced.D is not None else np.zeros((r, r)),
-        "Br": reduced.B, "Cr": reduced.C, "V": _empty(reduced.V),
-        "node_ids": _empty(reduced.node_ids, (0,)).reshape(-1, 1).astype(float),
-        "xyz": _empty(reduced.xyz, (0, 3)), "dofs": _empty(reduced.dofs, (0, 2)).astype(float),
-        "frequencies_hz": reduced.frequencies_hz().reshape(-1, 1),
-        "input_names": _cell(reduced.input_names), "output_names": _cell(reduced.output_names),
-        "method": reduced.method, "model_name": reduced.model_name, "version": reduced.version,
+        "Mr": body.M, "Kr": body.K, "Dr": _empty(body.D, (r, r)) if body.D is not None else np.zeros((r, r)),
+        "Br": body.B, "Cr": body.C, "V": _empty(body.V),
+        "node_ids": _empty(body.node_ids, (0,)).reshape(-1, 1).astype(float),
+        "xyz": _empty(body.xyz, (0, 3)), "dofs": _empty(body.dofs, (0, 2)).astype(float),
+        "frequencies_hz": body.frequencies_hz().reshape(-1, 1),
+        "input_names": _cell(body.input_names), "output_names": _cell(body.output_names),
+        "method": body.method, "model_name": body.model_name, "version": body.version,
         "inv": np.zeros((0, 0)),
     }
-    if model is not None and reduced.V is not None:
+    if model is not None and body.V is not None:
         from ..invariants import compute_invariants, frame_nodes
 
         try:
-            fn = frame_nodes(model, reduced.V, nodes, reduced, masters=masters)
-        except Exception:  # noqa: BLE001 - frame nodes are optional in the .mat file
+            fn = frame_nodes(model, body.V, nodes, body, masters=masters)
+        except PortError:  # no port or interface nodes: frame nodes are optional in the .mat file
             fn = []
-        inv = compute_invariants(model, reduced.V, K=reduced.K, D=reduced.D, nodes=fn)
+        inv = compute_invariants(model, body.V, K=body.K, D=body.D, nodes=fn)
         out["inv"] = {
             "mass": inv.mass, "mdCM": inv.mdCM0.reshape(3, 1), "mdCM1": inv.mdCM1, "J": inv.J0,
             "J1": inv.J1.transpose(1, 2, 0), "Ct": inv.Ct, "Cr": inv.Cr0, "Cr1": inv.Cr1, "Gr": inv.Gr,
@@ -93,19 +94,19 @@ def mat_variables(reduced, model=None, *, nodes=None) -> dict:
     return out
 
 
-def write_mat(reduced, path, *, model=None, nodes=None) -> None:
+def write_mat(body, path, *, model=None, nodes=None) -> None:
     """Write a reduced body to a MATLAB ``.mat`` file (v5), atomically.
 
     Parameters
     ----------
-    reduced : ReducedModel
+    body : ReducedModel
     path : str or path-like
     model : FEModel, optional
         The full model; when given, the inertia invariants are added as struct ``inv``.
     nodes : sequence of str, optional
         Frame nodes for ``inv`` (default: the body's port/interface nodes).
     """
-    data = mat_variables(reduced, model, nodes=nodes)
+    data = mat_variables(body, model, nodes=nodes)
     atomic_write(path, lambda tmp: scipy.io.savemat(tmp, data, do_compression=True, oned_as="column"))
 
 

@@ -28,6 +28,7 @@ import scipy.io
 import scipy.sparse as sp
 
 from ...errors import ReadError
+from ...model import FEModel
 from .._build import build_model
 from .._registry import MODEL_FORMATS
 from .._sparse import assemble
@@ -217,7 +218,7 @@ def _read_one(path: Path, role: str) -> sp.csr_matrix:
     return A
 
 
-def read_matrix_market(path) -> FEModel:  # noqa: F821
+def read_matrix_market(path) -> FEModel:
     """Read a stiffness/mass (/damping) triple of Matrix Market files.
 
     Parameters

@@ -19,7 +19,7 @@ from .matrix_market import _ROLE_NAME, _role_of
 __all__ = ["write_matrix_market"]
 
 
-def write_matrix_market(reduced, path, *, model=None) -> None:
+def write_matrix_market(body, path, *, model=None) -> None:
     """Write a reduced body's ``Kr``, ``Mr`` (and ``Dr``) as a Matrix Market set, atomically.
 
     ``path`` names the set: ``body.mtx`` gives ``body_K.mtx``, ``body_M.mtx`` (``body_D.mtx``);
@@ -30,13 +30,13 @@ def write_matrix_market(reduced, path, *, model=None) -> None:
     path = Path(path)
     readings = [rd for rd in _role_of(path.stem) if rd[0] == "K" and not rd[2]]
     base = readings[0][1] if readings else path.stem + "_"
-    mats = {"K": reduced.K, "M": reduced.M}
-    if reduced.D is not None:
-        mats["D"] = reduced.D
+    mats = {"K": body.K, "M": body.M}
+    if body.D is not None:
+        mats["D"] = body.D
     for role, A in mats.items():
         L = sp.tril(sp.csr_matrix(np.asarray(A, dtype=np.float64))).tocoo()
         lines = ["%%MatrixMarket matrix coordinate real symmetric",
-                 f"% {_ROLE_NAME[role]} matrix of the reduced body {reduced.model_name} ({reduced.method})",
+                 f"% {_ROLE_NAME[role]} matrix of the body body {body.model_name} ({body.method})",
                  f"{L.shape[0]} {L.shape[1]} {L.nnz}"]
         lines += [f"{i + 1} {j + 1} {v!r}" for i, j, v in zip(L.row.tolist(), L.col.tolist(), L.data.tolist())]
         text = "\n".join(lines) + "\n"

@@ -33,6 +33,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from ...errors import ReadError
+from ...model import FEModel
 from .._build import build_model
 from .._cells import mesh_of_elements, nastran_cell
 from .._registry import MODEL_FORMATS
@@ -370,7 +371,7 @@ def op4_matrices(path, mats, names) -> dict:
 
 
 def read_nastran(path, *, stiffness=None, mass=None, damping=None, geometry=None,
-                 directions: str = "basic") -> FEModel:  # noqa: F821
+                 directions: str = "basic") -> FEModel:
     """Read stiffness and mass (and damping) from a DMIG punch file or an OP4 file.
 
     Parameters
@@ -430,4 +431,5 @@ def read_nastran(path, *, stiffness=None, mass=None, damping=None, geometry=None
 
 
 MODEL_FORMATS.register("nastran", [".pch", ".op4"], read_nastran,
-                       description="Nastran DMIG punch file (KAAX/MAAX ...) or OP4 (ASCII or binary), GRIDs from the .bdf")
+                       description="Nastran DMIG punch file (KAAX/MAAX ...) or OP4 (ASCII or binary), "
+                       "GRIDs from the .bdf")

@@ -318,7 +318,7 @@ def read_bulk(path) -> Bulk:
     grids, cord2, cord1, spoints, aset, elements = Grids(), {}, {}, [], [], []
     seqgp = False
     gdef = {"cp": 0, "cd": 0}
-    for fpath, lineno, name, f, fl in _items(path):
+    for fpath, lineno, name, f, _fl in _items(path):
         try:
             if name == _RUN:
                 grids.add_run(fpath, lineno, f)

@@ -45,7 +45,7 @@ _DIRS = {"x": 1, "y": 2, "z": 3, "rx": 4, "ry": 5, "rz": 6}
 _PORT = re.compile(r"^\s*(\d+)\s*:\s*(x|y|z|rx|ry|rz)\s*$", re.I)
 
 
-def superelement(reduced) -> dict:
+def superelement(body) -> dict:
     """The body in superelement coordinates.
 
     Returns
@@ -62,7 +62,7 @@ def superelement(reduced) -> dict:
         outputs are linearly dependent.
     """
     rows, dofs = [], []
-    for k, name in enumerate(reduced.output_names):
+    for k, name in enumerate(body.output_names):
         m = _PORT.match(str(name))
         if m and (int(m.group(1)), _DIRS[m.group(2).lower()]) not in dofs:
             rows.append(k)
@@ -72,8 +72,8 @@ def superelement(reduced) -> dict:
                          "grid DOF (reduce with outputs that name NODE:DIR, e.g. 12:x)", params=("outputs",))
     order = sorted(range(len(dofs)), key=lambda i: dofs[i])
     dofs = [dofs[i] for i in order]
-    Cb = np.asarray(reduced.C, dtype=float)[[rows[i] for i in order]]
-    K, M = np.asarray(reduced.K, dtype=float), np.asarray(reduced.M, dtype=float)
+    Cb = np.asarray(body.C, dtype=float)[[rows[i] for i in order]]
+    K, M = np.asarray(body.K, dtype=float), np.asarray(body.M, dtype=float)
     r, p = K.shape[0], Cb.shape[0]
     if np.linalg.matrix_rank(Cb) < p:
         raise ModelError("the body's displacement outputs at grid DOFs are linearly dependent; they cannot all be "
@@ -91,19 +91,19 @@ def superelement(reduced) -> dict:
     base = 10 ** len(str(int(grids.max())))
     aset = np.array(dofs + [(base + k + 1, 0) for k in range(r - p)], dtype=np.int64).reshape(-1, 2)
     xyz = None
-    if reduced.node_ids is not None and reduced.xyz is not None and len(reduced.node_ids):
-        ids = np.asarray(reduced.node_ids)
+    if body.node_ids is not None and body.xyz is not None and len(body.node_ids):
+        ids = np.asarray(body.node_ids)
         where = {int(i): k for k, i in enumerate(ids)}
         if all(int(g) in where for g in grids):
-            xyz = np.asarray(reduced.xyz, dtype=float)[[where[int(g)] for g in grids]]
+            xyz = np.asarray(body.xyz, dtype=float)[[where[int(g)] for g in grids]]
     if xyz is None:
         log.warning("the body has no coordinates of its boundary grids; the GRID cards are written at the origin")
         xyz = np.zeros((grids.size, 3))
-    if reduced.D is None and reduced.damping.kind != "none":
+    if body.D is None and body.damping.kind != "none":
         log.warning("the body's %s damping is not a matrix; the superelement is written without damping",
-                    reduced.damping.kind)
+                    body.damping.kind)
     return {"aset": aset, "K": congruent(K), "M": congruent(M),
-            "D": None if reduced.D is None else congruent(reduced.D), "grids": grids, "xyz": xyz}
+            "D": None if body.D is None else congruent(body.D), "grids": grids, "xyz": xyz}
 
 
 def _large(v: float) -> str:
@@ -135,18 +135,18 @@ def _matrices(se, suffix: str) -> dict:
     return out
 
 
-def write_dmig(reduced, path, *, model=None) -> None:
+def write_dmig(body, path, *, model=None) -> None:
     """Write a reduced body as a Nastran DMIG punch file (see the module docstring), atomically.
 
     Parameters
     ----------
-    reduced : ReducedModel
+    body : ReducedModel
     path : str or path-like
         The ``.pch`` file.
     model : FEModel, optional
         Not needed (accepted like every exporter).
     """
-    se = superelement(reduced)
+    se = superelement(body)
     aset = se["aset"]
     lines = ["$ reduced body written by flexmor as a superelement: boundary grids + modal scalar points"]
     lines += _bulk_cards(se)
@@ -160,18 +160,18 @@ def write_dmig(reduced, path, *, model=None) -> None:
     atomic_write(path, lambda tmp: Path(tmp).write_text(text))
 
 
-def write_op4(reduced, path, *, model=None) -> None:
+def write_op4(body, path, *, model=None) -> None:
     """Write a reduced body as an ASCII OUTPUT4 file plus ``<stem>.bdf`` with its a-set, atomically.
 
     Parameters
     ----------
-    reduced : ReducedModel
+    body : ReducedModel
     path : str or path-like
         The ``.op4`` file; the bulk data goes to the same name with ``.bdf``.
     model : FEModel, optional
         Not needed (accepted like every exporter).
     """
-    se = superelement(reduced)
+    se = superelement(body)
     lines = []
     for name, A in _matrices(se, "AA").items():
         n = A.shape[0]

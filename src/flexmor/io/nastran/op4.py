@@ -118,7 +118,10 @@ class _Col:
 
     def done(self, form):
         dt = np.complex128 if self.cplx else np.float64
-        cat = (lambda xs, t: np.concatenate(xs).astype(t) if xs else np.zeros(0, t))
+
+        def cat(xs, t):
+            return np.concatenate(xs).astype(t) if xs else np.zeros(0, t)
+
         r, c, v = cat(self.r, np.int64), cat(self.c, np.int64), cat(self.v, dt)
         key = c * np.int64(self.nrow) + r
         if np.unique(key).size != key.size:

@@ -69,12 +69,12 @@ def _skew(v):
     return np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
 
 
-def sid_from_reduced(reduced, model, *, nodes=None, remove_rigid: bool = False) -> SIDFile:
+def sid_from_reduced(body, model, *, nodes=None, remove_rigid: bool = False) -> SIDFile:
     """Build the SID contents of a reduced body.
 
     Parameters
     ----------
-    reduced : ReducedModel
+    body : ReducedModel
         Must hold its basis ``V``.
     model : FEModel
         The full model it was reduced from, as read (mass matrix, coordinates): the body applies
@@ -100,17 +100,20 @@ def sid_from_reduced(reduced, model, *, nodes=None, remove_rigid: bool = False) 
     from ...expansion import expand_body
     from ..invariants import compute_invariants, frame_nodes
 
-    xb = expand_body(model, reduced, remove_rigid=remove_rigid)  # the floating frame carries the rigid motion
-    reduced, model, V = xb.body, xb.model, xb.V
-    fn = frame_nodes(model, V, nodes, reduced, masters=xb.masters)
-    inv = compute_invariants(model, V, K=reduced.K, D=reduced.D, nodes=fn)
+    xb = expand_body(model, body, remove_rigid=remove_rigid)  # the floating frame carries the rigid motion
+    body, model, V = xb.body, xb.model, xb.V
+    fn = frame_nodes(model, V, nodes, body, masters=xb.masters)
+    inv = compute_invariants(model, V, K=body.K, D=body.D, nodes=fn)
     r = V.shape[1]
     sid_nodes = []
     for nd in fn:
         ap1 = np.stack([_skew(nd.psi[:, a]) for a in range(r)], axis=2)
         sid_nodes.append(SIDNode(nd.id, _taylor(nd.origin[:, None], nd.phi[:, None, :], r),
                                  _taylor(nd.phi, nq=r), _taylor(nd.psi, nq=r), _taylor(np.eye(3), ap1, r)))
-    jv = lambda J: np.array([J[0, 0], J[1, 1], J[2, 2], J[0, 1], J[0, 2], J[1, 2]])
+
+    def jv(J):
+        return np.array([J[0, 0], J[1, 1], J[2, 2], J[0, 1], J[0, 2], J[1, 2]])
+
     J1 = np.stack([jv(inv.J1[a]) for a in range(r)], axis=1)[:, None, :]
     De = inv.De if inv.De is not None else np.zeros((r, r))
     objects = {
@@ -126,14 +129,17 @@ def sid_from_reduced(reduced, model, *, nodes=None, remove_rigid: bool = False) 
         "Ke": _taylor(inv.Ke, nq=r, sym=True),
         "De": _taylor(De, nq=r, sym=True),
     }
-    off = lambda A: np.max(np.abs(A - np.diag(np.diag(A))), initial=0.0) <= 1e-9 * np.max(np.abs(A))
+
+    def off(A):
+        return np.max(np.abs(A - np.diag(np.diag(A))), initial=0.0) <= 1e-9 * np.max(np.abs(A))
+
     if off(inv.Ke) and off(inv.Me):
         f = np.sqrt(np.clip(np.diag(inv.Ke) / np.diag(inv.Me), 0, None)) / (2 * np.pi)
         names = [f"Eigen Mode {a + 1:4d} : {f[a]:12.3f} Hz" for a in range(r)]
     else:
-        names = [f"{reduced.method or 'basis'} vector {a + 1:4d}" for a in range(r)]
+        names = [f"{body.method or 'basis'} vector {a + 1:4d}" for a in range(r)]
     header = (f"{len(fn):5d}{r:4d}    :No. nodes, No. modes:File created using flexmor {__version__}! "
-              f"method {reduced.method}, model {model.name}; consistent mass; no geometric stiffness; "
+              f"method {body.method}, model {model.name}; consistent mass; no geometric stiffness; "
               "frame nodes: " + ", ".join(f"{n.id}={n.name}" for n in fn))
     return SIDFile(mass=inv.mass, ielastq=names, nodes=sid_nodes, objects=objects, header=header)
 
@@ -193,16 +199,16 @@ def sid_text(sid: SIDFile, *, m1_order: str = "row-q-col") -> str:
     return "\n".join(L)
 
 
-def write_sid(reduced, path, *, model=None, nodes=None, m1_order: str = "row-q-col",
+def write_sid(body, path, *, model=None, nodes=None, m1_order: str = "row-q-col",
               allow_clamped: bool = False, remove_rigid: bool = False) -> None:
     """Write a reduced body as a ``.SID_FEM`` file, atomically.
 
     Parameters
     ----------
-    reduced : ReducedModel or SIDFile
+    body : ReducedModel or SIDFile
     path : str or path-like
     model : FEModel
-        The full model as read (required unless ``reduced`` is a SIDFile): the invariants need
+        The full model as read (required unless ``body`` is a SIDFile): the invariants need
         its mass matrix and node coordinates (see :func:`sid_from_reduced`).
     nodes : sequence of str, optional
         Frame nodes (node ids, node sets, coupling masters); default the body's port/interface
@@ -223,8 +229,8 @@ def write_sid(reduced, path, *, model=None, nodes=None, m1_order: str = "row-q-c
 
     if m1_order not in M1_ORDERS:
         raise OptionError(f"m1_order={m1_order!r} is not allowed; choose one of: {', '.join(M1_ORDERS)}")
-    if isinstance(reduced, SIDFile):
-        sid = reduced
+    if isinstance(body, SIDFile):
+        sid = body
     else:
         if model is None:
             raise ModelError("SID export needs the FE data the body was reduced from, given as model: "
@@ -232,7 +238,7 @@ def write_sid(reduced, path, *, model=None, nodes=None, m1_order: str = "row-q-c
         from ..invariants import check_free_model
 
         check_free_model(model, allow_clamped=allow_clamped)
-        sid = sid_from_reduced(reduced, model, nodes=nodes, remove_rigid=remove_rigid)
+        sid = sid_from_reduced(body, model, nodes=nodes, remove_rigid=remove_rigid)
     text = sid_text(sid, m1_order=m1_order)
     atomic_write(path, lambda tmp: Path(tmp).write_text(text))
 

@@ -1,4 +1,4 @@
-"""Coupled assemblies (flexmor.analysis.coupling) and the seed 000 Fig. 1 example."""
+"""Coupled assemblies (flexmor.analysis.assembly) and the coupled-beam example (examples/coupled_beam.py)."""
 
 from __future__ import annotations
 
@@ -8,9 +8,9 @@ import warnings
 import numpy as np
 import pytest
 import scipy.sparse as sp
-from conftest import load_example
+from helpers import load_example
 
-from flexmor.analysis.coupling import Assembly
+from flexmor.analysis.assembly import Assembly
 from flexmor.basis import Basis
 from flexmor.dynamics.frf import frf_full, frf_reduced
 from flexmor.errors import FlexmorWarning, PortError
@@ -23,7 +23,7 @@ cb = load_example("coupled_beam")
 
 @pytest.fixture(scope="module")
 def fig1():
-    """The Fig. 1 experiment on the 480-DOF beam at order 8 (a few seconds)."""
+    """The coupled-beam example on the 480-DOF beam at order 8 (a few seconds)."""
     return cb.run(nx=40, order=8)
 
 
