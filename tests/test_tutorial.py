@@ -5,13 +5,16 @@ the CalculiX beams under the relative path the tutorial reads them from; the sta
 each block is compared with the ```text block right after it (a block without one must print
 nothing). Plots go to the Agg backend, chosen here: the library never switches backends.
 
-How printed numbers are compared (text between the numbers must match exactly):
+How printed numbers are compared (text between the numbers must match exactly). The rules go by
+size: every number the tutorial prints below 1e-8 is a dimensionless error (it prints physical
+quantities in units that keep them larger, e.g. an FRF in nm/N).
 
 * integers (DOF and node counts, orders, node ids, sizes) exactly;
 * numbers below 1e-9 (``FLOOR``) match any number below 1e-9: they are round-off, not truncation.
   The relative frequency error of an exact reduction (a Craig-Bampton body clamped at its own
   interface) is double-precision round-off (2.2e-16) magnified by the conditioning of the
-  eigenproblems and left by the eigensolvers' stopping tolerance; on one machine it printed 6.1e-12 with two BLAS threads and 4.9e-11 with one. Such a number says "exact", and a
+  eigenproblems and left by the eigensolvers' stopping tolerance; on one machine it printed
+  6.1e-12 with two BLAS threads and 4.9e-11 with one. Such a number says "exact", and a
   regression makes it 1e-6 or more;
 * numbers between 1e-9 and 1e-8 within a factor of 3 (``|log10(got / expected)| <= 0.5``, same
   sign): errors this small are still partly round-off;
