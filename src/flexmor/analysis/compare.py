@@ -398,7 +398,7 @@ def check_judgeable(body, *, origin: dict, damping, inputs, outputs, label: str 
         warnings.warn(f"{name} records no fingerprint of the model it was reduced from: it cannot be checked "
                       f"against {label}", FlexmorWarning, stacklevel=4)
     if not same_damping(body.damping, damping):
-        raise ModelError(f"{name} was body with damping {describe_damping(body.damping)}; this reference "
+        raise ModelError(f"{name} was reduced with damping {describe_damping(body.damping)}; this reference "
                          f"has {describe_damping(damping)}. A body is judged against the full model with "
                          "its own damping: give the model that damping (rayleigh / modal_damping / "
                          "band_rayleigh), or reduce again", params=("damping",))
