@@ -163,3 +163,21 @@ def test_cli_report_writes_html_and_json(report, tmp_path, capsys):
         assert got["band_error"] == pytest.approx(want["band_error"], rel=1e-6)
         assert got["time_max_error"] == pytest.approx(want["time_max_error"], rel=1e-9)
     assert out.read_text(encoding="utf-8").count("data:image/png;base64,") == 6  # hankel_sv kept in the .h5
+
+
+def test_report_on_a_model_without_node_coordinates():
+    from helpers import DATA
+
+    from flexmor.io import read
+    from flexmor.report.html import build_report
+
+    model = read(DATA / "mor" / "LF10.mat")  # matrices with their own B, C and D, no nodes
+    ports = make_ports(model)
+    red = reduce(model, "krylov", 6, ports)
+    rep = build_report(model, ports, [red], band=(1.0, 1000.0), n_modes=4)
+    assert model.n_nodes == 0
+    assert "body" not in rep.figures and not rep.scene
+    assert "the model has no node coordinates: no picture of the body" in rep.notes
+    assert list(rep.figures) == ["frf", "rel_error", "mac", "time"]
+    assert rep.rows[0]["h2_error"] == pytest.approx(h2_error(model, ports, red), rel=1e-9)
+    assert rep.rows[0]["time_max_error"] > 0 and rep.time["n_steps"] > 0

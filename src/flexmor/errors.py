@@ -21,18 +21,8 @@ __all__ = [
 ]
 
 
-class FlexmorError(Exception):
-    """Base class of all errors raised by flexmor for bad input or failed computations.
-
-    Parameters
-    ----------
-    *args
-        The message (as for :class:`Exception`).
-    params : sequence of str, optional
-        The parameters the message names (``inputs``, ``order``, ``band`` ...), each written
-        in the message as the bare parameter name; the command line shows them as its flags
-        (:meth:`message`).
-    """
+class _NamesParameters:
+    """A message that names parameters (``params``), shown by the command line with its flags."""
 
     #: Kept by the class too: an error rebuilt from its message alone (unpickled, e.g. sent from
     #: MPI rank 0 to the others) names no parameter.
@@ -45,6 +35,21 @@ class FlexmorError(Exception):
     def message(self, names=None) -> str:
         """The message with each parameter in ``params`` renamed by ``names`` (e.g. ``{"inputs": "--input"}``)."""
         return name_parameters(str(self), self.params, names)
+
+
+class FlexmorError(_NamesParameters, Exception):
+    """Base class of all errors raised by flexmor for bad input or failed computations.
+
+    Parameters
+    ----------
+    *args
+        The message (as for :class:`Exception`).
+    params : sequence of str, optional
+        The parameters the message names (``inputs``, ``order``, ``band`` ...), each written
+        in the message as the bare parameter name; the command line shows them as its flags
+        (:meth:`message`).
+    """
+
 
 
 class ReadError(FlexmorError):
@@ -102,7 +107,7 @@ class OptionError(FlexmorError, ValueError):
     """An option has a value that is not allowed; the message lists the allowed ones."""
 
 
-class FlexmorWarning(UserWarning):
+class FlexmorWarning(_NamesParameters, UserWarning):
     """Warnings about legal but noteworthy situations (rigid-body modes, singular mass, ...).
 
     Parameters
@@ -114,15 +119,6 @@ class FlexmorWarning(UserWarning):
         ``warnings.warn(FlexmorWarning(text, params=("rigid",)))``.
     """
 
-    params: tuple = ()
-
-    def __init__(self, *args, params=()):
-        super().__init__(*args)
-        self.params = tuple(params)
-
-    def message(self, names=None) -> str:
-        """The message with each parameter in ``params`` renamed by ``names`` (see :meth:`FlexmorError.message`)."""
-        return name_parameters(str(self), self.params, names)
 
 
 def name_parameters(text: str, params, names=None) -> str:

@@ -115,6 +115,9 @@ def main(argv=None) -> int:
     args = parser.parse_args(argv)
     level = [logging.WARNING, logging.INFO, logging.DEBUG][min(args.verbose, 2)]
     logging.basicConfig(level=level, format="%(levelname)s %(name)s: %(message)s")
+    # renewed on every call: a warnings.catch_warnings() around an earlier call (a caller's, or a test
+    # runner's) restores the warnings module's own display and leaves logging believing it captures
+    logging.captureWarnings(False)
     logging.captureWarnings(True)
     warnings.formatwarning = functools.partial(_format_warning, names=getattr(args, "flag_names", None))
     quiet_other_ranks()  # mpirun -n P: only rank 0 prints

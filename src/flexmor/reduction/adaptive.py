@@ -46,7 +46,8 @@ class AdaptiveOptions:
 
     band: Band | None = band_option("the candidate points")
     estimate_tol: float | None = option(None, "stop when the estimated band error (previous vs. latest reduced body) "
-                                        "falls below this; not verified (the verified target is --tol)", parse=float)
+                                        "falls below this; not verified (the verified target is the tol of "
+                                        "reduce_and_judge)", parse=float)
     moments: int = option(1, "moments (blocks) per expansion point")
     side: str = side_option()
     n_candidates: int = option(400, "log-spaced candidate frequencies in the band")

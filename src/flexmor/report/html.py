@@ -161,10 +161,7 @@ def build_report(model, ports, bodies, *, band, labels=None, seconds=None, full=
     """
     solver = as_solver(solver)
     from ..analysis.compare import FullResponse
-    from ..analysis.modal_check import full_modes, modal_check
-    from ..dynamics.frf import frf_reduced
-    from ..dynamics.time import simulate, time_errors
-    from ..reduction.free_body import with_elastic_inputs
+    from ..analysis.modal_check import full_modes
 
     bodies = list(bodies)
     if not bodies:
@@ -175,23 +172,42 @@ def build_report(model, ports, bodies, *, band, labels=None, seconds=None, full=
     band = (float(band[0]), float(band[1]))
     if full is None:
         full = FullResponse(model, ports, band, solver=solver, progress=progress)
-    notes = []
     couplings = list(bodies[0].couplings)
     ref_name = "full model" + (f" with {describe_couplings(couplings)}" if couplings else "")
     coupling = dict(coupling if coupling is not None else bodies[0].info.get("coupling_frequencies") or {})
     rep = Report(title=title or f"flexmor report: {model.name}", model=model.summary(), band=band, rows=[],
-                 notes=notes, reference=ref_name, coupling=coupling)
+                 reference=ref_name, coupling=coupling)
     if couplings and not coupling:
-        notes.append(f"the bodies are judged against the {ref_name}; how the coupling changes the FE model's "
-                     "frequencies was not recorded with them")
+        rep.notes.append(f"the bodies are judged against the {ref_name}; how the coupling changes the FE model's "
+                         "frequencies was not recorded with them")
+    ref_of = _frequency_section(rep, model, ports, full, bodies, labels, seconds)
+    if mounted:
+        _mounted_records(rep, model, ports, bodies, labels, solver)
+    _h2_errors(rep, model, ports, bodies, h2_max_dof)
+    _singular_values_figure(rep, bodies, labels)
+    modes = full_modes(model, n_modes, solver=solver)
+    _modal_section(rep, model, bodies, labels, modes)
+    f_lo = float(modes[0][0]) if modes[0].size else band[0]
+    _time_section(rep, model, ports, bodies, labels, ref_of, f_lo=f_lo, signal=signal, dt=dt, t_end=t_end,
+                  max_steps=max_steps, scheme=scheme, rho_inf=rho_inf, solver=solver, progress=time_progress)
+    nodes = _body_figure(rep, model, ports, bodies)
+    if view3d:
+        _scene(rep, model, ports, bodies, labels, modes, nodes, solver)
+    log.info("report on %d bodies: %d figures", len(bodies), len(rep.figures))
+    return rep
 
-    # frequency domain
+
+def _frequency_section(rep: Report, model, ports, full, bodies, labels, seconds) -> dict:
+    """One summary row per body with its error measures against ``full`` (and their notes), the |H| and
+    rel_error(f) figures; returns the legend name of each body's reference (label -> name)."""
+    from ..dynamics.frf import frf_reduced
+
     H_red, curves, H_refs, ref_of = {}, {}, {}, {}
     for lb, red, sec in zip(labels, bodies, seconds):
         err = full.evaluate(red)
         H_red[lb], curves[lb] = frf_reduced(red, full.freqs), err.rel_error
         H_ref, judged = full.reference(red)
-        ref_of[lb] = _reference_label(ref_name, judged)
+        ref_of[lb] = _reference_label(rep.reference, judged)
         H_refs.setdefault(ref_of[lb], H_ref)
         rep.rows.append({"label": lb, "method": red.method, "order": red.order, **err.to_dict(),
                          "h2_error": None, "seconds": sec})
@@ -199,38 +215,52 @@ def build_report(model, ports, bodies, *, band, labels=None, seconds=None, full=
         rep.rows[-1]["max_rel_error_where"] = (f"{err.max_rel_error_hz:.4g} Hz" + (
             " (anti-resonance)" if err.max_rel_error_at_antiresonance else "") + (
             " (spurious resonance)" if err.max_rel_error_at_spurious_resonance else ""))
-        notes.extend(f"{lb}: {n}" for n in err.notes)
-    if mounted:
-        from ..analysis.mounted import FullMounted, mounted_record
-
-        held = FullMounted(model, solver=solver)  # the full model held at each interface: once for all bodies
-        for lb, row, red in zip(labels, rep.rows, bodies):
-            row["mounted"] = mounted_record(model, red, ports=ports, full=held, band=band,
-                                            band_rms_error=row["band_rms_error"])
-            if row["mounted"] and row["mounted"]["note"]:
-                notes.append(f"{lb}: {row['mounted']['note']}")
-    damped = model.D is not None
-    if damped and model.n_dof <= h2_max_dof:
-        from ..analysis.norms import h2_error
-
-        e_ports = _elastic_ports(model, ports)
-        for row, red in zip(rep.rows, bodies):
-            try:  # against the row's reference: the elastic part for a body without rigid motion
-                with np.errstate(divide="ignore", invalid="ignore"):
-                    h2 = h2_error(model, e_ports if row["judged"] == JUDGED_ELASTIC else ports, red)
-                if np.isfinite(h2):
-                    row["h2_error"] = h2
-                else:
-                    notes.append(f"H2 error of {row['label']} not computed: the H2 norm of a response with "
-                                 "undamped rigid-body motion is infinite")
-            except (FlexmorError, np.linalg.LinAlgError) as exc:
-                notes.append(f"H2 error of {row['label']} not computed: {exc}")
-    else:
-        notes.append("H2 errors not computed: " + (f"the model has {model.n_dof} > {h2_max_dof} DOF (dense method)"
-                                                   if damped else "undamped bodies have no finite H2 norm"))
+        rep.notes.extend(f"{lb}: {n}" for n in err.notes)
     rep.figures["frf"] = plots.frf_png(full.freqs, H_refs, H_red, ports.input_names, ports.output_names)
     rep.plot_data.update(freqs_hz=full.freqs, frf_references=H_refs, reference_of=ref_of)
     rep.figures["rel_error"] = plots.rel_error_png(full.freqs, curves, title=f"{model.name}, {model.n_dof} DOF")
+    return ref_of
+
+
+def _mounted_records(rep: Report, model, ports, bodies, labels, solver) -> None:
+    """``row["mounted"]``: each body held in its joints against the full model held the same way
+    (:func:`flexmor.analysis.mounted.mounted_record`), the full side computed once for all bodies."""
+    from ..analysis.mounted import FullMounted, mounted_record
+
+    held = FullMounted(model, solver=solver)
+    for lb, row, red in zip(labels, rep.rows, bodies):
+        row["mounted"] = mounted_record(model, red, ports=ports, full=held, band=rep.band,
+                                        band_rms_error=row["band_rms_error"])
+        if row["mounted"] and row["mounted"]["note"]:
+            rep.notes.append(f"{lb}: {row['mounted']['note']}")
+
+
+def _h2_errors(rep: Report, model, ports, bodies, h2_max_dof: int) -> None:
+    """``row["h2_error"]`` of a damped model up to ``h2_max_dof`` DOF (dense), else a note saying why not."""
+    damped = model.D is not None
+    if not (damped and model.n_dof <= h2_max_dof):
+        rep.notes.append("H2 errors not computed: " + (
+            f"the model has {model.n_dof} > {h2_max_dof} DOF (dense method)" if damped
+            else "undamped bodies have no finite H2 norm"))
+        return
+    from ..analysis.norms import h2_error
+
+    e_ports = _elastic_ports(model, ports)
+    for row, red in zip(rep.rows, bodies):
+        try:  # against the row's reference: the elastic part for a body without rigid motion
+            with np.errstate(divide="ignore", invalid="ignore"):
+                h2 = h2_error(model, e_ports if row["judged"] == JUDGED_ELASTIC else ports, red)
+            if np.isfinite(h2):
+                row["h2_error"] = h2
+            else:
+                rep.notes.append(f"H2 error of {row['label']} not computed: the H2 norm of a response with "
+                                 "undamped rigid-body motion is infinite")
+        except (FlexmorError, np.linalg.LinAlgError) as exc:
+            rep.notes.append(f"H2 error of {row['label']} not computed: {exc}")
+
+
+def _singular_values_figure(rep: Report, bodies, labels) -> None:
+    """The singular values the methods report (first key of :data:`SINGULAR_VALUE_KEYS` found), if any."""
     svs = {}
     for lb, red in zip(labels, bodies):
         key = next((k for k in SINGULAR_VALUE_KEYS if np.size(red.info.get(k, [])) > 1), None)
@@ -239,29 +269,41 @@ def build_report(model, ports, bodies, *, band, labels=None, seconds=None, full=
     if svs:
         rep.figures["singular_values"] = plots.singular_values_png(svs)
 
-    # eigenfrequencies and MAC
-    f, phi, n_rig = full_modes(model, n_modes, solver=solver)
+
+def _modal_section(rep: Report, model, bodies, labels, modes) -> None:
+    """``rep.modal``: the full eigenfrequencies ``modes = (f, phi, n_rigid)`` paired with each body's
+    (:func:`flexmor.analysis.modal_check.modal_check`), and the MAC figure."""
+    from ..analysis.modal_check import modal_check
+
+    f, _, n_rig = modes
     rep.modal = {"full_hz": f, "n_rigid": n_rig, "bodies": {}}
-    elastic = [bool(red.info.get("n_rigid_excluded")) for red in bodies]
     if n_rig:
-        notes.append(f"free body ({n_rig} rigid-body modes): bodies without rigid-body motion (rigid excluded, the "
-                     f"floating frame carries it) are compared with the {ref_name}'s elastic response, that to the "
-                     "inputs made orthogonal to the rigid-body modes, in the table and the plots; the others with "
-                     "the whole response")
+        rep.notes.append(f"free body ({n_rig} rigid-body modes): bodies without rigid-body motion (rigid excluded, "
+                         f"the floating frame carries it) are compared with the {rep.reference}'s elastic response, "
+                         "that to the inputs made orthogonal to the rigid-body modes, in the table and the plots; "
+                         "the others with the whole response")
     for lb, red in zip(labels, bodies):
-        rep.modal["bodies"][lb] = modal_check(model, red, full=(f, phi, n_rig))
+        rep.modal["bodies"][lb] = modal_check(model, red, full=modes)
     rep.figures["mac"] = plots.mac_png({lb: c["mac"] for lb, c in rep.modal["bodies"].items()})
 
-    # time domain
-    f_lo = float(f[0]) if f.size else band[0]
+
+def _time_section(rep: Report, model, ports, bodies, labels, ref_of, *, f_lo: float, signal, dt, t_end,
+                  max_steps: int, scheme: str, rho_inf: float, solver, progress) -> None:
+    """``rep.time``, the rows' time errors and the time figure: the full model and each body under
+    ``signal`` (one full run for both the whole and the elastic response)."""
+    from ..dynamics.time import simulate, time_errors
+    from ..reduction.free_body import with_elastic_inputs
+
+    band = rep.band
     t_end = float(t_end) if t_end else 3.0 / f_lo
     dt = float(dt) if dt else max(1.0 / (20.0 * band[1]), t_end / max_steps)
     u, desc = _signal(signal, dt, t_end, band)
+    elastic = [bool(red.info.get("n_rigid_excluded")) for red in bodies]
     # one run for both responses (a single-channel signal is applied to each input in turn)
     single = np.ndim(u(np.array([0.0, dt])) if callable(u) else u) == 1
     sim_ports = with_elastic_inputs(model, ports) if any(elastic) and single else ports
     y_all = simulate(model, u, dt=dt, t_end=t_end, ports=sim_ports, scheme=scheme, rho_inf=rho_inf, solver=solver,
-                     progress=time_progress)
+                     progress=progress)
     y_full, y_elastic = _split_inputs(y_all, ports.n_inputs)
     y_red, y_refs, t_ref_of = {}, {}, {}
     for lb, red, row, el in zip(labels, bodies, rep.rows, elastic):
@@ -270,40 +312,45 @@ def build_report(model, ports, bodies, *, band, labels=None, seconds=None, full=
         e = time_errors(y_ref, yr)
         row.update(time_mean_error=e["time_mean_error"], time_max_error=e["time_max_error"], time_seconds=yr.seconds)
         y_red[lb] = yr.displacement
-        t_ref_of[lb] = ref_of[lb] if y_ref is y_elastic or not el else _reference_label(ref_name, JUDGED_RIGID)
+        t_ref_of[lb] = ref_of[lb] if y_ref is y_elastic or not el else _reference_label(rep.reference, JUDGED_RIGID)
         y_refs.setdefault(t_ref_of[lb], y_ref.displacement)
         if y_ref is y_full and el:
-            notes.append(f"{lb}: time errors against the whole response (the elastic part needs a single-channel "
-                         "signal)")
+            rep.notes.append(f"{lb}: time errors against the whole response (the elastic part needs a single-channel "
+                             "signal)")
     rep.time = {"signal": desc, "dt": dt, "t_end": float(y_full.t[-1]), "n_steps": int(y_full.t.size - 1),
                 "scheme": scheme, "seconds_full": y_full.seconds}
-    chan = {(i, j): f"{ports.output_names[i]} / {ports.input_names[j] if y_full.displacement.shape[2] > 1 else 'u'}"
-            for i in range(ports.n_outputs) for j in range(y_full.displacement.shape[2])}
+    n_in = y_full.displacement.shape[2]
+    chan = {(i, j): f"{ports.output_names[i]} / {ports.input_names[j] if n_in > 1 else 'u'}"
+            for i in range(ports.n_outputs) for j in range(n_in)}
     rep.figures["time"] = plots.time_png(y_full.t, y_refs, y_red, chan, reference_of=t_ref_of)
     rep.plot_data.update(time_references=y_refs, time_reference_of=t_ref_of,
                          time_error=plots.time_error_curves(y_refs, y_red, t_ref_of))
 
-    # the body
-    marks = {"inputs": model.node_xyz(port_nodes(model, ports.input_names)) if model.n_nodes else [],
-             "outputs": model.node_xyz(port_nodes(model, ports.output_names)) if model.n_nodes else []}
-    iface = np.unique(np.concatenate([interface_nodes(model, r) for r in bodies]))
-    if iface.size and model.n_nodes:
-        marks["interface"] = model.node_xyz(iface)
-    if model.n_nodes:
-        rep.figures["body"] = plots.body_png(model.xyz, marks, title=f"{model.name}: {model.n_nodes} nodes")
-    else:
-        notes.append("the model has no node coordinates: no picture of the body")
-    if view3d and is_partitioned(model.K):
-        notes.append("no 3D view: the model's rows are spread over MPI ranks")
-    elif view3d and model.n_nodes and model.dofs is not None:
+
+def _body_figure(rep: Report, model, ports, bodies) -> dict:
+    """The picture of the body's nodes with its ports and interface (or a note); returns those nodes
+    (``inputs``, ``outputs``, ``interface``)."""
+    nodes = {"inputs": port_nodes(model, ports.input_names), "outputs": port_nodes(model, ports.output_names),
+             "interface": np.unique(np.concatenate([interface_nodes(model, r) for r in bodies]))}
+    if not model.n_nodes:
+        rep.notes.append("the model has no node coordinates: no picture of the body")
+        return nodes
+    marks = {"inputs": model.node_xyz(nodes["inputs"]), "outputs": model.node_xyz(nodes["outputs"])}
+    if nodes["interface"].size:
+        marks["interface"] = model.node_xyz(nodes["interface"])
+    rep.figures["body"] = plots.body_png(model.xyz, marks, title=f"{model.name}: {model.n_nodes} nodes")
+    return nodes
+
+
+def _scene(rep: Report, model, ports, bodies, labels, modes, nodes, solver) -> None:
+    """The interactive 3D view (:func:`flexmor.report.view3d.build_scene`), or a note why there is none."""
+    if is_partitioned(model.K):
+        rep.notes.append("no 3D view: the model's rows are spread over MPI ranks")
+    elif model.n_nodes and model.dofs is not None:
         from .view3d import build_scene
 
-        rep.scene = build_scene(model, ports, bodies, labels, band=band, modal=rep.modal["bodies"],
-                                full_modes=(f, phi, n_rig), solver=solver,
-                                nodes={"inputs": port_nodes(model, ports.input_names),
-                                       "outputs": port_nodes(model, ports.output_names), "interface": iface})
-    log.info("report on %d bodies: %d figures", len(bodies), len(rep.figures))
-    return rep
+        rep.scene = build_scene(model, ports, bodies, labels, band=rep.band, modal=rep.modal["bodies"],
+                                full_modes=modes, solver=solver, nodes=nodes)
 
 
 # -- rendering ---------------------------------------------------------------------------------

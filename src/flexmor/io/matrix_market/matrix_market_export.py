@@ -36,7 +36,7 @@ def write_matrix_market(body, path, *, model=None) -> None:
     for role, A in mats.items():
         L = sp.tril(sp.csr_matrix(np.asarray(A, dtype=np.float64))).tocoo()
         lines = ["%%MatrixMarket matrix coordinate real symmetric",
-                 f"% {_ROLE_NAME[role]} matrix of the body body {body.model_name} ({body.method})",
+                 f"% {_ROLE_NAME[role]} matrix of the reduced body {body.model_name} ({body.method})",
                  f"{L.shape[0]} {L.shape[1]} {L.nnz}"]
         lines += [f"{i + 1} {j + 1} {v!r}" for i, j, v in zip(L.row.tolist(), L.col.tolist(), L.data.tolist())]
         text = "\n".join(lines) + "\n"
