@@ -250,3 +250,17 @@ def test_cli_names_format_and_model_flags(capsys, tmp_path):
     err = _err(capsys, "export", str(body), "-o", str(tmp_path / "body.txt"))
     assert "cannot tell the export type from the suffix '.txt' (known: .h5" in err and "give --format (hdf5, sid" in err
     assert "given as --model: the inertia" in _err(capsys, "export", str(body), "-o", str(tmp_path / "b.sid"))
+
+
+def test_method_names_take_aliases_and_an_unknown_one_gets_the_closest(clamped, capsys):
+    ports = make_ports(clamped, ["TIP:y"])
+    assert reduce(clamped, "CB", 30, ports, interface=["TIP"]).method == "craig-bampton"
+    with pytest.raises(OptionError, match=r"method='krylof' is unknown; did you mean 'krylov'\?") as exc:
+        reduce(clamped, "krylof", 8, ports)
+    assert exc.value.params == ("method",)
+    with pytest.raises(OptionError) as exc:
+        reduce(clamped, "xyz", 8, ports)
+    assert "did you mean" not in str(exc.value) and "craig-bampton" in str(exc.value)
+    with pytest.raises(SystemExit):
+        main(["reduce", CLAMPED, "--method", "fwbtt", "--order", "4", "--input", "TIP:y", "--no-error"])
+    assert "--method='fwbtt' is unknown; did you mean 'fw-sobt'?" in capsys.readouterr().err

@@ -33,6 +33,17 @@ _MESH_HELP = ("mesh file read through meshio (.vtu .msh .inp .bdf ...) for matri
               "Market, MATLAB): its points are the nodes, the equations their x y z (or x..rz) node after node")
 
 
+
+def _method(text: str) -> str:
+    """``--method``: the registered name (aliases, case), or the error with its "did you mean"."""
+    from ..errors import OptionError
+    from ..reduction import method_name
+
+    try:
+        return method_name(text)
+    except OptionError as exc:
+        raise argparse.ArgumentTypeError(exc.message({"method": "--method"})) from None
+
 def _help(f) -> str:
     if f.default is None:
         return f.metadata["help"]
@@ -118,7 +129,7 @@ def _add_model_args(p, damping=True):
 
 
 def build_parser() -> argparse.ArgumentParser:
-    from ..reduction import METHODS
+    from ..reduction import ALIASES, METHODS
 
     ap = argparse.ArgumentParser(prog="flexmor", description="Model order reduction of elastic bodies for EMBS.")
     ap.add_argument("--version", action="version", version=f"flexmor {__version__}")
@@ -153,7 +164,8 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("reduce", help="reduce a model and write the reduced body (.h5)",
                        epilog="A method option given to a method that does not take it is an error.")
     _add_model_args(p)
-    p.add_argument("--method", required=True, choices=sorted(METHODS), help="reduction method")
+    p.add_argument("--method", required=True, type=_method, choices=sorted(METHODS),
+                   help="reduction method (short names: " + ", ".join(f"{a}={m}" for a, m in ALIASES.items()) + ")")
     p.add_argument("--order", type=int, help="reduced order r")
     p.add_argument("--input", action="append", default=[], metavar="SPEC", help="input NODE:DIR or SET:DIR")
     p.add_argument("--output", action="append", default=[], metavar="SPEC", help="output NODE:DIR or SET:DIR")

@@ -17,7 +17,6 @@ from __future__ import annotations
 import time
 
 from ..body import ReducedModel
-from ..errors import OptionError
 from ..options import Band, check_option_types, check_order
 from ..projection import project
 from ..rigid import exclude_rigid
@@ -34,10 +33,10 @@ from . import (  # noqa: F401  (each method module registers its methods in METH
     svdmor,
     two_step,
 )
-from ._registry import METHODS, Method, check_keywords, methods, register_method
+from ._registry import ALIASES, METHODS, Method, check_keywords, method_name, methods, register_method
 from .free_body import with_inertia_loads
 
-__all__ = ["register_method", "METHODS", "methods", "reduce", "Method", "check_keywords"]
+__all__ = ["register_method", "METHODS", "ALIASES", "methods", "method_name", "reduce", "Method", "check_keywords"]
 
 
 def reduce(model, method: str, order: int | None, ports, *, inertia_loads: str = "auto",
@@ -80,9 +79,7 @@ def reduce(model, method: str, order: int | None, ports, *, inertia_loads: str =
         the order differs from the one asked, ``order_note`` says what was returned and
         why (the method's own reason where it gives one).
     """
-    if method not in METHODS:
-        raise OptionError(f"method={method!r} is not allowed; choose one of: {', '.join(sorted(METHODS))}",
-                          params=("method",))
+    method = method_name(method)
     m = METHODS[method]
     check_keywords(method, options, m.keywords)
     opts = {k: v for k, v in options.items() if v is not None}

@@ -8,6 +8,7 @@ them without a cycle.
 
 from __future__ import annotations
 
+import difflib
 import functools
 import inspect
 from collections.abc import Callable
@@ -16,7 +17,7 @@ from dataclasses import dataclass
 from ..errors import OptionError
 from ..options import option_fields
 
-__all__ = ["Method", "METHODS", "register_method", "check_keywords", "methods"]
+__all__ = ["Method", "METHODS", "ALIASES", "register_method", "check_keywords", "methods", "method_name"]
 
 
 @dataclass(frozen=True)
@@ -93,3 +94,26 @@ def register_method(name: str, description: str, *, options: type, survives_coup
 def methods() -> dict[str, Method]:
     """All registered methods, by name (a copy of :data:`METHODS`)."""
     return dict(METHODS)
+
+
+#: Short names in common use, each for one registered method.
+ALIASES = {"cb": "craig-bampton", "bt": "sobt", "fwbt": "fw-sobt", "cms": "cms-krylov"}
+
+
+def method_name(name) -> str:
+    """The registered name of method ``name`` (case-insensitive; an alias of :data:`ALIASES` allowed).
+
+    Raises
+    ------
+    OptionError
+        Naming ``method``: an unknown name, with the closest registered name ("did you mean")
+        and the list of them.
+    """
+    text = str(name).strip().lower()
+    text = ALIASES.get(text, text)
+    if text in METHODS:
+        return text
+    close = difflib.get_close_matches(text, [*METHODS, *ALIASES], n=1, cutoff=0.6)
+    hint = f"did you mean {ALIASES.get(close[0], close[0])!r}? " if close else ""
+    raise OptionError(f"method={name!r} is unknown; {hint}choose one of: {', '.join(sorted(METHODS))} "
+                      f"(short names: {', '.join(f'{a}={m}' for a, m in ALIASES.items())})", params=("method",))
