@@ -6,7 +6,7 @@ import sys
 
 import numpy as np
 import pytest
-from helpers import CCX, CLAMPED, FREE, run_json
+from helpers import CCX, CLAMPED, FREE, run, run_json
 
 from flexmor.cli import main
 
@@ -152,3 +152,15 @@ def test_rbe2_interface_reduce_compare_export(capsys, tmp_path):
     assert "supported" in capsys.readouterr().err and not sid.exists()
     assert main(["export", str(body), "--model", CLAMPED, "--format", "sid", "-o", str(sid), "--allow-clamped"]) == 0
     assert sid.exists()
+
+
+def test_compare_without_band_judges_over_the_band_the_body_was_reduced_for(capsys, tmp_path):
+    body = tmp_path / "k.h5"
+    made = run_json(capsys, "reduce", CLAMPED, "--method", "krylov", "--order", "6", "--input", "TIP:y",
+                    "--band", "1:2000", "-o", body)
+    out = run_json(capsys, "compare", CLAMPED, body)
+    assert out["band_hz"] == [1.0, 2000.0]  # not the default 1:1000
+    assert out["results"][0]["band_error"] == pytest.approx(made["band_error"], rel=1e-9)
+    code, text, _ = run(capsys, "compare", CLAMPED, body)
+    assert code == 0 and "band 1-2000 Hz: the band the bodies were reduced for" in text
+    assert run_json(capsys, "compare", CLAMPED, body, "--band", "1:1000")["band_hz"] == [1.0, 1000.0]

@@ -311,14 +311,31 @@ def cmd_reduce(args) -> int:
 
 # -- compare -----------------------------------------------------------------------------------
 def _model_and_bodies(args):
-    """The full model (as read, without damping), the band (default DEFAULT_BAND), the reduced
-    bodies of ``args`` and the damping asked for on the command line."""
+    """The full model (as read, without damping), the band, the reduced bodies of ``args`` and the
+    damping asked for on the command line. The band is ``--band``, else the one band the bodies
+    were reduced for (or judged over when they were made), else DEFAULT_BAND; ``args.band_source``
+    says which."""
     from ..io import read_body
     from ..workflow import DEFAULT_BAND
 
     model, t_read, band = _read_model(args, damped=False)
-    asked = _asked_damping(args, band)
-    return model, t_read, band or DEFAULT_BAND, [read_body(p) for p in args.reduced], asked
+    bodies = [read_body(p) for p in args.reduced]
+    args.band_source = "--band"
+    if band is None:
+        band = _bodies_band(bodies)
+        args.band_source = "the band the bodies were reduced for" if band else "the default band (give --band)"
+        band = band or DEFAULT_BAND
+    return model, t_read, band, bodies, _asked_damping(args, band)
+
+
+def _bodies_band(bodies):
+    """The band all ``bodies`` were reduced for (their ``info["band"]``, else the band they were
+    judged over when made), or None when they say none or differ."""
+    from ..options import Band
+
+    bands = {tuple(float(f) for f in b) if b else None
+             for b in (r.info.get("band") or (r.errors or {}).get("band_hz") for r in bodies)}
+    return Band.of(bands.pop()) if len(bands) == 1 and None not in bands else None
 
 
 def cmd_compare(args) -> int:
@@ -366,6 +383,7 @@ def cmd_compare(args) -> int:
 
     refs = sorted({"full model" + (f" with {describe_couplings(k[2])}" if k[2] else "") for k in fulls})
     print(f"reference: the {' / '.join(refs)} with each body's own damping ({'; '.join(damp)})")
+    print(f"band {band[0]:g}-{band[1]:g} Hz: {args.band_source}")
     return 0
 
 
