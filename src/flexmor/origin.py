@@ -6,8 +6,8 @@ expansion ``q ≈ V qr`` all assume that model. :func:`fingerprint` records what
 it, cheaply (O(nnz)): the number of DOF and nodes, hashes of the equation map and of ``K``,
 ``M`` (and ``D`` when given with the model), and the damping. :func:`check_origin` compares a
 body's fingerprint with a model and raises a :class:`~flexmor.errors.ModelError` that names
-the body file and what differs. Bodies written before fingerprints existed are accepted
-with a :class:`~flexmor.errors.FlexmorWarning`.
+the body file and what differs. Bodies written before fingerprints existed cannot be
+checked; reading such a file warns with a :class:`~flexmor.errors.FlexmorWarning`.
 
 :func:`reference_model` gives the model a body is judged against: its couplings applied
 and **the body's own damping** (a damping asked for on the command line that differs from
@@ -19,7 +19,6 @@ from __future__ import annotations
 import dataclasses
 import hashlib
 import math
-import warnings
 import weakref
 from pathlib import Path
 
@@ -27,7 +26,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from .damping import Damping, GivenDamping, ModalDamping, NoDamping, Rayleigh
-from .errors import FlexmorWarning, ModelError, OptionError
+from .errors import ModelError, OptionError
 from .linalg.distributed import is_partitioned
 
 __all__ = ["applied_to", "with_body_damping", "fingerprint", "matrix_hash", "check_origin", "origin_differences",
@@ -114,31 +113,42 @@ def origin_differences(recorded: dict, model) -> list[str]:
     return out
 
 
-def check_origin(body, model, path, *, couplings=()) -> None:
-    """Refuse ``model`` when it is not the one ``body`` (read from ``path``) was reduced from.
+def check_origin(body, model, path=None, *, couplings=(), label: str | None = None,
+                 advice: str = "give the model the body was reduced from") -> None:
+    """Refuse ``model`` when it is not the one ``body`` was reduced from.
 
-    ``couplings`` (named in the message) are those applied to ``model`` for the body.
+    Parameters
+    ----------
+    body : ReducedModel
+    model : FEModel or dict
+        The model, or its :func:`fingerprint` (then ``label`` names it).
+    path : str or path-like, optional
+        The body's file, naming the body in the message (else its method and order do).
+    couplings : sequence of str
+        Those applied to ``model`` for the body (named in the message).
+    label : str, optional
+        The model in the message (default: its file, with the couplings).
+    advice : str
+        The message's last words: what to do.
 
     Raises
     ------
     ModelError
-        Naming the body file, the model it came from and what differs (DOF count, equation
-        map, K, M, D). A body without a fingerprint (written by an older flexmor) only gets a
-        :class:`FlexmorWarning`.
+        Naming the body, the model it came from and what differs (DOF count, equation map, K, M,
+        D). A body without a fingerprint (made by hand or by another program) cannot be checked;
+        reading a flexmor body file without one warns (:mod:`flexmor.io.hdf5`).
     """
     recorded = getattr(body, "origin", None) or {}
-    name = Path(str(path)).name
-    where = (model.source or model.name) + (f" with {', '.join(couplings)}" if couplings else "")
-    if not recorded:
-        warnings.warn(f"body {name} records no fingerprint of the model it was reduced from (written by an older "
-                      f"flexmor or another program): it cannot be checked against {where}", FlexmorWarning,
-                      stacklevel=2)
+    diffs = origin_differences(recorded, model) if recorded else []
+    if not diffs:
         return
-    diffs = origin_differences(recorded, model)
-    if diffs:
-        came = recorded.get("source") or recorded.get("name") or "unknown"
-        raise ModelError(f"body {name} was reduced from a model with {'; '.join(diffs)} (the body's model: {came}; "
-                         f"this model: {where}); give the model the body was reduced from")
+    name = (f"body {Path(str(path)).name}" if path is not None
+            else f"body ({body.method or 'reduced'}, order {body.order})")
+    where = label if label is not None else (model.source or model.name) + (
+        f" with {', '.join(couplings)}" if couplings else "")
+    came = recorded.get("source") or recorded.get("name") or "unknown"
+    raise ModelError(f"{name} was reduced from a model with {'; '.join(diffs)} (the body's model: {came}; "
+                     f"this model: {where}); {advice}")
 
 
 def describe_damping(damping: Damping) -> str:

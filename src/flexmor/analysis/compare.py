@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import logging
 import time
-import warnings
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
@@ -15,11 +14,11 @@ from ..dynamics.dense_frf import DenseResolvent, dense_applicable
 from ..dynamics.frf import angular_frequency, frf_full, frf_reduced, rel_error
 from ..dynamics.modes import modal_damping_ratios, modes_below
 from ..dynamics.surrogate import DEFAULT_SURROGATE_TOL
-from ..errors import FlexmorWarning, ModelError, OptionError, PortError
+from ..errors import ModelError, OptionError, PortError
 from ..linalg.context import SolverContext, as_solver, step
 from ..linalg.eigen import frequencies_hz
 from ..options import Band
-from ..origin import describe_damping, fingerprint, origin_differences, same_damping
+from ..origin import check_origin, describe_damping, fingerprint, same_damping
 from ..reduction.free_body import with_elastic_inputs
 from . import cache as frf_cache
 from .frequency import MEASURE_KEYS, error_measures, error_notes
@@ -380,23 +379,13 @@ def check_judgeable(body, *, origin: dict, damping, inputs, outputs, label: str 
     Raises
     ------
     ModelError
-        The body's fingerprint names another model (DOF count, equation map, K, M, D), or its
-        damping is another. A body without a fingerprint (written by an older flexmor, or made by
-        hand) only gets a :class:`~flexmor.errors.FlexmorWarning`.
+        The body's fingerprint names another model (DOF count, equation map, K, M, D:
+        :func:`flexmor.origin.check_origin`), or its damping is another.
     PortError
         Its inputs or outputs are others (names, or their number).
     """
+    check_origin(body, origin, label=label, advice="judge it against the model it was reduced from")
     name = f"body ({body.method or 'reduced'}, order {body.order})"
-    if body.origin:
-        diffs = origin_differences(body.origin, origin)
-        if diffs:
-            came = body.origin.get("source") or body.origin.get("name") or "unknown"
-            raise ModelError(f"{name} was reduced from a model with {'; '.join(diffs)} (the body's model: "
-                             f"{came}; this reference: {label}); judge it against the model it was "
-                             "reduced from", params=("model",))
-    else:
-        warnings.warn(f"{name} records no fingerprint of the model it was reduced from: it cannot be checked "
-                      f"against {label}", FlexmorWarning, stacklevel=4)
     if not same_damping(body.damping, damping):
         raise ModelError(f"{name} was reduced with damping {describe_damping(body.damping)}; this reference "
                          f"has {describe_damping(damping)}. A body is judged against the full model with "

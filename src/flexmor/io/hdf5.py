@@ -13,10 +13,12 @@ from __future__ import annotations
 
 import copy
 import json
+import warnings
+from pathlib import Path
 
 import numpy as np
 
-from ..errors import ReadError
+from ..errors import FlexmorWarning, ReadError
 from ..jsonutil import jsonable
 from ._registry import BODY_FORMATS, EXPORT_FORMATS
 from .atomic import atomic_write
@@ -151,6 +153,10 @@ def _read(path):
             raise ReadError(path, f"incomplete or corrupt reduced body ({exc})") from None
     if not all(np.all(np.isfinite(a)) for a in (red.M, red.K, red.B, red.C) + ((red.D,) if red.D is not None else ())):
         raise ReadError(path, "the reduced matrices contain NaN or Inf")
+    if not red.origin:
+        warnings.warn(f"body {Path(path).name} records no fingerprint of the model it was reduced from (written by "
+                      "an older flexmor or another program): it cannot be checked against the model it is judged "
+                      "or exported with", FlexmorWarning, stacklevel=3)
     return red
 
 
