@@ -197,7 +197,8 @@ def test_report_plots_judge_what_the_table_judges(free, tmp_path):
     """A mixed report (a body without rigid motion, one with it): each body's |H| reference and time-error
     curve are those of its table row. Before, the time plot compared every body with the whole response
     when not all were elastic: the Craig-Bampton curve rose to 1.0 while its row said 3e-2."""
-    from flexmor.report.html import build_report, render_html
+    from flexmor.report.contents import build_report
+    from flexmor.report.html import render_html
 
     model = apply_damping(couple(free, ["FIX@rbe2", "TIP@rbe2"]).model, modal_damping=0.01, band=BAND)
     ports = make_ports(model, ["TIP@rbe2:y"])

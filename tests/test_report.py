@@ -67,7 +67,8 @@ def test_truncated_bases_have_upper_bound_frequencies(clamped, free):
 
 @pytest.fixture(scope="module")
 def report(clamped, tmp_path_factory):
-    from flexmor.report.html import build_report, write_report
+    from flexmor.report.contents import build_report
+    from flexmor.report.html import write_report
 
     model = clamped.with_rayleigh(0.0, 1e-6)
     ports = make_ports(model, ["TIP:y", "TIP:z"])
@@ -169,7 +170,7 @@ def test_report_on_a_model_without_node_coordinates():
     from helpers import DATA
 
     from flexmor.io import read
-    from flexmor.report.html import build_report
+    from flexmor.report.contents import build_report
 
     model = read(DATA / "mor" / "LF10.mat")  # matrices with their own B, C and D, no nodes
     ports = make_ports(model)

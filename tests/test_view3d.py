@@ -98,7 +98,8 @@ def test_points_where_the_model_has_no_elements():
 
 @pytest.fixture(scope="module")
 def report(tmp_path_factory):
-    from flexmor.report.html import build_report, write_report
+    from flexmor.report.contents import build_report
+    from flexmor.report.html import write_report
     from flexmor.workflow import prepare_model
 
     model = prepare_model(cantilever(2).with_rayleigh(0.0, 1e-6), ["TIP@rbe2"])

@@ -258,7 +258,7 @@ def run_demo(out, *, n: int = 4, band=(10.0, 3000.0), progress=None, on_result=N
     tip's centre node as interface (3 DOF) plus 5 and 13 fixed-interface modes, and
     ``krylov`` and ``fw-sobt`` at r = 8 over the band. Writes one
     ``.h5`` per reduced body, ``rel_error.png`` and the HTML report ``report.html``
-    (:mod:`flexmor.report.html`) into ``out``; ``progress`` is shown the long steps
+    (:mod:`flexmor.report.contents`, :mod:`flexmor.report.html`) into ``out``; ``progress`` is shown the long steps
     (:func:`flexmor.linalg.context.track`), ``time_progress`` wraps its time integration.
 
     Returns the list of result records (as :func:`reduce_and_judge`) with ``file`` added.
@@ -289,7 +289,8 @@ def run_demo(out, *, n: int = 4, band=(10.0, 3000.0), progress=None, on_result=N
             on_result(res)
     plot_rel_error(full.freqs, curves, out / "rel_error.png",
                    title=f"{model.name}: {model.n_dof} DOF, inputs/outputs TIP:y, TIP:z")
-    from .report.html import build_report, write_report
+    from .report.contents import build_report
+    from .report.html import write_report
 
     rep = build_report(model, ports, reds, band=band, full=full, seconds=[r["seconds"] for r in results],
                        solver=solver, time_progress=time_progress)

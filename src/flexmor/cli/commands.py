@@ -400,7 +400,8 @@ def _full_response(args, model, ports, band, solver):
 def cmd_report(args) -> int:
     from ..origin import describe_damping, reference_model, same_damping
     from ..ports import make_ports
-    from ..report.html import build_report, write_report
+    from ..report.contents import build_report
+    from ..report.html import write_report
 
     _check_new(args.output_file, args)
     model, t_read, band, reds, asked = _model_and_bodies(args)
