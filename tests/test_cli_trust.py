@@ -218,7 +218,7 @@ class _DiesInDestructor:
 
 
 def test_sigterm_lost_in_a_destructor_still_ends_with_143_and_no_output(capsys, monkeypatch, tmp_path):
-    import flexmor.workflow as wf
+    import flexmor.study as wf
 
     orig = wf.reduce_and_judge
 

@@ -145,3 +145,57 @@ def test_system_on_a_free_body_with_an_interface_coupling(free):
     assert record["band_hz"] == list(BAND) and record["mounted"]["cases"][0]["interface"] == "TIP@RBE2"
     assert {k: record[k] for k in ("band_error", "hinf_error", "judged")} == \
         {k: s.judge(body).to_dict()[k] for k in ("band_error", "hinf_error", "judged")}
+
+
+def test_the_command_line_reduce_is_system_reduce_and_judge(capsys, monkeypatch, tmp_path):
+    """``flexmor reduce`` makes its body and record with System.reduce_and_judge: the same numbers
+    as the study from Python, and what System records reaches the file and the JSON."""
+    from helpers import run_json
+
+    import flexmor.study
+
+    calls = []
+    orig = flexmor.study.System.reduce_and_judge
+
+    def spy(self, method, order=None, **kw):
+        calls.append((method, order, self.couplings, self.selections, kw.get("judge", True)))
+        return orig(self, method, order, **kw)
+
+    monkeypatch.setattr(flexmor.study.System, "reduce_and_judge", spy)
+    rec = run_json(capsys, "reduce", CCX / "beam8_free_mat.sti", "--method", "krylov", "--order", "10",
+                   "--input", "TIP:y", "--input", "FIX@rbe2:y", "--band", "10:3000", "--rayleigh", "0:1e-6",
+                   "--select", "Q=nearest:0,0,0", "--no-cache", "-o", tmp_path / "k.h5")
+    assert calls == [("krylov", 10, ["FIX@rbe2"], ["Q=nearest:0,0,0"], True)]
+    assert rec["timings"]["full_frf"] > 0 and rec["couplings"] == ["FIX@rbe2"] and rec["coupling_frequencies"]
+    body = flexmor.read_body(tmp_path / "k.h5")
+    assert body.couplings == ["FIX@rbe2"] and body.selections == ["Q=nearest:0,0,0"]
+    monkeypatch.undo()
+    study = flexmor.System(CCX / "beam8_free_mat.sti", inputs=["TIP:y", "FIX@rbe2:y"], band=BAND,
+                           damping=Rayleigh(0.0, 1e-6), cache=False)
+    same, srec = study.reduce_and_judge("krylov", 10)
+    assert np.allclose(same.K, body.K, rtol=1e-12, atol=0)
+    assert srec["band_error"] == pytest.approx(rec["band_error"], rel=1e-9)
+    assert srec["mounted"]["cases"] and len(srec["mounted"]["cases"]) == len(rec["mounted"]["cases"])
+
+
+def test_system_reduce_and_judge_computes_the_full_frf_once_and_after_the_reduction(clamped, monkeypatch):
+    import flexmor.analysis.compare as compare
+
+    made = []
+    orig = compare.FullResponse.__init__
+
+    def init(self, *a, **k):
+        made.append(1)
+        orig(self, *a, **k)
+
+    monkeypatch.setattr(compare.FullResponse, "__init__", init)
+    s = flexmor.System(clamped, inputs=["TIP:y"], band=BAND, damping=Rayleigh(0.0, 1e-6), cache=False)
+    body, rec = s.reduce_and_judge("modal", 6, judge=False)
+    assert made == [] and rec["band_error"] is None and "full_frf" not in rec["timings"]
+    assert body.info["band"] is None and rec["order"] == 6
+    _, first = s.reduce_and_judge("krylov", 8)
+    _, second = s.reduce_and_judge("krylov", 12)
+    assert made == [1] and second["timings"]["full_frf"] < 0.1 * first["timings"]["full_frf"]
+    assert second["band_error"] < first["band_error"] < 1e-3
+    prepared = flexmor.System.prepared(s.model, s.ports, band=BAND, cache=False)
+    assert prepared.judge(s.reduce("krylov", 8)).band_error == pytest.approx(first["band_error"], rel=1e-9)

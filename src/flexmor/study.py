@@ -76,19 +76,40 @@ class System:
             from .io import read
 
             model = read(model)
-        self.as_read = model
-        self.interfaces = [str(s) for s in interfaces]
-        self.band = Band.of(band)
-        self.couplings = coupling_specs(self.interfaces, [*inputs, *outputs])
-        model = prepare_model(model, self.couplings)
+        interfaces = [str(s) for s in interfaces]
+        couplings = coupling_specs(interfaces, [*inputs, *outputs])
+        coupled = prepare_model(model, couplings)
         if damping is not None:
-            damping = damping if isinstance(damping, Damping) else damping_of(**{"band": self.band, **damping})
-            model = model.with_damping(damping)
-        self.model = model
-        self.ports = make_ports(model, inputs, outputs)
+            damping = damping if isinstance(damping, Damping) else damping_of(**{"band": Band.of(band), **damping})
+            coupled = coupled.with_damping(damping)
+        self._setup(coupled, make_ports(coupled, inputs, outputs), as_read=model, couplings=couplings,
+                    interfaces=interfaces, band=band, solver=solver, grid=grid)
+
+    @classmethod
+    def prepared(cls, model, ports, *, as_read=None, couplings=(), interfaces=(), selections=(), band=None,
+                 solver: SolverContext | None = None, **grid) -> System:
+        """The study of a model already prepared: read, its node selections, ``couplings``
+        (:func:`flexmor.workflow.prepare_model`) and damping applied, with its ``ports``.
+
+        ``as_read`` is the model before its couplings (for the coupling frequencies of
+        :meth:`reduce_and_judge`; None leaves them out), ``selections`` the ``NAME=...`` texts of
+        :func:`flexmor.selection.with_selections` that made node sets of it (recorded on the bodies,
+        like ``couplings`` and ``interfaces``); the rest as for :class:`System`.
+        """
+        system = cls.__new__(cls)
+        system._setup(model, ports, as_read=as_read, couplings=[str(s) for s in couplings],
+                      interfaces=[str(s) for s in interfaces], band=band, solver=solver, grid=grid,
+                      selections=[str(s) for s in selections])
+        return system
+
+    def _setup(self, model, ports, *, as_read, couplings, interfaces, band, solver, grid, selections=()) -> None:
+        self.model, self.ports, self.as_read = model, ports, as_read
+        self.couplings, self.interfaces, self.selections = list(couplings), list(interfaces), list(selections)
+        self.band = Band.of(band)
         self.solver = as_solver(solver)
         self._grid = grid
         self._full: FullResponse | None = None
+        self._origin: dict | None = None
 
     def __repr__(self) -> str:
         return (f"System({self.model.name!r}, {self.model.n_dof} DOF, inputs={self.ports.input_names}, "
@@ -120,38 +141,52 @@ class System:
         Returns
         -------
         ReducedModel
-            Recording the couplings and interfaces it was reduced with.
+            Recording the couplings, interfaces and selections it was reduced with.
         """
         from .reduction import reduce
 
         options = self.options(method, options)
         options.setdefault("solver", self.solver)
         body = reduce(self.model, method, order, self.ports, **options)
-        record_setup(body, couplings=self.couplings, interfaces=self.interfaces)
+        self._record(body)
         return body
 
-    def reduce_and_judge(self, method: str, order: int | None = None, **options):
-        """:func:`flexmor.workflow.reduce_and_judge` on this study (its full FRF reused):
-        ``(body, record)``, the record of ``flexmor reduce --json``."""
+    def reduce_and_judge(self, method: str, order: int | None = None, *, judge: bool = True, **options):
+        """:func:`flexmor.workflow.reduce_and_judge` on this study: ``(body, record)``, the record
+        of ``flexmor reduce --json``.
+
+        The full FRF (:attr:`full`) is computed after the reduction on first use and reused;
+        ``record["timings"]["full_frf"]`` is the time spent on it in this call. ``judge=False``
+        reduces without the error evaluation (the record's measures are None). ``options`` are the
+        method's and those of :func:`~flexmor.workflow.reduce_and_judge` (``tol``, ``tol_measure``,
+        ``mounted``).
+        """
         options = self.options(method, options)
-        body, record = reduce_and_judge(self.model, method, order, self.ports, full=self.full, solver=self.solver,
+        method_band = options.pop("band", None)  # the method's band (the study's unless given)
+        body, record = reduce_and_judge(self.model, method, order, self.ports, method_band=method_band,
+                                        full=(lambda: self.full) if judge else None, solver=self.solver,
                                         uncoupled=self.as_read if self.couplings else None,
                                         couplings=self.couplings, **options)
-        record_setup(body, couplings=self.couplings, interfaces=self.interfaces)
+        self._record(body)
         return body, record
+
+    def _record(self, body) -> None:
+        record_setup(body, couplings=self.couplings, interfaces=self.interfaces, selections=self.selections)
 
     def check(self, body) -> None:
         """Refuse ``body`` when it was not reduced from this model, with this damping and these
         ports (:func:`flexmor.analysis.compare.check_judgeable`: ModelError or PortError, with the reason)."""
         from .origin import fingerprint
 
-        check_judgeable(body, origin=fingerprint(self.model), damping=self.model.damping,
-                   inputs=self.ports.input_names, outputs=self.ports.output_names,
-                   label=str(self.model.source or self.model.name))
+        if self._origin is None:
+            self._origin = self._full.origin if self._full is not None else fingerprint(self.model)
+        check_judgeable(body, origin=self._origin, damping=self.model.damping,
+                        inputs=self.ports.input_names, outputs=self.ports.output_names,
+                        label=str(self.model.source or self.model.name))
 
     def judge(self, body) -> ErrorMeasures:
         """The error measures of ``body`` over the band (:meth:`FullResponse.evaluate`); a body of
-        another model, damping or ports is refused with the reason."""
+        another model, damping or ports is refused with the reason (before the full FRF is computed)."""
         self.check(body)
         return self.full.evaluate(body)
 

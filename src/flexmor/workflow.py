@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import logging
 import time
+from collections.abc import Callable
 from pathlib import Path
 
 from .analysis.compare import FullResponse
@@ -94,7 +95,8 @@ def body_model(model, body, path="the body", *, damping: Damping | None = None):
     return reference_model(model, body, path, damping=damping)
 
 
-def reduce_and_judge(model, method: str, order, ports, *, band=None, full: FullResponse | None = None,
+def reduce_and_judge(model, method: str, order, ports, *, band=None,
+                     full: FullResponse | Callable[[], FullResponse] | None = None,
                      n_freq: int = 50, grid_tol: float | None = None, full_frf: str = "auto", cache=True,
                      solver: SolverContext | None = None, progress=None, tol: float | None = None, method_band=None,
                      tol_measure: str = "band_error", mounted: bool = True, uncoupled=None, couplings=(),
@@ -105,8 +107,9 @@ def reduce_and_judge(model, method: str, order, ports, *, band=None, full: FullR
     ``method, order, order_requested, order_note, seconds, band_hz``, the error measures of
     :data:`flexmor.analysis.frequency.MEASURE_KEYS` (``band_error``, ``rms_rel_error_pct``,
     ``hinf_error``, ``max_rel_error`` ...), ``notes``, ``frequencies_hz``, ``timings``.
-    ``full`` (a :class:`FullResponse`) is reused when given, else computed (``band=None``
-    skips the error evaluation); a method with a ``band`` option builds for ``band``, else for the
+    ``full`` (a :class:`FullResponse`, or a function returning one, called when it is needed:
+    after the reduction, or first in the target-error mode) is reused when given, else computed
+    (``band=None`` skips the error evaluation); a method with a ``band`` option builds for ``band``, else for the
     band of ``full``, else for ``method_band`` (unless ``options`` give ``band``). ``n_freq``,
     ``grid_tol``, ``full_frf`` (the path: auto, direct, surrogate) and ``cache`` are passed to
     :class:`FullResponse`; ``result["grid"]`` describes the grid (size, tolerance, resonances,
@@ -132,6 +135,11 @@ def reduce_and_judge(model, method: str, order, ports, *, band=None, full: FullR
     """
     solver = as_solver(solver)
     check_rigid_body_modes(model, solver=solver)
+    full_of = full if callable(full) and not isinstance(full, FullResponse) else None
+    if full_of is not None:
+        if band is not None:
+            raise OptionError("give band or full, not both, when full is a function", params=("band", "full"))
+        full = None
     if full is not None and band is not None and not _same_band(band, full.band):
         raise OptionError(f"band {tuple(Band.of(band))} differs from the band of full {full.band}; give one of them",
                           params=("band", "full"))
@@ -142,9 +150,11 @@ def reduce_and_judge(model, method: str, order, ports, *, band=None, full: FullR
         from .tolerance import check_tol_method
 
         check_tol_method(method)
-        if full is None and band is None:
+        if full is None and band is None and full_of is None:
             raise OptionError("tol needs the error evaluation over a band (band is None)", params=("tol",))
-        if full is None:
+        if full_of is not None:
+            full, t_full = _timed(full_of)
+        elif full is None:
             grid_opts = {} if grid_tol is None else {"tol": grid_tol}
             full = FullResponse(model, ports, band, n=n_freq, solver=solver, path=full_frf, cache=cache,
                                 progress=progress, **grid_opts)
@@ -174,7 +184,9 @@ def reduce_and_judge(model, method: str, order, ports, *, band=None, full: FullR
         "frequencies_hz": red.frequencies_hz().tolist(),
         "info": red.info,
     }
-    if full is None and band is not None:
+    if full is None and full_of is not None:
+        full, t["full_frf"] = _timed(full_of)
+    elif full is None and band is not None:
         grid_opts = {} if grid_tol is None else {"tol": grid_tol}
         full = FullResponse(model, ports, band, n=n_freq, solver=solver, path=full_frf, cache=cache,
                             progress=progress, **grid_opts)
@@ -244,6 +256,13 @@ def with_method_band(method: str, band, options: dict) -> dict:
     if method not in registry or "band" not in registry[method].options:
         return dict(options)
     return {**options, "band": tuple(Band.of(band))}
+
+
+def _timed(make):
+    """``(make(), wall time)``."""
+    t0 = time.perf_counter()
+    out = make()
+    return out, time.perf_counter() - t0
 
 
 def _same_band(a, b) -> bool:

@@ -248,7 +248,8 @@ def cmd_reduce(args) -> int:
     from ..io import write_body
     from ..origin import describe_damping
     from ..ports import make_ports
-    from ..workflow import DEFAULT_BAND, coupling_specs, record_setup, reduce_and_judge
+    from ..study import System
+    from ..workflow import coupling_specs
 
     options = method_options(args, args.method)  # before any work: flags the method does not take
     if args.tol is not None and args.no_error:
@@ -260,20 +261,17 @@ def cmd_reduce(args) -> int:
     couplings = coupling_specs(args.interface, args.input + args.output)
     keep = {}
     model, t_read, given_band = _read_model(args, couplings, keep=keep)
-    ports = make_ports(model, args.input, args.output)
-    uncoupled = None if is_partitioned(model.K) else keep.get("uncoupled")  # (MPI: the coupled model only)
-    band = None if args.no_error else (given_band or DEFAULT_BAND)
     solver = _solver(args)
-    red, res = reduce_and_judge(model, args.method, args.order, ports, band=band, method_band=given_band,
-                                n_freq=args.n_freq, grid_tol=args.grid_tol, full_frf=args.full_frf,
-                                cache=not args.no_cache, solver=solver, progress=_progress(args, "full FRF"),
-                                tol=args.tol, tol_measure=args.tol_measure, inertia_loads=args.inertia_loads,
-                                uncoupled=uncoupled, couplings=couplings, mounted=not args.no_mounted, **options)
+    system = System.prepared(model, make_ports(model, args.input, args.output),
+                             as_read=None if is_partitioned(model.K) else keep.get("uncoupled"),  # (MPI: coupled only)
+                             couplings=couplings, interfaces=args.interface, selections=args.select,
+                             band=given_band, solver=solver, **_grid_options(args))
+    red, res = system.reduce_and_judge(args.method, args.order, judge=not args.no_error, tol=args.tol,
+                                       tol_measure=args.tol_measure, inertia_loads=args.inertia_loads,
+                                       mounted=not args.no_mounted, **options)
     res["timings"]["read"] = t_read
     if is_partitioned(model.K):  # under mpirun with --backend petsc: the rows of K held by each rank
         res["partition"] = row_blocks(model.K)
-    # the fingerprint (of the coupled model) also names what made it: couplings, interfaces, selections
-    record_setup(red, couplings=couplings, interfaces=args.interface, selections=args.select)
     if couplings:
         res["couplings"] = list(couplings)
     if args.select:
@@ -339,22 +337,27 @@ def _bodies_band(bodies):
 
 
 def cmd_compare(args) -> int:
-    from ..analysis.mounted import FullMounted, mounted_record
+    from ..analysis.mounted import FullMounted
     from ..origin import describe_damping, reference_model
     from ..ports import make_ports
+    from ..study import System
 
     model, t_read, band, reds, asked = _model_and_bodies(args)
     solver = _solver(args)
-    fulls, mounts, rows = {}, {}, []
+    systems, mounts, rows = {}, {}, []
     for path, red in zip(args.reduced, reds):
         couplings = tuple(red.couplings)
         ref = reference_model(model, red, path, damping=asked)
         key = (tuple(red.input_names), tuple(red.output_names), couplings, tuple(red.selections),
                str(ref.damping.to_dict()))
-        if key not in fulls:
-            fulls[key] = _full_response(args, ref, make_ports(ref, *key[:2]), band, solver)
+        if key not in systems:
+            systems[key] = System.prepared(ref, make_ports(ref, *key[:2]), couplings=couplings, band=band,
+                                           solver=solver, **_grid_options(args))
+        system = systems[key]
+        system.check(red)  # before its full FRF
+        system.full  # noqa: B018 (computed once per model, damping and ports)
         t0 = time.perf_counter()
-        err = fulls[key].evaluate(red)
+        err = system.judge(red)
         t_err = time.perf_counter() - t0
         row = {"file": str(path), "method": red.method, "order": red.order, "band_hz": list(band),
                **err.to_dict(), "damping": ref.damping.to_dict(),
@@ -363,12 +366,12 @@ def cmd_compare(args) -> int:
         mkey = key[2:4]
         if mkey not in mounts:
             mounts[mkey] = FullMounted(ref, solver=solver)
-        row["mounted"] = mounted_record(mounts[mkey].model, red, full=mounts[mkey], band=band,
-                                        band_rms_error=row["band_rms_error"])
+        row["mounted"] = system.mounted(red, full=mounts[mkey], band_rms_error=row["band_rms_error"])
         row["timings"]["mounted"] = time.perf_counter() - t0
         if row["mounted"] and row["mounted"]["note"]:
             row["notes"].append(row["mounted"]["note"])
         rows.append(row)
+    fulls = {k: s.full for k, s in systems.items()}
     if args.json:
         grids = [dict(f.summary(), inputs=list(k[0]), outputs=list(k[1]), couplings=list(k[2]))
                  for k, f in fulls.items()]
@@ -387,13 +390,14 @@ def cmd_compare(args) -> int:
     return 0
 
 
-def _full_response(args, model, ports, band, solver):
-    """The full FRF over ``band`` with the sweep options of the command line."""
-    from ..analysis.compare import FullResponse
-
-    grid_opts = {} if args.grid_tol is None else {"tol": args.grid_tol}
-    return FullResponse(model, ports, band, n=args.n_freq, solver=solver, path=args.full_frf,
-                        cache=not args.no_cache, progress=_progress(args, "full FRF"), **grid_opts)
+def _grid_options(args) -> dict:
+    """The full FRF's options (:class:`flexmor.analysis.compare.FullResponse`) of the command line:
+    ``--n-freq``, ``--grid-tol``, ``--full-frf``, ``--no-cache`` and the progress lines."""
+    grid = {"n": args.n_freq, "path": args.full_frf, "cache": not args.no_cache,
+            "progress": _progress(args, "full FRF")}
+    if args.grid_tol is not None:
+        grid["tol"] = args.grid_tol
+    return grid
 
 
 # -- report ------------------------------------------------------------------------------------
@@ -402,6 +406,7 @@ def cmd_report(args) -> int:
     from ..ports import make_ports
     from ..report.contents import build_report
     from ..report.html import write_report
+    from ..study import System
 
     _check_new(args.output_file, args)
     model, t_read, band, reds, asked = _model_and_bodies(args)
@@ -422,9 +427,12 @@ def cmd_report(args) -> int:
                           "compare them with flexmor compare, or make one report per damping")
     as_read = model
     model = [reference_model(model, r, p, damping=asked) for p, r in zip(args.reduced, reds)][0]
-    ports = make_ports(model, *key[:2])
     solver = _solver(args)
-    full = _full_response(args, model, ports, band, solver)
+    system = System.prepared(model, make_ports(model, *key[:2]), couplings=key[2], band=band, solver=solver,
+                             **_grid_options(args))
+    for r in reds:
+        system.check(r)
+    ports, full = system.ports, system.full
     coupling = reds[0].info.get("coupling_frequencies")
     if key[2] and not coupling and not is_partitioned(model.K):  # a body written before it was recorded
         from ..checks import coupling_frequencies
