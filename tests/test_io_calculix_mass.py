@@ -37,7 +37,7 @@ def test_massless_nodes(tmp_path, clamped, method):
     M = np.diag(np.asarray(clamped.M.sum(axis=1)).ravel())  # row-sum lumping
     massless = np.isin(clamped.dofs[:, 0], clamped.dofs[::7, 0])
     M[massless, massless] = 0.0
-    with pytest.warns(FlexmorWarning, match=r"diagonal is not positive at \d+ equation.*C3D20R.*shift-invert"):
+    with pytest.warns(FlexmorWarning, match=r"diagonal is not positive at \d+ equation.*still work"):
         model = flexmor.io.read(_job(tmp_path, M))
     assert model.M.diagonal().min() == 0.0
     lam, phi = eigenmodes(model.K, model.M, 4, method=method)
@@ -58,7 +58,7 @@ def test_rank_deficient_consistent_mass(tmp_path, clamped, method):
     Ms = M - mu[0] * np.outer(U[:, 0], U[:, 0]) - mu[1] * np.outer(U[:, 1], U[:, 1])  # rank n - 2, PSD
     Ms = 0.5 * (Ms + Ms.T)
     assert Ms.diagonal().min() > 0
-    with pytest.warns(FlexmorWarning, match=r"job\.mas \(C3D20R elements\): the mass matrix is singular"):
+    with pytest.warns(FlexmorWarning, match=r"job\.mas \(C3D20R elements\): the mass matrix is (singular|indefinite)"):
         model = flexmor.io.read(_job(tmp_path, Ms))
     lam, _ = eigenmodes(model.K, model.M, 3, method=method)
     mu = sla.eigh(Ms, clamped.K.toarray(), eigvals_only=True)  # K positive definite, Ms singular: 1 / lambda
@@ -87,7 +87,7 @@ def test_abaqus_massless_equation(tmp_path, block, ok):
             flexmor.io.read(tmp_path / f"{block}.inp")
         return
     with pytest.warns(FlexmorWarning,
-                      match=r"blockC3D10.inp: mass matrix diagonal is not positive at 1 equation.*shift-invert"):
+                      match=r"blockC3D10.inp: mass matrix diagonal is not positive at 1 equation.*still work"):
         model = flexmor.io.read(tmp_path / f"{block}.inp")
     assert model.M.diagonal()[0] == 0.0 and np.count_nonzero(model.M.diagonal() <= 0) == 1
 

@@ -128,7 +128,7 @@ def test_read_body_refuses_an_unknown_suffix_and_lists_the_body_formats(tmp_path
     assert str(path) in msg and "'.xyz'" in msg
     assert ".h5 .hdf5 (hdf5)" in msg and ".op4 .pch (nastran-se)" in msg
     assert ".sti" not in msg  # FE model suffixes are not body formats
-    with pytest.raises(OptionError, match="not a reduced body format; choose one of: hdf5, nastran-se"):
+    with pytest.raises(OptionError, match="not a known reduced body file type; choose one of: hdf5, nastran-se"):
         flexmor.io.read_body(path, format="calculix")
 
 

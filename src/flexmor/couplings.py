@@ -46,7 +46,7 @@ import numpy as np
 import scipy.linalg as sla
 import scipy.sparse as sp
 
-from .errors import ModelError, PortError
+from .errors import ModelError, PortError, did_you_mean
 from .linalg.distributed import is_partitioned
 from .model import FEModel
 
@@ -93,7 +93,8 @@ def _set_nodes(model: FEModel, name: str, spec: str) -> np.ndarray:
         nodes = np.array([int(name)], dtype=np.int64)
     else:
         sets = ", ".join(sorted(model.node_sets)) or "none"
-        raise PortError(f"coupling {spec!r}: {name!r} is neither a node set nor a node (sets: {sets})")
+        raise PortError(f"coupling {spec!r}: {name!r} is neither a node set nor a node; "
+                        f"{did_you_mean(name, model.node_sets)}(sets: {sets})")
     if model.dofs is None or not model.n_nodes:
         raise PortError(f"coupling {spec!r}: the model has no node table and equation map")
     if nodes.size == 0:

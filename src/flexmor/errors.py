@@ -18,6 +18,7 @@ __all__ = [
     "ConvergenceError",
     "OptionError",
     "FlexmorWarning",
+    "did_you_mean",
 ]
 
 
@@ -145,10 +146,24 @@ def name_parameters(text: str, params, names=None) -> str:
     return text
 
 
+def did_you_mean(text, choices, *, aliases=None) -> str:
+    """``"did you mean 'X'? "`` with the choice closest to ``text`` (case ignored; ``aliases`` maps
+    a short name to the name it stands for), or ``""`` when none is close."""
+    import difflib
+
+    names = {str(c).lower(): str(c) for c in choices}
+    close = difflib.get_close_matches(str(text).strip().lower(), list(names), n=1, cutoff=0.6)
+    if not close:
+        return ""
+    name = names[close[0]]
+    return f"did you mean {(aliases or {}).get(name, name)!r}? "
+
+
 def check_choice(name: str, value: str, allowed) -> str:
-    """Return `value` if it is one of `allowed`, else raise :class:`OptionError` listing them."""
+    """Return `value` if it is one of `allowed`, else raise :class:`OptionError` listing them
+    (and the closest one)."""
     allowed = list(allowed)
     if value not in allowed:
-        raise OptionError(f"{name}={value!r} is not allowed; choose one of: {', '.join(map(str, allowed))}",
-                          params=(name,))
+        raise OptionError(f"{name}={value!r} is not allowed; {did_you_mean(value, allowed)}choose one of: "
+                          f"{', '.join(map(str, allowed))}", params=(name,))
     return value

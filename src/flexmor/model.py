@@ -38,13 +38,8 @@ _DIR_NAMES = {v: k for k, v in DIRECTIONS.items()}
 
 #: What a singular or indefinite mass matrix allows (appended to its warning).
 SINGULAR_MASS_NOTE = (
-    "the mass matrix is singular or indefinite, as 20-node hexahedra with reduced integration (C3D20R) can "
-    "give. Methods that only factorize K - sigma M with sigma < 0, or K, still work: eigenmodes by "
-    "shift-invert (modal, craig-bampton, cms-*), guyan, krylov/adaptive/irka/two-step with real or "
-    "imaginary expansion points, and the FRF / error evaluation. What needs M^-1 does not: time "
-    "integration of the full model with a non-zero initial force (initial acceleration), first-order "
-    "state-space forms with M^-1 K. With negative diagonal entries (indefinite M) spurious negative "
-    "eigenvalues can appear: check the frequencies")
+    "every method and the error evaluation still work (they factorize K - sigma M, sigma < 0, or K); "
+    "what needs M^-1 does not (time integration of the full model from a non-zero initial force)")
 
 #: Relative tolerance of the symmetry check ``max|A - A^T| <= tol * max|A|``.
 SYMMETRY_RTOL = 1e-8

@@ -19,6 +19,10 @@ A port SPEC is a string:
     (:mod:`flexmor.couplings`); ``DIR`` may be a rotation. ``SET@rbe2`` changes the model:
     apply :func:`flexmor.couplings.couple` first, then ``SET@rbe2`` and ``SET@rbe2:DIR``
     name the master node of the coupled model (also as interface: 6 DOFs).
+``TARGET:all``
+    one port per direction: the six of a coupling master (``SET@rbe2:all``, ``SET@rbe3:all``:
+    ``x y z rx ry rz``), those of a node or set that are equations of the model
+    (:func:`expand_specs`; the ports are named ``TARGET:x`` ...).
 
 Models read with their own ``B``/``C`` (MATLAB benchmarks) use those when no SPEC is given.
 """
@@ -31,10 +35,10 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
-from .errors import PortError
+from .errors import PortError, did_you_mean
 from .model import DIRECTIONS, FEModel, direction_code
 
-__all__ = ["Ports", "make_ports", "interface_dofs", "parse_spec"]
+__all__ = ["Ports", "make_ports", "interface_dofs", "parse_spec", "expand_specs"]
 
 
 @dataclass
@@ -180,6 +184,30 @@ def parse_spec(spec: str):
     return spec, None
 
 
+def expand_specs(model: FEModel, specs) -> list[str]:
+    """``specs`` with each ``TARGET:all`` replaced by one SPEC per direction: ``x y z rx ry rz``
+    for a coupling master (``SET@rbe2``, ``SET@rbe3``), else the directions of the node's (set's
+    nodes') equations in the model."""
+    out = []
+    for spec in specs:
+        target, _, d = str(spec).strip().rpartition(":")
+        if d.strip().lower() != "all" or not target:
+            out.append(spec)
+            continue
+        target = target.strip()
+        if "@" in target and target.replace(" ", "").upper() not in model.node_sets:
+            codes = list(DIRECTIONS.values())
+        else:
+            nodes = _nodes_of(model, target, spec)
+            if model.dofs is None:
+                raise PortError(f"port {spec!r}: the model has no equation map, so directions cannot be listed")
+            codes = sorted(set(model.dofs[np.isin(model.dofs[:, 0], nodes), 1].tolist()))
+            if not codes:
+                raise PortError(f"port {spec!r}: {target!r} has no free equation (constrained?)")
+        out += [f"{target}:{name}" for name, code in DIRECTIONS.items() if code in codes]
+    return out
+
+
 def _nodes_of(model: FEModel, target: str, spec: str) -> np.ndarray:
     if target.upper() in model.node_sets:
         nodes = model.node_sets[target.upper()]
@@ -190,7 +218,8 @@ def _nodes_of(model: FEModel, target: str, spec: str) -> np.ndarray:
         node = int(target)
     except ValueError:
         sets = ", ".join(sorted(model.node_sets)) or "none"
-        raise PortError(f"port {spec!r}: {target!r} is neither a node id nor a node set (sets: {sets})") from None
+        raise PortError(f"port {spec!r}: {target!r} is neither a node id nor a node set; "
+                        f"{did_you_mean(target, model.node_sets)}(sets: {sets})") from None
     if model.dofs is None:
         raise PortError(f"port {spec!r}: the model has no equation map, so nodes cannot be addressed")
     if model.n_nodes and not model.has_node(node):
@@ -242,7 +271,8 @@ def make_ports(model: FEModel, inputs=(), outputs=()) -> Ports:
     ----------
     model : FEModel
     inputs, outputs : sequence of str
-        SPECs (see module docstring). Without inputs the model's own ``B`` is used; without
+        SPECs (see module docstring; ``TARGET:all`` gives one port per direction,
+        :func:`expand_specs`). Without inputs the model's own ``B`` is used; without
         outputs the model's own ``C``, or else the outputs equal the inputs (collocated).
 
     Returns
@@ -254,7 +284,7 @@ def make_ports(model: FEModel, inputs=(), outputs=()) -> Ports:
     PortError
         Unknown node, set or direction, or no inputs at all.
     """
-    inputs, outputs = list(inputs or []), list(outputs or [])
+    inputs, outputs = expand_specs(model, inputs or []), expand_specs(model, outputs or [])
     if inputs:
         B, in_names = _matrix(model, inputs), inputs
     elif model.B is not None:

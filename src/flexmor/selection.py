@@ -28,11 +28,11 @@ import re
 
 import numpy as np
 
-from .errors import PortError
+from .errors import PortError, did_you_mean
 from .model import FEModel
 
-__all__ = ["add_node_set", "box", "cylinder", "nearest", "parse_selection", "plane", "select", "sphere",
-           "with_selections"]
+__all__ = ["add_node_set", "box", "cylinder", "nearest", "nearest_report", "parse_selection", "plane", "select",
+           "sphere", "with_selections"]
 
 _REL_TOL = 1e-6
 
@@ -136,7 +136,8 @@ def select(model: FEModel, spec: str) -> np.ndarray:
         name = rest.strip().upper()
         if name not in model.node_sets:
             known = ", ".join(sorted(model.node_sets)) or "none"
-            raise PortError(f"selection {spec!r}: no node set {name!r} (sets: {known})")
+            raise PortError(f"selection {spec!r}: no node set {name!r}; {did_you_mean(name, model.node_sets)}"
+                            f"(sets: {known})")
         return np.sort(model.node_sets[name])
     if kind not in _NUMS:
         raise PortError(f"selection {spec!r}: unknown kind {kind!r}; use one of: set, {', '.join(_NUMS)}")
@@ -177,6 +178,28 @@ def add_node_set(model: FEModel, name: str, nodes) -> FEModel:
     sets = dict(model.node_sets)
     sets[key] = np.unique(np.asarray(nodes, dtype=np.int64))
     return dataclasses.replace(model, node_sets=sets)
+
+
+def nearest_report(model: FEModel, selections) -> list[dict]:
+    """For each ``NAME=nearest:x,y,z`` of ``selections`` (applied to ``model``): ``name``,
+    ``point``, the ``node`` chosen, its ``xyz``, the ``distance`` (model length units) and
+    ``outside``: the point lies farther from its node than a tenth of the model's largest extent
+    (a point outside the body, or given in other units)."""
+    out = []
+    xyz = _xyz(model)
+    size = float(np.max(np.ptp(xyz, axis=0))) if len(xyz) else 0.0
+    for text in selections or ():
+        name, spec = parse_selection(text)
+        kind, _, rest = spec.partition(":")
+        if kind.strip().lower() != "nearest":
+            continue
+        point = np.array([float(v) for v in rest.split(",")])
+        node = int(model.node_sets[name][0])
+        at = xyz[np.flatnonzero(model.node_ids == node)[0]]
+        dist = float(np.linalg.norm(at - point))
+        out.append({"name": name, "point": point.tolist(), "node": node, "xyz": at.tolist(), "distance": dist,
+                    "outside": bool(dist > 0.1 * size)})
+    return out
 
 
 def with_selections(model: FEModel, selections) -> FEModel:

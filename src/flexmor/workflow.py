@@ -68,7 +68,7 @@ def coupling_specs(interfaces=(), ports=()) -> list[str]:
     specs = [s for s in interfaces if "@" in s] + [s for s in ports if "@rbe2" in s.lower()]
     out = []
     for s in specs:
-        target = parse_spec(s)[0]
+        target = s.rpartition(":")[0] if s.lower().endswith(":all") else parse_spec(s)[0]
         if target.upper() not in (t.upper() for t in out):
             out.append(target)
     return out

@@ -104,6 +104,58 @@ def _format_warning(message, category, filename, lineno, line=None, names=None):
     return _python_format_warning(message, category, filename, lineno, line)
 
 
+class _LogFormat(logging.Formatter):
+    """A warning as ``flexmor: warning: MESSAGE``; other records as ``LEVEL logger: message``."""
+
+    def format(self, record):
+        if record.name == "py.warnings":
+            return f"flexmor: warning: {record.getMessage().strip()}"
+        return super().format(record)
+
+
+class _OncePerRun(logging.Filter):
+    """Lets each warning text through once per run (:func:`main` renews it)."""
+
+    def __init__(self):
+        super().__init__()
+        self.seen: set[str] = set()
+
+    def filter(self, record):
+        if record.name != "py.warnings":
+            return True
+        text = record.getMessage().strip()
+        if text in self.seen:
+            return False
+        self.seen.add(text)
+        return True
+
+
+class _Stderr(logging.StreamHandler):
+    """Writes to the ``sys.stderr`` of the moment (a caller or test runner may replace it)."""
+
+    @property  # type: ignore[override]
+    def stream(self):
+        return sys.stderr
+
+    @stream.setter
+    def stream(self, value):
+        pass
+
+
+def _configure_logging(level) -> None:
+    """The root logger at ``level`` with one stderr handler: warnings short and once per run."""
+    root = logging.getLogger()
+    root.setLevel(level)
+    handler = next((h for h in root.handlers if isinstance(h, _Stderr)), None)
+    if handler is None:
+        handler = _Stderr()
+        root.addHandler(handler)
+    handler.setFormatter(_LogFormat("%(levelname)s %(name)s: %(message)s"))
+    for f in list(handler.filters):
+        handler.removeFilter(f)
+    handler.addFilter(_OncePerRun())
+
+
 def main(argv=None) -> int:
     """Run the command line; returns the exit code.
 
@@ -114,11 +166,14 @@ def main(argv=None) -> int:
     parser.set_defaults(main=main)  # handed to the ui subcommand, whose jobs run this command line
     args = parser.parse_args(argv)
     level = [logging.WARNING, logging.INFO, logging.DEBUG][min(args.verbose, 2)]
-    logging.basicConfig(level=level, format="%(levelname)s %(name)s: %(message)s")
+    _configure_logging(level)
     # renewed on every call: a warnings.catch_warnings() around an earlier call (a caller's, or a test
     # runner's) restores the warnings module's own display and leaves logging believing it captures
     logging.captureWarnings(False)
     logging.captureWarnings(True)
+    # each run shows its warnings (once: _OncePerRun), also a later run in the same process: setting a
+    # filter renews the warnings module's record of what it has shown
+    warnings.simplefilter("default", FlexmorWarning)
     warnings.formatwarning = functools.partial(_format_warning, names=getattr(args, "flag_names", None))
     quiet_other_ranks()  # mpirun -n P: only rank 0 prints
     run, previous, hook, code = _Run(), None, sys.unraisablehook, None

@@ -71,10 +71,17 @@ def _lines(it, desc):
 
 
 def _check_new(path, args) -> Path:
-    """``path`` as a Path; an OptionError if it exists and ``--force`` was not given."""
+    """``path`` as a Path; an OptionError if it exists and ``--force`` was not given, or its folder
+    does not exist (a mistyped folder is not created)."""
     path = Path(path)
     if path.is_dir():
         raise OptionError(f"{path} is a directory; give a file name with -o")
+    folder = path.parent
+    if not folder.exists():
+        raise OptionError(f"{path}: the folder {folder} does not exist; create it first (mkdir -p {folder}) "
+                          "or give another -o")
+    if not folder.is_dir():
+        raise OptionError(f"{path}: {folder} is a file, not a folder; give another -o")
     if path.exists() and not getattr(args, "force", False):
         raise OptionError(f"{path} exists; pass --force to overwrite it")
     return path
@@ -109,9 +116,10 @@ def _read_model(args, couplings=(), *, damped=True, keep=None):
     def load():
         model = _with_mesh(read(args.model, format=args.format), args)
         if getattr(args, "select", None):
-            from ..selection import with_selections
+            from ..selection import nearest_report, with_selections
 
             model = with_selections(model, args.select)
+            _print_nearest(nearest_report(model, args.select))
         if keep is not None:
             keep["uncoupled"] = model
         return prepare_model(model, couplings)
@@ -129,6 +137,15 @@ def _read_model(args, couplings=(), *, damped=True, keep=None):
     if damped:
         model = model.with_damping(_asked_damping(args, band))
     return model, t_read, band
+
+
+def _print_nearest(report) -> None:
+    """One line on stderr per ``nearest`` selection: the node chosen and its distance from the point."""
+    for r in report:
+        print(f"selected {r['name']}=nearest:{','.join(f'{v:g}' for v in r['point'])}: node {r['node']} at "
+              f"[{', '.join(f'{v:.6g}' for v in r['xyz'])}], {r['distance']:.4g} from the point"
+              + (" (farther than a tenth of the model's size: a point outside the body, or in other units?)"
+                 if r["outside"] else ""), file=sys.stderr)
 
 
 def _with_mesh(model, args):
@@ -375,7 +392,8 @@ def cmd_compare(args) -> int:
     if args.json:
         grids = [dict(f.summary(), inputs=list(k[0]), outputs=list(k[1]), couplings=list(k[2]))
                  for k, f in fulls.items()]
-        _emit_json({"model": model.name, "band_hz": list(band), "results": rows, "grids": grids,
+        _emit_json({"model": model.name, "band_hz": list(band), "band_source": args.band_source, "results": rows,
+                    "grids": grids,
                     "timings": {"read": t_read, "full_frf": sum(f.seconds for f in fulls.values()),
                                 "mounted": sum(r["timings"]["mounted"] for r in rows)}})
         return 0
@@ -443,7 +461,8 @@ def cmd_report(args) -> int:
                        time_progress=_progress(args, "time steps", unit="step"))
     write_report(rep, _check_new(args.output_file, args))
     if args.json:
-        _emit_json({"file": str(args.output_file), "model": model.name, "band_hz": list(band), "results": rep.rows,
+        _emit_json({"file": str(args.output_file), "model": model.name, "band_hz": list(band),
+                    "band_source": args.band_source, "results": rep.rows,
                     "time": rep.time, "notes": rep.notes, "reference": rep.reference,
                     "coupling_frequencies": rep.coupling or None,
                     "timings": {"read": t_read, "full_frf": full.seconds}})
@@ -452,6 +471,7 @@ def cmd_report(args) -> int:
     print_mounted(rep.rows, label="label")
     print("time_max_error: " + ", ".join(f"{r['label']} {fmt(r['time_max_error'])}" for r in rep.rows))
     print(f"reference: the {rep.reference} with the bodies' damping ({describe_damping(model.damping)})")
+    print(f"band {band[0]:g}-{band[1]:g} Hz: {args.band_source}")
     for line in coupling_lines(rep.coupling):
         print(f"coupling: {line}")
     print(f"written {args.output_file}")

@@ -38,7 +38,8 @@ def info_body(args, emit_json) -> int:
     from ..origin import describe_damping
 
     red = read_body(args.model, format=args.format)
-    out = dict(red.summary(), file=str(args.model), coupling_frequencies=red.info.get("coupling_frequencies"))
+    out = dict(red.summary(), file=str(args.model), coupling_frequencies=red.info.get("coupling_frequencies"),
+               coordinates=_coordinates(red))
     if args.json:
         emit_json(out)
         return 0
@@ -48,6 +49,7 @@ def info_body(args, emit_json) -> int:
          + (f" ({asked} requested)" if asked not in (None, out["order"]) else ""))
     if out["order_note"]:
         _row("", out["order_note"])
+    _row("coordinates", _coordinates_text(out["coordinates"]))
     opts = {k: v for k, v in out["options"].items() if k != "backend"}
     if opts:
         _row("options", ", ".join(f"{k}={v}" for k, v in opts.items()))
@@ -93,6 +95,37 @@ def info_body(args, emit_json) -> int:
     else:
         _row("model", f"{out['model_name'] or '?'} (no fingerprint: written by an older flexmor)")
     return 0
+
+
+def _coordinates(body) -> dict:
+    """How many of the body's coordinates are rigid-body motion (zero eigenvalues of its ``K, M``)
+    and elastic, and how many an MBS export (SID, Exudyn) writes: the elastic ones (the frame
+    carries the rigid-body motion; a basis holding it is written with ``--remove-rigid`` only)."""
+    import numpy as np
+
+    from ..linalg.eigen import is_rigid
+
+    try:
+        n_rigid = int(np.sum(is_rigid(body.eigenvalues(), body.K, body.M)))
+    except Exception:  # noqa: BLE001 (a body whose M is singular: its count stays unknown)
+        n_rigid = None
+    excluded = int(body.info.get("n_rigid_excluded") or 0)
+    return {"n": int(body.order), "rigid": n_rigid, "elastic": None if n_rigid is None else body.order - n_rigid,
+            "rigid_excluded_from_basis": excluded,
+            "mbs_export": None if n_rigid is None else body.order - n_rigid,
+            "mbs_export_needs_remove_rigid": bool(n_rigid)}
+
+
+def _coordinates_text(c) -> str:
+    if c["rigid"] is None:
+        return f"{c['n']} (rigid/elastic split unknown: singular reduced mass matrix)"
+    text = f"{c['n']}: {c['rigid']} rigid-body, {c['elastic']} elastic"
+    if c["rigid_excluded_from_basis"]:
+        text += f" ({c['rigid_excluded_from_basis']} rigid-body modes excluded from the basis: the frame carries them)"
+    if c["rigid"]:
+        return text + (f"; SID/Exudyn export: {c['mbs_export']} elastic coordinates with --remove-rigid "
+                       "(refused without)")
+    return text + f"; SID/Exudyn export: {c['mbs_export']} elastic coordinates"
 
 
 def _mounted_rows(rec) -> None:

@@ -11,9 +11,11 @@ name (:attr:`flexmor.errors.FlexmorError.params`) to the flags of a command.
 from __future__ import annotations
 
 import argparse
+import re
 
 from .._version import __version__
 from ..analysis.frequency import MEASURES, TOL_MEASURES
+from ..errors import did_you_mean
 from ..io import EXPORT_FORMATS
 from ..linalg.memory import FACTOR_MEMORY
 from ..options import DEFAULT_BAND, option_fields
@@ -128,14 +130,46 @@ def _add_model_args(p, damping=True):
         p.add_argument("--no-cache", action="store_true", help="neither read nor write the full-FRF disk cache")
 
 
+class Parser(argparse.ArgumentParser):
+    """An argument parser whose errors name the closest choice or flag ("did you mean")."""
+
+    def parse_args(self, args=None, namespace=None):
+        ns, extras = self.parse_known_args(args, namespace)
+        if extras:
+            sub = self._subparsers._group_actions[0].choices.get(getattr(ns, "command", None)) \
+                if self._subparsers else None
+            (sub or self).error(_unrecognized(extras, sub or self))
+        return ns
+
+    def error(self, message):
+        match = re.search(r"invalid choice: '(.*?)' \(choose from (.*)\)$", message)
+        if match:
+            hint = did_you_mean(match[1], re.findall(r"'([^']*)'", match[2])).strip()
+            if hint:
+                message = f"{message}; {hint}"
+        super().error(message)
+
+
+def _unrecognized(extras, parser) -> str:
+    """The message on arguments ``parser`` does not take, each flag with the closest of its flags."""
+    flags = [s for a in parser._actions for s in a.option_strings if s.startswith("--")]
+    hints = [f"{x}: {h.strip()}" for x in extras if x.startswith("--")
+             for h in [did_you_mean(x.split("=")[0], flags)] if h]
+    return f"unrecognized arguments: {' '.join(extras)}" + (f" ({'; '.join(hints)})" if hints else "")
+
+
+def _add_verbose(p, default=0) -> None:
+    p.add_argument("-v", "--verbose", action="count", default=default,
+                   help="log more (-vv: debug); long steps show their progress on stderr, "
+                   "also when it is not a terminal (never under --json)")
+
+
 def build_parser() -> argparse.ArgumentParser:
     from ..reduction import ALIASES, METHODS
 
-    ap = argparse.ArgumentParser(prog="flexmor", description="Model order reduction of elastic bodies for EMBS.")
+    ap = Parser(prog="flexmor", description="Model order reduction of elastic bodies for EMBS.")
     ap.add_argument("--version", action="version", version=f"flexmor {__version__}")
-    ap.add_argument("-v", "--verbose", action="count", default=0,
-                    help="log more (-vv: debug); long steps show their progress on stderr, "
-                    "also when it is not a terminal (never under --json)")
+    _add_verbose(ap)
     sub = ap.add_subparsers(dest="command", required=True)
 
     p = sub.add_parser("demo", help="reduce the built-in cantilever with several methods")
@@ -237,6 +271,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     add_ui_parser(sub)
     for p in sub.choices.values():  # each command maps the parameters named by library errors to its flags
+        _add_verbose(p, default=argparse.SUPPRESS)  # -v also after the command (adds to one before it)
         p.set_defaults(flag_names=flag_names(p))
     return ap
 

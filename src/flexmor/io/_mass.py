@@ -46,7 +46,8 @@ def check_mass(model, where, *, max_dof: int = 500_000, iterations: int = 12) ->
         ratio = float(x @ (M @ x)) / lam_max
     except (SolverError, RuntimeError, ValueError, np.linalg.LinAlgError):
         ratio = 0.0
-    if ratio < 1e-12:
-        warnings.warn(f"{where}: the mass matrix is singular or indefinite (smallest eigenvalue / largest ~ "
-                      f"{ratio:.1e}); {SINGULAR_MASS_NOTE}", FlexmorWarning, stacklevel=3)
+    if ratio < 1e-12:  # (its value at round-off level is noise: not shown)
+        kind = "indefinite (a negative eigenvalue)" if ratio < -1e-12 else \
+            "singular (smallest eigenvalue below 1e-12 of the largest)"
+        warnings.warn(f"{where}: the mass matrix is {kind}; {SINGULAR_MASS_NOTE}", FlexmorWarning, stacklevel=3)
     return ratio

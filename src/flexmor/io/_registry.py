@@ -22,7 +22,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
-from ..errors import OptionError, ReadError
+from ..errors import OptionError, ReadError, did_you_mean
 
 __all__ = ["BODY_FORMATS", "EXPORT_FORMATS", "MODEL_FORMATS", "Format", "Registry", "describe_formats", "export",
            "export_format", "read", "read_body"]
@@ -48,6 +48,9 @@ class Format:
         How the claimed file names look (``<job>_STIF<n>.mtx``), for listings.
     aliases : tuple of str
         Other names accepted for ``name``.
+    accepts : callable, optional
+        ``accepts(path) -> bool``: whether a file with one of the suffixes is one this format
+        reads, where the suffix is shared with companion or unrelated files (Ansys ``.txt``).
     """
 
     name: str
@@ -57,6 +60,7 @@ class Format:
     claims: Callable | None = None
     claims_doc: str = ""
     aliases: tuple = ()
+    accepts: Callable | None = None
 
     def row(self) -> dict:
         """The format as a JSON-able dict (name, suffixes, description, ...)."""
@@ -81,7 +85,8 @@ class Registry:
         self._formats: dict[str, Format] = {}
 
     def register(self, name: str, suffixes, function: Callable, *, description: str = "",
-                 claims: Callable | None = None, claims_doc: str = "", aliases=()) -> Format:
+                 claims: Callable | None = None, claims_doc: str = "", aliases=(),
+                 accepts: Callable | None = None) -> Format:
         """Register ``function`` as format ``name`` for ``suffixes`` (with dot; case is ignored).
 
         Raises
@@ -90,7 +95,7 @@ class Registry:
             When a suffix, name or alias already belongs to another format of this registry.
         """
         fmt = Format(name, tuple(s.lower() for s in suffixes), function, description, claims, claims_doc,
-                     tuple(a.lower() for a in aliases))
+                     tuple(a.lower() for a in aliases), accepts)
         for other in self._formats.values():
             if other.name == name:
                 continue
@@ -120,8 +125,9 @@ class Registry:
             if key == fmt.name or key in fmt.aliases:
                 return fmt
         aliases = [a for f in self._formats.values() for a in f.aliases]
-        raise OptionError(f"format={format!r} is not {self.noun} format; choose one of: "
-                          + ", ".join(self.names() + aliases))
+        raise OptionError(f"format={format!r} is not a known {self.purpose} file type; "
+                          f"{did_you_mean(key, self.names() + aliases)}"
+                          "choose one of: " + ", ".join(self.names() + aliases), params=("format",))
 
     def by_path(self, path) -> Format | None:
         """The format of ``path``: a format claiming its name, else the longest matching suffix (or None)."""
@@ -136,6 +142,14 @@ class Registry:
                 if name.endswith(suffix) and len(suffix) > length and len(name) > len(suffix):
                     best, length = fmt, len(suffix)
         return best
+
+    def takes(self, path) -> Format | None:
+        """The format that reads ``path`` (:meth:`by_path`), None also when that format's
+        ``accepts`` turns the file down (a companion file sharing its suffix)."""
+        fmt = self.by_path(path)
+        if fmt is not None and fmt.accepts is not None and not fmt.accepts(Path(path)):
+            return None
+        return fmt
 
     def known(self) -> str:
         """The suffixes by format, for messages: ``.sti (calculix), .inp (abaqus), ...``."""

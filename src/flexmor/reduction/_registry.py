@@ -8,13 +8,12 @@ them without a cycle.
 
 from __future__ import annotations
 
-import difflib
 import functools
 import inspect
 from collections.abc import Callable
 from dataclasses import dataclass
 
-from ..errors import OptionError
+from ..errors import OptionError, did_you_mean
 from ..options import option_fields
 
 __all__ = ["Method", "METHODS", "ALIASES", "register_method", "check_keywords", "methods", "method_name"]
@@ -97,7 +96,7 @@ def methods() -> dict[str, Method]:
 
 
 #: Short names in common use, each for one registered method.
-ALIASES = {"cb": "craig-bampton", "bt": "sobt", "fwbt": "fw-sobt", "cms": "cms-krylov"}
+ALIASES = {"cb": "craig-bampton", "bt": "sobt", "fw": "fw-sobt", "fwbt": "fw-sobt", "cms": "cms-krylov"}
 
 
 def method_name(name) -> str:
@@ -113,7 +112,6 @@ def method_name(name) -> str:
     text = ALIASES.get(text, text)
     if text in METHODS:
         return text
-    close = difflib.get_close_matches(text, [*METHODS, *ALIASES], n=1, cutoff=0.6)
-    hint = f"did you mean {ALIASES.get(close[0], close[0])!r}? " if close else ""
+    hint = did_you_mean(text, [*METHODS, *ALIASES], aliases=ALIASES)
     raise OptionError(f"method={name!r} is unknown; {hint}choose one of: {', '.join(sorted(METHODS))} "
                       f"(short names: {', '.join(f'{a}={m}' for a, m in ALIASES.items())})", params=("method",))

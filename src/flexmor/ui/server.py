@@ -59,21 +59,20 @@ class Workspace:
         return p
 
     def files(self) -> dict:
-        """Relative names of the FE models and reduced bodies under the folder, by kind."""
-        from ..io import describe_formats
+        """Relative names of the FE models and reduced bodies under the folder, by kind: the files a
+        registered reader takes (:meth:`flexmor.io.Registry.takes`; not their companion files)."""
+        from ..io import BODY_FORMATS, MODEL_FORMATS
 
-        table = describe_formats()
-        suffixes = {kind: tuple(s for r in table[kind] for s in r["suffixes"]) for kind in ("model", "body")}
-        out = {"model": [], "body": []}
+        registries = {"body": BODY_FORMATS, "model": MODEL_FORMATS}
+        out: dict = {"model": [], "body": []}
         for p in sorted(self.root.rglob("*")):
             if len(out["model"]) + len(out["body"]) >= MAX_FILES:
                 break
             if not p.is_file() or any(part.startswith(".") for part in p.relative_to(self.root).parts) \
                     or self.root not in p.resolve().parents:
                 continue
-            name = p.name.lower()
             for kind in ("body", "model"):
-                if name.endswith(suffixes[kind]):
+                if registries[kind].takes(p) is not None:
                     out[kind].append(p.relative_to(self.root).as_posix())
                     break
         return out

@@ -390,6 +390,12 @@ def read_ansys(path, *, coordinates=None) -> FEModel:
     return _read_mmf(path)
 
 
+def _is_matrix_file(path: Path) -> bool:
+    """A ``.full``, or a ``.txt`` whose name says stiffness or mass (not the map, coordinates or elements)."""
+    name = path.name.lower()
+    return path.suffix.lower() == ".full" or (("stiff" in name or "mass" in name) and "mapping" not in name)
+
+
 MODEL_FORMATS.register("ansys", [".full", ".txt"], read_ansys,
                        description="Ansys HBMAT/MMF export (stiffness, mass, mapping vector, coordinates) "
-                       "or binary .full")
+                       "or binary .full", accepts=_is_matrix_file)
