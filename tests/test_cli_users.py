@@ -134,3 +134,20 @@ def test_report_says_its_band_and_where_it_comes_from(capsys, tmp_path):
     code, out, err = run(capsys, "report", CLAMPED, tmp_path / "k.h5", "-o", tmp_path / "r.html", "--modes", "4")
     assert code == 0, err
     assert "band 10-2000 Hz: the band the bodies were reduced for" in out
+
+
+def test_compare_judges_each_body_over_its_own_band(capsys, tmp_path):
+    made = {}
+    for name, band in (("a", "10:2000"), ("b", "100:4000")):
+        made[name] = run_json(capsys, "reduce", CLAMPED, "--method", "krylov", "--order", "8", "--input", "TIP:y",
+                              "--band", band, "--rayleigh", "0:1e-6", "-o", tmp_path / f"{name}.h5")
+    rec = run_json(capsys, "compare", CLAMPED, tmp_path / "a.h5", tmp_path / "b.h5", "--rayleigh", "0:1e-6")
+    assert rec["band_hz"] is None and rec["band_source"] == "each body's own"
+    for row, name in zip(rec["results"], "ab"):
+        assert row["band_hz"] == made[name]["band_hz"] and row["band_source"] == "the band the body was reduced for"
+        assert row["band_error"] == pytest.approx(made[name]["band_error"], rel=1e-6)
+    code, out, _ = run(capsys, "compare", CLAMPED, tmp_path / "a.h5", tmp_path / "b.h5", "--rayleigh", "0:1e-6")
+    assert "bands: each body over its own" in out and "b.h5: 100-4000 Hz (the band the body was reduced for)" in out
+    code, out, _ = run(capsys, "report", CLAMPED, tmp_path / "a.h5", tmp_path / "b.h5", "--rayleigh", "0:1e-6",
+                       "--modes", "4", "-o", tmp_path / "r.html")
+    assert code == 0 and "band 10-4000 Hz: the span of the bands the bodies were reduced for" in out

@@ -326,31 +326,33 @@ def cmd_reduce(args) -> int:
 
 # -- compare -----------------------------------------------------------------------------------
 def _model_and_bodies(args):
-    """The full model (as read, without damping), the band, the reduced bodies of ``args`` and the
-    damping asked for on the command line. The band is ``--band``, else the one band the bodies
-    were reduced for (or judged over when they were made), else DEFAULT_BAND; ``args.band_source``
-    says which."""
+    """The full model (as read, without damping), the reduced bodies of ``args``, the band of each
+    and where it comes from, and the damping asked for on the command line. A body's band is
+    ``--band``, else the band it was reduced for (or judged over when it was made), else
+    DEFAULT_BAND."""
     from ..io import read_body
+    from ..options import Band
     from ..workflow import DEFAULT_BAND
 
     model, t_read, band = _read_model(args, damped=False)
     bodies = [read_body(p) for p in args.reduced]
-    args.band_source = "--band"
-    if band is None:
-        band = _bodies_band(bodies)
-        args.band_source = "the band the bodies were reduced for" if band else "the default band (give --band)"
-        band = band or DEFAULT_BAND
-    return model, t_read, band, bodies, _asked_damping(args, band)
+    if band is not None:
+        bands, sources = [band] * len(bodies), ["--band"] * len(bodies)
+    else:
+        own = [r.info.get("band") or (r.errors or {}).get("band_hz") for r in bodies]
+        bands = [Band.of(b) if b else DEFAULT_BAND for b in own]
+        sources = ["the band the body was reduced for" if b else "the default band (the body records none; "
+                   "give --band)" for b in own]
+    common = bands[0] if len({tuple(b) for b in bands}) == 1 else None
+    return model, t_read, bands, sources, bodies, _asked_damping(args, band or common or DEFAULT_BAND)
 
 
-def _bodies_band(bodies):
-    """The band all ``bodies`` were reduced for (their ``info["band"]``, else the band they were
-    judged over when made), or None when they say none or differ."""
-    from ..options import Band
-
-    bands = {tuple(float(f) for f in b) if b else None
-             for b in (r.info.get("band") or (r.errors or {}).get("band_hz") for r in bodies)}
-    return Band.of(bands.pop()) if len(bands) == 1 and None not in bands else None
+def _band_lines(paths, bands, sources) -> list[str]:
+    """Which band each body is judged over and why: one line when they share it."""
+    if len({(tuple(b), s) for b, s in zip(bands, sources)}) == 1:
+        return [f"band {bands[0][0]:g}-{bands[0][1]:g} Hz: {sources[0].replace('the body was', 'the bodies were')}"]
+    return ["bands: each body over its own"] + [f"  {p}: {b[0]:g}-{b[1]:g} Hz ({s})"
+                                                 for p, b, s in zip(paths, bands, sources)]
 
 
 def cmd_compare(args) -> int:
@@ -359,14 +361,14 @@ def cmd_compare(args) -> int:
     from ..ports import make_ports
     from ..study import System
 
-    model, t_read, band, reds, asked = _model_and_bodies(args)
+    model, t_read, bands, sources, reds, asked = _model_and_bodies(args)
     solver = _solver(args)
     systems, mounts, rows = {}, {}, []
-    for path, red in zip(args.reduced, reds):
+    for path, red, band, source in zip(args.reduced, reds, bands, sources):
         couplings = tuple(red.couplings)
         ref = reference_model(model, red, path, damping=asked)
         key = (tuple(red.input_names), tuple(red.output_names), couplings, tuple(red.selections),
-               str(ref.damping.to_dict()))
+               str(ref.damping.to_dict()), tuple(band))
         if key not in systems:
             systems[key] = System.prepared(ref, make_ports(ref, *key[:2]), couplings=couplings, band=band,
                                            solver=solver, **_grid_options(args))
@@ -377,7 +379,7 @@ def cmd_compare(args) -> int:
         err = system.judge(red)
         t_err = time.perf_counter() - t0
         row = {"file": str(path), "method": red.method, "order": red.order, "band_hz": list(band),
-               **err.to_dict(), "damping": ref.damping.to_dict(),
+               "band_source": source, **err.to_dict(), "damping": ref.damping.to_dict(),
                "reference_damping": describe_damping(ref.damping), "timings": {"error": t_err}}
         t0 = time.perf_counter()  # the body in its joints; the full side once per model (couplings, selections)
         mkey = key[2:4]
@@ -392,8 +394,10 @@ def cmd_compare(args) -> int:
     if args.json:
         grids = [dict(f.summary(), inputs=list(k[0]), outputs=list(k[1]), couplings=list(k[2]))
                  for k, f in fulls.items()]
-        _emit_json({"model": model.name, "band_hz": list(band), "band_source": args.band_source, "results": rows,
-                    "grids": grids,
+        same = len({tuple(b) for b in bands}) == 1  # else each row has its own
+        source = sources[0].replace("the body was", "the bodies were") if same else "each body's own"
+        _emit_json({"model": model.name, "band_hz": list(bands[0]) if same else None, "band_source": source,
+                    "results": rows, "grids": grids,
                     "timings": {"read": t_read, "full_frf": sum(f.seconds for f in fulls.values()),
                                 "mounted": sum(r["timings"]["mounted"] for r in rows)}})
         return 0
@@ -404,7 +408,8 @@ def cmd_compare(args) -> int:
 
     refs = sorted({"full model" + (f" with {describe_couplings(k[2])}" if k[2] else "") for k in fulls})
     print(f"reference: the {' / '.join(refs)} with each body's own damping ({'; '.join(damp)})")
-    print(f"band {band[0]:g}-{band[1]:g} Hz: {args.band_source}")
+    for line in _band_lines(args.reduced, bands, sources):
+        print(line)
     return 0
 
 
@@ -427,7 +432,12 @@ def cmd_report(args) -> int:
     from ..study import System
 
     _check_new(args.output_file, args)
-    model, t_read, band, reds, asked = _model_and_bodies(args)
+    model, t_read, bands, sources, reds, asked = _model_and_bodies(args)
+    band, band_source = bands[0], sources[0].replace("the body was", "the bodies were")
+    if len({tuple(b) for b in bands}) > 1:  # one band for the plots: the widest
+        band = (min(b[0] for b in bands), max(b[1] for b in bands))
+        band_source = ("the span of the bands the bodies were reduced for ("
+                       + ", ".join(f"{p}: {b[0]:g}-{b[1]:g} Hz" for p, b in zip(args.reduced, bands)) + ")")
 
     def key_of(r):
         return (list(r.input_names), list(r.output_names), list(r.couplings), list(r.selections))
@@ -462,7 +472,7 @@ def cmd_report(args) -> int:
     write_report(rep, _check_new(args.output_file, args))
     if args.json:
         _emit_json({"file": str(args.output_file), "model": model.name, "band_hz": list(band),
-                    "band_source": args.band_source, "results": rep.rows,
+                    "band_source": band_source, "results": rep.rows,
                     "time": rep.time, "notes": rep.notes, "reference": rep.reference,
                     "coupling_frequencies": rep.coupling or None,
                     "timings": {"read": t_read, "full_frf": full.seconds}})
@@ -471,7 +481,7 @@ def cmd_report(args) -> int:
     print_mounted(rep.rows, label="label")
     print("time_max_error: " + ", ".join(f"{r['label']} {fmt(r['time_max_error'])}" for r in rep.rows))
     print(f"reference: the {rep.reference} with the bodies' damping ({describe_damping(model.damping)})")
-    print(f"band {band[0]:g}-{band[1]:g} Hz: {args.band_source}")
+    print(f"band {band[0]:g}-{band[1]:g} Hz: {band_source}")
     for line in coupling_lines(rep.coupling):
         print(f"coupling: {line}")
     print(f"written {args.output_file}")
