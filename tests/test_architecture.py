@@ -40,7 +40,7 @@ LAYERS = [
     ["flexmor.analysis"],  # judging reduced bodies, assemblies, the body held in its joints
     ["flexmor.reduction"],  # methods -> Basis, METHODS registry, reduce()
     ["flexmor.dynamics", "flexmor.io"],  # FRF, modes, time integration; formats, exporters, invariants
-    ["flexmor.rigid", "flexmor.expansion"],  # rigid-body motion, M-projections, elastic body; expanded body
+    ["flexmor.rigid", "flexmor.expansion", "flexmor.modal"],  # rigid motion, elastic body; expansion; modal form
     ["flexmor.projection", "flexmor.body", "flexmor.checks", "flexmor.models"],  # projection; the body; checks; models
     ["flexmor.origin", "flexmor.ports", "flexmor.selection", "flexmor.couplings", "flexmor.basis",
      "flexmor.options"],  # model fingerprint, ports, node sets, RBE2/RBE3, bases, option values

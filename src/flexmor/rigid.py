@@ -42,8 +42,8 @@ from .errors import FlexmorError, FlexmorWarning, ModelError
 from .ports import make_ports
 from .projection import project
 
-__all__ = ["rigid_motions", "rigid_body_modes", "m_project", "elastic_loads", "exclude_rigid", "elastic_body",
-           "rigid_content", "rigid_residual", "RIGID_DEFLATION_TOL", "POLISH_TOL", "RIGID_CONTENT_TOL"]
+__all__ = ["rigid_motions", "frame_participation", "rigid_body_modes", "m_project", "elastic_loads", "exclude_rigid",
+           "elastic_body", "rigid_content", "rigid_residual", "RIGID_DEFLATION_TOL", "POLISH_TOL", "RIGID_CONTENT_TOL"]
 
 log = logging.getLogger(__name__)
 
@@ -75,6 +75,17 @@ def rigid_motions(model, origin=None) -> np.ndarray:
             R[d == j + 1, 3 + a] = np.cross(e, xyz[d == j + 1])[:, j]
         R[d == a + 4, 3 + a] = 1.0
     return R
+
+
+def frame_participation(model, V) -> tuple[np.ndarray, np.ndarray]:
+    """``(V^T M R, diag(R^T M R))``: how the basis ``V`` (n_dof, r) takes part in the six rigid
+    motions ``R`` of the frame (:func:`rigid_motions` about the origin of the model's coordinates:
+    translations x y z, rotations about x y z), and the model's mass in x y z and rotary inertia
+    about those axes. The effective masses of the body's modes follow from them
+    (:func:`flexmor.modal.mode_table`)."""
+    R = rigid_motions(model, origin=np.zeros(3))
+    MR = model.M @ R
+    return np.asarray(V).T @ MR, np.einsum("ij,ij->j", R, MR)
 
 
 def rigid_body_modes(model) -> np.ndarray:
@@ -255,6 +266,8 @@ def elastic_body(model, body, *, remove_rigid: bool = False):
                          "free bodies), or pass remove_rigid to allow the change (flexmor export then "
                          "states the error of the body it writes)", params=("remove_rigid",))
     elastic.info["rigid_removed_at_export"] = {"order_reduced": body.order, "order_exported": elastic.order}
+    if elastic.info.get("frame_participation") is not None:  # of the new basis
+        elastic.info["frame_participation"] = frame_participation(model, elastic.V)[0].tolist()
     elastic.origin = dict(body.origin)  # with the couplings and selections the body was made with
     elastic.couplings, elastic.selections = list(body.couplings), list(body.selections)
     elastic.order_note = body.order_note

@@ -185,6 +185,8 @@ def cmd_info(args) -> int:
         return info_body(args, _emit_json)
     from ..workflow import coupling_specs
 
+    if args.modes < 0:  # --modes without N
+        args.modes = 12
     couplings = coupling_specs(args.interface)
     keep = {}
     model, t_read, _ = _read_model(args, couplings, keep=keep)

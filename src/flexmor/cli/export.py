@@ -20,12 +20,14 @@ def cmd_export(args) -> int:
         raise OptionError("--mesh attaches a mesh file to the --model; give --model too")
     model = _with_mesh(read(args.model, format=args.model_format), args) if args.model else None
     out = {"file": str(args.output_file), "format": name, "order": red.order, "method": red.method}
-    body = red
+    body, ref = red, None
     if model is not None:  # the body's own model (refused otherwise); the exporters apply its couplings
         ref = reference_model(model, red, args.reduced)
         if args.remove_rigid:
             body, judged = _without_rigid(ref, red)
             out.update(judged)
+    if args.modal_form or args.max_frequency is not None or args.select_modes:
+        body, out["modal_form"] = _modal(args, body, ref)
     opts = {"nodes": args.node or None} if name in ("sid", "mat") else {}
     if name == "sid":
         opts["m1_order"] = args.m1_order
@@ -36,12 +38,47 @@ def cmd_export(args) -> int:
         _emit_json(out)
         return 0
     print(f"exported {args.reduced} ({red.method}, order {red.order}) as {name}: {args.output_file}")
+    if "modal_form" in out:
+        r = out["modal_form"]
+        kept = (f"{r['order']} of its {r['order_before']} elastic modes (up to {r['max_frequency_hz']:.4g} Hz)"
+                if r["order"] < r["order_before"] else f"all {r['order']} elastic modes")
+        print(f"modal form: {kept}; the body written has band_error {fmt(r['band_error'], '.3g')} "
+              f"(rms {fmt(r['rms_rel_error_pct'], '.3g')} %, hinf_error {fmt(r['hinf_error'], '.3g')}) over "
+              f"{r['band_hz'][0]:g}-{r['band_hz'][1]:g} Hz against {r['reference']}")
+        if r.get("tol") is not None:
+            m = r["tol_measure"]
+            print(f"--tol {r['tol']:g} on {m}: " + ("met" if r["tol_reached"] else
+                                                     "MISSED even with every mode: all modes written"))
     if "order_exported" in out:
         print(f"note: rigid-body motion removed from the basis: order {red.order} -> {out['order_exported']}; "
               f"the body written has band_error {fmt(out['band_error'], '.3g')} "
               f"(rms {fmt(out['rms_rel_error_pct'], '.3g')} %) over {out['band_hz'][0]:g}-{out['band_hz'][1]:g} Hz, "
               "judged on the elastic part")
     return 0
+
+
+def _modal(args, body, ref):
+    """``--modal-form`` / ``--max-frequency`` / ``--select-modes``: ``(body, record)`` of
+    :func:`flexmor.analysis.mode_selection.trim`, judged against ``ref`` (the body's model) when
+    ``--model`` was given."""
+    from ..analysis.compare import FullResponse
+    from ..analysis.mode_selection import trim
+    from ..linalg.context import SolverContext
+    from ..options import DEFAULT_BAND, Band
+    from ..ports import make_ports
+
+    if args.select_modes and args.tol is None:
+        raise OptionError("--select-modes auto needs --tol (the error the modes kept must meet)")
+    if args.tol is not None and not args.select_modes:
+        raise OptionError("--tol is the error of --select-modes auto; give --select-modes auto too")
+    if args.select_modes and args.max_frequency is not None:
+        raise OptionError("give --max-frequency or --select-modes, not both")
+    band = Band.of(args.band or body.info.get("band") or (body.errors or {}).get("band_hz") or DEFAULT_BAND)
+    full = None
+    if ref is not None:
+        full = FullResponse(ref, make_ports(ref, body.input_names, body.output_names), band, solver=SolverContext())
+    return trim(body, band=band, max_frequency=args.max_frequency, tol=args.tol, measure=args.tol_measure,
+                full=full)
 
 
 def _without_rigid(ref, red):

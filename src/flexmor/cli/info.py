@@ -40,6 +40,8 @@ def info_body(args, emit_json) -> int:
     red = read_body(args.model, format=args.format)
     out = dict(red.summary(), file=str(args.model), coupling_frequencies=red.info.get("coupling_frequencies"),
                coordinates=_coordinates(red))
+    if getattr(args, "modes", 0):
+        out["modes"] = _mode_table(red, args.modes)
     if args.json:
         emit_json(out)
         return 0
@@ -94,7 +96,63 @@ def info_body(args, emit_json) -> int:
             _row("", "; ".join(made))
     else:
         _row("model", f"{out['model_name'] or '?'} (no fingerprint: written by an older flexmor)")
+    if out.get("modes"):
+        _print_mode_table(out["modes"])
     return 0
+
+
+def _mode_table(body, n: int) -> dict:
+    """The mode table of ``body`` (:func:`flexmor.modal.mode_table`; its first ``n`` modes, all for
+    ``n < 0``) over the band it was reduced for, and the sums of its effective masses."""
+    from ..modal import mode_table
+    from ..options import DEFAULT_BAND
+
+    band = body.info.get("band") or (body.errors or {}).get("band_hz")
+    source = "the band the body was reduced for" if band else "the default band"
+    band = list(band or DEFAULT_BAND)
+    rows = mode_table(body, band=band)
+    has_mass = rows[0]["effective_mass"] is not None
+    sums = {"effective_mass": [sum(r["effective_mass"][a] for r in rows) for a in range(3)],
+            "effective_inertia": [sum(r["effective_inertia"][a] for r in rows) for a in range(3)]} if has_mass else {}
+    return {"band_hz": band, "band_source": source, "rows": rows if n < 0 else rows[:n], "n_modes": len(rows),
+            "sums": sums, "model_mass": body.info.get("frame_mass"), "damped": body.D is not None,
+            "frame": "the origin of the FE model's coordinates, its x y z axes"}
+
+
+def _print_mode_table(table) -> None:
+    rows, band, s = table["rows"], table["band_hz"], table["sums"]
+    print("\n mode  frequency [Hz]     zeta   effective mass x y z          effective inertia x y z       share "
+          f"({band[0]:g}-{band[1]:g} Hz)")
+    # round-off (below 1e-10 of the model's mass and inertia, else of the column's sum) shown as 0
+    total = table.get("model_mass")
+    ref = {"effective_mass": total[:3], "effective_inertia": total[3:]} if total else s
+    floor = {k: [1e-10 * abs(x) for x in ref[k]] for k in ref} if ref else {}
+
+    def triple(v, key):
+        if v is None:
+            return f"{'-':>29}"
+        return " ".join(f"{(0.0 if abs(x) <= floor[key][a] else x):9.4g}" for a, x in enumerate(v))
+
+    for r in rows:
+        zeta = "-" if r["damping_ratio"] is None else f"{r['damping_ratio']:.3g}"
+        share = "-" if r["response_share"] is None else f"{100 * r['response_share']:.3g} %"
+        f = 0.0 if r["rigid"] else r["frequency_hz"]
+        print(f"{r['mode']:5d}  {f:14.6g}  {zeta:>7}   {triple(r['effective_mass'], 'effective_mass')}   "
+              f"{triple(r['effective_inertia'], 'effective_inertia')}   {share}" + ("  rigid" if r["rigid"] else ""))
+    if s:
+        print(f"{'sum':>5}  {'':14}  {'':>7}   {triple(s['effective_mass'], 'effective_mass')}   "
+              f"{triple(s['effective_inertia'], 'effective_inertia')}"
+              + (f"   (all {table['n_modes']} modes)" if len(rows) < table["n_modes"] else ""))
+        if total:
+            print(f"{'model':>5}  {'':14}  {'':>7}   {triple(total[:3], 'effective_mass')}   "
+                  f"{triple(total[3:], 'effective_inertia')}   (the FE model's mass and inertia)")
+        print("effective mass and inertia: about the frame (the origin of the FE coordinates, their axes), in the "
+              "model's units; over the modes of a body whose basis holds the rigid-body motions they sum to its "
+              "mass and inertia (elastic modes of a free body carry none: the frame does)")
+    else:
+        print("effective masses: not recorded in this body (reduced before flexmor recorded them); reduce again")
+    print("share: the mode's part of the port response over the band (its own FRF term squared, integrated)"
+          + f", {table['band_source']}" + ("; undamped body: with 2 % damping" if not table["damped"] else ""))
 
 
 def _coordinates(body) -> dict:

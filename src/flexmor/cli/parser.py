@@ -181,7 +181,10 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("info", help="sizes, checks and lowest eigenfrequencies of a model")
     _add_model_args(p, damping=False)
-    p.add_argument("--modes", type=int, default=0, help="number of lowest eigenfrequencies to compute")
+    p.add_argument("--modes", type=int, nargs="?", const=-1, default=0, metavar="N",
+                   help="a model: its N lowest eigenfrequencies (12 without N); a body: its mode table (frequency, "
+                   "damping ratio, effective mass and rotary inertia about the frame, share of the port response; "
+                   "all modes without N)")
     p.add_argument("--backends", action="store_true", help="list the sparse solver backends and what each supports")
     p.add_argument("--formats", action="store_true", help="list the file formats flexmor reads (FE models, reduced "
                    "bodies) and exports, with their suffixes")
@@ -264,6 +267,16 @@ def build_parser() -> argparse.ArgumentParser:
                    "and error than the body judged; the error of what is written is stated); refused otherwise")
     p.add_argument("--allow-clamped", action="store_true", help="sid/exudyn: export a body of a supported "
                    "(clamped) model, whose mass properties miss the supported nodes (for a frame that does not move)")
+    p.add_argument("--modal-form", action="store_true", help="write the body in its own modes (diagonal M and K; "
+                   "rigid-body modes of a free body left out) and state the band error of the body written")
+    p.add_argument("--max-frequency", type=float, metavar="HZ", help="modal form with the modes up to HZ only")
+    p.add_argument("--select-modes", choices=["auto"], help="modal form with the fewest modes whose verified "
+                   "error (--tol-measure, over --band) meets --tol, chosen by the response they carry")
+    p.add_argument("--tol", type=float, help="the error --select-modes auto must meet")
+    p.add_argument("--tol-measure", choices=TOL_MEASURES, default="band_error",
+                   help="the error measure of --tol (default band_error)")
+    p.add_argument("--band", metavar="FMIN:FMAX", help="band (Hz) of the errors of --modal-form (default the band "
+                   "the body was reduced for)")
     p.add_argument("--m1-order", choices=["row-q-col", "row-col-q"], default="row-q-col",
                    help="index order of SID m1(i,j,k) entries (default row-q-col, as PY_SID/EMBS)")
     p.add_argument("--json", action="store_true", help="print one JSON object on stdout")

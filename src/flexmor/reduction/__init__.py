@@ -17,9 +17,10 @@ from __future__ import annotations
 import time
 
 from ..body import ReducedModel
+from ..linalg.distributed import is_partitioned
 from ..options import Band, check_option_types, check_order
 from ..projection import project
-from ..rigid import exclude_rigid
+from ..rigid import exclude_rigid, frame_participation
 from . import (  # noqa: F401  (each method module registers its methods in METHODS)
     adaptive,
     balanced,  # sobt, fw-sobt; gramians.py holds the Gramians
@@ -95,6 +96,9 @@ def reduce(model, method: str, order: int | None, ports, *, inertia_loads: str =
     red.info.setdefault("order_requested", order)
     red.info.setdefault("options", _recorded(opts))
     red.info["band"] = list(Band.of(opts.get("band"))) if "band" in m.options else None
+    if model.n_nodes and model.dofs is not None and not is_partitioned(model.M):  # effective masses (mode table)
+        P, mass = frame_participation(model, red.V)
+        red.info["frame_participation"], red.info["frame_mass"] = P.tolist(), mass.tolist()
     if order is not None and red.order != order and not red.order_note:
         red.order_note = f"order {red.order} instead of {order}: {method} returned a basis of that size"
     red.info["timings"] = {"basis": t1 - t0, "project": t2 - t1}
