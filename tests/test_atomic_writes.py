@@ -219,7 +219,7 @@ def test_cli_refuses_to_overwrite_without_force(tmp_path, capsys):
 
 
 @pytest.mark.parametrize("exc,code",
-                         [(KeyboardInterrupt(), 130), (OSError(errno.ENOSPC, "No space left on device"), 2)],
+                         [(KeyboardInterrupt(), 130), (OSError(errno.ENOSPC, "No space left on device"), 1)],
                          ids=["ctrl-c", "disk-full"])
 def test_cli_interrupted_while_writing_leaves_no_output(exc, code, tmp_path, monkeypatch, capsys):
     out = tmp_path / "body.h5"
@@ -228,7 +228,8 @@ def test_cli_interrupted_while_writing_leaves_no_output(exc, code, tmp_path, mon
     assert main(_reduce_argv(out)) == code
     err = capsys.readouterr().err.strip()
     assert calls and len(err.splitlines()) == 1 and "Traceback" not in err
-    assert err == ("flexmor: interrupted" if code == 130 else "flexmor: error: No space left on device")
+    assert err == ("flexmor: interrupted" if code == 130 else
+                   f"flexmor: error: cannot write {out}: no space left on the disk; nothing was written")
     assert list(tmp_path.iterdir()) == []
 
 

@@ -17,6 +17,8 @@ __all__ = [
     "SolverError",
     "ConvergenceError",
     "OptionError",
+    "ResourceError",
+    "OutOfMemoryError",
     "FlexmorWarning",
     "did_you_mean",
 ]
@@ -86,6 +88,19 @@ class PortError(FlexmorError):
 
 class SolverError(FlexmorError):
     """A linear solver failed (singular matrix, backend not available, out of memory)."""
+
+
+class ResourceError(FlexmorError):
+    """The machine ran short: memory, disk space, a file-size limit or the permission to write.
+
+    The input was fine; the same job can run elsewhere or with other options (the message says
+    which). The command line ends with exit code 1 (2 is for bad input).
+    """
+
+
+class OutOfMemoryError(ResourceError, SolverError):
+    """A job or a factorization does not fit into the memory there is (the machine's, or the
+    process's address-space or cgroup limit), or an allocation failed."""
 
 
 class ConvergenceError(FlexmorError):

@@ -21,6 +21,7 @@ from pathlib import Path
 import numpy as np
 import scipy.sparse as sp
 
+from ..errors import ResourceError
 from ..linalg.distributed import comm, is_partitioned
 
 __all__ = ["cache_dir", "frf_key", "load", "store", "FORMAT_VERSION"]
@@ -131,7 +132,7 @@ def store(key: str, freqs, H, resonances, zeta, info: dict, directory=None) -> P
                   info=np.array(json.dumps(jsonable(info))))
     try:
         atomic_write(path, lambda tmp: _savez(tmp, arrays))
-    except OSError as exc:
+    except (OSError, ResourceError) as exc:  # the cache is optional: the run goes on without it
         log.warning("could not write the FRF cache %s (%s)", path, exc)
         return None
     log.info("cached full FRF in %s", path)

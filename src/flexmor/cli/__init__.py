@@ -1,10 +1,11 @@
 """The ``flexmor`` command line. The only package that prints or exits.
 
 Exit codes: 0 success, 2 bad input (a one-line ``flexmor: error: ...`` on stderr naming the
-file and line where there is one, and the flags concerned), 130 interrupted (Ctrl-C), 143
-terminated (SIGTERM). Output files are written atomically (:func:`flexmor.io.atomic_write`),
-so an interrupted run leaves neither a partial nor a temporary file; an existing output file
-is only replaced with ``--force``.
+file and line where there is one, and the flags concerned), 1 the machine ran short (memory,
+disk space, a file-size limit, the permission to write: one line naming what and the options
+left), 130 interrupted (Ctrl-C), 143 terminated (SIGTERM). Output files are written atomically
+(:func:`flexmor.io.atomic_write`), so an interrupted run leaves neither a partial nor a
+temporary file; an existing output file is only replaced with ``--force``.
 
 Modules: :mod:`.parser` (arguments, generated per-method options), :mod:`.method_flags` (the
 method options as flags), :mod:`.commands` (the subcommands and their output), :mod:`.ui` (the
@@ -24,7 +25,7 @@ import threading
 import warnings
 
 from .. import io
-from ..errors import ConvergenceError, FlexmorError, FlexmorWarning, ModelError, PortError, SolverError
+from ..errors import ConvergenceError, FlexmorError, FlexmorWarning, ModelError, PortError, ResourceError, SolverError
 from ..linalg.distributed import quiet_other_ranks
 from .parser import build_parser
 
@@ -221,11 +222,13 @@ def _dispatch(args) -> int:
         if model and isinstance(exc, (ModelError, PortError, SolverError, ConvergenceError)) and str(model) not in msg:
             msg = f"{model}: {msg}"  # problems found after reading still name the file
         print(f"flexmor: error: {msg}", file=sys.stderr)
-        return 2
+        return 1 if isinstance(exc, ResourceError) else 2
     except MemoryError:
-        print("flexmor: error: out of memory; try a faster backend (--backend pardiso) or a smaller model",
-              file=sys.stderr)
-        return 2
+        from ..linalg.memory import describe_memory
+
+        print(f"flexmor: error: out of memory ({describe_memory()}); try --factor-memory mixed or ooc, a smaller "
+              "--order, or a machine with more memory", file=sys.stderr)
+        return 1
     except OSError as exc:  # writing an output: permission denied, disk full, ...
         where = f"{exc.filename}: " if exc.filename else ""
         print(f"flexmor: error: {where}{exc.strerror or exc}", file=sys.stderr)

@@ -4,12 +4,16 @@
 from __future__ import annotations
 
 import contextlib
+import errno
+import io
 import os
 import secrets
 from collections.abc import Callable
 from pathlib import Path
 
-__all__ = ["atomic_write", "commit_guard"]
+from ..errors import ResourceError
+
+__all__ = ["atomic_write", "commit_guard", "DiscardAfterFailure", "write_failure"]
 
 #: A context-manager factory ``commit_guard(path)`` wrapped around the final rename of every
 #: :func:`atomic_write`, or None. An application sets it to veto the rename (raise in
@@ -27,6 +31,12 @@ def atomic_write(path, write: Callable[[str], None]) -> None:
     one. The data are flushed to disk before the rename, which runs inside :data:`commit_guard`
     when one is set. On any exception inside ``write`` (including ``KeyboardInterrupt``) the
     temporary file is removed and ``path`` is untouched.
+
+    Raises
+    ------
+    ResourceError
+        The file could not be written (a full disk, the file-size limit, a quota, no permission):
+        :func:`write_failure`, naming ``path`` and the cause.
     """
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
@@ -37,7 +47,42 @@ def atomic_write(path, write: Callable[[str], None]) -> None:
             os.fsync(fh.fileno())
         with (commit_guard(path) if commit_guard is not None else contextlib.nullcontext()):
             os.replace(tmp, path)
+    except OSError as exc:
+        raise write_failure(path, exc) from None
     finally:
-        if tmp.exists():
-            tmp.unlink()
+        with contextlib.suppress(OSError):
+            if tmp.exists():
+                tmp.unlink()
+
+
+#: The cause of a failed write, by errno, as messages say it.
+_CAUSES = {errno.ENOSPC: "no space left on the disk",
+           errno.EFBIG: "file too large: the process's file-size limit (ulimit -f) or the file system's",
+           errno.EDQUOT: "disk quota exceeded", errno.EACCES: "permission denied",
+           errno.EPERM: "operation not permitted", errno.EROFS: "read-only file system",
+           errno.EIO: "input/output error"}
+
+
+def write_failure(path, exc: OSError) -> ResourceError:
+    """The :class:`~flexmor.errors.ResourceError` of a failed write of ``path``: its cause from
+    ``exc``'s errno (no space, file-size limit, quota, permission), else its message."""
+    cause = _CAUSES.get(exc.errno or 0) or exc.strerror or str(exc)
+    return ResourceError(f"cannot write {path}: {cause}; nothing was written")
+
+
+class DiscardAfterFailure(io.FileIO):
+    """A binary file whose first failed write raises (and is kept in :attr:`failed`) and whose
+    later writes are dropped: a library that writes again while it closes after the failure
+    (HDF5 flushing its metadata) then closes cleanly; the file is discarded anyway."""
+
+    failed: OSError | None = None
+
+    def write(self, data):
+        if self.failed is not None:
+            return len(data)
+        try:
+            return super().write(data)
+        except OSError as exc:
+            self.failed = exc
+            raise
 

@@ -21,7 +21,7 @@ import numpy as np
 from ..errors import FlexmorWarning, ReadError
 from ..jsonutil import jsonable
 from ._registry import BODY_FORMATS, EXPORT_FORMATS
-from .atomic import atomic_write
+from .atomic import DiscardAfterFailure, atomic_write
 
 FORMAT_TAG = "flexmor-reduced"
 _ARRAYS = ("M", "K", "D", "B", "C", "V", "node_ids", "xyz", "dofs", "triangles")
@@ -48,7 +48,17 @@ def write_body(body, path) -> None:
     errors = {k: v for k, v in body.errors.items() if k not in ("rel_error", "freqs_hz")}
 
     def write(tmp):
-        with h5py.File(tmp, "w") as h:
+        # HDF5 writes through this file object: after a failed write (a full disk, the file-size limit)
+        # its closing flushes are dropped instead of failing again inside HDF5 (which crashed the process)
+        with DiscardAfterFailure(tmp, "w+") as fh:
+            try:
+                _fill(fh)
+            finally:
+                if fh.failed is not None:
+                    raise fh.failed
+
+    def _fill(fh):
+        with h5py.File(fh, "w") as h:
             h.attrs["format"] = FORMAT_TAG
             h.attrs["version"] = body.version
             h.attrs["method"] = body.method

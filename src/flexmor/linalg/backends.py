@@ -39,12 +39,12 @@ from types import MappingProxyType
 import numpy as np
 import scipy.sparse as sp
 
-from ..errors import SolverError
+from ..errors import OutOfMemoryError, SolverError
 from .factorization import Factorization
-from .memory import MEMORY_FRACTION, estimate_memory, matrix_bytes
+from .memory import MEMORY_FRACTION, describe_memory, estimate_memory, matrix_bytes
 
 __all__ = ["Backend", "BACKENDS", "available_backends",
-           "memory_available", "estimate_memory", "MEMORY_FRACTION", "describe_backends"]
+           "estimate_memory", "MEMORY_FRACTION", "describe_backends"]
 
 log = logging.getLogger(__name__)
 
@@ -70,23 +70,13 @@ class _ScipyLU(Factorization):
         except RuntimeError as exc:
             raise SolverError(f"SuperLU failed: {exc}; the matrix is singular (a free body needs a shift)") from None
         except MemoryError:
-            raise SolverError("SuperLU ran out of memory; use a faster solver (backend pardiso)",
-                              params=("backend",)) from None
+            raise OutOfMemoryError(f"SuperLU ran out of memory factorizing {A.shape[0]} equations: "
+                                   f"{describe_memory()}; try backend='pardiso' (less memory), factor_memory="
+                                   "'mixed', or a machine with more memory",
+                                   params=("backend", "factor_memory")) from None
 
     def _solve_factor(self, b):
         return self._lu.solve(np.asarray(b, dtype=self._lu.U.dtype))
-
-
-def memory_available() -> float | None:
-    """Bytes of memory available to new allocations (``MemAvailable`` of /proc/meminfo), or None."""
-    try:
-        with open("/proc/meminfo") as fh:
-            for line in fh:
-                if line.startswith("MemAvailable:"):
-                    return 1024.0 * int(line.split()[1])
-    except (OSError, ValueError, IndexError):
-        pass
-    return None
 
 
 class _Cholmod(Factorization):

@@ -28,7 +28,7 @@ from contextlib import contextmanager
 from dataclasses import dataclass, field
 
 from ..errors import OptionError, SolverError
-from . import backends as _backends
+from . import memory as _memory
 from .backends import BACKENDS
 from .distributed import MPILayout, layout
 from .factorization import OrderingCache, SolverStats
@@ -157,9 +157,10 @@ class SolverContext:
             raise OptionError(f"refine_tol must lie in (0, 1), got {self.refine_tol!r}", params=("refine_tol",))
 
     def memory_available(self) -> float | None:
-        """Bytes of memory the factorizations may count on: ``memory_limit``, else the machine's
-        available memory (:func:`flexmor.linalg.backends.memory_available`), or None if unknown."""
-        return _backends.memory_available() if self.memory_limit is None else float(self.memory_limit)
+        """Bytes of memory the factorizations may count on: ``memory_limit``, else the memory the
+        process can still allocate (:func:`flexmor.linalg.memory.memory_available`: the machine's,
+        bounded by the address-space and cgroup limits), or None if unknown."""
+        return _memory.memory_available() if self.memory_limit is None else float(self.memory_limit)
 
     def layout(self) -> MPILayout:
         """The MPI layout of the ``petsc`` backend (this process' rank and size unless given)."""

@@ -44,9 +44,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import SolverError
+from ..errors import OutOfMemoryError, SolverError
 
-__all__ = ["BACKWARD_TARGET", "FACTOR_MEMORY", "MEMORY_FRACTION", "MODE_NAMES", "REFINE_MAX_ITER", "REFINE_RESTART",
+__all__ = ["BACKWARD_TARGET", "FACTOR_MEMORY", "MEMORY_FRACTION", "MEMORY_LIMIT_NAMES", "memory_available",
+           "memory_limits", "describe_memory", "MODE_NAMES", "REFINE_MAX_ITER", "REFINE_RESTART",
            "REFINE_TOL", "MemoryPlan", "OutOfCore", "describe_factor", "estimate_memory", "factor_record",
            "matrix_bytes", "norm_bound", "pardiso_estimates", "plan_memory", "refine", "refusal"]
 
@@ -109,20 +110,114 @@ class MemoryPlan:
         return self.estimates.get(self.mode)
 
 
+def _proc_field(path: str, key: str) -> float | None:
+    """The value in bytes of ``key:`` (given in kB) in a /proc file, or None."""
+    try:
+        with open(path) as fh:
+            for line in fh:
+                if line.startswith(key + ":"):
+                    return 1024.0 * int(line.split()[1])
+    except (OSError, ValueError, IndexError):
+        pass
+    return None
+
+
+def _read_number(path: str) -> float | None:
+    try:
+        with open(path) as fh:
+            text = fh.read().strip()
+        return None if text in ("", "max") else float(text)
+    except (OSError, ValueError):
+        return None
+
+
+def _cgroup_room() -> float | None:
+    """Bytes the process's cgroup may still allocate (cgroup v2 ``memory.max - memory.current``,
+    v1 ``limit - usage``), or None without a limit."""
+    try:
+        with open("/proc/self/cgroup") as fh:
+            lines = fh.read().splitlines()
+    except OSError:
+        return None
+    for line in lines:
+        parts = line.split(":", 2)
+        if len(parts) != 3:
+            continue
+        if parts[0] == "0" and parts[1] == "":  # v2
+            base = "/sys/fs/cgroup" + parts[2]
+            limit, used = _read_number(base + "/memory.max"), _read_number(base + "/memory.current")
+        elif "memory" in parts[1].split(","):  # v1
+            base = "/sys/fs/cgroup/memory" + parts[2]
+            limit = _read_number(base + "/memory.limit_in_bytes")
+            used = _read_number(base + "/memory.usage_in_bytes")
+            limit = None if limit is not None and limit >= 2**62 else limit  # "no limit" on v1
+        else:
+            continue
+        if limit is not None and used is not None:
+            return max(limit - used, 0.0)
+    return None
+
+
+def memory_limits() -> dict:
+    """Bytes of memory the process can still allocate, by what bounds it: ``machine``
+    (``MemAvailable`` of /proc/meminfo), ``address_space`` (the soft ``RLIMIT_AS``, ``ulimit -v``,
+    less the process's ``VmSize``), ``cgroup`` (its memory limit less its usage); None where
+    unknown or unlimited."""
+    out = {"machine": _proc_field("/proc/meminfo", "MemAvailable"), "address_space": None, "cgroup": _cgroup_room()}
+    try:
+        import resource
+
+        soft = resource.getrlimit(resource.RLIMIT_AS)[0]
+        if soft != resource.RLIM_INFINITY:
+            out["address_space"] = max(float(soft) - (_proc_field("/proc/self/status", "VmSize") or 0.0), 0.0)
+    except (ImportError, OSError, ValueError):
+        pass
+    return out
+
+
+#: What each bound of :func:`memory_limits` is called in messages.
+MEMORY_LIMIT_NAMES = {"machine": "the machine's available memory", "address_space": "the process's address-space "
+                      "limit (ulimit -v)", "cgroup": "the memory limit of the process's cgroup (container)"}
+
+
+def memory_available() -> float | None:
+    """Bytes of memory available to new allocations: the smallest of :func:`memory_limits`, or None."""
+    known = [v for v in memory_limits().values() if v is not None]
+    return min(known) if known else None
+
+
+def describe_memory() -> str:
+    """``"N MB available (what bounds it)"`` for messages."""
+    limits = {k: v for k, v in memory_limits().items() if v is not None}
+    if not limits:
+        return "the memory available is unknown"
+    key = min(limits, key=limits.get)
+    return f"{limits[key] / 2**20:.0f} MB available ({MEMORY_LIMIT_NAMES[key]})"
+
+
 def _mb(x) -> str:
     return f"{x / 2**20:.0f} MB"
 
 
-def refusal(n: int, backend: str, estimates: dict, available: float, others=()) -> SolverError:
+def refusal(n: int, backend: str, estimates: dict, available: float, others=()) -> OutOfMemoryError:
     """The error of a factorization of ``n`` equations that fits in no mode into ``available`` bytes."""
     alt = [f"in mixed precision {_mb(estimates['mixed'])}"] if estimates.get("mixed") is not None else []
     alt += [f"out of core at least {_mb(estimates['ooc'])}"] if estimates.get("ooc") is not None else []
     hint = (f"try another backend ({', '.join(others)}), " if others else "") + \
         "a distributed backend on a machine with more memory, or a smaller model"
-    return SolverError(
+    return OutOfMemoryError(
         f"factorizing {n} equations with {backend} needs about {_mb(estimates['double'])}"
         + "".join([" in double precision"] + [f", {a}" for a in alt] if alt else [])
-        + f", but only {_mb(available)} of memory are available; {hint}")
+        + f", but only {_mb(available)} of memory are available{_bound(available)}; {hint}")
+
+
+def _bound(available: float) -> str:
+    """`` (what bounds it)`` when ``available`` is one of :func:`memory_limits`, else ``""``
+    (a ``memory_limit`` given)."""
+    for key, value in memory_limits().items():
+        if value is not None and abs(value - available) <= 1e-6 * max(value, 1.0):
+            return f" ({MEMORY_LIMIT_NAMES[key]})"
+    return ""
 
 
 def plan_memory(solver, backend: str, n: int, estimates: dict) -> MemoryPlan:

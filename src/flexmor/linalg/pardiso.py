@@ -18,9 +18,9 @@ import functools
 import numpy as np
 import scipy.sparse as sp
 
-from ..errors import SolverError
+from ..errors import OutOfMemoryError, SolverError
 from .factorization import Factorization
-from .memory import OutOfCore, pardiso_estimates
+from .memory import OutOfCore, describe_memory, pardiso_estimates
 
 __all__ = ["PARDISO_ERRORS", "PardisoFactorization", "mkl_pardiso"]
 
@@ -146,6 +146,10 @@ class PardisoFactorization(Factorization):
                  self._iparm.ctypes.data_as(c.POINTER(i32)), c.byref(i32(0)), bp, xp, c.byref(err))
         if err.value != 0:
             what = PARDISO_ERRORS.get(err.value, "unknown error")
+            if err.value in (-2, -9):  # out of memory: the machine's or the process's limit
+                raise OutOfMemoryError(f"PARDISO phase {phase} ({self._n} equations): {what}; "
+                                       f"{describe_memory()}; try factor_memory='mixed' or 'ooc', a smaller "
+                                       "model, or a machine with more memory", params=("factor_memory",))
             raise SolverError(f"PARDISO phase {phase} failed with error {err.value}: {what}")
 
     def _solve_factor(self, b):
