@@ -23,6 +23,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from ..errors import OptionError, ReadError
+from ..units import to_si, unit_system
 
 __all__ = ["BODY_FORMATS", "EXPORT_FORMATS", "MODEL_FORMATS", "Format", "Registry", "describe_formats", "export",
            "export_format", "read", "read_body"]
@@ -180,7 +181,7 @@ def _choose_reader(registry: Registry, path: Path, format: str | None, hint: str
     return fmt
 
 
-def read(path, format: str | None = None, **options):
+def read(path, format: str | None = None, *, units: str | None = None, **options):
     """Read an FE model from ``path``.
 
     Parameters
@@ -190,6 +191,10 @@ def read(path, format: str | None = None, **options):
         are found beside it.
     format : str, optional
         A name from :data:`MODEL_FORMATS`; by default chosen from the file name.
+    units : str, optional
+        The unit system of the file (``SI`` or ``m-kg-s``, ``mm-t-s``, ``mm-kg-ms``, ``mm-g-ms``,
+        ``in-lbf-s``; :data:`flexmor.units.SYSTEMS`): the model is converted to SI and records it
+        (:func:`flexmor.units.to_si`). By default the numbers are taken as given.
     **options
         Passed to the reader.
 
@@ -202,11 +207,15 @@ def read(path, format: str | None = None, **options):
     ReadError
         Missing, unreadable or malformed file, or unknown suffix.
     OptionError
-        Unknown ``format``.
+        Unknown ``format`` or ``units``.
+    ModelError
+        ``units`` other than SI for a model without an equation map.
     """
     path = Path(path)
     fmt = _choose_reader(MODEL_FORMATS, path, format, " (or give format)")
-    return fmt.function(_checked(path), **options)
+    if units is not None:
+        unit_system(units)  # an unknown name before the file is read
+    return to_si(fmt.function(_checked(path), **options), units)
 
 
 def read_body(path, format: str | None = None, **options):
