@@ -58,8 +58,8 @@ from .errors import ModelError, OptionError
 from .linalg.distributed import is_partitioned
 from .model import DIRECTIONS
 
-__all__ = ["AS_GIVEN", "SI", "SYSTEMS", "UnitSystem", "describe_units", "dof_lengths", "frf_unit", "port_kind",
-           "to_si", "unit_system"]
+__all__ = ["AS_GIVEN", "SI", "SYSTEMS", "UnitSystem", "describe_units", "dof_lengths", "export_units", "frf_unit",
+           "port_kind", "to_si", "unit_system"]
 
 #: What a model or body whose file states no unit system is: its numbers as given.
 AS_GIVEN = "as given (the file states no unit system; name it with units=...)"
@@ -187,6 +187,25 @@ def describe_units(units) -> str:
     except OptionError:
         return str(units)
     return system.describe() + ("" if system.is_si else ", converted to SI on reading")
+
+
+def export_units(body, units) -> UnitSystem:
+    """The unit system ``units`` a reduced body is written in, checked against the body.
+
+    Raises
+    ------
+    OptionError
+        An unknown system (naming ``units``).
+    ModelError
+        A system other than SI for a body whose model was read as given (``body.units`` None):
+        the units of its numbers are not known.
+    """
+    system = unit_system(units)
+    if getattr(body, "units", None) is None and not system.is_si:
+        raise ModelError(f"the body was reduced from a model read as given (its unit system not named), so its "
+                         f"numbers cannot be written in {system.name}; reduce it from the model read with units "
+                         "named (e.g. SI)", params=("units",))
+    return system
 
 
 def dof_lengths(dofs, system) -> np.ndarray:

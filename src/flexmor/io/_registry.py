@@ -26,7 +26,7 @@ from ..errors import OptionError, ReadError
 from ..units import to_si, unit_system
 
 __all__ = ["BODY_FORMATS", "EXPORT_FORMATS", "MODEL_FORMATS", "Format", "Registry", "describe_formats", "export",
-           "export_format", "read", "read_body"]
+           "export_format", "read", "read_body", "unit_formats"]
 
 
 @dataclass(frozen=True)
@@ -264,7 +264,14 @@ def export_format(path, format: str | None = None) -> str:
     return fmt.name
 
 
-def export(body, path, format: str | None = None, *, model=None, **options) -> str:
+def unit_formats() -> list[str]:
+    """The export formats that write other unit systems than SI (their writer takes ``units``)."""
+    import inspect
+
+    return [f.name for f in EXPORT_FORMATS.formats().values() if "units" in inspect.signature(f.function).parameters]
+
+
+def export(body, path, format: str | None = None, *, model=None, units: str | None = None, **options) -> str:
     """Write ``body`` to ``path`` in an export format, atomically.
 
     The inertia invariants of SID and Exudyn bodies are integrals over the full model's mass
@@ -281,6 +288,10 @@ def export(body, path, format: str | None = None, *, model=None, **options) -> s
         or ``ss``, ``hdf5``); default from the suffix (``.SID_FEM``, ``.mat``, ``.h5``, ...).
     model : FEModel, optional
         The full model the body was reduced from (required by ``sid`` and ``exudyn``).
+    units : str, optional
+        The unit system of the file (:data:`flexmor.units.SYSTEMS`), for the formats of
+        :func:`unit_formats` (``sid``, ``mat``; the file states it); default SI. The body must
+        know its model's units (``body.units``).
     **options
         Passed to the writer (e.g. ``nodes=[...]`` frame nodes, ``m1_order=`` for SID).
 
@@ -288,8 +299,20 @@ def export(body, path, format: str | None = None, *, model=None, **options) -> s
     -------
     str
         The format name used.
+
+    Raises
+    ------
+    OptionError
+        Unknown ``format`` or ``units``, or ``units`` other than SI for a format that writes SI only.
     """
     name = export_format(path, format)
+    if units is not None:
+        system = unit_system(units)
+        if name in unit_formats():
+            options["units"] = system.name
+        elif not system.is_si:
+            raise OptionError(f"{name} files are written in SI only; units={units!r} is for "
+                              f"{', '.join(unit_formats())}", params=("units",))
     EXPORT_FORMATS.by_name(name).function(body, path, model=model, **options)
     return name
 
