@@ -142,3 +142,14 @@ def test_export_units(capsys, bodies):
     assert code == 2 and "--export-units mm-t-s: statespace files are written in SI only" in err
     code, _, err = run(capsys, "export", tmp / "si.h5", "--export-units", "mm-t-s", "-o", tmp / "c.mat")
     assert code == 2 and "read as given" in err
+
+
+def test_report_states_units(capsys, bodies):
+    from flexmor.report.plots import frf_unit_label, output_unit
+
+    tmp, mm = bodies
+    code, _, err = run(capsys, "report", mm, tmp / "mm.h5", "--units", "mm-t-s", "-o", tmp / "r.html", "--modes", "4")
+    assert code == 0, err
+    assert "units SI (m, kg, s, N), the model file in mm-t-s converted on reading" in (tmp / "r.html").read_text()
+    assert frf_unit_label("TIP:y", "TIP:y", "SI") == "|H| [m/N]" and frf_unit_label("TIP:y", "TIP:y", None) == "|H|"
+    assert frf_unit_label("7:ry", "TIP:x", "SI") == "|H| [rad/N]" and output_unit(["TIP:y", "3:rx"], "SI") == "m, rad"
