@@ -296,7 +296,8 @@ def to_si(model, units):
         return out
     if model.dofs is None:
         raise ModelError(f"{where} has no equation map, so which equations are rotations is not known: it cannot "
-                         f"be converted from {system.name}; give the nodes of its equations (mesh)", params=("units",))
+                         f"be converted from {system.name}; give the nodes of its equations (mesh)",
+                         params=("units", "mesh"))
     if is_partitioned(model.K):
         raise ModelError(f"{where}: a model whose rows are spread over MPI ranks cannot be converted; convert it "
                          "before it is distributed", params=("units",))

@@ -44,6 +44,7 @@ def _method(text: str) -> str:
     except OptionError as exc:
         raise argparse.ArgumentTypeError(exc.message({"method": "--method"})) from None
 
+
 def _unit_system(flag: str):
     """The type of ``--units`` / ``--export-units``: the canonical name, or the error with its "did you mean"."""
     def parse(text: str) -> str:
