@@ -150,3 +150,22 @@ def test_read_with_units():
     assert np.allclose(model.M.data, ref.M.data * 1e3) and np.allclose(model.xyz, ref.xyz * 1e-3)
     with pytest.raises(OptionError, match="did you mean 'in-lbf-s'"):
         read(CCX / "beam8_clamped_mat.sti", units="in-lb-s")
+
+
+def test_a_coupled_model_converts_like_its_coupling(tmp_path):
+    """An RBE2 master (6 DOF, lever arms in the file's length) coupled in mm-t-s and then converted equals the
+    coupling of the converted model: each rotation is scaled by its own factor."""
+    from test_cli_units import mm_copy
+
+    from flexmor.couplings import couple
+    from flexmor.io import read
+
+    mm = read(mm_copy(tmp_path))
+    a = to_si(couple(mm, ["TIP@rbe2"]).model, "mm-t-s")
+    b = couple(to_si(mm, "mm-t-s"), ["TIP@rbe2"]).model
+    assert (a.dofs[:, 1] > 3).sum() == 3 and np.array_equal(a.dofs, b.dofs)
+    assert rel(a.K, b.K) < 1e-12 and rel(a.M, b.M) < 1e-12 and np.allclose(a.xyz, b.xyz, rtol=1e-14, atol=1e-15)
+    rot = a.dofs[:, 1] > 3
+    for A, B in ((a.K, b.K), (a.M, b.M)):
+        x, y = A[rot][:, ~rot].toarray(), B[rot][:, ~rot].toarray()
+        assert np.abs(x - y).max() <= 1e-12 * np.abs(y).max()
