@@ -44,7 +44,8 @@ LAYERS = [
     ["flexmor.projection", "flexmor.body", "flexmor.checks", "flexmor.models"],  # projection; the body; checks; models
     ["flexmor.origin", "flexmor.ports", "flexmor.selection", "flexmor.couplings", "flexmor.basis",
      "flexmor.options"],  # model fingerprint, ports, node sets, RBE2/RBE3, bases, option values
-    ["flexmor.model", "flexmor.damping", "flexmor.mesh"],  # the FE model, damping values, mesh surface
+    ["flexmor.model", "flexmor.damping", "flexmor.mesh", "flexmor.units"],  # the FE model, damping values, mesh
+    # surface, unit systems
     ["flexmor.linalg"],  # solver layer
     ["flexmor.errors", "flexmor.jsonutil", "flexmor._version"],  # errors, JSON values, the version
 ]

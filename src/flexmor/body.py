@@ -60,6 +60,10 @@ class ReducedModel:
     order_note : str or None
         Why the order differs from the one asked for (e.g. a Craig-Bampton basis bounded by the
         interior DOFs, Hankel singular values at round-off); None when it does not.
+    units : str or None
+        The unit system of the file its model was read from (:data:`flexmor.units.SYSTEMS`; the
+        body itself is in SI, its model converted on reading), None when the file's system was
+        not named (numbers as given).
     """
 
     M: np.ndarray
@@ -84,6 +88,7 @@ class ReducedModel:
     selections: list = field(default_factory=list)
     couplings: list = field(default_factory=list)
     order_note: str | None = None
+    units: str | None = None
 
     def __post_init__(self):
         if not isinstance(self.damping, Damping):  # the stored form, e.g. {"type": "rayleigh", ...}
@@ -109,7 +114,8 @@ class ReducedModel:
         ``kind``, ``xyz``, ``n_slaves``), ``options`` (the method options recorded), ``frequencies_hz``,
         ``damping`` (stored form), ``errors`` (the stored measures, without the curves),
         ``model`` (the fingerprint of the full model it came from, empty for older bodies),
-        ``version`` (of the flexmor that wrote it).
+        ``units`` (the unit system of its model's file, None: as given), ``version`` (of the
+        flexmor that wrote it).
         """
         try:
             freqs = self.frequencies_hz().tolist()
@@ -122,7 +128,7 @@ class ReducedModel:
                 "options": dict(self.info.get("options", {})), "frequencies_hz": freqs,
                 "damping": self.damping.to_dict(), "model_name": self.model_name,
                 "errors": {k: v for k, v in self.errors.items() if k not in ("freqs_hz", "rel_error")},
-                "model": dict(self.origin), "version": self.version}
+                "model": dict(self.origin), "units": self.units, "version": self.version}
 
     def frequencies_hz(self) -> np.ndarray:
         """Undamped eigenfrequencies in Hz (round-off negatives reported as 0)."""

@@ -5,7 +5,8 @@ A model is the second-order system ``M q'' + D q' + K q = B u`` with sparse symm
 geometry needed to address degrees of freedom by node and direction:
 
 * ``node_ids`` (n_nodes,) and ``xyz`` (n_nodes, 3): the node table, coordinates in the
-  length unit of the FE file (flexmor never converts units);
+  length unit of the model (m when the file's unit system was named on reading and converted,
+  :mod:`flexmor.units`; else the file's own, as given);
 * ``dofs`` (n_dof, 2): for each equation, the node id and the direction code
   1..6 = x, y, z, rx, ry, rz;
 * ``node_sets``: named sets of node ids.
@@ -167,6 +168,11 @@ class FEModel:
         (20-node hexahedra with reduced integration or row-sum lumping, e.g. CalculiX
         C3D20R): non-positive mass diagonals are then reported by a :class:`FlexmorWarning`
         (see :data:`SINGULAR_MASS_NOTE`) instead of raising ModelError.
+    units : str, optional
+        The unit system of the file the model was read from (a name of
+        :data:`flexmor.units.SYSTEMS`), whose numbers were converted to SI on reading
+        (:func:`flexmor.units.to_si`); None when the file's system was not named: the numbers
+        are as given.
 
     Raises
     ------
@@ -192,6 +198,7 @@ class FEModel:
     node_frames: dict = field(default_factory=dict)
     singular_mass_ok: bool = False
     mesh: Mesh | None = None
+    units: str | None = None
 
     def __post_init__(self):
         if not isinstance(self.damping, Damping):
@@ -352,6 +359,7 @@ class FEModel:
             "node_sets": {k: int(v.size) for k, v in self.node_sets.items()},
             "inputs": list(self.input_names),
             "outputs": list(self.output_names),
+            "units": self.units,
         }
 
     def mass_properties(self) -> dict:

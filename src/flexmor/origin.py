@@ -147,8 +147,22 @@ def check_origin(body, model, path=None, *, couplings=(), label: str | None = No
     where = label if label is not None else (model.source or model.name) + (
         f" with {', '.join(couplings)}" if couplings else "")
     came = recorded.get("source") or recorded.get("name") or "unknown"
+    read_in = _units_advice(body, model)
     raise ModelError(f"{name} was reduced from a model with {'; '.join(diffs)} (the body's model: {came}; "
-                     f"this model: {where}); {advice}")
+                     f"this model: {where}); {read_in or advice}", params=("units",) if read_in else ())
+
+
+def _units_advice(body, model) -> str:
+    """What to do when ``body``'s model was read in another unit system than ``model`` (or "")."""
+    if isinstance(model, dict):
+        return ""
+    theirs, ours = getattr(body, "units", None), getattr(model, "units", None)
+    if theirs == ours:
+        return ""
+    if theirs is None:
+        return f"the body's model was read as given, this one in {ours}: read the model as given (no units)"
+    return (f"the body's model was read in {theirs}, this one {'in ' + ours if ours else 'as given'}: give units "
+            f"{theirs} with the model")
 
 
 def describe_damping(damping: Damping) -> str:

@@ -127,5 +127,5 @@ def project(model: FEModel, basis: Basis | np.ndarray, ports: Ports) -> ReducedM
         input_names=list(ports.input_names), output_names=list(ports.output_names),
         node_ids=model.node_ids, xyz=model.xyz, dofs=model.dofs, model_name=model.name,
         damping=model.damping, triangles=None if model.mesh is None else outer_surface(model.mesh).triangles,
-        origin=fingerprint(model), order_note=order_note,
+        origin=fingerprint(model), order_note=order_note, units=model.units,
     )

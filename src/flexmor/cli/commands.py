@@ -111,10 +111,11 @@ def _read_model(args, couplings=(), *, damped=True, keep=None):
     (:func:`_asked_damping`). ``keep["uncoupled"]`` (a dict given) gets the model before the couplings."""
     from ..io import read
     from ..options import Band
+    from ..units import to_si
     from ..workflow import prepare_model
 
     def load():
-        model = _with_mesh(read(args.model, format=args.format), args)
+        model = to_si(_with_mesh(read(args.model, format=args.format), args), getattr(args, "units", None))
         if getattr(args, "select", None):
             from ..selection import nearest_report, with_selections
 

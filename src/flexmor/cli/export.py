@@ -10,16 +10,22 @@ __all__ = ["cmd_export"]
 
 
 def cmd_export(args) -> int:
-    from ..io import export, export_format, read, read_body
+    from ..io import export, export_format, read, read_body, unit_formats
     from ..origin import reference_model
+    from ..units import to_si
 
     _check_new(args.output_file, args)
     red = read_body(args.reduced)
     name = export_format(args.output_file, args.format)
     if args.mesh and not args.model:
         raise OptionError("--mesh attaches a mesh file to the --model; give --model too")
-    model = _with_mesh(read(args.model, format=args.model_format), args) if args.model else None
-    out = {"file": str(args.output_file), "format": name, "order": red.order, "method": red.method}
+    if args.export_units not in (None, "SI") and name not in unit_formats():
+        raise OptionError(f"--export-units {args.export_units}: {name} files are written in SI only; other unit "
+                          f"systems: {', '.join(unit_formats())}")
+    units = args.units or red.units  # the --model file in the unit system the body records, unless given
+    model = to_si(_with_mesh(read(args.model, format=args.model_format), args), units) if args.model else None
+    out = {"file": str(args.output_file), "format": name, "order": red.order, "method": red.method,
+           "units": args.export_units or ("SI" if red.units is not None else None)}
     body, ref = red, None
     if model is not None:  # the body's own model (refused otherwise); the exporters apply its couplings
         ref = reference_model(model, red, args.reduced)
@@ -33,11 +39,12 @@ def cmd_export(args) -> int:
         opts["m1_order"] = args.m1_order
     if args.allow_clamped:
         opts["allow_clamped"] = True
-    export(body, args.output_file, name, model=model, **opts)
+    export(body, args.output_file, name, model=model, units=args.export_units, **opts)
     if args.json:
         _emit_json(out)
         return 0
-    print(f"exported {args.reduced} ({red.method}, order {red.order}) as {name}: {args.output_file}")
+    print(f"exported {args.reduced} ({red.method}, order {red.order}) as {name}: {args.output_file}"
+          + (f" in {args.export_units}" if args.export_units else ""))
     if "modal_form" in out:
         r = out["modal_form"]
         kept = (f"{r['order']} of its {r['order_before']} elastic modes (up to {r['max_frequency_hz']:.4g} Hz)"

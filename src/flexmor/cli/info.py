@@ -64,6 +64,7 @@ def info_body(args, emit_json) -> int:
     for line in coupling_lines(red.info.get("coupling_frequencies")):
         _row("", line)
     _row("damping", describe_damping(damping_from_dict(out["damping"])))
+    _row("units", _units_line(out["units"], "the body is in SI; export --export-units writes other systems"))
     fr = out["frequencies_hz"]
     if fr is not None:
         _row("freqs [Hz]", " ".join(f"{f:.5g}" for f in fr[:16]) + (" ..." if len(fr) > 16 else ""))
@@ -243,18 +244,30 @@ def info_formats(args, emit_json) -> int:
     return 0
 
 
+def _units_line(units, si_note: str) -> str:
+    """The ``units`` row: the file's system (and ``si_note``), or the model's numbers as given."""
+    from ..units import describe_units
+
+    if units is None:
+        return "as given (the file states no unit system; give --units SI, mm-t-s, ... to convert to SI)"
+    return f"{describe_units(units)}; {si_note}"
+
+
 def print_mass_properties(out: dict) -> None:
-    """The bounding box, mass and centre of mass lines of ``flexmor info MODEL``."""
+    """The units, bounding box, mass and centre of mass lines of ``flexmor info MODEL``."""
+    known_units = out.get("units") is not None
+    _row("units", _units_line(out.get("units"), "the numbers below are SI"), 10)
     box = out.get("bounding_box")
     if box:
-        _row("bbox", "x {:.6g} .. {:.6g}, y {:.6g} .. {:.6g}, z {:.6g} .. {:.6g} (length unit of the file)".format(
-            *(v for pair in zip(*box) for v in pair)), 10)
+        _row("bbox", "x {:.6g} .. {:.6g}, y {:.6g} .. {:.6g}, z {:.6g} .. {:.6g} ({})".format(
+            *(v for pair in zip(*box) for v in pair), "m" if known_units else "length unit of the file"), 10)
     mass = out.get("mass")
     if mass and any(m is not None for m in mass):
         known = [m for m in mass if m is not None]
         text = (f"{known[0]:.6g}" if max(known) - min(known) <= 1e-9 * max(known)
                 else "x {} y {} z {}".format(*("-" if m is None else f"{m:.6g}" for m in mass)))
-        _row("mass", text + " (mass unit of the file; DOFs constrained in the export carry none)", 10)
+        _row("mass", text + f" ({'kg' if known_units else 'mass unit of the file'}; DOFs constrained in the export "
+                            "carry none)", 10)
     if out.get("center_of_mass"):
         _row("c.o.m.", "({:.6g}, {:.6g}, {:.6g})".format(*out["center_of_mass"]), 10)
 

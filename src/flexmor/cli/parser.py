@@ -46,6 +46,26 @@ def _method(text: str) -> str:
     except OptionError as exc:
         raise argparse.ArgumentTypeError(exc.message({"method": "--method"})) from None
 
+
+def _unit_system(flag: str):
+    """The type of ``--units`` / ``--export-units``: the canonical name, or the error with its "did you mean"."""
+    def parse(text: str) -> str:
+        from ..errors import OptionError
+        from ..units import unit_system
+
+        try:
+            return unit_system(text).name
+        except OptionError as exc:
+            text = exc.message({"units": flag}).removeprefix(f"{flag}=")  # argparse names the flag
+            raise argparse.ArgumentTypeError(text) from None
+
+    return parse
+
+
+_UNITS_HELP = ("unit system of the model file, converted to SI on reading: SI (= m-kg-s), mm-t-s, mm-kg-ms, mm-g-ms, "
+               "in-lbf-s (default: the numbers as given)")
+
+
 def _help(f) -> str:
     if f.default is None:
         return f.metadata["help"]
@@ -100,6 +120,7 @@ def _add_model_args(p, damping=True):
     p.add_argument("model", help="main file of the FE export (format from the suffix)")
     p.add_argument("--format", help="override the format chosen from the suffix")
     p.add_argument("--mesh", metavar="FILE", help=_MESH_HELP)
+    p.add_argument("--units", type=_unit_system("--units"), metavar="SYSTEM", help=_UNITS_HELP)
     p.add_argument("--backend", default="auto",
                    help="sparse solver: auto, pardiso, cholmod, scipy, petsc (MPI: mpirun -n P flexmor ...)")
     p.add_argument("--factor-memory", choices=FACTOR_MEMORY, default="auto",
@@ -258,6 +279,12 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--model", help="FE model the body was reduced from (required for sid and exudyn: the "
                    "inertia invariants integrate over its mass matrix)")
     p.add_argument("--model-format", help="override the format of --model chosen from its suffix")
+    p.add_argument("--units", type=_unit_system("--units"), metavar="SYSTEM",
+                   help="unit system of the --model file, converted to SI on reading (as --units of reduce); "
+                        "default the one the body records")
+    p.add_argument("--export-units", type=_unit_system("--export-units"), metavar="SYSTEM",
+                   help="unit system of the file written: SI (default) or mm-t-s, mm-kg-ms, mm-g-ms, in-lbf-s "
+                        "(sid, mat; the file states it)")
     p.add_argument("--mesh", metavar="FILE", help=_MESH_HELP + " (with --model)")
     p.add_argument("--node", action="append", default=[], metavar="NODE|SET",
                    help="SID frame node (node id, set, or coupling such as HOLE@rbe2: its master; a set gives an "

@@ -35,9 +35,10 @@ from ._registry import (
     export_format,
     read,
     read_body,
+    unit_formats,
 )
 from .atomic import atomic_write
 from .hdf5 import write_body
 
 __all__ = ["BODY_FORMATS", "EXPORT_FORMATS", "MODEL_FORMATS", "Format", "Registry", "atomic_write",
-           "describe_formats", "export", "export_format", "read", "read_body", "write_body"]
+           "describe_formats", "export", "export_format", "read", "read_body", "unit_formats", "write_body"]

@@ -23,9 +23,10 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from ..errors import OptionError, ReadError, did_you_mean
+from ..units import to_si, unit_system
 
 __all__ = ["BODY_FORMATS", "EXPORT_FORMATS", "MODEL_FORMATS", "Format", "Registry", "describe_formats", "export",
-           "export_format", "read", "read_body"]
+           "export_format", "read", "read_body", "unit_formats"]
 
 
 @dataclass(frozen=True)
@@ -194,7 +195,7 @@ def _choose_reader(registry: Registry, path: Path, format: str | None, hint: str
     return fmt
 
 
-def read(path, format: str | None = None, **options):
+def read(path, format: str | None = None, *, units: str | None = None, **options):
     """Read an FE model from ``path``.
 
     Parameters
@@ -204,6 +205,10 @@ def read(path, format: str | None = None, **options):
         are found beside it.
     format : str, optional
         A name from :data:`MODEL_FORMATS`; by default chosen from the file name.
+    units : str, optional
+        The unit system of the file (``SI`` or ``m-kg-s``, ``mm-t-s``, ``mm-kg-ms``, ``mm-g-ms``,
+        ``in-lbf-s``; :data:`flexmor.units.SYSTEMS`): the model is converted to SI and records it
+        (:func:`flexmor.units.to_si`). By default the numbers are taken as given.
     **options
         Passed to the reader.
 
@@ -216,11 +221,15 @@ def read(path, format: str | None = None, **options):
     ReadError
         Missing, unreadable or malformed file, or unknown suffix.
     OptionError
-        Unknown ``format``.
+        Unknown ``format`` or ``units``.
+    ModelError
+        ``units`` other than SI for a model without an equation map.
     """
     path = Path(path)
     fmt = _choose_reader(MODEL_FORMATS, path, format, " (or give format)")
-    return fmt.function(_checked(path), **options)
+    if units is not None:
+        unit_system(units)  # an unknown name before the file is read
+    return to_si(fmt.function(_checked(path), **options), units)
 
 
 def read_body(path, format: str | None = None, **options):
@@ -269,7 +278,14 @@ def export_format(path, format: str | None = None) -> str:
     return fmt.name
 
 
-def export(body, path, format: str | None = None, *, model=None, **options) -> str:
+def unit_formats() -> list[str]:
+    """The export formats that write other unit systems than SI (their writer takes ``units``)."""
+    import inspect
+
+    return [f.name for f in EXPORT_FORMATS.formats().values() if "units" in inspect.signature(f.function).parameters]
+
+
+def export(body, path, format: str | None = None, *, model=None, units: str | None = None, **options) -> str:
     """Write ``body`` to ``path`` in an export format, atomically.
 
     The inertia invariants of SID and Exudyn bodies are integrals over the full model's mass
@@ -286,6 +302,10 @@ def export(body, path, format: str | None = None, *, model=None, **options) -> s
         or ``ss``, ``hdf5``); default from the suffix (``.SID_FEM``, ``.mat``, ``.h5``, ...).
     model : FEModel, optional
         The full model the body was reduced from (required by ``sid`` and ``exudyn``).
+    units : str, optional
+        The unit system of the file (:data:`flexmor.units.SYSTEMS`), for the formats of
+        :func:`unit_formats` (``sid``, ``mat``; the file states it); default SI. The body must
+        know its model's units (``body.units``).
     **options
         Passed to the writer (e.g. ``nodes=[...]`` frame nodes, ``m1_order=`` for SID).
 
@@ -293,8 +313,20 @@ def export(body, path, format: str | None = None, *, model=None, **options) -> s
     -------
     str
         The format name used.
+
+    Raises
+    ------
+    OptionError
+        Unknown ``format`` or ``units``, or ``units`` other than SI for a format that writes SI only.
     """
     name = export_format(path, format)
+    if units is not None:
+        system = unit_system(units)
+        if name in unit_formats():
+            options["units"] = system.name
+        elif not system.is_si:
+            raise OptionError(f"{name} files are written in SI only; units={units!r} is for "
+                              f"{', '.join(unit_formats())}", params=("units",))
     EXPORT_FORMATS.by_name(name).function(body, path, model=model, **options)
     return name
 

@@ -6,7 +6,8 @@ Layout: datasets ``M K B C`` (and ``D``, ``V``, ``node_ids``, ``xyz``, ``dofs`` 
 ``damping``, ``errors``, ``input_names``, ``output_names``, ``origin`` (the fingerprint of
 the full model, :mod:`flexmor.origin`; absent in bodies written before it existed),
 ``selections``, ``couplings`` and ``order_note`` (older bodies hold these three as keys of
-``info``; they are read from there). Written atomically.
+``info``; they are read from there) and ``units`` (the unit system of the model's file, null:
+as given; absent in older bodies). Written atomically.
 """
 
 from __future__ import annotations
@@ -26,9 +27,9 @@ from .atomic import DiscardAfterFailure, atomic_write
 FORMAT_TAG = "flexmor-reduced"
 _ARRAYS = ("M", "K", "D", "B", "C", "V", "node_ids", "xyz", "dofs", "triangles")
 _JSON = ("info", "damping", "errors", "input_names", "output_names", "origin", "selections", "couplings",
-         "order_note")
+         "order_note", "units")
 #: JSON attributes that older bodies lack: name -> value then
-_OPTIONAL = {"origin": {}, "selections": [], "couplings": [], "order_note": None}
+_OPTIONAL = {"origin": {}, "selections": [], "couplings": [], "order_note": None, "units": None}
 #: fields of the body that older bodies kept as keys of ``info``
 _FROM_INFO = ("selections", "couplings", "order_note")
 
@@ -118,12 +119,13 @@ def _check_layout(path, h) -> None:
 
 
 def _check_fields(path, meta) -> None:
-    """Refuse ``selections``/``couplings`` that are not lists of strings, an ``order_note`` not a string."""
+    """Refuse ``selections``/``couplings`` that are not lists of strings, ``order_note``/``units`` not strings."""
     for n in ("selections", "couplings"):
         if not (isinstance(meta[n], list) and all(isinstance(s, str) for s in meta[n])):
             raise ReadError(path, f"attribute {n!r} must be a JSON list of strings")
-    if not (meta["order_note"] is None or isinstance(meta["order_note"], str)):
-        raise ReadError(path, "attribute 'order_note' must be a JSON string or null")
+    for n in ("order_note", "units"):
+        if not (meta[n] is None or isinstance(meta[n], str)):
+            raise ReadError(path, f"attribute {n!r} must be a JSON string or null")
 
 
 def _read(path):

@@ -60,6 +60,12 @@ class Report:
     plot_data: dict = field(default_factory=dict)
 
 
+def _numbers_units(model) -> str | None:
+    """The system of the model's numbers: SI when its file's system was named (converted on reading), None
+    when they are as given."""
+    return None if model.units is None else "SI"
+
+
 def _signal(name, dt: float, t_end: float, band):
     from ..dynamics import time as tm
 
@@ -191,7 +197,8 @@ def _frequency_section(rep: Report, model, ports, full, bodies, labels, seconds)
             " (anti-resonance)" if err.max_rel_error_at_antiresonance else "") + (
             " (spurious resonance)" if err.max_rel_error_at_spurious_resonance else ""))
         rep.notes.extend(f"{lb}: {n}" for n in err.notes)
-    rep.figures["frf"] = plots.frf_png(full.freqs, H_refs, H_red, ports.input_names, ports.output_names)
+    rep.figures["frf"] = plots.frf_png(full.freqs, H_refs, H_red, ports.input_names, ports.output_names,
+                                       units=_numbers_units(model))
     rep.plot_data.update(freqs_hz=full.freqs, frf_references=H_refs, reference_of=ref_of)
     rep.figures["rel_error"] = plots.rel_error_png(full.freqs, curves, title=f"{model.name}, {model.n_dof} DOF")
     return ref_of
@@ -297,7 +304,9 @@ def _time_section(rep: Report, model, ports, bodies, labels, ref_of, *, f_lo: fl
     n_in = y_full.displacement.shape[2]
     chan = {(i, j): f"{ports.output_names[i]} / {ports.input_names[j] if n_in > 1 else 'u'}"
             for i in range(ports.n_outputs) for j in range(n_in)}
-    rep.figures["time"] = plots.time_png(y_full.t, y_refs, y_red, chan, reference_of=t_ref_of)
+    unit = plots.output_unit(ports.output_names, _numbers_units(model))
+    rep.figures["time"] = plots.time_png(y_full.t, y_refs, y_red, chan, reference_of=t_ref_of,
+                                         quantity=f"displacement [{unit}]" if unit else "displacement")
     rep.plot_data.update(time_references=y_refs, time_reference_of=t_ref_of,
                          time_error=plots.time_error_curves(y_refs, y_red, t_ref_of))
 
@@ -313,7 +322,8 @@ def _body_figure(rep: Report, model, ports, bodies) -> dict:
     marks = {"inputs": model.node_xyz(nodes["inputs"]), "outputs": model.node_xyz(nodes["outputs"])}
     if nodes["interface"].size:
         marks["interface"] = model.node_xyz(nodes["interface"])
-    rep.figures["body"] = plots.body_png(model.xyz, marks, title=f"{model.name}: {model.n_nodes} nodes")
+    rep.figures["body"] = plots.body_png(model.xyz, marks, title=f"{model.name}: {model.n_nodes} nodes",
+                                         units=_numbers_units(model))
     return nodes
 
 

@@ -61,6 +61,13 @@ def _table(header, rows, left=(0,)) -> str:
     return f'<div class="t"><table><tr>{h}</tr>{body}</table></div>'
 
 
+def _units_words(units) -> str:
+    """The units of the report's numbers: SI (the file's system named), or as given."""
+    if units is None:
+        return "as given by the FE file (no unit system named: axes without units)"
+    return "SI (m, kg, s, N)" + ("" if units == "SI" else f", the model file in {units} converted on reading")
+
+
 def render_html(rep: Report) -> str:
     """The report as one self-contained HTML page (figures embedded as base64 PNG)."""
     e = html.escape
@@ -68,7 +75,8 @@ def render_html(rep: Report) -> str:
     out = [(f"<!DOCTYPE html><html lang=en><head><meta charset=utf-8><title>{e(rep.title)}</title>"
             f"<style>{_CSS}</style></head><body><h1>{e(rep.title)}</h1>"),
            (f"<p>Model <b>{e(str(m['name']))}</b> ({e(str(m.get('source', '')))}): {m['n_dof']} DOF, "
-           f"{m['n_nodes']} nodes, damping {e(describe_damping(damping_from_dict(m['damping'])))}. "
+           f"{m['n_nodes']} nodes, damping {e(describe_damping(damping_from_dict(m['damping'])))}, "
+           f"units {e(_units_words(m.get('units')))}. "
            f"Band {rep.band[0]:g}-{rep.band[1]:g} Hz. Bodies judged against the <b>{e(rep.reference)}</b>. "
            f"flexmor {e(__version__)}, {datetime.datetime.now().isoformat(timespec='seconds')}.</p>"),
            '<h2 id="summary">Summary</h2>',

@@ -6,8 +6,8 @@ from __future__ import annotations
 
 from ..io import atomic_write
 
-__all__ = ["plot_frf", "plot_error", "plot_modes", "body_png", "figure_png", "frf_png", "mac_png", "plot_rel_error",
-           "rel_error_png", "singular_values_png", "time_error_curves", "time_png"]
+__all__ = ["plot_frf", "plot_error", "plot_modes", "body_png", "figure_png", "frf_png", "frf_unit_label", "mac_png",
+           "output_unit", "plot_rel_error", "rel_error_png", "singular_values_png", "time_error_curves", "time_png"]
 
 
 # -- notebook plots: draw on an Axes and return it -----------------------------------------------
@@ -179,14 +179,41 @@ def rel_error_png(freqs, curves: dict, *, title: str = "") -> bytes:
     return figure_png(_rel_error_figure(freqs, curves, title))
 
 
-def frf_png(freqs, H, reduced: dict, input_names, output_names, *, max_pairs: int = 9) -> bytes:
+def _unit_label(text: str, unit: str) -> str:
+    """``text [unit]``, or ``text`` without a unit."""
+    return f"{text} [{unit}]" if unit else text
+
+
+def frf_unit_label(output, input, units) -> str:
+    """``|H| [m/N]``: the axis label of the transfer function between two ports in ``units`` (the
+    system of the numbers drawn; None: as given, no unit)."""
+    from ..units import frf_unit
+
+    return _unit_label("|H|", frf_unit(output, input, units) if units else "")
+
+
+def output_unit(names, units) -> str:
+    """The unit of outputs ``names`` in ``units``: ``m``, ``rad``, ``m, rad`` or ``""`` (as given, or a port
+    without direction)."""
+    from ..units import port_kind, unit_system
+
+    kinds = [port_kind(n) for n in names]
+    if not units or None in kinds:
+        return ""
+    return ", ".join(u for k, u in (("translation", unit_system(units).length_unit), ("rotation", "rad"))
+                     if k in kinds)
+
+
+def frf_png(freqs, H, reduced: dict, input_names, output_names, *, max_pairs: int = 9, units=None) -> bytes:
     """``|H_ij(f)|`` of the full model (black) and each reduced body, one panel per pair.
 
     ``H`` has shape (n_freq, n_outputs, n_inputs), or is a dict of such arrays: the references
     the bodies are judged against, by name (e.g. ``{"full model, elastic part": ...}``; drawn
     black, solid then dashed); a plain array is named ``full``. ``reduced`` maps labels to arrays
     of the same shape. At most ``max_pairs`` pairs are drawn (outputs fastest); pairs whose peak
-    is below ``1e-8`` of the largest one (zero by symmetry, round-off only) are left out.
+    is below ``1e-8`` of the largest one (zero by symmetry, round-off only) are left out. ``units``
+    (the system of the numbers, e.g. ``SI``; None: as given) puts the unit of each pair on its axis
+    (``|H| [m/N]``, ``|H| [rad/(N m)]``).
     """
     import numpy as np
 
@@ -208,9 +235,9 @@ def frf_png(freqs, H, reduced: dict, input_names, output_names, *, max_pairs: in
             _draw_frf(ax, freqs, np.abs(Hr[:, i, j]), lw=1.0, label=label)
         ax.set_title(f"{output_names[i]} / {input_names[j]}", fontsize=9)
         ax.set_xlabel("f [Hz]", fontsize=8)
+        ax.set_ylabel(frf_unit_label(output_names[i], input_names[j], units), fontsize=8)
     for ax in list(axes.flat)[len(pairs):]:
         ax.axis("off")
-    axes.flat[0].set_ylabel("|H|")
     axes.flat[0].legend(fontsize=7)
     return figure_png(fig)
 
@@ -321,9 +348,12 @@ def time_png(t, y, reduced: dict, labels, *, quantity: str = "displacement", max
     return figure_png(fig)
 
 
-def body_png(xyz, marks: dict, *, title: str = "") -> bytes:
-    """3D scatter of the nodes (grey) with marked node groups (label -> coordinates (k, 3))."""
+def body_png(xyz, marks: dict, *, title: str = "", units=None) -> bytes:
+    """3D scatter of the nodes (grey) with marked node groups (label -> coordinates (k, 3)); ``units``
+    (the system of the coordinates; None: as given) labels the axes ``x [m]``."""
     import numpy as np
+
+    from ..units import unit_system
 
     fig = _figure(figsize=(7, 5))
     ax = fig.add_subplot(projection="3d")
@@ -342,9 +372,10 @@ def body_png(xyz, marks: dict, *, title: str = "") -> bytes:
 
     for axis in (ax.xaxis, ax.yaxis, ax.zaxis):
         axis.set_major_locator(MaxNLocator(3))
-    ax.set_xlabel("x")
-    ax.set_ylabel("y")
-    ax.set_zlabel("z")
+    length = unit_system(units).length_unit if units else ""
+    ax.set_xlabel(_unit_label("x", length))
+    ax.set_ylabel(_unit_label("y", length))
+    ax.set_zlabel(_unit_label("z", length))
     ax.legend(fontsize=7, loc="upper left")
     if title:
         ax.set_title(title, fontsize=9)

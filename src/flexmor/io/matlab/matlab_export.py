@@ -19,7 +19,15 @@ Variables (MATLAB names; all present, empty where not available):
                                 (``mass mdCM J Ct Cr Cr1 Gr Ge Oe Oe1 Me Ke``, frame
                                 nodes ``node_id origin phi psi``; see
                                 :mod:`flexmor.io.invariants`); otherwise ``[]``
+``units``           char        the unit system of the numbers, e.g. ``mm-t-s (length
+                                mm, mass t, time s, ...)``
 ==================  ==========  ====================================================
+
+Units: SI by default; ``units="mm-t-s"`` (a system of :data:`flexmor.units.SYSTEMS`) writes
+every quantity in that system (:data:`MAT_DIMENSIONS`), the modal coordinates unchanged:
+``Br`` per input (a force input ``NODE:x`` in mm per unit of ``qr`` and N, a moment input
+unchanged), ``Cr`` per output, ``V`` per equation (mm at translations, rad at rotations).
+``frequencies_hz`` stays in Hz.
 
 References
 ----------
@@ -31,15 +39,25 @@ from __future__ import annotations
 import numpy as np
 import scipy.io
 
-from ...errors import PortError
+from ...errors import OptionError, PortError
+from ...units import dof_lengths, export_units, port_kind
 from .._registry import EXPORT_FORMATS
 from ..atomic import atomic_write
+from ..sid.sid import SID_DIMENSIONS
 
-__all__ = ["MAT_FIELDS", "write_mat"]
+__all__ = ["MAT_DIMENSIONS", "MAT_FIELDS", "write_mat"]
 
 #: Variables every exported ``.mat`` file holds.
 MAT_FIELDS = ("Mr", "Kr", "Dr", "Br", "Cr", "V", "node_ids", "xyz", "dofs", "frequencies_hz", "input_names",
-              "output_names", "method", "model_name", "version", "inv")
+              "output_names", "method", "model_name", "version", "inv", "units")
+
+#: The dimension ``(length, mass, time)`` exponents of the variables of one dimension (``Br``, ``Cr`` and
+#: ``V`` have one per input, output and equation); the fields of ``inv`` as their SID objects.
+MAT_DIMENSIONS = {"Mr": (2, 1, 0), "Kr": (2, 1, -2), "Dr": (2, 1, -1), "xyz": (1, 0, 0),
+                  "inv": {k: SID_DIMENSIONS[v] for k, v in (
+                      ("mass", "mass"), ("mdCM", "mdCM"), ("mdCM1", "mdCM"), ("J", "J"), ("J1", "J"), ("Ct", "Ct"),
+                      ("Cr", "Cr"), ("Cr1", "Cr"), ("Gr", "Gr"), ("Ge", "Ge"), ("Oe", "Oe"), ("Oe1", "Oe"),
+                      ("Me", "Me"), ("Ke", "Ke"), ("origin", "origin"), ("phi", "phi"), ("psi", "psi"))}}
 
 
 def _cell(names):
@@ -53,10 +71,11 @@ def _empty(a, shape=(0, 0)):
     return np.zeros(shape) if a is None else np.asarray(a)
 
 
-def mat_variables(body, model=None, *, nodes=None) -> dict:
+def mat_variables(body, model=None, *, nodes=None, units: str = "SI") -> dict:
     """The variables of the ``.mat`` file as a dict (see the module docstring). With ``model`` (as
     read) a body with couplings is written at the model's equations, its basis expanded to the
     slave nodes, and its masters are frame nodes (:func:`flexmor.expansion.expand_body`)."""
+    system = export_units(body, units)
     masters = ()
     if model is not None and body.V is not None:
         from ...expansion import expand_body, expanded_reduced
@@ -91,10 +110,38 @@ def mat_variables(body, model=None, *, nodes=None) -> dict:
             "phi": np.array([n.phi for n in fn]).reshape(-1, 3, r),
             "psi": np.array([n.psi for n in fn]).reshape(-1, 3, r),
         }
+    out["units"] = system.describe() if body.units is not None or not system.is_si else "as given by the FE file"
+    return out if system.is_si else _in_units(out, body, system)
+
+
+def _in_units(out: dict, body, system) -> dict:
+    """The SI variables ``out`` of ``body`` in ``system`` (see the module docstring)."""
+    def port_dims(names, what):
+        kinds = [port_kind(n) for n in names]
+        if None in kinds:
+            bad = names[kinds.index(None)]
+            raise OptionError(f"{what} {bad!r} names no direction, so whether it is a "
+                              f"{'force or a moment' if what == 'input' else 'displacement or a rotation'} is not "
+                              f"known: the .mat file of this body is written in SI only", params=("units",))
+        return np.array([system.length if k == "translation" else 1.0 for k in kinds])
+
+    out = dict(out)
+    for k in ("Mr", "Kr", "Dr", "xyz"):
+        out[k] = system.from_si(out[k], *MAT_DIMENSIONS[k])
+    out["Br"] = np.asarray(out["Br"]) / port_dims(body.input_names, "input")[None, :]
+    out["Cr"] = np.asarray(out["Cr"]) / port_dims(body.output_names, "output")[:, None]
+    if np.size(out["V"]):
+        if out["dofs"].shape[0] != out["V"].shape[0]:
+            raise OptionError("the body has no equation map, so which rows of its basis are rotations is not "
+                              "known: the .mat file of this body is written in SI only", params=("units",))
+        out["V"] = np.asarray(out["V"]) / dof_lengths(out["dofs"].astype(np.int64), system)[:, None]
+    if isinstance(out["inv"], dict):
+        dims = MAT_DIMENSIONS["inv"]
+        out["inv"] = {k: system.from_si(v, *dims[k]) if k in dims else v for k, v in out["inv"].items()}
     return out
 
 
-def write_mat(body, path, *, model=None, nodes=None) -> None:
+def write_mat(body, path, *, model=None, nodes=None, units: str = "SI") -> None:
     """Write a reduced body to a MATLAB ``.mat`` file (v5), atomically.
 
     Parameters
@@ -105,8 +152,18 @@ def write_mat(body, path, *, model=None, nodes=None) -> None:
         The full model; when given, the inertia invariants are added as struct ``inv``.
     nodes : sequence of str, optional
         Frame nodes for ``inv`` (default: the body's port/interface nodes).
+    units : str
+        The unit system of the numbers (:data:`flexmor.units.SYSTEMS`), stated in the variable
+        ``units``; other than SI only for a body whose model's units are known (``body.units``).
+
+    Raises
+    ------
+    OptionError
+        An unknown ``units``, or ports without a direction written in other units than SI.
+    ModelError
+        Other units than SI for a body whose model was read as given.
     """
-    data = mat_variables(body, model, nodes=nodes)
+    data = mat_variables(body, model, nodes=nodes, units=units)
     atomic_write(path, lambda tmp: scipy.io.savemat(tmp, data, do_compression=True, oned_as="column"))
 
 

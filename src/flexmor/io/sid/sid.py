@@ -21,6 +21,12 @@ columns per mode; ``Oe`` columns ``ωx² ωy² ωz² ωxωy ωyωz ωxωz``. Num
 significant digits and a Fortran ``D`` exponent, so a write → read round trip is exact;
 ``D``, ``d``, ``E`` exponents are all read.
 
+Units
+    SI by default; ``units="mm-t-s"`` (any system of :data:`flexmor.units.SYSTEMS`) writes each
+    object in that system (:data:`SID_DIMENSIONS`: the mass in t, ``J`` in t mm^2, ``Ke`` in
+    N mm, ...; the modal coordinates unchanged, so a mode shape ``phi`` is in mm per unit of its
+    coordinate). SID has no field for units: the first line (header comment) states them.
+
 References
 ----------
 O. Wallrapp, Standardization of flexible body modeling in multibody system codes, Part I:
@@ -38,12 +44,14 @@ import numpy as np
 
 from ..._version import __version__
 from ...errors import OptionError
+from ...units import export_units, unit_system
 from .._registry import EXPORT_FORMATS, MODEL_FORMATS
 from ..atomic import atomic_write
 from .sid_reader import read_sid
 from .sid_types import BODY_OBJECTS, M1_ORDERS, NODE_OBJECTS, SIDFile, SIDNode, Taylor
 
-__all__ = ["M1_ORDERS", "SIDFile", "SIDNode", "Taylor", "read_sid", "sid_from_reduced", "write_sid"]
+__all__ = ["M1_ORDERS", "SID_DIMENSIONS", "SIDFile", "SIDNode", "Taylor", "read_sid", "sid_from_reduced",
+           "sid_in_units", "write_sid"]
 
 log = logging.getLogger(__name__)
 
@@ -65,11 +73,35 @@ def _taylor(m0, m1=None, nq=0, *, sym=False):
     return Taylor(m0, None if m1 is None else np.asarray(m1, dtype=float), nq, structure)
 
 
+#: The dimension ``(length, mass, time)`` exponents of each SID object (body objects, the node objects and
+#: ``mass``); the modal coordinates count as numbers without unit.
+SID_DIMENSIONS = {
+    "mass": (0, 1, 0), "mdCM": (1, 1, 0), "J": (2, 1, 0), "Ct": (1, 1, 0), "Cr": (2, 1, 0), "Me": (2, 1, 0),
+    "Gr": (2, 1, 0), "Ge": (2, 1, 0), "Oe": (2, 1, 0), "ksigma": (2, 1, -2), "Ke": (2, 1, -2), "De": (2, 1, -1),
+    "origin": (1, 0, 0), "phi": (1, 0, 0), "psi": (0, 0, 0), "AP": (0, 0, 0),
+}
+
+
+def sid_in_units(sid: SIDFile, units) -> SIDFile:
+    """The SI contents ``sid`` in the unit system ``units``: every object scaled by its dimension
+    (:data:`SID_DIMENSIONS`)."""
+    system = unit_system(units)
+
+    def scaled(t: Taylor, name: str) -> Taylor:
+        dims = SID_DIMENSIONS[name]
+        return Taylor(system.from_si(t.m0, *dims), None if t.m1 is None else system.from_si(t.m1, *dims), t.nq,
+                      t.structure, t.nqn)
+
+    nodes = [SIDNode(n.id, *(scaled(getattr(n, k), k) for k in NODE_OBJECTS), rframe=n.rframe) for n in sid.nodes]
+    return SIDFile(mass=float(system.from_si(sid.mass, *SID_DIMENSIONS["mass"])), ielastq=list(sid.ielastq),
+                   nodes=nodes, objects={k: scaled(t, k) for k, t in sid.objects.items()}, header=sid.header)
+
+
 def _skew(v):
     return np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
 
 
-def sid_from_reduced(body, model, *, nodes=None, remove_rigid: bool = False) -> SIDFile:
+def sid_from_reduced(body, model, *, nodes=None, remove_rigid: bool = False, units: str = "SI") -> SIDFile:
     """Build the SID contents of a reduced body.
 
     Parameters
@@ -87,6 +119,10 @@ def sid_from_reduced(body, model, *, nodes=None, remove_rigid: bool = False) -> 
     remove_rigid : bool
         Allow the basis of a body that holds rigid-body motion to be made mass-orthogonal to
         it (another body than the one judged); refused by default.
+    units : str
+        The unit system written (:data:`flexmor.units.SYSTEMS`); the header states it. Other
+        than SI only for a body whose model was read with its unit system named
+        (``body.units``).
 
     Returns
     -------
@@ -95,8 +131,12 @@ def sid_from_reduced(body, model, *, nodes=None, remove_rigid: bool = False) -> 
     Raises
     ------
     ModelError, PortError
-        Basis missing or not matching the model; no frame nodes.
+        Basis missing or not matching the model; no frame nodes; a body whose model's units are
+        not known written in other units than SI.
+    OptionError
+        An unknown ``units``.
     """
+    system = export_units(body, units)
     from ...expansion import expand_body
     from ..invariants import compute_invariants, frame_nodes
 
@@ -138,10 +178,13 @@ def sid_from_reduced(body, model, *, nodes=None, remove_rigid: bool = False) -> 
         names = [f"Eigen Mode {a + 1:4d} : {f[a]:12.3f} Hz" for a in range(r)]
     else:
         names = [f"{body.method or 'basis'} vector {a + 1:4d}" for a in range(r)]
+    said = system.describe() if body.units is not None or not system.is_si else "as given by the FE file"
     header = (f"{len(fn):5d}{r:4d}    :No. nodes, No. modes:File created using flexmor {__version__}! "
-              f"method {body.method}, model {model.name}; consistent mass; no geometric stiffness; "
+              f"units {said}; method {body.method}, model {model.name}; consistent mass; no geometric stiffness; "
               "frame nodes: " + ", ".join(f"{n.id}={n.name}" for n in fn))
-    return SIDFile(mass=inv.mass, ielastq=names, nodes=sid_nodes, objects=objects, header=header)
+    sid = SIDFile(mass=inv.mass, ielastq=names, nodes=sid_nodes, objects=objects, header=header)
+    return sid if system.is_si else sid_in_units(sid, system)
+
 
 
 # -- writing -----------------------------------------------------------------------------------
@@ -200,7 +243,7 @@ def sid_text(sid: SIDFile, *, m1_order: str = "row-q-col") -> str:
 
 
 def write_sid(body, path, *, model=None, nodes=None, m1_order: str = "row-q-col",
-              allow_clamped: bool = False, remove_rigid: bool = False) -> None:
+              allow_clamped: bool = False, remove_rigid: bool = False, units: str = "SI") -> None:
     """Write a reduced body as a ``.SID_FEM`` file, atomically.
 
     Parameters
@@ -220,6 +263,8 @@ def write_sid(body, path, *, model=None, nodes=None, m1_order: str = "row-q-col"
         nodes (:func:`flexmor.io.invariants.check_free_model`); refused by default.
     remove_rigid : bool
         See :func:`sid_from_reduced`.
+    units : str
+        The unit system written (see :func:`sid_from_reduced`; ignored for a SIDFile).
 
     Raises
     ------
@@ -238,7 +283,7 @@ def write_sid(body, path, *, model=None, nodes=None, m1_order: str = "row-q-col"
         from ..invariants import check_free_model
 
         check_free_model(model, allow_clamped=allow_clamped)
-        sid = sid_from_reduced(body, model, nodes=nodes, remove_rigid=remove_rigid)
+        sid = sid_from_reduced(body, model, nodes=nodes, remove_rigid=remove_rigid, units=units)
     text = sid_text(sid, m1_order=m1_order)
     atomic_write(path, lambda tmp: Path(tmp).write_text(text))
 
