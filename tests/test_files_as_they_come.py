@@ -268,3 +268,45 @@ def test_export_compare_and_info_of_a_superelement(tmp_path, clamped, capsys):
     assert code == 0, err
     row = json.loads(out)["results"][0]
     assert row["method"] == "craig-bampton" and row["band_error"] < 1e-4
+
+
+def test_report_of_a_superelement(tmp_path, clamped, capsys):
+    """report MODEL SE.op4: judged like any body; without a basis it has no MAC, and the page says so."""
+    _files(tmp_path, clamped, "binary")
+    out_file = tmp_path / "r.html"
+    code, out, err = run(capsys, "report", CLAMPED, tmp_path / "se.op4", "--band", "10:300", "-o", out_file,
+                         "--json")
+    assert code == 0, err
+    got = json.loads(out)
+    assert got["results"][0]["method"] == "craig-bampton" and got["results"][0]["band_error"] < 1e-4
+    assert any("no basis V" in n and "no MAC" in n for n in got["notes"])
+    assert out_file.stat().st_size > 0
+
+
+def test_compressed_matrix_files_are_streamed(tmp_path, monkeypatch):
+    """The .sti.gz and .mas.gz are decompressed chunk by chunk as they are parsed, never read whole."""
+    from flexmor.io import _open
+
+    _copy(tmp_path, CCX, "beam8_clamped_mat.*")
+    for suf in (".sti", ".mas"):
+        _gzip(tmp_path / f"beam8_clamped_mat{suf}")
+    sizes: dict = {}
+    real = _open._GzipReader.read
+
+    def read_recorded(self, size=-1):
+        sizes.setdefault(Path(self._path).name, []).append(size)
+        return real(self, size)
+
+    monkeypatch.setattr(_open._GzipReader, "read", read_recorded)
+    model = read(tmp_path / "beam8_clamped_mat.sti.gz")
+    assert model.n_dof == 270
+    for name in ("beam8_clamped_mat.sti.gz", "beam8_clamped_mat.mas.gz"):
+        assert sizes[name] and all(0 < s <= 1 << 21 for s in sizes[name]), sizes
+
+
+def test_info_formats_says_which_readers_take_gz(capsys):
+    code, out, _ = run(capsys, "info", "--formats")
+    assert code == 0
+    lines = {ln.split()[0]: ln for ln in out.splitlines() if ln.startswith("  ")}
+    assert "(also .gz)" in lines["calculix"] and "(also .gz)" in lines["nastran-se"]
+    assert "(also .gz)" not in lines["hdf5"]

@@ -166,7 +166,8 @@ def info_formats(args, emit_json) -> int:
         emit_json({"formats": table})
         return 0
     lines = {kind: [(r["name"] + (f" ({', '.join(r['aliases'])})" if r["aliases"] else ""),
-                     " ".join(r["suffixes"] + ([r["claims"]] if r["claims"] else [])), r["description"])
+                     " ".join(r["suffixes"] + ([r["claims"]] if r["claims"] else []))
+                     + (" (also .gz)" if r["gzip"] and kind != "export" else ""), r["description"])
                     for r in rows] for kind, rows in table.items()}
     w0, w1 = (max(len(line[i]) for rows in lines.values() for line in rows) for i in (0, 1))
     for kind, rows in lines.items():
