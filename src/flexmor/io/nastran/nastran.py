@@ -143,7 +143,7 @@ def _pick(names, want, letter, what, path):
     if letter == "B":
         return None
     raise ReadError(path, f"cannot tell the {what} matrix among {', '.join(sorted(names))}; name them K.../M... "
-                          f"or pass {what}=NAME to flexmor.io.read")
+                          f"or pass {what}=NAME", params=(what,))
 
 
 def find_bulk(path: Path, geometry=None) -> Path | None:

@@ -166,7 +166,7 @@ def read_superelement(path, *, bulk=None, stiffness=None, mass=None, damping=Non
     n = dofs.shape[0]
     if n > MAX_ORDER:
         raise ReadError(path, f"{n} a-set DOFs: too many for a reduced body (limit {MAX_ORDER}); is this a full "
-                              "model? read it with flexmor.io.read")
+                              "model? read it as an FE model (format nastran)", params=("format",))
     if blk is not None:
         T = dof_transform(blk, dofs, geo)
         if T is not None:
