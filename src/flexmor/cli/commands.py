@@ -206,10 +206,11 @@ def cmd_info(args) -> int:
         out["frequencies_hz"] = frequencies_hz(lam).tolist()
         out["n_rigid"] = min(n_zero, k)
     if args.reference:
-        from ..io.calculix import compare_modes, read_frd
+        from ..io.reference import compare_reference, read_reference
 
-        out["reference"] = dict(compare_modes(model, read_frd(args.reference), solver=solver),
-                                file=str(args.reference))
+        ref = read_reference(args.reference)
+        out["reference"] = dict(compare_reference(model, ref, solver=solver), file=str(args.reference),
+                                described=ref.describe())
     if couplings and "uncoupled" in keep:
         from ..checks import COUPLING_MODES, coupling_frequencies
 
@@ -246,14 +247,24 @@ def cmd_info(args) -> int:
         for line in coupling_lines(out["coupling_frequencies"]):
             print(line)
     if args.reference:
-        ref = out["reference"]
-        print(f"\n mode   {args.reference} [Hz]   model [Hz]   rel. diff   MAC")
-        rows = zip(ref["frequencies_hz"], ref["model_frequencies_hz"], ref["rel_diff"], ref["mac"])
-        for i, row in enumerate(rows, 1):
-            print(f"{i:5d}   {row[0]:14.6f}   {row[1]:14.6f}   {row[2]:9.2e}   {row[3]:.6f}")
+        _print_reference(args.reference, out["reference"])
     if factor:
         print(factor)
     return 0
+
+
+def _print_reference(path, ref: dict) -> None:
+    """The table of ``info --reference``: each reference frequency against the model's, and the MAC when
+    the file holds mode shapes (an .frd); the kind of file and, without shapes, why there is no MAC."""
+    shapes = ref["shapes"]
+    print(f"\nreference {path}: {ref['described']}" + ("" if shapes else "; frequencies only, no mode shapes: "
+                                                                       "no MAC column"))
+    print(" mode   reference [Hz]       model [Hz]   rel. diff" + ("   MAC" if shapes else ""))
+    macs = ref["mac"] if shapes else [None] * len(ref["frequencies_hz"])
+    for i, (f, g, d, mac) in enumerate(zip(ref["frequencies_hz"], ref["model_frequencies_hz"], ref["rel_diff"],
+                                           macs), 1):
+        diff = "    rigid" if d is None else f"{d:9.2e}"
+        print(f"{i:5d}   {f:14.6f}   {g:14.6f}   {diff}" + (f"   {mac:.6f}" if shapes else ""))
 
 
 def _selected_names(args) -> list:

@@ -13,12 +13,25 @@ __all__ = ["is_body_file", "info_body", "interface_lines", "info_backends", "inf
 
 
 def is_body_file(path, format: str | None) -> bool:
-    """Whether ``path`` (or ``--format``) names a reduced body rather than an FE model."""
-    from ..io import BODY_FORMATS, MODEL_FORMATS
+    """Whether ``path`` (or ``--format``) names a reduced body rather than an FE model: by its suffix, and by
+    its content where the suffix is both (a Nastran Craig-Bampton superelement, :func:`flexmor.io.kind_of`)."""
+    from ..io import kind_of
 
-    if format is not None:
-        return format in BODY_FORMATS.names() and format not in MODEL_FORMATS.names()
-    return MODEL_FORMATS.by_path(Path(path)) is None and BODY_FORMATS.by_path(Path(path)) is not None
+    return kind_of(Path(path), format) == "body"
+
+
+#: ``info["format"]`` of a body read from a Nastran superelement (:mod:`flexmor.io.nastran.nastran_se`).
+_NASTRAN_SE = "nastran superelement"
+
+
+def _made_by(red, path, version) -> str:
+    """Where the body came from, for the first row of ``info BODY``."""
+    if red.info.get("format") != _NASTRAN_SE:
+        return f"written by flexmor {version}"
+    src = Path(str(red.info.get("source") or path)).name
+    what = (f"a Nastran Craig-Bampton superelement: {red.info.get('n_boundary', '?')} boundary DOFs, "
+            f"{red.info.get('n_modal', '?')} modal coordinates")
+    return what if src == Path(path).name else f"{what}, from {src}; written by flexmor {version}"
 
 
 def interface_lines(masters) -> list[str]:
@@ -38,14 +51,18 @@ def info_body(args, emit_json) -> int:
     from ..origin import describe_damping
 
     red = read_body(args.model, format=args.format)
+    se = red.info.get("format") == _NASTRAN_SE
     out = dict(red.summary(), file=str(args.model), coupling_frequencies=red.info.get("coupling_frequencies"),
-               coordinates=_coordinates(red))
+               made_by="nastran" if se else "flexmor", coordinates=_coordinates(red))
+    if se:
+        out["nastran"] = {k: red.info.get(k) for k in ("source", "matrices", "n_boundary", "n_modal",
+                                                         "fixed_interface_hz", "kbq_rel")}
     if getattr(args, "modes", 0):
         out["modes"] = _mode_table(red, args.modes)
     if args.json:
         emit_json(out)
         return 0
-    _row("body", f"{args.model}  (written by flexmor {out['version']})")
+    _row("body", f"{args.model}  ({_made_by(red, args.model, out['version'])})")
     asked = out["order_requested"]
     _row("method", f"{out['method']}, order {out['order']}"
          + (f" ({asked} requested)" if asked not in (None, out["order"]) else ""))
@@ -68,6 +85,10 @@ def info_body(args, emit_json) -> int:
     fr = out["frequencies_hz"]
     if fr is not None:
         _row("freqs [Hz]", " ".join(f"{f:.5g}" for f in fr[:16]) + (" ..." if len(fr) > 16 else ""))
+    fi = red.info.get("fixed_interface_hz") if se else None
+    if fi:
+        _row("fixed [Hz]", " ".join(f"{f:.5g}" for f in fi[:16]) + (" ..." if len(fi) > 16 else "")
+             + "  (modal coordinates: the interface held)")
     err = out["errors"]
     if err.get("band_error") is not None:
         band = err.get("band_hz") or ["?", "?"]
@@ -95,6 +116,9 @@ def info_body(args, emit_json) -> int:
         made = [f"{k} {', '.join(m[k])}" for k in ("couplings", "interfaces", "selections") if m.get(k)]
         if made:
             _row("", "; ".join(made))
+    elif se:
+        _row("model", f"{out['model_name'] or '?'}: reduced by Nastran, so the body records no fingerprint of its "
+                      "FE model (a full model given to compare or report is not checked against it)")
     else:
         _row("model", f"{out['model_name'] or '?'} (no fingerprint: written by an older flexmor)")
     if out.get("modes"):
@@ -234,7 +258,8 @@ def info_formats(args, emit_json) -> int:
         emit_json({"formats": table})
         return 0
     lines = {kind: [(r["name"] + (f" ({', '.join(r['aliases'])})" if r["aliases"] else ""),
-                     " ".join(r["suffixes"] + ([r["claims"]] if r["claims"] else [])), r["description"])
+                     " ".join(r["suffixes"] + ([r["claims"]] if r["claims"] else []))
+                     + (" (also .gz)" if r["gzip"] and kind != "export" else ""), r["description"])
                     for r in rows] for kind, rows in table.items()}
     w0, w1 = (max(len(line[i]) for rows in lines.values() for line in rows) for i in (0, 1))
     for kind, rows in lines.items():

@@ -209,8 +209,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--backends", action="store_true", help="list the sparse solver backends and what each supports")
     p.add_argument("--formats", action="store_true", help="list the file formats flexmor reads (FE models, reduced "
                    "bodies) and exports, with their suffixes")
-    p.add_argument("--reference", metavar="FRD", help="CalculiX .frd with the FE program's own modes: compare "
-                   "frequencies and mode shapes (MAC) with the model's")
+    p.add_argument("--reference", metavar="FILE", help="the FE program's own eigenfrequencies, compared with the "
+                   "model's: a CalculiX .frd (also mode shapes: MAC), a CalculiX .dat, a Nastran .f06 or a list of "
+                   "frequencies in Hz, one per line")
     p.add_argument("--interface", action="append", default=[], metavar="SPEC",
                    help="couple SET@rbe2 / SET@rbe3 as reduce does: the model shown is the coupled one, and its "
                         "lowest elastic frequencies are compared with those of the FE model as read")

@@ -10,7 +10,10 @@
 
 The file's suffix chooses the format within the registry asked (``format=`` overrides), so
 the same suffix may mean different things to different registries (``.mat``: a model to read,
-a body to export). The registries and these entry points live in :mod:`._registry`, below
+a body to export); :func:`kind_of` tells a model file from a body file, by its content where
+the suffix is both (a Nastran ``.op4`` superelement). Gzip-compressed files (``job.sti.gz``)
+are read as they are, by the format of the name without ``.gz`` (:mod:`._open`).
+The registries and these entry points live in :mod:`._registry`, below
 the format modules. Each format family registers itself when it is imported
 (``MODEL_FORMATS.register(name, suffixes, reader, description=...)``): a family of one module
 is a module of this package (:mod:`.hdf5`, :mod:`.exudyn`, :mod:`.statespace`, :mod:`.vtu`), a
@@ -33,6 +36,7 @@ from ._registry import (
     describe_formats,
     export,
     export_format,
+    kind_of,
     read,
     read_body,
     unit_formats,
@@ -41,4 +45,5 @@ from .atomic import atomic_write
 from .hdf5 import write_body
 
 __all__ = ["BODY_FORMATS", "EXPORT_FORMATS", "MODEL_FORMATS", "Format", "Registry", "atomic_write",
-           "describe_formats", "export", "export_format", "read", "read_body", "unit_formats", "write_body"]
+           "describe_formats", "export", "export_format", "kind_of", "read", "read_body", "unit_formats",
+           "write_body"]

@@ -89,6 +89,8 @@ def include_path(path: Path, opts: dict, depth: int, lineno: int) -> Path:
     if depth >= MAX_INCLUDE_DEPTH:
         raise ReadError(path, f"*INCLUDE nested deeper than {MAX_INCLUDE_DEPTH} levels", lineno)
     p = Path(inc) if Path(inc).is_absolute() else path.parent / inc
+    if not p.exists() and Path(f"{p}.gz").is_file():  # shipped compressed: read as it is
+        p = Path(f"{p}.gz")
     if not p.exists():
         raise ReadError(path, f"included file {inc} not found", lineno)
     return p

@@ -9,6 +9,11 @@ error), so the suffix of a file names its format; the longest matching suffix wi
 ``.ss.npz`` can belong to another format than ``.npz``. A format may also *claim* files by
 their name ahead of the suffixes (Abaqus ``<job>_STIF1.mtx`` among Matrix Market ``.mtx``).
 The same suffix may appear in different registries: each is asked for its own purpose.
+Names are seen through ``.gz`` (:mod:`flexmor.io._open`): ``job.sti.gz`` is a CalculiX file,
+read by a reader that takes compressed files (``gzip=True``) and refused, with the reason,
+by one that cannot. A reader format may also *recognize* its files by their content
+(``recognizes``): :func:`kind_of` asks it when a suffix belongs to both a model and a body format
+(a Nastran ``.op4`` or ``.pch`` holds an FE model or a Craig-Bampton superelement).
 
 The three registries of flexmor (:data:`MODEL_FORMATS`, :data:`BODY_FORMATS`,
 :data:`EXPORT_FORMATS`) and their entry points (:func:`read`, :func:`read_body`,
@@ -24,9 +29,10 @@ from pathlib import Path
 
 from ..errors import OptionError, ReadError, did_you_mean
 from ..units import to_si, unit_system
+from ._open import is_gzip, plain_name
 
 __all__ = ["BODY_FORMATS", "EXPORT_FORMATS", "MODEL_FORMATS", "Format", "Registry", "describe_formats", "export",
-           "export_format", "read", "read_body", "unit_formats"]
+           "export_format", "kind_of", "read", "read_body", "unit_formats"]
 
 
 @dataclass(frozen=True)
@@ -52,6 +58,12 @@ class Format:
     accepts : callable, optional
         ``accepts(path) -> bool``: whether a file with one of the suffixes is one this format
         reads, where the suffix is shared with companion or unrelated files (Ansys ``.txt``).
+    gzip : bool or str
+        Readers: True when the reader takes its files gzip-compressed too (``job.sti.gz``,
+        decompressed while read); else False, or the reason it cannot (the refusal says it).
+    recognizes : callable, optional
+        ``recognizes(path) -> bool``: whether the file holds this format's content, for a suffix
+        that formats of two registries share (:func:`kind_of`); cheap, and False when unsure.
     """
 
     name: str
@@ -62,11 +74,20 @@ class Format:
     claims_doc: str = ""
     aliases: tuple = ()
     accepts: Callable | None = None
+    gzip: bool | str = False
+    recognizes: Callable | None = None
 
     def row(self) -> dict:
         """The format as a JSON-able dict (name, suffixes, description, ...)."""
         return {"name": self.name, "suffixes": list(self.suffixes), "claims": self.claims_doc or None,
-                "aliases": list(self.aliases), "description": self.description}
+                "aliases": list(self.aliases), "gzip": self.gzip is True, "description": self.description}
+
+    def check_gzip(self, path: Path) -> None:
+        """Refuse a gzip-compressed ``path`` when this format's reader cannot read it (ReadError with the reason)."""
+        if self.gzip is True or not is_gzip(path):
+            return
+        why = self.gzip if isinstance(self.gzip, str) else f"the {self.name} reader reads uncompressed files only"
+        raise ReadError(path, f"gzip-compressed: {why}; decompress it first (gunzip {path.name})")
 
 
 class Registry:
@@ -87,7 +108,8 @@ class Registry:
 
     def register(self, name: str, suffixes, function: Callable, *, description: str = "",
                  claims: Callable | None = None, claims_doc: str = "", aliases=(),
-                 accepts: Callable | None = None) -> Format:
+                 accepts: Callable | None = None, gzip: bool | str = False,
+                 recognizes: Callable | None = None) -> Format:
         """Register ``function`` as format ``name`` for ``suffixes`` (with dot; case is ignored).
 
         Raises
@@ -96,7 +118,7 @@ class Registry:
             When a suffix, name or alias already belongs to another format of this registry.
         """
         fmt = Format(name, tuple(s.lower() for s in suffixes), function, description, claims, claims_doc,
-                     tuple(a.lower() for a in aliases), accepts)
+                     tuple(a.lower() for a in aliases), accepts, gzip, recognizes)
         for other in self._formats.values():
             if other.name == name:
                 continue
@@ -131,12 +153,15 @@ class Registry:
                           "choose one of: " + ", ".join(self.names() + aliases), params=("format",))
 
     def by_path(self, path) -> Format | None:
-        """The format of ``path``: a format claiming its name, else the longest matching suffix (or None)."""
+        """The format of ``path``: a format claiming its name, else the longest matching suffix (or None).
+
+        The name is seen through ``.gz``: ``job.sti.gz`` has the format of ``job.sti``.
+        """
         path = Path(path)
         for fmt in self._formats.values():
             if fmt.claims is not None and fmt.claims(path):
                 return fmt
-        name = path.name.lower()
+        name = plain_name(path).lower()
         best, length = None, 0
         for fmt in self._formats.values():
             for suffix in fmt.suffixes:
@@ -189,10 +214,41 @@ def _choose_reader(registry: Registry, path: Path, format: str | None, hint: str
         return registry.by_name(format)
     fmt = registry.by_path(path)
     if fmt is None:
-        ext = path.suffix.lower() or "(none)"
+        ext = (Path(plain_name(path)).suffix.lower() + (path.suffix.lower() if is_gzip(path) else "")) or "(none)"
         raise ReadError(path, f"unknown {registry.purpose} file type {ext!r}{_other_purpose(path, registry)}; "
-                              f"known: {registry.known()}{hint}", params=("format",) if hint else ())
+                              f"known: {registry.known()}{hint}",
+                        params=("format",) if hint else ())
     return fmt
+
+
+def kind_of(path, format: str | None = None) -> str | None:
+    """Whether ``path`` holds an FE model (``"model"``) or a reduced body (``"body"``); None when no reader knows it.
+
+    ``format`` decides when given (a body format that is no model format: ``"body"``). Else a
+    body format whose suffix the file has and that recognizes its content (a Nastran
+    superelement among Nastran matrix files) makes it a body; else the suffix decides, a model
+    format first.
+
+    Parameters
+    ----------
+    path : str or path-like
+    format : str, optional
+        A format name of :data:`MODEL_FORMATS` or :data:`BODY_FORMATS`.
+    """
+    path = Path(path)
+    if format is not None:
+        key = str(format).lower()
+
+        def named(reg):
+            return any(key == f.name or key in f.aliases for f in reg.formats().values())
+        return "body" if named(BODY_FORMATS) and not named(MODEL_FORMATS) else "model"
+    body = BODY_FORMATS.by_path(path)
+    model = MODEL_FORMATS.by_path(path)
+    if body is not None and model is not None and body.recognizes is not None and path.is_file():
+        return "body" if body.recognizes(path) else "model"
+    if model is not None:
+        return "model"
+    return "body" if body is not None else None
 
 
 def read(path, format: str | None = None, *, units: str | None = None, **options):
@@ -202,7 +258,8 @@ def read(path, format: str | None = None, *, units: str | None = None, **options
     ----------
     path : str or path-like
         The main file of the FE export (e.g. CalculiX ``.sti``); files that belong with it
-        are found beside it.
+        are found beside it. Gzip-compressed files (``job.sti.gz``, with ``job.mas.gz`` ...
+        beside it) are read as they are, decompressed while parsed.
     format : str, optional
         A name from :data:`MODEL_FORMATS`; by default chosen from the file name.
     units : str, optional
@@ -227,9 +284,11 @@ def read(path, format: str | None = None, *, units: str | None = None, **options
     """
     path = Path(path)
     fmt = _choose_reader(MODEL_FORMATS, path, format, " (or give format)")
+    _checked(path)
+    fmt.check_gzip(path)
     if units is not None:
         unit_system(units)  # an unknown name before the file is read
-    return to_si(fmt.function(_checked(path), **options), units)
+    return to_si(fmt.function(path, **options), units)
 
 
 def read_body(path, format: str | None = None, **options):
@@ -257,7 +316,9 @@ def read_body(path, format: str | None = None, **options):
     """
     path = Path(path)
     fmt = _choose_reader(BODY_FORMATS, path, format)
-    return fmt.function(_checked(path), **options)
+    _checked(path)
+    fmt.check_gzip(path)
+    return fmt.function(path, **options)
 
 
 def export_format(path, format: str | None = None) -> str:

@@ -17,6 +17,7 @@ import numpy as np
 
 from ..errors import ReadError
 from ._fastparse import fast_triplets
+from ._open import open_binary, read_all, size_hint
 
 __all__ = ["read_text", "read_bytes", "check_text", "parse_triplets", "entry_line"]
 
@@ -27,14 +28,18 @@ _CHUNK = 1 << 21  # bytes per chunk of the fast parser
 
 
 def check_text(path: Path, raw: bytes | None = None) -> None:
-    """Refuse a missing, empty or binary file (judged by its first 64 kB unless ``raw`` is given)."""
+    """Refuse a missing, empty or binary file (judged by its first 64 kB unless ``raw`` is given).
+
+    A ``.gz`` file is judged by its decompressed content (:func:`~flexmor.io._open.open_binary`).
+    """
+    path = Path(path)
     if not path.exists():
         raise ReadError(path, "file not found")
     if path.is_dir():
         raise ReadError(path, "is a directory, expected a file")
     try:
         if raw is None:
-            with open(path, "rb") as f:
+            with open_binary(path) as f:
                 head = f.read(65536)
                 if head.isspace():
                     head += f.read()
@@ -49,18 +54,17 @@ def check_text(path: Path, raw: bytes | None = None) -> None:
 
 
 def read_bytes(path) -> bytes:
-    """Return the bytes of a text file ``path``; binary content or missing files raise ReadError."""
+    """Return the bytes of a text file ``path`` (decompressed when it is a ``.gz`` file); binary content or
+    missing files raise ReadError."""
     path = Path(path)
-    try:
-        raw = path.read_bytes() if path.is_file() else None
-    except OSError as exc:
-        raise ReadError(path, f"cannot read: {exc.strerror}") from None
+    raw = read_all(path) if path.is_file() else None
     check_text(path, raw)
     return raw
 
 
 def read_text(path) -> str:
-    """Return the text of ``path``; binary content or missing files raise ReadError."""
+    """Return the text of ``path`` (decompressed when it is a ``.gz`` file); binary content or missing files
+    raise ReadError."""
     return _decode(read_bytes(path))
 
 
@@ -119,21 +123,23 @@ def _header_end(raw: bytes) -> int:
 def _fast_triplets(path: Path, index_dtype):
     """Vectorized parse into ``(rows, cols, values)`` as written, or None when the text needs the scanner.
 
-    The file is streamed in chunks of whole lines into arrays sized for the file's size over
-    the shortest line of the first chunk (grown should a later line be shorter, shrunk in place
-    at the end), so the text is never held whole. Leading comment lines (a header) are skipped; comments further down
+    The file is streamed in chunks of whole lines (a ``.gz`` file decompressed as it is read)
+    into arrays sized for the file's size over the shortest line of the first chunk (grown
+    should a later line be shorter, or the size of a compressed file's content have been
+    underestimated; shrunk in place at the end), so the text is never held whole. Leading
+    comment lines (a header) are skipped; comments further down
     go to the scanner. Each chunk is parsed by :func:`~flexmor.io._fastparse.fast_triplets`,
     else by ``np.loadtxt``; non-integral indices give None.
     """
-    with open(path, "rb") as f:
-        size = f.seek(0, 2)
-        f.seek(0)
-        start = _header_end(f.read(_CHUNK))
+    size = size_hint(path)
+    with open_binary(path) as f:
+        head = f.read(_CHUNK)
+        start = _header_end(head)
         if start >= _CHUNK:
             return None  # a header longer than a chunk: leave it to the scanner
-        f.seek(start)
         rows = cols = vals = None
-        k, rest = 0, b""
+        k, rest = 0, head[start:]
+        del head
         while True:
             block = f.read(_CHUNK)
             buf = rest + block if rest else block

@@ -165,7 +165,7 @@ def _read(path):
             raise ReadError(path, f"incomplete or corrupt reduced body ({exc})") from None
     if not all(np.all(np.isfinite(a)) for a in (red.M, red.K, red.B, red.C) + ((red.D,) if red.D is not None else ())):
         raise ReadError(path, "the reduced matrices contain NaN or Inf")
-    if not red.origin:
+    if not red.origin and red.info.get("format") != "nastran superelement":  # one reduced by Nastran has none
         warnings.warn(f"body {Path(path).name} records no fingerprint of the model it was reduced from (written by "
                       "an older flexmor or another program): it cannot be checked against the model it is judged "
                       "or exported with", FlexmorWarning, stacklevel=3)
@@ -178,6 +178,8 @@ def _export(body, path, *, model=None) -> None:
 
 
 BODY_FORMATS.register("hdf5", [".h5", ".hdf5"], _read, aliases=["flexmor"],
+                      gzip="h5py reads an HDF5 file by random access, so it must be uncompressed (HDF5 "
+                           "compresses inside the file)",
                       description="flexmor reduced body (HDF5): M K D B C, basis V, nodes, ports, errors")
 EXPORT_FORMATS.register("hdf5", [".h5", ".hdf5"], _export, aliases=["flexmor"],
                         description="flexmor reduced body (HDF5), e.g. of a Nastran superelement")

@@ -265,6 +265,10 @@ def _modal_section(rep: Report, model, bodies, labels, modes) -> None:
                          "that to the inputs made orthogonal to the rigid-body modes, in the table and the plots; "
                          "the others with the whole response")
     for lb, red in zip(labels, bodies):
+        if red.V is None:  # a body made elsewhere (a Nastran superelement) has no basis to expand its modes with
+            rep.notes.append(f"{lb}: no basis V (a body reduced by another program), so no MAC: its "
+                             "eigenfrequencies are in the body's own summary")
+            continue
         rep.modal["bodies"][lb] = modal_check(model, red, full=modes)
     rep.figures["mac"] = plots.mac_png({lb: c["mac"] for lb, c in rep.modal["bodies"].items()})
 

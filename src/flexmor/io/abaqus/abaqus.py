@@ -50,6 +50,7 @@ from ...model import FEModel
 from .._build import build_model
 from .._cells import abaqus_cell, mesh_of_elements
 from .._mass import QUADRATIC_TYPES, check_mass
+from .._open import beside, is_gzip, open_binary, plain_name, stem, suffix
 from .._registry import MODEL_FORMATS
 from .._sparse import assemble, rows_in_use
 from .._text import check_text, entry_line, parse_triplets, read_text
@@ -65,16 +66,19 @@ _ROLE = {"STIF": "K", "MASS": "M", "DMPV": "D"}
 
 
 def _is_matrix_file(path) -> bool:
-    p = Path(path)
-    return p.suffix.lower() == ".mtx" and MATRIX_FILE.match(p.stem) is not None
+    return suffix(path) == ".mtx" and MATRIX_FILE.match(stem(path)) is not None
 
 
 def _files(path: Path) -> tuple[Path, dict]:
-    """The deck and the matrix files ``{'K': .., 'M': .., 'D': ..}`` of the job of ``path``."""
-    m = MATRIX_FILE.match(path.stem) if path.suffix.lower() == ".mtx" else None
-    job = m.group("job") if m else path.stem
+    """The deck and the matrix files ``{'K': .., 'M': .., 'D': ..}`` of the job of ``path``; each
+    plain or ``.gz`` (the compression of ``path`` preferred when both lie there)."""
+    m = MATRIX_FILE.match(stem(path)) if suffix(path) == ".mtx" else None
+    job = m.group("job") if m else stem(path)
     step = m.group("step") if m else None
-    listing = {p.name.lower(): p for p in path.parent.iterdir() if p.is_file()}
+    files = sorted((p for p in path.parent.iterdir() if p.is_file()), key=lambda p: is_gzip(p) != is_gzip(path))
+    listing = {}
+    for p in files:
+        listing.setdefault(plain_name(p).lower(), p)
     deck = listing.get(f"{job}.inp".lower())
     if deck is None:
         raise ReadError(path.parent / f"{job}.inp", "not found; the input deck with the nodes must lie beside "
@@ -102,7 +106,7 @@ def _files(path: Path) -> tuple[Path, dict]:
 
 def _first_data_columns(path: Path) -> int:
     check_text(path)
-    with open(path, "rb") as f:
+    with open_binary(path) as f:
         for line in f:
             s = line.decode("latin-1").strip()
             if s and not s.startswith("*"):
@@ -271,13 +275,13 @@ def read_abaqus(path, *, dof_per_node: int | None = None) -> FEModel:
     path = Path(path)
     deck_path, files = _files(path)
     if not files:
-        sti = deck_path.with_suffix(".sti")
-        if sti.exists():
+        sti = beside(deck_path, ".sti")
+        if sti is not None:
             log.info("%s: no Abaqus _STIF .mtx but %s beside it; reading as CalculiX", deck_path, sti.name)
             return MODEL_FORMATS.by_name("calculix").function(sti)
-        raise ReadError(deck_path.parent / f"{deck_path.stem}_STIF1.mtx",
+        raise ReadError(deck_path.parent / f"{stem(deck_path)}_STIF1.mtx",
                         f"not found; Abaqus writes it for *MATRIX GENERATE, STIFFNESS, MASS in {deck_path.name} "
-                        f"(a CalculiX job would have {deck_path.stem}.sti)")
+                        f"(a CalculiX job would have {stem(deck_path)}.sti)")
     deck = read_deck(deck_path)
     sorter = np.argsort(deck.node_ids)
     ids_sorted = deck.node_ids[sorter]
@@ -334,13 +338,13 @@ def read_abaqus(path, *, dof_per_node: int | None = None) -> FEModel:
         damping={"type": "given"} if "D" in mats else {"type": "none"},
         node_ids=deck.node_ids, xyz=deck.xyz, dofs=dofs, node_sets=deck.node_sets,
         mesh=mesh_of_elements(deck.elements, lambda etype, _: abaqus_cell(etype), "abaqus"),
-        name=deck_path.stem, source=str(deck_path), singular_mass_ok=bool(quadratic),
+        name=stem(deck_path), source=str(deck_path), singular_mass_ok=bool(quadratic),
     )
     if quadratic and np.all(model.M.diagonal() > 0):
         check_mass(model, f"{files['M']} ({', '.join(quadratic)} elements)")
     return model
 
 
-MODEL_FORMATS.register("abaqus", [".inp"], read_abaqus, claims=_is_matrix_file,
+MODEL_FORMATS.register("abaqus", [".inp"], read_abaqus, claims=_is_matrix_file, gzip=True,
                        claims_doc="<job>_{STIF,MASS,DMPV}<n>.mtx",
                        description="Abaqus *MATRIX GENERATE export (.inp + <job>_STIF1.mtx + <job>_MASS1.mtx)")

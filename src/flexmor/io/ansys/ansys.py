@@ -21,7 +21,9 @@ Binary ``.full`` (``ansys-mapdl-reader``, optional: ``pip install flexmor[ansys]
     or ``coordinates=``.
 
 In both, equations with neither stiffness nor mass are removed and reported. Units are those
-of the Ansys model.
+of the Ansys model. The files of a Matrix Market set may be gzip-compressed (``.txt.gz``);
+``.full`` and ``.cdb`` files are read by ansys-mapdl-reader from their file name, so they must
+be uncompressed.
 """
 
 from __future__ import annotations
@@ -37,6 +39,7 @@ from ...errors import ReadError
 from ...model import FEModel
 from .._build import build_model
 from .._cells import ansys_cell, build_mesh
+from .._open import beside, is_gzip, stem, suffix
 from .._registry import MODEL_FORMATS
 from .._sparse import rows_in_use
 from .._text import read_text
@@ -46,6 +49,8 @@ __all__ = ["read_ansys", "read_mapping", "read_coordinates"]
 
 log = logging.getLogger(__name__)
 
+#: Why a compressed ``.full`` or ``.cdb`` file is refused.
+_BY_NAME = "ansys-mapdl-reader reads .full and .cdb files from their name, uncompressed"
 _DOF_LABELS = {"UX": 1, "UY": 2, "UZ": 3, "ROTX": 4, "ROTY": 5, "ROTZ": 6}
 
 
@@ -235,8 +240,8 @@ def read_coordinates(path):
 
 def _companions(stiff: Path):
     """Mapping and coordinate files beside an MMF stiffness file (None when absent)."""
-    m = re.search(r"stiff", stiff.stem, re.I)
-    base = stiff.stem[: m.start()].lower() if m else stiff.stem.lower()
+    m = re.search(r"stiff", stem(stiff), re.I)
+    base = stem(stiff)[: m.start()].lower() if m else stem(stiff).lower()
     mapping = coords = None
     for p in sorted(stiff.parent.iterdir()):
         low = p.name.lower()
@@ -279,7 +284,7 @@ def _read_mmf(path: Path):
     return build_model(path, roles=files, M=mats["M"], K=mats["K"], D=mats.get("D"),
                        damping={"type": "given"} if "D" in mats else {"type": "none"},
                        node_ids=node_ids, xyz=xyz, dofs=dofs,
-                       name=re.split(r"stiff", files["K"].stem, flags=re.I)[0] or files["K"].stem,
+                       name=re.split(r"stiff", stem(files["K"]), flags=re.I)[0] or stem(files["K"]),
                        source=str(path))
 
 
@@ -310,13 +315,15 @@ def _read_full(path: Path, coordinates=None):
             mats[role] = (U + U.T - sp.diags(U.diagonal())).tocsr()
     mats, dofs, gone = _drop_empty(path, mats, dofs, "constrained (zero rows and columns)")
     node_ids, xyz, sets, mesh = np.zeros(0, np.int64), np.zeros((0, 3)), {}, None
-    cdb = Path(coordinates) if coordinates else path.with_suffix(".cdb")
+    cdb = Path(coordinates) if coordinates else (beside(path, ".cdb") or path.with_suffix(".cdb"))
     if cdb.exists():
+        if is_gzip(cdb):
+            raise ReadError(cdb, f"gzip-compressed: {_BY_NAME}; decompress it first (gunzip {cdb.name})")
         node_ids, xyz, sets, mesh = _read_cdb(cdb)
     elif coordinates:
         raise ReadError(cdb, "coordinate file not found")
     model = build_model(path, roles={"K": path, "M": path}, M=mats["M"], K=mats["K"], node_ids=node_ids, xyz=xyz,
-                        dofs=dofs, node_sets=sets, mesh=mesh, name=path.stem, source=str(path))
+                        dofs=dofs, node_sets=sets, mesh=mesh, name=stem(path), source=str(path))
     model.constrained_dofs = gone
     return model
 
@@ -385,7 +392,9 @@ def read_ansys(path, *, coordinates=None) -> FEModel:
         maps that do not fit the matrices, ``.full`` without ansys-mapdl-reader.
     """
     path = Path(path)
-    if path.suffix.lower() == ".full":
+    if suffix(path) == ".full":
+        if is_gzip(path):
+            raise ReadError(path, f"gzip-compressed: {_BY_NAME}; decompress it first (gunzip {path.name})")
         return _read_full(path, coordinates)
     return _read_mmf(path)
 
@@ -396,6 +405,6 @@ def _is_matrix_file(path: Path) -> bool:
     return path.suffix.lower() == ".full" or (("stiff" in name or "mass" in name) and "mapping" not in name)
 
 
-MODEL_FORMATS.register("ansys", [".full", ".txt"], read_ansys,
+MODEL_FORMATS.register("ansys", [".full", ".txt"], read_ansys, gzip=True,
                        description="Ansys HBMAT/MMF export (stiffness, mass, mapping vector, coordinates) "
                        "or binary .full", accepts=_is_matrix_file)

@@ -38,6 +38,7 @@ from ...model import FEModel
 from .._build import build_model
 from .._cells import build_mesh
 from .._mass import QUADRATIC_TYPES, check_mass
+from .._open import beside, is_gzip, open_binary, stem, suffix
 from .._registry import MODEL_FORMATS
 from .._sparse import assemble
 from .._text import entry_line, parse_triplets, read_bytes, read_text
@@ -50,14 +51,12 @@ __all__ = ["read_calculix", "read_dof", "read_inp"]
 log = logging.getLogger(__name__)
 
 
-def _sibling(path: Path, suffix: str, what: str) -> Path:
-    p = path.with_suffix(suffix)
-    if not p.exists():
-        alt = path.with_suffix(suffix.upper())
-        if alt.exists():
-            return alt
-        raise ReadError(p, f"not found; CalculiX writes the {what} beside {path.name} "
-                           f"(*FREQUENCY, SOLVER=MATRIXSTORAGE in {path.stem}.inp)")
+def _sibling(path: Path, suf: str, what: str) -> Path:
+    """The file ``<job><suf>`` beside ``path``, plain or ``.gz`` (:func:`~flexmor.io._open.beside`)."""
+    p = beside(path, suf)
+    if p is None:
+        raise ReadError(path.parent / f"{stem(path)}{suf}", f"not found (nor {stem(path)}{suf}.gz); CalculiX writes "
+                        f"the {what} beside {path.name} (*FREQUENCY, SOLVER=MATRIXSTORAGE in {stem(path)}.inp)")
     return p
 
 
@@ -66,15 +65,19 @@ def _sniff(path: Path) -> None:
 
     CalculiX ends every line with a line break; a last line without one was cut off while
     writing or copying, and its last number may look valid but be wrong (``5.16e+0`` of
-    ``5.16e+09``).
+    ``5.16e+09``). A ``.gz`` file is judged by the head of its content; its own end marker
+    and checksum tell a cut-off copy of it (found while it is parsed).
     """
     try:
-        with open(path, "rb") as f:
+        with open_binary(path) as f:
             head = f.read(65536)
-            f.seek(0, 2)
-            size = f.tell()
-            f.seek(max(size - 1, 0))
-            last = f.read(1)
+            if is_gzip(path):
+                last = b"\n"
+            else:
+                f.seek(0, 2)
+                size = f.tell()
+                f.seek(max(size - 1, 0))
+                last = f.read(1)
     except OSError as exc:
         raise ReadError(path, f"cannot read: {exc.strerror}") from None
     if not head.strip():
@@ -82,7 +85,7 @@ def _sniff(path: Path) -> None:
     if b"\x00" in head:
         raise ReadError(path, "looks like a binary file; CalculiX writes text with 'row col value' lines")
     if last not in (b"\n", b"\r"):
-        with open(path, "rb") as f:
+        with open_binary(path) as f:
             nlines = sum(chunk.count(b"\n") for chunk in iter(lambda: f.read(1 << 24), b"")) + 1
         raise ReadError(path, "last line has no line end: the file was cut off (disk full, interrupted "
                               "copy?); write it again with CalculiX", nlines)
@@ -165,14 +168,15 @@ def _read_upper(path: Path, n: int) -> sp.csr_matrix:
 
 
 def _geometry_file(path: Path) -> Path:
-    """The input deck ``<job>.inp`` beside ``path``, else the result file ``<job>.frd`` (its node block)."""
-    for suf in (".inp", ".INP", ".frd", ".FRD"):
-        p = path.with_suffix(suf)
-        if p.exists():
+    """The input deck ``<job>.inp`` beside ``path``, else the result file ``<job>.frd`` (its node block);
+    each plain or ``.gz``."""
+    for suf in (".inp", ".frd"):
+        p = beside(path, suf)
+        if p is not None:
             return p
-    raise ReadError(path.with_suffix(".inp"), f"not found; the input deck with the nodes (*NODE) must lie beside "
-                                              f"{path.name} (or, without it, the job's {path.stem}.frd with its "
-                                              "node block)")
+    raise ReadError(path.parent / f"{stem(path)}.inp", f"not found; the input deck with the nodes (*NODE) must lie "
+                                                       f"beside {path.name} (or, without it, the job's "
+                                                       f"{stem(path)}.frd with its node block)")
 
 
 def read_calculix(path) -> FEModel:
@@ -181,7 +185,8 @@ def read_calculix(path) -> FEModel:
     Parameters
     ----------
     path : str or path-like
-        The stiffness file ``<job>.sti``.
+        The stiffness file ``<job>.sti``, or ``<job>.sti.gz``: every file of the job may be
+        gzip-compressed (found as ``<job>.mas`` or ``<job>.mas.gz`` ...), decompressed while parsed.
 
     Returns
     -------
@@ -198,8 +203,8 @@ def read_calculix(path) -> FEModel:
         duplicate entries, equations on nodes the ``.inp`` does not define.
     """
     path = Path(path)
-    if path.suffix.lower() in (".mas", ".dof", ".inp"):
-        raise ReadError(path, f"pass the stiffness file {path.stem}.sti; the other files are found beside it")
+    if suffix(path) in (".mas", ".dof", ".inp"):
+        raise ReadError(path, f"pass the stiffness file {stem(path)}.sti; the other files are found beside it")
     _sniff(path)
     mas = _sibling(path, ".mas", "mass matrix")
     dof_path = _sibling(path, ".dof", "equation map")
@@ -211,18 +216,18 @@ def read_calculix(path) -> FEModel:
     M = _read_upper(mas, n)
     types: set = set()
     cells: list = []
-    if geo.suffix.lower() == ".inp":
+    if suffix(geo) == ".inp":
         node_ids, xyz, sets = read_inp(geo, element_types=types, cells=cells)
     else:
         res = read_frd(geo, results=False)
         node_ids, xyz, sets, types = res.node_ids, res.xyz, {}, res.element_types
         log.warning("%s: no input deck %s beside it; nodes read from the node block of %s (no node sets)",
-                    path, path.with_suffix(".inp").name, geo.name)
+                    path, f"{stem(path)}.inp", geo.name)
     if np.unique(dofs[:, 0] * 8 + dofs[:, 1]).size < n:  # shells or beams expanded to solids
-        frd = path.with_suffix(".frd")
-        if geo.suffix.lower() != ".inp" or not frd.exists():
+        frd = beside(path, ".frd")
+        if suffix(geo) != ".inp" or frd is None:
             raise ReadError(dof_path, "equations name nodes repeatedly, as when CalculiX expands shell or beam "
-                                      f"elements to solids: {path.stem}.inp and {path.stem}.frd (with the expanded "
+                                      f"elements to solids: {stem(path)}.inp and {stem(path)}.frd (with the expanded "
                                       "nodes, from *NODE FILE output) must both lie beside it")
         res = read_frd(frd, results=False)
         deck_ids, deck_xyz = node_ids, xyz
@@ -236,18 +241,18 @@ def read_calculix(path) -> FEModel:
     if not np.all(known):
         i = int(np.flatnonzero(~known)[0])
         raise ReadError(dof_path, f"equation {i + 1} is on node {dofs[i, 0]}, which {geo.name} does not define; "
-                                  f"are the .dof and {geo.suffix} from the same job?", i + 1)
+                                  f"are the .dof and {suffix(geo)} from the same job?", i + 1)
     model = build_model(
         path,
         roles={"M": mas, "K": path},
         M=M, K=K, node_ids=node_ids, xyz=xyz, dofs=dofs, node_sets=sets, mesh=build_mesh(cells, "abaqus"),
-        name=path.stem, source=str(path), singular_mass_ok=bool(quadratic),
+        name=stem(path), source=str(path), singular_mass_ok=bool(quadratic),
     )
     if quadratic and np.all(M.diagonal() > 0):
         check_mass(model, f"{mas} ({', '.join(quadratic)} elements)")
     return model
 
 
-MODEL_FORMATS.register("calculix", [".sti"], read_calculix,
+MODEL_FORMATS.register("calculix", [".sti"], read_calculix, gzip=True,
                        description="CalculiX *FREQUENCY, SOLVER=MATRIXSTORAGE export "
                        "(.sti + .mas + .dof + .inp or .frd)")

@@ -36,6 +36,7 @@ import numpy as np
 
 from ...errors import ModelError, ReadError
 from ...linalg.context import SolverContext, as_solver
+from .._open import read_all
 
 __all__ = ["ELEMENT_TYPES", "FrdResult", "compare_modes", "modes", "read_frd"]
 
@@ -66,7 +67,7 @@ class FrdResult:
 class _Reader:
     def __init__(self, path: Path):
         self.path = path
-        self.raw = path.read_bytes()
+        self.raw = read_all(path)
         self.pos = 0
         self.line = 0
 

@@ -18,6 +18,7 @@ dimensions, and a damaged file could crash the process.
 
 from __future__ import annotations
 
+import io
 from pathlib import Path
 
 import numpy as np
@@ -27,6 +28,7 @@ import scipy.sparse as sp
 from ...errors import ReadError
 from ...model import FEModel
 from .._build import build_model
+from .._open import is_gzip, read_all, stem
 from .._registry import MODEL_FORMATS
 from ._mat5 import checked_v5_stream
 
@@ -66,7 +68,8 @@ def read_matlab(path) -> FEModel:
     Parameters
     ----------
     path : str or path-like
-        A MATLAB v4/v5/v7 MAT-file.
+        A MATLAB v4/v5/v7 MAT-file, or one gzip-compressed (``.mat.gz``: decompressed in
+        memory, as a MAT-file is read whole anyway).
 
     Returns
     -------
@@ -80,10 +83,7 @@ def read_matlab(path) -> FEModel:
         (``A``, ``B``, ``C``), non-numeric, complex or non-finite variables, inconsistent sizes.
     """
     path = Path(path)
-    try:
-        raw = path.read_bytes()
-    except OSError as exc:
-        raise ReadError(path, f"cannot read: {exc.strerror}") from None
+    raw = read_all(path)
     head = raw[:1024]
     if not head:
         raise ReadError(path, "file is empty")
@@ -95,7 +95,8 @@ def read_matlab(path) -> FEModel:
                               "and save(file, 'M', 'K', '-v7')")
     stream = checked_v5_stream(path, raw)  # scipy's compiled reader trusts the file: check it first
     try:
-        data = scipy.io.loadmat(stream or str(path), squeeze_me=False, struct_as_record=True)
+        data = scipy.io.loadmat(stream or (io.BytesIO(raw) if is_gzip(path) else str(path)), squeeze_me=False,
+                                struct_as_record=True)
     except Exception as exc:  # noqa: BLE001 - scipy raises many types for bad files
         raise ReadError(path, f"not a readable MATLAB .mat file ({type(exc).__name__}: {exc}); "
                               "save it with save(file, '-v7')") from None
@@ -120,9 +121,9 @@ def read_matlab(path) -> FEModel:
         path,
         M=M, K=K, D=D, B=B, C=C,
         damping={"type": "given"} if D is not None else {"type": "none"},
-        name=path.stem, source=str(path),
+        name=stem(path), source=str(path),
     )
 
 
-MODEL_FORMATS.register("matlab", [".mat"], read_matlab,
+MODEL_FORMATS.register("matlab", [".mat"], read_matlab, gzip=True,
                        description="MATLAB .mat with M, K (D, B, C), e.g. SLICOT benchmarks")

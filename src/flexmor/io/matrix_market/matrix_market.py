@@ -14,8 +14,9 @@ e.g. ``rotor_K.mtx`` + ``rotor_M.mtx`` (+ ``rotor_D.mtx``), or ``plate_stiffness
 ``plate_mass.mm``. The whole words may also stand inside the stem, as in Ansys' export
 ``rotorStiffnessMatrix.txt`` + ``rotorMassMatrix.txt`` (read with ``format="matrix-market"``).
 Pass either the stiffness or the mass file; the other is found beside it (with the same
-suffix, ``.mtx`` or ``.mm``). Symmetric storage (one triangle) is expanded by
-:func:`scipy.io.mmread`. The model has no node table and no equation map.
+suffix, ``.mtx`` or ``.mm``; each file may be gzip-compressed, ``rotor_K.mtx.gz``).
+Symmetric storage (one triangle) is expanded by :func:`scipy.io.mmread`.
+The model has no node table and no equation map.
 """
 
 from __future__ import annotations
@@ -30,6 +31,7 @@ import scipy.sparse as sp
 from ...errors import ReadError
 from ...model import FEModel
 from .._build import build_model
+from .._open import is_gzip, open_binary, plain_name, size_hint, stem, suffix
 from .._registry import MODEL_FORMATS
 from .._sparse import assemble
 from .._text import entry_line, parse_triplets
@@ -77,15 +79,17 @@ def find_siblings(path) -> dict:
         When the name does not follow the naming rule or a partner file is missing.
     """
     path = Path(path)
-    readings = _role_of(path.stem)
-    if not readings and any(path.stem.lower().endswith(t) for t in _TAGS["D"]):
+    readings = _role_of(stem(path))
+    if not readings and any(stem(path).lower().endswith(t) for t in _TAGS["D"]):
         raise ReadError(path, "this looks like the damping matrix; pass the stiffness or mass file, "
                               "the damping file is found beside it")
     if not readings:
         raise ReadError(path, "cannot tell stiffness from mass by the name; name the files "
                               "<base>_K.mtx and <base>_M.mtx (see flexmor.io.matrix_market)")
-    listing = {p.name.lower(): p for p in path.parent.iterdir() if p.is_file()}
-    suffixes = tuple(dict.fromkeys((path.suffix.lower(),) + _SUFFIXES))
+    listing = {}  # by the name seen through .gz; the compression of path first
+    for p in sorted((p for p in path.parent.iterdir() if p.is_file()), key=lambda p: is_gzip(p) != is_gzip(path)):
+        listing.setdefault(plain_name(p).lower(), p)
+    suffixes = tuple(dict.fromkeys((suffix(path),) + _SUFFIXES))
     tried = []
     for role, head, tail in readings:
         other = "M" if role == "K" else "K"
@@ -110,12 +114,13 @@ def find_siblings(path) -> dict:
 
 def _check_header(path: Path) -> None:
     try:
-        with open(path, "rb") as f:
+        with open_binary(path) as f:
             head = f.readline(200)
+            more = bool(head) or bool(f.read(1))
     except OSError as exc:
         raise ReadError(path, f"cannot read: {exc.strerror}") from None
     if not head.strip():
-        raise ReadError(path, "file is empty" if path.stat().st_size == 0 else "first line is blank", 1)
+        raise ReadError(path, "first line is blank" if more else "file is empty", 1)
     words = head.decode("latin-1").lower().split()
     if not words or words[0] != "%%matrixmarket":
         raise ReadError(path, "not a Matrix Market file (first line must start with %%MatrixMarket); "
@@ -136,7 +141,7 @@ MAX_DIM = 2**31 - 1
 
 def _size_line(path: Path):
     """``(lineno, [ints])`` of the size line (the first line after the banner and comments)."""
-    with open(path, "rb") as f:
+    with open_binary(path) as f:
         for lineno, raw in enumerate(f, 1):
             s = raw.decode("latin-1").strip()
             if lineno == 1 or not s or s.startswith("%"):
@@ -155,7 +160,7 @@ def _read_coordinate(path: Path, symmetric: bool) -> sp.csr_matrix:
     if len(size) != 3 or min(size) < 0:
         raise ReadError(path, "size line must be 'rows cols entries' (three non-negative integers)", lineno)
     nr, nc, nnz = size
-    fsize = path.stat().st_size
+    fsize = size_hint(path) if not is_gzip(path) else path.stat().st_size * 1032  # deflate packs at most 1032:1
     if max(nr, nc) > MAX_DIM or nnz > fsize // 6 + 1 or (nnz and max(nr, nc) > 1000 * nnz + 10**6):
         raise ReadError(path, f"header claims a {nr} x {nc} matrix with {nnz} entries, which a "
                               f"{fsize}-byte file cannot hold; the size line is corrupt", lineno)
@@ -188,17 +193,19 @@ def _read_coordinate(path: Path, symmetric: bool) -> sp.csr_matrix:
 
 def _read_one(path: Path, role: str) -> sp.csr_matrix:
     _check_header(path)
-    with open(path, "rb") as f:
+    with open_binary(path) as f:
         words = f.readline(200).decode("latin-1").lower().split()
     try:
         if words[2] == "coordinate":
             A = _read_coordinate(path, words[4] == "symmetric")
         else:
             lineno, size = _size_line(path)
-            if len(size) != 2 or min(size) < 0 or size[0] * size[1] > path.stat().st_size // 2 + 1:
+            room = size_hint(path) if not is_gzip(path) else path.stat().st_size * 1032
+            if len(size) != 2 or min(size) < 0 or size[0] * size[1] > room // 2 + 1:
                 raise ReadError(path, f"array size line {size} does not fit the file; the size line is corrupt",
                                 lineno)
-            A = scipy.io.mmread(str(path))
+            with open_binary(path) as f:
+                A = scipy.io.mmread(f)
     except ReadError:
         raise
     except Exception as exc:  # noqa: BLE001 - any parser failure is a malformed file
@@ -242,7 +249,7 @@ def read_matrix_market(path) -> FEModel:
     _check_header(path)
     files = find_siblings(path)
     mats = {role: _read_one(p, role) for role, p in files.items()}
-    _, head, tail = _role_of(files["K"].stem)[0]
+    _, head, tail = _role_of(stem(files["K"]))[0]
     base = (head.rstrip("_-. ") + tail) or files["K"].parent.name or "model"
     return build_model(
         path,
@@ -253,5 +260,5 @@ def read_matrix_market(path) -> FEModel:
     )
 
 
-MODEL_FORMATS.register("matrix-market", [".mtx", ".mm"], read_matrix_market,
+MODEL_FORMATS.register("matrix-market", [".mtx", ".mm"], read_matrix_market, gzip=True,
                        description="Matrix Market pair <base>_K.mtx + <base>_M.mtx (+ <base>_D.mtx)")

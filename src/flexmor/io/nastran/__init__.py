@@ -9,8 +9,8 @@ Modules: :mod:`.nastran` (the FE-model reader), :mod:`.nastran_bulk` (GRID/CORD/
 from .nastran import read_dmig, read_nastran
 from .nastran_bulk import cards, read_bulk
 from .nastran_export import write_dmig, write_op4
-from .nastran_se import read_superelement
+from .nastran_se import is_superelement, read_superelement
 from .op4 import read_op4
 
-__all__ = ["cards", "read_bulk", "read_dmig", "read_nastran", "read_op4", "read_superelement", "write_dmig",
-           "write_op4"]
+__all__ = ["cards", "is_superelement", "read_bulk", "read_dmig", "read_nastran", "read_op4", "read_superelement",
+           "write_dmig", "write_op4"]

@@ -19,6 +19,7 @@ import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
 
 from .._fastparse import parse_values, value_layout
+from .._open import open_binary, size_hint
 from .._text import check_text
 
 __all__ = ["DmigColumns", "fast_dmig", "scan_dmig"]
@@ -199,8 +200,12 @@ class _Scan:
         if g is None or c is None or v is None or np.any((c < 0) | (c > 6)):
             return False
         m, k = entry.size, self.k
-        if k + m > self.rows.size:
-            return False  # cannot happen: the capacity bounds the entry lines
+        if k + m > self.rows.size:  # only when the size of a compressed file's content was underestimated
+            grow = max(k + m, self.rows.size + self.rows.size // 4)
+            self.rows, self.vals = (np.concatenate([x[:k], np.empty(grow - k, x.dtype)])
+                                    for x in (self.rows, self.vals))
+            if self.lines is not None:
+                self.lines = np.concatenate([self.lines[:k], np.empty(grow - k, np.int64)])
         g *= 8
         g += c
         self.rows[k:k + m], self.vals[k:k + m] = g, v
@@ -249,9 +254,8 @@ def scan_dmig(path, *, lines: bool = False) -> dict | None:
     """
     path = Path(path)
     check_text(path)
-    with open(path, "rb") as f:
-        scan = _Scan(f.seek(0, 2) // 57 + 1, lines)  # an entry line has at least 56 characters and a line end
-        f.seek(0)
+    with open_binary(path) as f:
+        scan = _Scan(size_hint(path) // 57 + 1, lines)  # an entry line has at least 56 characters and a line end
         rest = b""
         while True:
             block = f.read(_CHUNK)

@@ -5,8 +5,9 @@ DMIG (``.pch``; ``PARAM,EXTOUT,DMIGPCH`` writes ``KAAX``, ``MAAX`` ...)
     Rows and columns are ``(grid, component)``; the model's equations are all pairs that
     occur, sorted by grid and component. Symmetric matrices (``IFO=6``) may store either
     triangle (or both); an entry given twice is refused, not summed. Scalar points
-    (component 0, the modal DOFs of a superelement) are refused here: read such files with
-    :func:`flexmor.io.nastran.read_superelement`.
+    (component 0, the modal DOFs of a superelement) are refused here: such files are reduced
+    bodies, read by :func:`flexmor.io.nastran.read_superelement` (format ``nastran-se`` of
+    :func:`flexmor.io.read_body`).
 OP4 (``.op4``, ASCII or binary, :mod:`flexmor.io.nastran.op4`)
     Without a bulk-data file the model has no nodes. With one, its ``ASET/ASET1/BSET/...``
     cards (else 6 DOFs per GRID, sorted by id) give the equation map, checked against the
@@ -36,6 +37,7 @@ from ...errors import ReadError
 from ...model import FEModel
 from .._build import build_model
 from .._cells import mesh_of_elements, nastran_cell
+from .._open import beside, stem, suffix
 from .._registry import MODEL_FORMATS
 from .._sparse import assemble
 from .dmig_fast import DmigColumns, fast_dmig, scan_dmig
@@ -141,20 +143,21 @@ def _pick(names, want, letter, what, path):
     if letter == "B":
         return None
     raise ReadError(path, f"cannot tell the {what} matrix among {', '.join(sorted(names))}; name them K.../M... "
-                          f"or pass {what}=NAME to flexmor.io.read")
+                          f"or pass {what}=NAME", params=(what,))
 
 
 def find_bulk(path: Path, geometry=None) -> Path | None:
-    """The bulk-data file with the GRID cards: ``geometry`` or ``<stem>.bdf/.dat/.nas/.asm`` beside ``path``."""
+    """The bulk-data file with the GRID cards: ``geometry`` or ``<stem>.bdf/.dat/.nas/.asm`` beside ``path``
+    (plain or ``.gz``)."""
     if geometry:
         geo = Path(geometry)
         if not geo.exists():
             raise ReadError(geo, "geometry file not found")
         return geo
     for suf in (".bdf", ".dat", ".nas", ".blk", ".asm"):
-        for p in (path.with_suffix(suf), path.with_suffix(suf.upper())):
-            if p.exists() and p != path:
-                return p
+        p = beside(path, suf)
+        if p is not None:
+            return p
     return None
 
 
@@ -307,9 +310,9 @@ def _model_dofs(path, out, pairs, bulk, geo, directions):
     """Node table, equation map and matrices in basic directions (or kept local)."""
     if np.any(pairs[:, 1] == 0):
         g = pairs[pairs[:, 1] == 0][0]
-        raise ReadError(path, f"DOF {g[0]}-0 is a scalar point (e.g. a superelement's modal coordinate); an FE "
-                              "model needs grid DOFs 1..6 - read a Craig-Bampton superelement with "
-                              "flexmor.io.nastran.read_superelement")
+        raise ReadError(path, f"DOF {g[0]}-0 is a scalar point (a superelement's modal coordinate): the file holds "
+                              "a Craig-Bampton superelement, a reduced body rather than an FE model, which needs "
+                              "grid DOFs 1..6; read it as a reduced body (format nastran-se)", params=("format",))
     if bulk is None:
         return out, np.zeros(0, np.int64), np.zeros((0, 3)), {}
     miss = ~np.isin(pairs[:, 0], bulk.grid_ids)
@@ -329,7 +332,7 @@ def _model_dofs(path, out, pairs, bulk, geo, directions):
 
 def load_matrices(path: Path, stiffness, mass, damping):
     """``(is_op4, matrices by name, {"K": name, "M": name[, "D": name]})`` of a DMIG or OP4 file."""
-    op4 = path.suffix.lower() == ".op4"
+    op4 = suffix(path) == ".op4"
     mats = read_op4(path, sparse=True) if op4 else _read_columns(path)
     names = {"K": _pick(mats, stiffness, "K", "stiffness", path), "M": _pick(mats, mass, "M", "mass", path)}
     b = _pick(mats, damping, "B", "damping", path)
@@ -377,7 +380,8 @@ def read_nastran(path, *, stiffness=None, mass=None, damping=None, geometry=None
     Parameters
     ----------
     path : str or path-like
-        ``.pch`` (DMIG) or ``.op4`` (ASCII or binary).
+        ``.pch`` (DMIG) or ``.op4`` (ASCII or binary), or either gzip-compressed (``.pch.gz``,
+        decompressed while read; the bulk-data file beside it plain or ``.gz``).
     stiffness, mass, damping : str, optional
         Matrix names (default: the one name starting with K, M, B).
     geometry : str or path-like, optional
@@ -427,9 +431,9 @@ def read_nastran(path, *, stiffness=None, mass=None, damping=None, geometry=None
     log.info("%s: matrices %s", path, names)
     return build_model(path, M=out["M"], K=out["K"], D=out.get("D"),
                        damping={"type": "given"} if "D" in out else {"type": "none"},
-                       name=path.stem, source=str(path), **kw)
+                       name=stem(path), source=str(path), **kw)
 
 
-MODEL_FORMATS.register("nastran", [".pch", ".op4"], read_nastran,
+MODEL_FORMATS.register("nastran", [".pch", ".op4"], read_nastran, gzip=True,
                        description="Nastran DMIG punch file (KAAX/MAAX ...) or OP4 (ASCII or binary), "
                        "GRIDs from the .bdf")

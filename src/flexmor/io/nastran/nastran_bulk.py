@@ -77,6 +77,8 @@ def _lines(path: Path, depth: int = 0):
                 raise ReadError(path, f"INCLUDE nested deeper than {_MAX_INCLUDE_DEPTH} levels (a cycle?)", lineno)
             inc = Path(m.group(1))
             inc = inc if inc.is_absolute() else path.parent / inc
+            if not inc.exists() and Path(f"{inc}.gz").is_file():  # shipped compressed: read as it is
+                inc = Path(f"{inc}.gz")
             if not inc.exists():
                 raise ReadError(path, f"included file {inc} not found", lineno)
             yield from _lines(inc, depth + 1)

@@ -40,12 +40,14 @@ from pathlib import Path
 import numpy as np
 import scipy.linalg as sla
 
-from ...errors import ReadError
+from ...errors import FlexmorError, ReadError
 from ...model import direction_name
+from .._open import open_binary, stem, suffix
 from .._registry import BODY_FORMATS
-from .nastran import SEQGP_REFUSED, bulk_of, dmig_matrices, dof_transform, load_matrices, op4_matrices
+from .nastran import SEQGP_REFUSED, bulk_of, dmig_matrices, dof_transform, find_bulk, load_matrices, op4_matrices
+from .nastran_bulk import _cards, read_bulk
 
-__all__ = ["MAX_ORDER", "read_superelement"]
+__all__ = ["MAX_ORDER", "is_superelement", "read_superelement"]
 
 log = logging.getLogger(__name__)
 
@@ -74,6 +76,49 @@ def _aset(bulk, n, where):
     if np.any(clash):
         raise ReadError(where, f"id {dofs[clash][0, 0]} is both a GRID and a scalar point")
     return dofs
+
+
+#: Bytes of a punch file searched for scalar points by :func:`is_superelement`.
+_HEAD = 4 << 20
+
+
+def is_superelement(path) -> bool:
+    """Whether the Nastran matrix file ``path`` (``.op4``, ``.pch``, or either ``.gz``) holds a superelement.
+
+    A superelement has scalar points (its modal coordinates) among its DOFs, which an FE model
+    has not: an OP4 file whose bulk data beside it has ``SPOINT`` cards, or a punch file with
+    ``SPOINT`` cards or DMIG DOFs of component 0 in its first 4 MB (or in its bulk data beside
+    it). Cheap and never raising: False when unsure (a file that cannot be read, scalar points
+    further down a large punch file).
+    """
+    path = Path(path)
+    try:
+        geo = find_bulk(path)
+        if geo is not None and read_bulk(geo).spoints.size:
+            return True
+        return suffix(path) == ".pch" and _scalar_points_in_head(path)
+    except (FlexmorError, OSError, ValueError):
+        return False
+
+
+def _scalar_points_in_head(path: Path) -> bool:
+    """Whether the first :data:`_HEAD` bytes of a punch file hold a ``SPOINT`` card or a DMIG DOF of component 0."""
+    with open_binary(path) as f:
+        head = f.read(_HEAD)
+    if len(head) == _HEAD:
+        head = head[:head.rfind(b"\n") + 1]
+    lines = ((path, k, line.split("$", 1)[0].expandtabs(8).rstrip())
+             for k, line in enumerate(head.decode("latin-1").splitlines(), 1))
+    for _, _, name, f, _ in _cards(line for line in lines if line[2]):
+        if name == "SPOINT":
+            return True
+        if name != "DMIG" or len(f) < 3 or f[1] in ("", "0"):
+            continue
+        if f[2] in ("", "0"):  # a column of a scalar point (blank CJ is 0)
+            return True
+        if any(f[k] and f[k + 1] in ("", "0") for k in range(4, len(f) - 1, 4)):
+            return True
+    return False
 
 
 def read_superelement(path, *, bulk=None, stiffness=None, mass=None, damping=None):
@@ -108,7 +153,7 @@ def read_superelement(path, *, bulk=None, stiffness=None, mass=None, damping=Non
     if op4:
         if blk is None:
             raise ReadError(path, "an OP4 superelement needs the bulk data with its GRID, SPOINT and ASET/QSET "
-                                  f"cards: put {path.stem}.bdf (or .asm/.dat) beside it or pass bulk=")
+                                  f"cards: put {stem(path)}.bdf (or .asm/.dat) beside it or pass bulk=")
         out = op4_matrices(path, mats, names)
         n = out["K"].shape[0]
         dofs = _aset(blk, n, geo)
@@ -121,7 +166,7 @@ def read_superelement(path, *, bulk=None, stiffness=None, mass=None, damping=Non
     n = dofs.shape[0]
     if n > MAX_ORDER:
         raise ReadError(path, f"{n} a-set DOFs: too many for a reduced body (limit {MAX_ORDER}); is this a full "
-                              "model? read it with flexmor.io.read")
+                              "model? read it as an FE model (format nastran)", params=("format",))
     if blk is not None:
         T = dof_transform(blk, dofs, geo)
         if T is not None:
@@ -160,10 +205,10 @@ def read_superelement(path, *, bulk=None, stiffness=None, mass=None, damping=Non
     return ReducedModel(M=0.5 * (M + M.T), K=0.5 * (K + K.T), D=None if D is None else 0.5 * (D + D.T),
                         B=Bsel, C=Bsel.T.copy(), V=None, method="craig-bampton", info=info,
                         input_names=port_names, output_names=list(port_names), node_ids=gids, xyz=xyz,
-                        dofs=None, model_name=path.stem,
+                        dofs=None, model_name=stem(path),
                         damping={"type": "given"} if D is not None else {"type": "none"})
 
 
-BODY_FORMATS.register("nastran-se", [".op4", ".pch"], read_superelement,
+BODY_FORMATS.register("nastran-se", [".op4", ".pch"], read_superelement, gzip=True, recognizes=is_superelement,
                       description="Nastran Craig-Bampton superelement: a-set K, M (B) as OP4 or DMIG punch "
                                   "(boundary grids + modal scalar points)")

@@ -25,6 +25,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from ...errors import ReadError
+from .._open import open_binary, read_all, size_hint
 from .._text import read_text
 from .nastran_bulk import num
 from .op4_stream import check_header, fast_ascii, is_header, is_values, matrix_header
@@ -59,17 +60,16 @@ def read_op4(path, *, sparse: bool = False) -> dict:
     path = Path(path)
     if not path.exists():
         raise ReadError(path, "file not found")
-    with open(path, "rb") as f:
+    size = size_hint(path)
+    with open_binary(path) as f:
         head = f.read(65536)
-        size = f.seek(0, 2)
-        if head.isspace() and size > len(head):
-            f.seek(0)
-            head = f.read()
+        if head.isspace() and len(head) == 65536:
+            head += f.read()
     if not head.strip():
         raise ReadError(path, "file is empty")
     binary = len(head) >= 16 and (head[12] == 0 or head[15] == 0 or b"\x00" in head[:16])
     if binary:
-        mats = _binary(path, path.read_bytes())
+        mats = _binary(path, read_all(path))
     else:
         mats = fast_ascii(path, size)
         if mats is None:  # irregular layout or a defect: the line scanner reads it or names the line

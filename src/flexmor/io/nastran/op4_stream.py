@@ -27,6 +27,7 @@ import scipy.sparse as sp
 
 from ...errors import ReadError
 from .._fastparse import parse_values, value_layout
+from .._open import open_binary
 from .nastran_bulk import num
 
 __all__ = ["check_header", "fast_ascii", "is_header", "is_values", "matrix_header"]
@@ -151,7 +152,7 @@ class _Matrix:
 def fast_ascii(path, size: int):
     """Matrices of the ASCII OP4 file ``path`` (``size`` bytes) as ``{NAME: (form, CSC)}``, or None."""
     out, m = {}, None
-    with open(path, "rb") as f:
+    with open_binary(path) as f:
         rest, eof, done = b"", False, 0
         while not eof:
             block = f.read(_CHUNK)

@@ -45,6 +45,7 @@ import numpy as np
 from ..._version import __version__
 from ...errors import OptionError
 from ...units import export_units, unit_system
+from .._open import stem
 from .._registry import EXPORT_FORMATS, MODEL_FORMATS
 from ..atomic import atomic_write
 from .sid_reader import read_sid
@@ -295,11 +296,11 @@ def _read_as_model(path, **options):
     sid = read_sid(path, **options)
     De = sid.objects["De"].m0
     return FEModel(M=sid.objects["Me"].m0, K=sid.objects["Ke"].m0, D=De if np.any(De) else None,
-                   name=Path(path).stem, source=str(path),
+                   name=stem(path), source=str(path),
                    damping={"type": "given"} if np.any(De) else {"type": "none"})
 
 
-MODEL_FORMATS.register("sid", [".sid_fem", ".sid"], _read_as_model,
+MODEL_FORMATS.register("sid", [".sid_fem", ".sid"], _read_as_model, gzip=True,
                        description="SID flexible body (Standard Input Data, Wallrapp 1994) as M = Me, K = Ke")
 EXPORT_FORMATS.register("sid", [".sid_fem", ".sid"], write_sid, aliases=["sid_fem"],
                         description="SID flexible body (Standard Input Data, Wallrapp 1994), .SID_FEM ASCII, "

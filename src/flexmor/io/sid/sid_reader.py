@@ -15,6 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from ...errors import OptionError, ReadError
+from .._open import read_all
 from .sid_types import BODY_OBJECTS, M1_ORDERS, NODE_OBJECTS, SIDFile, SIDNode, Taylor
 
 __all__ = ["read_sid"]
@@ -188,10 +189,7 @@ class _Scan:
 
 
 def _read_lines(path: Path) -> list:
-    try:
-        return path.read_text(errors="replace").splitlines()
-    except OSError as exc:
-        raise ReadError(path, f"cannot read: {exc.strerror}") from None
+    return read_all(path).decode("utf-8", errors="replace").splitlines()
 
 
 def _m1_order(path, raws: list, m1_order: str) -> str:
