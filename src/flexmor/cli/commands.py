@@ -341,15 +341,19 @@ def cmd_reduce(args) -> int:
 # -- compare -----------------------------------------------------------------------------------
 def _model_and_bodies(args):
     """The full model (as read, without damping), the reduced bodies of ``args``, the band of each
-    and where it comes from, and the damping asked for on the command line. A body's band is
+    and where it comes from, and the damping asked for on the command line. Without ``--units`` the
+    model is read in the unit system its bodies record (when they record one). A body's band is
     ``--band``, else the band it was reduced for (or judged over when it was made), else
     DEFAULT_BAND."""
     from ..io import read_body
     from ..options import Band
     from ..workflow import DEFAULT_BAND
 
-    model, t_read, band = _read_model(args, damped=False)
     bodies = [read_body(p) for p in args.reduced]
+    recorded = {b.units for b in bodies}
+    if getattr(args, "units", None) is None and len(recorded) == 1 and None not in recorded:
+        args.units = recorded.pop()  # the model in the unit system its bodies record (as export does)
+    model, t_read, band = _read_model(args, damped=False)
     if band is not None:
         bands, sources = [band] * len(bodies), ["--band"] * len(bodies)
     else:
