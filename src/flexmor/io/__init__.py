@@ -23,7 +23,7 @@ the file (and line) for anything malformed. Every file flexmor writes goes throu
 """
 
 # The format families register themselves on import; the listings follow this order.
-from . import hdf5, calculix, abaqus, sid, exudyn, matlab, statespace, matrix_market, ansys, nastran, vtu  # noqa: F401, I001
+from . import hdf5, calculix, abaqus, sid, exudyn, matlab, statespace, fmu, matrix_market, ansys, nastran, vtu  # noqa: F401, I001
 from ._registry import (
     BODY_FORMATS,
     EXPORT_FORMATS,
