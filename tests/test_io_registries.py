@@ -47,7 +47,7 @@ def test_every_format_is_registered_right_after_import_flexmor_io():
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
     assert eval(out) == {"model": ["calculix", "abaqus", "sid", "matlab", "matrix-market", "ansys", "nastran"],
                          "body": ["hdf5", "nastran-se"],
-                         "export": ["hdf5", "sid", "exudyn", "mat", "statespace", "matrix-market", "nastran-dmig",
+                         "export": ["hdf5", "sid", "exudyn", "mat", "statespace", "fmu", "matrix-market", "nastran-dmig",
                                     "op4", "vtu"]}
 
 
