@@ -193,6 +193,8 @@ def test_cli_exports_an_fmu(tmp_path, bodies, capsys):
     assert main(["export", str(h5), "-o", str(out)]) == 0
     assert "as fmu" in capsys.readouterr().out
     assert validate_fmu(str(out)) == []
+    # --allow-clamped concerns the floating-frame exports only; an FMU takes a clamped body as it is
+    assert main(["export", str(h5), "-o", str(tmp_path / "clamped.fmu"), "--allow-clamped"]) == 0
 
 
 def test_no_compiler_is_a_clear_error(tmp_path, bodies, capsys, monkeypatch):
