@@ -27,12 +27,14 @@ derivatives), and over such a step the linear system has the exact solution
 ``x(t+h) = Φ(h) x(t) + Γ(h) u`` with ``[[Φ, Γ], [0, I]] = expm([[A, B], [0, 0]] h)``
 (zero-order hold). The FMU computes that matrix exponential when the step size changes (for a
 fixed step, once): balancing (Parlett-Reinsch, powers of 2), scaling and squaring, the
-diagonal Padé approximant of degree 6 (relative error below 1e-15 on the scaled matrix). So
-``doStep`` has no step-size limit and no stability limit whatever the body's highest mode (a
-Krylov body's modes at tens of kHz do not shrink the step), and it is exact up to round-off
-(about 1e-12 relative in the tests) for inputs constant over the step; a master that changes
-its inputs within a step sees the usual first-order error of sampled inputs. The cost is
-``O((n+m)³)`` once per step size and ``O(n (n+m))`` per step.
+diagonal Padé approximant of degree 6 (truncation error below 1e-15 relative on the scaled
+matrix). So ``doStep`` has neither a step-size nor a stability limit whatever the body's highest
+mode (modes at tens of kHz do not shrink the step), and it is exact up to round-off for inputs
+held over the step: it agrees with SciPy's ``expm`` to about 1e-11 of the peak response even
+for a step 400 times the period of the highest mode. A master whose inputs vary within a
+step sees the usual error of sampled inputs. The cost is ``O((n+m)³)`` once per step size and
+``O(n (n+m))`` per step. For model exchange the importer's integrator solves the same
+equations; the states' nominal values scale its absolute tolerance.
 
 References
 ----------
@@ -346,12 +348,14 @@ def _describe(body) -> str:
 
 
 def _default_experiment(body) -> str:
-    """Ten periods of the lowest elastic mode, 20 steps per period (none for a body without one)."""
+    """Ten periods of the lowest elastic mode, 20 steps per period (no stop time and step for a body
+    without an elastic mode)."""
     try:
         f = np.asarray(body.frequencies_hz(), float)
     except FlexmorError:
         f = np.array([])
-    f = f[np.isfinite(f) & (f > 1e-4 * f.max())] if f.size and np.isfinite(f).any() and f.max() > 0 else f[:0]
+    f = f[np.isfinite(f)]
+    f = f[f > 1e-4 * f.max()] if f.size and f.max() > 0 else f[:0]
     if f.size == 0:
         return '  <DefaultExperiment startTime="0" tolerance="1e-06"/>'
     return (f'  <DefaultExperiment startTime="0" stopTime="{10 / f.min():.6g}" tolerance="1e-06" '
