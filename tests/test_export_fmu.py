@@ -122,6 +122,34 @@ def test_a_step_on_each_input_matches_the_bodys_equations(fmus, bodies, kind):
                 assert err < (1e-4 if fmi_type == "ModelExchange" else 1e-7), (kind, j, fmi_type, err)
 
 
+def test_cosimulation_step_is_exact_for_steps_longer_than_the_highest_period(fmus, bodies):
+    """A communication step of 18 periods of the body's highest mode (3.7 kHz): the FMU's step is the
+    zero-order-hold solution (SciPy's expm of the augmented matrix), with no step-size limit."""
+    pytest.importorskip("fmpy")
+    from fmpy import simulate_fmu
+
+    from flexmor.io.statespace import state_space
+
+    body = bodies["clamped"]
+    h = 5e-3
+    assert h * body.frequencies_hz().max() > 18
+    ss = state_space(body)
+    n, m = ss.B.shape
+    aug = np.zeros((n + m, n + m))
+    aug[:n, :n], aug[:n, n:] = ss.A * h, ss.B * h
+    E = sla.expm(aug)
+    u = np.array([1.0, -0.5])
+    x, ref = np.zeros(n), [np.zeros(ss.C.shape[0])]
+    for _ in range(100):
+        x = E[:n, :n] @ x + E[:n, n:] @ u
+        ref.append(ss.C @ x)
+    signal = np.array([(0.0, *u), (100 * h, *u)], dtype=[("time", float), ("TIP_y", float), ("TIP_z", float)])
+    res = simulate_fmu(str(fmus["clamped"]), fmi_type="CoSimulation", stop_time=100 * h, step_size=h,
+                       output_interval=h, input=signal, output=["u_TIP_y", "u_TIP_z"])
+    got = np.array([res["u_TIP_y"], res["u_TIP_z"]]).T
+    assert np.abs(got - np.array(ref)).max() < 1e-10 * np.abs(ref).max()
+
+
 def test_fmu_state_is_saved_and_restored(fmus):
     pytest.importorskip("fmpy")
     from fmpy import extract, read_model_description

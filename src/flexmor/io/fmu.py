@@ -31,7 +31,7 @@ diagonal Padé approximant of degree 6 (truncation error below 1e-15 relative on
 matrix). So ``doStep`` has neither a step-size nor a stability limit whatever the body's highest
 mode (modes at tens of kHz do not shrink the step), and it is exact up to round-off for inputs
 held over the step: it agrees with SciPy's ``expm`` to about 1e-11 of the peak response even
-for a step 400 times the period of the highest mode. A master whose inputs vary within a
+for a step as long as 70 periods of the highest mode. A master whose inputs vary within a
 step sees the usual error of sampled inputs. The cost is ``O((n+m)³)`` once per step size and
 ``O(n (n+m))`` per step. For model exchange the importer's integrator solves the same
 equations; the states' nominal values scale its absolute tolerance.
