@@ -17,7 +17,7 @@ from flexmor.body import ReducedModel
 from flexmor.cli import main
 from flexmor.errors import FlexmorError
 from flexmor.io import export, write_body
-from flexmor.io.fmu import FMUVariables, find_compiler
+from flexmor.io.fmu import FMUVariables, find_compiler, fmu_variables
 from flexmor.models import cantilever
 from flexmor.ports import make_ports
 from flexmor.reduction import reduce
@@ -208,6 +208,8 @@ def test_variable_names_and_units_from_port_specs():
     assert rows["u_out1"]["unit"] is None and rows["v_TIP_y"]["unit"] == "m/s"
     assert rows["der(qd[2])"]["derivative"] == 3 + 6 + 4  # 1-based index of qd[2]
     assert FMUVariables(["a:b", "a.b"], [], 1).inputs == ["a_b", "a_b_2"]
+    unnamed = fmu_variables(ReducedModel(M=np.eye(2), K=np.eye(2), D=None, B=np.ones((2, 2)), C=np.ones((1, 2))))
+    assert unnamed.inputs == ["F1", "F2"] and unnamed.displacements == ["u_y1"]
 
 
 def test_cli_exports_an_fmu(tmp_path, bodies, capsys):

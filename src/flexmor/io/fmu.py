@@ -93,8 +93,11 @@ def find_compiler() -> list[str]:
     """
     cc = os.environ.get("CC", "").strip()
     if cc:
-        words = shlex.split(cc)
-        found = shutil.which(words[0])
+        try:
+            words = shlex.split(cc)
+        except ValueError as exc:
+            raise FlexmorError(f"the C compiler CC={cc!r} is not a command ({exc})") from None
+        found = shutil.which(words[0]) if words else None
         if found is None:
             raise FlexmorError(f"the C compiler CC={cc!r} is not found; an FMU is compiled at export time: set CC to "
                                "a C compiler or install one (Debian/Ubuntu: apt-get install gcc)")
@@ -188,9 +191,11 @@ class FMUVariables:
 
 
 def fmu_variables(body) -> FMUVariables:
-    """The FMU variables of ``body`` (:class:`FMUVariables`): its port SPECs made into names."""
-    return FMUVariables(body.input_names or [f"u{j + 1}" for j in range(np.shape(body.B)[1])],
-                        body.output_names or [f"y{k + 1}" for k in range(np.shape(body.C)[0])], body.order)
+    """The FMU variables of ``body`` (:class:`FMUVariables`): its port SPECs made into names
+    (``F1 F2 ...`` and ``u_y1 ...`` for a body without one name per input and output)."""
+    m, p = np.shape(body.B)[1], np.shape(body.C)[0]
+    ins, outs = list(body.input_names or []), list(body.output_names or [])
+    return FMUVariables(ins if len(ins) == m else [""] * m, outs if len(outs) == p else [""] * p, body.order)
 
 
 def _nominals(body) -> np.ndarray:
