@@ -20,7 +20,8 @@ the C source is in ``sources/`` too, for other platforms. ``modelDescription.xml
   integrator's absolute tolerance needs (the states are small numbers in SI units);
 * the model structure with the sparsity of ``A``, ``B``, ``C`` as dependencies.
 
-Units are those of the body (SI for a model in SI; flexmor does not convert).
+The units declared are SI (N, m, rad, s): the numbers of the body are taken as SI, as the other
+exports write them.
 
 **Co-simulation step.** The inputs are held over a communication step (FMI 2.0 without input
 derivatives), and over such a step the linear system has the exact solution
