@@ -37,7 +37,7 @@ def test_no_suffix_or_name_collision_within_a_registry(kind):
 def test_the_registries_hold_the_built_in_formats():
     assert set(MODEL_FORMATS.names()) == {"abaqus", "ansys", "calculix", "matlab", "matrix-market", "nastran", "sid"}
     assert set(BODY_FORMATS.names()) == {"hdf5", "nastran-se"}
-    assert set(EXPORT_FORMATS.names()) == {"hdf5", "sid", "exudyn", "mat", "statespace", "matrix-market",
+    assert set(EXPORT_FORMATS.names()) == {"hdf5", "sid", "exudyn", "mat", "statespace", "fmu", "matrix-market",
                                            "nastran-dmig", "op4", "vtu"}
 
 
@@ -47,8 +47,8 @@ def test_every_format_is_registered_right_after_import_flexmor_io():
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
     assert eval(out) == {"model": ["calculix", "abaqus", "sid", "matlab", "matrix-market", "ansys", "nastran"],
                          "body": ["hdf5", "nastran-se"],
-                         "export": ["hdf5", "sid", "exudyn", "mat", "statespace", "matrix-market", "nastran-dmig",
-                                    "op4", "vtu"]}
+                         "export": ["hdf5", "sid", "exudyn", "mat", "statespace", "fmu", "matrix-market",
+                                    "nastran-dmig", "op4", "vtu"]}
 
 
 def _is_module(name: str) -> bool:

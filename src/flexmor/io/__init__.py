@@ -6,7 +6,7 @@
   (:data:`BODY_FORMATS`: flexmor's own HDF5, Nastran superelements); :func:`write_body`
   writes flexmor's own HDF5 body file;
 * :func:`export` — a reduced body to a file for another program (:data:`EXPORT_FORMATS`:
-  SID, Exudyn, MATLAB, state space, HDF5).
+  SID, Exudyn, MATLAB, state space, FMU, HDF5).
 
 The file's suffix chooses the format within the registry asked (``format=`` overrides), so
 the same suffix may mean different things to different registries (``.mat``: a model to read,
@@ -16,7 +16,7 @@ are read as they are, by the format of the name without ``.gz`` (:mod:`._open`).
 The registries and these entry points live in :mod:`._registry`, below
 the format modules. Each format family registers itself when it is imported
 (``MODEL_FORMATS.register(name, suffixes, reader, description=...)``): a family of one module
-is a module of this package (:mod:`.hdf5`, :mod:`.exudyn`, :mod:`.statespace`, :mod:`.vtu`), a
+is a module of this package (:mod:`.hdf5`, :mod:`.exudyn`, :mod:`.statespace`, :mod:`.fmu`, :mod:`.vtu`), a
 family of several modules a subpackage whose ``__init__`` imports its reader and its exporter
 (:mod:`.calculix`, :mod:`.abaqus`, :mod:`.ansys`, :mod:`.nastran`, :mod:`.matrix_market`,
 :mod:`.matlab`, :mod:`.sid`). This package imports the families; :func:`describe_formats` lists
@@ -26,7 +26,7 @@ the file (and line) for anything malformed. Every file flexmor writes goes throu
 """
 
 # The format families register themselves on import; the listings follow this order.
-from . import hdf5, calculix, abaqus, sid, exudyn, matlab, statespace, matrix_market, ansys, nastran, vtu  # noqa: F401, I001
+from . import hdf5, calculix, abaqus, sid, exudyn, matlab, statespace, fmu, matrix_market, ansys, nastran, vtu  # noqa: F401, I001
 from ._registry import (
     BODY_FORMATS,
     EXPORT_FORMATS,

@@ -1,0 +1,437 @@
+"""Export of a reduced body as an FMI 2.0 functional mock-up unit (``.fmu``).
+
+One FMU for model exchange and co-simulation: the body's first-order state space
+(:func:`flexmor.io.statespace.state_space`, damping included)
+
+    x' = A x + B u,   y = C x + D u,   v = C x',   x = [q; q'],
+
+as constant arrays (``%.17g``, the doubles as they are) in generated C, compiled at export time
+by the system C compiler into ``binaries/linux64/<id>.so`` (``darwin64/<id>.dylib`` on macOS);
+the C source is in ``sources/`` too, for other platforms. ``modelDescription.xml`` declares
+
+* one input per input port, the force (``N``) or moment (``N.m``) of the port, named after its
+  SPEC made into an identifier (``TIP:y`` -> ``TIP_y``; the SPEC is its description);
+* per output port its displacement ``u_<port>`` (``m`` or ``rad``) and its velocity
+  ``v_<port>`` (``m/s``, ``rad/s``), the ``C x'`` part (``C B = 0`` for a second-order body,
+  so no output feeds through from an input: no algebraic loop when the outputs are fed back);
+* the generalized coordinates ``q[i]`` and their rates ``qd[i]`` as continuous states (start
+  0, settable before initialization), their derivatives ``der(q[i])``, ``der(qd[i])``, and as
+  their nominal values the peak of each under a unit step on any input, the scale an
+  integrator's absolute tolerance needs (the states are small numbers in SI units);
+* the model structure with the sparsity of ``A``, ``B``, ``C`` as dependencies.
+
+The units declared are SI (N, m, rad, s): the numbers of the body are taken as SI, as the other
+exports write them.
+
+**Co-simulation step.** The inputs are held over a communication step (FMI 2.0 without input
+derivatives), and over such a step the linear system has the exact solution
+``x(t+h) = Φ(h) x(t) + Γ(h) u`` with ``[[Φ, Γ], [0, I]] = expm([[A, B], [0, 0]] h)``
+(zero-order hold). The FMU computes that matrix exponential when the step size changes (for a
+fixed step, once): balancing (Parlett-Reinsch, powers of 2), scaling and squaring, the
+diagonal Padé approximant of degree 6 (truncation error below 1e-15 relative on the scaled
+matrix). So ``doStep`` has neither a step-size nor a stability limit whatever the body's highest
+mode (modes at tens of kHz do not shrink the step), and it is exact up to round-off for inputs
+held over the step: it agrees with SciPy's ``expm`` to about 1e-11 of the peak response even
+for a step as long as 70 periods of the highest mode. A master whose inputs vary within a
+step sees the usual error of sampled inputs. The cost is ``O((n+m)³)`` once per step size and
+``O(n (n+m))`` per step. For model exchange the importer's integrator solves the same
+equations; the states' nominal values scale its absolute tolerance.
+
+References
+----------
+Modelica Association, *Functional Mock-up Interface for Model Exchange and Co-Simulation*,
+version 2.0, 2014 (2.0.4, 2022).
+
+N. J. Higham, *Functions of Matrices*, SIAM, 2008, ch. 10 (scaling and squaring).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import os
+import platform
+import re
+import shlex
+import shutil
+import subprocess
+import tempfile
+import uuid
+import zipfile
+from pathlib import Path
+from xml.sax.saxutils import escape, quoteattr
+
+import numpy as np
+import scipy.linalg as sla
+
+from .._version import __version__
+from ..errors import FlexmorError, ModelError
+from ..model import DIRECTIONS
+from ._registry import EXPORT_FORMATS
+from .atomic import atomic_write
+from .statespace import state_space
+
+__all__ = ["FMUVariables", "find_compiler", "fmu_source", "fmu_variables", "model_description", "write_fmu"]
+
+_RUNTIME = Path(__file__).with_name("fmu_runtime.c")
+_UNITS = {  # name: SI base-unit exponents
+    "N": {"kg": 1, "m": 1, "s": -2}, "N.m": {"kg": 1, "m": 2, "s": -2},
+    "m": {"m": 1}, "rad": {"rad": 1}, "m/s": {"m": 1, "s": -1}, "rad/s": {"rad": 1, "s": -1},
+}
+
+
+def find_compiler() -> list[str]:
+    """The C compiler command: ``CC`` (split like a shell word list) when set, else ``cc`` or ``gcc``.
+
+    Returns
+    -------
+    list of str
+        The command with the compiler's full path first.
+
+    Raises
+    ------
+    FlexmorError
+        When ``CC`` names no program, or when no ``cc``/``gcc`` is on the ``PATH``.
+    """
+    cc = os.environ.get("CC", "").strip()
+    if cc:
+        try:
+            words = shlex.split(cc)
+        except ValueError as exc:
+            raise FlexmorError(f"the C compiler CC={cc!r} is not a command ({exc})") from None
+        found = shutil.which(words[0]) if words else None
+        if found is None:
+            raise FlexmorError(f"the C compiler CC={cc!r} is not found; an FMU is compiled at export time: set CC to "
+                               "a C compiler or install one (Debian/Ubuntu: apt-get install gcc)")
+        return [found, *words[1:]]
+    for name in ("cc", "gcc"):
+        found = shutil.which(name)
+        if found is not None:
+            return [found]
+    raise FlexmorError("no C compiler found (cc or gcc on the PATH, or CC); an FMU is compiled at export time: "
+                       "install one (Debian/Ubuntu: apt-get install gcc) or set CC to a C compiler")
+
+
+def _platform() -> tuple[str, str]:
+    """``(folder, suffix)`` of the FMU binary for this machine (``("linux64", ".so")``)."""
+    system, bits = platform.system(), platform.architecture()[0]
+    if bits == "64bit" and system == "Linux":
+        return "linux64", ".so"
+    if bits == "64bit" and system == "Darwin":
+        return "darwin64", ".dylib"
+    raise FlexmorError(f"an FMU is compiled for this machine; FMI 2.0 binaries are built here for 64-bit Linux "
+                       f"and macOS, not {system} {bits}")
+
+
+def _identifier(text: str, fallback: str) -> str:
+    """``text`` as a C / Modelica identifier: other characters become ``_``; ``n`` before a digit."""
+    name = re.sub(r"_+", "_", re.sub(r"[^A-Za-z0-9_]", "_", str(text))).strip("_")
+    if not name:
+        return fallback
+    return "n" + name if name[0].isdigit() else name
+
+
+def _direction(spec: str) -> int | None:
+    """The direction code 1..6 of a port SPEC (``TIP:ry`` -> 5), None for a name without one."""
+    head, sep, d = str(spec).rpartition(":")
+    return DIRECTIONS.get(d.strip().lower()) if sep and head else None
+
+
+class FMUVariables:
+    """The FMU's variables, in the order of ``modelDescription.xml`` (value reference = position).
+
+    Attributes
+    ----------
+    inputs, displacements, velocities : list of str
+        The variable names of the input forces and of the output displacements and velocities.
+    states : list of str
+        ``q[1] ... q[r], qd[1] ... qd[r]``.
+    rows : list of dict
+        One per variable: ``name``, ``causality``, ``description``, ``unit`` (or None) and, for a
+        state derivative, ``derivative`` (the 1-based index of its state).
+    """
+
+    def __init__(self, input_names, output_names, r: int):
+        taken: set = set()
+
+        def unique(name):
+            base, k = name, 2
+            while name in taken:
+                name, k = f"{base}_{k}", k + 1
+            taken.add(name)
+            return name
+
+        m, p = len(input_names), len(output_names)
+        ins = [str(s) for s in input_names]
+        outs = [str(s) for s in output_names]
+        self.inputs = [unique(_identifier(s, f"F{i + 1}")) for i, s in enumerate(ins)]
+        ports = [_identifier(s, f"y{k + 1}") for k, s in enumerate(outs)]
+        self.displacements = [unique(f"u_{s}") for s in ports]
+        self.velocities = [unique(f"v_{s}") for s in ports]
+        self.states = [f"q[{i + 1}]" for i in range(r)] + [f"qd[{i + 1}]" for i in range(r)]
+        rows = []
+        for spec, name in zip(ins, self.inputs):
+            d = _direction(spec)
+            rows.append(dict(name=name, causality="input", unit=None if d is None else ("N.m" if d > 3 else "N"),
+                             description=f"{'moment' if d and d > 3 else 'force'} at the input port {spec}"))
+        for spec, name in zip(outs, self.displacements):
+            d = _direction(spec)
+            rows.append(dict(name=name, causality="output", unit=None if d is None else ("rad" if d > 3 else "m"),
+                             description=f"displacement at the output port {spec}"))
+        for spec, name in zip(outs, self.velocities):
+            d = _direction(spec)
+            rows.append(dict(name=name, causality="output", unit=None if d is None else ("rad/s" if d > 3 else "m/s"),
+                             description=f"velocity at the output port {spec}"))
+        for i, name in enumerate(self.states):
+            what = "generalized coordinate" if i < r else f"rate of the generalized coordinate q[{i - r + 1}]"
+            rows.append(dict(name=name, causality="local", unit=None, description=what))
+        first = m + 2 * p  # 0-based position of q[1]
+        for i, name in enumerate(self.states):
+            rows.append(dict(name=f"der({name})", causality="local", unit=None, derivative=first + i + 1,
+                             description=f"time derivative of {name}"))
+        self.rows = rows
+
+
+def fmu_variables(body) -> FMUVariables:
+    """The FMU variables of ``body`` (:class:`FMUVariables`): its port SPECs made into names
+    (``F1 F2 ...`` and ``u_y1 ...`` for a body without one name per input and output)."""
+    m, p = np.shape(body.B)[1], np.shape(body.C)[0]
+    ins, outs = list(body.input_names or []), list(body.output_names or [])
+    return FMUVariables(ins if len(ins) == m else [""] * m, outs if len(outs) == p else [""] * p, body.order)
+
+
+def _nominals(body) -> np.ndarray:
+    """The scale of each state ``[q; q']``: its peak under a unit step on any one input.
+
+    Per mode of ``(Kr, Mr)`` (mass-normalized shapes ``φ``, ``b = φᵀ Br``): ``2 |b| / ω²`` and
+    ``|b| / ω`` for an elastic mode (the undamped step response), ``|b| / 2`` and ``|b|`` after
+    1 s for a rigid one; summed in absolute value over the modes. A state no input reaches
+    takes the smallest scale of the others.
+    """
+    M, K, B = np.asarray(body.M, float), np.asarray(body.K, float), np.asarray(body.B, float)
+    r = M.shape[0]
+    if B.shape[1] == 0:
+        return np.ones(2 * r)
+    w2, phi = sla.eigh((K + K.T) / 2, (M + M.T) / 2)
+    w = np.sqrt(np.clip(w2, 0.0, None))
+    b = np.abs(phi.T @ B)
+    rigid = w <= 1e-4 * max(w.max(), np.finfo(float).tiny)
+    ws = np.where(rigid, 1.0, w)
+    disp = np.where(rigid[:, None], b / 2, 2 * b / ws[:, None] ** 2)
+    rate = np.where(rigid[:, None], b, b / ws[:, None])
+    nominal = np.concatenate([(np.abs(phi) @ disp).max(axis=1), (np.abs(phi) @ rate).max(axis=1)])
+    for part in (slice(0, r), slice(r, 2 * r)):
+        x = nominal[part]
+        ok = np.isfinite(x) & (x > 0)
+        x[~ok] = x[ok].min() if ok.any() else 1.0
+    return nominal
+
+
+def _c_array(name: str, values, size: str) -> str:
+    values = np.asarray(values, float).ravel()
+    if not np.all(np.isfinite(values)):
+        raise ModelError(f"the state-space matrix {name} of the body has NaN or Inf entries; no FMU")
+    if values.size == 0:
+        return f"static const double {name}[{size}] = {{0.0}};\n"
+    rows = [", ".join(f"{float(v):.17g}" for v in values[i:i + 6]) for i in range(0, values.size, 6)]
+    return f"static const double {name}[{size}] = {{\n    " + ",\n    ".join(rows) + "\n};\n"
+
+
+def fmu_source(body, guid: str) -> str:
+    """The C source of the FMU of ``body`` (FMI 2.0, model exchange and co-simulation).
+
+    Parameters
+    ----------
+    body : ReducedModel
+    guid : str
+        The ``guid`` of its ``modelDescription.xml``; ``fmi2Instantiate`` refuses another.
+
+    Returns
+    -------
+    str
+        C99 without other headers than the C library's: the FMI 2.0 declarations it needs are in it.
+    """
+    ss = state_space(body)
+    n, m, p = ss.A.shape[0], ss.B.shape[1], ss.C.shape[0]
+    head = [f"/* FMI 2.0 model exchange and co-simulation of the reduced body {body.model_name or ''} "
+            f"({body.method or 'body'}, order {body.order}), written by flexmor {__version__}.",
+            "   x' = A x + B u, y = C x + D u (displacements), v = C x' (velocities); x = [q; q']. */",
+            "#include <math.h>", "#include <stddef.h>", "#include <string.h>", "",
+            f"#define NX {n}", f"#define NU {m}", f"#define NY {p}", f'#define GUID "{guid}"', ""]
+    arrays = (_c_array("A", ss.A, "NX * NX") + _c_array("B", ss.B, "NX * (NU > 0 ? NU : 1)")
+              + _c_array("C", ss.C, "(NY > 0 ? NY : 1) * NX")
+              + _c_array("D", ss.D, "(NY > 0 ? NY : 1) * (NU > 0 ? NU : 1)")
+              + _c_array("NOMINAL", _nominals(body), "NX"))
+    return "\n".join(head) + arrays + "\n" + _RUNTIME.read_text()
+
+
+def _pattern(X) -> np.ndarray:
+    return np.asarray(X) != 0
+
+
+def _deps(row, offset: int) -> list[int]:
+    return [offset + int(j) + 1 for j in np.flatnonzero(row)]
+
+
+def model_description(body, identifier: str, guid: str, *, sources=()) -> str:
+    """The ``modelDescription.xml`` of the FMU of ``body`` (see the module docstring).
+
+    Parameters
+    ----------
+    body : ReducedModel
+    identifier : str
+        The ``modelIdentifier`` (a C identifier, the name of the binary).
+    guid : str
+    sources : sequence of str
+        The files of ``sources/``, listed for both interfaces.
+    """
+    ss = state_space(body)
+    var = fmu_variables(body)
+    m, p = ss.B.shape[1], ss.C.shape[0]
+    vrs = {row["name"]: k for k, row in enumerate(var.rows)}
+    first_state = m + 2 * p
+    nominal = _nominals(body)
+    lines = ['<?xml version="1.0" encoding="UTF-8"?>',
+             f'<fmiModelDescription fmiVersion="2.0" modelName={quoteattr(body.model_name or identifier)} '
+             f'guid="{guid}" description={quoteattr(_describe(body))} generationTool="flexmor {__version__}" '
+             f'variableNamingConvention="structured" numberOfEventIndicators="0">']
+    files = "".join(f'<File name={quoteattr(s)}/>' for s in sources)
+    files = f"<SourceFiles>{files}</SourceFiles>" if files else ""
+    lines.append(f'  <ModelExchange modelIdentifier="{identifier}" completedIntegratorStepNotNeeded="true" '
+                 f'canGetAndSetFMUstate="true" canSerializeFMUstate="true">{files}</ModelExchange>')
+    lines.append(f'  <CoSimulation modelIdentifier="{identifier}" canHandleVariableCommunicationStepSize="true" '
+                 f'canGetAndSetFMUstate="true" canSerializeFMUstate="true">{files}</CoSimulation>')
+    units = sorted({row["unit"] for row in var.rows if row["unit"]})
+    if units:
+        lines.append("  <UnitDefinitions>")
+        for u in units:
+            base = " ".join(f'{k}="{v}"' for k, v in _UNITS[u].items())
+            lines.append(f'    <Unit name="{escape(u)}"><BaseUnit {base}/></Unit>')
+        lines.append("  </UnitDefinitions>")
+    lines.append('  <LogCategories><Category name="logStatusError" description="errors"/></LogCategories>')
+    lines.append(_default_experiment(body))
+    lines.append("  <ModelVariables>")
+    for vr, row in enumerate(var.rows):
+        attrs = ""
+        if row["causality"] == "input":
+            attrs, real = ' causality="input" variability="continuous"', 'start="0"'
+        elif row["causality"] == "output":
+            attrs, real = ' causality="output" variability="continuous" initial="calculated"', ""
+        elif "derivative" in row:
+            attrs, real = ' causality="local" variability="continuous" initial="calculated"', \
+                f'derivative="{row["derivative"]}"'
+        else:
+            attrs = ' causality="local" variability="continuous" initial="exact"'
+            real = f'start="0" nominal="{nominal[vr - first_state]:.6g}"'
+        real = " ".join(([f'unit="{escape(row["unit"])}"'] if row["unit"] else []) + ([real] if real else []))
+        lines.append(f'    <ScalarVariable name={quoteattr(row["name"])} valueReference="{vr}"{attrs} '
+                     f'description={quoteattr(row["description"])}><Real{" " if real else ""}{real}/>'
+                     '</ScalarVariable>')
+    lines.append("  </ModelVariables>")
+    # dependencies: indices (1-based) of the inputs and the states each unknown depends on
+    pA, pB, pC, pD = _pattern(ss.A), _pattern(ss.B), _pattern(ss.C), _pattern(ss.D)
+    pCA, pCB = (pC.astype(int) @ pA.astype(int)) > 0, (pC.astype(int) @ pB.astype(int)) > 0
+
+    def deps(on_inputs, on_states):
+        return " ".join(map(str, _deps(on_inputs, 0) + _deps(on_states, first_state)))
+
+    outputs = [(m + k + 1, deps(pD[k], pC[k])) for k in range(p)]
+    outputs += [(m + p + k + 1, deps(pCB[k], pCA[k])) for k in range(p)]
+    derivs = [(vrs[f"der({s})"] + 1, deps(pB[i], pA[i])) for i, s in enumerate(var.states)]
+    lines.append("  <ModelStructure>")
+    for tag, items in (("Outputs", outputs), ("Derivatives", derivs), ("InitialUnknowns", outputs + derivs)):
+        if items:
+            lines.append(f"    <{tag}>")
+            lines += [f'      <Unknown index="{i}" dependencies="{d}"/>' for i, d in sorted(items)]
+            lines.append(f"    </{tag}>")
+    lines.append("  </ModelStructure>")
+    lines.append("</fmiModelDescription>")
+    return "\n".join(lines) + "\n"
+
+
+def _describe(body) -> str:
+    return (f"reduced elastic body {body.model_name or ''} ({body.method or 'body'}, order {body.order}): "
+            "port forces in, port displacements and velocities out").replace("  ", " ")
+
+
+def _default_experiment(body) -> str:
+    """Ten periods of the lowest elastic mode, 20 steps per period (no stop time and step for a body
+    without an elastic mode)."""
+    try:
+        f = np.asarray(body.frequencies_hz(), float)
+    except FlexmorError:
+        f = np.array([])
+    f = f[np.isfinite(f)]
+    f = f[f > 1e-4 * f.max()] if f.size and f.max() > 0 else f[:0]
+    if f.size == 0:
+        return '  <DefaultExperiment startTime="0" tolerance="1e-06"/>'
+    return (f'  <DefaultExperiment startTime="0" stopTime="{10 / f.min():.6g}" tolerance="1e-06" '
+            f'stepSize="{1 / (20 * f.min()):.6g}"/>')
+
+
+def _compile(cc: list[str], source: str, folder: Path, identifier: str, suffix: str) -> Path:
+    src = folder / f"{identifier}.c"
+    src.write_text(source)
+    out = folder / f"{identifier}{suffix}"
+    cmd = [*cc, "-std=c99", "-O2", "-fPIC", "-shared", "-Wall", "-o", str(out), str(src), "-lm"]
+    try:
+        run = subprocess.run(cmd, capture_output=True, text=True, timeout=1800)
+    except (OSError, subprocess.TimeoutExpired) as exc:
+        raise FlexmorError(f"the C compiler {cc[0]} could not build the FMU: {exc}") from None
+    if run.returncode != 0 or not out.exists():
+        tail = "\n".join((run.stderr or run.stdout).strip().splitlines()[-12:])
+        raise FlexmorError(f"the C compiler {cc[0]} could not build the FMU (exit {run.returncode}):\n{tail}")
+    return out
+
+
+def write_fmu(body, path, *, model=None) -> None:
+    """Write ``body`` as an FMI 2.0 FMU for model exchange and co-simulation, atomically.
+
+    The binary is compiled for this machine by the system C compiler (:func:`find_compiler`).
+
+    Parameters
+    ----------
+    body : ReducedModel
+    path : str or path-like
+        The ``.fmu`` file; its name (made an identifier) is the ``modelIdentifier``.
+    model : FEModel, optional
+        Unused (the state space is the body's own).
+
+    Raises
+    ------
+    FlexmorError
+        No C compiler (naming ``CC`` and what to install), or the compilation failed.
+    ModelError
+        A body without a state-space form (mass matrix not positive definite).
+    """
+    path = Path(path)
+    cc = find_compiler()
+    folder, suffix = _platform()
+    stem = path.name[:-4] if path.name.lower().endswith(".fmu") else path.stem
+    identifier = _identifier(stem, "body")
+    source_hash = hashlib.sha256()
+    ss = state_space(body)
+    for X in (ss.A, ss.B, ss.C, ss.D):
+        source_hash.update(np.ascontiguousarray(X, float).tobytes())
+    source_hash.update("\x00".join(map(str, [identifier, *body.input_names, *body.output_names])).encode())
+    guid = "{" + str(uuid.uuid5(uuid.NAMESPACE_URL, "flexmor:" + source_hash.hexdigest())) + "}"
+    source = fmu_source(body, guid)
+    xml = model_description(body, identifier, guid, sources=[f"{identifier}.c"])
+    with tempfile.TemporaryDirectory(prefix="flexmor-fmu-") as tmp:
+        binary = _compile(cc, source, Path(tmp), identifier, suffix).read_bytes()
+
+    def write(tmp_path):
+        with zipfile.ZipFile(tmp_path, "w", zipfile.ZIP_DEFLATED) as zf:
+            for name, data in (("modelDescription.xml", xml.encode()),
+                               (f"binaries/{folder}/{identifier}{suffix}", binary),
+                               (f"sources/{identifier}.c", source.encode())):
+                info = zipfile.ZipInfo(name, date_time=(1980, 1, 1, 0, 0, 0))
+                info.compress_type = zipfile.ZIP_DEFLATED
+                info.external_attr = 0o644 << 16
+                zf.writestr(info, data)
+
+    atomic_write(path, write)
+
+
+EXPORT_FORMATS.register("fmu", [".fmu"], write_fmu,
+                        description="FMI 2.0 FMU (model exchange and co-simulation) of the body's state space, "
+                                    "compiled by the system C compiler")
