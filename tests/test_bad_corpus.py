@@ -35,7 +35,9 @@ def test_bad_input_refused(name, command, expect, tmp_path, capsys):
     captured = capsys.readouterr()
     err = captured.err.strip()
     assert code == 2, (captured.out, err)
-    assert len(err.splitlines()) == 1, err
-    assert "Traceback" not in err and name.split(".")[0] in err and expect in err, err
+    lines = err.splitlines()  # one error line, last; before it at most the warnings of what was read
+    assert lines[-1].startswith("flexmor: error: ") and all(ln.startswith("flexmor: warning: ") for ln in lines[:-1])
+    assert len(lines) <= 2, err
+    assert "Traceback" not in err and name.split(".")[0] in lines[-1] and expect in lines[-1], err
     assert not out.exists()
     assert not [p for p in tmp_path.iterdir() if p.name.startswith(".")]

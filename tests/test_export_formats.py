@@ -52,7 +52,7 @@ def test_unknown_or_ambiguous_format(tmp_path, body):
     red, model = body
     with pytest.raises(OptionError, match="sid, exudyn, mat, statespace"):
         export(red, tmp_path / "x.npz", model=model)
-    with pytest.raises(OptionError, match="not an export format"):
+    with pytest.raises(OptionError, match="not a known export file type"):
         export(red, tmp_path / "x.sid", "fbi", model=model)
 
 

@@ -106,11 +106,13 @@ def _format_warning(message, category, filename, lineno, line=None, names=None):
 
 
 class _LogFormat(logging.Formatter):
-    """A warning as ``flexmor: warning: MESSAGE``; other records as ``LEVEL logger: message``."""
+    """A warning (a FlexmorWarning, a logged one) as ``flexmor: warning: MESSAGE``; other records
+    (-v: info, -vv: debug) as ``LEVEL logger: message``."""
 
     def format(self, record):
-        if record.name == "py.warnings":
-            return f"flexmor: warning: {record.getMessage().strip()}"
+        if record.name == "py.warnings" or record.levelno >= logging.WARNING:
+            kind = "warning" if record.levelno <= logging.WARNING else record.levelname.lower()
+            return f"flexmor: {kind}: {record.getMessage().strip()}"
         return super().format(record)
 
 
@@ -122,7 +124,7 @@ class _OncePerRun(logging.Filter):
         self.seen: set[str] = set()
 
     def filter(self, record):
-        if record.name != "py.warnings":
+        if record.name != "py.warnings" and record.levelno < logging.WARNING:
             return True
         text = record.getMessage().strip()
         if text in self.seen:
