@@ -62,6 +62,11 @@ def test_to_control_labels_inputs_and_outputs(body):
     H = body.frf([237.0])[0]
     assert np.linalg.norm(sys(1j * w) - H) <= 1e-9 * np.linalg.norm(H)
     assert isinstance(sys, control.StateSpace)
+    from flexmor.io.statespace import to_control
+
+    same = to_control(body)
+    assert isinstance(same, control.StateSpace) and list(same.input_labels) == INPUTS
+    assert np.array_equal(same.A, sys.A) and np.array_equal(same.C, sys.C)
 
 
 def test_simulate_is_the_time_integration_of_the_body(body):

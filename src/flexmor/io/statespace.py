@@ -27,7 +27,7 @@ from ..errors import ModelError
 from ._registry import EXPORT_FORMATS
 from .atomic import atomic_write
 
-__all__ = ["StateSpace", "state_space", "write_statespace"]
+__all__ = ["StateSpace", "state_space", "to_control", "write_statespace"]
 
 
 @dataclass
@@ -105,6 +105,12 @@ def state_space(body) -> StateSpace:
     Be = np.vstack([np.zeros_like(Bm), Bm])
     return StateSpace(A, B, C, D, E, Ae, Be, input_names=list(getattr(body, "input_names", [])),
                       output_names=list(getattr(body, "output_names", [])))
+
+
+def to_control(body):
+    """``control.StateSpace`` (python-control) of ``body``'s first-order form (:func:`state_space`),
+    its inputs and outputs labelled with the body's port names (:meth:`StateSpace.to_control`)."""
+    return state_space(body).to_control()
 
 
 def write_statespace(body, path, *, model=None) -> None:
