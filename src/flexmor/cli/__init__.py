@@ -216,6 +216,12 @@ def main(argv=None) -> int:
 
 def _dispatch(args) -> int:
     """Run the command of ``args``; errors become messages and exit codes."""
+    from ..linalg.memory import start_room
+
+    short = start_room()  # a process limit too tight for any job: one line now rather than a library's abort
+    if short is not None:
+        print(f"flexmor: error: {short}", file=sys.stderr)
+        return 1
     try:
         return args.func(args)
     except FlexmorError as exc:

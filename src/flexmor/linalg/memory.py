@@ -46,10 +46,11 @@ import numpy as np
 
 from ..errors import OutOfMemoryError, SolverError
 
-__all__ = ["BACKWARD_TARGET", "FACTOR_MEMORY", "MEMORY_FRACTION", "MEMORY_LIMIT_NAMES", "memory_available",
-           "memory_limits", "describe_memory", "MODE_NAMES", "REFINE_MAX_ITER", "REFINE_RESTART",
-           "REFINE_TOL", "MemoryPlan", "OutOfCore", "describe_factor", "estimate_memory", "factor_record",
-           "matrix_bytes", "norm_bound", "pardiso_estimates", "plan_memory", "refine", "refusal"]
+__all__ = ["BACKWARD_TARGET", "BASIS_COPIES", "START_RESERVE", "check_basis_memory", "start_room", "FACTOR_MEMORY",
+           "MEMORY_FRACTION", "MEMORY_LIMIT_NAMES", "memory_available", "memory_limits", "describe_memory",
+           "MODE_NAMES", "REFINE_MAX_ITER", "REFINE_RESTART", "REFINE_TOL", "MemoryPlan", "OutOfCore",
+           "describe_factor", "estimate_memory", "factor_record", "matrix_bytes", "norm_bound", "pardiso_estimates",
+           "plan_memory", "refine", "refusal"]
 
 log = logging.getLogger(__name__)
 
@@ -191,7 +192,7 @@ def describe_memory() -> str:
     limits = {k: v for k, v in memory_limits().items() if v is not None}
     if not limits:
         return "the memory available is unknown"
-    key = min(limits, key=limits.get)
+    key = min(limits, key=lambda k: limits[k])
     return f"{limits[key] / 2**20:.0f} MB available ({MEMORY_LIMIT_NAMES[key]})"
 
 
@@ -209,6 +210,54 @@ def refusal(n: int, backend: str, estimates: dict, available: float, others=()) 
         f"factorizing {n} equations with {backend} needs about {_mb(estimates['double'])}"
         + "".join([" in double precision"] + [f", {a}" for a in alt] if alt else [])
         + f", but only {_mb(available)} of memory are available{_bound(available)}; {hint}")
+
+
+#: Address space a job needs beyond what a started process has mapped, whatever its size: the
+#: solver libraries loaded on first use (MKL for PARDISO: ~350 MB of mappings), the BLAS libraries'
+#: per-thread buffers (OpenBLAS takes tens of MB per thread on first use, and ends the process
+#: when it cannot), the C library's per-thread heaps (reserved in 64 MB steps). Below it a job
+#: cannot start.
+START_RESERVE = 512 * 2**20
+
+
+def start_room() -> str | None:
+    """The message when the process's address-space or cgroup limit leaves less than
+    :data:`START_RESERVE` to a job (None when there is room, or no such limit)."""
+    limits = memory_limits()
+    for key in ("address_space", "cgroup"):
+        room = limits.get(key)
+        if room is not None and room < START_RESERVE:
+            return (f"out of memory before starting: {MEMORY_LIMIT_NAMES[key]} leaves {_mb(room)}, a job needs at "
+                    f"least {_mb(START_RESERVE)} beyond the libraries already loaded (BLAS and solver buffers); "
+                    "raise the limit")
+    return None
+
+
+#: Copies of an ``n x r`` basis a reduction holds at once (the basis, its orthogonalization, the
+#: products with M and K, the solves' right-hand sides), in :func:`check_basis_memory`.
+BASIS_COPIES = 4
+
+
+def check_basis_memory(n: int, order: int, solver) -> None:
+    """Refuse, before any work, a basis of ``order`` vectors of ``n`` equations that cannot fit:
+    :data:`BASIS_COPIES` dense ``n x order`` arrays against :data:`MEMORY_FRACTION` of the memory
+    ``solver`` may use (:meth:`~flexmor.linalg.context.SolverContext.memory_available`).
+
+    Raises
+    ------
+    OutOfMemoryError
+        Naming the memory needed and available, what bounds it, and the largest order that fits.
+    """
+    avail = solver.memory_available()
+    need = BASIS_COPIES * 8.0 * n * order
+    if avail is None or need <= MEMORY_FRACTION * avail:
+        return
+    fits = int(MEMORY_FRACTION * avail // (BASIS_COPIES * 8.0 * n))
+    raise OutOfMemoryError(
+        f"a basis of order {order} for {n} equations needs about {_mb(need)} ({BASIS_COPIES} arrays of n x r "
+        f"doubles), but only {_mb(avail)} of memory are available{_bound(avail)}; "
+        + (f"order {fits} or less would fit" if fits >= 1 else "no order fits: a machine with more memory"),
+        params=("order",))
 
 
 def _bound(available: float) -> str:

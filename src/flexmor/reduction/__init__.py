@@ -17,7 +17,9 @@ from __future__ import annotations
 import time
 
 from ..body import ReducedModel
+from ..linalg.context import as_solver
 from ..linalg.distributed import is_partitioned
+from ..linalg.memory import check_basis_memory
 from ..options import Band, check_option_types, check_order
 from ..projection import project
 from ..rigid import exclude_rigid, frame_participation
@@ -86,6 +88,8 @@ def reduce(model, method: str, order: int | None, ports, *, inertia_loads: str =
     opts = {k: v for k, v in options.items() if v is not None}
     check_option_types(m.options_class, opts)
     order = check_order(order)
+    if order is not None and not is_partitioned(model.K):  # a basis that cannot fit: refused before any work
+        check_basis_memory(model.n_dof, order, as_solver(options.get("solver")))
     t0 = time.perf_counter()
     basis_ports, inertia = with_inertia_loads(model, ports, inertia_loads if m.uses_inputs else "off")
     basis = exclude_rigid(model, m.function(model, basis_ports, order, **opts))
