@@ -40,11 +40,13 @@ LAYERS = [
     ["flexmor.analysis"],  # judging reduced bodies, assemblies, the body held in its joints
     ["flexmor.reduction"],  # methods -> Basis, METHODS registry, reduce()
     ["flexmor.dynamics", "flexmor.io"],  # FRF, modes, time integration; formats, exporters, invariants
-    ["flexmor.rigid", "flexmor.expansion"],  # rigid-body motion, M-projections, elastic body; expanded body
+    ["flexmor.rigid", "flexmor.expansion", "flexmor.stress"],  # rigid-body motion, M-projections, elastic body;
+    # expanded body; element stresses and strains
     ["flexmor.projection", "flexmor.body", "flexmor.checks", "flexmor.models"],  # projection; the body; checks; models
     ["flexmor.origin", "flexmor.ports", "flexmor.selection", "flexmor.couplings", "flexmor.basis",
      "flexmor.options"],  # model fingerprint, ports, node sets, RBE2/RBE3, bases, option values
-    ["flexmor.model", "flexmor.damping", "flexmor.mesh"],  # the FE model, damping values, mesh surface
+    ["flexmor.model", "flexmor.damping", "flexmor.mesh", "flexmor.elements"],  # the FE model, damping values,
+    # mesh surface, elements and materials
     ["flexmor.linalg"],  # solver layer
     ["flexmor.errors", "flexmor.jsonutil", "flexmor._version"],  # errors, JSON values, the version
 ]
