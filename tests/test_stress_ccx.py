@@ -19,6 +19,7 @@ import pytest
 from ccx_models import CCX
 
 from flexmor.io import read
+from flexmor.io._cells import PERMUTATIONS
 from flexmor.io.calculix import read_frd
 from flexmor.stress import element_stresses, nodal_stresses
 
@@ -62,8 +63,9 @@ def _rows(ids) -> list:
     return [", ".join(map(str, ids[s:s + 16])) for s in range(0, len(ids), 16)]
 
 
-def _deck(etype: str) -> str:
-    """A clamped bar of 3 x 2 x 2 distorted cells, two materials, modes with stresses in the .frd and the .dat."""
+def _deck(etype: str, ortho: bool = True) -> str:
+    """A clamped bar of 3 x 2 x 2 distorted cells, two materials (the right half orthotropic, else steel too),
+    modes with stresses in the .frd and the .dat."""
     cells = _cells(etype)
     pts = sorted({tuple(int(x) for x in p) for e in cells for p in e})
     nid = {p: i + 1 for i, p in enumerate(pts)}
@@ -84,7 +86,8 @@ def _deck(etype: str) -> str:
     lines += ["*MATERIAL, NAME=STEEL", "*ELASTIC", "210000., 0.3", "*DENSITY", "7.85e-9",
               "*MATERIAL, NAME=ORTHO", "*ELASTIC, TYPE=ENGINEERING CONSTANTS",
               "150000., 90000., 70000., 0.25, 0.3, 0.2, 40000., 30000.,", "25000.", "*DENSITY", "2.7e-9",
-              "*SOLID SECTION, ELSET=LEFT, MATERIAL=STEEL", "*SOLID SECTION, ELSET=RIGHT, MATERIAL=ORTHO",
+              "*SOLID SECTION, ELSET=LEFT, MATERIAL=STEEL",
+              f"*SOLID SECTION, ELSET=RIGHT, MATERIAL={'ORTHO' if ortho else 'STEEL'}",
               "*BOUNDARY", "FIX, 1, 3",
               "*STEP", "*FREQUENCY", "6", "*NODE OUTPUT, DOUBLE", "U", "*ELEMENT OUTPUT, DOUBLE", "S",
               "*EL PRINT, ELSET=EALL", "S", "*END STEP",
@@ -92,9 +95,9 @@ def _deck(etype: str) -> str:
     return "\n".join(lines) + "\n"
 
 
-def _run(tmp_path: Path, etype: str) -> Path:
+def _run(tmp_path: Path, etype: str, ortho: bool = True) -> Path:
     job = f"s_{etype.lower()}"
-    (tmp_path / f"{job}.inp").write_text(_deck(etype))
+    (tmp_path / f"{job}.inp").write_text(_deck(etype, ortho))
     proc = subprocess.run([CCX, "-i", job], cwd=tmp_path, capture_output=True, text=True, timeout=120)
     if proc.returncode != 0 or "Job finished" not in proc.stdout:
         raise RuntimeError(f"ccx failed on {job}.inp:\n{proc.stdout[-3000:]}")
@@ -118,20 +121,19 @@ def _half_ulp(text: str) -> float:
     return 0.5 * 10.0 ** (int(exp or 0) - decimals)
 
 
-@pytest.mark.parametrize("etype", list(_LINEAR))
-def test_stresses_match_calculix(tmp_path, etype):
-    job = _run(tmp_path, etype)
-    model = read(job.with_suffix(".sti"))
-    assert model.elements is not None and {b.type for b in model.elements.blocks} == {etype}
+def _modes(job: Path, model):
+    """CalculiX's mode shapes over the model's equations (n_dof, 6) and its nodal stress blocks."""
     frd = read_frd(job.with_suffix(".frd"))
     disp = [b for b in frd.blocks if b["name"] == "DISP"]
     stress = [b for b in frd.blocks if b["name"] == "STRESS"]
     assert len(disp) == len(stress) == 6
     row = {int(n): i for i, n in enumerate(disp[0]["nodes"])}
     eq = np.array([row[int(n)] for n in model.dofs[:, 0]])
-    U = np.column_stack([b["values"][eq, model.dofs[:, 1] - 1] for b in disp])
+    return np.column_stack([b["values"][eq, model.dofs[:, 1] - 1] for b in disp]), stress, row
 
-    # nodal stresses: CalculiX's extrapolation and averaging, to 1e-6 of the mode's peak
+
+def _check_nodal(model, U, stress, row, tol):
+    """flexmor's nodal stresses of the modes against CalculiX's, relative to each mode's peak."""
     nodal = nodal_stresses(model, U)
     assert nodal.values.shape == (6, nodal.node_ids.size, 6)
     for k, b in enumerate(stress):
@@ -139,7 +141,19 @@ def test_stresses_match_calculix(tmp_path, etype):
         peak = np.abs(ref).max()
         assert peak > 0
         err = np.abs(nodal.values[k] - ref).max() / peak
-        assert err < 1e-6, (etype, k, err)
+        assert err < tol, (k, err)
+
+
+@pytest.mark.parametrize("etype", list(_LINEAR))
+def test_stresses_match_calculix(tmp_path, etype):
+    job = _run(tmp_path, etype)
+    model = read(job.with_suffix(".sti"))
+    assert model.elements is not None and {b.type for b in model.elements.blocks} == {etype}
+    assert [m.name for m in model.elements.materials] == ["STEEL", "ORTHO"]
+    U, stress, row = _modes(job, model)
+
+    # nodal stresses: CalculiX's extrapolation and averaging (double-precision .frd), to 1e-9 of the peak
+    _check_nodal(model, U, stress, row, 1e-9)
 
     # integration points: to 1e-8 of the peak beyond the rounding of the .dat's printed digits
     (field,) = element_stresses(model, U)
@@ -156,3 +170,48 @@ def test_stresses_match_calculix(tmp_path, etype):
         peak = np.abs(ref).max()
         excess = np.abs(mine - ref) - tol
         assert excess.max() <= 1e-8 * peak, (etype, k, excess.max() / peak)
+
+
+def _nastran_files(tmp_path: Path, model) -> Path:
+    """The model as Nastran free-field DMIG (KAAX, MAAX) and bulk data: GRID, solids in Nastran's node
+    order with PSOLID and MAT1 (steel, as the CalculiX deck)."""
+    lines = []
+    for name, A in (("KAAX", model.K), ("MAAX", model.M)):
+        A = A.tocsc()
+        lines.append(f"DMIG    {name:<8}       0       6       2       0                     {model.n_dof:>3}")
+        for j in range(model.n_dof):
+            col = slice(A.indptr[j], A.indptr[j + 1])
+            lines.append(f"DMIG,{name},{model.dofs[j, 0]},{model.dofs[j, 1]},")
+            lines += [f",{model.dofs[i, 0]},{model.dofs[i, 1]},{float(v)!r},"
+                      for i, v in zip(A.indices[col], A.data[col]) if i <= j]
+    pch = tmp_path / "bar.pch"
+    pch.write_text("\n".join(lines) + "\n")
+    bdf = [f"GRID,{n},," + ",".join(repr(float(c)) for c in p) for n, p in zip(model.node_ids, model.xyz)]
+    to_nastran = {20: np.argsort(PERMUTATIONS[("nastran", "hexahedron20")]),
+                  15: np.argsort(PERMUTATIONS[("nastran", "wedge15")])}
+    card = {4: "CTETRA", 10: "CTETRA", 8: "CHEXA", 20: "CHEXA", 6: "CPENTA", 15: "CPENTA"}
+    for b in model.elements.blocks:
+        k = b.nodes.shape[1]
+        nodes = b.nodes[:, to_nastran[k]] if k in to_nastran else b.nodes
+        for e, g in zip(b.ids, nodes):
+            fields = [str(e), "7", *map(str, g)]
+            rows = [fields[:8]] + [fields[s:s + 8] for s in range(8, len(fields), 8)]
+            bdf.append(f"{card[k]}," + ",".join(rows[0]) + ",+")
+            bdf += ["+," + ",".join(r) + ",+" for r in rows[1:]]
+            bdf[-1] = bdf[-1][:-2]
+    bdf += ["PSOLID,7,3", "MAT1,3,210000.,,0.3,7.85e-9"]
+    pch.with_suffix(".bdf").write_text("\n".join(bdf) + "\n")
+    return pch
+
+
+@pytest.mark.parametrize("etype", ["C3D8", "C3D20", "C3D10", "C3D15"])
+def test_nastran_solids_match_calculix(tmp_path, etype):
+    """The same mesh as Nastran CHEXA/CTETRA/CPENTA cards with PSOLID and MAT1 gives CalculiX's stresses."""
+    job = _run(tmp_path, etype, ortho=False)
+    ccx_model = read(job.with_suffix(".sti"))
+    model = read(_nastran_files(tmp_path, ccx_model))
+    (block,) = model.elements.blocks
+    assert block.type == etype and (block.material == 0).all()
+    assert model.elements.materials[0].rho == pytest.approx(7.85e-9)
+    U, stress, row = _modes(job, model)
+    _check_nodal(model, U, stress, row, 1e-9)
