@@ -1,0 +1,207 @@
+"""Stress recovery without CalculiX: patch tests (a linear displacement field gives its exact constant
+stress in every element type), materials and sections read from the decks, and the refusals."""
+
+from __future__ import annotations
+
+import dataclasses
+import shutil
+
+import numpy as np
+import pytest
+import scipy.sparse as sp
+from helpers import CCX as CCX_DATA
+from helpers import DATA
+from test_stress_ccx import _LINEAR, _cells
+
+import flexmor.io
+from flexmor.elements import ElementBlock, Elements, Material
+from flexmor.errors import ModelError
+from flexmor.model import FEModel
+from flexmor.stress import element_strains, element_stresses, nodal_stresses, von_mises
+
+_GRAD = np.array([[1.0, 0.4, -0.3], [0.2, -0.7, 0.5], [-0.6, 0.1, 0.9]]) * 1e-3  # du_i / dx_j
+
+
+def _voigt(grad):
+    """Engineering strains xx yy zz xy yz zx of a displacement gradient."""
+    return np.array([grad[0, 0], grad[1, 1], grad[2, 2], grad[0, 1] + grad[1, 0], grad[1, 2] + grad[2, 1],
+                     grad[2, 0] + grad[0, 2]])
+
+
+def _grid_model(etype, material=None) -> FEModel:
+    """A model of the distorted 3 x 2 x 2 bar meshed with ``etype``; unit matrices (the stresses need none)."""
+    cells = _cells(etype)
+    pts = sorted({tuple(int(x) for x in p) for e in cells for p in e})
+    nid = {p: i + 1 for i, p in enumerate(pts)}
+    xyz = np.array(pts, float) / 2 * [0.1, 0.1, 0.08]
+    xyz += np.random.default_rng(3).uniform(-0.003, 0.003, xyz.shape)
+    nodes = np.array([[nid[tuple(int(x) for x in p)] for p in e] for e in cells])
+    ids = np.arange(1, len(pts) + 1)
+    dofs = np.column_stack([np.repeat(ids, 3), np.tile([1, 2, 3], ids.size)])
+    mats = (material,) if material is not None else ()
+    block = ElementBlock(etype, np.arange(1, len(cells) + 1), nodes,
+                         np.zeros(len(cells), np.int64) if material is not None else None)
+    return FEModel(M=sp.eye(dofs.shape[0]), K=sp.eye(dofs.shape[0]), node_ids=ids, xyz=xyz, dofs=dofs,
+                   elements=Elements((block,), mats, "grid.inp"), source="grid.inp")
+
+
+def _linear_field(model, grad=_GRAD):
+    x = model.node_xyz(model.dofs[:, 0])
+    return np.einsum("ij,nj->ni", grad, x)[np.arange(model.n_dof), model.dofs[:, 1] - 1]
+
+
+@pytest.mark.parametrize("etype", list(_LINEAR))
+def test_linear_field_gives_its_exact_stress(etype):
+    steel = Material.isotropic(210e3, 0.3, 7.85e-9, "STEEL")
+    model = _grid_model(etype, steel)
+    u = _linear_field(model)
+    exact = steel.D @ _voigt(_GRAD)
+    (field,) = element_stresses(model, u)
+    np.testing.assert_allclose(field.values, np.broadcast_to(exact, field.values.shape), rtol=0, atol=1e-10 * 250)
+    (strain,) = element_strains(model, u)
+    eps = _voigt(_GRAD) * [1, 1, 1, 0.5, 0.5, 0.5]
+    np.testing.assert_allclose(strain.values, np.broadcast_to(eps, strain.values.shape), atol=1e-15)
+    # CalculiX's extrapolation coefficients are rounded (2.549 ...): a constant field comes back to 1e-4
+    nodal = nodal_stresses(model, np.column_stack([u, 2 * u]))
+    assert nodal.values.shape == (2, model.n_nodes, 6)
+    np.testing.assert_allclose(nodal.values[1], 2 * nodal.values[0], rtol=1e-12)
+    np.testing.assert_allclose(nodal.values[0], np.broadcast_to(exact, (model.n_nodes, 6)), rtol=0,
+                               atol=1e-4 * np.abs(exact).max())
+    some = model.node_ids[::7]
+    part = nodal_stresses(model, u, nodes=some)
+    np.testing.assert_array_equal(part.node_ids, some)
+    np.testing.assert_allclose(part.values, nodal.values[0][::7], rtol=1e-13, atol=1e-9)
+
+
+def test_material_argument_replaces_the_deck_and_is_needed_without_one():
+    model = _grid_model("C3D10")
+    u = _linear_field(model)
+    with pytest.raises(ModelError, match=r"grid\.inp: 72 C3D10 element\(s\) have no material .*"
+                                         r"pass material=\(E, nu\[, rho\]\)") as info:
+        nodal_stresses(model, u)
+    assert info.value.params == ("material",)
+    (a,) = element_stresses(model, u, material=(70e3, 0.33))
+    (b,) = element_stresses(model, u, material=Material.isotropic(140e3, 0.33))
+    np.testing.assert_allclose(b.values, 2 * a.values, rtol=1e-12)
+    with pytest.raises(ModelError, match=r"material must be \(E, nu\[, rho\]\), got 4 numbers"):
+        element_stresses(model, u, material=(1, 2, 3, 4))
+    with pytest.raises(ModelError, match=r"Poisson's ratio must lie in \(-1, 0.5\), got 0.5"):
+        element_stresses(model, u, material=(70e3, 0.5))
+
+
+def test_refusals_name_the_problem():
+    steel = Material.isotropic(210e3, 0.3)
+    model = _grid_model("C3D8", steel)
+    shells = Elements((ElementBlock("S4", [1], [model.node_ids[:4]], [0]),), (steel,), "plate.inp")
+    with pytest.raises(ModelError, match=r"plate\.inp: stresses of S4 elements are not recovered \(shell elements"):
+        nodal_stresses(dataclasses.replace(model, elements=shells), np.zeros(model.n_dof))
+    with pytest.raises(ModelError, match=r"u must have 108 rows"):
+        nodal_stresses(model, np.zeros(5))
+    with pytest.raises(ModelError, match=r"node 99999 is in no solid element"):
+        nodal_stresses(model, np.zeros(model.n_dof), nodes=[99999])
+    bare = dataclasses.replace(model, elements=None)
+    with pytest.raises(ModelError, match=r"grid\.inp: the model has no elements"):
+        element_stresses(bare, np.zeros(model.n_dof))
+    aniso = Elements(model.elements.blocks, (Material("RUBBER", unsupported="*ELASTIC, TYPE=ANISO (x.inp:3) is "
+                                                                            "not evaluated"),), "x.inp")
+    with pytest.raises(ModelError, match=r"x\.inp: \*ELASTIC, TYPE=ANISO \(x\.inp:3\) is not evaluated; pass material"):
+        element_stresses(dataclasses.replace(model, elements=aniso), np.zeros(model.n_dof))
+
+
+def test_von_mises():
+    s = np.array([[100.0, 0, 0, 0, 0, 0], [0, 0, 0, 50.0, 0, 0], [10.0, 10.0, 10.0, 0, 0, 0]])
+    np.testing.assert_allclose(von_mises(s), [100.0, 50.0 * np.sqrt(3), 0.0], atol=1e-12)
+    with pytest.raises(ModelError, match="6 components"):
+        von_mises(np.zeros((3, 5)))
+
+
+def test_engineering_constants_of_an_isotropic_material():
+    E, nu = 200e3, 0.25
+    G = E / (2 * (1 + nu))
+    a = Material.engineering_constants(E, E, E, nu, nu, nu, G, G, G)
+    np.testing.assert_allclose(a.D, Material.isotropic(E, nu).D, rtol=1e-12, atol=1e-9)
+    with pytest.raises(ModelError, match="no positive definite compliance"):
+        Material.engineering_constants(E, E, E, 0.9, 0.9, 0.9, G, G, G)
+
+
+# -- the decks -------------------------------------------------------------------------------------
+def _beam(tmp_path, edit=None):
+    """The free C3D8 beam export, its deck edited by ``edit(text) -> text``."""
+    for suf in (".sti", ".mas", ".dof", ".inp"):
+        shutil.copy(CCX_DATA / f"beam8_free_mat{suf}", tmp_path / f"beam{suf}")
+    inp = tmp_path / "beam.inp"
+    if edit:
+        inp.write_text(edit(inp.read_text()))
+    return tmp_path / "beam.sti"
+
+
+def test_calculix_deck_material_gives_the_patch_stress(tmp_path):
+    model = flexmor.io.read(_beam(tmp_path))
+    (block,) = model.elements.blocks
+    assert block.type == "C3D8" and block.ids.size == 40 and (block.material == 0).all()
+    (steel,) = model.elements.materials
+    assert steel.name == "STEEL" and steel.rho == pytest.approx(7850.0)
+    np.testing.assert_allclose(steel.D, Material.isotropic(2.1e11, 0.3).D, rtol=1e-12)
+    (field,) = element_stresses(model, _linear_field(model))
+    exact = steel.D @ _voigt(_GRAD)
+    np.testing.assert_allclose(field.values, np.broadcast_to(exact, field.values.shape), rtol=1e-9)
+
+
+def test_calculix_element_sets_and_material_kinds(tmp_path):
+    def edit(text):
+        text = text.replace("*SOLID SECTION, ELSET=EALL, MATERIAL=STEEL",
+                            "*ELSET, ELSET=FRONT, GENERATE\n1, 10\n*ELSET, ELSET=BACK\nFRONT, 11, 12\n"
+                            "*ELSET, ELSET=REST, GENERATE\n13, 40\n"
+                            "*SOLID SECTION, ELSET=BACK, MATERIAL=ORTHO\n"
+                            "*SOLID SECTION, ELSET=REST, MATERIAL=HOT")
+        return text + ("*MATERIAL, NAME=ORTHO\n*ELASTIC, TYPE=ORTHO\n"
+                       "1e11, 2e10, 9e10, 3e10, 2.5e10, 8e10, 4e10, 3e10,\n2e10\n"
+                       "*MATERIAL, NAME=HOT\n*ELASTIC\n2.1e11, 0.3, 20.\n2.0e11, 0.3, 200.\n")
+    model = flexmor.io.read(_beam(tmp_path, edit))
+    (block,) = model.elements.blocks
+    names = [m.name for m in model.elements.materials]
+    assert names == ["ORTHO", "HOT"]
+    np.testing.assert_array_equal(block.material, [0] * 12 + [1] * 28)
+    ortho, hot = model.elements.materials
+    assert ortho.D[0, 0] == 1e11 and ortho.D[0, 1] == 2e10 and ortho.D[2, 2] == 8e10 and ortho.D[5, 5] == 3e10
+    assert hot.D is None and "temperature-dependent *ELASTIC (beam.inp:" in hot.unsupported
+    with pytest.raises(ModelError, match=r"beam\.inp: temperature-dependent \*ELASTIC \(beam\.inp:\d+\) is not "
+                                         r"evaluated; pass material"):
+        nodal_stresses(model, np.zeros(model.n_dof))
+    nodal_stresses(model, np.zeros(model.n_dof), material=(2.1e11, 0.3))  # the argument replaces them
+
+
+def test_calculix_deck_without_section(tmp_path):
+    model = flexmor.io.read(_beam(tmp_path, lambda t: t.replace("*SOLID SECTION, ELSET=EALL, MATERIAL=STEEL\n", "")))
+    with pytest.raises(ModelError, match=r"beam\.inp: 40 C3D8 element\(s\) have no material \(first: element 1\); "
+                                         r"pass material=\(E, nu\[, rho\]\)"):
+        nodal_stresses(model, np.zeros(model.n_dof))
+
+
+def test_ansys_archive_materials_and_patch_stress(tmp_path):
+    pytest.importorskip("ansys.mapdl.reader")
+    ansys = DATA / "ansys"
+    text = (ansys / "ansys_HexBeam.cdb").read_text()
+    model = flexmor.io.read(ansys / "ansys_file.full", coordinates=ansys / "ansys_HexBeam.cdb")
+    (block,) = model.elements.blocks
+    assert block.type == "C3D20R" and block.ids.size == 40
+    (mat,) = model.elements.materials
+    np.testing.assert_allclose(mat.D, Material.isotropic(7e10, 0.35).D, rtol=1e-12)
+    assert mat.rho == 2700.0
+    # away from the clamped face (its displacements are not equations), a linear field's exact stress
+    u = _linear_field(model)
+    (field,) = element_stresses(model, u)
+    free = ~np.isin(block.nodes, model.constrained_dofs[:, 0]).any(axis=1)
+    assert free.sum() == 36
+    exact = mat.D @ _voigt(_GRAD)
+    np.testing.assert_allclose(field.values[free], np.broadcast_to(exact, field.values[free].shape), rtol=1e-9)
+    # the MP command form, and a material that is not isotropic refused
+    mp = text.replace("MPDATA,R5.0, 1,EX  ,       1, 1, 7.000000000E+10,", "MP,EX,1,1.4e11")
+    (tmp_path / "beam.cdb").write_text(mp)
+    model = flexmor.io.read(ansys / "ansys_file.full", coordinates=tmp_path / "beam.cdb")
+    np.testing.assert_allclose(model.elements.materials[0].D, Material.isotropic(1.4e11, 0.35).D, rtol=1e-12)
+    (tmp_path / "beam.cdb").write_text(mp + "MP,EY,1,2e11\n")
+    model = flexmor.io.read(ansys / "ansys_file.full", coordinates=tmp_path / "beam.cdb")
+    with pytest.raises(ModelError, match=r"beam\.cdb: material 1 \(beam\.cdb:\d+\) is temperature-dependent or "
+                                         "orthotropic"):
+        nodal_stresses(model, u)
