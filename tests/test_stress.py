@@ -205,3 +205,16 @@ def test_ansys_archive_materials_and_patch_stress(tmp_path):
     with pytest.raises(ModelError, match=r"beam\.cdb: material 1 \(beam\.cdb:\d+\) is temperature-dependent or "
                                          "orthotropic"):
         nodal_stresses(model, u)
+
+
+@pytest.mark.parametrize("etype", ["C3D8", "C3D10"])
+def test_abaqus_deck_material_gives_the_patch_stress(etype):
+    model = flexmor.io.read(DATA / "abaqus" / f"block{etype}.inp")
+    (block,) = model.elements.blocks
+    assert block.type == etype and (block.material == 0).all()
+    (steel,) = model.elements.materials
+    assert steel.name == "STEEL" and steel.rho == 2900.0
+    np.testing.assert_allclose(steel.D, Material.isotropic(2e11, 0.3).D, rtol=1e-12)
+    (field,) = element_stresses(model, _linear_field(model))
+    exact = steel.D @ _voigt(_GRAD)
+    np.testing.assert_allclose(field.values, np.broadcast_to(exact, field.values.shape), rtol=1e-9)
