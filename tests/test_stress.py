@@ -76,7 +76,7 @@ def test_linear_field_gives_its_exact_stress(etype):
 def test_material_argument_replaces_the_deck_and_is_needed_without_one():
     model = _grid_model("C3D10")
     u = _linear_field(model)
-    with pytest.raises(ModelError, match=r"grid\.inp: 72 C3D10 element\(s\) have no material .*"
+    with pytest.raises(ModelError, match=r"grid\.inp: 72 C3D10 element\(s\) have no elastic constants .*"
                                          r"pass material=\(E, nu\[, rho\]\)") as info:
         nodal_stresses(model, u)
     assert info.value.params == ("material",)
@@ -173,8 +173,8 @@ def test_calculix_element_sets_and_material_kinds(tmp_path):
 
 def test_calculix_deck_without_section(tmp_path):
     model = flexmor.io.read(_beam(tmp_path, lambda t: t.replace("*SOLID SECTION, ELSET=EALL, MATERIAL=STEEL\n", "")))
-    with pytest.raises(ModelError, match=r"beam\.inp: 40 C3D8 element\(s\) have no material \(first: element 1\); "
-                                         r"pass material=\(E, nu\[, rho\]\)"):
+    with pytest.raises(ModelError, match=r"beam\.inp: 40 C3D8 element\(s\) have no elastic constants \(first: "
+                                         r"element 1\); pass material=\(E, nu\[, rho\]\)"):
         nodal_stresses(model, np.zeros(model.n_dof))
 
 
@@ -202,7 +202,7 @@ def test_ansys_archive_materials_and_patch_stress(tmp_path):
     np.testing.assert_allclose(model.elements.materials[0].D, Material.isotropic(1.4e11, 0.35).D, rtol=1e-12)
     (tmp_path / "beam.cdb").write_text(mp + "MP,EY,1,2e11\n")
     model = flexmor.io.read(ansys / "ansys_file.full", coordinates=tmp_path / "beam.cdb")
-    with pytest.raises(ModelError, match=r"beam\.cdb: material 1 \(beam\.cdb:\d+\) is temperature-dependent or "
+    with pytest.raises(ModelError, match=r"beam\.cdb: MAT 1 \(beam\.cdb:\d+\) is temperature-dependent or "
                                          "orthotropic"):
         nodal_stresses(model, u)
 
@@ -218,3 +218,76 @@ def test_abaqus_deck_material_gives_the_patch_stress(etype):
     (field,) = element_stresses(model, _linear_field(model))
     exact = steel.D @ _voigt(_GRAD)
     np.testing.assert_allclose(field.values, np.broadcast_to(exact, field.values.shape), rtol=1e-9)
+
+
+# -- stress modes of a reduced body (reduce --stress) ----------------------------------------------
+def test_reduce_stores_stress_modes_and_exports_them(tmp_path, capsys):
+    from helpers import run
+
+    from flexmor.io import export, read_body
+    from flexmor.stress import nodal_strains
+
+    sti = _beam(tmp_path)
+    h5 = tmp_path / "beam.h5"
+    code, _, err = run(capsys, "reduce", sti, "--method", "modal", "--order", "8", "--input", "1:z",
+                       "--no-error", "--no-mounted", "--stress", "-o", h5)
+    assert code == 0, err
+    body = read_body(h5)
+    model = flexmor.io.read(sti)
+    assert body.stress_modes.shape == (8, 90, 6) and body.info["stress"]["nodes"] == "surface"
+    interior = np.setdiff1d(model.node_ids, body.stress_nodes)
+    assert interior.size == 9 and np.all(np.isin(body.stress_nodes, model.node_ids))
+    ref = nodal_stresses(model, body.V, nodes=body.stress_nodes)
+    np.testing.assert_allclose(body.stress_modes, ref.values, rtol=1e-12, atol=1e-12 * np.abs(ref.values).max())
+    assert np.abs(body.stress_modes).max() > 1e3  # modes of a steel beam in Pa
+    assert nodal_strains(model, body.V[:, 0]).values.shape == (model.n_nodes, 6)
+
+    # the .vtu: stress_k and mises_k of each mode (V phi), NaN inside
+    pytest.importorskip("meshio")
+    import meshio
+
+    vtu = tmp_path / "beam.vtu"
+    export(body, vtu, model=model)
+    grid = meshio.read(vtu)
+    ids = grid.point_data["node_id"]
+    s1 = grid.point_data["stress_1"]
+    mode1 = nodal_stresses(model, grid_mode := _vtu_mode(grid, model, 1))
+    row = {int(n): i for i, n in enumerate(mode1.node_ids)}
+    on = np.isin(ids, body.stress_nodes)
+    np.testing.assert_allclose(s1[on], mode1.values[[row[int(n)] for n in ids[on]]], rtol=1e-6,
+                               atol=1e-6 * np.abs(mode1.values).max())
+    assert np.isnan(s1[~on]).all() and (~on).sum() == 9 and grid_mode.shape == (model.n_dof,)
+    np.testing.assert_allclose(grid.point_data["mises_1"][on], von_mises(s1[on]), rtol=1e-12)
+
+    # the .mat file
+    import scipy.io
+
+    export(body, tmp_path / "beam.mat", model=model)
+    data = scipy.io.loadmat(tmp_path / "beam.mat")
+    assert data["stress_modes"].shape == (8, 90, 6) and data["stress_nodes"].shape == (90, 1)
+
+
+def _vtu_mode(grid, model, k):
+    """The displacement of mode ``k`` as the .vtu holds it, over the model's equations."""
+    row = {int(n): i for i, n in enumerate(grid.point_data["node_id"])}
+    disp = grid.point_data[f"mode_{k}"]
+    return disp[[row[int(n)] for n in model.dofs[:, 0]], model.dofs[:, 1] - 1]
+
+
+def test_reduce_stress_needs_a_material(tmp_path, capsys):
+    from helpers import run
+
+    from flexmor.io import read_body
+
+    sti = _beam(tmp_path, lambda t: t.replace("*SOLID SECTION, ELSET=EALL, MATERIAL=STEEL\n", ""))
+    args = ("reduce", sti, "--method", "modal", "--order", "4", "--input", "1:z", "--no-error", "--no-mounted",
+            "--stress", "--stress-nodes", "TIP")
+    code, _, err = run(capsys, *args, "-o", tmp_path / "a.h5")
+    assert code != 0 and "beam.inp: 40 C3D8 element(s) have no elastic constants" in err and "--material" in err
+    code, _, err = run(capsys, *args, "--material", "2.1e11,0.3", "-o", tmp_path / "b.h5")
+    assert code == 0, err
+    body = read_body(tmp_path / "b.h5")
+    assert body.info["stress"]["material"] == [2.1e11, 0.3] and body.stress_nodes.size == 9
+    with pytest.raises(SystemExit):
+        run(capsys, *args, "--material", "2.1e11", "-o", tmp_path / "c.h5")
+    assert "argument --material: '2.1e11' is not E,NU or E,NU,RHO" in capsys.readouterr().err

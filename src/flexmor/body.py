@@ -60,6 +60,11 @@ class ReducedModel:
     order_note : str or None
         Why the order differs from the one asked for (e.g. a Craig-Bampton basis bounded by the
         interior DOFs, Hankel singular values at round-off); None when it does not.
+    stress_nodes : ndarray of int, shape (k,), or None
+        The nodes of the stress modes (:func:`flexmor.stress.body_stresses`).
+    stress_modes : ndarray, shape (r, k, 6), or None
+        The nodal stress (xx yy zz xy yz zx) of each basis vector at ``stress_nodes``: the
+        stress for reduced coordinates ``qr`` is ``sum_j qr_j stress_modes[j]``.
     """
 
     M: np.ndarray
@@ -84,6 +89,8 @@ class ReducedModel:
     selections: list = field(default_factory=list)
     couplings: list = field(default_factory=list)
     order_note: str | None = None
+    stress_nodes: np.ndarray | None = None
+    stress_modes: np.ndarray | None = None
 
     def __post_init__(self):
         if not isinstance(self.damping, Damping):  # the stored form, e.g. {"type": "rayleigh", ...}

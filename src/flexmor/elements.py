@@ -53,12 +53,12 @@ class Material:
         if self.D is not None:
             D = np.asarray(self.D, dtype=np.float64)
             if D.shape != (6, 6) or not np.all(np.isfinite(D)):
-                raise ModelError(f"material {self.name!r}: the elasticity matrix must be 6 x 6 and finite")
+                raise ModelError(f"{self.name or 'elasticity'}: the elasticity matrix must be 6 x 6 and finite")
             object.__setattr__(self, "D", D)
         if self.rho is not None:
             rho = float(self.rho)
             if not np.isfinite(rho) or rho <= 0:
-                raise ModelError(f"material {self.name!r}: the density must be > 0, got {self.rho}")
+                raise ModelError(f"{self.name or 'density'}: the density must be > 0, got {self.rho}")
             object.__setattr__(self, "rho", rho)
 
     @classmethod
@@ -72,9 +72,9 @@ class Material:
         """
         E, nu = float(E), float(nu)
         if not (np.isfinite(E) and E > 0):
-            raise ModelError(f"material {name!r}: Young's modulus must be > 0, got {E}")
+            raise ModelError(f"{name or 'E, nu'}: Young's modulus must be > 0, got {E}")
         if not (np.isfinite(nu) and -1.0 < nu < 0.5):
-            raise ModelError(f"material {name!r}: Poisson's ratio must lie in (-1, 0.5), got {nu}")
+            raise ModelError(f"{name or 'E, nu'}: Poisson's ratio must lie in (-1, 0.5), got {nu}")
         lam = E * nu / ((1 + nu) * (1 - 2 * nu))
         mu = E / (2 * (1 + nu))
         D = np.zeros((6, 6))
@@ -114,7 +114,8 @@ class Material:
         C[1, 2] = C[2, 1] = -nu23 / E2
         C[3, 3], C[4, 4], C[5, 5] = 1 / G12, 1 / G23, 1 / G13
         if not np.all(np.isfinite(C)) or np.linalg.eigvalsh(C).min() <= 0:
-            raise ModelError(f"material {name!r}: the engineering constants give no positive definite compliance")
+            raise ModelError(f"{name or 'engineering constants'}: the engineering constants give no positive definite "
+                             "compliance")
         return cls(name, np.linalg.inv(C), rho)
 
 

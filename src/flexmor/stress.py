@@ -28,8 +28,8 @@ import numpy as np
 from .elements import Elements, Material
 from .errors import ModelError
 
-__all__ = ["SOLID_TYPES", "ElementField", "NodalField", "element_strains", "element_stresses", "nodal_strains",
-           "nodal_stresses", "von_mises"]
+__all__ = ["SOLID_TYPES", "ElementField", "NodalField", "body_stresses", "element_strains", "element_stresses",
+           "nodal_strains", "nodal_stresses", "stress_node_ids", "von_mises"]
 
 #: Element types without stiffness of their own, left out of stress recovery (and of the nodal means).
 IGNORED_TYPES = ("MASS", "ROTARYI")
@@ -280,7 +280,7 @@ def _source(model) -> str:
 def _as_material(material) -> Material:
     if isinstance(material, Material):
         if material.D is None:
-            raise ModelError(f"material {material.name!r}: {material.unsupported or 'no elasticity'}",
+            raise ModelError(f"{material.name!r}: {material.unsupported or 'no elasticity matrix'}",
                              params=("material",))
         return material
     try:
@@ -312,8 +312,8 @@ def _blocks(model, material) -> tuple[list, Elements]:
                              f"{', '.join(SOLID_TYPES)} are)")
         missing = b.material < 0
         if missing.any():
-            raise ModelError(f"{src}: {int(missing.sum())} {b.type} element(s) have no material (first: element "
-                             f"{int(b.ids[np.flatnonzero(missing)[0]])}); pass material=(E, nu[, rho])",
+            raise ModelError(f"{src}: {int(missing.sum())} {b.type} element(s) have no elastic constants (first: "
+                             f"element {int(b.ids[np.flatnonzero(missing)[0]])}); pass material=(E, nu[, rho])",
                              params=("material",))
         for m in np.unique(b.material):
             mat = el.materials[m]
@@ -529,3 +529,79 @@ def nodal_stresses(model, u, *, material=None, nodes=None) -> NodalField:
 def nodal_strains(model, u, *, material=None, nodes=None) -> NodalField:
     """Tensor strains at the nodes, extrapolated and averaged like :func:`nodal_stresses`."""
     return _nodal(model, u, material, nodes, False)
+
+
+def stress_node_ids(model, nodes="surface") -> np.ndarray:
+    """The node ids of a stress-node choice.
+
+    Parameters
+    ----------
+    model : FEModel
+    nodes : str or array_like of int
+        ``"surface"``: the nodes of the outer surface of the mesh (:func:`flexmor.mesh.outer_surface`)
+        that lie in a solid element; ``"all"``: every node of a solid element; a node set name of
+        the model; or node ids.
+
+    Raises
+    ------
+    ModelError
+        An unknown node set, or no solid elements.
+    """
+    from .mesh import outer_surface
+
+    if model.elements is None:
+        raise ModelError(f"{_source(model)}: the model has no elements to recover stresses from")
+    solid = [b.nodes.ravel() for b in model.elements.blocks if b.type in _SCHEMES]
+    if not solid:
+        raise ModelError(f"{_source(model)}: the model has no solid elements ({', '.join(SOLID_TYPES)})")
+    in_solids = np.unique(np.concatenate(solid))
+    if isinstance(nodes, str):
+        key = nodes.strip()
+        if key.lower() == "all":
+            return in_solids
+        if key.lower() == "surface":
+            if model.mesh is None:
+                return in_solids
+            return np.intersect1d(outer_surface(model.mesh).node_ids(), in_solids)
+        if key.upper() in model.node_sets:
+            return np.unique(model.node_sets[key.upper()])
+        raise ModelError(f"stress nodes {nodes!r}: neither 'surface', 'all' nor a node set of the model (sets: "
+                         f"{', '.join(sorted(model.node_sets)) or 'none'})", params=("nodes",))
+    return np.unique(np.asarray(nodes, dtype=np.int64).ravel())
+
+
+def body_stresses(model, body, *, material=None, nodes="surface") -> NodalField:
+    """The nodal stress of every basis vector of a reduced body (its stress modes).
+
+    The stress at the nodes for reduced coordinates ``qr`` is ``sum_j qr_j S[j]`` (stress is
+    linear in the displacement ``V qr``).
+
+    Parameters
+    ----------
+    model : FEModel
+        The FE model the body was reduced from, as read (a body with couplings expands its
+        basis through them to their slave nodes, :func:`flexmor.expansion.expand_body`).
+    body : ReducedModel
+        With its basis ``V``.
+    material : Material or tuple, optional
+        ``(E, nu[, rho])`` for every element in place of the deck's materials.
+    nodes : str or array_like of int
+        Where (:func:`stress_node_ids`); default the outer surface.
+
+    Returns
+    -------
+    NodalField
+        ``values`` of shape ``(r, k, 6)``.
+
+    Raises
+    ------
+    ModelError
+        As :func:`nodal_stresses`; a body without basis or of another model.
+    """
+    from .expansion import expand_body
+
+    xb = expand_body(model, body, elastic=False)
+    ids = stress_node_ids(xb.model, nodes)
+    out = nodal_stresses(xb.model, xb.V, material=material, nodes=ids)
+    values = out.values if out.values.ndim == 3 else out.values[None]
+    return NodalField(out.node_ids, values)

@@ -141,12 +141,12 @@ class DeckElements:
     def _material_of(self, name: str) -> Material:
         data = self.materials.get(name)
         if data is None:
-            return Material(name, unsupported=f"material {name} is not defined by a *MATERIAL keyword")
+            return Material(name, unsupported=f"{name} is not defined by a *MATERIAL keyword")
         rho = data.get("rho")
         if data.get("unsupported"):
             return Material(name, rho=rho, unsupported=data["unsupported"])
         if "elastic" not in data:
-            return Material(name, rho=rho, unsupported=f"material {name} has no *ELASTIC")
+            return Material(name, rho=rho, unsupported=f"*MATERIAL {name} has no *ELASTIC")
         kind, v, where = data["elastic"]
         try:
             if kind in ("ISO", "ISOTROPIC"):
@@ -168,7 +168,7 @@ class DeckElements:
             m = materials[names.index(mat)]
             if orient and m.D is not None and not _isotropic(m.D):
                 materials[names.index(mat)] = Material(
-                    m.name, rho=m.rho, unsupported=f"anisotropic material {m.name} in the local ORIENTATION={orient} "
+                    m.name, rho=m.rho, unsupported=f"the anisotropic {m.name} in the local ORIENTATION={orient} "
                                                    f"({path.name}:{line}) is not evaluated")
         index = {}
         for elset, mat, _, path, line in self.sections:

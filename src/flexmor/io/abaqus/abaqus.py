@@ -258,8 +258,8 @@ def deck_elements(deck: AbaqusDeck, path) -> Elements | None:
         data = deck.materials.get(name)
         rho = (data or {}).get("DENSITY") or None
         if data is None or "E" not in data:
-            materials.append(Material(name, rho=rho, unsupported=f"material {name} has no *ELASTIC in {path.name}"
-                                      if data is not None else f"material {name} is not defined in {path.name}"))
+            materials.append(Material(name, rho=rho, unsupported=f"*MATERIAL {name} has no *ELASTIC in {path.name}"
+                                      if data is not None else f"{name} is not defined by a *MATERIAL in {path.name}"))
         elif data.get("UNSUPPORTED"):
             materials.append(Material(name, rho=rho, unsupported=data["UNSUPPORTED"]))
         else:

@@ -405,11 +405,11 @@ def _mp_commands(path: Path) -> dict:
 def _material(path: Path, number: int, props: dict | None) -> Material:
     name = f"MAT {number}"
     if not props or "EX" not in props:
-        return Material(name, unsupported=f"material {number} has no MP,EX in {path.name}")
+        return Material(name, unsupported=f"MAT {number} has no MP,EX in {path.name}")
     where = f"{path.name}:{props['EX'][1]}"
     if "TABLE" in props or any(k in props for k in ("EY", "EZ", "GXY", "GYZ", "GXZ")):
-        return Material(name, unsupported=f"material {number} ({where}) is temperature-dependent or orthotropic; "
-                                          "MP,EX/PRXY/DENS of an isotropic material are evaluated")
+        return Material(name, unsupported=f"MAT {number} ({where}) is temperature-dependent or orthotropic; "
+                                          "isotropic MP,EX/PRXY/DENS are evaluated")
     nu = props.get("PRXY", props.get("NUXY", (0.0, 0)))[0]
     rho = props.get("DENS", (None, 0))[0]
     try:

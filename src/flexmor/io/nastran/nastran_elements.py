@@ -26,7 +26,7 @@ _ORDER = {"C3D20": PERMUTATIONS[("nastran", "hexahedron20")], "C3D15": PERMUTATI
 def _material(mid: int, data: dict | None) -> Material:
     name = f"MAT {mid}"
     if data is None:
-        return Material(name, unsupported=f"material {mid} is not defined (no MAT1 card)")
+        return Material(name, unsupported=f"MID {mid} is not defined (no MAT1 card)")
     where = f"{data['path'].name}:{data['line']}"
     if data["card"] != "MAT1":
         return Material(name, unsupported=f"{data['card']} {mid} ({where}) is not evaluated; MAT1 is")
