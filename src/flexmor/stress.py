@@ -335,8 +335,34 @@ def _rows(model, ids: np.ndarray) -> np.ndarray:
     return order[pos]
 
 
-def _displacements(model, u) -> tuple[np.ndarray, bool]:
-    """Nodal displacements in global x y z, shape (m, n_nodes, 3), from vectors over the model's equations."""
+@dataclass(frozen=True)
+class _Displacements:
+    """Vectors over the model's equations and where each node's x y z are among them."""
+
+    U: np.ndarray  # (n_dof, m)
+    eq: np.ndarray  # (n_nodes, 3): equation of each node row and direction, -1 for none
+    frames: np.ndarray | None  # (n_nodes, 3, 3) where a node has its own frame (NaN elsewhere), or None
+    single: bool
+
+    @property
+    def m(self) -> int:
+        return self.U.shape[1]
+
+    def at(self, rows: np.ndarray) -> np.ndarray:
+        """Displacements (c, k, 3, m) in global x y z of the node rows ``rows`` (c, k)."""
+        e = self.eq[rows]
+        Ue = self.U[np.maximum(e, 0)]
+        Ue[e < 0] = 0.0
+        if self.frames is not None:
+            Q = self.frames[rows]
+            own = ~np.isnan(Q[..., 0, 0])
+            if own.any():
+                Ue[own] = np.einsum("nij,njm->nim", Q[own], Ue[own])
+        return Ue
+
+
+def _displacements(model, u) -> _Displacements:
+    """The vectors ``u`` over the model's equations, checked, with the map of node rows to equations."""
     if model.dofs is None:
         raise ModelError(f"{_source(model)}: the model has no equation map (node, direction) to read displacements")
     u = np.asarray(u)
@@ -347,15 +373,16 @@ def _displacements(model, u) -> tuple[np.ndarray, bool]:
                          params=("u",))
     if np.iscomplexobj(U) or not np.all(np.isfinite(U)):
         raise ModelError("u must be real and finite", params=("u",))
-    trans = model.dofs[:, 1] <= 3
-    G = np.zeros((U.shape[1], model.n_nodes, 3))
-    G[:, _rows(model, model.dofs[trans, 0]), model.dofs[trans, 1] - 1] = U[trans].T
+    U = U.astype(np.float64, copy=False)
+    trans = np.flatnonzero(model.dofs[:, 1] <= 3)
+    eq = np.full((model.n_nodes, 3), -1, dtype=np.int64)
+    eq[_rows(model, model.dofs[trans, 0]), model.dofs[trans, 1] - 1] = trans
+    frames = None
     if model.node_frames:
+        frames = np.full((model.n_nodes, 3, 3), np.nan)
         framed = np.array(sorted(model.node_frames), dtype=np.int64)
-        Q = np.stack([model.node_frames[int(n)] for n in framed])
-        r = _rows(model, framed)
-        G[:, r] = np.einsum("rij,mrj->mri", Q, G[:, r])
-    return G, single
+        frames[_rows(model, framed)] = np.stack([model.node_frames[int(n)] for n in framed])
+    return _Displacements(U, eq, frames, single)
 
 
 def _chunks(n: int, per_element: int):
@@ -364,8 +391,8 @@ def _chunks(n: int, per_element: int):
         yield slice(s, min(s + step, n))
 
 
-def _strains(model, block, G, sl) -> np.ndarray:
-    """Engineering strains (m, c, n_points, 6) of the elements ``sl`` of ``block``."""
+def _strains(model, block, disp: _Displacements, sl) -> np.ndarray:
+    """Engineering strains (c, n_points, 6, m) of the elements ``sl`` of ``block``."""
     sch = _SCHEMES[block.type]
     rows = _rows(model, block.nodes[sl])  # (c, k)
     X = model.xyz[rows]  # (c, k, 3)
@@ -375,32 +402,42 @@ def _strains(model, block, G, sl) -> np.ndarray:
         e = int(block.ids[sl][np.flatnonzero((det <= 0).any(axis=1))[0]])
         raise ModelError(f"{_source(model)}: {block.type} element {e} has a Jacobian determinant <= 0 at an "
                          "integration point (inverted or degenerate element)")
-    dNdx = np.einsum("pal,cplk->cpak", sch.dN, np.linalg.inv(J))
+    dNdx = np.einsum("pal,cplk->cpka", sch.dN, np.linalg.inv(J))  # (c, p, 3, k): dN_a / dx_k
     if sch.mean:  # the volume mean of the gradient, exact with 2x2x2 points for a trilinear hexahedron
-        dNdx = np.einsum("cpak,cp->cak", dNdx, det)[:, None] / det.sum(axis=1)[:, None, None, None]
-    H = np.einsum("cpak,mcai->mcpik", dNdx, G[:, rows])  # du_i / dx_k
-    return np.stack([H[..., 0, 0], H[..., 1, 1], H[..., 2, 2], H[..., 0, 1] + H[..., 1, 0],
-                     H[..., 1, 2] + H[..., 2, 1], H[..., 2, 0] + H[..., 0, 2]], axis=-1)
+        dNdx = np.einsum("cpka,cp->cka", dNdx, det)[:, None] / det.sum(axis=1)[:, None, None, None]
+    c, k = rows.shape
+    m = disp.m
+    Ue = disp.at(rows).reshape(c, 1, k, 3 * m)
+    H = np.matmul(dNdx, Ue).reshape(c, dNdx.shape[1], 3, 3, m)  # [.., k, i, :] = du_i / dx_k
+    return np.stack([H[:, :, 0, 0], H[:, :, 1, 1], H[:, :, 2, 2], H[:, :, 1, 0] + H[:, :, 0, 1],
+                     H[:, :, 2, 1] + H[:, :, 1, 2], H[:, :, 0, 2] + H[:, :, 2, 0]], axis=2)
 
 
-def _field(model, block, G, sl, D, stress: bool) -> np.ndarray:
-    eps = _strains(model, block, G, sl)
+def _field(model, block, disp, sl, D, stress: bool) -> np.ndarray:
+    """Stresses or tensor strains (c, n_points, 6, m) of the elements ``sl`` of ``block``."""
+    eps = _strains(model, block, disp, sl)
     if stress:
-        return np.einsum("cij,mcpj->mcpi", D[block.material[sl]], eps)
-    eps[..., 3:] *= 0.5
+        return np.matmul(D[block.material[sl]][:, None], eps)
+    eps[:, :, 3:] *= 0.5
     return eps
+
+
+def _per_element(sch, m: int) -> int:
+    """Floats of the work arrays per element and vector."""
+    k, n_ip = sch.extrapolation.shape
+    return m * (n_ip * 24 + k * 12) + n_ip * k * 6
 
 
 def _element_field(model, u, material, stress: bool) -> list:
     blocks, el = _blocks(model, material)
-    G, single = _displacements(model, u)
+    disp = _displacements(model, u)
     D = np.stack([m.D if m.D is not None else np.zeros((6, 6)) for m in el.materials])
     out = []
     for b in blocks:
-        n_ip, k = _SCHEMES[b.type].extrapolation.shape[::-1]
-        parts = [_field(model, b, G, sl, D, stress) for sl in _chunks(b.ids.size, G.shape[0] * (n_ip * 15 + k * 3))]
-        vals = np.concatenate(parts, axis=1)
-        out.append(ElementField(b.type, b.ids, vals[0] if single else vals))
+        parts = [_field(model, b, disp, sl, D, stress) for sl in _chunks(b.ids.size, _per_element(_SCHEMES[b.type],
+                                                                                                  disp.m))]
+        vals = np.concatenate(parts, axis=0).transpose(3, 0, 1, 2)  # (m, n_el, p, 6)
+        out.append(ElementField(b.type, b.ids, vals[0] if disp.single else vals))
     return out
 
 
@@ -458,7 +495,7 @@ def element_stresses(model, u, *, material=None) -> list:
 
 def _nodal(model, u, material, nodes, stress: bool) -> NodalField:
     blocks, el = _blocks(model, material)
-    G, single = _displacements(model, u)
+    disp = _displacements(model, u)
     D = np.stack([m.D if m.D is not None else np.zeros((6, 6)) for m in el.materials])
     if nodes is None:
         out_ids = np.unique(np.concatenate([b.nodes.ravel() for b in blocks]))
@@ -468,26 +505,24 @@ def _nodal(model, u, material, nodes, stress: bool) -> NodalField:
         if unknown.size:
             raise ModelError(f"node {int(unknown[0])} is in no solid element ({unknown.size} such nodes)",
                              params=("nodes",))
-    m = G.shape[0]
-    acc = np.zeros((out_ids.size, m * 6))
+    m = disp.m
+    acc = np.zeros((out_ids.size, 6 * m))
     count = np.zeros(out_ids.size)
     for b in blocks:
         sch = _SCHEMES[b.type]
         k, n_ip = sch.extrapolation.shape
-        pos = np.searchsorted(out_ids, b.nodes)
-        pos = np.minimum(pos, out_ids.size - 1)
+        pos = np.minimum(np.searchsorted(out_ids, b.nodes), out_ids.size - 1)
         hit = out_ids[pos] == b.nodes
         use = np.flatnonzero(hit.any(axis=1))
-        for sl in _chunks(use.size, m * (n_ip * 15 + k * 9)):
+        count += np.bincount(pos[hit], minlength=out_ids.size)
+        for sl in _chunks(use.size, _per_element(sch, m)):
             idx = use[sl]
-            vals = _field(model, b, G, idx, D, stress)  # (m, c, p, 6)
-            at_nodes = np.einsum("ap,mcpi->cami", sch.extrapolation, vals).reshape(idx.size * k, m * 6)
+            vals = _field(model, b, disp, idx, D, stress).reshape(idx.size, n_ip, 6 * m)
+            at_nodes = np.matmul(sch.extrapolation, vals).reshape(idx.size * k, 6 * m)
             h = hit[idx].ravel()
-            p = pos[idx].ravel()[h]
-            np.add.at(count, p, 1.0)
-            acc += _scatter(p, np.flatnonzero(h), out_ids.size, idx.size * k) @ at_nodes
-    vals = (acc / count[:, None]).reshape(out_ids.size, m, 6).transpose(1, 0, 2)
-    return NodalField(out_ids, vals[0] if single else vals)
+            acc += _scatter(pos[idx].ravel()[h], np.flatnonzero(h), out_ids.size, idx.size * k) @ at_nodes
+    vals = (acc / count[:, None]).reshape(out_ids.size, 6, m).transpose(2, 0, 1)
+    return NodalField(out_ids, vals[0] if disp.single else vals)
 
 
 def _scatter(rows, cols, n_rows, n_cols):
