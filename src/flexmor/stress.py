@@ -518,17 +518,14 @@ def _nodal(model, u, material, nodes, stress: bool) -> NodalField:
         for sl in _chunks(use.size, _per_element(sch, m)):
             idx = use[sl]
             vals = _field(model, b, disp, idx, D, stress).reshape(idx.size, n_ip, 6 * m)
-            at_nodes = np.matmul(sch.extrapolation, vals).reshape(idx.size * k, 6 * m)
-            h = hit[idx].ravel()
-            acc += _scatter(pos[idx].ravel()[h], np.flatnonzero(h), out_ids.size, idx.size * k) @ at_nodes
+            at_nodes = np.tensordot(sch.extrapolation, vals, axes=(1, 1)).reshape(k * idx.size, 6 * m)
+            h = hit[idx].T.ravel()  # node-major, as at_nodes
+            rows = pos[idx].T.ravel()[h]
+            order = np.argsort(rows, kind="stable")
+            first = np.flatnonzero(np.r_[True, rows[order][1:] != rows[order][:-1]])
+            acc[rows[order][first]] += np.add.reduceat(at_nodes[np.flatnonzero(h)[order]], first, axis=0)
     vals = (acc / count[:, None]).reshape(out_ids.size, 6, m).transpose(2, 0, 1)
     return NodalField(out_ids, vals[0] if disp.single else vals)
-
-
-def _scatter(rows, cols, n_rows, n_cols):
-    import scipy.sparse as sp
-
-    return sp.csr_matrix((np.ones(rows.size), (rows, cols)), shape=(n_rows, n_cols))
 
 
 def nodal_stresses(model, u, *, material=None, nodes=None) -> NodalField:
