@@ -291,3 +291,14 @@ def test_reduce_stress_needs_a_material(tmp_path, capsys):
     with pytest.raises(SystemExit):
         run(capsys, *args, "--material", "2.1e11", "-o", tmp_path / "c.h5")
     assert "argument --material: '2.1e11' is not E,NU or E,NU,RHO" in capsys.readouterr().err
+
+
+def test_defective_material_keywords_do_not_stop_the_reading(tmp_path):
+    sti = _beam(tmp_path, lambda t: t.replace("*SOLID SECTION, ELSET=EALL, MATERIAL=STEEL",
+                                              "*SOLID SECTION, ELSET=NOWHERE, MATERIAL=STEEL"))
+    model = flexmor.io.read(sti)  # reads and reduces as before
+    assert model.n_dof == 297
+    with pytest.raises(ModelError, match=r"beam\.inp: .*beam\.inp:\d+: section refers to element set NOWHERE, which "
+                                         r"the deck does not define; pass material"):
+        nodal_stresses(model, np.zeros(model.n_dof))
+    nodal_stresses(model, np.zeros(model.n_dof), material=(2.1e11, 0.3))

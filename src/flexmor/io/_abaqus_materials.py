@@ -6,10 +6,14 @@ hands it (``*ELEMENT`` blocks already parsed into numbers, the keyword lines and
 and builds the :class:`flexmor.elements.Elements` of the deck. Isotropic elasticity, orthotropy
 (``TYPE=ORTHO``) and engineering constants in the global axes are evaluated; temperature
 tables, ``TYPE=ANISO`` and orthotropy with an ``ORIENTATION=`` are kept as unsupported
-materials (with the reason), so that the model still reads for a reduction.
+materials (with the reason), so that the model still reads for a reduction. So is a defect of
+these keywords (a section of an undefined element set, a malformed ``*ELSET`` line ...): it is
+logged, and stresses are refused naming it.
 """
 
 from __future__ import annotations
+
+import logging
 
 import numpy as np
 
@@ -18,6 +22,8 @@ from ..errors import ModelError, ReadError
 from ._abaqus_syntax import Data, Keyword
 
 __all__ = ["DeckElements"]
+
+log = logging.getLogger(__name__)
 
 
 def _numbers(item: Data, what: str) -> list:
@@ -44,6 +50,12 @@ class DeckElements:
         self.sections: list = []  # (elset, material name, orientation, path, line)
         self._material = None
         self._elset = None
+        self.problem = ""  # the first defect of the keywords read here (the deck still reads)
+
+    def _defect(self, exc: ReadError) -> None:
+        if not self.problem:
+            self.problem = str(exc)
+            log.warning("%s; stresses will not be recovered from this deck's materials", exc)
 
     # -- items ------------------------------------------------------------------------------
     def element_block(self, etype: str, elset: str | None, numbers: np.ndarray) -> None:
@@ -55,6 +67,21 @@ class DeckElements:
 
     def keyword(self, kw: Keyword) -> None:
         """Take note of a keyword line."""
+        if not self.problem:
+            try:
+                self._keyword(kw)
+            except ReadError as exc:
+                self._defect(exc)
+
+    def data(self, item: Data) -> None:
+        """Data lines under a keyword this class takes note of."""
+        if not self.problem:
+            try:
+                self._data(item)
+            except ReadError as exc:
+                self._defect(exc)
+
+    def _keyword(self, kw: Keyword) -> None:
         name = kw.name
         if name == "ELSET":
             self._elset = kw.options.get("ELSET", "").upper()
@@ -74,8 +101,7 @@ class DeckElements:
         elif name in ("PART", "END PART", "ASSEMBLY", "INSTANCE", "STEP"):
             self._material = None
 
-    def data(self, item: Data) -> None:
-        """Data lines under a keyword this class takes note of."""
+    def _data(self, item: Data) -> None:
         kw = item.keyword
         if kw is None:
             return
@@ -162,6 +188,16 @@ class DeckElements:
         in errors."""
         if not self.blocks:
             return None
+        if not self.problem:
+            try:
+                return self._elements(source)
+            except ReadError as exc:
+                self._defect(exc)
+        bad = Material("deck", unsupported=self.problem)
+        blocks = [ElementBlock(t, ids, nodes, np.zeros(ids.size, np.int64)) for t, ids, nodes in self.blocks]
+        return Elements(tuple(blocks), (bad,), str(source))
+
+    def _elements(self, source) -> Elements:
         names = list(dict.fromkeys(s[1] for s in self.sections))
         materials = [self._material_of(n) for n in names]
         for _, mat, orient, path, line in self.sections:
