@@ -302,3 +302,29 @@ def test_defective_material_keywords_do_not_stop_the_reading(tmp_path):
                                          r"the deck does not define; pass material"):
         nodal_stresses(model, np.zeros(model.n_dof))
     nodal_stresses(model, np.zeros(model.n_dof), material=(2.1e11, 0.3))
+
+
+def test_nastran_properties_and_materials(tmp_path):
+    from flexmor.io.nastran import read_bulk
+    from flexmor.io.nastran.nastran_elements import nastran_elements
+
+    grids = [f"GRID,{i + 1},,{x},{y},{z}" for i, (x, y, z) in enumerate(_HEX_XYZ)]
+    cards = ["CHEXA,1,10,1,2,3,4,5,6,+", "+,7,8", "CHEXA,2,20,1,2,3,4,5,6,+", "+,7,8",
+             "CTETRA,3,30,1,2,3,5", "CQUAD4,4,40,1,2,3,4",
+             "PSOLID,10,1", "PSOLID,20,2", "PSOLID,30,9", "PSHELL,40,1,0.01",
+             "MAT1,1,200000.,80000.,,7.8e-9", "MAT8,2,1.,1.,0.3,1.,1.,1."]
+    (tmp_path / "b.bdf").write_text("\n".join(grids + cards) + "\n")
+    els = nastran_elements(read_bulk(tmp_path / "b.bdf"), tmp_path / "b.bdf")
+    types = {b.type: b for b in els.blocks}
+    assert set(types) == {"C3D8", "C3D4", "CQUAD4"}
+    mats = els.materials
+    assert [m.name for m in mats] == ["MAT 1", "MAT 2", "MAT 9"]
+    np.testing.assert_allclose(mats[0].D, Material.isotropic(200000.0, 0.25).D, rtol=1e-12)  # nu = E / 2G - 1
+    assert mats[0].rho == 7.8e-9
+    assert "MAT8 2 (b.bdf:" in mats[1].unsupported and "MID 9 is not defined" in mats[2].unsupported
+    np.testing.assert_array_equal(types["C3D8"].material, [0, 1])
+    np.testing.assert_array_equal(types["C3D4"].material, [2])
+    np.testing.assert_array_equal(types["CQUAD4"].material, [0])
+
+
+_HEX_XYZ = [(0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0), (0, 0, 1), (1, 0, 1), (1, 1, 1), (0, 1, 1)]
