@@ -328,3 +328,30 @@ def test_nastran_properties_and_materials(tmp_path):
 
 
 _HEX_XYZ = [(0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0), (0, 0, 1), (1, 0, 1), (1, 1, 1), (0, 1, 1)]
+
+
+def test_exudyn_stress_modes(tmp_path, capsys):
+    from helpers import run
+
+    from flexmor.io import read_body
+    from flexmor.io.exudyn import exudyn_data
+
+    sti = _beam(tmp_path)
+    h5 = tmp_path / "free.h5"
+    code, _, err = run(capsys, "reduce", sti, "--method", "modal", "--order", "10", "--input", "1:z",
+                       "--no-error", "--no-mounted", "--stress", "--stress-nodes", "all", "-o", h5)
+    assert code == 0, err
+    body, model = read_body(h5), flexmor.io.read(sti)
+    data = exudyn_data(body, model)
+    X = data["postProcessingModes"]["matrix"]
+    assert data["postProcessingModes"]["outputVariableType"] == "OutputVariableType.StressLocal"
+    assert X.shape == (model.n_nodes, 6 * body.order)
+    row = {int(n): i for i, n in enumerate(data["nodeIds"])}
+    k, j = int(body.stress_nodes[5]), 3  # basis vector 3 at one node: xx yy zz yz xz xy
+    np.testing.assert_array_equal(X[row[k], 6 * j:6 * j + 6], body.stress_modes[j, 5][[0, 1, 2, 4, 5, 3]])
+    exu = pytest.importorskip("exudyn")
+    from flexmor.io.exudyn import add_to_exudyn
+
+    mbs = exu.SystemContainer().AddSystem()
+    res = add_to_exudyn(mbs, body, model)
+    assert mbs.GetObjectParameter(res["oFFRFreducedOrder"], "outputVariableModeBasis").shape == X.shape
