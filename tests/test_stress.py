@@ -355,3 +355,11 @@ def test_exudyn_stress_modes(tmp_path, capsys):
     mbs = exu.SystemContainer().AddSystem()
     res = add_to_exudyn(mbs, body, model)
     assert mbs.GetObjectParameter(res["oFFRFreducedOrder"], "outputVariableModeBasis").shape == X.shape
+
+
+def test_elements_converted_to_other_units():
+    steel = Material.isotropic(210e3, 0.3, 7.85e-9, "STEEL")  # N/mm^2 and t/mm^3
+    els = Elements((ElementBlock("C3D4", [1], [[1, 2, 3, 4]], [0]),), (steel, Material("X", unsupported="why")), "a")
+    si = els.converted(1e6, 1e12)
+    np.testing.assert_allclose(si.materials[0].D, Material.isotropic(210e9, 0.3).D, rtol=1e-14)
+    assert si.materials[0].rho == pytest.approx(7850.0) and si.materials[1].unsupported == "why"

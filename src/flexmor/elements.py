@@ -193,6 +193,13 @@ class Elements:
             return np.zeros(0, np.int64)
         return np.unique(np.concatenate([b.nodes.ravel() for b in self.blocks]))
 
+    def converted(self, stress: float, density: float) -> Elements:
+        """These elements with every material's elasticity multiplied by ``stress`` and its density by
+        ``density`` (the factors of a unit system to SI; the node coordinates are the model's)."""
+        mats = tuple(Material(m.name, None if m.D is None else m.D * stress, None if m.rho is None else m.rho * density,
+                              m.unsupported) for m in self.materials)
+        return Elements(self.blocks, mats, self.source)
+
     def with_material(self, material: Material) -> Elements:
         """These elements, all of the one ``material``."""
         blocks = [ElementBlock(b.type, b.ids, b.nodes, np.zeros(b.ids.size, np.int64)) for b in self.blocks]
