@@ -40,12 +40,13 @@ LAYERS = [
     ["flexmor.analysis"],  # judging reduced bodies, assemblies, the body held in its joints
     ["flexmor.reduction"],  # methods -> Basis, METHODS registry, reduce()
     ["flexmor.dynamics", "flexmor.io"],  # FRF, modes, time integration; formats, exporters, invariants
-    ["flexmor.rigid", "flexmor.expansion", "flexmor.modal"],  # rigid motion, elastic body; expansion; modal form
+    ["flexmor.rigid", "flexmor.expansion", "flexmor.modal", "flexmor.stress"],  # rigid motion, elastic body;
+    # expansion; modal form; element stresses and strains
     ["flexmor.projection", "flexmor.body", "flexmor.checks", "flexmor.models"],  # projection; the body; checks; models
     ["flexmor.origin", "flexmor.ports", "flexmor.selection", "flexmor.couplings", "flexmor.basis",
      "flexmor.options"],  # model fingerprint, ports, node sets, RBE2/RBE3, bases, option values
-    ["flexmor.model", "flexmor.damping", "flexmor.mesh", "flexmor.units"],  # the FE model, damping values, mesh
-    # surface, unit systems
+    ["flexmor.model", "flexmor.damping", "flexmor.mesh", "flexmor.units", "flexmor.elements"],  # the FE model,
+    # damping values, mesh surface, unit systems, elements and materials
     ["flexmor.linalg"],  # solver layer
     ["flexmor.errors", "flexmor.jsonutil", "flexmor._version"],  # errors, JSON values, the version
 ]

@@ -155,3 +155,21 @@ def test_report_states_units(capsys, bodies):
     assert "units SI (m, kg, s, N), the model file in mm-t-s converted on reading" in (tmp / "r.html").read_text()
     assert frf_unit_label("TIP:y", "TIP:y", "SI") == "|H| [m/N]" and frf_unit_label("TIP:y", "TIP:y", None) == "|H|"
     assert frf_unit_label("7:ry", "TIP:x", "SI") == "|H| [rad/N]" and output_unit(["TIP:y", "3:rx"], "SI") == "m, rad"
+
+
+def test_stress_modes_of_a_mm_model_are_in_pa(capsys, tmp_path):
+    """The deck's material in MPa and t/mm^3 is converted with the model: the stress modes of the mm copy
+    read with --units mm-t-s equal those of the SI beam (Pa per unit coordinate)."""
+    mm = mm_copy(tmp_path)
+    args = ("--method", "modal", "--order", "8", "--input", "TIP:y", "--no-error", "--stress", "--stress-nodes",
+            "all")
+    run_json(capsys, "reduce", FREE, *args, "-o", tmp_path / "si.h5")
+    run_json(capsys, "reduce", mm, "--units", "mm-t-s", *args, "-o", tmp_path / "mm.h5")
+    si, mmb = read_body(tmp_path / "si.h5"), read_body(tmp_path / "mm.h5")
+    assert np.array_equal(si.stress_nodes, mmb.stress_nodes)
+    # the stress of one physical state, independent of how each body's modes are chosen in their pairs:
+    # the static response to a unit tip force (N) in Pa
+    fields = [np.einsum("j,jkl->kl", np.linalg.solve(b.K, b.B[:, 0]), b.stress_modes) for b in (si, mmb)]
+    peak = np.abs(fields[0]).max()
+    assert 100 < peak < 1e5  # Pa per N (669 here): not MPa per N, which would be 1e-6 of it
+    assert np.abs(fields[1] - fields[0]).max() <= 1e-6 * peak

@@ -64,6 +64,11 @@ class ReducedModel:
         The unit system of the file its model was read from (:data:`flexmor.units.SYSTEMS`; the
         body itself is in SI, its model converted on reading), None when the file's system was
         not named (numbers as given).
+    stress_nodes : ndarray of int, shape (k,), or None
+        The nodes of the stress modes (:func:`flexmor.stress.body_stresses`).
+    stress_modes : ndarray, shape (r, k, 6), or None
+        The nodal stress (xx yy zz xy yz zx) of each basis vector at ``stress_nodes``: the
+        stress for reduced coordinates ``qr`` is ``sum_j qr_j stress_modes[j]``.
     """
 
     M: np.ndarray
@@ -89,6 +94,8 @@ class ReducedModel:
     couplings: list = field(default_factory=list)
     order_note: str | None = None
     units: str | None = None
+    stress_nodes: np.ndarray | None = None
+    stress_modes: np.ndarray | None = None
 
     def __post_init__(self):
         if not isinstance(self.damping, Damping):  # the stored form, e.g. {"type": "rayleigh", ...}

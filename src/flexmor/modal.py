@@ -7,6 +7,8 @@ Rayleigh and modal damping), ``B = Phi^T Br``, ``C = Cr Phi`` and the basis ``V 
 modes (zero eigenvalues: a free body whose basis holds rigid motion) are left out: in the floating
 frame of reference the frame carries that motion.
 
+Stress modes (``stress_modes``, one field per coordinate) follow the coordinates.
+
 The mode table gives per mode the frequency, the damping ratio ``zeta_i = D_ii / (2 omega_i)``, the
 effective masses ``m_eff[i, a] = L[i, a]^2`` with the participation ``L = Phi^T V^T M R`` of the
 six rigid motions ``R`` of the frame (translations x y z: mass; rotations about the frame's x y z
@@ -68,8 +70,9 @@ def modal_form(body: ReducedModel) -> ReducedModel:
     if info.get("frame_participation") is not None:
         info["frame_participation"] = (phi.T @ np.asarray(info["frame_participation"], float)).tolist()
     D = None if body.D is None else _sym(phi.T @ body.D @ phi)
+    S = None if body.stress_modes is None else np.einsum("ij,ikl->jkl", phi, body.stress_modes)
     return _replace(body, M=np.eye(lam.size), K=np.diag(lam), D=D, B=phi.T @ body.B, C=body.C @ phi,
-                    V=None if body.V is None else body.V @ phi, info=info)
+                    V=None if body.V is None else body.V @ phi, info=info, stress_modes=S)
 
 
 def keep_modes(body: ReducedModel, keep) -> ReducedModel:
@@ -89,7 +92,8 @@ def keep_modes(body: ReducedModel, keep) -> ReducedModel:
         info["frame_participation"] = np.asarray(info["frame_participation"], float)[idx].tolist()
     sub = np.ix_(idx, idx)
     return _replace(body, M=body.M[sub], K=body.K[sub], D=None if body.D is None else body.D[sub],
-                    B=body.B[idx], C=body.C[:, idx], V=None if body.V is None else body.V[:, idx], info=info)
+                    B=body.B[idx], C=body.C[:, idx], V=None if body.V is None else body.V[:, idx], info=info,
+                    stress_modes=None if body.stress_modes is None else body.stress_modes[idx])
 
 
 def response_shares(body: ReducedModel, band) -> np.ndarray:

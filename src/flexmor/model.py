@@ -27,6 +27,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from .damping import Damping, NoDamping, Rayleigh, damping_from_dict
+from .elements import Elements
 from .errors import FlexmorWarning, ModelError
 from .linalg.distributed import is_partitioned
 from .mesh import Mesh
@@ -163,6 +164,10 @@ class FEModel:
     mesh : Mesh, optional
         Element connectivity (:mod:`flexmor.mesh`), for the visualization and meshio; None
         where the file has no elements.
+    elements : Elements, optional
+        The elements with their types, numbers, CalculiX node order and materials
+        (:mod:`flexmor.elements`), for stress recovery (:mod:`flexmor.stress`); None where the
+        reader does not read elements.
     singular_mass_ok : bool
         The element formulation legitimately gives a singular or indefinite mass matrix
         (20-node hexahedra with reduced integration or row-sum lumping, e.g. CalculiX
@@ -199,6 +204,7 @@ class FEModel:
     singular_mass_ok: bool = False
     mesh: Mesh | None = None
     units: str | None = None
+    elements: Elements | None = None
 
     def __post_init__(self):
         if not isinstance(self.damping, Damping):
@@ -230,6 +236,11 @@ class FEModel:
         self._check_io(n)
         if self.mesh is not None and self.node_ids.size:
             self.mesh.check_nodes(self.node_ids)
+        if self.elements is not None and self.node_ids.size:
+            missing = np.setdiff1d(self.elements.node_ids(), self.node_ids)
+            if missing.size:
+                raise ModelError(f"{missing.size} node(s) used by elements are not in the node table, "
+                                 f"first: {int(missing[0])}")
 
     # -- validation -------------------------------------------------------------------------
     def _check_geometry(self, n: int) -> None:

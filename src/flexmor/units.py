@@ -312,6 +312,8 @@ def to_si(model, units):
     rot = model.dofs[:, 1] > 3
     out.B = _port_scale(model.B, rot, system.length, 0)
     out.C = _port_scale(model.C, rot, system.length, 1)
+    if model.elements is not None:  # materials: elasticity in stress units, density (stresses come out in SI)
+        out.elements = model.elements.converted(system.stress, system.density)
     return out
 
 

@@ -303,6 +303,8 @@ def cmd_reduce(args) -> int:
     res["timings"]["read"] = t_read
     if is_partitioned(model.K):  # under mpirun with --backend petsc: the rows of K held by each rank
         res["partition"] = row_blocks(model.K)
+    if args.stress:
+        _stress_modes(red, keep.get("uncoupled", model), args, res)
     if couplings:
         res["couplings"] = list(couplings)
     if args.select:
@@ -336,6 +338,20 @@ def cmd_reduce(args) -> int:
         print(factor)
     print(f"written {path}")
     return 0
+
+
+def _stress_modes(red, model, args, res) -> None:
+    """Store the stress modes of ``red`` (``--stress``) at ``--stress-nodes``, with ``--material``."""
+    from ..stress import body_stresses
+
+    if is_partitioned(model.K):
+        raise OptionError("--stress needs the model on one process (not with --backend petsc under mpirun)")
+    t0 = time.perf_counter()
+    out = body_stresses(model, red, material=args.material, nodes=args.stress_nodes)
+    red.stress_nodes, red.stress_modes = out.node_ids, out.values
+    red.info["stress"] = {"nodes": args.stress_nodes, "n_nodes": int(out.node_ids.size),
+                          "material": list(args.material) if args.material else "deck"}
+    res["stress"] = dict(red.info["stress"], seconds=time.perf_counter() - t0)
 
 
 # -- compare -----------------------------------------------------------------------------------

@@ -103,6 +103,17 @@ def flag_names(p) -> dict:
 _UNITS = {"": 1, "K": 2**10, "M": 2**20, "G": 2**30, "T": 2**40}
 
 
+def material_values(text: str) -> tuple:
+    """``(E, nu[, rho])`` of ``--material E,NU[,RHO]``."""
+    try:
+        vals = tuple(float(t) for t in text.split(","))
+    except ValueError:
+        vals = ()
+    if len(vals) not in (2, 3):
+        raise argparse.ArgumentTypeError(f"{text!r} is not E,NU or E,NU,RHO (e.g. 210e9,0.3,7850)")
+    return vals
+
+
 def memory_size(text: str) -> float:
     """Bytes of ``--memory-limit``: a number with an optional unit K, M, G or T (powers of 1024)."""
     t = text.strip().upper().removesuffix("B").removesuffix("I")
@@ -249,6 +260,14 @@ def build_parser() -> argparse.ArgumentParser:
                    "master (--interface SET@rbe2) so that the mounted body sags like the full model (nothing for a "
                    "free body without one); use on for a supported body whose support moves (M R). "
                    "Methods whose basis ignores the inputs (modal, guyan, craig-bampton) are not affected")
+    p.add_argument("--stress", action="store_true",
+                   help="store the body's stress modes: the nodal stress (xx yy zz xy yz zx, extrapolated and "
+                        "averaged as CalculiX does) of every basis vector at --stress-nodes; needs the elements "
+                        "and materials of the FE deck (or --material)")
+    p.add_argument("--stress-nodes", default="surface", metavar="SET|surface|all",
+                   help="where --stress stores the stress: the outer surface (default), every node, or a node set")
+    p.add_argument("--material", type=material_values, metavar="E,NU[,RHO]",
+                   help="isotropic material of every element for --stress, in place of the deck's")
     _add_method_options(p)
     p.set_defaults(func=cmd_reduce)
 

@@ -81,7 +81,10 @@ def exudyn_data(body, model, *, node_type: str = NODE_TYPES[0], remove_rigid: bo
         Keys of ``ObjectFFRFreducedOrderInterface.GetDictionary()``, and in addition:
         ``nodeIds`` (the FE node id of each Exudyn mesh node: the model's nodes, then each
         coupling master, which carries no mass), ``dampingMatrixReduced`` (the body's damping, to
-        set on the ``ObjectFFRFreducedOrder``), ``interfaceNames``, ``interfaceMasterNodes``
+        set on the ``ObjectFFRFreducedOrder``), ``postProcessingModes`` (the body's stress modes,
+        ``reduce --stress``, as Exudyn's stress modes for its post-processing: ``matrix`` of shape
+        (mesh nodes, 6 r), components xx yy zz yz xz xy, zero where the body has no stress;
+        ``{}`` without), ``interfaceNames``, ``interfaceMasterNodes``
         (mesh node of each master), ``interfaceSlaveNodes`` and ``interfaceSlaveOffsets`` (the
         mesh nodes of interface ``k`` are ``interfaceSlaveNodes[offsets[k]:offsets[k+1]]``).
 
@@ -96,6 +99,9 @@ def exudyn_data(body, model, *, node_type: str = NODE_TYPES[0], remove_rigid: bo
     if node_type not in NODE_TYPES:
         raise OptionError(f"node_type={node_type!r} is not allowed; choose one of: {', '.join(NODE_TYPES)}")
     xb = expand_body(model, body, remove_rigid=remove_rigid)  # the floating frame carries the rigid motion
+    if body.stress_modes is not None and xb.body.stress_modes is None:
+        log.warning("%s body: its basis was changed to remove rigid-body motion; its stress modes (of the basis "
+                    "reduced) are not written", body.method)
     body, model, V = xb.body, xb.model, xb.V
     trans, rot = node_triples(model)
     if np.any(rot >= 0):
@@ -129,7 +135,8 @@ def exudyn_data(body, model, *, node_type: str = NODE_TYPES[0], remove_rigid: bo
     index = {int(k): i for i, k in enumerate(xb.node_ids)}
     slaves = [np.array([index[int(k)] for k in m.slaves], dtype=np.int64) for m in xb.masters]
     return {
-        "modeBasis": Psi, "trigList": _trig_list(body.triangles, model), "postProcessingModes": {},
+        "modeBasis": Psi, "trigList": _trig_list(body.triangles, model),
+        "postProcessingModes": _stress_modes(body, xb.node_ids),
         "massMatrixReduced": np.asarray(body.M, float), "stiffnessMatrixReduced": np.asarray(body.K, float),
         "dampingMatrixReduced": np.zeros((r, r)) if body.D is None else np.asarray(body.D, float),
         "infoList": np.array([r, n, 3, rot_dofs, 3 + rot_dofs, 3 + rot_dofs + r]),
@@ -143,6 +150,26 @@ def exudyn_data(body, model, *, node_type: str = NODE_TYPES[0], remove_rigid: bo
         "interfaceSlaveNodes": np.concatenate(slaves) if slaves else np.zeros(0, np.int64),
         "interfaceSlaveOffsets": np.cumsum([0] + [s.size for s in slaves]).astype(np.int64),
     }
+
+
+#: Exudyn's stress components (xx yy zz yz xz xy) from flexmor's (xx yy zz xy yz zx).
+_EXUDYN_STRESS = [0, 1, 2, 4, 5, 3]
+
+
+def _stress_modes(body, node_ids) -> dict:
+    """Exudyn's ``postProcessingModes`` of a body with stress modes (``{}`` without): ``matrix`` (mesh nodes,
+    6 r), column ``6 i + j`` component ``j`` (xx yy zz yz xz xy) of basis vector ``i``, zero at nodes
+    without stress; ``outputVariableType`` StressLocal. The stress of rigid-body motion is zero, so the
+    stress modes hold for the elastic body of the floating frame too."""
+    if body.stress_modes is None or body.stress_nodes is None:
+        return {}
+    S = np.asarray(body.stress_modes, float)[:, :, _EXUDYN_STRESS]  # (r, k, 6)
+    nodes = np.asarray(body.stress_nodes)
+    index = {int(k): i for i, k in enumerate(node_ids)}
+    at = np.array([index.get(int(k), -1) for k in nodes], dtype=np.int64)
+    X = np.zeros((len(node_ids), S.shape[0], 6))
+    X[at[at >= 0]] = S[:, at >= 0].transpose(1, 0, 2)
+    return {"matrix": X.reshape(len(node_ids), -1), "outputVariableType": "OutputVariableType.StressLocal"}
 
 
 def _trig_list(triangles, model) -> np.ndarray:

@@ -1,6 +1,7 @@
 """flexmor's own reduced-body file (HDF5): :func:`write_body`, read by :func:`flexmor.io.read_body`.
 
-Layout: datasets ``M K B C`` (and ``D``, ``V``, ``node_ids``, ``xyz``, ``dofs`` when present),
+Layout: datasets ``M K B C`` (and ``D``, ``V``, ``node_ids``, ``xyz``, ``dofs``, ``stress_nodes``,
+``stress_modes`` when present),
 ``errors/freqs_hz`` and ``errors/rel_error`` when evaluated; attributes ``format``
 (= ``flexmor-reduced``), ``version``, ``method``, ``model_name`` and JSON strings ``info``,
 ``damping``, ``errors``, ``input_names``, ``output_names``, ``origin`` (the fingerprint of
@@ -25,7 +26,7 @@ from ._registry import BODY_FORMATS, EXPORT_FORMATS
 from .atomic import DiscardAfterFailure, atomic_write
 
 FORMAT_TAG = "flexmor-reduced"
-_ARRAYS = ("M", "K", "D", "B", "C", "V", "node_ids", "xyz", "dofs", "triangles")
+_ARRAYS = ("M", "K", "D", "B", "C", "V", "node_ids", "xyz", "dofs", "triangles", "stress_nodes", "stress_modes")
 _JSON = ("info", "damping", "errors", "input_names", "output_names", "origin", "selections", "couplings",
          "order_note", "units")
 #: JSON attributes that older bodies lack: name -> value then
@@ -80,7 +81,8 @@ def write_body(body, path) -> None:
 
 #: name -> (dimensions, allowed dtype kinds, axis names tying sizes together); "r" is the order
 _LAYOUT = {"M": ("rr", "f"), "K": ("rr", "f"), "D": ("rr", "f"), "B": ("rm", "f"), "C": ("pr", "f"),
-           "V": ("nr", "f"), "node_ids": ("k", "iu"), "xyz": ("k3", "f"), "dofs": ("n2", "iu")}
+           "V": ("nr", "f"), "node_ids": ("k", "iu"), "xyz": ("k3", "f"), "dofs": ("n2", "iu"),
+           "stress_nodes": ("s", "iu"), "stress_modes": ("rs6", "f")}
 #: Largest number of values one dataset may hold (2**31, i.e. 16 GiB of float64).
 MAX_VALUES = 2**31
 
@@ -89,7 +91,7 @@ def _check_layout(path, h) -> None:
     """Refuse datasets of the wrong kind, type or shape before anything is read."""
     import h5py
 
-    sizes = {"3": 3, "2": 2}
+    sizes = {"3": 3, "2": 2, "6": 6}
     for name, (axes, kinds) in _LAYOUT.items():
         if name not in h:
             if name in "MKBC":

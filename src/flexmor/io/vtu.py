@@ -5,7 +5,10 @@ equations by the basis (``V phi``): the modes the reduced body moves in. The fil
 the mesh (the full model's elements, or without the model the body's outer surface as
 triangles), the node ids as point data ``node_id``, one displacement vector per node and
 mode as point data ``mode_1``, ``mode_2`` ... (global x y z; zero where a node has no such
-equation, e.g. a clamped node) and the frequencies in Hz as field data ``frequencies_hz``.
+equation, e.g. a clamped node) and the frequencies in Hz as field data ``frequencies_hz``. A body
+with stress modes (``reduce --stress``, :func:`flexmor.stress.body_stresses`) adds each mode's
+nodal stress ``stress_k`` (xx yy zz xy yz zx, CalculiX's order) and its von Mises stress
+``mises_k`` (NaN at nodes where the body stores no stress).
 In ParaView: *Warp By Vector* with a ``mode_k`` array animates mode k. Written through
 meshio (the optional extra ``flexmor[mesh]``), atomically.
 """
@@ -44,6 +47,12 @@ def body_modes(body) -> tuple[np.ndarray, np.ndarray]:
     ModelError
         The body stores no basis ``V`` or its reduced mass matrix is not positive definite.
     """
+    freqs, _, shapes = _modes(body)
+    return freqs, shapes
+
+
+def _modes(body):
+    """Frequencies, reduced mode vectors ``phi`` (signed as :func:`body_modes` says) and ``V phi``."""
     if body.V is None:
         raise ModelError("the body stores no basis V, so its modes cannot be expanded to the nodes")
     try:
@@ -53,8 +62,31 @@ def body_modes(body) -> tuple[np.ndarray, np.ndarray]:
     shapes = np.asarray(body.V) @ phi
     if shapes.size:
         big = shapes[np.argmax(np.abs(shapes), axis=0), np.arange(shapes.shape[1])]
-        shapes *= np.where(big < 0, -1.0, 1.0)
-    return np.sqrt(np.clip(lam, 0.0, None)) / (2 * np.pi), shapes
+        sign = np.where(big < 0, -1.0, 1.0)
+        shapes *= sign
+        phi = phi * sign
+    return np.sqrt(np.clip(lam, 0.0, None)) / (2 * np.pi), phi, shapes
+
+
+def _stress_data(body, phi, node_ids) -> dict:
+    """Point data ``stress_k`` (xx yy zz xy yz zx) and ``mises_k`` of each mode at ``node_ids`` from the body's
+    stress modes; NaN at nodes without stress (not in ``body.stress_nodes``)."""
+    from ..stress import von_mises
+
+    if body.stress_modes is None or body.stress_nodes is None:
+        return {}
+    S = np.einsum("jk,jsi->ksi", phi, np.asarray(body.stress_modes))  # (modes, stress nodes, 6)
+    nodes = np.asarray(body.stress_nodes)
+    order = np.argsort(nodes)
+    pos = np.minimum(np.searchsorted(nodes[order], node_ids), max(nodes.size - 1, 0))
+    hit = nodes[order][pos] == node_ids if nodes.size else np.zeros(len(node_ids), bool)
+    out = {}
+    for k in range(S.shape[0]):
+        full = np.full((len(node_ids), 6), np.nan)
+        full[hit] = S[k][order[pos[hit]]]
+        out[f"stress_{k + 1}"] = full
+        out[f"mises_{k + 1}"] = von_mises(full)
+    return out
 
 
 def nodal_modes(shapes: np.ndarray, geometry) -> np.ndarray:
@@ -132,9 +164,10 @@ def write_vtu(body, path, *, model=None) -> None:
         geometry = SimpleNamespace(node_ids=xb.node_ids, dofs=dofs, n_nodes=xb.node_ids.size, n_dof=dofs.shape[0],
                                    node_frames=model.node_frames)
         xyz = xb.xyz
-    freqs, shapes = body_modes(body)
+    freqs, phi, shapes = _modes(body)
     nodal = nodal_modes(shapes, geometry)
     point_data = {f"mode_{k + 1}": np.ascontiguousarray(nodal[:, :, k]) for k in range(nodal.shape[2])}
+    point_data.update(_stress_data(body, phi, np.asarray(geometry.node_ids)))
     grid = mesh.to_meshio(geometry.node_ids, xyz, point_data=point_data, field_data={"frequencies_hz": freqs},
                           vtk=True)
     if masters:

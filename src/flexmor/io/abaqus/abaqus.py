@@ -45,7 +45,8 @@ from pathlib import Path
 import numpy as np
 import scipy.sparse as sp
 
-from ...errors import ReadError
+from ...elements import ElementBlock, Elements, Material
+from ...errors import ModelError, ReadError
 from ...model import FEModel
 from .._build import build_model
 from .._cells import abaqus_cell, mesh_of_elements
@@ -250,6 +251,34 @@ def _compress(A: sp.csr_matrix, code: np.ndarray, number: np.ndarray) -> sp.csr_
     return sp.csr_matrix((A.data, A.indices, indptr), shape=(code.size, code.size))
 
 
+def deck_elements(deck: AbaqusDeck, path) -> Elements | None:
+    """The :class:`~flexmor.elements.Elements` of an Abaqus deck: elements of a type, numbered by their labels
+    (which may repeat across instances), and the isotropic materials of their sections."""
+    if not deck.elements:
+        return None
+    names = sorted({m for m in deck.element_materials if m is not None})
+    materials = []
+    for name in names:
+        data = deck.materials.get(name)
+        rho = (data or {}).get("DENSITY") or None
+        if data is None or "E" not in data:
+            materials.append(Material(name, rho=rho, unsupported=f"*MATERIAL {name} has no *ELASTIC in {path.name}"
+                                      if data is not None else f"{name} is not defined by a *MATERIAL in {path.name}"))
+        elif data.get("UNSUPPORTED"):
+            materials.append(Material(name, rho=rho, unsupported=data["UNSUPPORTED"]))
+        else:
+            try:
+                materials.append(Material.isotropic(data["E"], data["NU"], rho, name))
+            except ModelError as exc:
+                materials.append(Material(name, rho=rho, unsupported=str(exc)))
+    groups: dict = {}
+    for (etype, nodes), label, mat in zip(deck.elements, deck.element_labels, deck.element_materials):
+        groups.setdefault((etype.upper(), nodes.size), []).append((label, nodes, names.index(mat) if mat else -1))
+    blocks = [ElementBlock(etype, [r[0] for r in rows], np.array([r[1] for r in rows]), [r[2] for r in rows])
+              for (etype, _), rows in groups.items()]
+    return Elements(tuple(blocks), tuple(materials), str(path))
+
+
 def read_abaqus(path, *, dof_per_node: int | None = None) -> FEModel:
     """Read an Abaqus ``*MATRIX GENERATE`` export with its input deck.
 
@@ -264,7 +293,9 @@ def read_abaqus(path, *, dof_per_node: int | None = None) -> FEModel:
     -------
     FEModel
         ``K``, ``M`` (and ``D`` from ``_DMPV``), node table and sets from the deck, the
-        equation map; ``name`` is the job name.
+        equation map, the elements with their materials (``*MATERIAL``, ``*ELASTIC``,
+        ``*DENSITY``, ``*SOLID SECTION``, ``*SHELL SECTION``, isotropic elasticity); ``name``
+        is the job name.
 
     Raises
     ------
@@ -338,7 +369,8 @@ def read_abaqus(path, *, dof_per_node: int | None = None) -> FEModel:
         damping={"type": "given"} if "D" in mats else {"type": "none"},
         node_ids=deck.node_ids, xyz=deck.xyz, dofs=dofs, node_sets=deck.node_sets,
         mesh=mesh_of_elements(deck.elements, lambda etype, _: abaqus_cell(etype), "abaqus"),
-        name=stem(deck_path), source=str(deck_path), singular_mass_ok=bool(quadratic),
+        elements=deck_elements(deck, deck_path), name=stem(deck_path), source=str(deck_path),
+        singular_mass_ok=bool(quadratic),
     )
     if quadratic and np.all(model.M.diagonal() > 0):
         check_mass(model, f"{files['M']} ({', '.join(quadratic)} elements)")

@@ -4,7 +4,7 @@ Interpreted keywords (case-insensitive, abbreviations such as ``*Nset`` are the 
 ``*NODE``, ``*ELEMENT``, ``*NSET`` and ``*ELSET`` (member lists, ``GENERATE`` ranges,
 ``INSTANCE=``, set names as members), ``*PART``/``*END PART``, ``*ASSEMBLY``,
 ``*INSTANCE`` (``PART=``, translation and rotation data lines)/``*END INSTANCE``,
-``*MATERIAL``, ``*DENSITY``, ``*ELASTIC``, ``*SOLID SECTION`` and ``*INCLUDE``. Everything
+``*MATERIAL``, ``*DENSITY``, ``*ELASTIC``, ``*SOLID SECTION``, ``*SHELL SECTION`` and ``*INCLUDE``. Everything
 else is skipped. The lines are read by :mod:`flexmor.io._abaqus_syntax`, as the CalculiX
 reader's.
 
@@ -69,7 +69,11 @@ class AbaqusDeck:
     materials : dict of str to dict
         ``{'DENSITY': rho, 'E': .., 'NU': ..}`` per material (upper-case names).
     sections : list of tuple
-        ``(element set name, material name)`` of each ``*SOLID SECTION``.
+        ``(element set name, material name)`` of each ``*SOLID SECTION`` and ``*SHELL SECTION``.
+    element_labels : list of int
+        The label of each element of ``elements`` (within its instance).
+    element_materials : list of str or None
+        The material of each element of ``elements`` by its part's sections (None: no section).
     """
 
     node_ids: np.ndarray
@@ -80,6 +84,8 @@ class AbaqusDeck:
     node_sets: dict
     materials: dict
     sections: list
+    element_labels: list = field(default_factory=list)
+    element_materials: list = field(default_factory=list)
 
     def lookup(self) -> dict:
         """Map ``(instance, label)`` and, for unambiguous labels, ``('', label)`` to node ids."""
@@ -212,7 +218,7 @@ class _Parser:
                 raise ReadError(path, "*ELEMENT without TYPE=", lineno)
         elif kw == "MATERIAL":
             st["mat"] = self.materials.setdefault(opts.get("NAME", "").upper(), {})
-        elif kw == "SOLID SECTION":
+        elif kw in ("SOLID SECTION", "SHELL SECTION"):
             tgt = st["part"] or self.flat
             tgt.sections.append((opts.get("ELSET", "").upper(), opts.get("MATERIAL", "").upper()))
         elif kw == "INCLUDE":  # the included file's lines follow
@@ -265,9 +271,15 @@ class _Parser:
             self._set_line(path, lineno, s, st, kw)
         elif kw == "DENSITY" and st["mat"] is not None:
             st["mat"]["DENSITY"] = _floats(path, lineno, s, "*DENSITY")[0]
-        elif kw == "ELASTIC" and st["mat"] is not None and "E" not in st["mat"]:
+        elif kw == "ELASTIC" and st["mat"] is not None and "E" in st["mat"]:
+            st["mat"]["UNSUPPORTED"] = f"temperature-dependent *ELASTIC ({Path(path).name}:{lineno})"
+        elif kw == "ELASTIC" and st["mat"] is not None:
             v = _floats(path, lineno, s, "*ELASTIC")
             st["mat"].update({"E": v[0], "NU": v[1] if len(v) > 1 else 0.0})
+            kind = " ".join(opts.get("TYPE", "ISOTROPIC").upper().split())
+            if kind not in ("ISO", "ISOTROPIC"):
+                st["mat"]["UNSUPPORTED"] = f"*ELASTIC, TYPE={kind} ({Path(path).name}:{lineno}) is not evaluated " \
+                                           "for Abaqus decks; isotropic materials are"
 
     def _set_line(self, path, lineno, s, st, kw):
         opts = st["opts"]
@@ -364,6 +376,7 @@ def read_deck(path) -> AbaqusDeck:
         log.info("%s: node labels repeat across instances; node id = instance index * %d + label", path, step)
     lut = {k: int(i) for k, i in zip(keys, ids)}
     node_sets, element_sets, elements, sections = {}, {}, [], []
+    labels_, materials_ = [], []
     seen_names: dict = {}
     for name, part, _, _ in groups:
         prefix = f"{name}." if name else ""
@@ -375,6 +388,12 @@ def read_deck(path) -> AbaqusDeck:
                 raise ReadError(path, f"element {lab} ({etype}) uses node {exc.args[0][1]}, which no *NODE defines") \
                     from None
             eidx[lab] = len(elements) - 1
+            labels_.append(lab)
+            materials_.append(None)
+        for elset, mat in part.sections:
+            for m in part.elsets.get(elset, []):
+                if m in eidx:
+                    materials_[eidx[m]] = mat
         for sname, members, p, lineno in part.set_lines:
             bad = [m for m in members if (name, m) not in lut]
             if bad:
@@ -399,5 +418,6 @@ def read_deck(path) -> AbaqusDeck:
     for sname, arrs in seen_names.items():
         if len(arrs) == 1 and sname not in node_sets:
             node_sets[sname] = arrs[0]
-    return AbaqusDeck(ids, np.vstack(xyz), keys, elements, element_sets, node_sets, P.materials, sections)
+    return AbaqusDeck(ids, np.vstack(xyz), keys, elements, element_sets, node_sets, P.materials, sections,
+                      labels_, materials_)
 

@@ -18,7 +18,9 @@ Binary ``.full`` (``ansys-mapdl-reader``, optional: ``pip install flexmor[ansys]
     Upper triangles are expanded; constrained DOFs (zero rows and columns) are removed, logged
     and listed in ``model.constrained_dofs`` (k, 2: node, direction). Coordinates and node
     components and the element connectivity (``model.mesh``) come from ``<stem>.cdb`` beside it
-    or ``coordinates=``.
+    or ``coordinates=``, and so do the solid elements with their materials (``model.elements``:
+    ``MP,EX/PRXY/DENS`` or ``MPDATA`` of isotropic materials; the solids named by the CalculiX
+    element of the same shape, ``SOLID186`` bricks as ``C3D20R``).
 
 In both, equations with neither stiffness nor mass are removed and reported. Units are those
 of the Ansys model. The files of a Matrix Market set may be gzip-compressed (``.txt.gz``);
@@ -35,7 +37,8 @@ from pathlib import Path
 import numpy as np
 import scipy.sparse as sp
 
-from ...errors import ReadError
+from ...elements import ElementBlock, Elements, Material
+from ...errors import ModelError, ReadError
 from ...model import FEModel
 from .._build import build_model
 from .._cells import ansys_cell, build_mesh
@@ -314,16 +317,16 @@ def _read_full(path: Path, coordinates=None):
         else:
             mats[role] = (U + U.T - sp.diags(U.diagonal())).tocsr()
     mats, dofs, gone = _drop_empty(path, mats, dofs, "constrained (zero rows and columns)")
-    node_ids, xyz, sets, mesh = np.zeros(0, np.int64), np.zeros((0, 3)), {}, None
+    node_ids, xyz, sets, mesh, elements = np.zeros(0, np.int64), np.zeros((0, 3)), {}, None, None
     cdb = Path(coordinates) if coordinates else (beside(path, ".cdb") or path.with_suffix(".cdb"))
     if cdb.exists():
         if is_gzip(cdb):
             raise ReadError(cdb, f"gzip-compressed: {_BY_NAME}; decompress it first (gunzip {cdb.name})")
-        node_ids, xyz, sets, mesh = _read_cdb(cdb)
+        node_ids, xyz, sets, mesh, elements = _read_cdb(cdb)
     elif coordinates:
         raise ReadError(cdb, "coordinate file not found")
     model = build_model(path, roles={"K": path, "M": path}, M=mats["M"], K=mats["K"], node_ids=node_ids, xyz=xyz,
-                        dofs=dofs, node_sets=sets, mesh=mesh, name=stem(path), source=str(path))
+                        dofs=dofs, node_sets=sets, mesh=mesh, elements=elements, name=stem(path), source=str(path))
     model.constrained_dofs = gone
     return model
 
@@ -363,12 +366,75 @@ def _read_cdb(path: Path):
     sets = {str(k).upper(): np.asarray(v, dtype=np.int64) for k, v in dict(a.node_components).items()}
     types = {int(k): int(v) for k, v in np.asarray(a.ekey, dtype=np.int64).reshape(-1, 2)}
     groups: dict = {}
-    for row in a.elem:  # 10 attribute fields (material, type, ...), then the nodes
-        got = ansys_cell(types.get(int(row[1]), 0), np.asarray(row[10:], dtype=np.int64).tolist())
+    solids: dict = {}
+    enum = np.asarray(a.enum, dtype=np.int64)
+    for k, row in enumerate(a.elem):  # 10 attribute fields (material, type, ...), then the nodes
+        etype = types.get(int(row[1]), 0)
+        got = ansys_cell(etype, np.asarray(row[10:], dtype=np.int64).tolist())
         if got is not None:
             groups.setdefault(got[0], []).append(got[1])
+            name = _SOLIDS.get((etype in (186, 95), got[0]))
+            if name is not None:
+                solids.setdefault(name, []).append((int(enum[k]), int(row[0]), got[1]))
     mesh = build_mesh([(t, np.asarray(rows, dtype=np.int64)) for t, rows in groups.items()], "vtk")
-    return np.asarray(a.nnum, dtype=np.int64), np.asarray(a.nodes, dtype=np.float64)[:, :3], sets, mesh
+    return (np.asarray(a.nnum, dtype=np.int64), np.asarray(a.nodes, dtype=np.float64)[:, :3], sets, mesh,
+            _elements(path, solids))
+
+
+#: CalculiX element of each Ansys solid shape: ``(SOLID186/SOLID95, meshio cell type)`` -> name. SOLID186
+#: integrates its bricks with 2 x 2 x 2 points by default (``KEYOPT(2) = 0``), as C3D20R.
+_SOLIDS = {(False, "hexahedron"): "C3D8", (False, "tetra"): "C3D4", (False, "wedge"): "C3D6",
+           (True, "hexahedron20"): "C3D20R", (True, "tetra10"): "C3D10", (True, "wedge15"): "C3D15",
+           (False, "tetra10"): "C3D10"}
+
+
+def _mp_commands(path: Path) -> dict:
+    """``{material: {label: value}}`` of the ``MP,Lab,MAT,C0`` and ``MPDATA,R5.0,n,Lab,MAT,LOC,C1`` lines of
+    an archive (a temperature table, ``MPTEMP`` with more than one entry, is marked ``TABLE``)."""
+    out: dict = {}
+    for lineno, line in enumerate(read_text(path).splitlines(), 1):
+        f = [t.strip() for t in line.split(",")]
+        head = f[0].upper()
+        try:
+            if head == "MP" and len(f) >= 4:
+                out.setdefault(int(float(f[2])), {})[f[1].upper()] = (float(f[3]), lineno)
+            elif head == "MPDATA" and len(f) >= 7:
+                vals = [float(t) for t in f[6:] if t]
+                entry = out.setdefault(int(float(f[4])), {})
+                entry[f[3].upper()] = (vals[0] if vals else 0.0, lineno)
+                if len(vals) > 1:
+                    entry["TABLE"] = (1.0, lineno)
+        except ValueError:
+            raise ReadError(path, f"non-numeric {head} command {line[:60]!r}", lineno) from None
+    return out
+
+
+def _material(path: Path, number: int, props: dict | None) -> Material:
+    name = f"MAT {number}"
+    if not props or "EX" not in props:
+        return Material(name, unsupported=f"MAT {number} has no MP,EX in {path.name}")
+    where = f"{path.name}:{props['EX'][1]}"
+    if "TABLE" in props or any(k in props for k in ("EY", "EZ", "GXY", "GYZ", "GXZ")):
+        return Material(name, unsupported=f"MAT {number} ({where}) is temperature-dependent or orthotropic; "
+                                          "isotropic MP,EX/PRXY/DENS are evaluated")
+    nu = props.get("PRXY", props.get("NUXY", (0.0, 0)))[0]
+    rho = props.get("DENS", (None, 0))[0]
+    try:
+        return Material.isotropic(props["EX"][0], nu, rho or None, name)
+    except ModelError as exc:
+        return Material(name, unsupported=f"{exc} ({where})")
+
+
+def _elements(path: Path, solids: dict) -> Elements | None:
+    """The solids of an archive with the materials of its ``MP`` commands."""
+    if not solids:
+        return None
+    props = _mp_commands(path)
+    numbers = sorted({m for rows in solids.values() for _, m, _ in rows})
+    materials = [_material(path, m, props.get(m)) for m in numbers]
+    blocks = [ElementBlock(name, [r[0] for r in rows], [r[2] for r in rows], [numbers.index(r[1]) for r in rows])
+              for name, rows in solids.items()]
+    return Elements(tuple(blocks), tuple(materials), str(path))
 
 
 def read_ansys(path, *, coordinates=None) -> FEModel:

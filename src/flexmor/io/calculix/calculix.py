@@ -35,6 +35,7 @@ import scipy.sparse as sp
 
 from ...errors import ReadError
 from ...model import FEModel
+from .._abaqus_materials import DeckElements
 from .._build import build_model
 from .._cells import build_mesh
 from .._mass import QUADRATIC_TYPES, check_mass
@@ -191,8 +192,10 @@ def read_calculix(path) -> FEModel:
     Returns
     -------
     FEModel
-        Full symmetric ``M`` and ``K``, node table, node sets and element connectivity
-        (``mesh``, elements as written in the deck) from the ``.inp`` (without it: node table
+        Full symmetric ``M`` and ``K``, node table, node sets, element connectivity
+        (``mesh``, elements as written in the deck) and the elements with their materials
+        (``elements``: ``*MATERIAL``, ``*ELASTIC``, ``*DENSITY``, ``*SOLID SECTION``,
+        ``*SHELL SECTION``) from the ``.inp`` (without it: node table
         from the ``.frd``, no node sets, no mesh), the equation map from the ``.dof``;
         ``name`` is the file stem.
 
@@ -216,8 +219,9 @@ def read_calculix(path) -> FEModel:
     M = _read_upper(mas, n)
     types: set = set()
     cells: list = []
+    deck_elements = DeckElements()
     if suffix(geo) == ".inp":
-        node_ids, xyz, sets = read_inp(geo, element_types=types, cells=cells)
+        node_ids, xyz, sets = read_inp(geo, element_types=types, cells=cells, elements=deck_elements)
     else:
         res = read_frd(geo, results=False)
         node_ids, xyz, sets, types = res.node_ids, res.xyz, {}, res.element_types
@@ -246,7 +250,7 @@ def read_calculix(path) -> FEModel:
         path,
         roles={"M": mas, "K": path},
         M=M, K=K, node_ids=node_ids, xyz=xyz, dofs=dofs, node_sets=sets, mesh=build_mesh(cells, "abaqus"),
-        name=stem(path), source=str(path), singular_mass_ok=bool(quadratic),
+        elements=deck_elements.elements(geo), name=stem(path), source=str(path), singular_mass_ok=bool(quadratic),
     )
     if quadratic and np.all(M.diagonal() > 0):
         check_mass(model, f"{mas} ({', '.join(quadratic)} elements)")

@@ -14,6 +14,7 @@ import numpy as np
 
 from ...errors import ReadError
 from ...mesh import NODES_PER_CELL
+from .._abaqus_materials import DeckElements
 from .._abaqus_syntax import Keyword, walk
 from .._cells import abaqus_cell
 
@@ -22,7 +23,8 @@ __all__ = ["read_inp"]
 log = logging.getLogger(__name__)
 
 
-def read_inp(path, *, element_types: set | None = None, cells: list | None = None):
+def read_inp(path, *, element_types: set | None = None, cells: list | None = None,
+             elements: DeckElements | None = None):
     """Read the node table, node sets and elements of a CalculiX/Abaqus-style input deck.
 
     Only ``*NODE``, ``*NSET`` (with ``GENERATE`` and set names as members), ``*ELEMENT`` and
@@ -37,6 +39,9 @@ def read_inp(path, *, element_types: set | None = None, cells: list | None = Non
     cells : list, optional
         Receives ``(meshio cell type, node ids (n_cells, k))`` per ``*ELEMENT`` block of a
         known type, nodes in the deck's order (:func:`flexmor.io._cells.to_vtk` maps them).
+    elements : DeckElements, optional
+        Receives the element blocks with their numbers, ``*ELSET``, ``*MATERIAL``, ``*ELASTIC``,
+        ``*DENSITY`` and the sections (:mod:`flexmor.io._abaqus_materials`).
 
     Returns
     -------
@@ -57,17 +62,24 @@ def read_inp(path, *, element_types: set | None = None, cells: list | None = Non
     for item in walk(path):
         if isinstance(item, Keyword):
             cur_set = _keyword(item, st, element_types)
+            if elements is not None:
+                elements.keyword(item)
             continue
         kw = item.keyword
         if kw is None:
             continue
+        if elements is not None:
+            elements.data(item)
         if kw.name == "NODE":
             _node_block(item.path, item.lines, item.linenos, st, cur_set)
         elif kw.name == "NSET":
             for lineno, t in zip(item.linenos, item.lines):
                 _nset_line(item.path, lineno, t, st, cur_set, "GENERATE" in kw.options)
-        elif kw.name == "ELEMENT" and cells is not None:
-            _element_block(item.path, item.lines, item.linenos, kw.options.get("TYPE", "").upper(), cells)
+        elif kw.name == "ELEMENT" and (cells is not None or elements is not None):
+            a = _element_block(item.path, item.lines, item.linenos, kw.options.get("TYPE", "").upper(),
+                               [] if cells is None else cells)
+            if a is not None and elements is not None:
+                elements.element_block(kw.options.get("TYPE", ""), kw.options.get("ELSET"), a)
     ids = np.concatenate(st["ids"]) if st["ids"] else np.zeros(0, np.int64)
     xyz = np.concatenate(st["xyz"]) if st["xyz"] else np.zeros((0, 3))
     _check_unique(ids, st["src"])
@@ -163,11 +175,14 @@ def _node_line(path, lineno, s):
 
 
 def _element_block(path, data, linenos, etype, cells):
-    """The cells of consecutive ``*ELEMENT`` data lines (an element may continue on lines ending in a comma)."""
+    """The cells of consecutive ``*ELEMENT`` data lines (an element may continue on lines ending in a comma).
+
+    Returns the rows ``(element number, nodes ...)``, None for a block left out of the mesh.
+    """
     cell_type = abaqus_cell(etype)
     if cell_type is None:
         log.info("%s: element type %s is not kept in the mesh", path, etype or "(none)")
-        return
+        return None
     nn = NODES_PER_CELL[cell_type]
     n_el = sum(1 for t in data if not t.endswith(","))
     text = "\n".join(data)
@@ -178,7 +193,9 @@ def _element_block(path, data, linenos, etype, cells):
     if a is None or a.size != n_el * (1 + nn) or (data and data[-1].endswith(",")):
         a = _element_lines(path, data, linenos, etype, nn)
     if a is not None:
-        cells.append((cell_type, a.reshape(-1, 1 + nn)[:, 1:]))
+        a = a.reshape(-1, 1 + nn)
+        cells.append((cell_type, a[:, 1:]))
+    return a
 
 
 def _element_lines(path, data, linenos, etype, nn):

@@ -17,7 +17,8 @@ starting with a key in columns 1-5 and a code in column 6:
     analysis is ``MODAL``. Then ``-4 NAME ncomps irtype`` and one ``-5`` line per component
     (an ``ALL`` component marked ``iexist = 1`` has no data), then per node ``-1 node values``
     (6 values per line, ``-2`` continuation lines) closed by ``-3``, or binary
-    ``int32 node, ncomps float32``;
+    ``int32 node, ncomps reals`` (float32 for format 2, float64 for format 3, CalculiX's
+    ``*NODE OUTPUT, DOUBLE``);
 ``9999`` end of data.
 
 :func:`read_frd` keeps the node table and every result block; :func:`modes` returns the
@@ -182,7 +183,7 @@ def _results(r: _Reader, head: str, params: dict):
             comps.append(c[5:13].strip())
     nv = len(comps)
     if fmt >= 2:
-        dt = np.dtype([("id", "<i4"), ("v", "<f4", (nv,))])
+        dt = np.dtype([("id", "<i4"), ("v", "<f4" if fmt == 2 else "<f8", (nv,))])
         a = np.frombuffer(r.read(numnod * dt.itemsize), dt)
         nodes, vals = a["id"].astype(np.int64), a["v"].astype(np.float64).reshape(numnod, nv)
     else:

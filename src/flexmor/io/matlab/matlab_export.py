@@ -15,6 +15,9 @@ Variables (MATLAB names; all present, empty where not available):
 ``method``,         char        method, full model name, flexmor version
 ``model_name``,
 ``version``
+``stress_nodes``    k x 1       nodes of the stress modes (``reduce --stress``); empty without
+``stress_modes``    r x k x 6   nodal stress (xx yy zz xy yz zx) of each basis vector; empty
+                                without stress modes
 ``inv``             struct      inertia invariants when the FE model is given
                                 (``mass mdCM J Ct Cr Cr1 Gr Ge Oe Oe1 Me Ke``, frame
                                 nodes ``node_id origin phi psi``; see
@@ -49,7 +52,7 @@ __all__ = ["MAT_DIMENSIONS", "MAT_FIELDS", "write_mat"]
 
 #: Variables every exported ``.mat`` file holds.
 MAT_FIELDS = ("Mr", "Kr", "Dr", "Br", "Cr", "V", "node_ids", "xyz", "dofs", "frequencies_hz", "input_names",
-              "output_names", "method", "model_name", "version", "inv", "units")
+              "output_names", "method", "model_name", "version", "stress_nodes", "stress_modes", "inv", "units")
 
 #: The dimension ``(length, mass, time)`` exponents of the variables of one dimension (``Br``, ``Cr`` and
 #: ``V`` have one per input, output and equation); the fields of ``inv`` as their SID objects.
@@ -91,6 +94,8 @@ def mat_variables(body, model=None, *, nodes=None, units: str = "SI") -> dict:
         "frequencies_hz": body.frequencies_hz().reshape(-1, 1),
         "input_names": _cell(body.input_names), "output_names": _cell(body.output_names),
         "method": body.method, "model_name": body.model_name, "version": body.version,
+        "stress_nodes": _empty(body.stress_nodes, (0,)).reshape(-1, 1).astype(float),
+        "stress_modes": _empty(body.stress_modes, (r, 0, 6)),
         "inv": np.zeros((0, 0)),
     }
     if model is not None and body.V is not None:

@@ -42,6 +42,7 @@ from .._registry import MODEL_FORMATS
 from .._sparse import assemble
 from .dmig_fast import DmigColumns, fast_dmig, scan_dmig
 from .nastran_bulk import Bulk, cards, num, read_bulk
+from .nastran_elements import nastran_elements
 from .op4 import read_op4
 
 __all__ = ["bulk_of", "dof_transform", "find_bulk", "read_dmig", "read_grids", "read_nastran", "read_op4"]
@@ -426,6 +427,7 @@ def read_nastran(path, *, stiffness=None, mass=None, damping=None, geometry=None
         kw = {"dofs": pairs, "node_ids": ids, "xyz": xyz}
         if bulk is not None and bulk.elements:
             kw["mesh"] = mesh_of_elements(bulk.elements, nastran_cell, "nastran", ids)
+            kw["elements"] = nastran_elements(bulk, geo, ids)
         if frames:
             kw["node_frames"] = frames
     log.info("%s: matrices %s", path, names)

@@ -1,4 +1,4 @@
-"""Nastran bulk data: card splitting, grid points and coordinate systems.
+"""Nastran bulk data: card splitting, grid points, coordinate systems, elements and their materials.
 
 Cards
     Small field (8 columns), large field (``NAME*`` with 16-column fields and ``*``
@@ -237,6 +237,14 @@ class Bulk:
         The file resequences grids (``SEQGP``): matrix DOF order is then not the id order.
     elements : list of (str, list of int)
         Card name and grid ids of each element card of :data:`ELEMENT_GRIDS` (for the mesh).
+    element_cards : list of (str, int, int, list of int)
+        Card name, element id, property id and grid ids of each solid and shell element card
+        (:data:`PROPERTY_ELEMENTS`).
+    properties : dict of int to (str, int, path, int)
+        ``PSOLID``/``PSHELL`` by property id: card name, material id, file and line.
+    materials : dict of int to dict
+        ``MAT1`` by material id (``E G NU RHO`` as given, None when blank; file and line);
+        other material cards (``MAT2 MAT8 MAT9`` ...) as ``{"card": name}``.
     """
 
     grid_ids: np.ndarray
@@ -247,6 +255,9 @@ class Bulk:
     aset: list
     seqgp: bool = False
     elements: list = field(default_factory=list)
+    element_cards: list = field(default_factory=list)
+    properties: dict = field(default_factory=dict)
+    materials: dict = field(default_factory=dict)
 
     def frame(self, gid: int) -> np.ndarray:
         """3x3 matrix whose columns are grid ``gid``'s displacement directions in basic components."""
@@ -296,6 +307,16 @@ ELEMENT_GRIDS = {"CHEXA": (2, 20), "CTETRA": (2, 10), "CPENTA": (2, 15), "CPYRAM
                  "CBAR": (2, 2), "CBEAM": (2, 2), "CROD": (2, 2), "CONROD": (1, 2)}
 
 
+#: Element cards whose property (``PSOLID``, ``PSHELL``) names their material (id, property id, grids from field 2).
+PROPERTY_ELEMENTS = ("CHEXA", "CTETRA", "CPENTA", "CQUAD4", "CQUADR", "CQUAD8", "CTRIA3", "CTRIAR", "CTRIA6")
+_OTHER_MATERIALS = ("MAT2", "MAT3", "MAT8", "MAT9", "MAT10", "MAT11")
+
+
+def _blank_real(f, k):
+    t = f[k] if k < len(f) else ""
+    return num(t) if t else None
+
+
 def _element(name: str, f) -> list:
     """Grid ids of an element card; optional mid-side grids left blank drop all of them (corners only)."""
     first, most = ELEMENT_GRIDS[name]
@@ -318,6 +339,7 @@ def read_bulk(path) -> Bulk:
     """
     path = Path(path)
     grids, cord2, cord1, spoints, aset, elements = Grids(), {}, {}, [], [], []
+    element_cards, properties, materials = [], {}, {}
     seqgp = False
     gdef = {"cp": 0, "cd": 0}
     for fpath, lineno, name, f, _fl in _items(path):
@@ -349,6 +371,16 @@ def read_bulk(path) -> Bulk:
                         cord1[cid] = (name[-1], [int(f[k + j]) for j in (1, 2, 3)], lineno, fpath)
             elif name in ELEMENT_GRIDS:
                 elements.append((name, _element(name, f)))
+                if name in PROPERTY_ELEMENTS:
+                    element_cards.append((name, int(f[0]), _int(f, 1, int(f[0])), elements[-1][1]))
+            elif name in ("PSOLID", "PSHELL"):
+                properties[int(f[0])] = (name, _int(f, 1), fpath, lineno)
+            elif name == "MAT1":
+                materials[int(f[0])] = {"card": name, "E": _blank_real(f, 1), "G": _blank_real(f, 2),
+                                        "NU": _blank_real(f, 3), "RHO": _blank_real(f, 4), "path": fpath,
+                                        "line": lineno}
+            elif name in _OTHER_MATERIALS:
+                materials[int(f[0])] = {"card": name, "path": fpath, "line": lineno}
             elif name == "SEQGP":
                 seqgp = True
             elif name == "SPOINT":
@@ -367,6 +399,7 @@ def read_bulk(path) -> Bulk:
     bulk = _resolve(path, grids, gdef, cord2, cord1, spoints, aset)
     bulk.seqgp = seqgp
     bulk.elements = elements
+    bulk.element_cards, bulk.properties, bulk.materials = element_cards, properties, materials
     return bulk
 
 
