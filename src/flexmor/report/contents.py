@@ -298,6 +298,9 @@ def _time_section(rep: Report, model, ports, bodies, labels, ref_of, *, f_lo: fl
         e = time_errors(y_ref, yr)
         row.update(time_mean_error=e["time_mean_error"], time_max_error=e["time_max_error"], time_seconds=yr.seconds)
         y_red[lb] = yr.displacement
+        if red.stress_modes is not None:  # the body's stress modes (reduce --stress): its largest von Mises stress
+            row["max_mises"] = _mises_peak(red, u, dt=dt, t_end=t_end, scheme=scheme, rho_inf=rho_inf)
+            rep.notes.append(_mises_note(lb, row["max_mises"], red))
         t_ref_of[lb] = ref_of[lb] if y_ref is y_elastic or not el else _reference_label(rep.reference, JUDGED_RIGID)
         y_refs.setdefault(t_ref_of[lb], y_ref.displacement)
         if y_ref is y_full and el:
@@ -313,6 +316,38 @@ def _time_section(rep: Report, model, ports, bodies, labels, ref_of, *, f_lo: fl
                                          quantity=f"displacement [{unit}]" if unit else "displacement")
     rep.plot_data.update(time_references=y_refs, time_reference_of=t_ref_of,
                          time_error=plots.time_error_curves(y_refs, y_red, t_ref_of))
+
+
+def _mises_peak(body, u, *, dt, t_end, scheme, rho_inf, chunk: int = 256) -> dict:
+    """The largest von Mises stress over the time response of ``body`` to ``u`` at its stress nodes:
+    ``mises`` (Pa in SI), ``node``, ``t`` (s), ``input`` (the input driven, for a single-channel signal)."""
+    from ..dynamics.time import simulate
+    from ..stress import von_mises
+
+    q = simulate((body.M, body.D, body.K, body.B, np.eye(body.order)), u, dt=dt, t_end=t_end, scheme=scheme,
+                 rho_inf=rho_inf)
+    S = np.asarray(body.stress_modes, float)
+    best = {"mises": -1.0}
+    for c in range(q.displacement.shape[2]):
+        Q = q.displacement[:, :, c]
+        for k0 in range(0, Q.shape[0], chunk):
+            vm = von_mises(np.einsum("tr,rkl->tkl", Q[k0:k0 + chunk], S))
+            i, j = np.unravel_index(int(np.argmax(vm)), vm.shape)
+            if vm[i, j] > best["mises"]:
+                best = {"mises": float(vm[i, j]), "node": int(body.stress_nodes[j]), "t": float(q.t[k0 + i]),
+                        "input": body.input_names[c] if q.displacement.shape[2] == len(body.input_names) else None}
+    return best
+
+
+def _mises_note(label, peak: dict, body) -> str:
+    where = ""
+    if body.node_ids is not None and body.xyz is not None:
+        at = np.flatnonzero(np.asarray(body.node_ids) == peak["node"])
+        if at.size:
+            where = " at [" + ", ".join(f"{v:.4g}" for v in np.asarray(body.xyz)[at[0]]) + "]"
+    by = f", under {peak['input']}" if peak.get("input") else ""
+    return (f"{label}: largest von Mises stress of the time responses {peak['mises'] / 1e6:.4g} MPa "
+            f"({peak['mises']:.4g} Pa) at node {peak['node']}{where}, t = {peak['t']:.4g} s{by}")
 
 
 def _body_figure(rep: Report, model, ports, bodies) -> dict:
