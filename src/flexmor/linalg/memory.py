@@ -46,11 +46,11 @@ import numpy as np
 
 from ..errors import OutOfMemoryError, SolverError
 
-__all__ = ["BACKWARD_TARGET", "BASIS_COPIES", "START_RESERVE", "check_basis_memory", "start_room", "FACTOR_MEMORY",
-           "MEMORY_FRACTION", "MEMORY_LIMIT_NAMES", "memory_available", "memory_limits", "describe_memory",
-           "MODE_NAMES", "REFINE_MAX_ITER", "REFINE_RESTART", "REFINE_TOL", "MemoryPlan", "OutOfCore",
-           "describe_factor", "estimate_memory", "factor_record", "matrix_bytes", "norm_bound", "pardiso_estimates",
-           "plan_memory", "refine", "refusal"]
+__all__ = ["ADDRESS_SPACE_OVERHEAD", "BACKWARD_TARGET", "BASIS_COPIES", "START_RESERVE", "check_basis_memory",
+           "start_room", "FACTOR_MEMORY", "MEMORY_FRACTION", "MEMORY_LIMIT_NAMES", "memory_available",
+           "memory_limits", "describe_memory", "MODE_NAMES", "REFINE_MAX_ITER", "REFINE_RESTART", "REFINE_TOL",
+           "MemoryPlan", "OutOfCore", "describe_factor", "estimate_memory", "factor_record", "matrix_bytes",
+           "norm_bound", "pardiso_estimates", "plan_memory", "refine", "refusal"]
 
 log = logging.getLogger(__name__)
 
@@ -111,6 +111,14 @@ class MemoryPlan:
         return self.estimates.get(self.mode)
 
 
+#: Address space kept free under an address-space limit, beyond what the data need: the BLAS
+#: libraries' per-thread buffers (OpenBLAS and MKL take tens of MB per thread on first use, and
+#: abort or spin when they cannot), the C library's per-thread heaps (reserved in 64 MB steps),
+#: thread stacks. Measured: a dense eigen solve after a factorization that left ~120 MB spun
+#: without end; 256 MB left, none did.
+ADDRESS_SPACE_OVERHEAD = 256 * 2**20
+
+
 def _proc_field(path: str, key: str) -> float | None:
     """The value in bytes of ``key:`` (given in kB) in a /proc file, or None."""
     try:
@@ -162,15 +170,16 @@ def _cgroup_room() -> float | None:
 def memory_limits() -> dict:
     """Bytes of memory the process can still allocate, by what bounds it: ``machine``
     (``MemAvailable`` of /proc/meminfo), ``address_space`` (the soft ``RLIMIT_AS``, ``ulimit -v``,
-    less the process's ``VmSize``), ``cgroup`` (its memory limit less its usage); None where
-    unknown or unlimited."""
+    less the process's ``VmSize`` and :data:`ADDRESS_SPACE_OVERHEAD`), ``cgroup`` (its memory
+    limit less its usage); None where unknown or unlimited."""
     out = {"machine": _proc_field("/proc/meminfo", "MemAvailable"), "address_space": None, "cgroup": _cgroup_room()}
     try:
         import resource
 
         soft = resource.getrlimit(resource.RLIMIT_AS)[0]
         if soft != resource.RLIM_INFINITY:
-            out["address_space"] = max(float(soft) - (_proc_field("/proc/self/status", "VmSize") or 0.0), 0.0)
+            used = _proc_field("/proc/self/status", "VmSize") or 0.0
+            out["address_space"] = max(float(soft) - used - ADDRESS_SPACE_OVERHEAD, 0.0)
     except (ImportError, OSError, ValueError):
         pass
     return out
@@ -212,12 +221,10 @@ def refusal(n: int, backend: str, estimates: dict, available: float, others=()) 
         + f", but only {_mb(available)} of memory are available{_bound(available)}; {hint}")
 
 
-#: Address space a job needs beyond what a started process has mapped, whatever its size: the
-#: solver libraries loaded on first use (MKL for PARDISO: ~350 MB of mappings), the BLAS libraries'
-#: per-thread buffers (OpenBLAS takes tens of MB per thread on first use, and ends the process
-#: when it cannot), the C library's per-thread heaps (reserved in 64 MB steps). Below it a job
-#: cannot start.
-START_RESERVE = 512 * 2**20
+#: Address space a job needs beyond what a started process has mapped (and the overhead), whatever
+#: its size: the solver libraries loaded on first use (MKL for PARDISO: ~350 MB of mappings). Below
+#: it a job cannot start.
+START_RESERVE = 384 * 2**20
 
 
 def start_room() -> str | None:
