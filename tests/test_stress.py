@@ -389,3 +389,26 @@ def test_report_states_the_largest_von_mises_stress_of_its_time_responses(tmp_pa
     assert peak["input"] == "TIP:y" and "largest von Mises stress of the time responses" in \
         (tmp_path / "r.html").read_text()
 
+
+
+def test_sid_frame_nodes_carry_their_modal_stresses(tmp_path, capsys):
+    from helpers import CLAMPED, run_json
+
+    from flexmor.io.sid import read_sid
+
+    run_json(capsys, "reduce", CLAMPED, "--units", "SI", "--method", "modal", "--order", "6", "--input", "TIP:y",
+             "--no-error", "--stress", "-o", tmp_path / "m.h5")
+    body = flexmor.io.read_body(tmp_path / "m.h5")
+    node = int(body.stress_nodes[len(body.stress_nodes) // 2])
+    run_json(capsys, "export", tmp_path / "m.h5", "--model", CLAMPED, "--node", str(node), "--allow-clamped",
+             "-o", tmp_path / "m.SID_FEM")
+    sid = read_sid(tmp_path / "m.SID_FEM")
+    nd = next(n for n in sid.nodes if n.id == node)
+    want = body.stress_modes[:, list(body.stress_nodes).index(node), :].T  # (6, r)
+    assert nd.sigma is not None and nd.sigma.m1.shape == (6, 1, 6)
+    np.testing.assert_allclose(nd.sigma.m1[:, 0, :], want, rtol=1e-15, atol=1e-15 * np.abs(want).max())
+    assert not np.any(nd.sigma.m0)
+    run_json(capsys, "export", tmp_path / "m.h5", "--model", CLAMPED, "--node", str(node), "--allow-clamped",
+             "--export-units", "mm-t-s", "-o", tmp_path / "mm.SID_FEM")
+    mm = next(n for n in read_sid(tmp_path / "mm.SID_FEM").nodes if n.id == node)
+    np.testing.assert_allclose(mm.sigma.m1, 1e-6 * nd.sigma.m1, rtol=1e-14)  # Pa -> MPa (N/mm^2)

@@ -79,7 +79,7 @@ def _taylor(m0, m1=None, nq=0, *, sym=False):
 SID_DIMENSIONS = {
     "mass": (0, 1, 0), "mdCM": (1, 1, 0), "J": (2, 1, 0), "Ct": (1, 1, 0), "Cr": (2, 1, 0), "Me": (2, 1, 0),
     "Gr": (2, 1, 0), "Ge": (2, 1, 0), "Oe": (2, 1, 0), "ksigma": (2, 1, -2), "Ke": (2, 1, -2), "De": (2, 1, -1),
-    "origin": (1, 0, 0), "phi": (1, 0, 0), "psi": (0, 0, 0), "AP": (0, 0, 0),
+    "origin": (1, 0, 0), "phi": (1, 0, 0), "psi": (0, 0, 0), "AP": (0, 0, 0), "sigma": (-1, 1, -2),
 }
 
 
@@ -93,7 +93,8 @@ def sid_in_units(sid: SIDFile, units) -> SIDFile:
         return Taylor(system.from_si(t.m0, *dims), None if t.m1 is None else system.from_si(t.m1, *dims), t.nq,
                       t.structure, t.nqn)
 
-    nodes = [SIDNode(n.id, *(scaled(getattr(n, k), k) for k in NODE_OBJECTS), rframe=n.rframe) for n in sid.nodes]
+    nodes = [SIDNode(n.id, *(scaled(getattr(n, k), k) for k in NODE_OBJECTS), rframe=n.rframe,
+                     sigma=None if n.sigma is None else scaled(n.sigma, "sigma")) for n in sid.nodes]
     return SIDFile(mass=float(system.from_si(sid.mass, *SID_DIMENSIONS["mass"])), ielastq=list(sid.ielastq),
                    nodes=nodes, objects={k: scaled(t, k) for k, t in sid.objects.items()}, header=sid.header)
 
@@ -146,11 +147,17 @@ def sid_from_reduced(body, model, *, nodes=None, remove_rigid: bool = False, uni
     fn = frame_nodes(model, V, nodes, body, masters=xb.masters)
     inv = compute_invariants(model, V, K=body.K, D=body.D, nodes=fn)
     r = V.shape[1]
+    stressed = {} if body.stress_modes is None or body.stress_nodes is None else \
+        {int(n): i for i, n in enumerate(body.stress_nodes)}
     sid_nodes = []
     for nd in fn:
         ap1 = np.stack([_skew(nd.psi[:, a]) for a in range(r)], axis=2)
+        sigma = None
+        if nd.id in stressed:  # the node's modal stresses (reduce --stress)
+            sigma = _taylor(np.zeros((6, 1)), np.asarray(body.stress_modes)[:, stressed[nd.id], :].T[:, None, :], r)
         sid_nodes.append(SIDNode(nd.id, _taylor(nd.origin[:, None], nd.phi[:, None, :], r),
-                                 _taylor(nd.phi, nq=r), _taylor(nd.psi, nq=r), _taylor(np.eye(3), ap1, r)))
+                                 _taylor(nd.phi, nq=r), _taylor(nd.psi, nq=r), _taylor(np.eye(3), ap1, r),
+                                 sigma=sigma))
 
     def jv(J):
         return np.array([J[0, 0], J[1, 1], J[2, 2], J[0, 1], J[0, 2], J[1, 2]])
@@ -235,6 +242,8 @@ def sid_text(sid: SIDFile, *, m1_order: str = "row-q-col") -> str:
         L.append(_kv(21, "rframe", f"    {nd.rframe}"))
         for name in NODE_OBJECTS:
             _write_taylor(L, name, getattr(nd, name), 21, m1_order)
+        if nd.sigma is not None:
+            _write_taylor(L, "sigma", nd.sigma, 21, m1_order)
         L.append(" " * 16 + "end node")
     L.append(" " * 11 + "end frame ")
     for name in BODY_OBJECTS:

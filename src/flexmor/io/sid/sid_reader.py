@@ -16,7 +16,7 @@ import numpy as np
 
 from ...errors import OptionError, ReadError
 from .._open import read_all
-from .sid_types import BODY_OBJECTS, M1_ORDERS, NODE_OBJECTS, SIDFile, SIDNode, Taylor
+from .sid_types import BODY_OBJECTS, M1_ORDERS, NODE_OBJECTS, NODE_OPTIONAL, SIDFile, SIDNode, Taylor
 
 __all__ = ["read_sid"]
 
@@ -109,7 +109,7 @@ class _Scan:
             self._end(ln, s.lower()[3:].strip())
         elif not self._key_value(ln, s):
             name = s.split()[0]
-            if name in (NODE_OBJECTS if self.node is not None else BODY_OBJECTS):
+            if name in (NODE_OBJECTS + NODE_OPTIONAL if self.node is not None else BODY_OBJECTS):
                 self.obj = {"name": name, "h": {}, "m0": [], "m1": [], "line": ln}
             else:
                 self.stack.append(s.lower())
@@ -213,7 +213,7 @@ def _sid_file(scan: _Scan, m1_order: str) -> SIDFile:
         miss = [n for n in NODE_OBJECTS if n not in nd["objs"]]
         if miss:
             raise ReadError(path, f"node {nd['id']} lacks {', '.join(miss)}", line=nd["line"])
-        t = {n: _finish(path, nd["objs"][n], m1_order) for n in NODE_OBJECTS}
+        t = {n: _finish(path, nd["objs"][n], m1_order) for n in NODE_OBJECTS + NODE_OPTIONAL if n in nd["objs"]}
         nodes.append(SIDNode(nd["id"], rframe=nd["rframe"], **t))
     nq = scan.nelastq if scan.nelastq is not None else objects["Me"].m0.shape[0]
     names = [scan.ielastq.get(a + 1, f"q{a + 1}") for a in range(nq)]

@@ -13,12 +13,14 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-__all__ = ["BODY_OBJECTS", "M1_ORDERS", "NODE_OBJECTS", "SIDFile", "SIDNode", "Taylor"]
+__all__ = ["BODY_OBJECTS", "M1_ORDERS", "NODE_OBJECTS", "NODE_OPTIONAL", "SIDFile", "SIDNode", "Taylor"]
 
 #: Index orders of ``m1(i, j, k)`` entries; the first is the default.
 M1_ORDERS = ("row-q-col", "row-col-q")
 BODY_OBJECTS = ("mdCM", "J", "Ct", "Cr", "Me", "Gr", "Ge", "Oe", "ksigma", "Ke", "De")
 NODE_OBJECTS = ("origin", "phi", "psi", "AP")
+#: Node objects a node may hold: its modal stresses.
+NODE_OPTIONAL = ("sigma",)
 
 
 @dataclass
@@ -51,7 +53,9 @@ class Taylor:
 
 @dataclass
 class SIDNode:
-    """A frame node: ``origin`` (3x1, order 1), ``phi``, ``psi`` (3 x nq), ``AP`` (3x3, order 1)."""
+    """A frame node: ``origin`` (3x1, order 1), ``phi``, ``psi`` (3 x nq), ``AP`` (3x3, order 1),
+    and, where the body holds stress modes there, ``sigma`` (6x1, order 1: ``m1(i, 1, k)`` the
+    stress component i (xx yy zz xy yz zx) of modal coordinate k; ``m0`` the reference stress, zero)."""
 
     id: int
     origin: Taylor
@@ -59,6 +63,7 @@ class SIDNode:
     psi: Taylor
     AP: Taylor
     rframe: str = "body ref"
+    sigma: Taylor | None = None
 
 
 @dataclass
