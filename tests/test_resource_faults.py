@@ -179,3 +179,13 @@ def test_sigkill_at_any_moment_leaves_no_file_or_a_complete_one(tmp_path):
         else:
             outcomes.append("none")
     assert set(outcomes) <= {"complete", "none"}
+
+
+def test_a_full_disk_ends_the_fmu_export_with_one_line(bodies, tmp_path):
+    import shutil
+
+    if shutil.which("cc") is None and shutil.which("gcc") is None:
+        pytest.skip("no C compiler: the FMU export is refused before it writes")
+    proc = _limited(["export", bodies / "k.h5", "-o", tmp_path / "b.fmu"], cwd=tmp_path, file_size=2048)
+    line = _one_error_line(proc)
+    assert "cannot write" in line and "file too large" in line and list(tmp_path.iterdir()) == []

@@ -67,7 +67,7 @@ from .._version import __version__
 from ..errors import FlexmorError, ModelError
 from ..model import DIRECTIONS
 from ._registry import EXPORT_FORMATS
-from .atomic import atomic_write
+from .atomic import atomic_write, write_failure
 from .statespace import state_space
 
 __all__ = ["FMUVariables", "find_compiler", "fmu_source", "fmu_variables", "model_description", "write_fmu"]
@@ -370,7 +370,10 @@ def _default_experiment(body) -> str:
 
 def _compile(cc: list[str], source: str, folder: Path, identifier: str, suffix: str) -> Path:
     src = folder / f"{identifier}.c"
-    src.write_text(source)
+    try:
+        src.write_text(source)
+    except OSError as exc:  # the scratch folder: a full disk or the file-size limit
+        raise write_failure(src, exc) from None
     out = folder / f"{identifier}{suffix}"
     cmd = [*cc, "-std=c99", "-O2", "-fPIC", "-shared", "-Wall", "-o", str(out), str(src), "-lm"]
     try:
