@@ -142,7 +142,8 @@ def test_rbe2_interface_reduce_compare_export(capsys, tmp_path):
     out = run_json(capsys, "reduce", CLAMPED, "--method", "craig-bampton", "--order", "10", "--interface", "TIP@rbe2",
                    "--input", "TIP@rbe2:y", "--input", "TIP@rbe2:rz", "--band", "10:3000", "--rayleigh", "0:1e-6",
                    "-o", str(body), "--json")
-    assert out["order"] == 10 and out["info"]["n_interface_dofs"] == 6
+    assert out["info"]["n_interface_dofs"] == 6
+    assert out["order"] == 10 or (out["order"] == 11 and "same frequency" in out["order_note"])  # a whole pair
     assert out["couplings"] == ["TIP@rbe2"] and "couplings" not in out["info"]
     cmp = run_json(capsys, "compare", CLAMPED, str(body), "--band", "10:3000", "--json")
     assert cmp["results"][0]["band_error"] == pytest.approx(out["band_error"], rel=1e-10)

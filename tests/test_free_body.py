@@ -75,7 +75,8 @@ def test_craig_bampton_free_body_upper_bounds_converging(name, coupled, solid):
     for r in (16, 24, 36):
         red = reduce(model, "craig-bampton", r, ports, interface=IFACES)
         # inertia-relief attachment modes in place of the constraint modes: nothing rigid to drop
-        assert red.order == r and red.info["n_rigid_dropped"] == 0 and red.info["attachment"] == "inertia-relief"
+        assert red.order == r or (red.order == r + 1 and "same frequency" in red.order_note)  # a whole pair kept
+        assert red.info["n_rigid_dropped"] == 0 and red.info["attachment"] == "inertia-relief"
         assert rigid_residual(model, red.V) < 1e-12
         f = red.frequencies_hz()[:4]
         assert np.all(f >= ref * (1 - 1e-9))  # Rayleigh-Ritz: upper bounds of the free-free ones

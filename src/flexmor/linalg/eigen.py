@@ -16,6 +16,7 @@ from .distributed import is_partitioned
 from .factorize import factorize
 
 __all__ = ["eigenmodes", "dense_eigenmodes", "default_shift", "rigid_body_threshold", "is_rigid", "frequencies_hz",
+           "whole_clusters", "CLUSTER_RTOL",
            "DENSE_LIMIT", "METHODS", "MASS_RCOND_MIN", "RESIDUAL_MAX"]
 
 log = logging.getLogger(__name__)
@@ -258,6 +259,22 @@ def _check_residuals(Kd, Md, lam, phi) -> None:
 
 def _dense(A):
     return A.toarray() if sp.issparse(A) or is_partitioned(A) else np.asarray(A)
+
+
+#: Eigenvalues closer than this (relative) are one multiple eigenvalue: their eigenvectors are any
+#: basis of one space (a symmetric section's bending pair), chosen by round-off.
+CLUSTER_RTOL = 1e-8
+
+
+def whole_clusters(lam, k: int) -> int:
+    """The smallest ``k' >= k`` at which the ascending eigenvalues ``lam`` (at least ``k + 1`` of
+    them, else ``k``) do not split a multiple eigenvalue (:data:`CLUSTER_RTOL`): cutting a pair
+    at equal frequency keeps one vector of it, chosen by round-off, so that the basis would
+    differ from machine to machine."""
+    lam = np.asarray(lam, float)
+    while 0 < k < lam.size and abs(lam[k] - lam[k - 1]) <= CLUSTER_RTOL * max(abs(lam[k]), abs(lam[k - 1])):
+        k += 1
+    return k
 
 
 def frequencies_hz(lam) -> np.ndarray:

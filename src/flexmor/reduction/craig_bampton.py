@@ -9,13 +9,14 @@ import numpy as np
 from ..basis import Basis
 from ..errors import OptionError, check_choice
 from ..linalg.context import SolverContext, as_solver
-from ..linalg.eigen import eigenmodes, frequencies_hz
+from ..linalg.eigen import eigenmodes, frequencies_hz, whole_clusters
 from ..ports import interface_dofs
 from ..rigid import rigid_body_modes
 from ._options import interface_option, rigid_option
 from ._registry import register_method
 from .free_body import inertia_relief_modes
 from .guyan import constraint_modes
+from .modal import CLUSTER_MARGIN, cluster_note
 
 #: How a CMS method treats the constraint modes of a free body whose rigid motion it excludes:
 #: ``inertia-relief`` replaces them by the interface's inertia-relief attachment modes
@@ -140,14 +141,21 @@ def craig_bampton(model, ports, order, *, interface=None, rigid: str = "exclude"
     V, b, i, F, info = cb_frame(model, interface, order, "craig-bampton", solver, rigid)
     n_modes = V.shape[1] - b.size
     freqs = []
+    cluster = None
     if n_modes:
         Kii = model.K[i][:, i]
         Mii = model.M[i][:, i]
-        lam, phi = eigenmodes(Kii, Mii, n_modes, sigma=0.0, factorization=F, solver=solver)
-        V[i, b.size:] = phi
-        freqs = frequencies_hz(lam).tolist()
+        k = min(i.size, n_modes + CLUSTER_MARGIN)  # a few more: does n_modes cut a multiple eigenvalue?
+        lam, phi = eigenmodes(Kii, Mii, k, sigma=0.0, factorization=F, solver=solver)
+        whole = whole_clusters(lam, n_modes) if k > n_modes else n_modes
+        if whole > n_modes and whole < k:  # keep the whole set (else, rarely, the cut stays)
+            cluster = cluster_note(b.size + n_modes, b.size + whole, frequencies_hz(lam)[n_modes - 1])
+            V = np.hstack([V, np.zeros((V.shape[0], whole - n_modes))])
+            n_modes = whole
+        V[i, b.size:] = phi[:, :n_modes]
+        freqs = frequencies_hz(lam[:n_modes]).tolist()
     info.update(n_modes=int(n_modes), fixed_interface_hz=freqs, nested=True)
-    note = cb_order_note(order, b.size, n_modes, i.size, info.get("n_rigid", 0))
+    note = cb_order_note(order, b.size, n_modes, i.size, info.get("n_rigid", 0)) or cluster
     if note:
         info["order_note"] = note
     return Basis(V, "craig-bampton", info)

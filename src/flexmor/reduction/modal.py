@@ -11,7 +11,7 @@ from ..basis import Basis
 from ..checks import MAX_RIGID_BODY_MODES, mechanism_error
 from ..errors import OptionError, check_choice
 from ..linalg.context import SolverContext, as_solver
-from ..linalg.eigen import eigenmodes, frequencies_hz, is_rigid
+from ..linalg.eigen import eigenmodes, frequencies_hz, is_rigid, whole_clusters
 from ..options import option
 from ._options import rigid_option
 from ._registry import register_method
@@ -68,19 +68,34 @@ def modal(model, ports, order, *, rigid: str = "exclude", sigma: float | None = 
     n = model.n_dof
     if order > n:
         raise OptionError(f"order {order} exceeds the number of DOF {n}", params=("order",))
-    extra = 6 if rigid == "exclude" else 0
+    extra = (6 if rigid == "exclude" else 0) + CLUSTER_MARGIN  # beyond the order: a pair cut at the order shows
     while True:
         k = min(n, order + extra)
         lam, phi = eigenmodes(model.K, model.M, k, sigma=sigma, solver=solver)
         is_rb = is_rigid(lam, model.K, model.M)
         n_rb = int(is_rb.sum())
-        if rigid == "include" or k - n_rb >= order or k == n:
+        keep = ~is_rb if rigid == "exclude" else np.ones(lam.size, bool)
+        whole = whole_clusters(lam[keep], order)
+        if k == n or (keep.sum() > whole and (rigid == "include" or k - n_rb >= order)):
             break
-        extra = n_rb + 6
+        extra = n_rb + 6 + CLUSTER_MARGIN + (whole - order)
     if n_rb > MAX_RIGID_BODY_MODES:
         raise mechanism_error(model, n_rb)
-    keep = ~is_rb if rigid == "exclude" else np.ones(lam.size, bool)
-    lam, phi = lam[keep][:order], phi[:, keep][:, :order]
+    lam, phi = lam[keep][:whole], phi[:, keep][:, :whole]
     if lam.size < order:
         raise OptionError(f"only {lam.size} flexible modes exist; order {order} is too large")
-    return Basis(phi, "modal", {"n_rigid": n_rb, "rigid": rigid, "frequencies_hz": frequencies_hz(lam).tolist()})
+    info = {"n_rigid": n_rb, "rigid": rigid, "frequencies_hz": frequencies_hz(lam).tolist()}
+    if lam.size > order:
+        info["order_note"] = cluster_note(order, lam.size, frequencies_hz(lam)[order - 1])
+    return Basis(phi, "modal", info)
+
+
+#: Eigenpairs computed beyond the order, to see whether the order cuts a multiple eigenvalue.
+CLUSTER_MARGIN = 3
+
+
+def cluster_note(order: int, got: int, f_hz: float) -> str:
+    """The ``order_note`` of a basis that keeps a whole multiple eigenvalue the order would cut."""
+    return (f"order {got} instead of {order}: mode {order} has {got - order} more at the same frequency "
+            f"({f_hz:.6g} Hz, a multiple eigenvalue such as a symmetric section's bending pair); the whole set is "
+            "kept, since a cut inside it would keep a vector chosen by round-off")
