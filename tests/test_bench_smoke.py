@@ -16,7 +16,7 @@ def test_scale_benchmark_smoke_run(tmp_path):
     (row,) = json.loads(out.read_text())
     assert row["n_dof"] == 3000 and row["backend"]
     m = row["methods"]
-    assert m["modal"]["order"] == 12 and m["modal"]["factorizations"] == 1
+    assert m["modal"]["order"] in (12, 13) and m["modal"]["factorizations"] == 1  # 13: a bending pair kept whole
     # krylov: one factorization per expansion point; the default single point passes its check here
     # (estimated band error 2.8e-9), so one factorization, as with the point given explicitly
     assert m["krylov"]["order"] == 36 and m["krylov"]["factorizations"] == 1

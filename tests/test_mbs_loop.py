@@ -56,8 +56,8 @@ def test_craig_bampton_and_krylov_follow_the_full_body(pendulum):
     FE model, what is left is the truncation of modes far above the excitation (the joint
     force and gravity vary at the pendulum's few Hz, the body's modes start at 70 Hz)."""
     _, rows = pendulum
-    for method in ("craig-bampton", "krylov"):
-        assert rows[method]["order"] == 18
+    for method in ("craig-bampton", "krylov"):  # (craig-bampton: 19 when its 18th cuts a bending pair)
+        assert rows[method]["order"] == 18 or (method == "craig-bampton" and rows[method]["order"] == 19)
         assert rows[method]["mean_error"] < 1e-2, method
         assert rows[method]["max_error"] < 2e-2, method
     # moment matching of the joint force beats the lowest free-free modes of equal order

@@ -112,7 +112,7 @@ def reduce_to_tolerance(model, method: str, ports, *, tol: float, full, max_orde
             if body is None:
                 body = reduce(model, method, r, ports, solver=solver, **options)
             value = getattr(full.evaluate(body), measure)
-            note["result"] = f"{measure} {value:.3g}" + (f" (order {red.order})" if body.order != r else "")
+            note["result"] = f"{measure} {value:.3g}" + (f" (order {body.order})" if body.order != r else "")
         return value, body
 
     def error(r):
