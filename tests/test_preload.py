@@ -10,10 +10,11 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from helpers import run, run_json
 from scipy.integrate import quad
 
 from flexmor.errors import ModelError
-from flexmor.io import read
+from flexmor.io import read, read_body
 from flexmor.linalg.eigen import eigenmodes
 from flexmor.preload import (
     geometric_stiffness,
@@ -21,6 +22,7 @@ from flexmor.preload import (
     preload_load,
     preload_stiffness,
     spin_softening,
+    with_preload,
 )
 from flexmor.stress import INTEGRATION_WEIGHTS
 
@@ -115,7 +117,7 @@ def test_spin_softening_is_minus_the_centrifugal_mass(free):
 def test_free_model_is_refused(free):
     with pytest.raises(ModelError, match="supported model.*moves freely") as err:
         preload_stiffness(free, "spin:0,0,100")
-    assert "preloads" in err.value.params
+    assert "spec" in err.value.params
 
 
 @pytest.mark.parametrize("spec, words", [("TIP:x", "NODE:DIR=F"), ("TIP:rx=3", "direction x, y or z"),
@@ -131,3 +133,50 @@ def test_unknown_set_and_missing_elements(clamped):
         preload_stiffness(clamped, "NOPE:x=1")
     with pytest.raises(ModelError, match="no elements"):
         preload_stiffness(dataclasses.replace(clamped, elements=None), "TIP:x=1")
+
+
+# -- command line -------------------------------------------------------------------------------------
+def test_info_shows_frequencies_with_and_without_the_preload(capsys, clamped):
+    out = run_json(capsys, "info", DATA / "beam8_clamped_mat.sti", "--preload", "TIP:x=4e5", "--preload", "TIP:x=1e5",
+                   "--modes", "4")
+    pre = out["preload"]
+    assert pre["specs"] == ["TIP:x=4e5", "TIP:x=1e5"]
+    lam = eigenmodes(preload_stiffness(clamped, "TIP:x=5e5").K, clamped.M, 4)[0]
+    assert np.allclose(out["frequencies_hz"], np.sqrt(lam) / (2 * np.pi), rtol=1e-8)
+    lam0 = eigenmodes(clamped.K, clamped.M, 4)[0]
+    assert np.allclose(pre["frequencies_unloaded_hz"], np.sqrt(lam0) / (2 * np.pi), rtol=1e-8)
+    assert out["frequencies_hz"][0] > 1.025 * pre["frequencies_unloaded_hz"][0]
+    code, text, _ = run(capsys, "info", DATA / "beam8_clamped_mat.sti", "--preload", "TIP:x=-5e5", "--modes", "2")
+    assert code == 0
+    assert "preload   TIP:x=-5e5" in text and "without preload" in text and "-3." in text
+
+
+def test_reduce_projects_the_preloaded_stiffness(capsys, tmp_path, clamped):
+    body = tmp_path / "pre.h5"
+    run_json(capsys, "reduce", DATA / "beam8_clamped_mat.sti", "--method", "modal", "--order", "4", "--input",
+             "TIP:y", "--preload", "gravity:0,0,-9.81", "--preload", "TIP:x=5e5", "--no-error", "-o", body)
+    red = read_body(body)
+    K = preload_stiffness(clamped, ["gravity:0,0,-9.81", "TIP:x=5e5"]).K
+    assert np.allclose(red.K, red.V.T @ (K @ red.V), rtol=1e-9, atol=1e-9 * np.abs(red.K).max())
+    assert red.info["preload"]["specs"] == ["gravity:0,0,-9.81", "TIP:x=5e5"]
+    assert red.info["preload"]["spin_softening"] is False
+    # judged against the model with the same preload; the model as read is another one
+    assert run(capsys, "compare", DATA / "beam8_clamped_mat.sti", body, "--preload", "gravity:0,0,-9.81",
+               "--preload", "TIP:x=5e5")[0] == 0
+    code, _, err = run(capsys, "compare", DATA / "beam8_clamped_mat.sti", body)
+    assert code != 0 and "different stiffness matrix K" in err
+
+
+def test_command_line_refusals_name_the_flag(capsys):
+    code, _, err = run(capsys, "info", DATA / "beam8_free_mat.sti", "--preload", "spin:0,0,10", "--modes", "2")
+    assert code != 0 and "--preload 'spin:0,0,10' needs a supported model" in err
+    code, _, err = run(capsys, "info", DATA / "beam8_clamped_mat.sti", "--preload", "TIP:x")
+    assert code != 0 and "--preload 'TIP:x': give NODE:DIR=F" in err
+
+
+def test_with_preload_records_and_refuses_a_second_time(clamped):
+    pre = with_preload(clamped, "TIP:x=5e5")
+    assert pre.preload["specs"] == ["TIP:x=5e5"] and clamped.preload is None
+    assert abs(pre.K - preload_stiffness(clamped, "TIP:x=5e5").K).max() == 0
+    with pytest.raises(ModelError, match="preloaded already"):
+        with_preload(pre, "TIP:x=1")

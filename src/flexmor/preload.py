@@ -43,7 +43,7 @@ from .errors import ModelError
 from .stress import integration_points
 
 __all__ = ["Preload", "Preloaded", "geometric_stiffness", "parse_preload", "preload_load",
-           "preload_stiffness", "spin_softening"]
+           "preload_stiffness", "spin_softening", "with_preload"]
 
 @dataclass(frozen=True)
 class Preload:
@@ -106,10 +106,10 @@ _NUMBER = r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eEdD][-+]?\d+)?"
 def _vector(text: str, spec: str, what: str) -> np.ndarray:
     parts = [p.strip() for p in text.split(",")]
     if len(parts) != 3 or not all(re.fullmatch(_NUMBER, p) for p in parts):
-        raise ModelError(f"preload {spec!r}: {what} needs three numbers X,Y,Z, got {text!r}", params=("preloads",))
+        raise ModelError(f"spec {spec!r}: {what} needs three numbers X,Y,Z, got {text!r}", params=("spec",))
     v = np.array([float(p.replace("d", "e").replace("D", "e")) for p in parts])
     if not np.all(np.isfinite(v)):
-        raise ModelError(f"preload {spec!r}: {what} must be finite", params=("preloads",))
+        raise ModelError(f"spec {spec!r}: {what} must be finite", params=("spec",))
     return v
 
 
@@ -128,13 +128,13 @@ def parse_preload(spec: str) -> Preload:
         return Preload(key, text, "", _vector(rest, text, "gravity" if key == "gravity" else "the angular velocity"))
     target, eq, value = text.rpartition("=")
     if not eq or ":" not in target:
-        raise ModelError(f"preload {text!r}: give NODE:DIR=F or SET:DIR=F (a total force), gravity:GX,GY,GZ or "
-                         "spin:WX,WY,WZ", params=("preloads",))
+        raise ModelError(f"spec {text!r}: give NODE:DIR=F or SET:DIR=F (a total force), gravity:GX,GY,GZ or "
+                         "spin:WX,WY,WZ", params=("spec",))
     d = target.rpartition(":")[2].strip().lower()
     if d not in ("x", "y", "z"):
-        raise ModelError(f"preload {text!r}: a force needs the direction x, y or z, got {d!r}", params=("preloads",))
+        raise ModelError(f"spec {text!r}: a force needs the direction x, y or z, got {d!r}", params=("spec",))
     if not re.fullmatch(_NUMBER, value.strip()):
-        raise ModelError(f"preload {text!r}: the force {value.strip()!r} is not a number", params=("preloads",))
+        raise ModelError(f"spec {text!r}: the force {value.strip()!r} is not a number", params=("spec",))
     return Preload("force", text, target.strip(), np.array([float(value.strip().replace("d", "e").replace("D", "e"))]))
 
 
@@ -172,8 +172,8 @@ def spin_softening(model, w) -> sp.csr_matrix:
     return sp.csr_matrix(-(P.T @ model.M @ P))
 
 
-def preload_load(model, specs) -> tuple[np.ndarray, list]:
-    """The static load vector of preload SPECs and their parsed forms.
+def preload_load(model, spec) -> tuple[np.ndarray, list]:
+    """The static load vector of preload SPECs (one string or several) and their parsed forms.
 
     Returns
     -------
@@ -187,11 +187,10 @@ def preload_load(model, specs) -> tuple[np.ndarray, list]:
     """
     from .ports import make_ports
 
-    if isinstance(specs, str):
-        specs = [specs]
+    specs = [spec] if isinstance(spec, str) else list(spec)
     preloads = [parse_preload(s) for s in specs]
     if not preloads:
-        raise ModelError("no preload given", params=("preloads",))
+        raise ModelError("spec names no preload", params=("spec",))
     if model.dofs is None or model.n_nodes == 0:
         raise ModelError(f"{_name(model)}: a preload needs the model's nodes and equation map", params=("model",))
     if model.node_frames:
@@ -275,7 +274,7 @@ def _check_supported(model, what: str) -> None:
         names = np.array(["x", "y", "z", "rx", "ry", "rz"])[used][free]
         raise ModelError(f"{_name(model)}: {what} needs a supported model, but it moves freely ({', '.join(names)}"
                          " without strain): constrain it (a *BOUNDARY at the hub or a clamp) before preloading",
-                         params=("preloads",))
+                         params=("spec",))
 
 
 def preload_stiffness(model, spec, *, material=None, solver=None) -> Preloaded:
@@ -312,7 +311,7 @@ def preload_stiffness(model, spec, *, material=None, solver=None) -> Preloaded:
     specs = [spec] if isinstance(spec, str) else list(spec)
     F, preloads = preload_load(model, specs)
     next(integration_points(model, np.zeros(model.n_dof), material=material), None)  # elements checked
-    _check_supported(model, "preload " + ", ".join(repr(p.spec) for p in preloads))
+    _check_supported(model, "spec " + ", ".join(repr(p.spec) for p in preloads))
     u = factorize(model.K, solver=solver, positive=True).solve(F)
     u = np.asarray(u, dtype=np.float64).reshape(-1)
     KG = geometric_stiffness(model, u, material=material)
@@ -327,3 +326,39 @@ def preload_stiffness(model, spec, *, material=None, solver=None) -> Preloaded:
     K = sp.csr_matrix(K)
     K = (K + K.T) * 0.5
     return Preloaded(sp.csr_matrix(K), KG, soft, u, F, specs)
+
+
+def with_preload(model, spec, *, material=None, solver=None):
+    """``model`` with its stiffness about the equilibrium under the preloads ``spec``.
+
+    Parameters
+    ----------
+    model : FEModel
+        Supported, with the elements and materials of its deck (as read: before couplings).
+    spec : str or sequence of str
+        Preload SPECs (:func:`preload_stiffness`), in the model's units (SI when it was read in
+        a named unit system).
+    material : Material or tuple, optional
+        ``(E, nu[, rho])`` for every element, in place of the deck's materials.
+    solver : SolverContext, optional
+        The backend of the static solve.
+
+    Returns
+    -------
+    FEModel
+        A copy whose ``K`` is ``K + K_G`` (with the spin softening of a ``spin:`` preload) and whose
+        ``preload`` is the record of :meth:`Preloaded.record` (bodies reduced from it carry it in
+        their ``info``).
+
+    Raises
+    ------
+    ModelError
+        As :func:`preload_stiffness`; also a model that is preloaded already.
+    """
+    import dataclasses
+
+    if model.preload:
+        raise ModelError(f"{_name(model)} is preloaded already ({', '.join(model.preload.get('specs', []))}); give "
+                         "all its preloads in one spec", params=("spec",))
+    pre = preload_stiffness(model, spec, material=material, solver=solver)
+    return dataclasses.replace(model, K=pre.K, preload=pre.record())
