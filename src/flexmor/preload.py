@@ -234,22 +234,38 @@ def geometric_stiffness(model, u, *, material=None) -> sp.csr_matrix:
     ModelError
         As :func:`flexmor.stress.element_stresses`.
     """
-    parts_r, parts_c, parts_v = [], [], []
+    nn, n = model.n_nodes, model.n_dof
+    A = sp.csr_matrix((nn, nn))  # the node-to-node factor, the same in x, y and z
+    eq = np.full((nn, 3), -1, np.int64)
+    parts: list = []
+
+    def flush():
+        nonlocal A
+        if parts:
+            r, c, v = (np.concatenate(x) for x in zip(*parts))
+            A = A + sp.csr_matrix((v, (r, c)), shape=(nn, nn))
+            parts.clear()
+
+    size = 0
     for ch in integration_points(model, u, material=material):
         c = ch.ids.size
         S = ch.stress[..., [0, 3, 5, 3, 1, 4, 5, 4, 2]].reshape(c, -1, 3, 3)
         G = ch.gradients
         Ke = np.einsum("cpia,cpij,cpjb,cp->cab", G, S, G, ch.volumes, optimize=True)  # (c, k, k)
-        for i in range(3):
-            ei = ch.equations[:, :, i]
-            R = np.broadcast_to(ei[:, :, None], Ke.shape)
-            C = np.broadcast_to(ei[:, None, :], Ke.shape)
-            ok = (R >= 0) & (C >= 0)
-            parts_r.append(R[ok])
-            parts_c.append(C[ok])
-            parts_v.append(Ke[ok])
-    n = model.n_dof
-    KG = sp.csr_matrix((np.concatenate(parts_v), (np.concatenate(parts_r), np.concatenate(parts_c))), shape=(n, n))
+        eq[ch.rows] = ch.equations
+        k = ch.rows.shape[1]
+        parts.append((np.repeat(ch.rows, k, axis=1).ravel(), np.tile(ch.rows, (1, k)).ravel(), Ke.ravel()))
+        size += Ke.size
+        if size > 1 << 23:
+            flush()
+            size = 0
+    flush()
+    KG = sp.csr_matrix((n, n))
+    for i in range(3):  # K_G[(a, i), (b, i)] = A[a, b] on the equations
+        has = np.flatnonzero(eq[:, i] >= 0)
+        E = sp.csr_matrix((np.ones(has.size), (eq[has, i], has)), shape=(n, nn))
+        KG = KG + E @ A @ E.T
+    KG = sp.csr_matrix(KG)
     KG.sum_duplicates()
     return KG
 

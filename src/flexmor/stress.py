@@ -525,6 +525,8 @@ class PointChunk:
     type : str
         CalculiX element type.
     ids : ndarray of int, shape (c,)
+    rows : ndarray of int, shape (c, k)
+        The rows of the element nodes in the model's node table.
     equations : ndarray of int, shape (c, k, 3)
         The equation of each node's x y z, -1 where the direction is not an equation.
     gradients : ndarray, shape (c, p, 3, k)
@@ -537,6 +539,7 @@ class PointChunk:
 
     type: str
     ids: np.ndarray
+    rows: np.ndarray
     equations: np.ndarray
     gradients: np.ndarray
     volumes: np.ndarray
@@ -584,7 +587,7 @@ def integration_points(model, u, *, material=None):
             eps = np.stack([H[..., 0, 0], H[..., 1, 1], H[..., 2, 2], H[..., 1, 0] + H[..., 0, 1],
                             H[..., 2, 1] + H[..., 1, 2], H[..., 0, 2] + H[..., 2, 0]], axis=-1)
             stress = np.einsum("cij,cpj->cpi", D[b.material[sl]], eps)
-            yield PointChunk(b.type, b.ids[sl], disp.eq[rows], G, dv, stress)
+            yield PointChunk(b.type, b.ids[sl], rows, disp.eq[rows], G, dv, stress)
 
 
 def _nodal(model, u, material, nodes, stress: bool) -> NodalField:
