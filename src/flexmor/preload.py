@@ -45,6 +45,7 @@ from .stress import integration_points
 __all__ = ["Preload", "Preloaded", "geometric_stiffness", "parse_preload", "preload_load",
            "preload_stiffness", "spin_softening", "with_preload"]
 
+
 @dataclass(frozen=True)
 class Preload:
     """One static load case of a preload SPEC.

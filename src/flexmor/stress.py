@@ -12,6 +12,10 @@ from its 27 points), and each node takes the plain mean over the elements that c
 Nastran and Ansys solids are read as the CalculiX element of the same shape
 (:mod:`flexmor.elements`), so their stresses are those CalculiX would give for that mesh.
 
+:func:`integration_points` gives the elements at their integration points (shape-function
+gradients, the volume each point stands for, the stress of a displacement) for what integrates
+over the elements, such as the geometric stiffness of :mod:`flexmor.preload`.
+
 Components are in :data:`flexmor.elements.VOIGT` order (xx yy zz xy yz zx); strains are tensor
 strains (``eps_xy = gamma_xy / 2``, as CalculiX writes them), stresses in the units of ``E``.
 Shells, beams and springs are refused: CalculiX expands them to solids internally, and their
