@@ -1,8 +1,8 @@
 """Preloaded frequencies against CalculiX: a geometrically nonlinear static step (``*STEP, NLGEOM`` ``*STATIC``)
 under the load, then ``*STEP, PERTURBATION`` ``*FREQUENCY``, against the frequencies of
 :func:`flexmor.preload.preload_stiffness` on the matrices CalculiX stores for the unloaded model
-(``*FREQUENCY, SOLVER=MATRIXSTORAGE``): a clamped steel beam under tip tension and a blade clamped at
-its hub spinning about the z axis."""
+(``*FREQUENCY, SOLVER=MATRIXSTORAGE``): a clamped steel beam under tip tension (C3D20R, C3D20, C3D8, C3D8R,
+C3D4, C3D6) and a blade clamped at its hub spinning about the z axis (C3D20R, C3D10)."""
 
 from __future__ import annotations
 
@@ -35,7 +35,12 @@ def _deck(etype: str, case: str, steps: list) -> tuple[str, int]:
     and the number of tip nodes."""
     n, size, offset = GEOMETRY[case]
     mesh = Mesh(*n, size=size)
-    elems = solid_elements(mesh, etype)
+    # the nodes of the element of the same shape (C3D4: the corners of C3D10)
+    base = {"C3D20": "C3D20R", "C3D4": "C3D10", "C3D8R": "C3D8", "C3D6": "C3D8"}.get(etype, etype)
+    elems = [e[:4] if etype == "C3D4" else e for e in solid_elements(mesh, base)]
+    if etype == "C3D6":  # each hexahedron as two wedges
+        elems = [[e[i] for i in w] for e in solid_elements(mesh, "C3D8")
+                 for w in ((0, 1, 2, 4, 5, 6), (0, 2, 3, 4, 6, 7))]
     ids = np.unique(np.concatenate(elems))
     xyz = mesh.xyz(ids) + np.asarray(offset)
     out = ["*NODE, NSET=NALL"] + [f"{i}, {x:.17g}, {y:.17g}, {z:.17g}" for i, (x, y, z) in zip(ids, xyz)]
@@ -71,7 +76,7 @@ def _compare(tmp_path, etype, case, load_lines, spec, n=4):
     return f0, f, ref, model, pre
 
 
-@pytest.mark.parametrize("etype", ["C3D20R", "C3D8"])
+@pytest.mark.parametrize("etype", ["C3D20R", "C3D20", "C3D8", "C3D8R", "C3D4", "C3D6"])
 def test_beam_under_tip_tension(tmp_path, etype):
     force = 2e5
     tip = _deck(etype, "beam", [])[1]
