@@ -40,8 +40,8 @@ LAYERS = [
     ["flexmor.analysis"],  # judging reduced bodies, assemblies, the body held in its joints
     ["flexmor.reduction"],  # methods -> Basis, METHODS registry, reduce()
     ["flexmor.dynamics", "flexmor.io"],  # FRF, modes, time integration; formats, exporters, invariants
-    ["flexmor.rigid", "flexmor.expansion", "flexmor.modal", "flexmor.stress"],  # rigid motion, elastic body;
-    # expansion; modal form; element stresses and strains
+    ["flexmor.rigid", "flexmor.expansion", "flexmor.modal", "flexmor.stress", "flexmor.preload"],  # rigid motion,
+    # elastic body; expansion; modal form; element stresses and strains; geometric stiffness of preloads
     ["flexmor.projection", "flexmor.body", "flexmor.checks", "flexmor.models"],  # projection; the body; checks; models
     ["flexmor.origin", "flexmor.ports", "flexmor.selection", "flexmor.couplings", "flexmor.basis",
      "flexmor.options"],  # model fingerprint, ports, node sets, RBE2/RBE3, bases, option values

@@ -178,6 +178,9 @@ class FEModel:
         :data:`flexmor.units.SYSTEMS`), whose numbers were converted to SI on reading
         (:func:`flexmor.units.to_si`); None when the file's system was not named: the numbers
         are as given.
+    preload : dict, optional
+        The record of the preloads whose geometric stiffness ``K`` holds
+        (:func:`flexmor.preload.with_preload`: their SPECs ...); None for a model as read.
 
     Raises
     ------
@@ -205,6 +208,7 @@ class FEModel:
     mesh: Mesh | None = None
     units: str | None = None
     elements: Elements | None = None
+    preload: dict | None = None
 
     def __post_init__(self):
         if not isinstance(self.damping, Damping):

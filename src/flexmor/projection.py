@@ -118,6 +118,8 @@ def project(model: FEModel, basis: Basis | np.ndarray, ports: Ports) -> ReducedM
     Br, Cr = ports.reduced(V)
     info = dict(basis.info)
     order_note = info.pop("order_note", None)  # a method's word on the order it returned: a field of the body
+    if getattr(model, "preload", None):  # K holds the geometric stiffness of these preloads
+        info["preload"] = dict(model.preload)
     masters = coupling_masters(model)
     if masters:  # the interfaces of the body: one master id everywhere (info, SID, Exudyn, report)
         info["masters"] = [{"name": m["name"], "id": m["id"], "kind": m["kind"], "xyz": m["xyz"],

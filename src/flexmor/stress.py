@@ -12,6 +12,10 @@ from its 27 points), and each node takes the plain mean over the elements that c
 Nastran and Ansys solids are read as the CalculiX element of the same shape
 (:mod:`flexmor.elements`), so their stresses are those CalculiX would give for that mesh.
 
+:func:`integration_points` gives the elements at their integration points (shape-function
+gradients, the volume each point stands for, the stress of a displacement) for what integrates
+over the elements, such as the geometric stiffness of :mod:`flexmor.preload`.
+
 Components are in :data:`flexmor.elements.VOIGT` order (xx yy zz xy yz zx); strains are tensor
 strains (``eps_xy = gamma_xy / 2``, as CalculiX writes them), stresses in the units of ``E``.
 Shells, beams and springs are refused: CalculiX expands them to solids internally, and their
@@ -28,8 +32,9 @@ import numpy as np
 from .elements import Elements, Material
 from .errors import ModelError
 
-__all__ = ["SOLID_TYPES", "ElementField", "NodalField", "body_stresses", "element_strains", "element_stresses",
-           "nodal_strains", "nodal_stresses", "stress_node_ids", "von_mises"]
+__all__ = ["INTEGRATION_WEIGHTS", "SOLID_TYPES", "ElementField", "NodalField", "PointChunk", "body_stresses",
+           "element_strains", "element_stresses", "integration_points", "nodal_strains", "nodal_stresses",
+           "stress_node_ids", "von_mises"]
 
 #: Element types without stiffness of their own, left out of stress recovery (and of the nodal means).
 IGNORED_TYPES = ("MASS", "ROTARYI")
@@ -225,6 +230,21 @@ _SCHEMES = {
 #: The element types whose strains and stresses are recovered.
 SOLID_TYPES = tuple(_SCHEMES)
 
+_G3W = (5 / 9, 8 / 9, 5 / 9)
+
+#: Weights of the integration points per element type, in the order of the points (their sum is the
+#: volume of the reference element: 8 for hexahedra, 1/6 for tetrahedra, 1 for wedges).
+INTEGRATION_WEIGHTS = {
+    "C3D8": np.ones(8),
+    "C3D8R": np.ones(8),
+    "C3D20": np.array([a * b * c for c in _G3W for b in _G3W for a in _G3W]),
+    "C3D20R": np.ones(8),
+    "C3D4": np.array([1 / 6]),
+    "C3D10": np.full(4, 1 / 24),
+    "C3D6": np.full(2, 0.5),
+    "C3D15": np.array([w / 6 for w in _G3W for _ in range(3)]),
+}
+
 
 # -- results ---------------------------------------------------------------------------------------
 @dataclass(frozen=True)
@@ -391,8 +411,9 @@ def _chunks(n: int, per_element: int):
         yield slice(s, min(s + step, n))
 
 
-def _strains(model, block, disp: _Displacements, sl) -> np.ndarray:
-    """Engineering strains (c, n_points, 6, m) of the elements ``sl`` of ``block``."""
+def _gradients(model, block, sl) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Node rows (c, k), ``dN_a / dx_k`` (c, n_points, 3, k) and Jacobian determinants (c, n_points) of the
+    elements ``sl`` of ``block`` (the scheme's points, before a mean gradient)."""
     sch = _SCHEMES[block.type]
     rows = _rows(model, block.nodes[sl])  # (c, k)
     X = model.xyz[rows]  # (c, k, 3)
@@ -402,7 +423,13 @@ def _strains(model, block, disp: _Displacements, sl) -> np.ndarray:
         e = int(block.ids[sl][np.flatnonzero((det <= 0).any(axis=1))[0]])
         raise ModelError(f"{_source(model)}: {block.type} element {e} has a Jacobian determinant <= 0 at an "
                          "integration point (inverted or degenerate element)")
-    dNdx = np.einsum("pal,cplk->cpka", sch.dN, np.linalg.inv(J))  # (c, p, 3, k): dN_a / dx_k
+    return rows, np.einsum("pal,cplk->cpka", sch.dN, np.linalg.inv(J)), det
+
+
+def _strains(model, block, disp: _Displacements, sl) -> np.ndarray:
+    """Engineering strains (c, n_points, 6, m) of the elements ``sl`` of ``block``."""
+    sch = _SCHEMES[block.type]
+    rows, dNdx, det = _gradients(model, block, sl)  # dNdx (c, p, 3, k): dN_a / dx_k
     if sch.mean:  # the volume mean of the gradient, exact with 2x2x2 points for a trilinear hexahedron
         dNdx = np.einsum("cpka,cp->cka", dNdx, det)[:, None] / det.sum(axis=1)[:, None, None, None]
     c, k = rows.shape
@@ -491,6 +518,80 @@ def element_stresses(model, u, *, material=None) -> list:
         As :func:`element_strains`; also an element without usable material (pass ``material``).
     """
     return _element_field(model, u, material, True)
+
+
+@dataclass(frozen=True)
+class PointChunk:
+    """Elements of one type at their integration points, with the stress of one displacement.
+
+    Attributes
+    ----------
+    type : str
+        CalculiX element type.
+    ids : ndarray of int, shape (c,)
+    rows : ndarray of int, shape (c, k)
+        The rows of the element nodes in the model's node table.
+    equations : ndarray of int, shape (c, k, 3)
+        The equation of each node's x y z, -1 where the direction is not an equation.
+    gradients : ndarray, shape (c, p, 3, k)
+        ``dN_a / dx_j`` at the points (``C3D8R``: one point, the element's mean gradient).
+    volumes : ndarray, shape (c, p)
+        The volume each point stands for (weight times Jacobian determinant).
+    stress : ndarray, shape (c, p, 6)
+        Components :data:`~flexmor.elements.VOIGT`.
+    """
+
+    type: str
+    ids: np.ndarray
+    rows: np.ndarray
+    equations: np.ndarray
+    gradients: np.ndarray
+    volumes: np.ndarray
+    stress: np.ndarray
+
+
+def integration_points(model, u, *, material=None):
+    """The solid elements at their integration points, in chunks that bound the memory.
+
+    Parameters
+    ----------
+    model : FEModel
+        With :attr:`~flexmor.model.FEModel.elements`; nodes with local displacement directions
+        are refused.
+    u : array_like, shape (n_dof,)
+        One displacement vector over the model's equations.
+    material : Material or tuple, optional
+        ``(E, nu[, rho])`` or a :class:`~flexmor.elements.Material` for every element.
+
+    Yields
+    ------
+    PointChunk
+
+    Raises
+    ------
+    ModelError
+        As :func:`element_stresses`.
+    """
+    blocks, el = _blocks(model, material)
+    disp = _displacements(model, np.asarray(u).reshape(-1))
+    if disp.frames is not None:
+        raise ModelError(f"{_source(model)}: nodes with local displacement directions (Nastran CD systems); read "
+                         "the model with directions='basic'", params=("model",))
+    D = np.stack([m.D if m.D is not None else np.zeros((6, 6)) for m in el.materials])
+    for b in blocks:
+        sch = _SCHEMES[b.type]
+        for sl in _chunks(b.ids.size, _per_element(sch, 4)):
+            rows, G, det = _gradients(model, b, sl)
+            dv = det * INTEGRATION_WEIGHTS[b.type]
+            if sch.mean:
+                G = np.einsum("cpka,cp->cka", G, dv)[:, None] / dv.sum(axis=1)[:, None, None, None]
+                dv = dv.sum(axis=1, keepdims=True)
+            c, k = rows.shape
+            H = np.matmul(G, disp.at(rows).reshape(c, 1, k, 3))  # [.., j, i] = du_i / dx_j
+            eps = np.stack([H[..., 0, 0], H[..., 1, 1], H[..., 2, 2], H[..., 1, 0] + H[..., 0, 1],
+                            H[..., 2, 1] + H[..., 1, 2], H[..., 0, 2] + H[..., 2, 0]], axis=-1)
+            stress = np.einsum("cij,cpj->cpi", D[b.material[sl]], eps)
+            yield PointChunk(b.type, b.ids[sl], rows, disp.eq[rows], G, dv, stress)
 
 
 def _nodal(model, u, material, nodes, stress: bool) -> NodalField:

@@ -121,6 +121,11 @@ def _read_model(args, couplings=(), *, damped=True, keep=None):
 
             model = with_selections(model, args.select)
             _print_nearest(nearest_report(model, args.select))
+        if getattr(args, "preload", None):  # K about the preloaded equilibrium; the model as read kept for info
+            from ..preload import with_preload
+
+            model = with_preload(keep.setdefault("unloaded", model) if keep is not None else model, args.preload,
+                                 material=getattr(args, "material", None))
         if keep is not None:
             keep["uncoupled"] = model
         return prepare_model(model, couplings)
@@ -205,6 +210,14 @@ def cmd_info(args) -> int:
         lam = lam[:k]
         out["frequencies_hz"] = frequencies_hz(lam).tolist()
         out["n_rigid"] = min(n_zero, k)
+    if model.preload:  # the frequencies of the model as read beside the preloaded ones
+        from ..workflow import prepare_model
+
+        out["preload"] = dict(model.preload)
+        if args.modes:
+            free = prepare_model(keep["unloaded"], couplings)
+            out["preload"]["frequencies_unloaded_hz"] = frequencies_hz(eigenmodes(free.K, free.M, k,
+                                                                                   solver=solver)[0]).tolist()
     if args.reference:
         from ..io.reference import compare_reference, read_reference
 
@@ -237,11 +250,18 @@ def cmd_info(args) -> int:
         print(f"selected  {name}: {len(ids)} nodes: " + " ".join(map(str, ids[:40])) + (" ..." if len(ids) > 40 else "")
               + (" (a sphere selects the nodes on its surface, r +- tol)" if "=sphere:" in text.lower() else ""))
     print(f"backends  {', '.join(out['backends'])}")
+    if out.get("preload"):
+        print(f"preload   {', '.join(out['preload']['specs'])}: K about the static equilibrium (largest displacement "
+              f"{out['preload']['max_displacement']:.4g})" + (", with spin softening"
+                                                             if out["preload"]["spin_softening"] else ""))
     if args.modes:
-        print(f"\n mode   frequency [Hz]   ({out['n_rigid']} rigid-body modes)")
+        was = (out.get("preload") or {}).get("frequencies_unloaded_hz")
+        print(f"\n mode   frequency [Hz]   ({out['n_rigid']} rigid-body modes)" + ("   without preload   change"
+                                                                                  if was else ""))
         for i, f in enumerate(out["frequencies_hz"], 1):
             tag = "  rigid" if i <= out["n_rigid"] else ""
-            print(f"{i:5d}   {f:14.6f}{tag}")
+            print(f"{i:5d}   {f:14.6f}{tag}" + (f"   {was[i - 1]:15.6f}   {f / was[i - 1] - 1:+7.2%}"
+                                               if was and was[i - 1] > 0 else ""))
     if out.get("coupling_frequencies"):
         print()
         for line in coupling_lines(out["coupling_frequencies"]):

@@ -28,7 +28,8 @@ from .ui import add_ui_parser
 __all__ = ["build_parser", "flag_names"]
 
 #: Library parameter -> the argparse ``dest`` of its flag, where the names differ.
-PARAM_DESTS = {"inputs": "input", "outputs": "output", "selections": "select", "nodes": "node"}
+PARAM_DESTS = {"inputs": "input", "outputs": "output", "selections": "select", "nodes": "node",
+               "spec": "preload"}
 
 _INTERFACE_HELP = "interface NODE, SET, SET:DIR, or SET@rbe2 / SET@rbe3 (6-DOF master node at the centroid)"
 _MESH_HELP = ("mesh file read through meshio (.vtu .msh .inp .bdf ...) for matrices without geometry (Matrix "
@@ -144,6 +145,13 @@ def _add_model_args(p, damping=True):
     p.add_argument("--select", action="append", default=[], metavar="NAME=KIND:NUMBERS",
                    help="add node set NAME: set:OTHER, box:x0,y0,z0,x1,y1,z1, plane:x0,y0,z0,nx,ny,nz[,tol], "
                         "cylinder:x0,y0,z0,dx,dy,dz,r[,tol[,s0,s1]] (a hole), sphere:x,y,z,r[,tol], nearest:x,y,z")
+    p.add_argument("--preload", action="append", default=[], metavar="SPEC",
+                   help="static preload whose geometric stiffness (and spin softening) the model's K takes on: "
+                        "NODE:DIR=F or SET:DIR=F (total force F spread over the set), gravity:GX,GY,GZ, "
+                        "spin:WX,WY,WZ (rad/s about an axis through the origin); repeatable, the loads add up; "
+                        "in the model's units (SI with --units); needs a supported model and its elements")
+    p.add_argument("--material", type=material_values, metavar="E,NU[,RHO]",
+                   help="isotropic material of every element (for --stress and --preload), in place of the deck's")
     if damping:
         p.add_argument("--band", metavar="FMIN:FMAX",
                        help=f"frequency band in Hz (default {DEFAULT_BAND[0]:g}:{DEFAULT_BAND[1]:g})")
@@ -266,8 +274,6 @@ def build_parser() -> argparse.ArgumentParser:
                         "and materials of the FE deck (or --material)")
     p.add_argument("--stress-nodes", default="surface", metavar="SET|surface|all",
                    help="where --stress stores the stress: the outer surface (default), every node, or a node set")
-    p.add_argument("--material", type=material_values, metavar="E,NU[,RHO]",
-                   help="isotropic material of every element for --stress, in place of the deck's")
     _add_method_options(p)
     p.set_defaults(func=cmd_reduce)
 

@@ -1,0 +1,97 @@
+"""Preloaded frequencies against CalculiX: a geometrically nonlinear static step (``*STEP, NLGEOM`` ``*STATIC``)
+under the load, then ``*STEP, PERTURBATION`` ``*FREQUENCY``, against the frequencies of
+:func:`flexmor.preload.preload_stiffness` on the matrices CalculiX stores for the unloaded model
+(``*FREQUENCY, SOLVER=MATRIXSTORAGE``): a clamped steel beam under tip tension (C3D20R, C3D20, C3D8, C3D8R,
+C3D4, C3D6) and a blade clamped at its hub spinning about the z axis (C3D20R, C3D10)."""
+
+from __future__ import annotations
+
+import subprocess
+from pathlib import Path
+
+import numpy as np
+import pytest
+from ccx_models import CCX, Mesh, dat_frequencies, solid_elements
+
+from flexmor.io import read
+from flexmor.linalg.eigen import eigenmodes, frequencies_hz
+from flexmor.preload import preload_stiffness
+
+pytestmark = [pytest.mark.skipif(CCX is None, reason="CalculiX (ccx) is not installed; Debian: apt-get install "
+                                                     "calculix-ccx"),
+              pytest.mark.filterwarnings("ignore:.*mass matrix is singular")]  # C3D20R
+
+#: (cells, size, offset) of the slender beam (x from 0 to 1 m) and of the blade (hub radius 0.2 m, 0.8 m long).
+GEOMETRY = {"beam": ((20, 2, 2), (1.0, 0.05, 0.05), (0.0, 0.0, 0.0)),
+            "blade": ((16, 2, 2), (0.8, 0.05, 0.05), (0.2, -0.025, -0.025))}
+
+
+def _ids(ids) -> list:
+    return [", ".join(map(str, ids[s:s + 16])) for s in range(0, len(ids), 16)]
+
+
+def _deck(etype: str, case: str, steps: list) -> tuple[str, int]:
+    """The deck of ``case`` in ``etype`` elements, clamped at x = min (``FIX``), ``TIP`` the face at x = max;
+    and the number of tip nodes."""
+    n, size, offset = GEOMETRY[case]
+    mesh = Mesh(*n, size=size)
+    # the nodes of the element of the same shape (C3D4: the corners of C3D10)
+    base = {"C3D20": "C3D20R", "C3D4": "C3D10", "C3D8R": "C3D8", "C3D6": "C3D8"}.get(etype, etype)
+    elems = [e[:4] if etype == "C3D4" else e for e in solid_elements(mesh, base)]
+    if etype == "C3D6":  # each hexahedron as two wedges
+        elems = [[e[i] for i in w] for e in solid_elements(mesh, "C3D8")
+                 for w in ((0, 1, 2, 4, 5, 6), (0, 2, 3, 4, 6, 7))]
+    ids = np.unique(np.concatenate(elems))
+    xyz = mesh.xyz(ids) + np.asarray(offset)
+    out = ["*NODE, NSET=NALL"] + [f"{i}, {x:.17g}, {y:.17g}, {z:.17g}" for i, (x, y, z) in zip(ids, xyz)]
+    out.append(f"*ELEMENT, TYPE={etype}, ELSET=EALL")
+    for k, e in enumerate(elems, 1):
+        vals = [k, *e]
+        rows = [vals[s:s + 16] for s in range(0, len(vals), 16)]
+        out += [", ".join(map(str, r)) + ("," if j + 1 < len(rows) else "") for j, r in enumerate(rows)]
+    fix, tip = ids[np.isclose(xyz[:, 0], xyz[:, 0].min())], ids[np.isclose(xyz[:, 0], xyz[:, 0].max())]
+    out += ["*NSET, NSET=FIX", *_ids(fix), "*NSET, NSET=TIP", *_ids(tip)]
+    out += ["*MATERIAL, NAME=STEEL", "*ELASTIC", "2.1e11, 0.3", "*DENSITY", "7850.",
+            "*SOLID SECTION, ELSET=EALL, MATERIAL=STEEL", "*BOUNDARY", "FIX, 1, 3", *steps]
+    return "\n".join(out) + "\n", tip.size
+
+
+def _run(directory: Path, job: str, text: str) -> Path:
+    (directory / f"{job}.inp").write_text(text)
+    proc = subprocess.run([CCX, "-i", job], cwd=directory, capture_output=True, text=True, timeout=300)
+    if proc.returncode != 0 or "Job finished" not in proc.stdout:
+        raise RuntimeError(f"ccx failed on {job}.inp:\n{proc.stdout[-3000:]}")
+    return directory / job
+
+
+def _compare(tmp_path, etype, case, load_lines, spec, n=4):
+    text, _ = _deck(etype, case, ["*STEP", "*FREQUENCY, SOLVER=MATRIXSTORAGE", "*END STEP"])
+    model = read(_run(tmp_path, "model", text).with_suffix(".sti"))
+    text, _ = _deck(etype, case, ["*STEP, NLGEOM", "*STATIC", *load_lines, "*END STEP", "*STEP, PERTURBATION",
+                                  "*FREQUENCY", f"{n + 2}", "*END STEP"])
+    ref = dat_frequencies(_run(tmp_path, "loaded", text).with_suffix(".dat"))[:n]
+    f0 = frequencies_hz(eigenmodes(model.K, model.M, n)[0])
+    pre = preload_stiffness(model, spec)
+    f = frequencies_hz(eigenmodes(pre.K, model.M, n)[0])
+    return f0, f, ref, model, pre
+
+
+@pytest.mark.parametrize("etype", ["C3D20R", "C3D20", "C3D8", "C3D8R", "C3D4", "C3D6"])
+def test_beam_under_tip_tension(tmp_path, etype):
+    force = 2e5
+    tip = _deck(etype, "beam", [])[1]
+    f0, f, ref, _, _ = _compare(tmp_path, etype, "beam", ["*CLOAD", f"TIP, 1, {force / tip!r}"], f"TIP:x={force}")
+    assert ref[0] > 1.05 * f0[0]  # the first bending frequencies rise by more than 5 %
+    assert np.abs(f / ref - 1).max() < 0.005, (f, ref)
+
+
+@pytest.mark.parametrize("etype", ["C3D20R", "C3D10"])
+def test_blade_spinning_about_its_hub(tmp_path, etype):
+    w = 200.0
+    f0, f, ref, model, pre = _compare(tmp_path, etype, "blade", ["*DLOAD", f"EALL, CENTRIF, {w * w!r}, 0., 0., 0., "
+                                                                 "0., 0., 1."], f"spin:0,0,{w}")
+    assert ref[0] > 1.05 * f0[0] and ref[1] > f0[1]  # flapwise up by more than 5 %, edgewise up too
+    assert np.abs(f / ref - 1).max() < 0.005, (f, ref)
+    # without the spin softening the edgewise mode misses
+    g = frequencies_hz(eigenmodes(pre.K - pre.softening, model.M, 4)[0])
+    assert np.abs(g / ref - 1).max() > 0.02
