@@ -378,7 +378,8 @@ def _stress_modes(red, model, args, res) -> None:
 def _model_and_bodies(args):
     """The full model (as read, without damping), the reduced bodies of ``args``, the band of each
     and where it comes from, and the damping asked for on the command line. Without ``--units`` the
-    model is read in the unit system its bodies record (when they record one). A body's band is
+    model is read in the unit system its bodies record (when they record one), without ``--preload``
+    with the preload they record. A body's band is
     ``--band``, else the band it was reduced for (or judged over when it was made), else
     DEFAULT_BAND."""
     from ..io import read_body
@@ -389,6 +390,10 @@ def _model_and_bodies(args):
     recorded = {b.units for b in bodies}
     if getattr(args, "units", None) is None and len(recorded) == 1 and None not in recorded:
         args.units = recorded.pop()  # the model in the unit system its bodies record (as export does)
+    preloads = {tuple(b.info["preload"].get("specs", [])) if isinstance(b.info.get("preload"), dict) else ()
+                for b in bodies}
+    if not getattr(args, "preload", None) and len(preloads) == 1 and () not in preloads:
+        args.preload = list(preloads.pop())  # the model stiffened by the preload its bodies record
     model, t_read, band = _read_model(args, damped=False)
     if band is not None:
         bands, sources = [band] * len(bodies), ["--band"] * len(bodies)

@@ -27,6 +27,11 @@ def cmd_export(args) -> int:
     out = {"file": str(args.output_file), "format": name, "order": red.order, "method": red.method,
            "units": args.export_units or ("SI" if red.units is not None else None)}
     body, ref = red, None
+    recorded = red.info.get("preload")
+    if model is not None and isinstance(recorded, dict) and model.preload is None:  # the body's preload, again
+        from ..preload import with_preload
+
+        model = with_preload(model, recorded.get("specs", []))
     if model is not None:  # the body's own model (refused otherwise); the exporters apply its couplings
         ref = reference_model(model, red, args.reduced)
         if args.remove_rigid:

@@ -188,8 +188,10 @@ def sid_from_reduced(body, model, *, nodes=None, remove_rigid: bool = False, uni
         names = [f"{body.method or 'basis'} vector {a + 1:4d}" for a in range(r)]
     said = system.describe() if body.units is not None or not system.is_si else "as given by the FE file"
     header = (f"{len(fn):5d}{r:4d}    :No. nodes, No. modes:File created using flexmor {__version__}! "
-              f"units {said}; method {body.method}, model {model.name}; consistent mass; no geometric stiffness; "
-              "frame nodes: " + ", ".join(f"{n.id}={n.name}" for n in fn))
+              f"units {said}; method {body.method}, model {model.name}; consistent mass; "
+              + (f"Ke with the geometric stiffness of preload {' '.join(body.info['preload'].get('specs', []))}; "
+                 if isinstance(body.info.get("preload"), dict) else "no geometric stiffness; ")
+              + "frame nodes: " + ", ".join(f"{n.id}={n.name}" for n in fn))
     sid = SIDFile(mass=inv.mass, ielastq=names, nodes=sid_nodes, objects=objects, header=header)
     return sid if system.is_si else sid_in_units(sid, system)
 
