@@ -118,7 +118,7 @@ def project(model: FEModel, basis: Basis | np.ndarray, ports: Ports) -> ReducedM
     Br, Cr = ports.reduced(V)
     info = dict(basis.info)
     order_note = info.pop("order_note", None)  # a method's word on the order it returned: a field of the body
-    if getattr(model, "preload", None):  # K holds the geometric stiffness of these preloads
+    if model.preload is not None:  # K holds the geometric stiffness of these preloads
         info["preload"] = dict(model.preload)
     masters = coupling_masters(model)
     if masters:  # the interfaces of the body: one master id everywhere (info, SID, Exudyn, report)
