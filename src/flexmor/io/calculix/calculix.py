@@ -144,8 +144,12 @@ def _dof_fast(raw: bytes):
     return a
 
 
-def _read_upper(path: Path, n: int) -> sp.csr_matrix:
-    """Read one upper-triangular CalculiX matrix file and return the full symmetric matrix."""
+def _read_upper(path: Path, n: int):
+    """Read one upper-triangular CalculiX matrix file.
+
+    Returns the full symmetric matrix, the number of entries read and whether each row has
+    its diagonal entry (CalculiX writes every one, zero or not).
+    """
     r, c, v = parse_triplets(path, one_based=True, n=n, index_dtype=np.int32 if n < 2**31 - 1 else np.int64)
     lower = np.flatnonzero(r > c)
     if lower.size:
@@ -153,6 +157,9 @@ def _read_upper(path: Path, n: int) -> sp.csr_matrix:
         raise ReadError(path, f"entry ({r[k] + 1}, {c[k] + 1}) lies below the diagonal; CalculiX "
                               "writes the upper triangle only, so the file is damaged or not from CalculiX",
                         entry_line(path, k))
+    count = int(r.size)
+    has_diag = np.zeros(n, dtype=bool)
+    has_diag[r[r == c]] = True
     triplets = [r, c, v]
     del r, c, v
     A = assemble(triplets, (n, n), mirror=True)
@@ -164,7 +171,52 @@ def _read_upper(path: Path, n: int) -> sp.csr_matrix:
         k, first = int(order[dup[0] + 1]), int(order[dup[0]])
         raise ReadError(path, f"entry ({r[k] + 1}, {c[k] + 1}) appears twice (also on line "
                               f"{entry_line(path, first)}); the file is damaged", entry_line(path, k))
-    return A
+    return A, count, has_diag
+
+
+def _check_diagonal(path: Path, has_diag: np.ndarray, dofs: np.ndarray, dof_path: Path) -> None:
+    """Refuse a matrix file without a diagonal entry for an equation of the ``.dof``.
+
+    CalculiX writes every diagonal entry; one missing means the file was cut off or the
+    ``.dof`` (its rows, the matrix dimension) belongs to another job.
+    """
+    if has_diag.all():
+        return
+    n = has_diag.size
+    missing = np.flatnonzero(~has_diag)
+    i = int(missing[0])
+    tail = missing[-1] == n - 1 and missing.size == n - i
+    more = (" nor for any later one" if i < n - 1 else "") if tail else f" and {missing.size - 1} more"
+    raise ReadError(path, f"no diagonal entry for equation {i + 1} (node {dofs[i, 0]}, direction {dofs[i, 1]} in "
+                          f"{dof_path.name}){more}; CalculiX writes every diagonal entry, so the file is cut off or "
+                          f"{dof_path.name} ({n} equations) is from another job")
+
+
+def _same_pattern(sti: Path, K: sp.csr_matrix, nk: int, mas: Path, M: sp.csr_matrix, nm: int, k_diag, m_diag,
+                  dofs, dof_path) -> None:
+    """Refuse a ``.sti`` and ``.mas`` whose entries differ: CalculiX writes both on one sparsity pattern.
+
+    A line missing from either file (cut off at a line end, a lost line) shows as a count or
+    pattern mismatch; without this check a cut stiffness file reads as a model with spurious
+    rigid-body modes.
+    """
+    if nk != nm:
+        short, other, few, many = (sti, mas, nk, nm) if nk < nm else (mas, sti, nm, nk)
+        raise ReadError(short, f"{few} matrix entries, but {other.name} has {many}: CalculiX writes the stiffness "
+                               f"and mass of a job on one pattern, so {short.name} is cut off or lines are missing; "
+                               "write it again with CalculiX")
+    _check_diagonal(sti, k_diag, dofs, dof_path)
+    _check_diagonal(mas, m_diag, dofs, dof_path)
+    if np.array_equal(K.indptr, M.indptr) and np.array_equal(K.indices, M.indices):
+        return
+    rows = np.flatnonzero(K.indptr != M.indptr)
+    if rows.size:
+        i = max(int(rows[0]) - 1, 0)
+    else:
+        i = int(np.searchsorted(K.indptr, np.flatnonzero(K.indices != M.indices)[0], side="right")) - 1
+    raise ReadError(sti, f"the entries of row {i + 1} are not at the positions of those of {mas.name} (same "
+                         "count): CalculiX writes the stiffness and mass of a job on one pattern, so one of the "
+                         "files is damaged or they are from different jobs")
 
 
 def _geometry_file(path: Path) -> Path:
@@ -212,8 +264,9 @@ def read_calculix(path) -> FEModel:
     dofs = read_dof(dof_path)
     n = dofs.shape[0]
     _sniff(mas)
-    K = _read_upper(path, n)
-    M = _read_upper(mas, n)
+    K, nk, k_diag = _read_upper(path, n)
+    M, nm, m_diag = _read_upper(mas, n)
+    _same_pattern(path, K, nk, mas, M, nm, k_diag, m_diag, dofs, dof_path)
     types: set = set()
     cells: list = []
     if suffix(geo) == ".inp":
