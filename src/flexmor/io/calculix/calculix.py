@@ -28,12 +28,13 @@ diagonal remains an error.
 from __future__ import annotations
 
 import logging
+import warnings
 from pathlib import Path
 
 import numpy as np
 import scipy.sparse as sp
 
-from ...errors import ReadError
+from ...errors import FlexmorWarning, ReadError
 from ...model import FEModel
 from .._build import build_model
 from .._cells import build_mesh
@@ -174,6 +175,21 @@ def _read_upper(path: Path, n: int):
     return A, count, has_diag
 
 
+def _check_order(dof_path: Path, dofs: np.ndarray) -> None:
+    """Warn when the equations of a ``.dof`` are not in node order.
+
+    CalculiX numbers the equations node by node, directions ascending; lines out of that order
+    were swapped or edited, which no other file of the job can confirm or refute.
+    """
+    key = dofs[:, 0] * 8 + dofs[:, 1]
+    back = np.flatnonzero(key[1:] <= key[:-1])
+    if back.size:
+        i = int(back[0]) + 1
+        warnings.warn(f"{dof_path}:{i + 1}: equation {dofs[i, 0]}.{dofs[i, 1]} follows {dofs[i - 1, 0]}."
+                      f"{dofs[i - 1, 1]}, but CalculiX writes the equations in node order: lines may have been "
+                      "swapped or edited, and the equation map could not be checked", FlexmorWarning, stacklevel=3)
+
+
 def _check_diagonal(path: Path, has_diag: np.ndarray, dofs: np.ndarray, dof_path: Path) -> None:
     """Refuse a matrix file without a diagonal entry for an equation of the ``.dof``.
 
@@ -289,6 +305,8 @@ def read_calculix(path) -> FEModel:
         if cells:  # the mesh shows the shells and beams as written: keep their (equation-less) deck nodes
             used = np.isin(deck_ids, np.concatenate([c.ravel() for _, c in cells]))
             node_ids, xyz = np.concatenate([node_ids, deck_ids[used]]), np.concatenate([xyz, deck_xyz[used]])
+    else:
+        _check_order(dof_path, dofs)
     quadratic = sorted(t for t in types if t.startswith(QUADRATIC_TYPES))
     known = np.isin(dofs[:, 0], node_ids)
     if not np.all(known):
