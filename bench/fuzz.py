@@ -32,6 +32,7 @@ import gzip
 import logging
 import multiprocessing as mp
 import random
+import re
 import sys
 import tempfile
 import time
@@ -152,8 +153,13 @@ def _replace_token(line: bytes, rng: random.Random, new=None, integer=False) -> 
 
 
 def _wrong_count(tok: bytes, rng: random.Random) -> bytes:
-    v = int(tok)
-    return str(rng.choice((v + 1, v - 1, 2 * v, v // 2, 0, v + 1000, -v))).encode()
+    """``tok`` with its first integer changed (one more or less, doubled, halved, zero, negative ...)."""
+    m = re.search(rb"\d+", tok)
+    if m is None:
+        return tok + b"1"
+    v = int(m.group())
+    new = str(rng.choice((v + 1, v - 1, 2 * v, v // 2, 0, v + 1000, -v))).encode()
+    return tok[:m.start()] + new + tok[m.end():]
 
 
 def _integer_tokens(line: bytes) -> bool:
