@@ -8,12 +8,15 @@ stiffness row without its diagonal). Each test damages a real sample the way a c
 
 from __future__ import annotations
 
+import os
 import shutil
+import subprocess
+import sys
 import warnings
 
 import numpy as np
 import pytest
-from helpers import CCX, DATA, run
+from helpers import CCX, DATA, ROOT, run
 
 import flexmor.io
 from flexmor.errors import FlexmorWarning, ReadError
@@ -177,3 +180,20 @@ def test_fast_parser_reads_a_three_digit_exponent():
     """A value beyond 1e76 in a fixed layout (a digit appended to its exponent) is parsed, not a NumPy error."""
     rows, cols, vals = fast_triplets(np.frombuffer(b"1 1  1.1217948717949e+081\n", dtype=np.uint8))
     assert vals.tolist() == [1.1217948717949e81]
+
+
+@pytest.mark.parametrize("offset, byte", [(433645, 164), (287722, 222), (383695, 213)])
+def test_ansys_full_damaged_byte_is_refused_not_a_crash(tmp_path, offset, byte):
+    """One byte changed deep in a matrix record made the compiled .full reader crash the process
+    (SIGSEGV) or return indices outside the matrix; the read runs in a child process of its own."""
+    pytest.importorskip("ansys.mapdl.reader")
+    raw = bytearray((DATA / "ansys" / "ansys_file.full").read_bytes())
+    raw[offset] = byte
+    path = tmp_path / "job.full"
+    path.write_bytes(bytes(raw))
+    code = ("import sys, flexmor.io\nfrom flexmor.errors import ReadError\ntry:\n    flexmor.io.read(sys.argv[1])\n"
+            "except ReadError as exc:\n    print(exc)\n    sys.exit(2)\n")
+    proc = subprocess.run([sys.executable, "-c", code, str(path)], capture_output=True, text=True, timeout=120,
+                          env={**os.environ, "PYTHONPATH": str(ROOT / "src")})
+    assert proc.returncode == 2, (proc.returncode, proc.stderr[-500:])
+    assert proc.stdout.startswith(f"{path}: ") and "Ansys .full" in proc.stdout
