@@ -174,6 +174,11 @@ def _integer_tokens(line: bytes) -> bool:
     return any(_INTEGER.fullmatch(t) for t in line.split(sep))
 
 
+#: Mutations that leave a damage a format can show: a cut, lost or repeated lines, non-numbers,
+#: foreign bytes around the text. The others (swapped lines, a changed count or index, a changed
+#: byte) can turn a valid file into another valid file of another model.
+STRUCTURAL = ("cut-lines", "cut-bytes", "delete", "delete-block", "duplicate", "duplicate-block", "junk", "nonfinite",
+              "garbage-prepend", "garbage-append")
 MUTATIONS = ("cut-lines", "cut-bytes", "delete", "delete-block", "duplicate", "duplicate-block", "swap", "junk",
              "nonfinite", "count", "garbage-prepend", "garbage-insert", "garbage-byte", "garbage-append")
 
@@ -320,12 +325,17 @@ def target_of(seed: int) -> Target:
     return TARGETS[seed % len(TARGETS)]
 
 
-def run_case(seed: int, folder: Path):
-    """Mutate and read one case in ``folder``; returns ``(class, description)``."""
+def run_case(seed: int, folder: Path, targets=None, mutations=MUTATIONS):
+    """Mutate and read one case in ``folder``; returns ``(class, description)``.
+
+    ``targets`` (names) and ``mutations`` narrow the cases (all by default): seed ``s`` takes
+    target ``s mod len(targets)``.
+    """
     from flexmor.errors import FlexmorError
 
     rng = random.Random(seed)
-    t = target_of(seed)
+    pool = [t for t in TARGETS if targets is None or t.name in targets]
+    t = pool[seed % len(pool)]
     ref, ref_warnings = reference(t, folder)
     plain = _setup(t, folder)
     f = rng.choice(t.files)
@@ -338,7 +348,7 @@ def run_case(seed: int, folder: Path):
         data = mutate(data, rng, kinds[-1][3:])
     else:
         for _ in range(rng.choice((1, 1, 1, 2, 3))):
-            kinds.append(rng.choice(MUTATIONS))
+            kinds.append(rng.choice(mutations))
             data = mutate(data, rng, kinds[-1])
         if t.gz:
             data = gzip.compress(data, mtime=0)
