@@ -23,7 +23,11 @@ LABELS, ``node, dof, node, dof, value``
     Node labels (``instance.label`` in assemblies) and directions 1..6.
 
 Either triangle or both may be stored; one triangle is mirrored. An entry given twice is
-refused (a damaged file), never summed. Equations that have neither stiffness nor mass (a
+refused (a damaged file), never summed; so is a matrix stored with both triangles whose
+triangles differ in their entry counts (a cut between an entry and its mirror image), and an
+equation with mass but no stiffness entry (lines lost from the stiffness file). When exactly the
+last equations of the stiffness have no mass, a FlexmorWarning says that the mass file may be
+cut off (its format cannot tell that from massless directions). Equations that have neither stiffness nor mass (a
 direction no element uses) are removed and logged. Units are those of the deck.
 
 Decks with quadratic elements (``C3D20R``, ``C3D10`` ...) may have a singular or

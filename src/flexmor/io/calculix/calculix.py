@@ -15,6 +15,13 @@ Shell and beam elements, which CalculiX expands to solids, need both the deck an
 (:mod:`flexmor.io.calculix.expanded`). The full
 symmetric matrices are rebuilt as ``A = U + U^T - diag(U)``.
 
+The files of a job are checked against each other: CalculiX writes the ``.sti`` and ``.mas`` on
+one sparsity pattern (explicit zeros included) with every diagonal entry, so a file cut off at
+a line end or with lines lost (which parses without a defect) shows as a difference in their
+entry counts or positions, or as an equation of the ``.dof`` without its diagonal entry: all
+refused. A ``.dof`` out of node order (CalculiX numbers the equations node by node) is read
+with a :class:`~flexmor.errors.FlexmorWarning`, since swapped lines cannot be told from an edit.
+
 Quadratic elements (``C3D20R``, ``C3D20``, ``C3D15``, ``C3D10``, 8-node shells and plane
 elements, found in the ``*ELEMENT, TYPE=`` lines) can give a singular mass matrix (reduced
 integration) or one with zero or negative diagonal entries (row-sum lumping of serendipity
