@@ -346,40 +346,42 @@ def _isolated(path: Path, load):
 
     ansys-mapdl-reader trusts the sizes and indices in the file: a damaged byte deep in a
     matrix record can make it write outside its arrays (a segmentation fault, or a heap
-    corrupted for whatever runs next). The child sends its result back through a temporary
-    file; where ``fork`` is not available the reader runs in this process.
+    corrupted for whatever runs next). The child sends its result back through a pipe; where
+    ``fork`` is not available the reader runs in this process.
     """
     import os
     import pickle
     import signal
-    import tempfile
 
     if not hasattr(os, "fork"):
         return load()
-    with tempfile.TemporaryDirectory(prefix="flexmor-full-") as tmp:
-        out = Path(tmp) / "result.pickle"
-        pid = os.fork()
-        if pid == 0:  # the child: load, hand over, leave without cleanup handlers
-            code = 0
+    rd, wr = os.pipe()
+    pid = os.fork()
+    if pid == 0:  # the child: load, hand over, leave without cleanup handlers
+        code = 0
+        try:
+            os.close(rd)
             try:
-                try:
-                    result = ("ok", load())
-                except ReadError as exc:
-                    result = ("error", exc.reason)
-                with open(out, "wb") as f:
-                    pickle.dump(result, f, protocol=pickle.HIGHEST_PROTOCOL)
-            except BaseException:  # noqa: BLE001 - nothing may escape the child
-                code = 1
-            finally:
-                os._exit(code)
-        _, status = os.waitpid(pid, 0)
-        if os.WIFSIGNALED(status) or not out.exists():
-            how = (f"signal {signal.Signals(os.WTERMSIG(status)).name}" if os.WIFSIGNALED(status)
-                   else f"exit code {os.WEXITSTATUS(status)}")
-            raise ReadError(path, f"the Ansys .full reader failed on this file ({how}): the file is damaged or "
-                                  "not a complete .full file; write it again with Ansys")
-        with open(out, "rb") as f:
-            kind, value = pickle.load(f)
+                result = ("ok", load())
+            except ReadError as exc:
+                result = ("error", exc.reason)
+            data = memoryview(pickle.dumps(result, protocol=pickle.HIGHEST_PROTOCOL))
+            while data:  # a pipe, not a file
+                data = data[os.write(wr, data):]
+        except BaseException:  # noqa: BLE001 - nothing may escape the child
+            code = 1
+        finally:
+            os._exit(code)
+    os.close(wr)
+    with os.fdopen(rd, "rb") as f:
+        data = f.read()
+    _, status = os.waitpid(pid, 0)
+    if os.WIFSIGNALED(status) or os.WEXITSTATUS(status) or not data:
+        how = (f"signal {signal.Signals(os.WTERMSIG(status)).name}" if os.WIFSIGNALED(status)
+               else f"exit code {os.WEXITSTATUS(status)}")
+        raise ReadError(path, f"the Ansys .full reader failed on this file ({how}): the file is damaged or "
+                              "not a complete .full file; write it again with Ansys")
+    kind, value = pickle.loads(data)
     if kind == "error":
         raise ReadError(path, value)
     return value
