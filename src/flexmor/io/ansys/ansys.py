@@ -342,15 +342,16 @@ def _load_km(path: Path, read_binary):
 
 
 def _isolated(path: Path, load):
-    """``load()`` in a forked child process, so that a damaged file crashing the compiled reader is a ReadError.
+    """``load()`` (``(dof_ref, K, M)``) in a forked child process, so that a damaged file crashing the
+    compiled reader is a ReadError.
 
     ansys-mapdl-reader trusts the sizes and indices in the file: a damaged byte deep in a
     matrix record can make it write outside its arrays (a segmentation fault, or a heap
-    corrupted for whatever runs next). The child sends its result back through a pipe; where
-    ``fork`` is not available the reader runs in this process.
+    corrupted for whatever runs next). The child sends the arrays back through a pipe in NumPy's
+    ``.npy`` format; where ``fork`` is not available the reader runs in this process.
     """
+    import io
     import os
-    import pickle
     import signal
 
     if not hasattr(os, "fork"):
@@ -362,10 +363,19 @@ def _isolated(path: Path, load):
         try:
             os.close(rd)
             try:
-                result = ("ok", load())
+                dof_ref, k, m = load()
+                if dof_ref is None or k is None or m is None:
+                    arrays = [np.frombuffer(b"none", np.uint8)]
+                else:
+                    k, m = sp.csr_matrix(k), sp.csr_matrix(m)
+                    arrays = [np.frombuffer(b"ok", np.uint8), np.asarray(dof_ref)]
+                    arrays += [x for A in (k, m) for x in (A.data, A.indices, A.indptr, np.asarray(A.shape))]
             except ReadError as exc:
-                result = ("error", exc.reason)
-            data = memoryview(pickle.dumps(result, protocol=pickle.HIGHEST_PROTOCOL))
+                arrays = [np.frombuffer(b"error:" + exc.reason.encode(), np.uint8)]
+            buf = io.BytesIO()
+            for x in arrays:
+                np.lib.format.write_array(buf, np.ascontiguousarray(x), allow_pickle=False)
+            data = buf.getbuffer()
             while data:  # a pipe, not a file
                 data = data[os.write(wr, data):]
         except BaseException:  # noqa: BLE001 - nothing may escape the child
@@ -381,10 +391,18 @@ def _isolated(path: Path, load):
                else f"exit code {os.WEXITSTATUS(status)}")
         raise ReadError(path, f"the Ansys .full reader failed on this file ({how}): the file is damaged or "
                               "not a complete .full file; write it again with Ansys")
-    kind, value = pickle.loads(data)
-    if kind == "error":
-        raise ReadError(path, value)
-    return value
+    buf = io.BytesIO(data)
+    status = np.lib.format.read_array(buf, allow_pickle=False).tobytes()
+    if status.startswith(b"error:"):
+        raise ReadError(path, status[6:].decode())
+    if status == b"none":
+        return None, None, None
+    dof_ref = np.lib.format.read_array(buf, allow_pickle=False)
+    mats = []
+    for _ in range(2):
+        d, i, p, shape = (np.lib.format.read_array(buf, allow_pickle=False) for _ in range(4))
+        mats.append(sp.csr_matrix((d, i, p), shape=tuple(int(x) for x in shape)))
+    return dof_ref, mats[0], mats[1]
 
 
 def _check_records(path: Path) -> None:
