@@ -42,3 +42,18 @@ def test_mutation_changes_bytes():
     rng = random.Random(3)
     data = (fuzz.DATA / "bad" / "mm_nan_K.mtx").read_bytes()
     assert sum(fuzz.mutate(data, rng) != data for _ in range(50)) >= 40
+
+
+@pytest.mark.parametrize("seed, expect", [
+    (1180, "GRID 2: an id, CP or CD beyond the 64-bit integer range"),  # was OverflowError in nastran_grids
+    (34788, "expected 'node.direction'"),  # '5³.2' in a .dof: was ValueError from int()
+    (45454, "m0(1,2) outside 1 x 6"),  # SID symmetric Taylor object not square: was IndexError
+    (957, "Ansys .full"),  # one byte in a matrix record: SIGSEGV in ansys-mapdl-reader (or indices out of range)
+])
+def test_fuzz_crashes_are_refusals(seed, expect, tmp_path):
+    if seed == 957:
+        pytest.importorskip("ansys.mapdl.reader")
+    cls, text = fuzz.run_case(seed, tmp_path)
+    assert cls == "refused", text
+    if seed != 957:
+        assert expect in text, text

@@ -122,7 +122,7 @@ def read_dof(path) -> np.ndarray:
     for i, line in enumerate(lines):
         s = line.strip()
         node, dot, d = s.partition(".")
-        if not (dot and node.isdigit() and d.isdigit()):
+        if not (dot and node.isascii() and node.isdigit() and d.isascii() and d.isdigit()):
             raise ReadError(path, f"expected 'node.direction' such as '12.3', got {s[:40]!r}", i + 1)
         out[i] = int(node), int(d)
         if not 1 <= out[i, 1] <= 6:
