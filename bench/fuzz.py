@@ -83,7 +83,7 @@ _REPAIR = {"bad/mm_nan_K.mtx": (b"2 2 NaN", b"2 2 2.0")}
 #: Replacement tokens: each malformed, not a number, or a number that overflows / is not finite.
 JUNK = [b"nan", b"NaN", b"inf", b"-inf", b"Infinity", b"1e999", b"-1e400", b"1.0e+9999",
         b"x", b"", b"1.0.0", b"\x00\xff", b"1,5,", b"*NODE", b"%%MatrixMarket", b"1e", b"--1", b"0x1F"]
-#: Cut positions: the fraction of lines kept (the issue's cut .sti kept 6950 of 6984 lines).
+#: Cut positions: the fraction of lines kept (a reported cut .sti kept 6950 of 6984 lines).
 CUT_KEEP = (0.0, 0.5, 0.9, 0.95, 0.98, 0.99, 0.995)
 _GEN: dict = {}
 
