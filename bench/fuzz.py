@@ -28,11 +28,13 @@ Markdown table). ``python bench/fuzz.py -n 100000 -j 2``.
 from __future__ import annotations
 
 import argparse
+import atexit
 import gzip
 import logging
 import multiprocessing as mp
 import random
 import re
+import shutil
 import sys
 import tempfile
 import time
@@ -122,6 +124,7 @@ def _source(f: str) -> Path:
     if f.startswith("gen:"):
         if "dir" not in _GEN:
             _GEN["dir"] = Path(tempfile.mkdtemp(prefix="flexmor-fuzz-gen-"))
+            atexit.register(shutil.rmtree, _GEN["dir"], True)
             _generate(_GEN["dir"])
         return _GEN["dir"] / f[4:]
     return DATA / f
@@ -386,7 +389,9 @@ def _chunk(start, count, timeout, current, conn):
     import signal
     logging.getLogger("flexmor").propagate = False
     signal.signal(signal.SIGALRM, _alarm)
-    with tempfile.TemporaryDirectory() as tmp:
+    with tempfile.TemporaryDirectory() as tmp, tempfile.TemporaryDirectory() as gen:
+        _GEN["dir"] = Path(gen)  # removed with the worker's folders (atexit does not run in a worker)
+        _generate(_GEN["dir"])
         for seed in range(start, start + count):
             current.value = seed
             signal.alarm(timeout)
