@@ -22,13 +22,15 @@ from flexmor.linalg import eigenmodes
 
 
 def _job(tmp_path, M, etype="C3D20R"):
-    for suf in (".sti", ".dof", ".inp"):
+    """The beam job with mass ``M``; K and M written on one pattern (zeros included), as CalculiX does."""
+    for suf in (".dof", ".inp"):
         shutil.copy(CCX / f"beam8_clamped_mat{suf}", tmp_path / f"job{suf}")
     inp = tmp_path / "job.inp"
     inp.write_text(inp.read_text().replace("TYPE=C3D8", f"TYPE={etype}"))
-    U = np.triu(M)
-    r, c = np.nonzero(U)
-    (tmp_path / "job.mas").write_text("".join(f"{i + 1} {j + 1} {float(U[i, j])!r}\n" for i, j in zip(r, c)))
+    K = flexmor.io.read(CCX / "beam8_clamped_mat.sti").K
+    r, c = np.nonzero(np.triu((M != 0) | (K.toarray() != 0) | np.eye(len(M), dtype=bool)))
+    for name, A in (("job.sti", K.toarray()), ("job.mas", M)):
+        (tmp_path / name).write_text("".join(f"{i + 1} {j + 1} {float(A[i, j])!r}\n" for i, j in zip(r, c)))
     return tmp_path / "job.sti"
 
 

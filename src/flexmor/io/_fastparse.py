@@ -131,6 +131,8 @@ def _wide(vals, slow, mant, scale, sign):
     k = np.abs(scale[slow]).astype(np.int64)
     ok = k <= 54
     sel, k = slow[ok], k[ok]
+    if sel.size == 0:  # only far powers (an overflowing exponent): all for strtod
+        return slow
     k1 = np.minimum(k, 27)
     q = mant[sel].astype(np.longdouble)
     down = scale[sel] < 0

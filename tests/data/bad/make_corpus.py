@@ -20,9 +20,11 @@ DATA = HERE.parent
 CASES: list[tuple[str, str, str]] = []
 
 # --- a tiny valid CalculiX export: 2 nodes x 3 DOFs, K tridiagonal SPD, M diagonal -----------------
+# CalculiX writes K and M on one pattern (explicit zeros included), as here
 N_CCX = 6
 K_UP = [(i, i, 2.0e6) for i in range(1, 7)] + [(i, i + 1, -1.0e6) for i in range(1, 6)]
-M_UP = [(i, i, 1.0) for i in range(1, 7)]
+M_DIAG = [(i, i, 1.0) for i in range(1, 7)]
+M_UP = M_DIAG + [(i, i + 1, 0.0) for i in range(1, 6)]
 INP = "*HEADING\ntiny\n*NODE, NSET=NALL\n1, 0.0, 0.0, 0.0\n2, 1.0, 0.0, 0.0\n*NSET, NSET=TIP\n2\n"
 DOF = "".join(f"{n}.{d}\n" for n in (1, 2) for d in (1, 2, 3))
 
@@ -61,9 +63,10 @@ ccx("ccx_token", "ccx_token.sti:5", sti=_swap_line(_ok_k(), 5, "3 3 2.0e6x\n"))
 ccx("ccx_duplicate", "appears twice", sti=_ok_k() + "2 3 -1.0e6\n")
 ccx("ccx_lower_triangle", "below the diagonal", sti=_ok_k() + "3 2 -1.0e6\n")
 ccx("ccx_indefinite_mass", "mass matrix diagonal is not positive",
-    mas=_triplets([(i, i, -1.0 if i == 3 else 1.0) for i in range(1, 7)]))
+    mas=_triplets([(r, c, -1.0 if r == c == 3 else v) for r, c, v in M_UP]))
 ccx("ccx_singular_mass_rows", "equation 6 (node 2, z) (M = 0)",
-    sti=_triplets([e for e in K_UP if 6 not in e[:2]]), mas=_triplets([e for e in M_UP if e[0] != 6]))
+    sti=_triplets([(r, c, 0.0 if 6 in (r, c) else v) for r, c, v in K_UP]),
+    mas=_triplets([(r, c, 0.0 if 6 in (r, c) else v) for r, c, v in M_UP]))
 ccx("ccx_dof_unknown_node", "node 9", dof=DOF.replace("2.3", "9.3"))
 ccx("ccx_dof_short", "ccx_dof_short.sti", dof="".join(DOF.splitlines(keepends=True)[:5]))
 ccx("ccx_empty_nset", "node set 'TIP' is empty", inp=INP.replace("*NSET, NSET=TIP\n2\n", "*NSET, NSET=TIP\n"))
@@ -74,8 +77,10 @@ _rng = random.Random(11)
 ccx("ccx_binary_junk", "binary", sti=bytes(_rng.randrange(256) for _ in range(600)) + _ok_k().encode())
 ccx("ccx_huge_index", "ccx_huge_index.sti:1", sti=_swap_line(_ok_k(), 1, "99999999999999999999 1 1.0\n"))
 # 3 nodes, one axial spring between nodes 1 and 2: 8 zero-energy modes, a mechanism
-ccx("ccx_mechanism", "the model is a mechanism", sti=_triplets([(1, 1, 1.0e6), (1, 4, -1.0e6), (4, 4, 1.0e6)]),
-    mas=_triplets([(i, i, 1.0) for i in range(1, 10)]), dof="".join(f"{n}.{d}\n" for n in (1, 2, 3) for d in (1, 2, 3)),
+ccx("ccx_mechanism", "the model is a mechanism",
+    sti=_triplets([(i, i, 1.0e6 if i in (1, 4) else 0.0) for i in range(1, 10)] + [(1, 4, -1.0e6)]),
+    mas=_triplets([(i, i, 1.0) for i in range(1, 10)] + [(1, 4, 0.0)]),
+    dof="".join(f"{n}.{d}\n" for n in (1, 2, 3) for d in (1, 2, 3)),
     inp=INP.replace("*NSET, NSET=TIP\n2\n", "3, 2.0, 0.0, 0.0\n*NSET, NSET=TIP\n3\n"))
 
 # --- Matrix Market pairs ---------------------------------------------------------------------------
@@ -117,13 +122,13 @@ def _labels(entries):
 def abq(name, expect, stif=None, mass=None, inp=ABQ):
     (HERE / f"{name}.inp").write_text(inp)
     (HERE / f"{name}_STIF1.mtx").write_text(_labels(K_UP) if stif is None else stif)
-    (HERE / f"{name}_MASS1.mtx").write_text(_labels(M_UP) if mass is None else mass)
+    (HERE / f"{name}_MASS1.mtx").write_text(_labels(M_DIAG) if mass is None else mass)
     CASES.append((f"{name}.inp", "reduce TIP:y", expect))
 
 
 abq("abq_unknown_node", "node 7", stif=_labels(K_UP) + "7,1, 7,1, 1.0\n")
 abq("abq_direction", "abq_direction_STIF1.mtx", stif=_labels(K_UP).replace("2,3, 2,3", "2,9, 2,9"))
-abq("abq_columns", "abq_columns_MASS1.mtx:2", mass=_swap_line(_labels(M_UP), 2, "1,2, 1,2\n"))
+abq("abq_columns", "abq_columns_MASS1.mtx:2", mass=_swap_line(_labels(M_DIAG), 2, "1,2, 1,2\n"))
 abq("abq_inf", "abq_inf_STIF1.mtx:1", stif=_swap_line(_labels(K_UP), 1, "1,1, 1,1, -inf\n"))
 
 # --- Nastran ---------------------------------------------------------------------------------------

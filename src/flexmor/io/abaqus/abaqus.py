@@ -23,7 +23,11 @@ LABELS, ``node, dof, node, dof, value``
     Node labels (``instance.label`` in assemblies) and directions 1..6.
 
 Either triangle or both may be stored; one triangle is mirrored. An entry given twice is
-refused (a damaged file), never summed. Equations that have neither stiffness nor mass (a
+refused (a damaged file), never summed; so is a matrix stored with both triangles whose
+triangles differ in their entry counts (a cut between an entry and its mirror image), and an
+equation with mass but no stiffness entry (lines lost from the stiffness file). When exactly the
+last equations of the stiffness have no mass, a FlexmorWarning says that the mass file may be
+cut off (its format cannot tell that from massless directions). Equations that have neither stiffness nor mass (a
 direction no element uses) are removed and logged. Units are those of the deck.
 
 Decks with quadratic elements (``C3D20R``, ``C3D10`` ...) may have a singular or
@@ -46,7 +50,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from ...elements import ElementBlock, Elements, Material
-from ...errors import ModelError, ReadError
+from ...errors import FlexmorWarning, ModelError, ReadError
 from ...model import FEModel
 from .._build import build_model
 from .._cells import abaqus_cell, mesh_of_elements
@@ -228,7 +232,8 @@ def _assemble(path, parts, size, again):
     ``again()`` parses the file anew to name a duplicate entry.
     """
     r, c, _ = parts
-    lower, upper = bool(np.any(r > c)), bool(np.any(r < c))
+    n_lower, n_upper = int(np.count_nonzero(r > c)), int(np.count_nonzero(r < c))
+    lower, upper = n_lower > 0, n_upper > 0
     del r, c
     A = assemble(parts, (size, size), mirror=lower != upper)  # one triangle: mirror it
     if A is None:
@@ -240,7 +245,38 @@ def _assemble(path, parts, size, again):
         raise ReadError(path, f"entry ({again.node(cr[k])}, {again.node(cc[k])}) appears twice (also on line "
                               f"{entry_line(path, first)}); duplicates are refused, not summed",
                         entry_line(path, k))
+    if lower and upper and n_lower != n_upper:
+        raise ReadError(path, f"{n_upper} entries above the diagonal but {n_lower} below: Abaqus writes both "
+                              "triangles of the symmetric matrix, so the file is cut off or lines are missing")
     return A
+
+
+def _check_complete(files: dict, mats: dict, deck: AbaqusDeck) -> None:
+    """Refuse equations with mass but no stiffness entry; warn when the last equations have no mass.
+
+    Every equation with mass belongs to an element, which gives it stiffness: one without an
+    entry in the stiffness file means that file lost lines. A mass matrix may leave equations
+    out (massless directions), but when exactly the last ones of the stiffness (in the order
+    Abaqus writes them) have none, the mass file may have been cut off at a line end.
+    """
+    def label(k):
+        return f"node {deck.node_ids[k // 8]} direction {k % 8}"
+
+    in_k = np.diff(mats["K"].indptr) > 0
+    in_m = np.diff(mats["M"].indptr) > 0
+    bad = np.flatnonzero(in_m & ~in_k)
+    if bad.size:
+        raise ReadError(files["K"], f"no entry for {label(int(bad[0]))}"
+                                    f"{f' and {bad.size - 1} more equations' if bad.size > 1 else ''}, which "
+                                    f"have mass in {files['M'].name}: the file is cut off or lines are missing")
+    k_rows = np.flatnonzero(in_k)
+    no_mass = ~in_m[k_rows]
+    if in_m.any() and no_mass[-1]:
+        first = int(np.flatnonzero(~no_mass)[-1]) + 1  # the tail of equations without mass starts here
+        if np.count_nonzero(no_mass) == k_rows.size - first:
+            warnings.warn(f"{files['M']}: the last {k_rows.size - first} equations (from {label(int(k_rows[first]))}) "
+                          "have no mass entry: the file may be cut off at a line end, which its format cannot "
+                          "tell from massless directions", FlexmorWarning, stacklevel=3)
 
 
 def _compress(A: sp.csr_matrix, code: np.ndarray, number: np.ndarray) -> sp.csr_matrix:
@@ -347,6 +383,7 @@ def read_abaqus(path, *, dof_per_node: int | None = None) -> FEModel:
             return parse(p)[0]
         again.node = lambda k: f"{deck.node_ids[k // 8]}.{k % 8}"
         mats[role] = _assemble(p, parts, size, again)
+    _check_complete(files, mats, deck)
     # equation map: in internal node order, then direction
     code = np.flatnonzero(used)
     number = (np.cumsum(used) - 1).astype(np.int32 if size < 2**31 else np.int64)

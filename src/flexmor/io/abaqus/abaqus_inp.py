@@ -23,6 +23,7 @@ name is unique, as ``SET``.
 from __future__ import annotations
 
 import logging
+import re
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -34,6 +35,10 @@ from .._abaqus_syntax import Data, Keyword, walk
 __all__ = ["AbaqusDeck", "read_deck"]
 
 log = logging.getLogger(__name__)
+
+
+#: A node line whose label is written as a real number (``2e+11, 0.3``): not a node line.
+_NON_INTEGER_LABEL = re.compile(r"(?m)^[ \t]*[^ \t,]*[.eEdD]")
 
 
 @dataclass
@@ -163,7 +168,7 @@ class _Parser:
             a = np.fromstring(text.replace(",", " "), sep=" ")
         except ValueError:
             return False
-        if a.size != 4 * k:
+        if a.size != 4 * k or _NON_INTEGER_LABEL.search(text):
             return False
         a = a.reshape(k, 4)
         labels = a[:, 0]
@@ -242,8 +247,9 @@ class _Parser:
                                       f"after *INSTANCE, got {s[:60]!r}", lineno)
         elif kw == "NODE":
             vals = _floats(path, lineno, s, "*NODE")
-            if not 2 <= len(vals) <= 4 or not float(vals[0]).is_integer():
-                raise ReadError(path, f"expected 'label, x, y, z' in *NODE, got {s[:60]!r}", lineno)
+            if not 2 <= len(vals) <= 4 or not float(vals[0]).is_integer() or _NON_INTEGER_LABEL.match(s):
+                raise ReadError(path, f"expected 'label, x, y, z' in *NODE (an integer label), got {s[:60]!r}",
+                                lineno)
             if not np.all(np.isfinite(vals)):
                 raise ReadError(path, "non-finite node coordinate", lineno)
             tgt, lab = self._target(st), int(vals[0])

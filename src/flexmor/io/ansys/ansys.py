@@ -297,12 +297,8 @@ def _read_full(path: Path, coordinates=None):
     except ImportError:
         raise ReadError(path, "binary .full files need ansys-mapdl-reader: pip install 'flexmor[ansys]'") from None
     _check_records(path)
-    try:
-        full = read_binary(str(path))
-        dof_ref, k, m = full.load_km(as_sparse=True, sort=False)
-    except Exception as exc:  # noqa: BLE001 - the library raises many kinds on damaged files
-        raise ReadError(path, f"not a readable Ansys .full file ({type(exc).__name__}: {str(exc)[:120]})") from None
-    if not hasattr(full, "load_km") or dof_ref is None or k is None or m is None:
+    dof_ref, k, m = _isolated(path, lambda: _load_km(path, read_binary))
+    if dof_ref is None or k is None or m is None:
         raise ReadError(path, "the .full file holds no stiffness and mass matrices")
     dofs = np.asarray(dof_ref, dtype=np.int64).copy()
     dofs[:, 1] += 1
@@ -329,6 +325,87 @@ def _read_full(path: Path, coordinates=None):
                         dofs=dofs, node_sets=sets, mesh=mesh, elements=elements, name=stem(path), source=str(path))
     model.constrained_dofs = gone
     return model
+
+
+def _load_km(path: Path, read_binary):
+    """``(dof_ref, K, M)`` of a ``.full`` file by ansys-mapdl-reader (None for what it lacks)."""
+    try:
+        full = read_binary(str(path))
+        if not hasattr(full, "load_km"):
+            return None, None, None
+        dof_ref, k, m = full.load_km(as_sparse=True, sort=False)
+        if k is not None and m is not None:  # indices outside the matrix crash scipy's compiled routines later
+            for A in (k, m):
+                A.check_format(full_check=True)
+            if dof_ref is None or not (k.shape[0] == k.shape[1] == m.shape[0] == m.shape[1] == len(dof_ref)):
+                raise ValueError(f"matrices of {k.shape} and {m.shape} for {len(dof_ref)} DOFs")
+    except Exception as exc:  # noqa: BLE001 - the library raises many kinds on damaged files
+        raise ReadError(path, f"not a readable Ansys .full file ({type(exc).__name__}: {str(exc)[:120]})") from None
+    return dof_ref, k, m
+
+
+def _isolated(path: Path, load):
+    """``load()`` (``(dof_ref, K, M)``) in a forked child process, so that a damaged file crashing the
+    compiled reader is a ReadError.
+
+    ansys-mapdl-reader trusts the sizes and indices in the file: a damaged byte deep in a
+    matrix record can make it write outside its arrays (a segmentation fault, or a heap
+    corrupted for whatever runs next). The child sends the arrays back through a pipe in NumPy's
+    ``.npy`` format; where ``fork`` is not available the reader runs in this process.
+    """
+    import io
+    import os
+    import signal
+
+    if not hasattr(os, "fork"):
+        return load()
+    rd, wr = os.pipe()
+    pid = os.fork()
+    if pid == 0:  # the child: load, hand over, leave without cleanup handlers
+        code = 0
+        try:
+            os.close(rd)
+            try:
+                dof_ref, k, m = load()
+                if dof_ref is None or k is None or m is None:
+                    arrays = [np.frombuffer(b"none", np.uint8)]
+                else:
+                    k, m = sp.csr_matrix(k), sp.csr_matrix(m)
+                    arrays = [np.frombuffer(b"ok", np.uint8), np.asarray(dof_ref)]
+                    arrays += [x for A in (k, m) for x in (A.data, A.indices, A.indptr, np.asarray(A.shape))]
+            except ReadError as exc:
+                arrays = [np.frombuffer(b"error:" + exc.reason.encode(), np.uint8)]
+            buf = io.BytesIO()
+            for x in arrays:
+                np.lib.format.write_array(buf, np.ascontiguousarray(x), allow_pickle=False)
+            data = buf.getbuffer()
+            while data:  # a pipe, not a file
+                data = data[os.write(wr, data):]
+        except BaseException:  # noqa: BLE001 - nothing may escape the child
+            code = 1
+        finally:
+            os._exit(code)
+    os.close(wr)
+    with os.fdopen(rd, "rb") as f:
+        data = f.read()
+    _, status = os.waitpid(pid, 0)
+    if os.WIFSIGNALED(status) or os.WEXITSTATUS(status) or not data:
+        how = (f"signal {signal.Signals(os.WTERMSIG(status)).name}" if os.WIFSIGNALED(status)
+               else f"exit code {os.WEXITSTATUS(status)}")
+        raise ReadError(path, f"the Ansys .full reader failed on this file ({how}): the file is damaged or "
+                              "not a complete .full file; write it again with Ansys")
+    buf = io.BytesIO(data)
+    status = np.lib.format.read_array(buf, allow_pickle=False).tobytes()
+    if status.startswith(b"error:"):
+        raise ReadError(path, status[6:].decode())
+    if status == b"none":
+        return None, None, None
+    dof_ref = np.lib.format.read_array(buf, allow_pickle=False)
+    mats = []
+    for _ in range(2):
+        d, i, p, shape = (np.lib.format.read_array(buf, allow_pickle=False) for _ in range(4))
+        mats.append(sp.csr_matrix((d, i, p), shape=tuple(int(x) for x in shape)))
+    return dof_ref, mats[0], mats[1]
 
 
 def _check_records(path: Path) -> None:

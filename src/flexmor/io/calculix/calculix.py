@@ -15,6 +15,13 @@ Shell and beam elements, which CalculiX expands to solids, need both the deck an
 (:mod:`flexmor.io.calculix.expanded`). The full
 symmetric matrices are rebuilt as ``A = U + U^T - diag(U)``.
 
+The files of a job are checked against each other: CalculiX writes the ``.sti`` and ``.mas`` on
+one sparsity pattern (explicit zeros included) with every diagonal entry, so a file cut off at
+a line end or with lines lost (which parses without a defect) shows as a difference in their
+entry counts or positions, or as an equation of the ``.dof`` without its diagonal entry: all
+refused. A ``.dof`` out of node order (CalculiX numbers the equations node by node) is read
+with a :class:`~flexmor.errors.FlexmorWarning`, since swapped lines cannot be told from an edit.
+
 Quadratic elements (``C3D20R``, ``C3D20``, ``C3D15``, ``C3D10``, 8-node shells and plane
 elements, found in the ``*ELEMENT, TYPE=`` lines) can give a singular mass matrix (reduced
 integration) or one with zero or negative diagonal entries (row-sum lumping of serendipity
@@ -28,12 +35,13 @@ diagonal remains an error.
 from __future__ import annotations
 
 import logging
+import warnings
 from pathlib import Path
 
 import numpy as np
 import scipy.sparse as sp
 
-from ...errors import ReadError
+from ...errors import FlexmorWarning, ReadError
 from ...model import FEModel
 from .._abaqus_materials import DeckElements
 from .._build import build_model
@@ -115,7 +123,7 @@ def read_dof(path) -> np.ndarray:
     for i, line in enumerate(lines):
         s = line.strip()
         node, dot, d = s.partition(".")
-        if not (dot and node.isdigit() and d.isdigit()):
+        if not (dot and node.isascii() and node.isdigit() and d.isascii() and d.isdigit()):
             raise ReadError(path, f"expected 'node.direction' such as '12.3', got {s[:40]!r}", i + 1)
         out[i] = int(node), int(d)
         if not 1 <= out[i, 1] <= 6:
@@ -145,8 +153,12 @@ def _dof_fast(raw: bytes):
     return a
 
 
-def _read_upper(path: Path, n: int) -> sp.csr_matrix:
-    """Read one upper-triangular CalculiX matrix file and return the full symmetric matrix."""
+def _read_upper(path: Path, n: int):
+    """Read one upper-triangular CalculiX matrix file.
+
+    Returns the full symmetric matrix, the number of entries read and whether each row has
+    its diagonal entry (CalculiX writes every one, zero or not).
+    """
     r, c, v = parse_triplets(path, one_based=True, n=n, index_dtype=np.int32 if n < 2**31 - 1 else np.int64)
     lower = np.flatnonzero(r > c)
     if lower.size:
@@ -154,6 +166,9 @@ def _read_upper(path: Path, n: int) -> sp.csr_matrix:
         raise ReadError(path, f"entry ({r[k] + 1}, {c[k] + 1}) lies below the diagonal; CalculiX "
                               "writes the upper triangle only, so the file is damaged or not from CalculiX",
                         entry_line(path, k))
+    count = int(r.size)
+    has_diag = np.zeros(n, dtype=bool)
+    has_diag[r[r == c]] = True
     triplets = [r, c, v]
     del r, c, v
     A = assemble(triplets, (n, n), mirror=True)
@@ -165,7 +180,67 @@ def _read_upper(path: Path, n: int) -> sp.csr_matrix:
         k, first = int(order[dup[0] + 1]), int(order[dup[0]])
         raise ReadError(path, f"entry ({r[k] + 1}, {c[k] + 1}) appears twice (also on line "
                               f"{entry_line(path, first)}); the file is damaged", entry_line(path, k))
-    return A
+    return A, count, has_diag
+
+
+def _check_order(dof_path: Path, dofs: np.ndarray) -> None:
+    """Warn when the equations of a ``.dof`` are not in node order.
+
+    CalculiX numbers the equations node by node, directions ascending; lines out of that order
+    were swapped or edited, which no other file of the job can confirm or refute.
+    """
+    key = dofs[:, 0] * 8 + dofs[:, 1]
+    back = np.flatnonzero(key[1:] <= key[:-1])
+    if back.size:
+        i = int(back[0]) + 1
+        warnings.warn(f"{dof_path}:{i + 1}: equation {dofs[i, 0]}.{dofs[i, 1]} follows {dofs[i - 1, 0]}."
+                      f"{dofs[i - 1, 1]}, but CalculiX writes the equations in node order: lines may have been "
+                      "swapped or edited, and the equation map could not be checked", FlexmorWarning, stacklevel=3)
+
+
+def _check_diagonal(path: Path, has_diag: np.ndarray, dofs: np.ndarray, dof_path: Path) -> None:
+    """Refuse a matrix file without a diagonal entry for an equation of the ``.dof``.
+
+    CalculiX writes every diagonal entry; one missing means the file was cut off or the
+    ``.dof`` (its rows, the matrix dimension) belongs to another job.
+    """
+    if has_diag.all():
+        return
+    n = has_diag.size
+    missing = np.flatnonzero(~has_diag)
+    i = int(missing[0])
+    tail = missing[-1] == n - 1 and missing.size == n - i
+    more = (" nor for any later one" if i < n - 1 else "") if tail else f" and {missing.size - 1} more"
+    raise ReadError(path, f"no diagonal entry for equation {i + 1} (node {dofs[i, 0]}, direction {dofs[i, 1]} in "
+                          f"{dof_path.name}){more}; CalculiX writes every diagonal entry, so the file is cut off or "
+                          f"{dof_path.name} ({n} equations) is from another job")
+
+
+def _same_pattern(sti: Path, K: sp.csr_matrix, nk: int, mas: Path, M: sp.csr_matrix, nm: int, k_diag, m_diag,
+                  dofs, dof_path) -> None:
+    """Refuse a ``.sti`` and ``.mas`` whose entries differ: CalculiX writes both on one sparsity pattern.
+
+    A line missing from either file (cut off at a line end, a lost line) shows as a count or
+    pattern mismatch; without this check a cut stiffness file reads as a model with spurious
+    rigid-body modes.
+    """
+    if nk != nm:
+        short, other, few, many = (sti, mas, nk, nm) if nk < nm else (mas, sti, nm, nk)
+        raise ReadError(short, f"{few} matrix entries, but {other.name} has {many}: CalculiX writes the stiffness "
+                               f"and mass of a job on one pattern, so {short.name} is cut off or lines are missing; "
+                               "write it again with CalculiX")
+    _check_diagonal(sti, k_diag, dofs, dof_path)
+    _check_diagonal(mas, m_diag, dofs, dof_path)
+    if np.array_equal(K.indptr, M.indptr) and np.array_equal(K.indices, M.indices):
+        return
+    rows = np.flatnonzero(K.indptr != M.indptr)
+    if rows.size:
+        i = max(int(rows[0]) - 1, 0)
+    else:
+        i = int(np.searchsorted(K.indptr, np.flatnonzero(K.indices != M.indices)[0], side="right")) - 1
+    raise ReadError(sti, f"the entries of row {i + 1} are not at the positions of those of {mas.name} (same "
+                         "count): CalculiX writes the stiffness and mass of a job on one pattern, so one of the "
+                         "files is damaged or they are from different jobs")
 
 
 def _geometry_file(path: Path) -> Path:
@@ -215,8 +290,9 @@ def read_calculix(path) -> FEModel:
     dofs = read_dof(dof_path)
     n = dofs.shape[0]
     _sniff(mas)
-    K = _read_upper(path, n)
-    M = _read_upper(mas, n)
+    K, nk, k_diag = _read_upper(path, n)
+    M, nm, m_diag = _read_upper(mas, n)
+    _same_pattern(path, K, nk, mas, M, nm, k_diag, m_diag, dofs, dof_path)
     types: set = set()
     cells: list = []
     deck_elements = DeckElements()
@@ -240,6 +316,8 @@ def read_calculix(path) -> FEModel:
         if cells:  # the mesh shows the shells and beams as written: keep their (equation-less) deck nodes
             used = np.isin(deck_ids, np.concatenate([c.ravel() for _, c in cells]))
             node_ids, xyz = np.concatenate([node_ids, deck_ids[used]]), np.concatenate([xyz, deck_xyz[used]])
+    else:
+        _check_order(dof_path, dofs)
     quadratic = sorted(t for t in types if t.startswith(QUADRATIC_TYPES))
     known = np.isin(dofs[:, 0], node_ids)
     if not np.all(known):

@@ -121,6 +121,10 @@ class Grids:
         return len(self.files) - 1
 
     def add(self, fpath, lineno, gid, cp, x, cd):
+        if any(not BLANK <= v < 2**63 for v in (gid, cp, cd)):
+            from ...errors import ReadError
+            raise ReadError(fpath, f"GRID {gid}: an id, CP or CD beyond the 64-bit integer range (a damaged card?)",
+                            lineno)
         self.one.append((gid, cp, *x, cd, lineno, self._file(fpath)))
 
     def add_run(self, fpath, linenos, run):

@@ -49,7 +49,7 @@ def _finish(path, raw, m1_order):
                               "implausibly large; is the header corrupt?", line=raw["line"])
     m0 = np.eye(nrow, ncol) if structure == 4 else np.zeros((nrow, ncol))
     for (i, j), v, ln in raw["m0"]:
-        if not (1 <= i <= nrow and 1 <= j <= ncol):
+        if not (1 <= i <= nrow and 1 <= j <= ncol) or (structure == 2 and not (j <= nrow and i <= ncol)):
             raise ReadError(path, f"{raw['name']}: m0({i},{j}) outside {nrow} x {ncol}", line=ln)
         m0[i - 1, j - 1] = v
         if structure == 2:

@@ -1,0 +1,199 @@
+"""Damaged files are refused or named: every reader cross-checks what its format allows.
+
+A file cut off at a line end, or with lines lost, parses line by line without a defect; what
+gives it away is what the files of one export say about each other (the entry counts of a
+CalculiX ``.sti`` and ``.mas`` on one pattern, the two triangles of an Abaqus matrix, a
+stiffness row without its diagonal). Each test damages a real sample the way a copy does.
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+import subprocess
+import sys
+import warnings
+
+import numpy as np
+import pytest
+from helpers import CCX, DATA, ROOT, run
+
+import flexmor.io
+from flexmor.errors import FlexmorWarning, ReadError
+from flexmor.io._fastparse import fast_triplets
+
+ABQ = DATA / "abaqus"
+
+
+def _job(tmp_path, src=CCX / "beam8_free_mat", name="job"):
+    for suf in (".sti", ".mas", ".dof", ".inp"):
+        shutil.copy(f"{src}{suf}", tmp_path / f"{name}{suf}")
+    return tmp_path / f"{name}.sti"
+
+
+def _cut_lines(path, k=None, keep=None):
+    """Cut ``path`` at a line end: drop its last ``k`` lines (or keep the fraction ``keep``)."""
+    lines = path.read_bytes().splitlines(keepends=True)
+    n = len(lines) - k if k is not None else int(len(lines) * keep)
+    path.write_bytes(b"".join(lines[:n]))
+    return len(lines), n
+
+
+def test_sti_cut_by_34_lines_is_refused(tmp_path):
+    """The reported case: 34 of 6,984 lines lost read as a model with 5 rigid-body modes."""
+    sti = _job(tmp_path)
+    total, kept = _cut_lines(sti, 34)
+    assert (total, kept) == (6984, 6950)
+    with pytest.raises(ReadError) as exc:
+        flexmor.io.read(sti)
+    assert exc.value.path == str(sti)
+    assert "6950 matrix entries, but job.mas has 6984" in str(exc.value)
+    assert "cut off" in str(exc.value)
+
+
+def test_cut_sti_is_refused_by_the_command_line(tmp_path, capsys):
+    sti = _job(tmp_path)
+    _cut_lines(sti, 34)
+    code, _, err = run(capsys, "info", str(sti))
+    assert code == 2
+    assert err.strip().splitlines()[-1].startswith(f"flexmor: error: {sti}: 6950 matrix entries")
+    assert "Traceback" not in err
+
+
+def test_mas_cut_by_two_percent_is_refused(tmp_path):
+    sti = _job(tmp_path)
+    _, kept = _cut_lines(tmp_path / "job.mas", keep=0.98)
+    with pytest.raises(ReadError, match=f"job.mas: {kept} matrix entries, but job.sti has 6984"):
+        flexmor.io.read(sti)
+
+
+def test_entries_at_other_positions_are_refused(tmp_path):
+    """Same count, one entry moved: the two files no longer share one pattern."""
+    sti = _job(tmp_path)
+    mas = tmp_path / "job.mas"
+    lines = mas.read_text().splitlines(keepends=True)
+    k = next(i for i, ln in enumerate(lines) if ln.split()[0] != ln.split()[1])  # an off-diagonal entry
+    r, c, v = lines[k].split()
+    moved = next(j for j in range(int(c) + 1, 298) if f"{r} {j} " not in mas.read_text())
+    lines[k] = f"{r} {moved} {v}\n"
+    mas.write_text("".join(lines))
+    with pytest.raises(ReadError, match=r"row \d+ are not at the positions of those of job\.mas"):
+        flexmor.io.read(sti)
+
+
+def test_dof_longer_than_the_matrices_is_refused(tmp_path):
+    """A .dof with an equation more than the matrices: its diagonal entry is missing."""
+    sti = _job(tmp_path)
+    dof = tmp_path / "job.dof"
+    node = int(dof.read_text().split()[-1].split(".")[0])
+    with dof.open("a") as f:
+        f.write(f"{node}.4\n")
+    with pytest.raises(ReadError, match=r"job\.sti: no diagonal entry for equation 298 \(node \d+, direction 4 "
+                                        r"in job\.dof\); CalculiX writes every diagonal entry"):
+        flexmor.io.read(sti)
+
+
+def test_dof_out_of_node_order_is_warned(tmp_path):
+    sti = _job(tmp_path)
+    dof = tmp_path / "job.dof"
+    lines = dof.read_text().splitlines(keepends=True)
+    lines[10], lines[200] = lines[200], lines[10]
+    dof.write_text("".join(lines))
+    with pytest.warns(FlexmorWarning, match=r"job\.dof:12: equation .* follows .* node order.*could not be checked"):
+        flexmor.io.read(sti)
+
+
+def test_intact_calculix_job_is_quiet(tmp_path):
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", FlexmorWarning)
+        model = flexmor.io.read(_job(tmp_path))
+    assert model.n_dof == 297
+
+
+def _abaqus(tmp_path):
+    for f in ("blockC3D8.inp", "blockC3D8_STIF1.mtx", "blockC3D8_MASS1.mtx"):
+        shutil.copy(ABQ / f, tmp_path / f)
+    return tmp_path / "blockC3D8.inp"
+
+
+def test_abaqus_stiffness_cut_inside_a_pair_is_refused(tmp_path):
+    """Both triangles are written, entry and mirror image on adjacent lines: a cut between them shows."""
+    inp = _abaqus(tmp_path)
+    stif = tmp_path / "blockC3D8_STIF1.mtx"
+    lines = stif.read_text().splitlines(keepends=True)
+    k = next(i for i in range(len(lines) // 2, len(lines))
+             if lines[i].split()[:2] == lines[i + 1].split()[1::-1] and lines[i].split()[0] != lines[i].split()[1])
+    stif.write_text("".join(lines[:k + 1]))  # keeps (i, j), loses (j, i)
+    with pytest.raises(ReadError, match=r"blockC3D8_STIF1\.mtx: \d+ entries above the diagonal but \d+ below"):
+        flexmor.io.read(inp)
+
+
+def test_abaqus_stiffness_cut_at_a_pair_end_is_refused(tmp_path):
+    """Cut after a whole pair: the last equations keep their mass but lose their stiffness diagonal."""
+    inp = _abaqus(tmp_path)
+    stif = tmp_path / "blockC3D8_STIF1.mtx"
+    lines = stif.read_text().splitlines(keepends=True)
+    k = int(len(lines) * 0.9)
+    while lines[k].split()[0] == lines[k].split()[1] or lines[k - 1].split()[0] != lines[k].split()[1]:
+        k += 1  # lines[k] completes a pair (j, i) after (i, j)
+    stif.write_text("".join(lines[:k + 1]))
+    with pytest.raises(ReadError, match=r"blockC3D8_STIF1\.mtx: (the stiffness matrix has no diagonal entry|no "
+                                        r"entry for node).*cut off or lines are missing"):
+        flexmor.io.read(inp)
+
+
+def test_abaqus_mass_cut_at_a_line_end_is_warned(tmp_path):
+    """A lumped mass file cut at a line end cannot be told from massless directions: a warning says so."""
+    inp = _abaqus(tmp_path)
+    mass = tmp_path / "blockC3D8_MASS1.mtx"
+    total, kept = _cut_lines(mass, 9)
+    with pytest.warns(FlexmorWarning, match=r"blockC3D8_MASS1\.mtx: the last 9 equations .* no mass entry: the "
+                                            r"file may be cut off"):
+        try:
+            flexmor.io.read(inp)
+        except ReadError as exc:  # the zero mass diagonal of a C3D8 deck is refused after the warning
+            assert "mass matrix diagonal is not positive at 9 equation" in str(exc)
+
+
+def test_missing_diagonal_entry_is_refused(tmp_path):
+    """Matrix Market: one diagonal line lost (the header count adjusted): the row keeps its neighbours."""
+    lines = (DATA / "bad" / "mm_nan_K.mtx").read_text().replace("2 2 NaN", "2 2 2.0").splitlines(keepends=True)
+    k = next(i for i, ln in enumerate(lines) if ln.startswith("2 2 "))
+    del lines[k]
+    nr, nc, nnz = lines[1].split()
+    lines[1] = f"{nr} {nc} {int(nnz) - 1}\n"
+    (tmp_path / "job_K.mtx").write_text("".join(lines))
+    shutil.copy(DATA / "bad" / "mm_nan_M.mtx", tmp_path / "job_M.mtx")
+    with pytest.raises(ReadError, match=r"job_K\.mtx: the stiffness matrix has no diagonal entry at equation 2"):
+        flexmor.io.read(tmp_path / "job_K.mtx")
+
+
+def test_matrix_market_header_count_is_checked(tmp_path):
+    text = (DATA / "bad" / "mm_nan_K.mtx").read_text().replace("2 2 NaN", "2 2 2.0")
+    (tmp_path / "job_K.mtx").write_text(text.replace("3 3 5", "3 3 6"))
+    shutil.copy(DATA / "bad" / "mm_nan_M.mtx", tmp_path / "job_M.mtx")
+    with pytest.raises(ReadError, match=r"job_K\.mtx: header announces 6 entries but the file holds 5"):
+        flexmor.io.read(tmp_path / "job_K.mtx")
+
+
+def test_fast_parser_reads_a_three_digit_exponent():
+    """A value beyond 1e76 in a fixed layout (a digit appended to its exponent) is parsed, not a NumPy error."""
+    rows, cols, vals = fast_triplets(np.frombuffer(b"1 1  1.1217948717949e+081\n", dtype=np.uint8))
+    assert vals.tolist() == [1.1217948717949e81]
+
+
+@pytest.mark.parametrize("offset, byte", [(433645, 164), (287722, 222), (383695, 213)])
+def test_ansys_full_damaged_byte_is_refused_not_a_crash(tmp_path, offset, byte):
+    """One byte changed deep in a matrix record made the compiled .full reader crash the process
+    (SIGSEGV) or return indices outside the matrix; the read runs in a child process of its own."""
+    pytest.importorskip("ansys.mapdl.reader")
+    raw = bytearray((DATA / "ansys" / "ansys_file.full").read_bytes())
+    raw[offset] = byte
+    path = tmp_path / "job.full"
+    path.write_bytes(bytes(raw))
+    code = ("import sys, flexmor.io\nfrom flexmor.errors import ReadError\ntry:\n    flexmor.io.read(sys.argv[1])\n"
+            "except ReadError as exc:\n    print(exc)\n    sys.exit(2)\n")
+    proc = subprocess.run([sys.executable, "-c", code, str(path)], capture_output=True, text=True, timeout=120,
+                          env={**os.environ, "PYTHONPATH": str(ROOT / "src")})
+    assert proc.returncode == 2, (proc.returncode, proc.stderr[-500:])
+    assert proc.stdout.startswith(f"{path}: ")  # the reader's error, or a check of what it returned
