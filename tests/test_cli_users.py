@@ -8,7 +8,7 @@ import sys
 from pathlib import Path
 
 import pytest
-from helpers import CLAMPED, FREE, SHARED, run, run_json
+from helpers import CLAMPED, DATA, FREE, run, run_json
 
 import flexmor
 
@@ -118,7 +118,7 @@ def test_a_missing_output_folder_is_refused_not_created(capsys, tmp_path, monkey
 def test_ui_lists_the_files_a_reader_takes(tmp_path):
     from flexmor.ui.server import Workspace
 
-    for p in (SHARED / "ansys").glob("rotorAnsys*.txt"):
+    for p in (DATA / "ansys").glob("rotorAnsys*.txt"):
         shutil.copy(p, tmp_path)
     (tmp_path / "notes.txt").write_text("not a model\n")
     shutil.copy(CLAMPED, tmp_path)
