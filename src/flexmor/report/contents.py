@@ -346,8 +346,10 @@ def _mises_note(label, peak: dict, body) -> str:
         if at.size:
             where = " at [" + ", ".join(f"{v:.4g}" for v in np.asarray(body.xyz)[at[0]]) + "]"
     by = f", under {peak['input']}" if peak.get("input") else ""
-    return (f"{label}: largest von Mises stress of the time responses {peak['mises'] / 1e6:.4g} MPa "
-            f"({peak['mises']:.4g} Pa) at node {peak['node']}{where}, t = {peak['t']:.4g} s{by}")
+    value = (f"{peak['mises'] / 1e6:.4g} MPa ({peak['mises']:.4g} Pa)" if body.units is not None else
+             f"{peak['mises']:.4g} (the stress unit of the file's material: no unit system named)")
+    return (f"{label}: largest von Mises stress of the time responses {value} at node {peak['node']}{where}, "
+            f"t = {peak['t']:.4g} s{by}")
 
 
 def _body_figure(rep: Report, model, ports, bodies) -> dict:
