@@ -122,9 +122,11 @@ def test_ui_lists_the_files_a_reader_takes(tmp_path):
         shutil.copy(p, tmp_path)
     (tmp_path / "notes.txt").write_text("not a model\n")
     shutil.copy(CLAMPED, tmp_path)
+    shutil.copy(DATA / "nastran" / "pyyeti_rd_ascii.op4", tmp_path)  # OUTPUT4 matrices: a model, not a superelement
     files = Workspace(tmp_path).files()
-    assert files["model"] == ["beam8_clamped_mat.sti", "rotorAnsysMassMatrixSparse.txt",
+    assert files["model"] == ["beam8_clamped_mat.sti", "pyyeti_rd_ascii.op4", "rotorAnsysMassMatrixSparse.txt",
                               "rotorAnsysStiffnessMatrixSparse.txt"]
+    assert files["body"] == []
 
 
 def test_report_says_its_band_and_where_it_comes_from(capsys, tmp_path):

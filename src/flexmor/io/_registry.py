@@ -55,15 +55,14 @@ class Format:
         How the claimed file names look (``<job>_STIF<n>.mtx``), for listings.
     aliases : tuple of str
         Other names accepted for ``name``.
-    accepts : callable, optional
-        ``accepts(path) -> bool``: whether a file with one of the suffixes is one this format
-        reads, where the suffix is shared with companion or unrelated files (Ansys ``.txt``).
     gzip : bool or str
         Readers: True when the reader takes its files gzip-compressed too (``job.sti.gz``,
         decompressed while read); else False, or the reason it cannot (the refusal says it).
     recognizes : callable, optional
-        ``recognizes(path) -> bool``: whether the file holds this format's content, for a suffix
-        that formats of two registries share (:func:`kind_of`); cheap, and False when unsure.
+        ``recognizes(path) -> bool``: whether a file with one of the suffixes holds this format's
+        content, where the suffix is shared with other formats or companion files (a Nastran
+        superelement among Nastran matrix files, Ansys ``.txt`` matrices among its map and
+        coordinates): :func:`kind_of` and :meth:`Registry.takes` ask it; cheap, False when unsure.
     """
 
     name: str
@@ -73,7 +72,6 @@ class Format:
     claims: Callable | None = None
     claims_doc: str = ""
     aliases: tuple = ()
-    accepts: Callable | None = None
     gzip: bool | str = False
     recognizes: Callable | None = None
 
@@ -107,8 +105,7 @@ class Registry:
         self._formats: dict[str, Format] = {}
 
     def register(self, name: str, suffixes, function: Callable, *, description: str = "",
-                 claims: Callable | None = None, claims_doc: str = "", aliases=(),
-                 accepts: Callable | None = None, gzip: bool | str = False,
+                 claims: Callable | None = None, claims_doc: str = "", aliases=(), gzip: bool | str = False,
                  recognizes: Callable | None = None) -> Format:
         """Register ``function`` as format ``name`` for ``suffixes`` (with dot; case is ignored).
 
@@ -118,7 +115,7 @@ class Registry:
             When a suffix, name or alias already belongs to another format of this registry.
         """
         fmt = Format(name, tuple(s.lower() for s in suffixes), function, description, claims, claims_doc,
-                     tuple(a.lower() for a in aliases), accepts, gzip, recognizes)
+                     tuple(a.lower() for a in aliases), gzip, recognizes)
         for other in self._formats.values():
             if other.name == name:
                 continue
@@ -171,9 +168,9 @@ class Registry:
 
     def takes(self, path) -> Format | None:
         """The format that reads ``path`` (:meth:`by_path`), None also when that format's
-        ``accepts`` turns the file down (a companion file sharing its suffix)."""
+        ``recognizes`` turns the file down (another format's or a companion file sharing its suffix)."""
         fmt = self.by_path(path)
-        if fmt is not None and fmt.accepts is not None and not fmt.accepts(Path(path)):
+        if fmt is not None and fmt.recognizes is not None and not fmt.recognizes(Path(path)):
             return None
         return fmt
 

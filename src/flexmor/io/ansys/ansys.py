@@ -550,4 +550,4 @@ def _is_matrix_file(path: Path) -> bool:
 
 MODEL_FORMATS.register("ansys", [".full", ".txt"], read_ansys, gzip=True,
                        description="Ansys HBMAT/MMF export (stiffness, mass, mapping vector, coordinates) "
-                       "or binary .full", accepts=_is_matrix_file)
+                       "or binary .full", recognizes=_is_matrix_file)
