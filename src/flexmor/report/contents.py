@@ -293,13 +293,13 @@ def _time_section(rep: Report, model, ports, bodies, labels, ref_of, *, f_lo: fl
     y_full, y_elastic = _split_inputs(y_all, ports.n_inputs)
     y_red, y_refs, t_ref_of = {}, {}, {}
     for lb, red, row, el in zip(labels, bodies, rep.rows, elastic):
-        yr = simulate(red, u, dt=dt, t_end=t_end, scheme=scheme, rho_inf=rho_inf)
+        yr, q = _body_run(red, u, dt=dt, t_end=t_end, scheme=scheme, rho_inf=rho_inf)
         y_ref = y_elastic if el and y_elastic is not None else y_full
         e = time_errors(y_ref, yr)
         row.update(time_mean_error=e["time_mean_error"], time_max_error=e["time_max_error"], time_seconds=yr.seconds)
         y_red[lb] = yr.displacement
-        if red.stress_modes is not None:  # the body's stress modes (reduce --stress): its largest von Mises stress
-            row["max_mises"] = _mises_peak(red, u, dt=dt, t_end=t_end, scheme=scheme, rho_inf=rho_inf)
+        if q is not None:  # the body's stress modes (reduce --stress): its largest von Mises stress
+            row["max_mises"] = _mises_peak(red, q)
             rep.notes.append(_mises_note(lb, row["max_mises"], red))
         t_ref_of[lb] = ref_of[lb] if y_ref is y_elastic or not el else _reference_label(rep.reference, JUDGED_RIGID)
         y_refs.setdefault(t_ref_of[lb], y_ref.displacement)
@@ -318,14 +318,29 @@ def _time_section(rep: Report, model, ports, bodies, labels, ref_of, *, f_lo: fl
                          time_error=plots.time_error_curves(y_refs, y_red, t_ref_of))
 
 
-def _mises_peak(body, u, *, dt, t_end, scheme, rho_inf, chunk: int = 256) -> dict:
-    """The largest von Mises stress over the time response of ``body`` to ``u`` at its stress nodes:
-    ``mises`` (Pa in SI), ``node``, ``t`` (s), ``input`` (the input driven, for a single-channel signal)."""
+def _body_run(body, u, **options):
+    """``(outputs, coordinates)``: the time response of ``body`` to ``u`` at its outputs, and, for a body
+    with stress modes, the history of its reduced coordinates too (None else), from one integration
+    (outputs ``[C; I]``)."""
+    from dataclasses import replace
+
     from ..dynamics.time import simulate
+
+    if body.stress_modes is None:
+        return simulate(body, u, **options), None
+    p = body.C.shape[0]
+    both = simulate((body.M, body.D, body.K, body.B, np.vstack([body.C, np.eye(body.order)])), u, **options)
+    outputs = replace(both, displacement=both.displacement[:, :p], velocity=both.velocity[:, :p],
+                      acceleration=both.acceleration[:, :p])
+    return outputs, replace(both, displacement=both.displacement[:, p:])
+
+
+def _mises_peak(body, q, *, chunk: int = 256) -> dict:
+    """The largest von Mises stress at the stress nodes of ``body`` over the history ``q`` of its reduced
+    coordinates (a :class:`~flexmor.dynamics.time.TimeResponse`): ``mises`` (Pa in SI), ``node``, ``t``
+    (s), ``input`` (the input driven, for a single-channel signal)."""
     from ..stress import von_mises
 
-    q = simulate((body.M, body.D, body.K, body.B, np.eye(body.order)), u, dt=dt, t_end=t_end, scheme=scheme,
-                 rho_inf=rho_inf)
     S = np.asarray(body.stress_modes, float)
     best = {"mises": -1.0}
     for c in range(q.displacement.shape[2]):
