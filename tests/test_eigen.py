@@ -99,7 +99,7 @@ def test_factorization_refused_when_memory_is_short(clamped, backend, monkeypatc
 
     if backend not in available_backends():
         pytest.skip(f"{backend} not available")
-    mod = sys.modules["flexmor.linalg.memory"]
+    mod = sys.modules["flexmor.linalg.resources"]
     F = factorize(clamped.K, solver=SolverContext(backend))
     assert F.memory_estimate > 1e4  # bytes: the factor of 270 equations needs more than 10 kB
     monkeypatch.setattr(mod, "memory_available", lambda: 2048.0)

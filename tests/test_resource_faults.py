@@ -54,7 +54,7 @@ def test_a_basis_that_cannot_fit_is_refused_before_any_work(clamped):
 
 
 def test_memory_limits_count_the_address_space_limit():
-    code = ("import resource; from flexmor.linalg.memory import memory_limits, memory_available, describe_memory;"
+    code = ("import resource; from flexmor.linalg.resources import memory_limits, memory_available, describe_memory;"
             "resource.setrlimit(resource.RLIMIT_AS, (2**36, resource.RLIM_INFINITY));"
             "lim = memory_limits(); print(lim['address_space'] <= 2**36, memory_available() <= lim['address_space'],"
             " 'ulimit -v' in describe_memory() or lim['machine'] < lim['address_space'])")

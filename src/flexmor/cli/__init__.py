@@ -216,7 +216,7 @@ def main(argv=None) -> int:
 
 def _dispatch(args) -> int:
     """Run the command of ``args``; errors become messages and exit codes."""
-    from ..linalg.memory import start_room
+    from ..linalg.resources import start_room
 
     short = start_room()  # a process limit too tight for any job: one line now rather than a library's abort
     if short is not None:
@@ -232,7 +232,7 @@ def _dispatch(args) -> int:
         print(f"flexmor: error: {msg}", file=sys.stderr)
         return 1 if isinstance(exc, ResourceError) else 2
     except MemoryError:
-        from ..linalg.memory import describe_memory
+        from ..linalg.resources import describe_memory
 
         print(f"flexmor: error: out of memory ({describe_memory()}); try --factor-memory mixed or ooc, a smaller "
               "--order, or a machine with more memory", file=sys.stderr)

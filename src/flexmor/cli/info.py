@@ -228,7 +228,7 @@ def _mounted_rows(rec) -> None:
 def info_backends(args) -> int:
     """Print (or emit as JSON) the solver backends, what they handle, and the memory available."""
     from ..linalg.backends import describe_backends
-    from ..linalg.memory import memory_available
+    from ..linalg.resources import memory_available
 
     rows = describe_backends()
     avail = memory_available()

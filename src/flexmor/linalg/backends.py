@@ -41,7 +41,8 @@ import scipy.sparse as sp
 
 from ..errors import OutOfMemoryError, SolverError
 from .factorization import Factorization
-from .memory import MEMORY_FRACTION, describe_memory, estimate_memory, matrix_bytes
+from .memory import MEMORY_FRACTION, estimate_memory, matrix_bytes
+from .resources import describe_memory
 
 __all__ = ["Backend", "BACKENDS", "available_backends",
            "estimate_memory", "MEMORY_FRACTION", "describe_backends"]

@@ -28,7 +28,7 @@ from contextlib import contextmanager
 from dataclasses import dataclass, field
 
 from ..errors import OptionError, SolverError
-from . import memory as _memory
+from . import resources as _resources
 from .backends import BACKENDS
 from .distributed import MPILayout, layout
 from .factorization import OrderingCache, SolverStats
@@ -158,9 +158,9 @@ class SolverContext:
 
     def memory_available(self) -> float | None:
         """Bytes of memory the factorizations may count on: ``memory_limit``, else the memory the
-        process can still allocate (:func:`flexmor.linalg.memory.memory_available`: the machine's,
+        process can still allocate (:func:`flexmor.linalg.resources.memory_available`: the machine's,
         bounded by the address-space and cgroup limits), or None if unknown."""
-        return _memory.memory_available() if self.memory_limit is None else float(self.memory_limit)
+        return _resources.memory_available() if self.memory_limit is None else float(self.memory_limit)
 
     def layout(self) -> MPILayout:
         """The MPI layout of the ``petsc`` backend (this process' rank and size unless given)."""

@@ -20,7 +20,8 @@ import scipy.sparse as sp
 
 from ..errors import OutOfMemoryError, SolverError
 from .factorization import Factorization
-from .memory import OutOfCore, describe_memory, pardiso_estimates
+from .memory import OutOfCore, pardiso_estimates
+from .resources import describe_memory
 
 __all__ = ["PARDISO_ERRORS", "PardisoFactorization", "mkl_pardiso"]
 

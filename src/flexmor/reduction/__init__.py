@@ -19,7 +19,7 @@ import time
 from ..body import ReducedModel
 from ..linalg.context import as_solver
 from ..linalg.distributed import is_partitioned
-from ..linalg.memory import check_basis_memory
+from ..linalg.resources import check_basis_memory
 from ..options import Band, check_option_types, check_order
 from ..projection import project
 from ..rigid import exclude_rigid, frame_participation
