@@ -9,14 +9,14 @@ from pathlib import Path
 
 from .analysis.compare import FullResponse
 from .analysis.frequency import measure_record
-from .checks import check_rigid_body_modes, coupling_frequencies, first_elastic_hz
+from .checks import check_rigid_body_modes, check_shift, coupling_frequencies, first_elastic_hz
 from .damping import Damping, NoDamping, Rayleigh, band_matched
 from .damping import modal_damping as _modal_damping
 from .errors import OptionError
 from .linalg.context import SolverContext, as_solver
 from .options import DEFAULT_BAND, Band, parse_pair
 from .ports import make_ports
-from .reduction import reduce
+from .reduction import method_name, reduce
 from .reduction.free_body import check_body
 
 __all__ = ["coupling_specs", "prepare_model", "body_model", "parse_band", "parse_pair", "apply_damping", "damping_of",
@@ -134,7 +134,6 @@ def reduce_and_judge(model, method: str, order, ports, *, band=None,
     from the error grid's modal pre-pass when it holds them).
     """
     solver = as_solver(solver)
-    check_rigid_body_modes(model, solver=solver)
     full_of = full if callable(full) and not isinstance(full, FullResponse) else None
     if full_of is not None:
         if band is not None:
@@ -145,6 +144,14 @@ def reduce_and_judge(model, method: str, order, ports, *, band=None,
                           params=("band", "full"))
     method_band = band if band is not None else full.band if full is not None else method_band
     options = with_method_band(method, method_band, options)
+    # a mechanism is refused before any work; the check's factorization serves the method where it
+    # factorizes the same matrix first (not kept while a target-error search computes the full FRF)
+    sigma, keep = check_shift(model, method_name(method), options) if tol is None else (None, False)
+    try:
+        check_rigid_body_modes(model, solver=solver, sigma=sigma, keep=keep)
+    except BaseException:
+        solver.release()
+        raise
     t_full = None
     if tol is not None:  # target-error mode: the order is chosen against the full FRF
         from .tolerance import check_tol_method
@@ -169,7 +176,10 @@ def reduce_and_judge(model, method: str, order, ports, *, band=None,
         red.info["order_requested"] = None if order is None else int(order)
         red.order_note = None  # the order was chosen by the search (its record says how)
     else:
-        red = reduce(model, method, order, ports, solver=solver, **options)
+        try:
+            red = reduce(model, method, order, ports, solver=solver, **options)
+        finally:
+            solver.release()
         t = red.info["timings"]
     t["factorize"] = solver.stats.seconds - f0
     if t_full is not None:

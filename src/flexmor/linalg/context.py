@@ -142,6 +142,7 @@ class SolverContext:
     orderings: OrderingCache = field(default_factory=OrderingCache, init=False, repr=False)
     _available: tuple | None = field(default=None, init=False, repr=False)
     _memo: dict = field(default_factory=dict, init=False, repr=False)
+    _kept: tuple | None = field(default=None, init=False, repr=False)
 
     def __post_init__(self):
         allowed = ["auto", *BACKENDS]
@@ -223,6 +224,31 @@ class SolverContext:
             return value
         self._memo[key] = (refs, value)
         return value
+
+
+    def shifted(self, K, M, sigma: float, *, keep: bool = False):
+        """The factorization of ``K - sigma M`` (positive definite for ``sigma < 0``): the one kept
+        for these very matrices and shift (see ``keep``), else a new one.
+
+        ``keep=True`` keeps the new factorization (one at a time) until :meth:`release`, so that the
+        next computation on the same matrix shares it: the rigid-body check of a model
+        (:func:`flexmor.checks.check_rigid_body_modes`) and the method that follows at that shift
+        (``krylov`` at its point, ``modal``) make one factorization. Its memory stays taken
+        meanwhile.
+        """
+        kept = self._kept
+        if kept is not None and kept[0]() is K and kept[1]() is M and kept[2] == sigma:
+            return kept[3]
+        from .factorize import factorize
+
+        F = factorize((K - sigma * M).tocsr(), solver=self, symmetric=True, positive=sigma < 0)
+        if keep:
+            self._kept = (weakref.ref(K), weakref.ref(M), float(sigma), F)
+        return F
+
+    def release(self) -> None:
+        """Drop the factorization kept by :meth:`shifted` (its memory is free once nothing else holds it)."""
+        self._kept = None
 
 
 def as_solver(solver: SolverContext | None) -> SolverContext:

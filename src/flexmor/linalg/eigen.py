@@ -13,7 +13,6 @@ from ..errors import ConvergenceError, ModelError, OptionError
 from .block_eigen import block_lanczos
 from .context import DENSE_LIMIT, EIGEN_METHODS, SolverContext, as_solver
 from .distributed import is_partitioned
-from .factorize import factorize
 
 __all__ = ["eigenmodes", "dense_eigenmodes", "default_shift", "rigid_body_threshold", "is_rigid", "frequencies_hz",
            "whole_clusters", "CLUSTER_RTOL",
@@ -63,7 +62,7 @@ def is_rigid(lam, K, M) -> np.ndarray:
 
 
 def eigenmodes(K, M, k: int, *, sigma: float | None = None, solver: SolverContext | None = None, tol: float = 0.0,
-               factorization=None, method: str | None = None, block: int | None = None):
+               factorization=None, method: str | None = None, block: int | None = None, keep: bool = False):
     """Lowest ``k`` eigenpairs of ``K phi = lambda M phi`` (M positive definite).
 
     Parameters
@@ -97,6 +96,10 @@ def eigenmodes(K, M, k: int, *, sigma: float | None = None, solver: SolverContex
         faster for k = 50).
     block : int, optional
         Block size of ``lanczos`` (default: the policy's, else ``min(max(6, k // 4), 16)``).
+    keep : bool
+        Keep the factorization of ``K - sigma M`` in ``solver`` for the next computation at this
+        shift (:meth:`~flexmor.linalg.context.SolverContext.shifted`); one kept there already
+        for these matrices and shift is used either way.
 
     Returns
     -------
@@ -131,7 +134,7 @@ def eigenmodes(K, M, k: int, *, sigma: float | None = None, solver: SolverContex
             sigma = default_shift(K, M)
         F = factorization
         if F is None:
-            F = factorize((K - sigma * M).tocsr(), solver=solver, symmetric=True, positive=sigma < 0)
+            F = solver.shifted(K, M, sigma, keep=keep)
         if F.backend == "petsc":  # distributed: SLEPc Krylov-Schur on the same MUMPS factorization
             from .petsc import slepc_eigenmodes
 

@@ -66,7 +66,7 @@ def cb_frame(model, interface, order, method: str, solver: SolverContext | None 
                           params=("order",))
     extra = 0 if relief else n_rb
     V = np.zeros((model.n_dof, b.size + min(order + extra - b.size, i.size)))
-    V[:, : b.size] = inertia_relief_modes(model, b, solver=solver) if relief else V_c
+    V[:, : b.size] = inertia_relief_modes(model, b, solver=solver, held=(V_c, i, F)) if relief else V_c
     info = {"n_interface_dofs": int(b.size)}
     if n_rb:
         info.update(rigid="exclude", n_rigid=int(extra))

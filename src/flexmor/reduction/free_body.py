@@ -56,23 +56,34 @@ def rigid_head(model, loads, rigid: str):
 RELIEF_TOL = 1e-13
 
 
-def inertia_relief_modes(model, dofs, *, phi=None, solver=None) -> np.ndarray:
+def inertia_relief_modes(model, dofs, *, phi=None, solver=None, held=None) -> np.ndarray:
     """Static elastic responses of a free body to unit forces at the equations ``dofs``, balanced
     by the inertia of its rigid motion (inertia relief), M-orthogonal to the rigid-body modes:
 
         x_j = K⁺ (I - M Φ Φᵀ) e_j,   Φᵀ M x_j = 0.
 
-    ``K`` is singular; the responses come from the positive definite ``A = K - σ M``
-    (σ = :func:`flexmor.linalg.eigen.default_shift` < 0) with refinement
-    ``x <- P (x + A⁻¹ (f - K x))``, ``P = I - Φ Φᵀ M``, whose error shrinks by ``|σ| / (ω² + |σ|)``
-    per step in each elastic mode ω, until the relative change is below :data:`RELIEF_TOL`
-    (a few steps). One factorization, a few solves per column.
+    ``K`` is singular. With ``held = (V_c, i, F)``, the constraint modes of ``dofs``, the other
+    equations ``i`` and the factorization of ``K_ii`` (:func:`flexmor.reduction.guyan.constraint_modes`,
+    the interface holding the body), the responses come from the body held at ``dofs``: with the
+    loads ``g = (I - M Φ Φᵀ) E``, ``x_i = K_ii⁻¹ g_i`` (one solve of the ``k <= 6`` columns of
+    ``(M Φ)_i``, since ``g_i = -(M Φ)_i Φ_bᵀ``) and the interface motion ``x_b`` from the Guyan
+    stiffness ``S = V_cᵀ K V_c`` (singular on the rigid motions ``Φ_b``; the loads are balanced):
+    ``S x_b = g_b - K_bi x_i``, ``x = V_c x_b + [0; x_i]``, made M-orthogonal to ``Φ``. Exact up to
+    the factorization's rounding, no other factorization.
+
+    Without ``held``, from the positive definite ``A = K - σ M`` (σ =
+    :func:`flexmor.linalg.eigen.default_shift` < 0) with refinement ``x <- P (x + A⁻¹ (f - K x))``,
+    ``P = I - Φ Φᵀ M``, whose error shrinks by ``|σ| / (ω² + |σ|)`` per step in each elastic mode ω,
+    until the relative change is below :data:`RELIEF_TOL` (a few steps). One factorization, a few
+    solves per column.
     """
     from ..linalg import factorize
     from ..linalg.eigen import default_shift
 
     phi = rigid_body_modes(model) if phi is None else phi
     dofs = np.asarray(dofs, dtype=np.int64)
+    if held is not None:
+        return _relief_held(model, dofs, phi, *held)
     E = np.zeros((model.n_dof, dofs.size))
     E[dofs, np.arange(dofs.size)] = 1.0
     f = elastic_loads(model, phi, E)
@@ -86,6 +97,24 @@ def inertia_relief_modes(model, dofs, *, phi=None, solver=None) -> np.ndarray:
         if np.linalg.norm(dx) <= RELIEF_TOL * np.linalg.norm(x):
             break
     return x
+
+
+def _relief_held(model, b, phi, V_c, i, F) -> np.ndarray:
+    """:func:`inertia_relief_modes` from the body held at the equations ``b`` (see there)."""
+    K = model.K.tocsr()
+    M_phi = model.M @ phi
+    phi_b = phi[b]
+    x_i = -F.solve(np.ascontiguousarray(M_phi[i])) @ phi_b.T  # K_ii^-1 g_i, g_i = -(M phi)_i phi_b^T
+    Kb = K[b]
+    S = Kb @ V_c  # V_c^T K V_c: the interface rows of K V_c (V_c[b] = I, K V_c = 0 on the interior rows)
+    S = 0.5 * (S + S.T)
+    h = np.eye(b.size) - M_phi[b] @ phi_b.T - Kb[:, i] @ x_i  # g_b - K_bi x_i
+    Q = sla.orth(phi_b)  # S's null space: the rigid motions of the interface
+    scale = max(float(np.abs(S).sum(axis=0).max()), np.finfo(float).tiny)
+    x_b = np.linalg.solve(S + scale * (Q @ Q.T), h - Q @ (Q.T @ h))
+    x = V_c @ x_b
+    x[i] += x_i
+    return m_project(model, phi, x)
 
 
 def with_elastic_inputs(model, ports):

@@ -102,6 +102,8 @@ def shifted_factorization(model, s: complex, solver: SolverContext | None = None
     solver = as_solver(solver)
     s = complex(s)
     real = s.imag == 0
+    if real and s.real > 0 and model.D is None:  # K + s^2 M: shared with the rigid-body check at this shift
+        return solver.shifted(model.K, model.M, -s.real ** 2), s
     A = (s.real ** 2) * model.M + model.K if real else (s * s) * model.M + model.K
     if model.D is not None and s != 0:
         A = A + (s.real if real else s) * model.D
