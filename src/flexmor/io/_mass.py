@@ -23,11 +23,12 @@ def check_mass(model, where, *, max_dof: int = 500_000, iterations: int = 12) ->
     """Warn (FlexmorWarning) when the mass matrix is singular or indefinite; return an estimate of
     ``lambda_min/lambda_max`` (0 for a singular, negative for an indefinite mass).
 
-    One symmetric indefinite factorization ``M = L D L^T``: where the backend reports its pivots
-    (pardiso), pivots it had to perturb (below 1e-8 of the largest) mean singular, negative ones
-    (Sylvester's law of inertia) indefinite, and a solve gives the Rayleigh quotient returned;
-    no other solve. Otherwise ``iterations`` inverse iterations estimate the smallest eigenvalue:
-    a failed factorization, a ratio below 1e-12 or a negative Rayleigh quotient count as singular.
+    With pardiso, one Cholesky factorization of ``M`` and two inverse iterations: a ratio below
+    1e-12 counts as singular; a Cholesky that meets a non-positive pivot is followed by one
+    ``L D L^T`` whose pivots tell which: perturbed ones (below 1e-8 of the largest) singular,
+    negative ones (Sylvester's law of inertia) indefinite. With another backend, one
+    factorization and ``iterations`` inverse iterations estimate the smallest eigenvalue: a failed
+    factorization, a ratio below 1e-12 or a negative Rayleigh quotient count as singular.
     Skipped (None) above ``max_dof`` equations.
     """
     from ..errors import FlexmorWarning, SolverError
@@ -40,22 +41,23 @@ def check_mass(model, where, *, max_dof: int = 500_000, iterations: int = 12) ->
     lam_max = float(abs(M).sum(axis=1).max())  # Gershgorin bound
     kind = None
     try:
-        F = factorize(M, symmetric=True, positive=False, check=False)
-        pivots = F.perturbed is not None
-        if pivots and F.perturbed:
-            kind = f"singular ({F.perturbed} pivots of its LDL^T below 1e-8 of the largest)"
-        elif pivots and F.inertia is not None and F.inertia[1]:
-            kind = f"indefinite ({F.inertia[1]} negative eigenvalues)"
+        try:
+            F = factorize(M, symmetric=True, positive=True, check=False)
+        except SolverError:
+            F = factorize(M, symmetric=True, positive=False, check=False)
+            if F.perturbed:
+                kind = f"singular ({F.perturbed} pivots of its LDL^T below 1e-8 of the largest)"
+            elif F.inertia is not None and F.inertia[1]:
+                kind = f"indefinite ({F.inertia[1]} negative eigenvalues)"
+        cholesky = F.backend == "pardiso" and F.perturbed is None  # a positive definite factor
         x = np.random.default_rng(1).standard_normal(M.shape[0])
-        for _ in range(0 if kind else 2 if pivots else iterations):
+        for _ in range(0 if kind else 2 if cholesky else iterations):
             x = F.solve(x)
             nx = np.linalg.norm(x)
             if not np.isfinite(nx) or nx == 0:
                 raise SolverError("inverse iteration broke down")
             x /= nx
-        ratio = 0.0 if kind and F.perturbed else -1.0 if kind else float(x @ (M @ x)) / lam_max
-        if pivots and not kind:  # positive definite by its pivots
-            ratio = max(ratio, np.finfo(float).tiny)
+        ratio = (0.0 if F.perturbed else -1.0) if kind else float(x @ (M @ x)) / lam_max
     except (SolverError, RuntimeError, ValueError, np.linalg.LinAlgError):
         ratio = 0.0
     if kind is None and ratio < 1e-12:  # (its value at round-off level is noise: not shown)
