@@ -51,7 +51,7 @@ def test_check_and_method_share_one_factorization(method, order):
                                       solver=ctx)
         bodies.append(red)
         counts.append(ctx.stats.count)
-        assert ctx._kept is None  # released after the reduction
+        assert ctx.kept(model.K, model.M, sigma) is None  # released after the reduction
     assert counts == [1, 2]
     np.testing.assert_allclose(bodies[0].frequencies_hz(), bodies[1].frequencies_hz(), rtol=1e-10)
 

@@ -102,7 +102,8 @@ def check_shift(model, method: str, options: dict) -> tuple[float | None, bool]:
     if model.n_dof <= DENSE_LIMIT or is_partitioned(model.K):
         return None, False
     if method == "modal":
-        return options.get("sigma"), True
+        sigma = options.get("sigma")
+        return (default_shift(model.K, model.M) if sigma is None else float(sigma)), True
     if method == "krylov" and not options.get("points") and model.D is None:
         fmin, fmax = Band.of(options.get("band"))
         sigma = -(2 * np.pi * np.sqrt(fmin * fmax)) ** 2

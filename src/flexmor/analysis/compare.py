@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import logging
 import time
 from collections.abc import Callable
@@ -17,6 +18,7 @@ from ..dynamics.surrogate import DEFAULT_SURROGATE_TOL
 from ..errors import ModelError, OptionError, PortError
 from ..linalg.context import SolverContext, as_solver, step
 from ..linalg.eigen import frequencies_hz
+from ..linalg.threads import blas_threads
 from ..options import Band
 from ..origin import check_origin, describe_damping, fingerprint, same_damping
 from ..reduction.free_body import with_elastic_inputs
@@ -215,9 +217,10 @@ class FullResponse:
             self.freqs, self.H = entry["freqs"], entry["H"]
             self.resonances, self.zeta, self.grid = entry["resonances"], entry["zeta"], entry["info"]
             log.info("full FRF from the cache (%d frequencies)", self.freqs.size)
-        else:
-            self._compute(model, ports, n=n, tol=tol, max_points=max_points, solver=solver, progress=progress,
-                          surrogate_tol=surrogate_tol, check_solver=check_solver)
+        else:  # the sparse paths' dense products are tall-skinny: one BLAS thread (flexmor.linalg.threads)
+            with blas_threads(1) if path != "dense" else contextlib.nullcontext():
+                self._compute(model, ports, n=n, tol=tol, max_points=max_points, solver=solver, progress=progress,
+                              surrogate_tol=surrogate_tol, check_solver=check_solver)
             if key:
                 t1 = time.perf_counter()
                 frf_cache.store(key, self.freqs, self.H, self.resonances, self.zeta, self.grid, directory)

@@ -226,28 +226,19 @@ class SolverContext:
         return value
 
 
-    def shifted(self, K, M, sigma: float, *, keep: bool = False):
-        """The factorization of ``K - sigma M`` (positive definite for ``sigma < 0``): the one kept
-        for these very matrices and shift (see ``keep``), else a new one.
+    def kept(self, K, M, sigma: float):
+        """The factorization of ``K - sigma M`` kept by :meth:`keep` for these very matrices and shift, else None."""
+        k = self._kept
+        return k[3] if k is not None and k[0]() is K and k[1]() is M and k[2] == sigma else None
 
-        ``keep=True`` keeps the new factorization (one at a time) until :meth:`release`, so that the
-        next computation on the same matrix shares it: the rigid-body check of a model
-        (:func:`flexmor.checks.check_rigid_body_modes`) and the method that follows at that shift
-        (``krylov`` at its point, ``modal``) make one factorization. Its memory stays taken
-        meanwhile.
-        """
-        kept = self._kept
-        if kept is not None and kept[0]() is K and kept[1]() is M and kept[2] == sigma:
-            return kept[3]
-        from .factorize import factorize
-
-        F = factorize((K - sigma * M).tocsr(), solver=self, symmetric=True, positive=sigma < 0)
-        if keep:
-            self._kept = (weakref.ref(K), weakref.ref(M), float(sigma), F)
-        return F
+    def keep(self, K, M, sigma: float, F) -> None:
+        """Keep ``F``, the factorization of ``K - sigma M`` (one at a time), until :meth:`release`: the
+        next computation on the same matrix shares it (:func:`flexmor.linalg.factorize.factorize_shifted`).
+        Its memory stays taken meanwhile."""
+        self._kept = (weakref.ref(K), weakref.ref(M), float(sigma), F)
 
     def release(self) -> None:
-        """Drop the factorization kept by :meth:`shifted` (its memory is free once nothing else holds it)."""
+        """Drop the factorization kept by :meth:`keep` (its memory is free once nothing else holds it)."""
         self._kept = None
 
 

@@ -13,6 +13,7 @@ from ..errors import ConvergenceError, ModelError, OptionError
 from .block_eigen import block_lanczos
 from .context import DENSE_LIMIT, EIGEN_METHODS, SolverContext, as_solver
 from .distributed import is_partitioned
+from .factorize import factorize_shifted
 
 __all__ = ["eigenmodes", "dense_eigenmodes", "default_shift", "rigid_body_threshold", "is_rigid", "frequencies_hz",
            "whole_clusters", "CLUSTER_RTOL",
@@ -134,7 +135,7 @@ def eigenmodes(K, M, k: int, *, sigma: float | None = None, solver: SolverContex
             sigma = default_shift(K, M)
         F = factorization
         if F is None:
-            F = solver.shifted(K, M, sigma, keep=keep)
+            F = factorize_shifted(K, M, sigma, solver=solver, keep=keep)
         if F.backend == "petsc":  # distributed: SLEPc Krylov-Schur on the same MUMPS factorization
             from .petsc import slepc_eigenmodes
 

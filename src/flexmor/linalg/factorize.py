@@ -23,7 +23,7 @@ from .context import SolverContext, as_solver
 from .distributed import is_partitioned
 from .factorization import Factorization
 
-__all__ = ["factorize", "RESIDUAL_TOL"]
+__all__ = ["factorize", "factorize_shifted", "RESIDUAL_TOL"]
 
 log = logging.getLogger(__name__)
 
@@ -116,3 +116,21 @@ def _memory_backend(name: str, solver: SolverContext) -> str:
     raise SolverError(f"factor_memory={solver.factor_memory!r} needs backend {' or '.join(wanted)}"
                       + ("" if "pardiso" in solver.available() else " (pardiso: pip install flexmor[fast])")
                       + f", not {name}", params=("factor_memory", "backend"))
+
+
+def factorize_shifted(K, M, sigma: float, *, solver: SolverContext | None = None, keep: bool = False) -> Factorization:
+    """The factorization of ``K - sigma M`` (positive definite for ``sigma < 0``): the one ``solver`` keeps
+    for these very matrices and shift (:meth:`~flexmor.linalg.context.SolverContext.kept`), else a new one.
+
+    ``keep=True`` keeps the new one in ``solver`` until its ``release()``, so that the next computation
+    on the same matrix shares it: the rigid-body check of a model
+    (:func:`flexmor.checks.check_rigid_body_modes`) and the method that follows at that shift
+    (``krylov`` at its point, ``modal``) make one factorization.
+    """
+    solver = as_solver(solver)
+    F = solver.kept(K, M, sigma)
+    if F is None:
+        F = factorize((K - sigma * M).tocsr(), solver=solver, symmetric=True, positive=sigma < 0)
+        if keep:
+            solver.keep(K, M, sigma, F)
+    return F

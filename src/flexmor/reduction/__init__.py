@@ -20,6 +20,7 @@ from ..body import ReducedModel
 from ..linalg.context import as_solver
 from ..linalg.distributed import is_partitioned
 from ..linalg.resources import check_basis_memory
+from ..linalg.threads import blas_threads
 from ..options import Band, check_option_types, check_order
 from ..projection import project
 from ..rigid import exclude_rigid, frame_participation
@@ -91,11 +92,12 @@ def reduce(model, method: str, order: int | None, ports, *, inertia_loads: str =
     if order is not None and not is_partitioned(model.K):  # a basis that cannot fit: refused before any work
         check_basis_memory(model.n_dof, order, as_solver(options.get("solver")))
     t0 = time.perf_counter()
-    basis_ports, inertia = with_inertia_loads(model, ports, inertia_loads if m.uses_inputs else "off")
-    basis = exclude_rigid(model, m.function(model, basis_ports, order, **opts))
-    t1 = time.perf_counter()
-    red = project(model, basis, ports)
-    t2 = time.perf_counter()
+    with blas_threads(1):  # tall-skinny and small dense products (see flexmor.linalg.threads)
+        basis_ports, inertia = with_inertia_loads(model, ports, inertia_loads if m.uses_inputs else "off")
+        basis = exclude_rigid(model, m.function(model, basis_ports, order, **opts))
+        t1 = time.perf_counter()
+        red = project(model, basis, ports)
+        t2 = time.perf_counter()
     red.info.update(inertia)
     red.info.setdefault("order_requested", order)
     red.info.setdefault("options", _recorded(opts))

@@ -32,6 +32,7 @@ from ..errors import OptionError, SolverError, check_choice
 from ..linalg import factorize
 from ..linalg.context import SolverContext, as_solver
 from ..linalg.eigen import default_shift
+from ..linalg.factorize import factorize_shifted
 from ..linalg.threads import blas_threads
 from ..options import Band, band_option, option
 from ..projection import reduced_matrices
@@ -103,7 +104,7 @@ def shifted_factorization(model, s: complex, solver: SolverContext | None = None
     s = complex(s)
     real = s.imag == 0
     if real and s.real > 0 and model.D is None:  # K + s^2 M: shared with the rigid-body check at this shift
-        return solver.shifted(model.K, model.M, -s.real ** 2), s
+        return factorize_shifted(model.K, model.M, -s.real ** 2, solver=solver), s
     A = (s.real ** 2) * model.M + model.K if real else (s * s) * model.M + model.K
     if model.D is not None and s != 0:
         A = A + (s.real if real else s) * model.D
