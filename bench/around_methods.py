@@ -87,9 +87,9 @@ def _model(name: str, args):
     from flexmor.models import cantilever, plate_structure, size_for_dofs
 
     if name == "cantilever":
-        return cantilever(size_for_dofs(27000)), CANTILEVER_INPUTS
+        return cantilever(size_for_dofs(args.cantilever_dofs)), CANTILEVER_INPUTS
     if name == "plate":
-        return plate_structure(56), [f"HOLE@rbe3:{d}" for d in SIX]
+        return plate_structure(args.plate_n), [f"HOLE@rbe3:{d}" for d in SIX]
     if name == "c3d10":
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", FlexmorWarning)
@@ -202,7 +202,7 @@ def case_method(args) -> dict:
     from flexmor.ports import make_ports
     from flexmor.reduction import methods, reduce
 
-    if args.free:
+    if args.free_body:
         model = couple(plate_structure(args.busy_n, lower="mass"), ["HOLE@rbe2"]).model
         ports, iface = make_ports(model, ["HOLE@RBE2:all"]), ["HOLE@RBE2"]
     else:
@@ -253,13 +253,16 @@ def _label(src: str, srcs: list[str]) -> str:
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0], allow_abbrev=False)
     ap.add_argument("--parts", default="krylov,read,busy,free")
     ap.add_argument("--order", type=int, default=174)
     ap.add_argument("--c3d10", default="20,8,8", help="cells NX,NY,NZ of the C3D10 bar")
     ap.add_argument("--large", type=int, default=1_000_000, help="DOF of the large check case (0: none)")
     ap.add_argument("--busy-n", type=int, default=40)
     ap.add_argument("--free-order", type=int, default=40)
+    ap.add_argument("--free-n", type=int, default=56, help="plate_structure(n, lower='mass') of the free part")
+    ap.add_argument("--plate-n", type=int, default=56, help="plate_structure(n) of the krylov part")
+    ap.add_argument("--cantilever-dofs", type=int, default=27000)
     ap.add_argument("--repeat", type=int, default=2)
     ap.add_argument("--models", default="cantilever,plate,c3d10")
     ap.add_argument("--methods", default=",".join(BUSY_METHODS))
@@ -282,7 +285,8 @@ def main(argv=None) -> int:
                 print("  c3d10: skipped (no ccx)")
                 continue
             for src in srcs:
-                r = _child(src, ["krylov", "--model", model, "--order", str(args.order), "--c3d10", args.c3d10, *rep])
+                r = _child(src, ["krylov", "--model", model, "--order", str(args.order), "--c3d10", args.c3d10,
+                                 "--plate-n", str(args.plate_n), "--cantilever-dofs", str(args.cantilever_dofs), *rep])
                 r["src"] = src
                 rows.append(r)
                 if "error" in r:
@@ -334,7 +338,7 @@ def main(argv=None) -> int:
         for src in srcs:
             ref = None
             for method in ("krylov", "craig-bampton", "cms-krylov", "cms-gramian"):
-                r = _child(src, ["method", "--method", method, "--free", "--busy-n", "56", "--order",
+                r = _child(src, ["method", "--method", method, "--free-body", "--busy-n", str(args.free_n), "--order",
                                  str(args.free_order), *rep])
                 r["src"] = src
                 rows.append(r)
@@ -353,7 +357,7 @@ def main(argv=None) -> int:
 
 
 def _run_case(argv: list[str]) -> int:
-    ap = argparse.ArgumentParser()
+    ap = argparse.ArgumentParser(allow_abbrev=False)
     ap.add_argument("kind")
     ap.add_argument("--model", default="plate")
     ap.add_argument("--method", default="krylov")
@@ -361,7 +365,9 @@ def _run_case(argv: list[str]) -> int:
     ap.add_argument("--c3d10", default="20,8,8")
     ap.add_argument("--large", type=int, default=0)
     ap.add_argument("--busy-n", type=int, default=40)
-    ap.add_argument("--free", action="store_true")
+    ap.add_argument("--free-body", action="store_true")
+    ap.add_argument("--plate-n", type=int, default=56)
+    ap.add_argument("--cantilever-dofs", type=int, default=27000)
     ap.add_argument("--repeat", type=int, default=2)
     a = ap.parse_args(argv)
     res = {"krylov": case_krylov, "read": case_read, "method": case_method}[a.kind](a)

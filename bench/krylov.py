@@ -21,8 +21,15 @@ with pyMOR is given (``--pymor-python``), pyMOR's ``SORIRKAReductor`` at the sam
 that interpreter in a child process on the same matrices; its reduced model is two-sided,
 so it is evaluated from its own reduced matrices).
 
+Part 3, the whole reduce on solid models with coupled ports (``--whole cantilever,plate,c3d10``):
+``krylov`` of order ``--order`` with what ``flexmor reduce --no-error`` does around it (rigid-body
+check, points check, projection, reduced eigenvalues, file) against one bare factorization at its
+point plus as many block solves: :func:`around_methods.main` (``bench/around_methods.py``, part
+``krylov``, where the cases are described).
+
 Usage::
 
+    python bench/krylov.py --whole cantilever,plate,c3d10 --order 174 --skip-overhead --skip-compare
     python bench/krylov.py                                   # both parts
     python bench/krylov.py --size 30000 --cmp-size 3000 --pymor-python /tmp/pymor-venv/bin/python
 
@@ -210,8 +217,15 @@ def main(argv=None) -> int:
     ap.add_argument("--skip-overhead", action="store_true")
     ap.add_argument("--skip-compare", action="store_true")
     ap.add_argument("--out", default=str(HERE / "results" / "krylov.json"))
+    ap.add_argument("--whole", help="models of the whole-reduce part (cantilever,plate,c3d10)")
     ap.add_argument("--pymor-worker", nargs=2, help=argparse.SUPPRESS)
     args = ap.parse_args(argv)
+    if args.whole:
+        sys.path.insert(0, str(HERE))
+        import around_methods
+
+        around_methods.main(["--parts", "krylov", "--models", args.whole, "--order", str(args.order),
+                             "--repeat", str(args.repeat), "--out", str(HERE / "results" / "krylov_whole.json")])
     if args.pymor_worker:
         _pymor_worker(*args.pymor_worker)
         return 0

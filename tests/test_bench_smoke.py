@@ -25,3 +25,24 @@ def test_scale_benchmark_smoke_run(tmp_path):
     for v in m.values():
         assert v["ratio"] >= 1.0 and v["solver_s"] > 0 and v["peak_mb"] > 0
     assert "krylov-1pt r=36" in proc.stdout
+
+
+def test_around_methods_smoke_run(tmp_path):
+    """bench/around_methods.py on tiny models: every part but the CalculiX read runs and records its ratios;
+    the whole krylov reduce makes one factorization (the rigid-body check's, shared)."""
+    out = tmp_path / "around.json"
+    cmd = [sys.executable, str(ROOT / "bench" / "around_methods.py"), "--parts", "krylov,busy,free", "--models",
+           "cantilever,plate", "--cantilever-dofs", "3000", "--plate-n", "8", "--order", "24", "--busy-n", "8",
+           "--methods", "krylov,craig-bampton", "--free-n", "8", "--free-order", "16", "--repeat", "1",
+           "--out", str(out)]
+    proc = subprocess.run(cmd, capture_output=True, text=True, timeout=900, check=False)
+    assert proc.returncode == 0, proc.stderr
+    parts = json.loads(out.read_text())["parts"]
+    for row in parts["krylov"]:
+        assert "error" not in row, row
+        assert row["factorizations"] == 1 and row["order"] == 24 and row["ratio"] > 1.0
+    assert {r["method"] for r in parts["busy"]} == {"krylov", "craig-bampton"}
+    assert all(r["ratio"] > 0 for r in parts["busy"])
+    free = {r["method"]: r for r in parts["free"]}
+    assert set(free) == {"krylov", "craig-bampton", "cms-krylov", "cms-gramian"}
+    assert free["craig-bampton"]["factorizations"] == 1
