@@ -7,6 +7,7 @@ names of its ports, the node table of the full model and the fingerprint of that
 
 from __future__ import annotations
 
+import weakref
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -17,6 +18,10 @@ from .damping import Damping, NoDamping, damping_from_dict
 from .errors import ModelError
 
 __all__ = ["ReducedModel"]
+
+
+#: ``id(body) -> (K, M, eigenvalues)`` of :meth:`ReducedModel.eigenvalues`, dropped with the body
+_EIGENVALUES: dict = {}
 
 
 @dataclass
@@ -107,11 +112,19 @@ class ReducedModel:
         return int(self.M.shape[0])
 
     def eigenvalues(self) -> np.ndarray:
-        """Eigenvalues ``omega^2`` of ``(Kr, Mr)``, ascending."""
+        """Eigenvalues ``omega^2`` of ``(Kr, Mr)``, ascending (solved once while ``K`` and ``M`` are the same
+        arrays)."""
+        hit = _EIGENVALUES.get(id(self))
+        if hit is not None and hit[0] is self.K and hit[1] is self.M:
+            return hit[2].copy()
         try:
-            return sla.eigh(self.K, self.M, eigvals_only=True)
+            lam = sla.eigh(self.K, self.M, eigvals_only=True)
         except np.linalg.LinAlgError:
             raise ModelError("the reduced mass matrix is not positive definite") from None
+        if hit is None:
+            weakref.finalize(self, _EIGENVALUES.pop, id(self), None)
+        _EIGENVALUES[id(self)] = (self.K, self.M, lam)
+        return lam.copy()
 
     def summary(self) -> dict:
         """What the body is, as a plain dict (used by ``flexmor info BODY.h5``).

@@ -20,8 +20,8 @@ from .basis import Basis, as_basis, check_rank
 from .body import ReducedModel
 from .couplings import coupling_masters
 from .damping import ModalDamping
-from .errors import PortError
-from .linalg.threads import sparse_dense
+from .errors import ModelError, PortError
+from .linalg.threads import blas_threads, sparse_dense
 from .mesh import outer_surface
 from .model import FEModel
 from .origin import fingerprint
@@ -124,10 +124,16 @@ def project(model: FEModel, basis: Basis | np.ndarray, ports: Ports) -> ReducedM
     if masters:  # the interfaces of the body: one master id everywhere (info, SID, Exudyn, report)
         info["masters"] = [{"name": m["name"], "id": m["id"], "kind": m["kind"], "xyz": m["xyz"],
                             "n_slaves": int(m["slaves"].size)} for m in masters]
-    return ReducedModel(
+    red = ReducedModel(
         M=Mr, K=Kr, D=Dr, B=Br, C=Cr, V=V, method=basis.method, info=info,
         input_names=list(ports.input_names), output_names=list(ports.output_names),
         node_ids=model.node_ids, xyz=model.xyz, dofs=model.dofs, model_name=model.name,
         damping=model.damping, triangles=None if model.mesh is None else outer_surface(model.mesh).triangles,
         origin=fingerprint(model), order_note=order_note, units=model.units,
     )
+    try:
+        with blas_threads(1):  # r x r: one thread is as fast, and never spins beside a busy process
+            red.eigenvalues()  # solved once here, kept by the body
+    except ModelError:
+        pass  # the body says so where its frequencies are asked for
+    return red
