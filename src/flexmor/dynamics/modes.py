@@ -15,6 +15,7 @@ from ..errors import FlexmorError
 from ..linalg import factorize
 from ..linalg.context import SolverContext
 from ..linalg.eigen import default_shift, eigenmodes, frequencies_hz
+from ..linalg.factorize import factorize_shifted
 
 __all__ = ["modal_damping_ratios", "modes_below"]
 
@@ -40,7 +41,9 @@ def modes_below(model, fmax: float, solver: SolverContext, max_modes: int = 400)
 
     Above the solver's dense limit (``solver.eigen.dense_limit``) the number of modes below
     ``fmax`` is counted first (inertia of one factorization), then the modes come from one
-    shift-invert factorization of ``K - sigma M``.
+    shift-invert factorization of ``K - sigma M``: ``sigma`` the default shift, or 0 when ``solver``
+    keeps a factorization of ``K`` for these matrices (a fixed-interface body whose ``K_ii`` the
+    constraint modes factorized).
 
     Parameters
     ----------
@@ -66,11 +69,13 @@ def modes_below(model, fmax: float, solver: SolverContext, max_modes: int = 400)
         Its shift.
     """
     sigma = default_shift(model.K, model.M)
+    if solver.kept(model.K, model.M, 0.0) is not None:  # K itself factorized already (a held interior)
+        sigma = 0.0
     F = None
     k = min(model.n_dof, 20)
     if model.n_dof > solver.eigen.dense_limit:  # count first: one large factorization alive at a time
         k = _count_below(model, fmax, solver) or k
-        F = factorize((model.K - sigma * model.M).tocsr(), solver=solver, positive=True)
+        F = factorize_shifted(model.K, model.M, sigma, solver=solver)
     while True:
         lam, phi = eigenmodes(model.K, model.M, k, sigma=sigma, factorization=F, solver=solver)
         f = frequencies_hz(lam)

@@ -69,12 +69,16 @@ def fixed_interface_body(model, ports, Psi, b, i, *, tol: float = 1e-8):
 
 
 def _cms(model, ports, order, interface, method, internal, solver, rigid):
-    V, b, i, _, info = cb_frame(model, interface, order, method, solver, rigid)
+    V, b, i, F, info = cb_frame(model, interface, order, method, solver, rigid)
     Psi, n_int = V[:, : b.size], V.shape[1] - b.size
     info["n_internal"] = int(n_int)
     if n_int:
         sub, sub_ports = fixed_interface_body(model, ports, Psi, b, i)
-        Bi = internal(sub, sub_ports, n_int)
+        solver.keep(sub.K, sub.M, 0.0, F)  # K_ii, factorized for the constraint modes: the modal pre-pass's too
+        try:
+            Bi = internal(sub, sub_ports, n_int)
+        finally:
+            solver.release()
         V[i, b.size: b.size + Bi.order] = Bi.V
         V = V[:, : b.size + Bi.order]
         info.update(n_internal=int(Bi.order), n_loads=int(sub_ports.n_inputs), internal=Bi.info)
