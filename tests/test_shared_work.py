@@ -85,17 +85,17 @@ def test_craig_bampton_on_a_free_body_makes_one_factorization(free_plate):
     assert f[0] > 0 and red.order == 20
 
 
-@pytest.mark.skipif(not PARDISO, reason="pardiso (pip install flexmor[fast]) reports the pivots of L D L^T")
-@pytest.mark.parametrize("shift, kind", [(0.0, "singular"), (-1e-3, "indefinite")])
-def test_mass_check_reads_the_pivots(shift, kind):
-    """One Cholesky and two inverse iterations, or (the Cholesky failing) the pivots of an L D L^T."""
+@pytest.mark.skipif(not PARDISO, reason="pardiso (pip install flexmor[fast]): the Cholesky route")
+@pytest.mark.parametrize("shift", [0.0, -1e-3])
+def test_mass_check_is_one_cholesky(shift):
+    """One Cholesky and two inverse iterations: a failed Cholesky or a tiny Rayleigh quotient is warned."""
     from flexmor.io._mass import check_mass
 
     M = cantilever(2).M.toarray()
     mu, U = np.linalg.eigh(M)
     bad = M + (shift * mu[-1] - mu[0]) * np.outer(U[:, 0], U[:, 0])  # smallest eigenvalue moved to `shift`
     model = SimpleNamespace(M=sp.csr_matrix(0.5 * (bad + bad.T)))
-    with pytest.warns(FlexmorWarning, match=f"m: the mass matrix is {kind} \\((1 negative|1 pivots|smallest)"):
+    with pytest.warns(FlexmorWarning, match="m: the mass matrix is (singular|not positive definite) \\("):
         ratio = check_mass(model, "m")
     assert ratio < 1e-12
     assert check_mass(SimpleNamespace(M=sp.csr_matrix(M)), "m") > 1e-6  # the mass itself: quiet

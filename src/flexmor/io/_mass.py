@@ -21,15 +21,12 @@ QUADRATIC_TYPES = ("C3D20", "C3D15", "C3D10", "S8", "CPS8", "CPE8", "CAX8")
 
 def check_mass(model, where, *, max_dof: int = 500_000, iterations: int = 12) -> float | None:
     """Warn (FlexmorWarning) when the mass matrix is singular or indefinite; return an estimate of
-    ``lambda_min/lambda_max`` (0 for a singular, negative for an indefinite mass).
+    ``lambda_min/lambda_max`` (0 when it is not positive definite).
 
-    With pardiso, one Cholesky factorization of ``M`` and two inverse iterations: a ratio below
-    1e-12 counts as singular; a Cholesky that meets a non-positive pivot is followed by one
-    ``L D L^T`` whose pivots tell which: perturbed ones (below 1e-8 of the largest) singular,
-    negative ones (Sylvester's law of inertia) indefinite. With another backend, one
-    factorization and ``iterations`` inverse iterations estimate the smallest eigenvalue: a failed
-    factorization, a ratio below 1e-12 or a negative Rayleigh quotient count as singular.
-    Skipped (None) above ``max_dof`` equations.
+    One factorization of ``M`` as positive definite (pardiso: Cholesky) and two inverse iterations
+    (``iterations`` with another backend) estimate its smallest eigenvalue: a factorization that
+    fails (a pivot ``<= 0``) means singular or indefinite, a ratio below 1e-12 singular, a negative
+    Rayleigh quotient indefinite. Skipped (None) above ``max_dof`` equations.
     """
     from ..errors import FlexmorWarning, SolverError
     from ..linalg import factorize
@@ -43,21 +40,16 @@ def check_mass(model, where, *, max_dof: int = 500_000, iterations: int = 12) ->
     try:
         try:
             F = factorize(M, symmetric=True, positive=True, check=False)
-        except SolverError:
-            F = factorize(M, symmetric=True, positive=False, check=False)
-            if F.perturbed:
-                kind = f"singular ({F.perturbed} pivots of its LDL^T below 1e-8 of the largest)"
-            elif F.inertia is not None and F.inertia[1]:
-                kind = f"indefinite ({F.inertia[1]} negative eigenvalues)"
-        cholesky = F.backend == "pardiso" and F.perturbed is None  # a positive definite factor
+        except SolverError:  # a pivot <= 0 (pardiso's Cholesky), or singular (LU)
+            kind, F = "not positive definite (singular or indefinite: its factorization met a pivot <= 0)", None
         x = np.random.default_rng(1).standard_normal(M.shape[0])
-        for _ in range(0 if kind else 2 if cholesky else iterations):
+        for _ in range(0 if F is None else 2 if F.backend == "pardiso" else iterations):
             x = F.solve(x)
             nx = np.linalg.norm(x)
             if not np.isfinite(nx) or nx == 0:
                 raise SolverError("inverse iteration broke down")
             x /= nx
-        ratio = (0.0 if F.perturbed else -1.0) if kind else float(x @ (M @ x)) / lam_max
+        ratio = 0.0 if F is None else float(x @ (M @ x)) / lam_max
     except (SolverError, RuntimeError, ValueError, np.linalg.LinAlgError):
         ratio = 0.0
     if kind is None and ratio < 1e-12:  # (its value at round-off level is noise: not shown)
@@ -66,3 +58,4 @@ def check_mass(model, where, *, max_dof: int = 500_000, iterations: int = 12) ->
     if kind is not None:
         warnings.warn(f"{where}: the mass matrix is {kind}; {SINGULAR_MASS_NOTE}", FlexmorWarning, stacklevel=3)
     return ratio
+

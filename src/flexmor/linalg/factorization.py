@@ -78,9 +78,6 @@ class Factorization:
         the backend reports them (pardiso), else None. For ``K - s M`` the number of
         negative eigenvalues is the number of eigenvalues of ``(K, M)`` below ``s``
         (Sylvester's law of inertia).
-    perturbed : int or None
-        Pivots a symmetric indefinite LDL^T had to perturb, below ``1e-8`` of the largest (pardiso:
-        the matrix is singular to that precision, and ``inertia`` is None), else None.
     memory : MemoryPlan or None
         The memory mode and the estimates of the backends that choose one (pardiso, scipy).
     """
@@ -93,7 +90,6 @@ class Factorization:
         self.dtype = A.dtype
         self.seconds = 0.0
         self.inertia = None
-        self.perturbed: int | None = None
         self.memory_estimate: float | None = None
         self.memory: MemoryPlan | None = None
         self._A = None

@@ -142,10 +142,8 @@ class PardisoFactorization(Factorization):
         self._live = True
         # no perturbed pivots: exact inertia (not of a single-precision factor, whose rounding
         # of ~1e-7 ||A|| may move the eigenvalues nearest the shift across it)
-        if self._mtype == -2 and self.memory.mode != "mixed":
-            self.perturbed = int(self._iparm[13])
-            if self.perturbed == 0:
-                self.inertia = (int(self._iparm[21]), int(self._iparm[22]))
+        if self._mtype == -2 and self._iparm[13] == 0 and self.memory.mode != "mixed":
+            self.inertia = (int(self._iparm[21]), int(self._iparm[22]))
 
     def _call(self, phase, b, x, nrhs):
         c = self._ctypes
