@@ -277,6 +277,7 @@ def main(argv=None) -> int:
     ap.add_argument("--order", type=int, default=174)
     ap.add_argument("--c3d10", default="20,8,8", help="cells NX,NY,NZ of the C3D10 bar")
     ap.add_argument("--large", type=int, default=1_000_000, help="DOF of the large check case (0: none)")
+    ap.add_argument("--read-cases", default="clamped,free,large", help="of the read part")
     ap.add_argument("--busy-n", type=int, default=40)
     ap.add_argument("--free-order", type=int, default=40)
     ap.add_argument("--free-n", type=int, default=56, help="plate_structure(n, lower='mass') of the free part")
@@ -321,7 +322,7 @@ def main(argv=None) -> int:
     if "read" in parts:
         print(f"read + checks vs one factorization of K - sigma M (load {_load()})", flush=True)
         rows = out["parts"]["read"] = []
-        cases = ["clamped", "free"] + (["large"] if args.large else [])
+        cases = [c for c in args.read_cases.split(",") if c != "large" or args.large]
         for model in cases:
             for src in srcs:
                 r = _child(src, ["read", "--model", model, "--c3d10", args.c3d10, "--large", str(args.large),

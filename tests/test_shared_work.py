@@ -111,3 +111,18 @@ def test_mkl_workers_sleep_after_a_parallel_region():
             "print(os.environ['KMP_BLOCKTIME'])")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "0"
+
+
+def test_a_kept_factorization_is_handed_over():
+    """The next computation on the same matrix takes the kept factorization; the context then holds it no
+    longer (its memory goes with the last user), and another shift or matrix makes its own."""
+    from flexmor.linalg.factorize import factorize_shifted
+
+    model = cantilever(4)
+    ctx = SolverContext()
+    F = factorize_shifted(model.K, model.M, -1e3, solver=ctx, keep=True)
+    assert ctx.kept(model.K, model.M, -1e3) is F and ctx.kept(model.K, model.M, -2e3) is None
+    assert factorize_shifted(model.K, model.M, -2e3, solver=ctx) is not F
+    assert factorize_shifted(model.K, model.M, -1e3, solver=ctx) is F
+    assert ctx.kept(model.K, model.M, -1e3) is None
+    assert ctx.stats.count == 2

@@ -122,15 +122,19 @@ def factorize_shifted(K, M, sigma: float, *, solver: SolverContext | None = None
     """The factorization of ``K - sigma M`` (positive definite for ``sigma < 0``): the one ``solver`` keeps
     for these very matrices and shift (:meth:`~flexmor.linalg.context.SolverContext.kept`), else a new one.
 
-    ``keep=True`` keeps the new one in ``solver`` until its ``release()``, so that the next computation
-    on the same matrix shares it: the rigid-body check of a model
+    ``keep=True`` keeps the new one in ``solver`` until the next call for the same matrix without
+    ``keep`` takes it (handed over: the context holds it no longer, so no second large factorization
+    lives beside it after its last user) or ``solver.release()``: the rigid-body check of a model
     (:func:`flexmor.checks.check_rigid_body_modes`) and the method that follows at that shift
     (``krylov`` at its point, ``modal``) make one factorization.
     """
     solver = as_solver(solver)
     F = solver.kept(K, M, sigma)
-    if F is None:
-        F = factorize((K - sigma * M).tocsr(), solver=solver, symmetric=True, positive=sigma < 0)
-        if keep:
-            solver.keep(K, M, sigma, F)
+    if F is not None:
+        if not keep:  # handed over: its memory goes with the caller's last reference
+            solver.release()
+        return F
+    F = factorize((K - sigma * M).tocsr(), solver=solver, symmetric=True, positive=sigma < 0)
+    if keep:
+        solver.keep(K, M, sigma, F)
     return F
