@@ -95,7 +95,7 @@ def test_mass_check_is_one_cholesky(shift):
     mu, U = np.linalg.eigh(M)
     bad = M + (shift * mu[-1] - mu[0]) * np.outer(U[:, 0], U[:, 0])  # smallest eigenvalue moved to `shift`
     model = SimpleNamespace(M=sp.csr_matrix(0.5 * (bad + bad.T)))
-    with pytest.warns(FlexmorWarning, match="m: the mass matrix is (singular|not positive definite) \\("):
+    with pytest.warns(FlexmorWarning, match="m: the mass matrix is singular"):
         ratio = check_mass(model, "m")
     assert ratio < 1e-12
     assert check_mass(SimpleNamespace(M=sp.csr_matrix(M)), "m") > 1e-6  # the mass itself: quiet

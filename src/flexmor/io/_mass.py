@@ -41,7 +41,7 @@ def check_mass(model, where, *, max_dof: int = 500_000, iterations: int = 12) ->
         try:
             F = factorize(M, symmetric=True, positive=True, check=False)
         except SolverError:  # a pivot <= 0 (pardiso's Cholesky), or singular (LU)
-            kind, F = "not positive definite (singular or indefinite: its factorization met a pivot <= 0)", None
+            kind, F = "singular or indefinite (a pivot <= 0 in its factorization)", None
         x = np.random.default_rng(1).standard_normal(M.shape[0])
         for _ in range(0 if F is None else 2 if F.backend == "pardiso" else iterations):
             x = F.solve(x)
