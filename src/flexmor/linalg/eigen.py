@@ -99,7 +99,7 @@ def eigenmodes(K, M, k: int, *, sigma: float | None = None, solver: SolverContex
         Block size of ``lanczos`` (default: the policy's, else ``min(max(6, k // 4), 16)``).
     keep : bool
         Keep the factorization of ``K - sigma M`` in ``solver`` for the next computation at this
-        shift (:meth:`~flexmor.linalg.context.SolverContext.shifted`); one kept there already
+        shift (:func:`~flexmor.linalg.factorize.factorize_shifted`); one kept there already
         for these matrices and shift is used either way.
 
     Returns
