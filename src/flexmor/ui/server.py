@@ -28,8 +28,10 @@ import logging
 import re
 import secrets
 import shlex
+import socket
 import threading
 import time
+from http import HTTPStatus
 from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
 from importlib import resources
 from pathlib import Path, PurePosixPath
@@ -467,6 +469,8 @@ def _handler(app: App, timeout: float):
             self.close_connection = True
             if getattr(self, "request_version", "") in ("", "HTTP/0.9"):
                 self.request_version = "HTTP/1.0"  # a status line and headers, also to a bare request line
+            if code == HTTPStatus.HTTP_VERSION_NOT_SUPPORTED:  # the client's fault: a 4xx
+                code, message = HTTPStatus.BAD_REQUEST, f"{message}: use HTTP/1.0 or HTTP/1.1"
             short, long = self.responses.get(code, ("Error", ""))
             self._send(code, {"error": message or long or short})
 
@@ -505,8 +509,6 @@ def _handler(app: App, timeout: float):
                 self._send(code, body, ctype)
             except _Refused as r:
                 self._send(r.status, {"error": r.reason}, headers=r.headers)
-                if r.status == 413:  # the body is left unread
-                    self._discard(MAX_BODY)
             except FlexmorError as exc:
                 self._send(400, {"error": exc.message()})
             except TimeoutError:
@@ -522,7 +524,7 @@ def _handler(app: App, timeout: float):
             """The path and query of the request line (decoded once, by parse_qs)."""
             path, _, query = self.path.partition("?")
             try:
-                return path, parse_qs(query.partition("#")[0], max_num_fields=20)
+                return path, parse_qs(query.partition("#")[0], keep_blank_values=True, max_num_fields=20)
             except ValueError:
                 raise _Refused(400, "too many query fields") from None
 
@@ -595,21 +597,32 @@ def _handler(app: App, timeout: float):
                 raise _Refused(400, f"the body ended after {len(data)} of its {n} bytes")
             return data
 
-        def _discard(self, n: int) -> None:
-            """Read and drop up to ``n`` bytes the client is still sending (so that it reads the answer
-            instead of a reset connection), for at most a second."""
-            end = time.monotonic() + 1.0
+        def finish(self):
+            """End the answer, then read and drop what the client still sends (a refused body, up to
+            MAX_BODY bytes and a second): closed with unread data the connection would be reset, and
+            the client could lose the answer."""
             try:
-                self.connection.settimeout(0.2)
-                while n > 0 and time.monotonic() < end:
-                    chunk = self.rfile.read1(min(n, 1 << 16))
-                    if not chunk:
-                        break
-                    n -= len(chunk)
-            except OSError:
-                pass
+                super().finish()
+            finally:
+                _linger(self.connection, MAX_BODY + (1 << 16), 1.0)
 
     return Handler
+
+
+def _linger(sock, limit: int, seconds: float) -> None:
+    """Half-close ``sock`` (the client reads the answer to its end) and drop up to ``limit`` bytes it
+    still sends, for up to ``seconds`` (0: only what has arrived)."""
+    end, n = time.monotonic() + seconds, 0
+    try:
+        sock.shutdown(socket.SHUT_WR)
+        sock.settimeout(min(0.2, seconds) if seconds > 0 else 0.0)
+        while n < limit:
+            chunk = sock.recv(1 << 16)
+            if not chunk or time.monotonic() > end:
+                break
+            n += len(chunk)
+    except OSError:  # nothing more (BlockingIOError, a timeout) or the client has gone
+        pass
 
 
 class _Server(ThreadingHTTPServer):
@@ -630,6 +643,7 @@ class _Server(ThreadingHTTPServer):
                 request.sendall(b"HTTP/1.0 503 Service Unavailable\r\nContent-Type: application/json\r\n"
                                 b"Retry-After: 1\r\nConnection: close\r\nContent-Length: %d\r\n\r\n%s"
                                 % (len(body), body))
+            _linger(request, 1 << 16, 0.0)
             self.shutdown_request(request)
             return
         try:
