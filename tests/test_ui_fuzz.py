@@ -273,12 +273,14 @@ def test_commands_take_only_the_method_options(world):
 
 def test_unknown_routes_and_methods(world):
     w = world
-    for target in ("/api/nope", "/%2e%2e/%2e%2e/etc/passwd", "/file/../../etc/passwd", "/api/state/", "/./api/state",
-                   "/API/STATE", "http://x/api/state", "/api/%2e%2e/state"):
+    for target in ("/api/nope", "/%2e%2e/%2e%2e/etc/passwd", "/file/../../etc/passwd", "/api/state/",
+                   "/API/STATE", "http://x/api/nope", "/api/%2e%2e/state", "/./api/state"):
         status, _, body = w.get(target)
         assert status == 404 and reason(body), target
         status, _, body = w.post(target, {})
         assert status == 404 and reason(body), target
+    assert w.get("http://127.0.0.1/api/state")[0] == 200  # an absolute target is its path
+    assert w.get("//api/state")[0] == 200  # as http.server normalizes it
     status, headers, body = w.post("/api/state", {})
     assert status == 405 and headers["allow"] == "GET" and "takes a GET" in reason(body)
     status, headers, body = w.get("/api/open")

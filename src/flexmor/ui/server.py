@@ -427,6 +427,8 @@ class App:
 _ROUTES_GET = ("/", "/view3d.js", "/api/state", "/api/job", "/file")
 _ROUTES_POST = {"/api/open": "open", "/api/preview": "preview", "/api/run": "start", "/api/errors": "errors",
                 "/api/modes": "modes"}
+#: The scheme and host of an absolute request target
+_ABSOLUTE = re.compile(r"https?://", re.IGNORECASE)
 #: A Content-Length: digits only (``int()`` would also take signs, blanks and underscores).
 _LENGTH = re.compile(r"[0-9]{1,18}")
 
@@ -521,8 +523,11 @@ def _handler(app: App, timeout: float):
                 self._send(500, {"error": f"internal error ({type(exc).__name__}); the request was not done"})
 
         def _target(self):
-            """The path and query of the request line (decoded once, by parse_qs)."""
+            """The path and query of the request line (decoded once, by parse_qs); of an absolute
+            target (``http://host/path``) its path."""
             path, _, query = self.path.partition("?")
+            if _ABSOLUTE.match(path):
+                path = "/" + path.split("/", 3)[3] if path.count("/") >= 3 else "/"
             try:
                 return path, parse_qs(query.partition("#")[0], keep_blank_values=True, max_num_fields=20)
             except ValueError:
