@@ -15,8 +15,9 @@ the page offers (a method's own options, no other file names). One job runs at a
 is refused with 429). A bad request is answered 4xx with a one-line JSON ``{"error": reason}``:
 bodies over :data:`MAX_BODY` bytes (413, read no further), a missing or false Content-Length
 (411, 400), JSON that is malformed or of the wrong type (400 naming the field), unknown pages
-(404) and methods (405), unknown job ids (404). Each connection is served in its own thread and
-dropped after :data:`TIMEOUT` seconds of silence; at most :data:`MAX_CONNECTIONS` at once.
+(404) and methods (405), unknown job ids (404). Each connection is served in its own thread; a
+request must arrive whole within :data:`TIMEOUT` seconds (a silent or trickling client is dropped
+or answered 408), and at most :data:`MAX_CONNECTIONS` are served at once.
 """
 
 from __future__ import annotations
@@ -47,7 +48,7 @@ log = logging.getLogger(__name__)
 MAX_FILES = 500
 #: The largest request body read, in bytes (a request is a few names and options).
 MAX_BODY = 1 << 20
-#: Seconds a connection may stay silent (a request line, its headers, its body) before it is dropped.
+#: Seconds a request (its line, headers and body) may take to arrive, however it trickles in.
 TIMEOUT = 30.0
 #: Connections served at once; one more is answered 503 and closed.
 MAX_CONNECTIONS = 64
@@ -478,6 +479,10 @@ def _handler(app: App, timeout: float):
 
         def parse_request(self):
             words = str(self.raw_requestline, "iso-8859-1").split()
+            if self.server.late(self.connection):
+                self.command, self.requestline, self.request_version = "", " ".join(words)[:200], "HTTP/1.0"
+                self.send_error(408, f"the request did not arrive within {timeout:g} s")
+                return False
             if len(words) < 3:  # HTTP/0.9 or an empty or bare line: the base class would wait for headers
                 self.command, self.requestline, self.request_version = "", " ".join(words)[:200], "HTTP/1.0"
                 self.send_error(400, "a request line is 'METHOD PATH HTTP/1.1' followed by headers")
@@ -490,9 +495,16 @@ def _handler(app: App, timeout: float):
             raise AttributeError(name)
 
         def _not_allowed(self):
-            self._answer(lambda: self._refuse_method())
+            self._answer(self._refuse_method)
+
+        def _arrived(self):
+            """The request is in: no deadline from now on (a long computation is not cut), unless it came late."""
+            if not self.server.arrived(self.connection):
+                self.close_connection = True
+                raise _Refused(408, f"the request did not arrive within {timeout:g} s")
 
         def _refuse_method(self):
+            self._arrived()
             self._authorize()
             raise _Refused(405, f"method {_shown(self.command, 40)} is not served; use GET or POST",
                            {"Allow": "GET, POST"})
@@ -516,6 +528,9 @@ def _handler(app: App, timeout: float):
             except TimeoutError:
                 self.close_connection = True
                 self._send(408, {"error": f"the request did not arrive within {timeout:g} s"})
+            except OSError as exc:  # a file in the folder that cannot be read or written
+                name = Path(exc.filename).name if isinstance(exc.filename, str) else "a file"
+                self._send(400, {"error": f"{name}: {exc.strerror or exc}"})
             except (KeyError, TypeError, ValueError, RecursionError) as exc:
                 self._send(400, {"error": f"bad request: {type(exc).__name__}: {exc}"[:500]})
             except Exception as exc:
@@ -541,6 +556,7 @@ def _handler(app: App, timeout: float):
             return path, query
 
         def _get(self):
+            self._arrived()
             path, query = self._authorize()
             if path in _ROUTES_POST:
                 raise _Refused(405, f"{path} takes a POST", {"Allow": "POST"})
@@ -572,8 +588,10 @@ def _handler(app: App, timeout: float):
                 if path in _ROUTES_GET:
                     raise _Refused(405, f"{path} takes a GET", {"Allow": "GET"})
                 raise _Refused(404, f"no such request {_shown(path)}")
+            data = self._body()
+            self._arrived()
             try:
-                req = json.loads(self._body() or b"{}")
+                req = json.loads(data or b"{}")
             except (ValueError, RecursionError) as exc:
                 raise _Refused(400, f"the body is not JSON: {exc}"[:300]) from None
             if not isinstance(req, dict):
@@ -632,13 +650,40 @@ def _linger(sock, limit: int, seconds: float) -> None:
 
 class _Server(ThreadingHTTPServer):
     """The threaded HTTP server, serving at most ``max_connections`` at once (one more is answered 503
-    at once) and logging, not printing, a connection's failure."""
+    at once), ending the requests that have not arrived within ``timeout`` seconds (a client that
+    trickles its bytes in keeps the socket's own timeout from firing), logging, not printing, a
+    connection's failure, and not waiting for its connections when closed."""
 
     daemon_threads = True
+    block_on_close = False
 
-    def __init__(self, address, handler, max_connections: int):
+    def __init__(self, address, handler, max_connections: int, timeout: float):
         super().__init__(address, handler)
         self.slots = threading.BoundedSemaphore(max_connections)
+        self.request_timeout = timeout
+        self.arriving: dict = {}  # socket -> deadline of its request (None: late, its reading ended)
+        self.arriving_lock = threading.Lock()
+
+    def arrived(self, request) -> bool:
+        """The request on ``request`` is in; False when it came too late."""
+        with self.arriving_lock:
+            return self.arriving.pop(request, 0) is not None
+
+    def late(self, request) -> bool:
+        """Whether the request on ``request`` missed its deadline (its reading was ended)."""
+        with self.arriving_lock:
+            return request in self.arriving and self.arriving[request] is None
+
+    def service_actions(self):
+        """Called by serve_forever between polls: end the reading of the requests past their deadline."""
+        now = time.monotonic()
+        with self.arriving_lock:
+            late = [sock for sock, t in self.arriving.items() if t is not None and t < now]
+            for sock in late:
+                self.arriving[sock] = None
+        for sock in late:
+            with contextlib.suppress(OSError):
+                sock.shutdown(socket.SHUT_RD)  # the handler's read returns at once
 
     def process_request(self, request, client_address):
         if not self.slots.acquire(blocking=False):
@@ -658,9 +703,13 @@ class _Server(ThreadingHTTPServer):
             raise
 
     def process_request_thread(self, request, client_address):
+        with self.arriving_lock:
+            self.arriving[request] = time.monotonic() + self.request_timeout
         try:
             super().process_request_thread(request, client_address)
         finally:
+            with self.arriving_lock:
+                self.arriving.pop(request, None)
             self.slots.release()
 
     def handle_error(self, request, client_address):
@@ -672,10 +721,10 @@ def make_server(folder, main, port: int = 0, host: str = "127.0.0.1", *, timeout
     """The HTTP server of the app on ``host:port`` (0: a free port) running commands with the command
     line's ``main``; returns ``(server, app, url)``.
 
-    Each connection is served in its own thread; a client silent for ``timeout`` seconds is
-    dropped, and at most ``max_connections`` are served at once.
+    Each connection is served in its own thread; a request must arrive whole within ``timeout``
+    seconds, and at most ``max_connections`` are served at once.
     """
     app = App(folder, main)
-    server = _Server((host, int(port)), _handler(app, float(timeout)), int(max_connections))
+    server = _Server((host, int(port)), _handler(app, float(timeout)), int(max_connections), float(timeout))
     url = f"http://{host}:{server.server_address[1]}/?token={app.token}"
     return server, app, url
