@@ -617,6 +617,7 @@ def _handler(app: App, timeout: float):
             data = self.rfile.read(n)
             if len(data) < n:
                 self.close_connection = True
+                self._arrived()  # 408 when its reading was ended for lateness
                 raise _Refused(400, f"the body ended after {len(data)} of its {n} bytes")
             return data
 
