@@ -76,7 +76,6 @@ class World:
         self.token = self.app.token
         self.thread = threading.Thread(target=self.server.serve_forever, daemon=True)
         self.thread.start()
-        self.opened: list = []
 
     def close(self):
         self.server.shutdown()
@@ -175,7 +174,6 @@ def world(tmp_path):
     hits: list = []
     entry = (str(w.outside.resolve()), hits)
     _WATCHED.append(entry)
-    w.opened = hits
     try:
         yield w
     finally:
