@@ -1,5 +1,5 @@
 """``flexmor ui``: the local web application (:mod:`flexmor.ui.server`)."""
 
-from .server import App, Workspace, make_server
+from .server import MAX_BODY, MAX_CONNECTIONS, TIMEOUT, App, Workspace, make_server
 
-__all__ = ["App", "Workspace", "make_server"]
+__all__ = ["App", "Workspace", "make_server", "MAX_BODY", "MAX_CONNECTIONS", "TIMEOUT"]
