@@ -91,6 +91,12 @@ def test_plate_table_header_is_the_printed_one(text):
     assert text.count(header) == 2  # the full-size and the --n 20 table
 
 
+#: A band_error (a ratio of squared norms) below this is the error of a body exact up to rounding in
+#: its basis (amplitude ~1e-6 and below): its digits, and those of the growth divided by it, change with
+#: the order of summation (BLAS threads, machine); both are only checked to be at rounding.
+ROUNDING = 1e-12
+
+
 def test_beam_480_rows_are_what_the_script_prints(text, tmp_path, capsys):
     cb = load_example("coupled_beam")
     argv = next(a for name, a in commands(text) if name == "coupled_beam" and "--nx" not in a and "--model" not in a)
@@ -105,7 +111,14 @@ def test_beam_480_rows_are_what_the_script_prints(text, tmp_path, capsys):
     assert set(rows) == {"krylov", "fw-sobt"}
     for line in printed[2:4]:
         name, *values = line.split()
+        at_rounding = False
         for col, got, quoted in zip(columns[1:], values, rows[name], strict=True):
+            if col == "band_error":  # an exact body's error: digits of the summation order (BLAS threads, machine)
+                at_rounding = max(float(got), float(quoted.replace(",", ""))) < ROUNDING
+            if at_rounding and col in ("band_error", "growth"):  # (the first growth divides by it)
+                if col == "growth":
+                    at_rounding = False
+                continue
             ratio = float(got) / float(quoted.replace(",", ""))
             assert abs(math.log10(ratio)) < math.log10(1.5), (
                 f"examples/README.md quotes {name} {col} = {quoted}, the script prints {got}")
