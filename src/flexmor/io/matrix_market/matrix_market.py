@@ -22,13 +22,14 @@ The model has no node table and no equation map.
 from __future__ import annotations
 
 import re
+import warnings
 from pathlib import Path
 
 import numpy as np
 import scipy.io
 import scipy.sparse as sp
 
-from ...errors import ReadError
+from ...errors import FlexmorWarning, ReadError
 from ...model import FEModel
 from .._build import build_model
 from .._open import is_gzip, open_binary, plain_name, size_hint, stem, suffix
@@ -154,6 +155,31 @@ def _size_line(path: Path):
     raise ReadError(path, "no size line after the %%MatrixMarket header: the file was cut off")
 
 
+def _check_order(path: Path, rows, cols, nr: int, nc: int) -> None:
+    """Name an entry out of the order of the others in a file written in column or row order.
+
+    Ansys and most writers give the entries sorted by column then row (or by row then column):
+    in such a file an entry whose index was changed, or a line moved, is out of order. A file
+    with more than three entries out of either order was written in its own order: nothing to
+    tell.
+    """
+    if rows.size < 8:
+        return
+    best = None
+    for major, minor, size in ((cols, rows, nr), (rows, cols, nc)):
+        key = major.astype(np.int64) * max(size, 1) + minor
+        down = np.flatnonzero(key[1:] <= key[:-1])
+        if best is None or down.size < best.size:
+            best = down
+        if not down.size:
+            return
+    if best.size <= 3:
+        k = int(best[0]) + 1
+        warnings.warn(FlexmorWarning(f"{path.name}:{entry_line(path, k + 1)}: entry ({rows[k] + 1}, {cols[k] + 1}) "
+                                     f"is out of the order of the other entries ({best.size} such): an index "
+                                     "changed or a line moved?"), stacklevel=4)
+
+
 def _read_coordinate(path: Path, symmetric: bool) -> sp.csr_matrix:
     """Strict parser of a real coordinate file: sizes, indices, values and duplicates checked."""
     lineno, size = _size_line(path)
@@ -174,6 +200,7 @@ def _read_coordinate(path: Path, symmetric: bool) -> sp.csr_matrix:
         k = int(np.flatnonzero((rows < 0) | (cols < 0) | (rows >= nr) | (cols >= nc))[0])
         raise ReadError(path, f"entry ({rows[k] + 1}, {cols[k] + 1}) is out of bounds of the {nr} x {nc} matrix "
                               "(indices are 1-based)", entry_line(path, k + 1))
+    _check_order(path, rows, cols, nr, nc)
     if symmetric and not np.all(rows >= cols):
         rows, cols = np.maximum(rows, cols), np.minimum(rows, cols)
     triplets = [rows, cols, vals]

@@ -28,18 +28,20 @@ those of the Nastran model. pyNastran is not needed.
 from __future__ import annotations
 
 import logging
+import warnings
 from pathlib import Path
 
 import numpy as np
 import scipy.sparse as sp
 
-from ...errors import ReadError
+from ...errors import FlexmorWarning, ReadError
 from ...model import FEModel
 from .._build import build_model
 from .._cells import mesh_of_elements, nastran_cell
 from .._open import beside, stem, suffix
 from .._registry import MODEL_FORMATS
 from .._sparse import assemble
+from .._unchecked import warn_unchecked
 from .dmig_fast import DmigColumns, fast_dmig, scan_dmig
 from .nastran_bulk import Bulk, cards, num, read_bulk
 from .nastran_elements import nastran_elements
@@ -90,6 +92,9 @@ def read_dmig(path) -> dict:
             for k in range(4, len(f), 4):
                 g, c, a, b = (f[k:k + 4] + ["", "", "", ""])[:4]
                 if not g:
+                    if c or a or b:  # a value without its row: the grid field was lost or blanked
+                        raise ReadError(fpath, f"DMIG {mname}: an entry of column {gj}-{cj} has no grid (row) "
+                                               "number", flines[k])
                     continue
                 lineno = flines[k]
                 if not a:
@@ -232,11 +237,53 @@ def _read_columns(path: Path, lines: bool = False) -> dict:
     return got if got is not None else _columns(read_dmig(path))
 
 
+def _dof(code) -> str:
+    return f"{int(code) // 8}-{int(code) % 8}"
+
+
+def _check_columns(path, name, m: DmigColumns) -> None:
+    """What the column cards of a square DMIG stiffness or mass matrix declare, against its entries.
+
+    Every row must have a column card of its own (its diagonal entry is in it): a row without
+    one is a lost column card, whose entries went to the column before it. Entries within a
+    column follow in row order as Nastran writes them: a few out of order are named (a moved or
+    repeated line).
+    """
+    cols = np.sort(m.columns)
+    for s in range(0, m.rows.size, 1 << 20):
+        part = m.rows[s:s + (1 << 20)]
+        k = np.minimum(np.searchsorted(cols, part), max(cols.size - 1, 0))
+        miss = np.flatnonzero(cols[k] != part) if cols.size else np.arange(part.size)
+        if miss.size:
+            at = s + int(miss[0])
+            where = f" (line {int(m.lines[at])})" if m.lines is not None else ""
+            raise ReadError(path, f"DMIG {name} (form {m.ifo}, square): row {_dof(m.rows[at])}{where} has no column "
+                                  f"card 'DMIG {name} {int(m.rows[at]) // 8} {int(m.rows[at]) % 8}': a column card "
+                                  "lost (its entries read into the column before it)?")
+    if m.rows.size < 2:
+        return
+    first = np.cumsum(m.counts)[:-1]  # the first entry of each column after the first one
+    down = m.rows[1:] < m.rows[:-1]
+    down[first[(first > 0) & (first < m.rows.size)] - 1] = False
+    bad = np.flatnonzero(down)
+    if 0 < bad.size <= 3:  # a file written in row order with a line moved or repeated (else: written in any order)
+        k = int(bad[0]) + 1
+        col = m.columns[np.searchsorted(np.cumsum(m.counts), k, side="right")]
+        where = f"line {int(m.lines[k])}: " if m.lines is not None else ""
+        warnings.warn(FlexmorWarning(f"{Path(path).name}: {where}DMIG {name}: entry {_dof(m.rows[k])} of column "
+                                     f"{_dof(col)} follows row {_dof(m.rows[k - 1])}, out of the row order of the "
+                                     f"other entries ({bad.size} such): a line moved or repeated from another "
+                                     "column?"), stacklevel=3)
+
+
 def dmig_matrices(path, mats, names):
     """CSR matrices by role and the equation map ``(grid, component)`` of the DMIG matrices ``names``.
 
     ``mats`` (:class:`DmigColumns` by name) gives up the matrices it assembles, so that their
-    entries are freed as soon as they are used. An entry given twice is refused with its line.
+    entries are freed as soon as they are used. An entry given twice is refused with its line;
+    so is a row of a stiffness or mass matrix without a column card of its own (a lost column
+    card). DMIG has no entry counts: in a matrix stored as one triangle a lost entry line cannot
+    be seen, which one :class:`~flexmor.io.UncheckedWarning` says.
     """
     code = np.unique(np.concatenate([mats[name].columns for name in names.values()]))
     for name in names.values():  # rows without a column of their own (a rectangular block), in slices
@@ -260,7 +307,7 @@ def dmig_matrices(path, mats, names):
     else:
         def number(x):
             return np.searchsorted(code, x).astype(idx)
-    out = {}
+    out, unchecked = {}, False
     for role, name in names.items():
         if name not in mats:  # the same matrix in two roles
             out[role] = next(out[r] for r, nm in names.items() if nm == name and r in out)
@@ -268,10 +315,13 @@ def dmig_matrices(path, mats, names):
         m = mats.pop(name)
         if np.iscomplexobj(m.values):
             raise ReadError(path, f"DMIG {name} is complex; flexmor needs real matrices")
+        if role in ("K", "M") and m.ifo in (1, 6):
+            _check_columns(path, name, m)
         parts = [number(m.rows), np.repeat(number(m.columns), m.counts), m.values]
         del m  # no other reference: assemble() frees the parsed entries as it goes
         lower, upper = bool(np.any(parts[0] > parts[1])), bool(np.any(parts[0] < parts[1]))
         A = assemble(parts, (n, n), mirror=lower != upper)  # one triangle stored: mirror it
+        unchecked |= role in ("K", "M") and lower != upper  # both: the model's symmetry check sees a lost line
         if A is None:
             m = _read_columns(Path(path), lines=True)[name]
             r, c = m.rows, np.repeat(m.columns, m.counts)
@@ -281,6 +331,9 @@ def dmig_matrices(path, mats, names):
             raise ReadError(path, f"DMIG {name}: entry ({r[k] // 8}-{r[k] % 8}, {c[k] // 8}-{c[k] % 8}) given twice; "
                                   "duplicates are refused, not summed", int(m.lines[k]))
         out[role] = A
+    if unchecked:
+        warn_unchecked(path, "DMIG cards have no entry counts; a lost entry line, or one repeated into another "
+                             "column in row order, could not be cross-checked")
     return out, pairs
 
 
