@@ -11,8 +11,9 @@ The outcome is one of
 ``warned``
     read, with a FlexmorWarning or a logged warning that the unmutated set does not give;
 ``warned-unverifiable``
-    read as another model, with the :class:`flexmor.io.UncheckedWarning` its reader gives on every
-    read of a format that cannot show such a damage (naming what could not be cross-checked);
+    read as another model, with the :class:`flexmor.io.UncheckedWarning` that the reader gives on
+    every read of the damaged file, whose format cannot show such a damage (it names the file and
+    what could not be cross-checked);
 ``equal``
     read without a new warning, and the model equals the one of the unmutated set (same
     ``n_dof``, ``K``, ``M`` and ``D`` to round-off, same equation map, same node table);
@@ -378,8 +379,9 @@ def run_case(seed: int, folder: Path, targets=None, mutations=MUTATIONS):
         return "warned", f"{what}: {sorted(new)[0][:160]}"
     if same_model(got, ref):
         return "equal", what
-    if unchecked:
-        return "warned-unverifiable", f"{what}: {sorted(unchecked)[0][:160]}"
+    mine = sorted(m for m in unchecked if m.startswith(victim.name + ":"))
+    if mine:  # the damaged file is one whose reader said what it could not cross-check
+        return "warned-unverifiable", f"{what}: {mine[0][:160]}"
     return "silent-different", what
 
 
