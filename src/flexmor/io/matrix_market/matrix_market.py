@@ -155,6 +155,25 @@ def _size_line(path: Path):
     raise ReadError(path, "no size line after the %%MatrixMarket header: the file was cut off")
 
 
+def _second_banner(path: Path) -> None:
+    """Refuse a ``%%MatrixMarket`` line after the first line: read as a comment, it would hide that
+    lines were repeated or two files joined (the size line after it read as an entry)."""
+    lines, tail = 0, b""
+    with open_binary(path) as f:
+        while True:
+            block = f.read(1 << 22)
+            if not block:
+                return
+            buf = tail + block
+            at = buf.lower().find(b"\n%%matrixmarket")
+            if at >= 0:
+                raise ReadError(path, "a second %%MatrixMarket header line: lines repeated, or two files joined?",
+                                lines + buf.count(b"\n", 0, at) + 2)
+            keep = len(b"\n%%matrixmarket") - 1
+            lines += buf.count(b"\n", 0, len(buf) - keep)
+            tail = buf[len(buf) - keep:]
+
+
 def _check_order(path: Path, rows, cols, nr: int, nc: int) -> None:
     """Name an entry out of the order of the others in a file written in column or row order.
 
@@ -169,14 +188,16 @@ def _check_order(path: Path, rows, cols, nr: int, nc: int) -> None:
     for major, minor, size in ((cols, rows, nr), (rows, cols, nc)):
         key = major.astype(np.int64) * max(size, 1) + minor
         down = np.flatnonzero(key[1:] <= key[:-1])
-        if best is None or down.size < best.size:
-            best = down
         if not down.size:
             return
-    if best.size <= 3:
-        k = int(best[0]) + 1
+        if best is None or down.size < best[1].size:
+            best = key, down
+    key, down = best
+    if down.size <= 3:
+        k = int(down[0])  # the entry out of place: k when k + 1 follows k - 1 in order, else k + 1
+        k += not (k > 0 and key[k + 1] > key[k - 1])
         warnings.warn(FlexmorWarning(f"{path.name}:{entry_line(path, k + 1)}: entry ({rows[k] + 1}, {cols[k] + 1}) "
-                                     f"is out of the order of the other entries ({best.size} such): an index "
+                                     f"is out of the order of the other entries ({down.size} such): an index "
                                      "changed or a line moved?"), stacklevel=4)
 
 
@@ -200,6 +221,7 @@ def _read_coordinate(path: Path, symmetric: bool) -> sp.csr_matrix:
         k = int(np.flatnonzero((rows < 0) | (cols < 0) | (rows >= nr) | (cols >= nc))[0])
         raise ReadError(path, f"entry ({rows[k] + 1}, {cols[k] + 1}) is out of bounds of the {nr} x {nc} matrix "
                               "(indices are 1-based)", entry_line(path, k + 1))
+    _second_banner(path)
     _check_order(path, rows, cols, nr, nc)
     if symmetric and not np.all(rows >= cols):
         rows, cols = np.maximum(rows, cols), np.minimum(rows, cols)

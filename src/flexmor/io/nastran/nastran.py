@@ -256,7 +256,8 @@ def _check_columns(path, name, m: DmigColumns) -> None:
         miss = np.flatnonzero(cols[k] != part) if cols.size else np.arange(part.size)
         if miss.size:
             at = s + int(miss[0])
-            where = f" (line {int(m.lines[at])})" if m.lines is not None else ""
+            lines = m.lines if m.lines is not None else _read_columns(Path(path), lines=True)[name].lines
+            where = f" (line {int(lines[at])})"
             raise ReadError(path, f"DMIG {name} (form {m.ifo}, square): row {_dof(m.rows[at])}{where} has no column "
                                   f"card 'DMIG {name} {int(m.rows[at]) // 8} {int(m.rows[at]) % 8}': a column card "
                                   "lost (its entries read into the column before it)?")
@@ -267,9 +268,11 @@ def _check_columns(path, name, m: DmigColumns) -> None:
     down[first[(first > 0) & (first < m.rows.size)] - 1] = False
     bad = np.flatnonzero(down)
     if 0 < bad.size <= 3:  # a file written in row order with a line moved or repeated (else: written in any order)
-        k = int(bad[0]) + 1
+        k = int(bad[0])  # the entry out of place: k when k + 1 follows k - 1 in order, else k + 1
+        k += not (k > 0 and m.rows[k + 1] > m.rows[k - 1])
         col = m.columns[np.searchsorted(np.cumsum(m.counts), k, side="right")]
-        where = f"line {int(m.lines[k])}: " if m.lines is not None else ""
+        lines = m.lines if m.lines is not None else _read_columns(Path(path), lines=True)[name].lines
+        where = f"line {int(lines[k])}: "
         warnings.warn(FlexmorWarning(f"{Path(path).name}: {where}DMIG {name}: entry {_dof(m.rows[k])} of column "
                                      f"{_dof(col)} follows row {_dof(m.rows[k - 1])}, out of the row order of the "
                                      f"other entries ({bad.size} such): a line moved or repeated from another "
