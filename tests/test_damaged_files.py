@@ -395,3 +395,45 @@ def test_calculix_deck_cut_after_its_node_block_is_named(tmp_path, cut, where):
                                             rf"seems cut off {where}"):
         model = flexmor.io.read(sti)
     assert model.n_dof == 297
+
+
+def test_control_character_in_a_line_of_numbers_is_refused(tmp_path):
+    """U+001C where a digit was: Python's split() takes it for a blank, so '3.2e+01' was read as '.2e+01'."""
+    inp = _abaqus(tmp_path)
+    mass = tmp_path / "blockC3D8_MASS1.mtx"
+    lines = mass.read_bytes().splitlines(keepends=True)
+    k = len(lines) // 2
+    i = lines[k].rindex(b" ") + 1
+    lines[k] = lines[k][:i] + b"\x1c" + lines[k][i + 1:]
+    mass.write_bytes(b"".join(lines))
+    with pytest.raises(ReadError, match=rf"blockC3D8_MASS1\.mtx:{k + 1}: character '\\x1c' in .* which a line of "
+                                        r"numbers does not hold"):
+        flexmor.io.read(inp)
+
+
+def test_no_break_space_in_a_node_line_is_refused(tmp_path):
+    """'0.05' with its last digit turned into U+00A0 read as 0.0 (float() strips it)."""
+    sti = _job(tmp_path)
+    inp = tmp_path / "job.inp"
+    text = inp.read_text()
+    k = text.index("\n2, ") + 1
+    line = text[k:text.index("\n", k)]
+    inp.write_text(text[:k] + line[:-1] + "\xa0" + text[k + len(line):])
+    with pytest.raises(ReadError, match=r"job\.inp:\d+: character '\\xa0' in the \*NODE line"):
+        flexmor.io.read(sti)
+
+
+@pytest.mark.parametrize("change, expect", [
+    (lambda t: t.replace("GRID,51,,0.6,0.05,0.05\n", "GRID,51,,0.6,0.05,0.\n5\n"),
+     r"beam\.bdf:\d+: '5' does not start with a card name"),  # a byte turned into a line end
+    (lambda t: t.replace("GRID,76,,0.9,0.0,0.1\n", "GRID,76,,0.9,1,5,,0.1\n"),
+     r"beam\.bdf:\d+: GRID 76: PS and SEID must be integers"),  # a token replaced by '1,5,'
+])
+def test_damaged_grid_card_is_refused(beam, tmp_path, change, expect):
+    pch = _pch(beam, tmp_path)
+    bdf = tmp_path / "beam.bdf"
+    text = bdf.read_text()
+    assert change(text) != text
+    bdf.write_text(change(text))
+    with pytest.raises(ReadError, match=expect):
+        flexmor.io.read(pch)

@@ -140,7 +140,10 @@ class _Col:
         if icol < 1 or icol > self.ncol or r0 < 1 or r0 - 1 + n > self.nrow:
             raise ReadError(self.path, f"matrix {self.name}: column {icol} rows {r0}..{r0 + n - 1} lie outside "
                                        f"{self.nrow} x {self.ncol}", where)
-        if n and (icol, r0) < self.last:
+        if n and icol == self.last[0] and r0 < self.last[1]:
+            raise ReadError(self.path, f"matrix {self.name}: column {icol} stores the same row twice or out of "
+                                       f"order: rows {r0}..{r0 + n - 1} follow row {self.last[1] - 1}", where)
+        if n and icol < self.last[0]:
             raise ReadError(self.path, f"matrix {self.name}: column {icol} rows {r0}..{r0 + n - 1} follow column "
                                        f"{self.last[0]} row {self.last[1] - 1}; OUTPUT4 stores columns and rows in "
                                        "order (a changed or moved record?)", where)
