@@ -437,3 +437,17 @@ def test_damaged_grid_card_is_refused(beam, tmp_path, change, expect):
     bdf.write_text(change(text))
     with pytest.raises(ReadError, match=expect):
         flexmor.io.read(pch)
+
+
+def test_dmig_rectangular_form_checks_its_declared_columns(tmp_path):
+    """Form 9 declares NCOL: a lost column card shows in the count."""
+    lines = ["GRID,1,,0.,0.,0.", "DMIG,KAAX,0,9,2,,,,3", "DMIG,MAAX,0,6,2"]
+    for j in range(3):
+        lines += [f"DMIG,KAAX,1,{j + 1},,1,{j + 1},{2.0 + j}", f"DMIG,MAAX,1,{j + 1},,1,{j + 1},1.0"]
+    pch = tmp_path / "k.pch"
+    pch.write_text("\n".join(lines) + "\n")
+    assert flexmor.io.read(pch).K.diagonal().tolist() == [2.0, 3.0, 4.0]
+    pch.write_text(pch.read_text().replace("DMIG,KAAX,1,3,,1,3,4.0\n", ""))
+    with pytest.raises(ReadError, match=r"k\.pch: DMIG KAAX: its header declares NCOL=3 columns, but the file has 2 "
+                                        "column cards of it"):
+        flexmor.io.read(pch)

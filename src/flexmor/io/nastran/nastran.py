@@ -70,7 +70,13 @@ def read_dmig(path) -> dict:
     fast = fast_dmig(top)
     if fast is not None:
         return fast
+    return _dmig_cards(top)[0]
+
+
+def _dmig_cards(top: Path):
+    """:func:`read_dmig` card by card, and the ``NCOL`` each header declares (None where blank) by name."""
     mats: dict = {}
+    ncols: dict = {}
     for fpath, lineno, name, f, flines in cards(top):
         if name != "DMIG":
             continue
@@ -84,6 +90,7 @@ def read_dmig(path) -> dict:
                     raise ReadError(fpath, f"DMIG {mname}: form {ifo} / type {tin} not supported "
                                           "(IFO 1, 2, 6, 9; TIN 1-4)", lineno)
                 mats[mname] = {"ifo": ifo, "complex": tin > 2, "r": [], "c": [], "v": [], "line": []}
+                ncols[mname] = int(f[7]) if len(f) > 7 and f[7] else None
                 continue
             if mname not in mats:
                 raise ReadError(fpath, f"DMIG {mname} column before its header card (GJ=0)", lineno)
@@ -117,7 +124,7 @@ def read_dmig(path) -> dict:
                   np.array(m["v"], dt), np.array(m["line"], np.int64))
     if not out:
         raise ReadError(top, "no DMIG matrices found")
-    return out
+    return out, ncols
 
 
 def read_grids(path):
@@ -221,20 +228,21 @@ def dof_transform(bulk: Bulk, dofs: np.ndarray, where) -> sp.csr_matrix | None:
     return T
 
 
-def _columns(mats: dict) -> dict:
+def _columns(mats: dict, ncols: dict) -> dict:
     """:func:`read_dmig`'s matrices (an entry's row, column and line each) as :class:`DmigColumns`."""
     out = {}
     for name, (ifo, r, c, v, line) in mats.items():
         code = c[:, 0] * 8 + c[:, 1]
         first = np.flatnonzero(np.r_[True, code[1:] != code[:-1]]) if code.size else np.zeros(0, np.int64)
-        out[name] = DmigColumns(ifo, r[:, 0] * 8 + r[:, 1], code[first], np.diff(np.r_[first, code.size]), v, line)
+        out[name] = DmigColumns(ifo, r[:, 0] * 8 + r[:, 1], code[first], np.diff(np.r_[first, code.size]), v, line,
+                                ncols.get(name))
     return out
 
 
 def _read_columns(path: Path, lines: bool = False) -> dict:
     """All DMIG matrices of ``path`` as :class:`DmigColumns`: streamed when the file allows, else card by card."""
     got = scan_dmig(path, lines=lines)
-    return got if got is not None else _columns(read_dmig(path))
+    return got if got is not None else _columns(*_dmig_cards(Path(path)))
 
 
 def _dof(code) -> str:
@@ -320,6 +328,9 @@ def dmig_matrices(path, mats, names):
             raise ReadError(path, f"DMIG {name} is complex; flexmor needs real matrices")
         if role in ("K", "M") and m.ifo in (1, 6):
             _check_columns(path, name, m)
+        if m.ncol is not None and np.unique(m.columns).size != m.ncol:
+            raise ReadError(path, f"DMIG {name}: its header declares NCOL={m.ncol} columns, but the file has "
+                                  f"{np.unique(m.columns).size} column cards of it: a column card lost or repeated?")
         parts = [number(m.rows), np.repeat(number(m.columns), m.counts), m.values]
         del m  # no other reference: assemble() frees the parsed entries as it goes
         lower, upper = bool(np.any(parts[0] > parts[1])), bool(np.any(parts[0] < parts[1]))
