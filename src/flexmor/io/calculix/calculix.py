@@ -199,19 +199,19 @@ def _check_order(dof_path: Path, dofs: np.ndarray) -> None:
 
 
 def _check_deck(geo: Path, sti: Path, keywords: set) -> None:
-    """Warn when the deck beside the matrices lacks the ``*STEP`` of the job that wrote them.
+    """Warn when a deck with elements lacks the ``*STEP`` of the job that wrote the matrices.
 
     CalculiX writes a ``.sti`` only in a step (``*FREQUENCY, SOLVER=MATRIXSTORAGE``): a deck
-    without ``*STEP`` was cut off (after its node block, when it has no ``*ELEMENT`` either) and
-    lost what followed the cut: elements, node sets, materials. The matrices and the nodes read
-    are complete, so the model is read.
+    with ``*ELEMENT`` but without ``*STEP`` was cut off inside or after its element blocks and
+    lost what followed the cut (elements, node sets, materials). The matrices and the nodes read
+    are complete, so the model is read. (A deck of nodes only is taken for a geometry deck
+    written for the matrices; a job deck cut right after its node block looks the same.)
     """
-    if "STEP" in keywords:
+    if "STEP" in keywords or "ELEMENT" not in keywords:
         return
-    where = "after its node block" if "ELEMENT" not in keywords else "inside or after its element blocks"
-    warnings.warn(f"{geo}: no *STEP, which the job that wrote {sti.name} had: the deck seems cut off {where}; "
-                  "elements, node sets and materials after the cut are missing from the model", FlexmorWarning,
-                  stacklevel=3)
+    warnings.warn(f"{geo}: no *STEP, which the job that wrote {sti.name} had: the deck seems cut off inside or "
+                  "after its element blocks; elements, node sets and materials after the cut are missing from the "
+                  "model", FlexmorWarning, stacklevel=3)
 
 
 def _check_diagonal(path: Path, has_diag: np.ndarray, dofs: np.ndarray, dof_path: Path) -> None:
