@@ -4,7 +4,11 @@ DMIG (``.pch``; ``PARAM,EXTOUT,DMIGPCH`` writes ``KAAX``, ``MAAX`` ...)
     Small-field, large-field (``DMIG*`` with ``*`` continuations) and free-field cards.
     Rows and columns are ``(grid, component)``; the model's equations are all pairs that
     occur, sorted by grid and component. Symmetric matrices (``IFO=6``) may store either
-    triangle (or both); an entry given twice is refused, not summed. Scalar points
+    triangle (or both); an entry given twice is refused, not summed. What the cards declare is
+    checked against what was read: every row of a square stiffness or mass matrix has a column
+    card of its own (a lost column card is refused), a rectangular one (``IFO=9``) its ``NCOL``
+    columns; entries out of the row order Nastran writes are named. DMIG has no entry counts:
+    a matrix stored as one triangle is read with an :class:`~flexmor.io.UncheckedWarning`. Scalar points
     (component 0, the modal DOFs of a superelement) are refused here: such files are reduced
     bodies, read by :func:`flexmor.io.nastran.read_superelement` (format ``nastran-se`` of
     :func:`flexmor.io.read_body`).
@@ -90,7 +94,7 @@ def _dmig_cards(top: Path):
                     raise ReadError(fpath, f"DMIG {mname}: form {ifo} / type {tin} not supported "
                                           "(IFO 1, 2, 6, 9; TIN 1-4)", lineno)
                 mats[mname] = {"ifo": ifo, "complex": tin > 2, "r": [], "c": [], "v": [], "line": []}
-                ncols[mname] = int(f[7]) if len(f) > 7 and f[7] else None
+                ncols[mname] = int(f[7]) if ifo == 9 and len(f) > 7 and f[7] else None  # NCOL, form 9 only
                 continue
             if mname not in mats:
                 raise ReadError(fpath, f"DMIG {mname} column before its header card (GJ=0)", lineno)
@@ -328,7 +332,7 @@ def dmig_matrices(path, mats, names):
             raise ReadError(path, f"DMIG {name} is complex; flexmor needs real matrices")
         if role in ("K", "M") and m.ifo in (1, 6):
             _check_columns(path, name, m)
-        if m.ncol is not None and np.unique(m.columns).size != m.ncol:
+        if m.ifo == 9 and m.ncol is not None and np.unique(m.columns).size != m.ncol:
             raise ReadError(path, f"DMIG {name}: its header declares NCOL={m.ncol} columns, but the file has "
                                   f"{np.unique(m.columns).size} column cards of it: a column card lost or repeated?")
         parts = [number(m.rows), np.repeat(number(m.columns), m.counts), m.values]
