@@ -185,20 +185,34 @@ def _check_order(path: Path, rows, cols, nr: int, nc: int) -> None:
     if rows.size < 8:
         return
     best = None
-    for major, minor, size in ((cols, rows, nr), (rows, cols, nc)):
-        key = major.astype(np.int64) * max(size, 1) + minor
-        down = np.flatnonzero(key[1:] <= key[:-1])
+    for major, minor, size in ((cols, rows, max(nr, 1)), (rows, cols, max(nc, 1))):
+        down = _descents(major, minor, size)
         if not down.size:
             return
-        if best is None or down.size < best[1].size:
-            best = key, down
-    key, down = best
+        if best is None or down.size < best[0].size:
+            best = down, major, minor, size
+    down, major, minor, size = best
     if down.size <= 3:
         k = int(down[0])  # the entry out of place: k when k + 1 follows k - 1 in order, else k + 1
-        k += not (k > 0 and key[k + 1] > key[k - 1])
+        key = major[k - 1:k + 2].astype(np.int64) * size + minor[k - 1:k + 2]
+        k += not (k > 0 and key[2] > key[0])
         warnings.warn(FlexmorWarning(f"{path.name}:{entry_line(path, k + 1)}: entry ({rows[k] + 1}, {cols[k] + 1}) "
                                      f"is out of the order of the other entries ({down.size} such): an index "
                                      "changed or a line moved?"), stacklevel=4)
+
+
+def _descents(major, minor, size: int, stop: int = 3) -> np.ndarray:
+    """Positions ``k`` where entry ``k + 1`` does not follow entry ``k`` in the order (major, minor), in slices
+    (little memory); the scan ends after more than ``stop`` of them."""
+    out = []
+    step = 1 << 22
+    for s in range(0, major.size - 1, step):
+        e = min(s + step + 1, major.size)
+        key = major[s:e].astype(np.int64) * size + minor[s:e]
+        out.append(s + np.flatnonzero(key[1:] <= key[:-1]))
+        if sum(x.size for x in out) > stop:
+            break
+    return np.concatenate(out) if out else np.zeros(0, np.int64)
 
 
 def _read_coordinate(path: Path, symmetric: bool) -> sp.csr_matrix:
