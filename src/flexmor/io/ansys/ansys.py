@@ -77,6 +77,11 @@ def read_mapping(path, n_eq: int) -> np.ndarray:
     ReadError
         Malformed lines, a length that does not divide ``n_eq``, unknown DOF labels,
         equation numbers outside ``1..n_eq``.
+
+    Warns
+    -----
+    UncheckedWarning
+        For a mapping vector: it has no equation numbers, so swapped lines cannot be seen.
     """
     path = Path(path)
     text = read_text(path)

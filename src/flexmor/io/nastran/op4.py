@@ -60,7 +60,13 @@ def read_op4(path, *, sparse: bool = False) -> dict:
     ------
     ReadError
         Malformed headers or columns (with line number for ASCII, byte offset for binary),
-        indices outside the matrix, truncated files.
+        indices outside the matrix, columns or rows out of order, truncated files, a symmetric
+        matrix stored in full that differs from its transpose.
+
+    Warns
+    -----
+    UncheckedWarning
+        On every read: OUTPUT4 has no checksum and no count of its matrices.
     """
     path = Path(path)
     if not path.exists():
