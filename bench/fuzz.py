@@ -10,6 +10,10 @@ The outcome is one of
     a :class:`flexmor.errors.FlexmorError` (the clean refusal);
 ``warned``
     read, with a FlexmorWarning or a logged warning that the unmutated set does not give;
+``warned-unverifiable``
+    read as another model, with the :class:`flexmor.io.UncheckedWarning` that the reader gives on
+    every read of the damaged file, whose format cannot show such a damage (it names the file and
+    what could not be cross-checked);
 ``equal``
     read without a new warning, and the model equals the one of the unmutated set (same
     ``n_dof``, ``K``, ``M`` and ``D`` to round-off, same equation map, same node table);
@@ -22,7 +26,8 @@ The outcome is one of
 Each chunk of cases runs in its own process, which publishes the seed it is reading, so a dead
 or stuck worker names the case and the run goes on with the next seed. Findings are printed as
 they occur; the closing table counts each class per target (``--markdown`` prints it as a
-Markdown table). ``python bench/fuzz.py -n 100000 -j 2``.
+Markdown table), ``--group`` lists the silent-different and warned-unverifiable cases grouped by
+target, file and mutation (count and first seed). ``python bench/fuzz.py -n 100000 -j 2``.
 """
 
 from __future__ import annotations
@@ -45,7 +50,7 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
 DATA = ROOT / "tests" / "data"
-CLASSES = ("refused", "warned", "equal", "silent-different", "crash")
+CLASSES = ("refused", "warned", "warned-unverifiable", "equal", "silent-different", "crash")
 FINDINGS = ("silent-different", "crash")
 
 
@@ -116,7 +121,7 @@ def _generate(folder: Path) -> None:
     (folder / "beam.bdf").write_text("".join(f"GRID,{i},,{x!r},{y!r},{z!r}\n" for i, (x, y, z)
                                              in zip(m.node_ids[used].tolist(), m.xyz[used].tolist())))
     mats = {"KAAX": m.K.toarray()[:60, :60], "MAAX": m.M.toarray()[:60, :60]}
-    write_ascii(folder / "beam.op4", mats, sparse=True)
+    write_ascii(folder / "beam.op4", mats, sparse=True, form=6)  # symmetric, stored in full as Nastran does
     write_binary(folder / "beamb.op4", mats)
 
 
@@ -260,7 +265,8 @@ class _Log(logging.Handler):
 
 
 def _read(t: Target, folder: Path):
-    """``(result, warning messages)`` of reading the set in ``folder`` (paths in the messages blanked)."""
+    """``(result, warning messages, unchecked-read messages)`` of reading the set in ``folder`` (paths in the
+    messages blanked)."""
     import flexmor.io
 
     handler = _Log()
@@ -278,8 +284,11 @@ def _read(t: Target, folder: Path):
     finally:
         logger.removeHandler(handler)
     from flexmor.errors import FlexmorWarning
-    msgs = [str(w.message) for w in caught if issubclass(w.category, FlexmorWarning)] + handler.messages
-    return out, {m.replace(str(folder), "") for m in msgs}
+    from flexmor.io import UncheckedWarning
+    msgs = [str(w.message) for w in caught if issubclass(w.category, FlexmorWarning)
+            and not issubclass(w.category, UncheckedWarning)] + handler.messages
+    unchecked = [str(w.message) for w in caught if issubclass(w.category, UncheckedWarning)]
+    return out, {m.replace(str(folder), "") for m in msgs}, {m.replace(str(folder), "") for m in unchecked}
 
 
 def _close(A, B) -> bool:
@@ -324,8 +333,10 @@ def reference(t: Target, folder: Path):
     return _REFERENCE[t.name]
 
 
-def target_of(seed: int) -> Target:
-    return TARGETS[seed % len(TARGETS)]
+def target_of(seed: int, targets=None) -> Target:
+    """The target of case ``seed`` among ``targets`` (names; all by default)."""
+    pool = [t for t in TARGETS if targets is None or t.name in targets]
+    return pool[seed % len(pool)]
 
 
 def run_case(seed: int, folder: Path, targets=None, mutations=MUTATIONS):
@@ -337,9 +348,8 @@ def run_case(seed: int, folder: Path, targets=None, mutations=MUTATIONS):
     from flexmor.errors import FlexmorError
 
     rng = random.Random(seed)
-    pool = [t for t in TARGETS if targets is None or t.name in targets]
-    t = pool[seed % len(pool)]
-    ref, ref_warnings = reference(t, folder)
+    t = target_of(seed, targets)
+    ref, ref_warnings, _ = reference(t, folder)
     plain = _setup(t, folder)
     f = rng.choice(t.files)
     victim = folder / _name(t, f)
@@ -358,7 +368,7 @@ def run_case(seed: int, folder: Path, targets=None, mutations=MUTATIONS):
     victim.write_bytes(data)
     what = f"seed {seed} {t.name} ({victim.name}: {'+'.join(kinds)})"
     try:
-        got, msgs = _read(t, folder)
+        got, msgs, unchecked = _read(t, folder)
     except FlexmorError as exc:
         return "refused", f"{what}: {str(exc).replace(str(folder) + '/', '')[:160]}"
     except Exception as exc:  # noqa: BLE001 - this is what we look for
@@ -369,6 +379,9 @@ def run_case(seed: int, folder: Path, targets=None, mutations=MUTATIONS):
         return "warned", f"{what}: {sorted(new)[0][:160]}"
     if same_model(got, ref):
         return "equal", what
+    mine = sorted(m for m in unchecked if m.startswith(victim.name + ":"))
+    if mine:  # the damaged file is one whose reader said what it could not cross-check
+        return "warned-unverifiable", f"{what}: {mine[0][:160]}"
     return "silent-different", what
 
 
@@ -380,7 +393,12 @@ def _alarm(signum, frame):
     raise _Timeout
 
 
-def _chunk(start, count, timeout, current, conn):
+#: The classes whose cases the parent is told about one by one (``--group``).
+LISTED = FINDINGS + ("warned-unverifiable",)
+_CASE = re.compile(r"seed (\d+) (\S+) \((\S+): ([^)]*)\)")
+
+
+def _chunk(start, count, timeout, current, conn, targets=None):
     """Run seeds ``start .. start+count-1`` in this (child) process.
 
     ``current`` holds the seed being read, so that the parent can name it when the process
@@ -396,26 +414,49 @@ def _chunk(start, count, timeout, current, conn):
             current.value = seed
             signal.alarm(timeout)
             try:
-                cls, text = run_case(seed, Path(tmp))
+                cls, text = run_case(seed, Path(tmp), targets)
             except _Timeout:
-                cls, text = "crash", f"seed {seed} {target_of(seed).name}: hang: longer than {timeout} s at -"
+                cls, text = "crash", f"seed {seed} {target_of(seed, targets).name}: hang: longer than {timeout} s at -"
             finally:
                 signal.alarm(0)
-            conn.send((seed, cls, text if cls in FINDINGS else ""))
+            conn.send((seed, cls, text if cls in LISTED else ""))
     conn.send(("done", count, ""))
     conn.close()
 
 
-def table(counts: dict, markdown: bool = False) -> str:
+def table(counts: dict, markdown: bool = False, targets=None) -> str:
     """The counts per target and class as text (or a Markdown table)."""
-    rows = [[t.name] + [counts.get((t.name, c), 0) for c in CLASSES] for t in TARGETS]
+    rows = [[t.name] + [counts.get((t.name, c), 0) for c in CLASSES] for t in TARGETS
+            if targets is None or t.name in targets]
     rows.append(["total"] + [sum(r[k] for r in rows) for k in range(1, len(CLASSES) + 1)])
     head = ["target", *CLASSES]
     if markdown:
         out = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
         out += ["| " + " | ".join(f"{x:,}" if isinstance(x, int) else x for x in r) + " |" for r in rows]
     else:
-        out = ["".join(f"{h:>18}" for h in head)] + ["".join(f"{x:>18}" for x in r) for r in rows]
+        out = ["".join(f"{h:>20}" for h in head)] + ["".join(f"{x:>20}" for x in r) for r in rows]
+    return "\n".join(out)
+
+
+def groups(texts, markdown: bool = False) -> str:
+    """The listed cases (``(class, text)``) grouped by class, target, file and mutations (in the
+    order of the mutations' names): count and first seed of each group, largest first."""
+    got: dict = {}
+    for cls, text in texts:
+        m = _CASE.match(text)
+        if m is None:  # a crash without a file (a dead worker): by its text
+            key, seed = (cls, text.split(":")[0].split()[-1], "-", text.split(": ", 1)[-1][:60]), text.split()[1]
+        else:
+            seed, name, victim, kinds = m.groups()
+            key = (cls, name, victim, "+".join(sorted(kinds.split("+"))))
+        got.setdefault(key, []).append(int(seed))
+    rows = sorted(got.items(), key=lambda kv: (CLASSES.index(kv[0][0]), -len(kv[1]), kv[0]))
+    head = ["class", "target", "file", "mutations", "cases", "first seed"]
+    if markdown:
+        out = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+        out += [f"| {c} | {t} | {f} | {k} | {len(s):,} | {min(s)} |" for (c, t, f, k), s in rows]
+    else:
+        out = [f"{c:<20} {t:<14} {f:<40} {k:<40} {len(s):>6} {min(s):>8}" for (c, t, f, k), s in rows]
     return "\n".join(out)
 
 
@@ -428,24 +469,34 @@ def main(argv=None) -> int:
     ap.add_argument("--time-limit", type=float, default=None, help="stop after this many seconds (report the count)")
     ap.add_argument("--timeout", type=int, default=20, help="seconds per case before it counts as a hang")
     ap.add_argument("--markdown", action="store_true", help="print the closing table as Markdown")
+    ap.add_argument("--group", action="store_true", help="list the silent-different and warned-unverifiable cases "
+                                                          "grouped by target, file and mutations")
+    ap.add_argument("--targets", default=None, help="comma-separated target names (default: all)")
     a = ap.parse_args(argv)
     import signal as _signal
     from collections import deque
     from multiprocessing.connection import wait
 
+    targets = a.targets.split(",") if a.targets else None
+    unknown = set(targets or ()) - {t.name for t in TARGETS}
+    if unknown:
+        ap.error(f"unknown targets {', '.join(sorted(unknown))}; choose from {', '.join(t.name for t in TARGETS)}")
     t0 = time.perf_counter()
     ctx = mp.get_context("spawn")
     pending = deque((s, min(a.chunk, a.seed + a.n - s)) for s in range(a.seed, a.seed + a.n, a.chunk))
     running = []  # [process, pipe, current seed, first seed, count, (seed, since)]
     counts: dict = {}
-    findings = []
+    findings, listed = [], []
 
     def record(seed, cls, text):
-        key = (target_of(seed).name, cls)
+        key = (target_of(seed, targets).name, cls)
         counts[key] = counts.get(key, 0) + 1
+        if cls in LISTED:
+            listed.append((cls, text))
         if cls in FINDINGS:
             findings.append(text)
-            print(f"{cls}: {text}", flush=True)
+            if not a.group:
+                print(f"{cls}: {text}", flush=True)
 
     def drain(r):
         while r[1].poll():
@@ -467,7 +518,8 @@ def main(argv=None) -> int:
             start, count = pending.popleft()
             current = ctx.Value("q", start - 1, lock=False)
             rd, wr = ctx.Pipe(duplex=False)
-            proc = ctx.Process(target=_chunk, args=(start, count, a.timeout, current, wr), daemon=True)
+            proc = ctx.Process(target=_chunk, args=(start, count, a.timeout, current, wr, targets),
+                               daemon=True)
             proc.start()
             wr.close()
             running.append([proc, rd, current, start, count, (start - 1, time.perf_counter())])
@@ -487,7 +539,7 @@ def main(argv=None) -> int:
                     proc.kill()
                     proc.join()
                     drain(r)
-                    record(seed, "crash", f"seed {seed} {target_of(seed).name}: hang: no progress for "
+                    record(seed, "crash", f"seed {seed} {target_of(seed, targets).name}: hang: no progress for "
                                           f"{now - since:.0f} s (killed) at -")
                     running.remove(r)
                     if start + count > seed + 1:
@@ -498,7 +550,7 @@ def main(argv=None) -> int:
             running.remove(r)
             code = proc.exitcode
             how = f"signal {_signal.Signals(-code).name}" if code < 0 else f"exit code {code}"
-            record(seed, "crash", f"seed {seed} {target_of(seed).name}: the process died ({how}) at -")
+            record(seed, "crash", f"seed {seed} {target_of(seed, targets).name}: the process died ({how}) at -")
             if start + count > seed + 1:
                 pending.appendleft((seed + 1, start + count - seed - 1))
         if a.time_limit and time.perf_counter() - t0 > a.time_limit and not stopped:
@@ -513,7 +565,9 @@ def main(argv=None) -> int:
             shown = time.perf_counter()
             print(f"{done()} cases, {len(findings)} findings, {shown - t0:.0f} s", file=sys.stderr, flush=True)
     print(f"cases {done()}  findings {len(findings)}  time {time.perf_counter() - t0:.1f} s")
-    print(table(counts, a.markdown))
+    print(table(counts, a.markdown, targets))
+    if a.group:
+        print(groups(listed, a.markdown))
     return 1 if findings else 0
 
 

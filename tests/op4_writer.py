@@ -72,7 +72,7 @@ def write_binary(path, mats, *, endian="<", bit64=False, sparse=False, bigmat=Fa
         fh.write(bytes(out))
 
 
-def write_ascii(path, mats, *, sparse=False, bigmat=False, per_line=3, width=23):
+def write_ascii(path, mats, *, sparse=False, bigmat=False, per_line=3, width=23, form=2):
     lines = []
 
     def vals(v):
@@ -82,7 +82,8 @@ def write_ascii(path, mats, *, sparse=False, bigmat=False, per_line=3, width=23)
     for name, A in mats.items():
         A = np.asarray(A, float)
         nrow, ncol = A.shape
-        lines.append(f"{ncol:8d}{-nrow if bigmat else nrow:8d}{2:8d}{2:8d}{name:<8}1P,{per_line}E{width}.{width - 7}")
+        head = f"{ncol:8d}{-nrow if bigmat else nrow:8d}{form:8d}{2:8d}{name:<8}"
+        lines.append(f"{head}1P,{per_line}E{width}.{width - 7}")
         for j in range(ncol):
             runs = _runs(A[:, j])
             if not runs:

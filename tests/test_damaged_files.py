@@ -16,11 +16,13 @@ import warnings
 
 import numpy as np
 import pytest
-from helpers import CCX, DATA, ROOT, run
+from helpers import CCX, DATA, ROOT, load_script, run
 
 import flexmor.io
 from flexmor.errors import FlexmorWarning, ReadError
+from flexmor.io import UncheckedWarning
 from flexmor.io._fastparse import fast_triplets
+from flexmor.io.nastran import read_op4
 
 ABQ = DATA / "abaqus"
 
@@ -202,3 +204,250 @@ def test_ansys_full_damaged_byte_is_refused_not_a_crash(tmp_path, offset, byte):
                           env={**os.environ, "PYTHONPATH": str(ROOT / "src")})
     assert proc.returncode in (0, 2), (proc.returncode, proc.stderr[-500:])  # no signal death, no traceback
     assert proc.returncode == 0 or proc.stdout.startswith(f"{path}: ")  # the reader's error, or a check
+
+
+# -- files whose format cannot show every damage: checks where one is possible, else a named warning --
+
+fuzz = load_script(ROOT / "bench" / "fuzz.py", "fuzz_for_damaged_files")
+
+
+@pytest.fixture(scope="module")
+def beam(tmp_path_factory):
+    """The clamped beam's K and M as a DMIG punch file with its GRIDs and as ASCII / binary OP4 (60 x 60)."""
+    folder = tmp_path_factory.mktemp("beam")
+    fuzz._generate(folder)
+    return folder
+
+
+def _pch(beam, tmp_path, change=None):
+    for f in ("beam.pch", "beam.bdf"):
+        shutil.copy(beam / f, tmp_path / f)
+    pch = tmp_path / "beam.pch"
+    if change:
+        lines = pch.read_text().splitlines(keepends=True)
+        change(lines)
+        pch.write_text("".join(lines))
+    return pch
+
+
+def _column_card(lines, name, grid, comp):
+    return next(i for i, ln in enumerate(lines) if ln.startswith(f"DMIG*   {name:<16}{grid:>16}{comp:>16}"))
+
+
+def _unchecked(record):
+    return [str(w.message) for w in record if issubclass(w.category, UncheckedWarning)]
+
+
+def test_dmig_lost_column_card_is_refused(beam, tmp_path):
+    """Its entries would be read into the column before it: the row of its diagonal has no column card."""
+    pch = _pch(beam, tmp_path, lambda lines: lines.pop(_column_card(lines, "KAAX", 50, 2)))
+    with pytest.raises(ReadError, match=r"DMIG KAAX \(form 6, square\): row 50-2 \(line \d+\) has no column card "
+                                        r"'DMIG KAAX 50 2': a column card lost"):
+        flexmor.io.read(pch)
+
+
+def test_dmig_entry_without_its_grid_is_refused(beam, tmp_path):
+    """A blanked grid field: the card reader used to skip the entry."""
+    def blank(lines):
+        k = _column_card(lines, "MAAX", 40, 1) + 1
+        lines[k] = "*" + " " * 23 + lines[k][24:]
+    pch = _pch(beam, tmp_path, blank)
+    with pytest.raises(ReadError, match=r"beam\.pch:\d+: DMIG MAAX: an entry of column 40-1 has no grid \(row\) "):
+        flexmor.io.read(pch)
+
+
+def test_dmig_entry_repeated_into_another_column_is_named(beam, tmp_path):
+    """A copy of an entry of column 2-1 after the last entry of column 60-3 (an upper-triangle position the
+    matrix does not have, no duplicate): out of the row order Nastran writes, so named."""
+    def repeat(lines):
+        entry = lines[_column_card(lines, "KAAX", 2, 1) + 1]
+        k = _column_card(lines, "KAAX", 60, 3) + 1
+        while lines[k].startswith("* "):  # after the column's last entry
+            k += 1
+        lines.insert(k, entry)
+    pch = _pch(beam, tmp_path, repeat)
+    with pytest.warns(FlexmorWarning, match=r"beam\.pch: line \d+: DMIG KAAX: entry 2-1 of column 60-3 follows row "
+                                            r"60-3, out of the row order of the other entries \(1 such\)"):
+        flexmor.io.read(pch)
+
+
+def test_dmig_read_says_once_what_it_could_not_check(beam, tmp_path):
+    with warnings.catch_warnings(record=True) as record:
+        warnings.simplefilter("always")
+        flexmor.io.read(_pch(beam, tmp_path))
+    assert _unchecked(record) == ["beam.pch: DMIG cards have no entry counts; a lost entry line, or one repeated "
+                                  "into another column in row order, could not be cross-checked"]
+    assert not [w for w in record if w.category is FlexmorWarning]
+
+
+def test_dmig_stored_in_both_triangles_needs_no_warning(tmp_path):
+    """Each off-diagonal entry of K twice: a lost line leaves K unsymmetric, which the model refuses."""
+    K = np.array([[4.0, -1, 0], [-1, 4, -1], [0, -1, 4]])
+    lines = ["GRID,1,,0.,0.,0.", "DMIG,KAAX,0,6,2", "DMIG,MAAX,0,6,2"]
+    for j in range(3):
+        lines += [f"DMIG,KAAX,1,{j + 1},,1,{i + 1},{float(K[i, j])!r}" for i in range(3) if K[i, j]]
+        lines.append(f"DMIG,MAAX,1,{j + 1},,1,{j + 1},1.0")
+    pch = tmp_path / "k.pch"
+    pch.write_text("\n".join(lines) + "\n")
+    with warnings.catch_warnings(record=True) as record:
+        warnings.simplefilter("always")
+        model = flexmor.io.read(pch)
+    assert np.array_equal(model.K.toarray(), K)
+    assert not _unchecked(record)  # a lost line of the diagonal M leaves a zero diagonal, which is refused
+    pch.write_text(pch.read_text().replace("DMIG,KAAX,1,1,,1,2,-1.0\n", ""))  # K(2,1) lost, K(1,2) kept
+    with pytest.raises(ReadError, match="K is not symmetric"):
+        flexmor.io.read(pch)
+
+
+def _op4(tmp_path, mats, **kw):
+    sys.path.insert(0, str(ROOT / "tests"))
+    from op4_writer import write_ascii
+    path = tmp_path / "m.op4"
+    write_ascii(path, mats, **kw)
+    return path
+
+
+def test_op4_symmetric_matrix_stored_in_full_with_a_changed_value_is_refused(tmp_path):
+    """Nastran writes a symmetric matrix (form 6) in full: a value changed in one triangle shows."""
+    K = flexmor.io.read(CCX / "beam8_clamped_mat.sti").K.toarray()[:60, :60]
+    i, j = 3, int(np.flatnonzero(K[3, 4:])[-1]) + 4
+    K[i, j] *= 1.5  # one triangle only
+    with pytest.raises(ReadError, match=rf"m\.op4: matrix KAAX is symmetric \(form 6\) and stored in full, but its "
+                                        rf"entries \({j + 1}, 4\) = .* and \(4, {j + 1}\) = .* differ"):
+        read_op4(_op4(tmp_path, {"KAAX": K}, sparse=True, form=6))
+    K[j, i] = K[i, j]
+    assert np.array_equal(read_op4(_op4(tmp_path, {"KAAX": K}, sparse=True, form=6))["KAAX"], K)
+
+
+def test_op4_column_record_out_of_order_is_refused(tmp_path):
+    """A changed column number that moves a record before its predecessor (no rows overlap): the line
+    scanner used to read it into the other column."""
+    path = _op4(tmp_path, {"KAAX": np.diag([1.0, 2.0, 3.0, 4.0])})
+    lines = path.read_text().splitlines(keepends=True)
+    k = next(i for i, ln in enumerate(lines) if ln.split() == ["3", "3", "1"])
+    lines[k] = f"{1:8d}{3:8d}{1:8d}\n"
+    path.write_text("".join(lines))
+    with pytest.raises(ReadError, match=r"m\.op4:\d+: matrix KAAX: column 1 rows 3\.\.3 follow column 2 row 2; "
+                                        r"OUTPUT4 stores columns and rows in order"):
+        read_op4(path)
+
+
+def test_op4_read_says_once_what_it_could_not_check(tmp_path):
+    with warnings.catch_warnings(record=True) as record:
+        warnings.simplefilter("always")
+        read_op4(_op4(tmp_path, {"KAAX": np.diag([1.0, 2.0]), "MAAX": np.eye(2)}))
+    assert _unchecked(record) == ["m.op4: OUTPUT4 has no checksum and no count of its matrices; values (and a "
+                                  "matrix lost from the end of the file) could not be cross-checked"]
+
+
+def test_op4_warning_shown_once_by_the_command_line(beam, tmp_path, capsys):
+    shutil.copy(beam / "beam.op4", tmp_path / "beam.op4")
+    code, _, err = run(capsys, "info", str(tmp_path / "beam.op4"))
+    assert code == 0, err
+    assert err.count("flexmor: warning: beam.op4: OUTPUT4 has no checksum") == 1, err
+
+
+def _rotor(tmp_path):
+    for f in ("MassMatrixSparse", "StiffnessMatrixSparse", "MatrixDofMappingVector", "NodalCoordinates"):
+        shutil.copy(DATA / "ansys" / f"rotorAnsys{f}.txt", tmp_path / f"rotorAnsys{f}.txt")
+    return tmp_path / "rotorAnsysStiffnessMatrixSparse.txt"
+
+
+def test_ansys_mapping_vector_read_says_what_it_could_not_check(tmp_path):
+    with warnings.catch_warnings(record=True) as record:
+        warnings.simplefilter("always")
+        flexmor.io.read(_rotor(tmp_path), format="ansys")
+    assert _unchecked(record) == ["rotorAnsysMatrixDofMappingVector.txt: an Ansys mapping vector has no equation "
+                                  "numbers; the order of its lines (which node owns which equations) could not be "
+                                  "cross-checked"]
+
+
+def test_matrix_market_entry_with_a_changed_index_is_named(tmp_path):
+    """Ansys writes the entries column by column, rows ascending: a changed row index is out of that order."""
+    stiff = _rotor(tmp_path)
+    lines = stiff.read_text().splitlines(keepends=True)
+    k = next(i for i, ln in enumerate(lines) if ln.split()[:2] == ["12", "1"])
+    lines[k] = lines[k].replace("12 1 ", "300 1 ", 1)
+    stiff.write_text("".join(lines))
+    with pytest.warns(FlexmorWarning, match=rf"rotorAnsysStiffnessMatrixSparse\.txt:{k + 1}: entry \(300, 1\) is "
+                                            r"out of the order of the other entries \(1 such\): an index changed"):
+        flexmor.io.read(stiff, format="ansys")
+
+
+def test_matrix_market_header_repeated_among_the_entries_is_refused(tmp_path):
+    """A repeated banner reads as a comment, and the size line after it as an entry (3, 3) = 3."""
+    (tmp_path / "job_M.mtx").write_text("%%MatrixMarket matrix coordinate real symmetric\n3 3 3\n1 1 1.0\n"
+                                        "%%MatrixMarket matrix coordinate real symmetric\n3 3 3\n2 2 1.0\n")
+    shutil.copy(DATA / "bad" / "mm_nan_K.mtx", tmp_path / "job_K.mtx")
+    with pytest.raises(ReadError, match=r"job_M\.mtx:4: a second %%MatrixMarket header line"):
+        flexmor.io.read(tmp_path / "job_M.mtx")
+
+
+@pytest.mark.parametrize("cut", ["*STEP", "elements"])
+def test_calculix_deck_cut_after_its_elements_is_named(tmp_path, cut):
+    """The matrices are complete, the deck lost its step (and elements, sets, materials): read, with a warning."""
+    sti = _job(tmp_path)
+    inp = tmp_path / "job.inp"
+    lines = inp.read_text().splitlines(keepends=True)
+    k = next(i for i, ln in enumerate(lines) if ln.upper().startswith("*STEP" if cut == "*STEP" else "*ELEMENT"))
+    inp.write_text("".join(lines[:k if cut == "*STEP" else k + 5]))
+    with pytest.warns(FlexmorWarning, match=r"job\.inp: no \*STEP, which the job that wrote job\.sti had: the deck "
+                                            r"seems cut off inside or after its element blocks"):
+        model = flexmor.io.read(sti)
+    assert model.n_dof == 297
+
+
+def test_control_character_in_a_line_of_numbers_is_refused(tmp_path):
+    """U+001C where a digit was: Python's split() takes it for a blank, so '3.2e+01' was read as '.2e+01'."""
+    inp = _abaqus(tmp_path)
+    mass = tmp_path / "blockC3D8_MASS1.mtx"
+    lines = mass.read_bytes().splitlines(keepends=True)
+    k = len(lines) // 2
+    i = lines[k].rindex(b" ") + 1
+    lines[k] = lines[k][:i] + b"\x1c" + lines[k][i + 1:]
+    mass.write_bytes(b"".join(lines))
+    with pytest.raises(ReadError, match=rf"blockC3D8_MASS1\.mtx:{k + 1}: character '\\x1c' in .* which a line of "
+                                        r"numbers does not hold"):
+        flexmor.io.read(inp)
+
+
+def test_no_break_space_in_a_node_line_is_refused(tmp_path):
+    """'0.05' with its last digit turned into U+00A0 read as 0.0 (float() strips it)."""
+    sti = _job(tmp_path)
+    inp = tmp_path / "job.inp"
+    text = inp.read_text()
+    k = text.index("\n2, ") + 1
+    line = text[k:text.index("\n", k)]
+    inp.write_text(text[:k] + line[:-1] + "\xa0" + text[k + len(line):])
+    with pytest.raises(ReadError, match=r"job\.inp:\d+: character '\\xa0' in the \*NODE line"):
+        flexmor.io.read(sti)
+
+
+@pytest.mark.parametrize("change, expect", [
+    (lambda t: t.replace("GRID,51,,0.6,0.05,0.05\n", "GRID,51,,0.6,0.05,0.\n5\n"),
+     r"beam\.bdf:\d+: '5' does not start with a card name"),  # a byte turned into a line end
+    (lambda t: t.replace("GRID,76,,0.9,0.0,0.1\n", "GRID,76,,0.9,1,5,,0.1\n"),
+     r"beam\.bdf:\d+: GRID 76: PS and SEID must be integers"),  # a token replaced by '1,5,'
+])
+def test_damaged_grid_card_is_refused(beam, tmp_path, change, expect):
+    pch = _pch(beam, tmp_path)
+    bdf = tmp_path / "beam.bdf"
+    text = bdf.read_text()
+    assert change(text) != text
+    bdf.write_text(change(text))
+    with pytest.raises(ReadError, match=expect):
+        flexmor.io.read(pch)
+
+
+def test_dmig_rectangular_form_checks_its_declared_columns(tmp_path):
+    """Form 9 declares NCOL: a lost column card shows in the count."""
+    lines = ["GRID,1,,0.,0.,0.", "DMIG,KAAX,0,9,2,,,,3", "DMIG,MAAX,0,6,2"]
+    for j in range(3):
+        lines += [f"DMIG,KAAX,1,{j + 1},,1,{j + 1},{2.0 + j}", f"DMIG,MAAX,1,{j + 1},,1,{j + 1},1.0"]
+    pch = tmp_path / "k.pch"
+    pch.write_text("\n".join(lines) + "\n")
+    assert flexmor.io.read(pch).K.diagonal().tolist() == [2.0, 3.0, 4.0]
+    pch.write_text(pch.read_text().replace("DMIG,KAAX,1,3,,1,3,4.0\n", ""))
+    with pytest.raises(ReadError, match=r"k\.pch: DMIG KAAX: its header declares NCOL=3 columns, but the file has 2 "
+                                        "column cards of it"):
+        flexmor.io.read(pch)

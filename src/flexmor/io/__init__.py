@@ -41,9 +41,10 @@ from ._registry import (
     read_body,
     unit_formats,
 )
+from ._unchecked import UncheckedWarning
 from .atomic import atomic_write
 from .hdf5 import write_body
 
-__all__ = ["BODY_FORMATS", "EXPORT_FORMATS", "MODEL_FORMATS", "Format", "Registry", "atomic_write",
+__all__ = ["BODY_FORMATS", "EXPORT_FORMATS", "MODEL_FORMATS", "Format", "Registry", "UncheckedWarning", "atomic_write",
            "describe_formats", "export", "export_format", "kind_of", "read", "read_body", "unit_formats",
            "write_body"]

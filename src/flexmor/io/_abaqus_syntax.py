@@ -16,7 +16,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from ..errors import ReadError
-from ._text import read_text
+from ._text import FOREIGN, read_text, split_lines
 
 __all__ = ["MAX_INCLUDE_DEPTH", "Data", "Keyword", "include_path", "keyword_options", "walk"]
 
@@ -105,15 +105,20 @@ def walk(path, _depth: int = 0) -> Iterator[Keyword | Data]:
     ------
     ReadError
         An unreadable file, or an ``*INCLUDE`` without ``INPUT=``, of a missing file or nested
-        too deep (naming the including file and line).
+        too deep (naming the including file and line); a ``*NODE`` or ``*ELEMENT`` line with a
+        character such lines never hold (a control character, one beyond ASCII: Python would
+        take some of them for a blank and read another number).
     """
     path = Path(path)
     keyword, data, linenos = None, [], []
-    for lineno, line in enumerate(read_text(path).splitlines(), 1):
+    for lineno, line in enumerate(split_lines(read_text(path)), 1):
         s = line.strip()
         if not s or s.startswith("**"):
             continue
         if not s.startswith("*"):
+            if keyword is not None and keyword.name in ("NODE", "ELEMENT") and FOREIGN.search(line):
+                raise ReadError(path, f"character {FOREIGN.search(line).group()!r} in the *{keyword.name} line "
+                                      f"{s[:60]!r}: is the file damaged?", lineno)
             data.append(s)
             linenos.append(lineno)
             continue

@@ -10,6 +10,7 @@ line to report the first offending line with its number.
 from __future__ import annotations
 
 import io
+import re
 import warnings
 from pathlib import Path
 
@@ -19,9 +20,13 @@ from ..errors import ReadError
 from ._fastparse import fast_triplets
 from ._open import open_binary, read_all, size_hint
 
-__all__ = ["read_text", "read_bytes", "check_text", "parse_triplets", "entry_line"]
+__all__ = ["FOREIGN", "check_text", "entry_line", "parse_triplets", "read_bytes", "read_text", "split_lines"]
 
 _COMMENT_CHARS = "#%*!"
+#: A character a data line of numbers never holds: control characters other than tab and line ends, and
+#: anything beyond ASCII (Python's ``split`` and ``float`` take e.g. U+001C or a no-break space for a blank,
+#: so a changed byte could turn ``3.2e+01`` into the number ``.2e+01`` without a word).
+FOREIGN = re.compile(r"[^\t\n\r\x20-\x7e]")
 _COMMENT_BYTES = (b"#", b"%", b"*", b"!")
 _BLOCK = 50_000  # lines per block of the diagnosing scanner
 _CHUNK = 1 << 21  # bytes per chunk of the fast parser
@@ -75,9 +80,18 @@ def _decode(raw: bytes) -> str:
         return raw.decode("latin-1")
 
 
+def split_lines(text: str) -> list:
+    """The lines of ``text`` at line ends only (LF, CRLF or CR): ``str.splitlines`` also breaks at
+    U+001C, U+0085 and others, which in a damaged file would split a line of numbers."""
+    return _LINE_END.split(text)
+
+
+_LINE_END = re.compile(r"\r\n?|\n")
+
+
 def _data_lines(text: str):
     """Yield ``(lineno, stripped_line)`` of the lines that are neither blank nor comments."""
-    for lineno, line in enumerate(text.splitlines(), 1):
+    for lineno, line in enumerate(split_lines(text), 1):
         s = line.strip()
         if s and s[0] not in _COMMENT_CHARS:
             yield lineno, s
@@ -196,6 +210,8 @@ def _chunk(buf: bytes, cut: int):
 
 
 def _loadtxt_chunk(b: np.ndarray):
+    if np.any(((b < 32) & (b != 9) & (b != 10) & (b != 13)) | (b > 126)):
+        return None  # a foreign character: the scanner names its line
     text = b.tobytes().decode("latin-1")
     a = _loadtxt(io.StringIO(text.replace(",", " ").replace("D", "E").replace("d", "e")))
     if a is None or not np.all(a[:, :2] == np.floor(a[:, :2])) or np.abs(a[:, :2]).max() > 2**31:
@@ -275,13 +291,13 @@ def _scan_triplets(path: Path, text: str, base: int, n: int | None) -> np.ndarra
     Line numbers stay exact; only a block with comments or a defect is scanned in Python, so
     a defect near the end of a huge file is found in seconds.
     """
-    lines = text.splitlines()
+    lines = split_lines(text)
     parts = []
     for start in range(0, len(lines), _BLOCK):
         block = lines[start:start + _BLOCK]
         joined = "\n".join(block)
         a = None
-        if not any(ch in joined for ch in _COMMENT_CHARS):
+        if not any(ch in joined for ch in _COMMENT_CHARS) and not FOREIGN.search(joined):
             a = _loadtxt(io.StringIO(joined.replace(",", " ").replace("D", "E").replace("d", "e")))
         if a is None or not _valid(a, base, n):
             a = _scan_block(path, block, start, base, n)
@@ -299,6 +315,10 @@ def _scan_block(path: Path, lines: list, offset: int, base: int, n: int | None) 
         s = line.strip()
         if not s or s[0] in _COMMENT_CHARS:
             continue
+        bad = FOREIGN.search(line)  # the line as read: strip() removes a trailing U+00A0
+        if bad:
+            raise ReadError(path, f"character {bad.group()!r} in {s[:60]!r}, which a line of numbers does not "
+                                  "hold; is the file damaged?", lineno)
         parts = s.replace(",", " ").split()
         if len(parts) != 3:
             raise ReadError(path, f"expected 3 columns 'row col value', found {len(parts)} in {s[:60]!r}; "

@@ -46,6 +46,7 @@ from .._open import beside, is_gzip, stem, suffix
 from .._registry import MODEL_FORMATS
 from .._sparse import rows_in_use
 from .._text import read_text
+from .._unchecked import warn_unchecked
 from ..matrix_market.matrix_market import _check_header, _read_one, find_siblings
 
 __all__ = ["read_ansys", "read_mapping", "read_coordinates"]
@@ -76,10 +77,15 @@ def read_mapping(path, n_eq: int) -> np.ndarray:
     ReadError
         Malformed lines, a length that does not divide ``n_eq``, unknown DOF labels,
         equation numbers outside ``1..n_eq``.
+
+    Warns
+    -----
+    UncheckedWarning
+        For a mapping vector: it has no equation numbers, so swapped lines cannot be seen.
     """
     path = Path(path)
     text = read_text(path)
-    fast = _mapping_fast(text, n_eq)
+    fast = _mapping_fast(path, text, n_eq)
     if fast is not None:
         return fast
     lines = text.splitlines()
@@ -121,7 +127,13 @@ def read_mapping(path, n_eq: int) -> np.ndarray:
     if nodes.size == 0 or n_eq % nodes.size or n_eq // nodes.size not in (1, 2, 3, 6):
         raise ReadError(path, f"{nodes.size} nodes do not fit {n_eq} equations (1, 2, 3 or 6 DOFs per node)")
     d = n_eq // nodes.size
+    _unchecked_vector(path)
     return np.stack([np.repeat(nodes, d), np.tile(np.arange(1, d + 1), nodes.size)], axis=1)
+
+
+def _unchecked_vector(path) -> None:
+    warn_unchecked(path, "an Ansys mapping vector has no equation numbers; the order of its lines (which node "
+                         "owns which equations) could not be cross-checked")
 
 
 _EQ_LINES = re.compile(r"(?:[ \t]*\d{1,15}[ \t]+\d{1,15}[ \t]+[1-6][ \t]*(?:\r?\n|\Z))+")
@@ -154,7 +166,7 @@ def _ints(body: str, pattern, width: int) -> np.ndarray | None:
     return a.reshape(-1, width) if a.size % width == 0 else None
 
 
-def _mapping_fast(text: str, n_eq: int) -> np.ndarray | None:
+def _mapping_fast(path, text: str, n_eq: int) -> np.ndarray | None:
     """The equation map of a well-formed map file, vectorized; None leaves it to the line-by-line parser."""
     got = _body(text, lambda t: len(t) >= 3 and not t[0].lstrip("-").isdigit())
     if got is None:
@@ -176,6 +188,7 @@ def _mapping_fast(text: str, n_eq: int) -> np.ndarray | None:
     if a is None or h != [str(a.shape[0]), "1"] or n_eq % a.shape[0] or n_eq // a.shape[0] not in (1, 2, 3, 6):
         return None
     d = n_eq // a.shape[0]
+    _unchecked_vector(path)
     return np.stack([np.repeat(a[:, 0], d), np.tile(np.arange(1, d + 1), a.shape[0])], axis=1)
 
 
@@ -324,6 +337,8 @@ def _read_full(path: Path, coordinates=None):
     model = build_model(path, roles={"K": path, "M": path}, M=mats["M"], K=mats["K"], node_ids=node_ids, xyz=xyz,
                         dofs=dofs, node_sets=sets, mesh=mesh, elements=elements, name=stem(path), source=str(path))
     model.constrained_dofs = gone
+    warn_unchecked(path, "an Ansys .full file has no checksum; the values in its matrix records were read as given "
+                         "and could not be cross-checked")
     return model
 
 

@@ -198,6 +198,22 @@ def _check_order(dof_path: Path, dofs: np.ndarray) -> None:
                       "swapped or edited, and the equation map could not be checked", FlexmorWarning, stacklevel=3)
 
 
+def _check_deck(geo: Path, sti: Path, keywords: set) -> None:
+    """Warn when a deck with elements lacks the ``*STEP`` of the job that wrote the matrices.
+
+    CalculiX writes a ``.sti`` only in a step (``*FREQUENCY, SOLVER=MATRIXSTORAGE``): a deck
+    with ``*ELEMENT`` but without ``*STEP`` was cut off inside or after its element blocks and
+    lost what followed the cut (elements, node sets, materials). The matrices and the nodes read
+    are complete, so the model is read. (A deck of nodes only is taken for a geometry deck
+    written for the matrices; a job deck cut right after its node block looks the same.)
+    """
+    if "STEP" in keywords or "ELEMENT" not in keywords:
+        return
+    warnings.warn(f"{geo}: no *STEP, which the job that wrote {sti.name} had: the deck seems cut off inside or "
+                  "after its element blocks; elements, node sets and materials after the cut are missing from the "
+                  "model", FlexmorWarning, stacklevel=3)
+
+
 def _check_diagonal(path: Path, has_diag: np.ndarray, dofs: np.ndarray, dof_path: Path) -> None:
     """Refuse a matrix file without a diagonal entry for an equation of the ``.dof``.
 
@@ -297,7 +313,10 @@ def read_calculix(path) -> FEModel:
     cells: list = []
     deck_elements = DeckElements()
     if suffix(geo) == ".inp":
-        node_ids, xyz, sets = read_inp(geo, element_types=types, cells=cells, elements=deck_elements)
+        keywords: set = set()
+        node_ids, xyz, sets = read_inp(geo, element_types=types, cells=cells, elements=deck_elements,
+                                       keywords=keywords)
+        _check_deck(geo, path, keywords)
     else:
         res = read_frd(geo, results=False)
         node_ids, xyz, sets, types = res.node_ids, res.xyz, {}, res.element_types

@@ -24,7 +24,7 @@ log = logging.getLogger(__name__)
 
 
 def read_inp(path, *, element_types: set | None = None, cells: list | None = None,
-             elements: DeckElements | None = None):
+             elements: DeckElements | None = None, keywords: set | None = None):
     """Read the node table, node sets and elements of a CalculiX/Abaqus-style input deck.
 
     Only ``*NODE``, ``*NSET`` (with ``GENERATE`` and set names as members), ``*ELEMENT`` and
@@ -42,6 +42,8 @@ def read_inp(path, *, element_types: set | None = None, cells: list | None = Non
     elements : DeckElements, optional
         Receives the element blocks with their numbers, ``*ELSET``, ``*MATERIAL``, ``*ELASTIC``,
         ``*DENSITY`` and the sections (:mod:`flexmor.io._abaqus_materials`).
+    keywords : set, optional
+        Receives the name of every keyword of the deck and its includes (upper case, e.g. ``STEP``).
 
     Returns
     -------
@@ -61,6 +63,8 @@ def read_inp(path, *, element_types: set | None = None, cells: list | None = Non
     cur_set = None
     for item in walk(path):
         if isinstance(item, Keyword):
+            if keywords is not None:
+                keywords.add(item.name)
             cur_set = _keyword(item, st, element_types)
             if elements is not None:
                 elements.keyword(item)

@@ -22,13 +22,14 @@ The model has no node table and no equation map.
 from __future__ import annotations
 
 import re
+import warnings
 from pathlib import Path
 
 import numpy as np
 import scipy.io
 import scipy.sparse as sp
 
-from ...errors import ReadError
+from ...errors import FlexmorWarning, ReadError
 from ...model import FEModel
 from .._build import build_model
 from .._open import is_gzip, open_binary, plain_name, size_hint, stem, suffix
@@ -154,6 +155,66 @@ def _size_line(path: Path):
     raise ReadError(path, "no size line after the %%MatrixMarket header: the file was cut off")
 
 
+def _second_banner(path: Path) -> None:
+    """Refuse a ``%%MatrixMarket`` line after the first line: read as a comment, it would hide that
+    lines were repeated or two files joined (the size line after it read as an entry)."""
+    lines, tail = 0, b""
+    with open_binary(path) as f:
+        while True:
+            block = f.read(1 << 22)
+            if not block:
+                return
+            buf = tail + block
+            at = buf.lower().find(b"\n%%matrixmarket")
+            if at >= 0:
+                raise ReadError(path, "a second %%MatrixMarket header line: lines repeated, or two files joined?",
+                                lines + buf.count(b"\n", 0, at) + 2)
+            keep = len(b"\n%%matrixmarket") - 1
+            lines += buf.count(b"\n", 0, len(buf) - keep)
+            tail = buf[len(buf) - keep:]
+
+
+def _check_order(path: Path, rows, cols, nr: int, nc: int) -> None:
+    """Name an entry out of the order of the others in a file written in column or row order.
+
+    Ansys and most writers give the entries sorted by column then row (or by row then column):
+    in such a file an entry whose index was changed, or a line moved, is out of order. A file
+    with more than three entries out of either order was written in its own order: nothing to
+    tell.
+    """
+    if rows.size < 8:
+        return
+    best = None
+    for major, minor, size in ((cols, rows, max(nr, 1)), (rows, cols, max(nc, 1))):
+        down = _descents(major, minor, size)
+        if not down.size:
+            return
+        if best is None or down.size < best[0].size:
+            best = down, major, minor, size
+    down, major, minor, size = best
+    if down.size <= 3:
+        k = int(down[0])  # the entry out of place: k when k + 1 follows k - 1 in order, else k + 1
+        key = major[k - 1:k + 2].astype(np.int64) * size + minor[k - 1:k + 2]
+        k += not (k > 0 and key[2] > key[0])
+        warnings.warn(FlexmorWarning(f"{path.name}:{entry_line(path, k + 1)}: entry ({rows[k] + 1}, {cols[k] + 1}) "
+                                     f"is out of the order of the other entries ({down.size} such): an index "
+                                     "changed or a line moved?"), stacklevel=4)
+
+
+def _descents(major, minor, size: int, stop: int = 3) -> np.ndarray:
+    """Positions ``k`` where entry ``k + 1`` does not follow entry ``k`` in the order (major, minor), in slices
+    (little memory); the scan ends after more than ``stop`` of them."""
+    out = []
+    step = 1 << 22
+    for s in range(0, major.size - 1, step):
+        e = min(s + step + 1, major.size)
+        key = major[s:e].astype(np.int64) * size + minor[s:e]
+        out.append(s + np.flatnonzero(key[1:] <= key[:-1]))
+        if sum(x.size for x in out) > stop:
+            break
+    return np.concatenate(out) if out else np.zeros(0, np.int64)
+
+
 def _read_coordinate(path: Path, symmetric: bool) -> sp.csr_matrix:
     """Strict parser of a real coordinate file: sizes, indices, values and duplicates checked."""
     lineno, size = _size_line(path)
@@ -174,6 +235,8 @@ def _read_coordinate(path: Path, symmetric: bool) -> sp.csr_matrix:
         k = int(np.flatnonzero((rows < 0) | (cols < 0) | (rows >= nr) | (cols >= nc))[0])
         raise ReadError(path, f"entry ({rows[k] + 1}, {cols[k] + 1}) is out of bounds of the {nr} x {nc} matrix "
                               "(indices are 1-based)", entry_line(path, k + 1))
+    _second_banner(path)
+    _check_order(path, rows, cols, nr, nc)
     if symmetric and not np.all(rows >= cols):
         rows, cols = np.maximum(rows, cols), np.minimum(rows, cols)
     triplets = [rows, cols, vals]

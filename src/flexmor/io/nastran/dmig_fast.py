@@ -5,9 +5,9 @@ one continuation line per entry, ``*  GI  CI  A`` in fixed 16-character fields. 
 read in chunks of whole lines and parsed with NumPy a byte column at a time (the GRID and
 other cards around them are skipped), straight into preallocated arrays: the text is never
 held whole. :func:`scan_dmig` returns None for anything else (small or free field column
-cards, tabs, ``INCLUDE``, ``BEGIN BULK``, blank first fields, complex matrices, a field that
-does not parse, a column before its header card): the card-by-card reader then reads the
-file and names the line of a defect.
+cards, tabs, ``INCLUDE``, ``BEGIN BULK``, blank first fields, complex or rectangular (form 9,
+with its ``NCOL``) matrices, a field that does not parse, a column before its header card):
+the card-by-card reader then reads the file and names the line of a defect.
 """
 
 from __future__ import annotations
@@ -40,6 +40,7 @@ class DmigColumns(NamedTuple):
     counts: np.ndarray  #: entries of each column (int64)
     values: np.ndarray  #: float64
     lines: np.ndarray | None  #: line number of each entry (int64), when asked for
+    ncol: int | None = None  #: the number of columns a rectangular matrix (form 9) declares
 
 
 def _fields(b, starts, offset, width=16):
@@ -166,8 +167,8 @@ class _Scan:
             return False
         for h in np.r_[heads[dmig & ~large], cols[gj == 0]].tolist():  # header cards: few, one by one
             got = _header(buf[starts[h]:starts[h] + length[h]])
-            if got is None or got[2] > 2 or got[1] not in (1, 2, 6, 9):
-                return False  # a small-field column card, a complex matrix, an unknown form
+            if got is None or got[2] > 2 or got[1] not in (1, 2, 6):
+                return False  # a small-field column card, a complex matrix, a rectangular (NCOL) or unknown form
             self.headers[got[0]] = got[1]
         is_col = np.zeros(heads.size, dtype=bool)  # heads that are column cards (GJ != 0)
         is_col[np.flatnonzero(large)[gj != 0]] = True

@@ -4,7 +4,11 @@ DMIG (``.pch``; ``PARAM,EXTOUT,DMIGPCH`` writes ``KAAX``, ``MAAX`` ...)
     Small-field, large-field (``DMIG*`` with ``*`` continuations) and free-field cards.
     Rows and columns are ``(grid, component)``; the model's equations are all pairs that
     occur, sorted by grid and component. Symmetric matrices (``IFO=6``) may store either
-    triangle (or both); an entry given twice is refused, not summed. Scalar points
+    triangle (or both); an entry given twice is refused, not summed. What the cards declare is
+    checked against what was read: every row of a square stiffness or mass matrix has a column
+    card of its own (a lost column card is refused), a rectangular one (``IFO=9``) its ``NCOL``
+    columns; entries out of the row order Nastran writes are named. DMIG has no entry counts:
+    a matrix stored as one triangle is read with an :class:`~flexmor.io.UncheckedWarning`. Scalar points
     (component 0, the modal DOFs of a superelement) are refused here: such files are reduced
     bodies, read by :func:`flexmor.io.nastran.read_superelement` (format ``nastran-se`` of
     :func:`flexmor.io.read_body`).
@@ -28,18 +32,20 @@ those of the Nastran model. pyNastran is not needed.
 from __future__ import annotations
 
 import logging
+import warnings
 from pathlib import Path
 
 import numpy as np
 import scipy.sparse as sp
 
-from ...errors import ReadError
+from ...errors import FlexmorWarning, ReadError
 from ...model import FEModel
 from .._build import build_model
 from .._cells import mesh_of_elements, nastran_cell
 from .._open import beside, stem, suffix
 from .._registry import MODEL_FORMATS
 from .._sparse import assemble
+from .._unchecked import warn_unchecked
 from .dmig_fast import DmigColumns, fast_dmig, scan_dmig
 from .nastran_bulk import Bulk, cards, num, read_bulk
 from .nastran_elements import nastran_elements
@@ -68,7 +74,13 @@ def read_dmig(path) -> dict:
     fast = fast_dmig(top)
     if fast is not None:
         return fast
+    return _dmig_cards(top)[0]
+
+
+def _dmig_cards(top: Path):
+    """:func:`read_dmig` card by card, and the ``NCOL`` each header declares (None where blank) by name."""
     mats: dict = {}
+    ncols: dict = {}
     for fpath, lineno, name, f, flines in cards(top):
         if name != "DMIG":
             continue
@@ -82,6 +94,7 @@ def read_dmig(path) -> dict:
                     raise ReadError(fpath, f"DMIG {mname}: form {ifo} / type {tin} not supported "
                                           "(IFO 1, 2, 6, 9; TIN 1-4)", lineno)
                 mats[mname] = {"ifo": ifo, "complex": tin > 2, "r": [], "c": [], "v": [], "line": []}
+                ncols[mname] = int(f[7]) if ifo == 9 and len(f) > 7 and f[7] else None  # NCOL, form 9 only
                 continue
             if mname not in mats:
                 raise ReadError(fpath, f"DMIG {mname} column before its header card (GJ=0)", lineno)
@@ -90,6 +103,9 @@ def read_dmig(path) -> dict:
             for k in range(4, len(f), 4):
                 g, c, a, b = (f[k:k + 4] + ["", "", "", ""])[:4]
                 if not g:
+                    if c or a or b:  # a value without its row: the grid field was lost or blanked
+                        raise ReadError(fpath, f"DMIG {mname}: an entry of column {gj}-{cj} has no grid (row) "
+                                               "number", flines[k])
                     continue
                 lineno = flines[k]
                 if not a:
@@ -112,7 +128,7 @@ def read_dmig(path) -> dict:
                   np.array(m["v"], dt), np.array(m["line"], np.int64))
     if not out:
         raise ReadError(top, "no DMIG matrices found")
-    return out
+    return out, ncols
 
 
 def read_grids(path):
@@ -216,27 +232,73 @@ def dof_transform(bulk: Bulk, dofs: np.ndarray, where) -> sp.csr_matrix | None:
     return T
 
 
-def _columns(mats: dict) -> dict:
+def _columns(mats: dict, ncols: dict) -> dict:
     """:func:`read_dmig`'s matrices (an entry's row, column and line each) as :class:`DmigColumns`."""
     out = {}
     for name, (ifo, r, c, v, line) in mats.items():
         code = c[:, 0] * 8 + c[:, 1]
         first = np.flatnonzero(np.r_[True, code[1:] != code[:-1]]) if code.size else np.zeros(0, np.int64)
-        out[name] = DmigColumns(ifo, r[:, 0] * 8 + r[:, 1], code[first], np.diff(np.r_[first, code.size]), v, line)
+        out[name] = DmigColumns(ifo, r[:, 0] * 8 + r[:, 1], code[first], np.diff(np.r_[first, code.size]), v, line,
+                                ncols.get(name))
     return out
 
 
 def _read_columns(path: Path, lines: bool = False) -> dict:
     """All DMIG matrices of ``path`` as :class:`DmigColumns`: streamed when the file allows, else card by card."""
     got = scan_dmig(path, lines=lines)
-    return got if got is not None else _columns(read_dmig(path))
+    return got if got is not None else _columns(*_dmig_cards(Path(path)))
+
+
+def _dof(code) -> str:
+    return f"{int(code) // 8}-{int(code) % 8}"
+
+
+def _check_columns(path, name, m: DmigColumns) -> None:
+    """What the column cards of a square DMIG stiffness or mass matrix declare, against its entries.
+
+    Every row must have a column card of its own (its diagonal entry is in it): a row without
+    one is a lost column card, whose entries went to the column before it. Entries within a
+    column follow in row order as Nastran writes them: a few out of order are named (a moved or
+    repeated line).
+    """
+    cols = np.sort(m.columns)
+    for s in range(0, m.rows.size, 1 << 20):
+        part = m.rows[s:s + (1 << 20)]
+        k = np.minimum(np.searchsorted(cols, part), max(cols.size - 1, 0))
+        miss = np.flatnonzero(cols[k] != part) if cols.size else np.arange(part.size)
+        if miss.size:
+            at = s + int(miss[0])
+            lines = m.lines if m.lines is not None else _read_columns(Path(path), lines=True)[name].lines
+            where = f" (line {int(lines[at])})"
+            raise ReadError(path, f"DMIG {name} (form {m.ifo}, square): row {_dof(m.rows[at])}{where} has no column "
+                                  f"card 'DMIG {name} {int(m.rows[at]) // 8} {int(m.rows[at]) % 8}': a column card "
+                                  "lost (its entries read into the column before it)?")
+    if m.rows.size < 2:
+        return
+    first = np.cumsum(m.counts)[:-1]  # the first entry of each column after the first one
+    down = m.rows[1:] < m.rows[:-1]
+    down[first[(first > 0) & (first < m.rows.size)] - 1] = False
+    bad = np.flatnonzero(down)
+    if 0 < bad.size <= 3:  # a file written in row order with a line moved or repeated (else: written in any order)
+        k = int(bad[0])  # the entry out of place: k when k + 1 follows k - 1 in order, else k + 1
+        k += not (k > 0 and m.rows[k + 1] > m.rows[k - 1])
+        col = m.columns[np.searchsorted(np.cumsum(m.counts), k, side="right")]
+        lines = m.lines if m.lines is not None else _read_columns(Path(path), lines=True)[name].lines
+        where = f"line {int(lines[k])}: "
+        warnings.warn(FlexmorWarning(f"{Path(path).name}: {where}DMIG {name}: entry {_dof(m.rows[k])} of column "
+                                     f"{_dof(col)} follows row {_dof(m.rows[k - 1])}, out of the row order of the "
+                                     f"other entries ({bad.size} such): a line moved or repeated from another "
+                                     "column?"), stacklevel=3)
 
 
 def dmig_matrices(path, mats, names):
     """CSR matrices by role and the equation map ``(grid, component)`` of the DMIG matrices ``names``.
 
     ``mats`` (:class:`DmigColumns` by name) gives up the matrices it assembles, so that their
-    entries are freed as soon as they are used. An entry given twice is refused with its line.
+    entries are freed as soon as they are used. An entry given twice is refused with its line;
+    so is a row of a stiffness or mass matrix without a column card of its own (a lost column
+    card). DMIG has no entry counts: in a matrix stored as one triangle a lost entry line cannot
+    be seen, which one :class:`~flexmor.io.UncheckedWarning` says.
     """
     code = np.unique(np.concatenate([mats[name].columns for name in names.values()]))
     for name in names.values():  # rows without a column of their own (a rectangular block), in slices
@@ -260,7 +322,7 @@ def dmig_matrices(path, mats, names):
     else:
         def number(x):
             return np.searchsorted(code, x).astype(idx)
-    out = {}
+    out, unchecked = {}, False
     for role, name in names.items():
         if name not in mats:  # the same matrix in two roles
             out[role] = next(out[r] for r, nm in names.items() if nm == name and r in out)
@@ -268,10 +330,16 @@ def dmig_matrices(path, mats, names):
         m = mats.pop(name)
         if np.iscomplexobj(m.values):
             raise ReadError(path, f"DMIG {name} is complex; flexmor needs real matrices")
+        if role in ("K", "M") and m.ifo in (1, 6):
+            _check_columns(path, name, m)
+        if m.ifo == 9 and m.ncol is not None and np.unique(m.columns).size != m.ncol:
+            raise ReadError(path, f"DMIG {name}: its header declares NCOL={m.ncol} columns, but the file has "
+                                  f"{np.unique(m.columns).size} column cards of it: a column card lost or repeated?")
         parts = [number(m.rows), np.repeat(number(m.columns), m.counts), m.values]
         del m  # no other reference: assemble() frees the parsed entries as it goes
         lower, upper = bool(np.any(parts[0] > parts[1])), bool(np.any(parts[0] < parts[1]))
         A = assemble(parts, (n, n), mirror=lower != upper)  # one triangle stored: mirror it
+        unchecked |= role in ("K", "M") and lower != upper  # both: the model's symmetry check sees a lost line
         if A is None:
             m = _read_columns(Path(path), lines=True)[name]
             r, c = m.rows, np.repeat(m.columns, m.counts)
@@ -281,6 +349,9 @@ def dmig_matrices(path, mats, names):
             raise ReadError(path, f"DMIG {name}: entry ({r[k] // 8}-{r[k] % 8}, {c[k] // 8}-{c[k] % 8}) given twice; "
                                   "duplicates are refused, not summed", int(m.lines[k]))
         out[role] = A
+    if unchecked:
+        warn_unchecked(path, "DMIG cards have no entry counts; a lost entry line, or one repeated into another "
+                             "column in row order, could not be cross-checked")
     return out, pairs
 
 

@@ -94,6 +94,9 @@ def cards(path):
     yield from _cards(_lines(Path(path)))
 
 
+_NAME = re.compile(r"[A-Za-z][A-Za-z0-9]*\*?")
+
+
 def _cards(lines):
     """The cards of ``(path, lineno, line)`` triples (see :func:`cards`)."""
     card = None
@@ -115,6 +118,9 @@ def _cards(lines):
         else:
             head = line[:8].strip()
             fields = [line[i:i + 8].strip() for i in range(8, 72, 8)]
+        if head and head[0] not in "*+" and not _NAME.fullmatch(head):
+            raise ReadError(fpath, f"{line[:60]!r} does not start with a card name (a letter, then letters and "
+                                   "digits): a damaged or cut line?", lineno)
         if head == "" or head[0] in "*+":
             if card is None:
                 raise ReadError(fpath, f"continuation line without a card: {line[:60]!r}", lineno)
@@ -353,6 +359,9 @@ def read_bulk(path) -> Bulk:
                     cp, cd = (int(t) if t else BLANK for t in (f[1], f[5] if len(f) > 5 else ""))
                 except ValueError:
                     raise ReadError(fpath, f"GRID {gid}: CP/CD must be integers", lineno) from None
+                if not all(t.isascii() and t.isdigit() for t in f[6:8] if t):
+                    raise ReadError(fpath, f"GRID {gid}: PS and SEID must be integers, got {f[6:8]} (a damaged "
+                                           "card?)", lineno)
                 grids.add(fpath, lineno, gid, cp, x, cd)
             elif name == "GRDSET":
                 gdef = {"cp": _int(f, 1), "cd": _int(f, 5)}

@@ -67,9 +67,19 @@ def _fixed(lines: list, large: bool):
     except UnicodeEncodeError:
         return None
     if not large:
-        return np.ascontiguousarray(np.frombuffer(raw, dtype=np.uint8).reshape(-1, _WIDTH)[:, 8:56]).view("S8")
+        b = np.frombuffer(raw, dtype=np.uint8).reshape(-1, _WIDTH)
+        if not _integer_fields(b[:, 56:72]):
+            return None
+        return np.ascontiguousarray(b[:, 8:56]).view("S8")
     b = np.frombuffer(raw, dtype=np.uint8).reshape(-1, 2 * _WIDTH)
+    if not _integer_fields(b[:, _WIDTH + 40:_WIDTH + 72]):
+        return None
     return np.ascontiguousarray(np.hstack([b[:, 8:_WIDTH], b[:, _WIDTH + 8:_WIDTH + 40]])).view("S16")
+
+
+def _integer_fields(b: np.ndarray) -> bool:
+    """Whether the bytes of the PS and SEID fields are digits and blanks only (else the card reader names them)."""
+    return bool(np.all(((b >= 48) & (b <= 57)) | (b == 32)))
 
 
 def _free(lines: list):
@@ -79,9 +89,13 @@ def _free(lines: list):
         return None
     toks = ",".join(lines).split(",")
     try:
-        table = np.array(toks, dtype="S").reshape(len(lines), n_fields + 1)[:, 1:7]
+        table = np.array(toks, dtype="S").reshape(len(lines), n_fields + 1)
     except UnicodeEncodeError:
         return None
+    rest = np.strings.strip(table[:, 7:9])
+    if rest.size and not np.all(np.strings.isdigit(rest) | (rest == b"")):
+        return None  # PS or SEID not an integer: the card reader names it
+    table = table[:, 1:7]
     if table.shape[1] < 6:
         table = np.concatenate([table, np.full((len(lines), 6 - table.shape[1]), "", dtype=table.dtype)], axis=1)
     return table

@@ -10,6 +10,10 @@ dense from row ``IROW``; ``IROW = 0`` marks a sparse column of strings, each wit
 0`` in the header), two header words ``L + 1, IROW``. Sparse counts are in words: a double
 precision value is two words in 32-bit files. ASCII dense columns count values.
 
+Columns and the rows within a column are stored in order; a symmetric matrix stored in full
+must equal its transpose. Beyond that the format holds no checksum or count of its matrices:
+every read gives one :class:`~flexmor.io.UncheckedWarning` saying so.
+
 Binary files are Fortran unformatted records (4-byte record markers) in either byte order,
 with 32-bit integers and names of 8 characters, or 64-bit integers (header record of 48
 bytes, names of 16 characters, a "word" of 8 bytes). Every record length, count and index is
@@ -27,6 +31,7 @@ import scipy.sparse as sp
 from ...errors import ReadError
 from .._open import open_binary, read_all, size_hint
 from .._text import read_text
+from .._unchecked import warn_unchecked
 from .nastran_bulk import num
 from .op4_stream import check_header, fast_ascii, is_header, is_values, matrix_header
 
@@ -55,7 +60,13 @@ def read_op4(path, *, sparse: bool = False) -> dict:
     ------
     ReadError
         Malformed headers or columns (with line number for ASCII, byte offset for binary),
-        indices outside the matrix, truncated files.
+        indices outside the matrix, columns or rows out of order, truncated files, a symmetric
+        matrix stored in full that differs from its transpose.
+
+    Warns
+    -----
+    UncheckedWarning
+        On every read: OUTPUT4 has no checksum and no count of its matrices.
     """
     path = Path(path)
     if not path.exists():
@@ -83,6 +94,8 @@ def read_op4(path, *, sparse: bool = False) -> dict:
             lower, upper = bool(np.any(A.indices[A.indptr[j + 1] - 1] > j)), bool(np.any(A.indices[A.indptr[j]] < j))
             if not (lower and upper):  # one triangle stored: complete it
                 A = sp.csc_matrix(A + (sp.tril(A, -1) if lower else sp.triu(A, 1)).T)
+            else:  # stored in full, as Nastran does: each entry has a copy in the other triangle
+                _check_symmetric(path, name, A)
         A.eliminate_zeros()  # dense columns store the zeros between the first and last non-zero row
         if not sparse:
             if nrow * ncol > MAX_DENSE:
@@ -92,7 +105,28 @@ def read_op4(path, *, sparse: bool = False) -> dict:
         out[name] = A
     if not out:
         raise ReadError(path, "no matrices found")
+    warn_unchecked(path, "OUTPUT4 has no checksum and no count of its matrices; values (and a matrix lost from "
+                         "the end of the file) could not be cross-checked")
     return out
+
+
+def _check_symmetric(path, name, A) -> None:
+    """Refuse a symmetric (form 6) matrix stored in full whose two triangles differ: a value changed
+    or a record lost. Entries may differ by round-off (1e-9 of the larger diagonal of their row
+    and column, or of the entry)."""
+    D = A - A.T
+    D.eliminate_zeros()
+    if not D.nnz:
+        return
+    d = np.abs(A.diagonal())
+    C = D.tocoo()
+    scale = np.maximum(np.maximum(d[C.row], d[C.col]), np.abs(np.asarray(A[C.row, C.col]).ravel()))
+    bad = np.flatnonzero(np.abs(C.data) > 1e-9 * scale)
+    if bad.size:
+        i, j = int(C.row[bad[0]]), int(C.col[bad[0]])
+        raise ReadError(path, f"matrix {name} is symmetric (form 6) and stored in full, but its entries ({i + 1}, "
+                              f"{j + 1}) = {A[i, j]:.9g} and ({j + 1}, {i + 1}) = {A[j, i]:.9g} differ: a value "
+                              f"changed or a column lost ({bad.size // 2 or 1} such pairs)")
 
 
 class _Col:
@@ -101,6 +135,7 @@ class _Col:
     def __init__(self, path, name, nrow, ncol, cplx):
         self.path, self.name, self.nrow, self.ncol, self.cplx = path, name, nrow, ncol, cplx
         self.r, self.c, self.v = [], [], []
+        self.last = (0, 0)  # column and end row of the last record: columns in order, rows not overlapping
 
     def put(self, icol, r0, vals, where):
         if self.cplx:
@@ -111,7 +146,15 @@ class _Col:
         if icol < 1 or icol > self.ncol or r0 < 1 or r0 - 1 + n > self.nrow:
             raise ReadError(self.path, f"matrix {self.name}: column {icol} rows {r0}..{r0 + n - 1} lie outside "
                                        f"{self.nrow} x {self.ncol}", where)
+        if n and icol == self.last[0] and r0 < self.last[1]:
+            raise ReadError(self.path, f"matrix {self.name}: column {icol} stores the same row twice or out of "
+                                       f"order: rows {r0}..{r0 + n - 1} follow row {self.last[1] - 1}", where)
+        if n and icol < self.last[0]:
+            raise ReadError(self.path, f"matrix {self.name}: column {icol} rows {r0}..{r0 + n - 1} follow column "
+                                       f"{self.last[0]} row {self.last[1] - 1}; OUTPUT4 stores columns and rows in "
+                                       "order (a changed or moved record?)", where)
         if n:
+            self.last = (icol, r0 + n)
             self.r.append(np.arange(r0 - 1, r0 - 1 + n))
             self.c.append(np.full(n, icol - 1))
             self.v.append(np.asarray(vals))
