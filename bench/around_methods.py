@@ -275,6 +275,17 @@ def _label(src: str, srcs: list[str]) -> str:
     return "" if len(srcs) == 1 else f"[{'before' if src == srcs[0] else 'after'}] "
 
 
+def _row(rows: list, src: str, srcs: list[str], name: str, argv: list[str]) -> dict | None:
+    """One case in a child process: its record (with ``src``) appended to ``rows``; None (said) on an error."""
+    r = _child(src, argv)
+    r["src"] = src
+    rows.append(r)
+    if "error" in r:
+        print(f"  {_label(src, srcs)}{name}: {r['error']}")
+        return None
+    return r
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0], allow_abbrev=False)
     ap.add_argument("--parts", default="krylov,read,busy,free")
@@ -309,12 +320,10 @@ def main(argv=None) -> int:
                 print("  c3d10: skipped (no ccx)")
                 continue
             for src in srcs:
-                r = _child(src, ["krylov", "--model", model, "--order", str(args.order), "--c3d10", args.c3d10,
-                                 "--plate-n", str(args.plate_n), "--cantilever-dofs", str(args.cantilever_dofs), *rep])
-                r["src"] = src
-                rows.append(r)
-                if "error" in r:
-                    print(f"  {_label(src, srcs)}{model}: {r['error']}")
+                r = _row(rows, src, srcs, model, ["krylov", "--model", model, "--order", str(args.order), "--c3d10",
+                                                  args.c3d10, "--plate-n", str(args.plate_n), "--cantilever-dofs",
+                                                  str(args.cantilever_dofs), *rep])
+                if r is None:
                     continue
                 print(f"  {_label(src, srcs)}{model:10s} {r['n_dof']:7d} DOF r={r['order']}: "
                       f"whole {r['whole_s']:.2f} s "
@@ -329,12 +338,10 @@ def main(argv=None) -> int:
         cases = [c for c in args.read_cases.split(",") if c != "large" or args.large]
         for model in cases:
             for src in srcs:
-                r = _child(src, ["read", "--model", model, "--c3d10", args.c3d10, "--large", str(args.large),
-                                 "--repeat", "1" if model == "large" else str(args.repeat)])
-                r["src"] = src
-                rows.append(r)
-                if "error" in r:
-                    print(f"  {_label(src, srcs)}{model}: {r['error']}")
+                r = _row(rows, src, srcs, model, ["read", "--model", model, "--c3d10", args.c3d10, "--large",
+                                                  str(args.large), "--repeat",
+                                                  "1" if model == "large" else str(args.repeat)])
+                if r is None:
                     continue
                 print(f"  {_label(src, srcs)}{model:8s} {r['n_dof']:8d} DOF: read {r['read_s']:.2f} s + rigid check "
                       f"{r['rigid_check_s']:.2f} s ({r['n_rigid']} rigid) | factorization {r['factorize_s']:.2f} s | "
@@ -363,12 +370,9 @@ def main(argv=None) -> int:
         for src in srcs:
             ref = None
             for method in ("krylov", "craig-bampton", "cms-krylov", "cms-gramian"):
-                r = _child(src, ["method", "--method", method, "--free-body", "--busy-n", str(args.free_n), "--order",
-                                 str(args.free_order), *rep])
-                r["src"] = src
-                rows.append(r)
-                if "error" in r:
-                    print(f"  {_label(src, srcs)}{method}: {r['error']}")
+                r = _row(rows, src, srcs, method, ["method", "--method", method, "--free-body", "--busy-n",
+                                                   str(args.free_n), "--order", str(args.free_order), *rep])
+                if r is None:
                     continue
                 ref = r["seconds"] if method == "krylov" else ref
                 print(f"  {_label(src, srcs)}{method:14s} {r['n_dof']} DOF r={r['order']:3d} {r['seconds']:6.2f} s "

@@ -10,13 +10,12 @@ import numpy as np
 import pytest
 import scipy.sparse as sp
 
-from flexmor.checks import check_shift
 from flexmor.couplings import couple
 from flexmor.errors import FlexmorWarning
 from flexmor.linalg import SolverContext, available_backends
 from flexmor.models import cantilever, plate_structure
 from flexmor.ports import make_ports
-from flexmor.reduction import reduce
+from flexmor.reduction import check_shift, reduce
 from flexmor.reduction.free_body import inertia_relief_modes
 from flexmor.reduction.guyan import constraint_modes
 from flexmor.rigid import rigid_body_modes

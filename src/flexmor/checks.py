@@ -19,7 +19,7 @@ import numpy as np
 from .errors import FlexmorWarning, ModelError
 from .linalg.context import SolverContext, as_solver
 
-__all__ = ["MAX_RIGID_BODY_MODES", "COUPLING_MODES", "check_rigid_body_modes", "check_shift", "first_elastic_hz",
+__all__ = ["MAX_RIGID_BODY_MODES", "COUPLING_MODES", "check_rigid_body_modes", "first_elastic_hz",
            "lowest_elastic_hz", "coupling_frequencies", "describe_couplings", "mechanism_error"]
 
 #: Zero-energy modes an elastic body can have (3 translations + 3 rotations).
@@ -43,7 +43,7 @@ def check_rigid_body_modes(model, *, solver: SolverContext | None = None, sigma:
     special care) are compared with :func:`flexmor.linalg.eigen.rigid_body_threshold`. The count
     is remembered by the ``solver`` context (:meth:`flexmor.linalg.context.SolverContext.remember`)
     per stiffness and mass matrix. ``keep`` keeps the factorization of ``K - sigma M`` in the
-    context for the method that follows at that shift (see :func:`check_shift`).
+    context for the method that follows at that shift (see :func:`flexmor.reduction.check_shift`).
 
     Returns
     -------
@@ -80,37 +80,6 @@ def _lowest_eigenvalues(model, solver: SolverContext, k: int = MAX_RIGID_BODY_MO
         return eigenmodes(model.K, model.M, k, solver=solver, sigma=sigma, keep=keep)[0]
 
     return solver.remember(name, (model.K, model.M), compute)
-
-
-#: How far (factor) the shift of a method's first factorization may lie from
-#: :func:`flexmor.linalg.eigen.default_shift` for the rigid-body check to run at it.
-SHARED_SHIFT_RANGE = 1e4
-
-
-def check_shift(model, method: str, options: dict) -> tuple[float | None, bool]:
-    """``(sigma, keep)`` for :func:`check_rigid_body_modes` before ``method`` reduces ``model``:
-    the shift of the method's first factorization where it is ``K - sigma M`` (``modal`` at its
-    ``sigma``; ``krylov`` at its default point ``s0 = 2 pi sqrt(fmin fmax)`` of an undamped model:
-    ``sigma = -s0^2``), kept for the method, so that check and method share one factorization;
-    else ``(None, False)``: the default shift, not kept. A point further than
-    :data:`SHARED_SHIFT_RANGE` from the default shift is not shared (the check's Lanczos would
-    converge slowly there)."""
-    from .linalg.distributed import is_partitioned
-    from .linalg.eigen import DENSE_LIMIT, default_shift
-    from .options import Band
-
-    if model.n_dof <= DENSE_LIMIT or is_partitioned(model.K):
-        return None, False
-    if method == "modal":
-        sigma = options.get("sigma")
-        return (default_shift(model.K, model.M) if sigma is None else float(sigma)), True
-    if method == "krylov" and not options.get("points") and model.D is None:
-        fmin, fmax = Band.of(options.get("band"))
-        sigma = -(2 * np.pi * np.sqrt(fmin * fmax)) ** 2
-        ref = abs(default_shift(model.K, model.M))
-        if ref / SHARED_SHIFT_RANGE <= -sigma <= ref * SHARED_SHIFT_RANGE:
-            return sigma, True
-    return None, False
 
 
 def first_elastic_hz(model, *, solver: SolverContext | None = None) -> float:

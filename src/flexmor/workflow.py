@@ -9,7 +9,7 @@ from pathlib import Path
 
 from .analysis.compare import FullResponse
 from .analysis.frequency import measure_record
-from .checks import check_rigid_body_modes, check_shift, coupling_frequencies, first_elastic_hz
+from .checks import check_rigid_body_modes, coupling_frequencies, first_elastic_hz
 from .damping import Damping, NoDamping, Rayleigh, band_matched
 from .damping import modal_damping as _modal_damping
 from .errors import OptionError
@@ -18,7 +18,7 @@ from .linalg.distributed import is_partitioned
 from .linalg.resources import check_basis_memory
 from .options import DEFAULT_BAND, Band, check_order, parse_pair
 from .ports import make_ports
-from .reduction import method_name, reduce
+from .reduction import check_shift, method_name, reduce
 from .reduction.free_body import check_body
 
 __all__ = ["coupling_specs", "prepare_model", "body_model", "parse_band", "parse_pair", "apply_damping", "damping_of",
@@ -149,8 +149,9 @@ def reduce_and_judge(model, method: str, order, ports, *, band=None,
     # a mechanism is refused before any work; the check's factorization serves the method where it
     # factorizes the same matrix first (not kept while a target-error search computes the full FRF)
     sigma, keep = check_shift(model, method_name(method), options) if tol is None else (None, False)
-    if check_order(order) is not None and not is_partitioned(model.K):  # a basis that cannot fit: before any work
-        check_basis_memory(model.n_dof, check_order(order), solver)
+    order = check_order(order)
+    if order is not None and not is_partitioned(model.K):  # a basis that cannot fit: refused before any work
+        check_basis_memory(model.n_dof, order, solver)
     try:
         check_rigid_body_modes(model, solver=solver, sigma=sigma, keep=keep)
     except BaseException:

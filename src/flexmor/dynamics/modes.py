@@ -41,9 +41,9 @@ def modes_below(model, fmax: float, solver: SolverContext, max_modes: int = 400)
 
     Above the solver's dense limit (``solver.eigen.dense_limit``) the number of modes below
     ``fmax`` is counted first (inertia of one factorization), then the modes come from one
-    shift-invert factorization of ``K - sigma M``: ``sigma`` the default shift, or 0 when ``solver``
-    keeps a factorization of ``K`` for these matrices (a fixed-interface body whose ``K_ii`` the
-    constraint modes factorized).
+    shift-invert factorization of ``K - sigma M``: the one ``solver`` keeps for these matrices (e.g.
+    ``K_ii`` of a fixed-interface body, factorized for the constraint modes: ``sigma = 0``), else
+    one at the default shift.
 
     Parameters
     ----------
@@ -68,9 +68,9 @@ def modes_below(model, fmax: float, solver: SolverContext, max_modes: int = 400)
     sigma : float
         Its shift.
     """
-    sigma = default_shift(model.K, model.M)
-    if solver.kept(model.K, model.M, 0.0) is not None:  # K itself factorized already (a held interior)
-        sigma = 0.0
+    sigma = solver.kept_shift(model.K, model.M)  # a factorization kept for these matrices serves the pre-pass
+    if sigma is None:
+        sigma = default_shift(model.K, model.M)
     F = None
     k = min(model.n_dof, 20)
     if model.n_dof > solver.eigen.dense_limit:  # count first: one large factorization alive at a time

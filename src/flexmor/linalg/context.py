@@ -229,7 +229,12 @@ class SolverContext:
     def kept(self, K, M, sigma: float):
         """The factorization of ``K - sigma M`` kept by :meth:`keep` for these very matrices and shift, else None."""
         k = self._kept
-        return k[3] if k is not None and k[0]() is K and k[1]() is M and k[2] == sigma else None
+        return k[3] if k is not None and self.kept_shift(K, M) == sigma else None
+
+    def kept_shift(self, K, M) -> float | None:
+        """The shift of the factorization kept for these very matrices, else None."""
+        k = self._kept
+        return k[2] if k is not None and k[0]() is K and k[1]() is M else None
 
     def keep(self, K, M, sigma: float, F) -> None:
         """Keep ``F``, the factorization of ``K - sigma M`` (one at a time), until :meth:`release`: the

@@ -14,6 +14,7 @@ and raises :class:`~flexmor.errors.OptionError` for a keyword it does not take.
 
 from __future__ import annotations
 
+import math
 import time
 
 from ..body import ReducedModel
@@ -40,7 +41,12 @@ from . import (  # noqa: F401  (each method module registers its methods in METH
 from ._registry import ALIASES, METHODS, Method, check_keywords, method_name, methods, register_method
 from .free_body import with_inertia_loads
 
-__all__ = ["register_method", "METHODS", "ALIASES", "methods", "method_name", "reduce", "Method", "check_keywords"]
+__all__ = ["register_method", "METHODS", "ALIASES", "methods", "method_name", "reduce", "Method", "check_keywords",
+           "check_shift"]
+
+#: How far (factor) the shift of a method's first factorization may lie from
+#: :func:`flexmor.linalg.eigen.default_shift` for the rigid-body check to run at it.
+SHARED_SHIFT_RANGE = 1e4
 
 
 def reduce(model, method: str, order: int | None, ports, *, inertia_loads: str = "auto",
@@ -126,3 +132,27 @@ def _recorded(opts: dict) -> dict:
         except (TypeError, ValueError):
             out[k] = repr(v)
     return out
+
+
+def check_shift(model, method: str, options: dict) -> tuple[float | None, bool]:
+    """``(sigma, keep)`` for :func:`flexmor.checks.check_rigid_body_modes` before ``method`` reduces
+    ``model`` with ``options``: the shift of the method's first factorization where it is ``K - sigma M``
+    (``modal`` at its ``sigma``; ``krylov`` at its default point of an undamped model,
+    :func:`flexmor.reduction.krylov.default_points`: ``sigma = -s0^2``), kept for the method, so that
+    check and method share one factorization; else ``(None, False)``: the default shift, not kept. A
+    point further than :data:`SHARED_SHIFT_RANGE` from the default shift is not shared (the check's
+    Lanczos would converge slowly there)."""
+    from ..linalg.eigen import DENSE_LIMIT, default_shift
+    from .krylov import default_points
+
+    if model.n_dof <= DENSE_LIMIT or is_partitioned(model.K):
+        return None, False
+    if method == "modal":
+        sigma = options.get("sigma")
+        return (default_shift(model.K, model.M) if sigma is None else float(sigma)), True
+    if method == "krylov" and not options.get("points") and model.D is None:
+        sigma = -(2 * math.pi * default_points(options.get("band"), 1)[0].real) ** 2
+        ref = abs(default_shift(model.K, model.M))
+        if ref / SHARED_SHIFT_RANGE <= -sigma <= ref * SHARED_SHIFT_RANGE:
+            return sigma, True
+    return None, False
