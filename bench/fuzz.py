@@ -319,7 +319,7 @@ def same_model(a, b) -> bool:
         return False
     oa, ob = np.argsort(a.node_ids, kind="stable"), np.argsort(b.node_ids, kind="stable")
     return bool(np.array_equal(a.node_ids[oa], b.node_ids[ob]) and a.xyz.shape == b.xyz.shape
-                and np.allclose(a.xyz[oa], b.xyz[ob], rtol=1e-12, atol=0.0))
+                and _close(a.xyz[oa], b.xyz[ob]))  # to 1e-12 of the model's extent, as the matrices
 
 
 _REFERENCE: dict = {}

@@ -451,3 +451,71 @@ def test_dmig_rectangular_form_checks_its_declared_columns(tmp_path):
     with pytest.raises(ReadError, match=r"k\.pch: DMIG KAAX: its header declares NCOL=3 columns, but the file has 2 "
                                         "column cards of it"):
         flexmor.io.read(pch)
+
+
+# --- the stiffness and the node coordinates cross-check each other (K times a rigid rotation is zero) ---
+
+def _geometry_warnings(path, **kw):
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        model = flexmor.io.read(path, **kw)
+    return model, [str(w.message) for w in caught if "node coordinates disagree" in str(w.message)]
+
+
+@pytest.mark.parametrize("path", [CCX / "beam8_clamped_mat.sti", CCX / "beam8_free_mat.sti",
+                                  ABQ / "blockC3D8.inp", ABQ / "blockC3D10.inp",
+                                  DATA / "ansys" / "rotorAnsysMassMatrixSparse.txt"])
+def test_sound_exports_follow_a_rigid_rotation(path):
+    from flexmor.io._geometry import geometry_residual
+    model, named = _geometry_warnings(path)
+    assert named == []
+    translation, rotation, _ = geometry_residual(model)
+    complete = translation < 1e-9
+    assert complete.sum() > 0.8 * model.n_dof
+    assert np.nanmax(rotation[complete]) < 1e-12  # the rounding of 14+ written digits
+
+
+@pytest.mark.parametrize("old, new", [(b"\n4, 0.3, 0, 0\n", b"\n4, 0.3, 0, 0.001\n"),     # 1 mm of a 0.1 m section
+                                      (b"\n4, 0.3, 0, 0\n", b"\n4, 0.300000001, 0, 0\n"),  # the 9th digit
+                                      (b"\n4, 0.3, 0, 0\n", b"\n4, 0, 0, 0\n")])          # a field emptied (0)
+def test_a_changed_node_coordinate_is_named(tmp_path, old, new):
+    """A coordinate has no second copy in the deck; the stiffness matrix is its counterpart."""
+    sti = _job(tmp_path, CCX / "beam8_clamped_mat")
+    inp = tmp_path / "job.inp"
+    assert inp.read_bytes().count(old) == 1
+    inp.write_bytes(inp.read_bytes().replace(old, new))
+    _, named = _geometry_warnings(sti)
+    assert len(named) == 1 and "disagree at node 4" in named[0], named
+
+
+def test_coordinates_in_other_units_per_axis_are_named(tmp_path):
+    """The node table of another mesh: y written in mm while x and z are in m."""
+    model = flexmor.io.read(CCX / "beam8_free_mat.sti")
+    from flexmor.io._geometry import check_stiffness_geometry
+    model.xyz = model.xyz * np.array([1.0, 1000.0, 1.0])
+    with pytest.warns(FlexmorWarning, match="node coordinates disagree"):
+        nodes = check_stiffness_geometry(model)
+    assert len(nodes) > 0.5 * model.n_nodes
+
+
+def test_supports_springs_to_ground_and_local_frames_are_not_named():
+    """Equations beside removed DOF or a spring to ground do not sum to zero: not checked."""
+    import scipy.sparse as sp
+
+    from flexmor.io._geometry import check_stiffness_geometry
+    model = flexmor.io.read(CCX / "beam8_free_mat.sti")
+    grounded = sp.csr_matrix(model.K + sp.diags(np.where(np.arange(model.n_dof) % 7 == 0, 1e9, 0.0)))
+    model.K = grounded
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert check_stiffness_geometry(model) == []
+        clamped = flexmor.io.read(CCX / "beam8_clamped_mat.sti")
+        assert check_stiffness_geometry(clamped) == []
+        frames = flexmor.io.read(CCX / "beam8_free_mat.sti")
+        moved = int(frames.node_ids[40])
+        frames.xyz[40] += 0.01
+        frames.node_frames = {moved: np.eye(3)}  # its DOF in a local frame: neither it nor its neighbours checked
+        assert check_stiffness_geometry(frames) == []
+    frames.node_frames = {}
+    with pytest.warns(FlexmorWarning, match=f"disagree at node {moved} and"):
+        check_stiffness_geometry(frames)

@@ -29,6 +29,7 @@ from pathlib import Path
 
 from ..errors import OptionError, ReadError, did_you_mean
 from ..units import to_si, unit_system
+from ._geometry import check_stiffness_geometry
 from ._open import is_gzip, plain_name
 
 __all__ = ["BODY_FORMATS", "EXPORT_FORMATS", "MODEL_FORMATS", "Format", "Registry", "describe_formats", "export",
@@ -285,7 +286,9 @@ def read(path, format: str | None = None, *, units: str | None = None, **options
     fmt.check_gzip(path)
     if units is not None:
         unit_system(units)  # an unknown name before the file is read
-    return to_si(fmt.function(path, **options), units)
+    model = fmt.function(path, **options)
+    check_stiffness_geometry(model)
+    return to_si(model, units)
 
 
 def read_body(path, format: str | None = None, **options):

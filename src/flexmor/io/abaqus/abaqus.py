@@ -201,6 +201,12 @@ def _dof_per_node(deck: AbaqusDeck, n_max: int, path: Path) -> int:
                               "write FORMAT=LABELS or pass dof_per_node=")
     for d in (3, 6, 2):
         if n_max <= d * deck.node_ids.size and n_max > d * (deck.node_ids.size - 1):
+            # no element says it: a deck cut inside its node block can fit another count (88 nodes x 6 = 176 x 3)
+            warnings.warn(FlexmorWarning(
+                f"{path.name}: the input deck has no elements, so the COORDINATE form's equations were taken as {d} "
+                f"DOFs per node of its {deck.node_ids.size} nodes (the count that fits {n_max} equations); a deck "
+                "cut off in its node block fits another count: pass dof_per_node= if this is not the model"),
+                stacklevel=2)
             return d
     raise ReadError(path, f"equation numbers up to {n_max} do not fit {deck.node_ids.size} nodes; pass dof_per_node=")
 

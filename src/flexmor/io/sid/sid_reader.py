@@ -10,11 +10,12 @@ from __future__ import annotations
 
 import logging
 import re
+import warnings
 from pathlib import Path
 
 import numpy as np
 
-from ...errors import OptionError, ReadError
+from ...errors import FlexmorWarning, OptionError, ReadError
 from .._open import read_all
 from .sid_types import BODY_OBJECTS, M1_ORDERS, NODE_OBJECTS, NODE_OPTIONAL, SIDFile, SIDNode, Taylor
 
@@ -48,9 +49,20 @@ def _finish(path, raw, m1_order):
         raise ReadError(path, f"Taylor object {raw['name']}: size {nrow} x {ncol} (nq {nq}) is negative or "
                               "implausibly large; is the header corrupt?", line=raw["line"])
     m0 = np.eye(nrow, ncol) if structure == 4 else np.zeros((nrow, ncol))
+    seen: dict = {}
     for (i, j), v, ln in raw["m0"]:
         if not (1 <= i <= nrow and 1 <= j <= ncol) or (structure == 2 and not (j <= nrow and i <= ncol)):
             raise ReadError(path, f"{raw['name']}: m0({i},{j}) outside {nrow} x {ncol}", line=ln)
+        # the structure says which coefficients the object has: a line against it was moved or repeated here
+        if structure in (0, 4) or (structure == 1 and i != j):
+            kind = {0: "a zero matrix", 4: "a unit matrix", 1: "a diagonal matrix"}[structure]
+            raise ReadError(path, f"{raw['name']}: m0({i},{j}) in an object of structure {structure} ({kind}, "
+                                  f"object from line {raw['line']}); a line moved or repeated from another object?",
+                            line=ln)
+        key = (min(i, j), max(i, j)) if structure == 2 else (i, j)
+        if key in seen:
+            raise ReadError(path, f"{raw['name']}: m0({i},{j}) given twice (lines {seen[key]} and {ln})", line=ln)
+        seen[key] = ln
         m0[i - 1, j - 1] = v
         if structure == 2:
             m0[j - 1, i - 1] = v
@@ -215,6 +227,15 @@ def _sid_file(scan: _Scan, m1_order: str) -> SIDFile:
             raise ReadError(path, f"node {nd['id']} lacks {', '.join(miss)}", line=nd["line"])
         t = {n: _finish(path, nd["objs"][n], m1_order) for n in NODE_OBJECTS + NODE_OPTIONAL if n in nd["objs"]}
         nodes.append(SIDNode(nd["id"], rframe=nd["rframe"], **t))
+    for name, what in (("Ke", "stiffness"), ("Me", "mass")):
+        m0 = objects[name].m0
+        zero = np.flatnonzero(~(np.diag(m0) > 0)) if m0.shape[0] == m0.shape[1] else np.zeros(0, int)
+        if zero.size:  # an elastic coordinate has both; a missing coefficient reads as zero
+            a = int(zero[0]) + 1
+            warnings.warn(FlexmorWarning(
+                f"{path.name}: {name}({a},{a}) = {m0[a - 1, a - 1]:g}: elastic coordinate {a} has no {what}"
+                f"{f' (and {zero.size - 1} more)' if zero.size > 1 else ''}; a coefficient line lost (SID objects "
+                "have no count of their coefficients), or the coordinates hold rigid motion"), stacklevel=3)
     nq = scan.nelastq if scan.nelastq is not None else objects["Me"].m0.shape[0]
     names = [scan.ielastq.get(a + 1, f"q{a + 1}") for a in range(nq)]
     return SIDFile(mass=scan.mass, ielastq=names, nodes=nodes, objects=objects, header=scan.header)
