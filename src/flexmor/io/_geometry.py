@@ -81,17 +81,23 @@ def geometry_residual(model) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
             X[d == k + 1, 3 + a] = np.cross(e, xyz[d == k + 1])[:, k]
         X[d == a + 4, 3 + a] = 1.0
     E[:, 6] = bad
-    Kabs = sp.csr_matrix((np.abs(K.data), K.indices, K.indptr), shape=K.shape)
     KX = K @ X
-    S = Kabs @ E
+    S = np.empty((n, 7))
+    start = 0
+    while start < n:  # |K| @ E by row blocks of ~4M terms: no second copy of K's values at any size
+        stop = min(n, max(start + 1, int(np.searchsorted(K.indptr, K.indptr[start] + 4_000_000, side="right")) - 1))
+        block = K[start:stop]
+        block.data = np.abs(block.data)
+        S[start:stop] = block @ E
+        start = stop
     T = KX[:, :3]
     R = KX[:, 3:] - np.stack([T[:, 2] * xyz[:, 1] - T[:, 1] * xyz[:, 2],   # Σ_b T_ib (e_a × x_i)_b
                               T[:, 0] * xyz[:, 2] - T[:, 2] * xyz[:, 0],
                               T[:, 1] * xyz[:, 0] - T[:, 0] * xyz[:, 1]], axis=1)
     # the typical distance between nodes that share a term (a sample of the terms)
-    rows = np.repeat(np.arange(n), np.diff(K.indptr))
     pick = np.random.default_rng(0).integers(0, K.nnz, min(K.nnz, 200_000)) if K.nnz else np.zeros(0, int)
-    dist = np.linalg.norm(xyz[K.indices[pick]] - xyz[rows[pick]], axis=1)
+    rows = np.searchsorted(K.indptr, pick, side="right") - 1
+    dist = np.linalg.norm(xyz[K.indices[pick]] - xyz[rows], axis=1)
     h = float(np.median(dist[dist > 0])) if np.any(dist > 0) else 1.0
     with np.errstate(divide="ignore", invalid="ignore"):
         translation = np.abs(T).max(axis=1) / S[:, :3].max(axis=1)
