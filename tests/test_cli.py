@@ -73,7 +73,7 @@ BAD = {
     "NaN": (lambda p: _edit(p, 3, "2 2 nan\n"), "b.sti:3"),
     "indefinite mass": (lambda p: p.with_suffix(".mas").write_text(
         p.with_suffix(".mas").read_text().replace("1 2  0.0000000000000e+00", "1 2  9.0e+03", 1)),
-        "b.sti: the mass matrix is not positive definite"),
+        "b.sti: the mass matrix of this model: entry (1, 2) = 9000 exceeds sqrt"),
 }
 
 

@@ -519,3 +519,40 @@ def test_supports_springs_to_ground_and_local_frames_are_not_named():
     frames.node_frames = {}
     with pytest.warns(FlexmorWarning, match=f"disagree at node {moved} and"):
         check_stiffness_geometry(frames)
+
+
+# --- every 2 x 2 principal minor of K and M is non-negative: |A_ij| <= sqrt(A_ii A_jj) ---
+
+@pytest.mark.parametrize("suffix, old, new, what", [
+    (".sti", b"\n26 146 -3.9262820512820e+09\n", b"\n26 146 -359262820512820e+09\n", "stiffness"),  # a mantissa byte
+    (".sti", b"\n26 146 -3.9262820512820e+09\n", b"\n26 146 -3.9262820512820e+19\n", "stiffness"),  # the exponent
+    (".mas", b"\n7 99  0.0000000000000e+00\n", b"\n7 99  060000000000000e+00\n", "mass"),           # an explicit zero
+])
+def test_an_entry_beyond_its_diagonals_is_refused(tmp_path, suffix, old, new, what):
+    sti = _job(tmp_path, CCX / "beam8_clamped_mat")
+    f = sti.with_suffix(suffix)
+    assert f.read_bytes().count(old) == 1
+    f.write_bytes(f.read_bytes().replace(old, new))
+    with pytest.raises(ReadError, match=rf"the {what} matrix of this model: entry \(\d+, \d+\) = .* exceeds sqrt"):
+        flexmor.io.read(sti)
+
+
+def test_an_indefinite_mass_of_quadratic_elements_is_a_warning(tmp_path):
+    sti = _job(tmp_path, CCX / "beam8_clamped_mat")
+    inp, mas = sti.with_suffix(".inp"), sti.with_suffix(".mas")
+    inp.write_text(inp.read_text().replace("TYPE=C3D8", "TYPE=C3D20R"))
+    mas.write_bytes(mas.read_bytes().replace(b"\n7 99  0.0000000000000e+00\n", b"\n7 99  1.0e+00\n"))
+    with pytest.warns(FlexmorWarning, match=r"the mass matrix of this model: entry \(7, 99\) = 1 exceeds"):
+        flexmor.io.read(sti)
+
+
+def test_a_penalty_coupling_on_the_bound_is_read():
+    """[[k, -k], [-k, k]] is positive semidefinite: its off-diagonal entry sits exactly on the bound."""
+    import scipy.sparse as sp
+
+    from flexmor.io._minors import check_minors
+    model = flexmor.io.read(CCX / "beam8_free_mat.sti")
+    k = 1e12
+    P = sp.csr_matrix(([k, -k, -k, k], ([0, 0, 3, 3], [0, 3, 0, 3])), shape=model.K.shape)
+    model.K = sp.csr_matrix(model.K + P)
+    check_minors(model)

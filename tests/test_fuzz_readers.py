@@ -72,9 +72,12 @@ def test_a_changed_value_is_silent_different_despite_the_mapping_warning(tmp_pat
     (44842, "warned", "Ke(1,1) = 0: elastic coordinate 1 has no stiffness"),  # SID: the one Ke line lost
     (48898, "refused", "Me: m0(1,1) in an object of structure 4 (a unit matrix"),  # SID: a line repeated
     (99082, "refused", "De: m0(1,1) in an object of structure 0 (a zero matrix"),
+    (23892, "refused", "the stiffness matrix of this model: entry (26, 146) = -3.59263e+23 exceeds sqrt"),
+    (78241, "refused", "the mass matrix of this model: entry (7, 99) = 6e+13 exceeds sqrt"),  # gzip .mas
 ])
 def test_silent_cases_of_the_100k_run_are_named(seed, cls, expect, tmp_path):
-    """Cases that read another model without a word before the stiffness-coordinate and SID structure checks."""
+    """Cases that read another model without a word before the stiffness-coordinate, 2 x 2 minor and SID
+    structure checks."""
     got, text = fuzz.run_case(seed, tmp_path)
     assert got == cls and expect in text, text
 

@@ -30,6 +30,7 @@ from pathlib import Path
 from ..errors import OptionError, ReadError, did_you_mean
 from ..units import to_si, unit_system
 from ._geometry import check_stiffness_geometry
+from ._minors import check_minors
 from ._open import is_gzip, plain_name
 
 __all__ = ["BODY_FORMATS", "EXPORT_FORMATS", "MODEL_FORMATS", "Format", "Registry", "describe_formats", "export",
@@ -287,6 +288,7 @@ def read(path, format: str | None = None, *, units: str | None = None, **options
     if units is not None:
         unit_system(units)  # an unknown name before the file is read
     model = fmt.function(path, **options)
+    check_minors(model)
     check_stiffness_geometry(model)
     return to_si(model, units)
 

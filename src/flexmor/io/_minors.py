@@ -1,0 +1,63 @@
+"""Every 2 x 2 principal minor of a stiffness or mass matrix is non-negative.
+
+A symmetric positive semidefinite matrix ``A`` satisfies ``A_ij^2 <= A_ii A_jj`` for every entry
+(the minor of rows and columns ``i, j``). Stiffness and mass matrices of a structure are
+positive semidefinite, so an entry larger than the geometric mean of its two diagonal entries
+cannot come from an FE program: a value whose exponent or leading digits were changed
+(``-3.9262820512820e+09`` read as ``-359262820512820e+09``), or an explicit zero turned into a
+number. One pass over the stored entries. Stiffness: refused. Mass: refused, or a warning where the
+deck's elements may give an indefinite mass (quadratic elements with row-sum lumping,
+``FEModel.singular_mass_ok``). Entries may exceed the bound by the rounding of written values
+(:data:`MINOR_RTOL`): a penalty coupling ``[[k, -k], [-k, k]]`` sits exactly on it.
+"""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+import scipy.sparse as sp
+
+from ..errors import FlexmorWarning, ReadError
+
+__all__ = ["check_minors", "MINOR_RTOL"]
+
+#: Relative excess ``|A_ij| / sqrt(A_ii A_jj) - 1`` allowed for the rounding of written values.
+MINOR_RTOL = 1e-6
+
+
+def _worst(A) -> tuple[int, int, float, float] | None:
+    """``(i, j, A_ij, sqrt(A_ii A_jj))`` of the entry with the largest excess over the bound, or None."""
+    C = sp.coo_matrix(A)
+    off = C.row != C.col
+    i, j, v = C.row[off], C.col[off], C.data[off]
+    d = np.abs(A.diagonal())
+    bound = np.sqrt(d[i] * d[j])
+    over = np.abs(v) > (1.0 + MINOR_RTOL) * bound
+    if not over.any():
+        return None
+    k = np.flatnonzero(over)
+    with np.errstate(divide="ignore"):
+        m = k[np.argmax(np.abs(v[k]) / np.maximum(bound[k], np.finfo(float).tiny))]
+    return int(i[m]), int(j[m]), float(v[m]), float(bound[m])
+
+
+def check_minors(model) -> None:
+    """Refuse (``ReadError`` naming ``model.source``) a ``K`` or ``M`` with a 2 x 2 principal minor below zero.
+
+    A mass matrix of a model that may have an indefinite mass (``singular_mass_ok``) gets a
+    ``FlexmorWarning`` instead.
+    """
+    for name, A in (("stiffness", model.K), ("mass", model.M)):
+        found = _worst(A)
+        if found is None:
+            continue
+        i, j, v, bound = found
+        msg = (f"the {name} matrix of this model: entry ({i + 1}, {j + 1}) = {v:.6g} exceeds "
+               f"sqrt(diagonal {i + 1} x diagonal {j + 1}) = {bound:.6g} ({model.describe_dof(i)}, "
+               f"{model.describe_dof(j)}): an entry no positive semidefinite matrix can hold; a changed value "
+               "(a digit or an exponent)?")
+        if name == "mass" and model.singular_mass_ok:
+            warnings.warn(FlexmorWarning(f"{model.source or model.name}: {msg}"), stacklevel=3)
+        else:
+            raise ReadError(model.source or model.name, msg)
