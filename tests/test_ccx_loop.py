@@ -88,3 +88,39 @@ class _nothing:
 
     def __exit__(self, *exc):
         return False
+
+
+def _with(text: str, extra: list, before: str = "*STEP") -> str:
+    lines = text.splitlines()
+    k = lines.index(before)
+    return "\n".join(lines[:k] + extra + lines[k:]) + "\n"
+
+
+@pytest.mark.parametrize("case, named", [("rigid body", False), ("spring to ground", False),
+                                         ("tie equation", True), ("directional spring", True)])
+def test_constraints_and_springs_against_the_stiffness_coordinate_check(tmp_path, case, named):
+    """What follows a rigid rotation reads quietly; a tie of u_x between nodes apart or a SPRING2 along x
+    between nodes apart does not follow it, and the warning names that cause (they strain a rigid motion)."""
+    import warnings
+
+    text, ids = deck("C3D8", (6, 2, 2), clamped=True)
+    tip = [int(t) for t in text.split("*NSET, NSET=TIP")[1].split("*")[0].replace(",", " ").split()]
+    ref = int(ids.max()) + 1
+    extra = {"rigid body": ["*NODE", f"{ref}, 1.0, 0.05, 0.05", f"{ref + 1}, 1.0, 0.05, 0.05",
+                            f"*RIGID BODY, NSET=TIP, REF NODE={ref}, ROT NODE={ref + 1}"],
+             "spring to ground": ["*ELEMENT, TYPE=SPRING1, ELSET=EG", f"901, {tip[2]}", "*SPRING, ELSET=EG", "2,",
+                                  "1.E7,"],
+             "tie equation": ["*EQUATION", "2", f"{tip[0]}, 1, 1.0, {tip[1]}, 1, -1.0"],
+             "directional spring": ["*ELEMENT, TYPE=SPRING2, ELSET=E2", f"902, {tip[0]}, {tip[3]}",
+                                    "*SPRING, ELSET=E2", "1, 1,", "1.E8,"]}[case]
+    sti = run(tmp_path, "job", _with(text, extra))
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        read(sti)
+    said = [str(w.message) for w in caught if "node coordinates disagree" in str(w.message)]
+    if not named:
+        assert said == []
+    else:
+        assert len(said) == 1 and "a constraint equation or a directional spring" in said[0], said
+        assert f"disagree at node {tip[0]}" in said[0] or f"disagree at node {tip[1]}" in said[0] \
+            or f"disagree at node {tip[3]}" in said[0], said

@@ -14,9 +14,12 @@ arms ``x_j - x_i`` of the equation's own terms:
 measured against ``s_i = Σ_j |K_ij c_j|``. A node coordinate changed into another valid number
 or a node table of another mesh (renumbered, other units on an axis) shows as ``|r_i| / s_i``
 far above the rounding level of the rest of the model (its median), at that node and its
-neighbours; no reader can see it otherwise (a coordinate has no second copy). Elements that do
-not follow a rigid rotation (a directional spring between two nodes apart, an offset written
-as such) show the same way: the warning names them as a possible cause too. A median ratio
+neighbours; no reader can see it otherwise (a coordinate has no second copy). What does not
+follow a rigid rotation shows the same way and is named by the warning as the other cause: a
+directional spring between two nodes apart (CalculiX ``SPRING2``), a constraint equation between
+DOF of nodes apart (``*EQUATION`` tying ``u_x`` of two nodes; rigid-body constraints such as
+``*RIGID BODY`` follow it). For a free body this is worth knowing in any case: a rigid motion
+built from the coordinates strains the body there. A median ratio
 above :data:`GEOMETRY_GLOBAL` gives one warning for the whole node table (another mesh, or a
 stiffness with stress stiffening). What the check cannot see: a changed stiffness value
 (its equations no longer sum to zero, which looks like a support), the coordinates of nodes
@@ -186,8 +189,8 @@ def check_stiffness_geometry(model, where: str = "") -> list[int]:
     warnings.warn(FlexmorWarning(
         f"{where}: the stiffness matrix and the node coordinates disagree at node "
         f"{nodes[0]}{more}: K times a rigid rotation about these coordinates is {worst:.1e} of its "
-        f"terms there, {level:.0e} at the other {n_checked - len(nodes)} checked nodes; a node coordinate or a "
-        f"stiffness value was changed, the coordinates belong to another mesh, or elements there do not follow a "
-        f"rigid rotation (a directional spring between nodes apart); rigid-body modes, couplings and exports use "
-        f"these coordinates"), stacklevel=3)
+        f"terms there, {level:.0e} at the other {n_checked - len(nodes)} checked nodes. Either something there "
+        f"does not follow a rigid rotation (a constraint equation or a directional spring between nodes apart: "
+        f"then a rigid motion built from these coordinates strains the body there), or a node coordinate or "
+        f"stiffness value was changed, or the coordinates belong to another mesh"), stacklevel=3)
     return nodes
