@@ -556,3 +556,16 @@ def test_a_penalty_coupling_on_the_bound_is_read():
     P = sp.csr_matrix(([k, -k, -k, k], ([0, 0, 3, 3], [0, 3, 0, 3])), shape=model.K.shape)
     model.K = sp.csr_matrix(model.K + P)
     check_minors(model)
+
+
+def test_sid_coefficient_given_twice(tmp_path):
+    """The same line twice is read; two values for one coefficient are refused with both lines."""
+    src = (DATA / "sid" / "Beam_3m.SID_FEM").read_text().splitlines(keepends=True)
+    k = next(i for i, ln in enumerate(src) if ln.strip().startswith("m0( 1, 1)"))
+    same = tmp_path / "same.SID_FEM"
+    same.write_text("".join(src[:k + 1] + [src[k]] + src[k + 1:]))
+    flexmor.io.read(same)
+    other = tmp_path / "other.SID_FEM"
+    other.write_text("".join(src[:k + 1] + [src[k].split("=")[0] + "= 1.50000000000D+00\n"] + src[k + 1:]))
+    with pytest.raises(ReadError, match=r"m0\(1,1\) given twice with different values \(lines \d+ and \d+\)"):
+        flexmor.io.read(other)

@@ -60,9 +60,10 @@ def _finish(path, raw, m1_order):
                                   f"object from line {raw['line']}); a line moved or repeated from another object?",
                             line=ln)
         key = (min(i, j), max(i, j)) if structure == 2 else (i, j)
-        if key in seen:
-            raise ReadError(path, f"{raw['name']}: m0({i},{j}) given twice (lines {seen[key]} and {ln})", line=ln)
-        seen[key] = ln
+        if key in seen and seen[key][1] != v:  # the same value twice is harmless; two values are not
+            raise ReadError(path, f"{raw['name']}: m0({i},{j}) given twice with different values (lines "
+                                  f"{seen[key][0]} and {ln})", line=ln)
+        seen[key] = (ln, v)
         m0[i - 1, j - 1] = v
         if structure == 2:
             m0[j - 1, i - 1] = v
