@@ -40,6 +40,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from ..errors import FlexmorWarning
+from ._sparse import row_blocks
 
 __all__ = ["geometry_residual", "check_stiffness_geometry", "GEOMETRY_FLOOR", "GEOMETRY_FACTOR", "GEOMETRY_GLOBAL"]
 
@@ -86,13 +87,10 @@ def geometry_residual(model) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     E[:, 6] = bad
     KX = K @ X
     S = np.empty((n, 7))
-    start = 0
-    while start < n:  # |K| @ E by row blocks of ~4M terms: no second copy of K's values at any size
-        stop = min(n, max(start + 1, int(np.searchsorted(K.indptr, K.indptr[start] + 4_000_000, side="right")) - 1))
+    for start, stop in row_blocks(K):  # |K| @ E by row blocks: no second copy of K's values at any size
         block = K[start:stop]
         block.data = np.abs(block.data)
         S[start:stop] = block @ E
-        start = stop
     T = KX[:, :3]
     R = KX[:, 3:] - np.stack([T[:, 2] * xyz[:, 1] - T[:, 1] * xyz[:, 2],   # Σ_b T_ib (e_a × x_i)_b
                               T[:, 0] * xyz[:, 2] - T[:, 2] * xyz[:, 0],

@@ -19,6 +19,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from ..errors import FlexmorWarning, ReadError
+from ._sparse import row_blocks
 
 __all__ = ["check_minors", "MINOR_RTOL"]
 
@@ -36,10 +37,16 @@ def _worst(A) -> tuple[int, int, float, float] | None:
     d = np.abs(A.diagonal())
     with np.errstate(divide="ignore"):
         s = np.where(d > 0, 1.0 / np.sqrt(d), 0.0)
-    ratio = np.abs(A.data) * s[A.indices]
-    ratio *= np.repeat(s, np.diff(A.indptr))
-    m = int(np.argmax(ratio)) if ratio.size else 0
-    if not ratio.size or ratio[m] <= 1.0 + MINOR_RTOL:
+    best, m = 0.0, 0
+    for start, stop in row_blocks(A):
+        lo, hi = A.indptr[start], A.indptr[stop]
+        if hi > lo:
+            ratio = np.abs(A.data[lo:hi]) * s[A.indices[lo:hi]]
+            ratio *= np.repeat(s[start:stop], np.diff(A.indptr[start:stop + 1]))
+            k = int(np.argmax(ratio))
+            if ratio[k] > best:
+                best, m = float(ratio[k]), lo + k
+    if best <= 1.0 + MINOR_RTOL:
         return None
     i = int(np.searchsorted(A.indptr, m, side="right")) - 1
     j = int(A.indices[m])

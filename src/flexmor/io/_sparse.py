@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 
-__all__ = ["assemble", "rows_in_use"]
+__all__ = ["assemble", "rows_in_use", "row_blocks"]
 
 
 def assemble(triplets: list, shape, *, mirror: bool = False) -> sp.csr_matrix | None:
@@ -93,3 +93,13 @@ def _symmetric(U: sp.csr_matrix, L: sp.csr_matrix) -> sp.csr_matrix:
 def rows_in_use(A: sp.csr_matrix) -> np.ndarray:
     """Whether each row of ``A`` has a nonzero entry (without a temporary the size of ``A``)."""
     return (A.max(axis=1).toarray().ravel() != 0) | (A.min(axis=1).toarray().ravel() != 0)
+
+
+def row_blocks(A: sp.csr_matrix, terms: int = 4_000_000):
+    """``(start, stop)`` row ranges of a CSR ``A`` with about ``terms`` stored entries each (at least one
+    row): work arrays over one block stay bounded at any size."""
+    n, start = A.shape[0], 0
+    while start < n:
+        stop = min(n, max(start + 1, int(np.searchsorted(A.indptr, A.indptr[start] + terms, side="right")) - 1))
+        yield start, stop
+        start = stop
