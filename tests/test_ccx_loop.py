@@ -124,3 +124,32 @@ def test_constraints_and_springs_against_the_stiffness_coordinate_check(tmp_path
         assert len(said) == 1 and "a constraint equation or a directional spring" in said[0], said
         assert f"disagree at node {tip[0]}" in said[0] or f"disagree at node {tip[1]}" in said[0] \
             or f"disagree at node {tip[3]}" in said[0], said
+
+
+def test_axisymmetric_model_is_not_taken_for_another_mesh(tmp_path):
+    """CAX4: a radial translation strains the hoop, so no rigid motion is free; the stiffness-coordinate
+    check is skipped (this ring's rotation ratios are ~1.2e-2, with translation ratios of ~5e-4: it was read
+    as "another mesh" when only a median translation ratio above 1e-2 skipped the check)."""
+    import warnings
+
+    from flexmor.io._geometry import TRANSLATION_ROUNDING, geometry_residual
+
+    nx, ny = 4, 8
+    nid = lambda i, j: j * (nx + 1) + i + 1  # noqa: E731
+    lines = ["*NODE, NSET=NALL"] + [f"{nid(i, j)}, {1.0 + 0.2 * i / nx:.12g}, {0.5 * j / ny:.12g}, 0"
+                                    for j in range(ny + 1) for i in range(nx + 1)]
+    lines += ["*ELEMENT, TYPE=CAX4, ELSET=EALL"]
+    lines += [f"{1 + i + nx * j}, {nid(i, j)}, {nid(i + 1, j)}, {nid(i + 1, j + 1)}, {nid(i, j + 1)}"
+              for j in range(ny) for i in range(nx)]
+    lines += ["*NSET, NSET=FIX"] + [str(nid(i, 0)) for i in range(nx + 1)]
+    lines += ["*MATERIAL, NAME=STEEL", "*ELASTIC", "2.1e11, 0.3", "*DENSITY", "7850",
+              "*SOLID SECTION, ELSET=EALL, MATERIAL=STEEL", "*BOUNDARY", "FIX, 1, 2", "*STEP",
+              "*FREQUENCY, SOLVER=MATRIXSTORAGE", "*END STEP"]
+    sti = run(tmp_path, "cax", "\n".join(lines) + "\n")
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        model = read(sti)
+    assert not [w for w in caught if "node coordinates disagree" in str(w.message)]
+    translation, rotation, _ = geometry_residual(model)
+    assert 1e-4 < np.nanmedian(translation) < 1e-2 and np.nanmedian(translation) > TRANSLATION_ROUNDING  # skipped
+    assert np.nanmedian(rotation) > 1e-2  # what it would have said
