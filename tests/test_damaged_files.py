@@ -569,3 +569,15 @@ def test_sid_coefficient_given_twice(tmp_path):
     other.write_text("".join(src[:k + 1] + [src[k].split("=")[0] + "= 1.50000000000D+00\n"] + src[k + 1:]))
     with pytest.raises(ReadError, match=r"m0\(1,1\) given twice with different values \(lines \d+ and \d+\)"):
         flexmor.io.read(other)
+
+
+def test_info_says_what_the_stiffness_coordinate_check_compared(tmp_path, capsys):
+    code, out, _ = run(capsys, "info", str(CCX / "beam8_clamped_mat.sti"), "--modes", "0")
+    assert code == 0
+    line = next(ln for ln in out.splitlines() if ln.startswith("checks"))
+    assert "a rigid rotation at 81 of 90 nodes (the others beside supports or springs): median" in line
+    assert "(rounding)" in line
+    code, out, _ = run(capsys, "info", str(CCX / "beam8_free_mat.sti"), "--modes", "0", "--json")
+    import json
+    c = json.loads(out)["geometry_check"]
+    assert (c["checked"], c["nodes"], c["named"], c["skipped"]) == (99, 99, [], "") and c["level"] < 1e-14

@@ -185,6 +185,7 @@ def cmd_info(args) -> int:
         return info_formats(args, _emit_json)
     if args.model is None:
         raise OptionError("info needs a MODEL file (or --backends, --formats)")
+    from ..io._geometry import describe_geometry_check, geometry_check
     from ..origin import describe_damping
 
     if is_body_file(args.model, args.format):
@@ -200,6 +201,7 @@ def cmd_info(args) -> int:
     out.update(model.mass_properties())
     out["selections"] = {name: model.node_sets[name].tolist() for name in _selected_names(args)}
     out["backends"] = available_backends()
+    out["geometry_check"] = geometry_check(model)
     solver = _solver(args)
     if args.modes:
         k = min(args.modes, model.n_dof)
@@ -250,6 +252,7 @@ def cmd_info(args) -> int:
         print(f"selected  {name}: {len(ids)} nodes: " + " ".join(map(str, ids[:40])) + (" ..." if len(ids) > 40 else "")
               + (" (a sphere selects the nodes on its surface, r +- tol)" if "=sphere:" in text.lower() else ""))
     print(f"backends  {', '.join(out['backends'])}")
+    print(f"checks    {describe_geometry_check(out['geometry_check'])}")
     if out.get("preload"):
         print(f"preload   {', '.join(out['preload']['specs'])}: K about the static equilibrium (largest displacement "
               f"{out['preload']['max_displacement']:.4g})" + (", with spin softening"

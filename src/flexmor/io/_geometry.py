@@ -43,8 +43,8 @@ import scipy.sparse as sp
 from ..errors import FlexmorWarning
 from ._sparse import row_blocks
 
-__all__ = ["geometry_residual", "check_stiffness_geometry", "GEOMETRY_FLOOR", "GEOMETRY_FACTOR", "GEOMETRY_GLOBAL",
-           "TRANSLATION_ROUNDING"]
+__all__ = ["geometry_residual", "geometry_check", "describe_geometry_check", "check_stiffness_geometry",
+           "GEOMETRY_FLOOR", "GEOMETRY_FACTOR", "GEOMETRY_GLOBAL", "TRANSLATION_ROUNDING"]
 
 #: Ratio |r_i| / s_i below which an equation follows a rigid rotation whatever the model's rounding.
 GEOMETRY_FLOOR = 1e-9
@@ -144,6 +144,62 @@ def _local_rotation(Kr, rows, d, xyz) -> tuple[np.ndarray, np.ndarray]:
         return r / S.max(axis=1), r
 
 
+def geometry_check(model) -> dict:
+    """The outcome of the check without a warning (module text).
+
+    Returns
+    -------
+    dict
+        ``checked`` (nodes checked), ``nodes`` (total with equations), ``level`` (median rotation ratio
+        of the checked nodes), ``named`` (node ids where ``K`` does not follow the rotation, the one
+        that would have to move most first), ``worst`` (the ratio at the first), ``whole`` (True when
+        most nodes disagree), ``skipped`` (why nothing was checked, or ``""``).
+    """
+    out = {"checked": 0, "nodes": 0, "level": None, "named": [], "worst": None, "whole": False, "skipped": ""}
+    if model.dofs is None or model.n_nodes == 0 or model.n_dof == 0 or model.K.nnz == 0:
+        return dict(out, skipped="no node coordinates or no stiffness")
+    translation, rotation, offset = geometry_residual(model)
+    node = np.asarray(model.dofs[:, 0])
+    out["nodes"] = int(np.unique(node).size)
+    known = np.isfinite(translation)
+    if not known.any():
+        return dict(out, skipped="no equation of translations and rotations in the global frame")
+    level = float(np.median(translation[known]))
+    if level > TRANSLATION_ROUNDING:  # most equations do not sum to zero beyond rounding: nothing to compare with
+        return dict(out, skipped=f"the equations do not sum to zero in a translation (median {level:.0e}: "
+                                 "axisymmetric, mostly supported, or values written with few digits)")
+    supported = np.unique(node[known & (translation > max(GEOMETRY_FLOOR, GEOMETRY_FACTOR * level))])
+    # every equation of a checked node must be complete (a node beside a support has some that are not)
+    checked = known & np.isfinite(rotation) & ~np.isin(node, supported)
+    if not checked.any():
+        return dict(out, skipped="every node is beside a support or a spring to ground")
+    level = float(np.median(rotation[checked]))
+    out.update(checked=int(np.unique(node[checked]).size), level=level)
+    if level > GEOMETRY_GLOBAL:
+        named = [int(k) for k in np.unique(node[checked & (rotation > GEOMETRY_GLOBAL)])]
+        return dict(out, named=named, worst=level, whole=True)
+    off = checked & (rotation > max(GEOMETRY_FLOOR, GEOMETRY_FACTOR * level))
+    if off.any():
+        # the node with the largest offset first: a changed coordinate shows most at its own node
+        order = np.argsort(-np.nan_to_num(offset[off], nan=0.0), kind="stable")
+        out.update(named=list(dict.fromkeys(int(k) for k in node[off][order])), worst=float(rotation[off][order[0]]))
+    return out
+
+
+def describe_geometry_check(c: dict) -> str:
+    """One line for ``flexmor info``: what the check compared, and its outcome."""
+    if c["skipped"]:
+        return f"K vs node coordinates not checked: {c['skipped']}"
+    rest = " (the others beside supports or springs)" if c["checked"] < c["nodes"] else ""
+    head = f"K vs node coordinates: a rigid rotation at {c['checked']} of {c['nodes']} nodes{rest}"
+    if c["whole"]:
+        return f"{head}: disagrees at {len(c['named'])} (median {c['level']:.1e} of the terms), see the warning"
+    if c["named"]:
+        return (f"{head}: median {c['level']:.0e} of the terms, but {c['worst']:.1e} at node {c['named'][0]} "
+                f"(and {len(c['named']) - 1} beside it), see the warning")
+    return f"{head}: median {c['level']:.0e} of the terms (rounding)"
+
+
 def check_stiffness_geometry(model, where: str = "") -> list[int]:
     """Warn (FlexmorWarning) where ``K`` does not follow a rigid rotation about the node coordinates.
 
@@ -151,50 +207,27 @@ def check_stiffness_geometry(model, where: str = "") -> list[int]:
     or spring to ground beside them; module text). Returns the ids of the nodes named (empty: the
     check passed or could not be made: no node table, no equation to check).
     """
-    if model.dofs is None or model.n_nodes == 0 or model.n_dof == 0 or model.K.nnz == 0:
+    c = geometry_check(model)
+    nodes, where = c["named"], where or model.source or model.name
+    if not nodes:
         return []
-    translation, rotation, offset = geometry_residual(model)
-    node = np.asarray(model.dofs[:, 0])
-    known = np.isfinite(translation)
-    if not known.any():
-        return []
-    level = float(np.median(translation[known]))
-    if level > TRANSLATION_ROUNDING:  # most equations do not sum to zero beyond rounding: nothing to compare with
-        return []
-    supported = np.unique(node[known & (translation > max(GEOMETRY_FLOOR, GEOMETRY_FACTOR * level))])
-    # every equation of a checked node must be complete (a node beside a support has some that are not)
-    checked = known & np.isfinite(rotation) & ~np.isin(node, supported)
-    if not checked.any():
-        return []
-    level = float(np.median(rotation[checked]))
-    n_checked = np.unique(node[checked]).size
-    where = where or model.source or model.name
-    if level > GEOMETRY_GLOBAL:
-        nodes = [int(k) for k in np.unique(node[checked & (rotation > GEOMETRY_GLOBAL)])]
+    if c["whole"]:
         warnings.warn(FlexmorWarning(
-            f"{where}: the stiffness matrix and the node coordinates disagree at {len(nodes)} of {n_checked} "
-            f"checked nodes: K times a rigid rotation about these coordinates is {level:.1e} of its terms (median); "
-            f"the coordinates belong to another mesh (other node numbers, or other units on an axis), or the "
-            f"stiffness holds a stress stiffness (a perturbation step); rigid-body modes, couplings and exports use "
-            f"these coordinates"), stacklevel=3)
+            f"{where}: the stiffness matrix and the node coordinates disagree at {len(nodes)} of {c['checked']} "
+            f"checked nodes: K times a rigid rotation about these coordinates is {c['level']:.1e} of its terms "
+            f"(median); the coordinates belong to another mesh (other node numbers, or other units on an axis), or "
+            f"the stiffness holds a stress stiffness (a perturbation step); rigid-body modes, couplings and exports "
+            f"use these coordinates"), stacklevel=3)
         return nodes
-    limit = max(GEOMETRY_FLOOR, GEOMETRY_FACTOR * level)
-    off = checked & (rotation > limit)
-    if not off.any():
-        return []
-    # name the node with the largest offset first: a changed coordinate shows most at its own node
-    order = np.argsort(-np.nan_to_num(offset[off], nan=0.0), kind="stable")
-    nodes = list(dict.fromkeys(int(k) for k in node[off][order]))
-    worst = float(rotation[off][order[0]])
     more = ""
     if len(nodes) > 1:
         more = (f" and {len(nodes) - 1} node(s) beside it ({', '.join(str(k) for k in nodes[1:9])}"
                 f"{', ...' if len(nodes) > 9 else ''})")
     warnings.warn(FlexmorWarning(
         f"{where}: the stiffness matrix and the node coordinates disagree at node "
-        f"{nodes[0]}{more}: K times a rigid rotation about these coordinates is {worst:.1e} of its "
-        f"terms there, {level:.0e} at the other {n_checked - len(nodes)} checked nodes. Either something there "
-        f"does not follow a rigid rotation (a constraint equation or a directional spring between nodes apart: "
-        f"then a rigid motion built from these coordinates strains the body there), or a node coordinate or "
-        f"stiffness value was changed, or the coordinates belong to another mesh"), stacklevel=3)
+        f"{nodes[0]}{more}: K times a rigid rotation about these coordinates is {c['worst']:.1e} of its "
+        f"terms there, {c['level']:.0e} at the other {c['checked'] - len(nodes)} checked nodes. Either something "
+        f"there does not follow a rigid rotation (a constraint equation or a directional spring between nodes "
+        f"apart: then a rigid motion built from these coordinates strains the body there), or a node coordinate "
+        f"or stiffness value was changed, or the coordinates belong to another mesh"), stacklevel=3)
     return nodes
