@@ -116,9 +116,13 @@ def geometry_residual(model) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     again = np.flatnonzero(rotation > GEOMETRY_FLOOR)
     offset = np.full(n, np.nan)
     if again.size:
-        rotation[again], r = _local_rotation(K[again], again, d, at)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            offset[again] = r / np.abs(K.diagonal()[again])
+        diag = np.abs(K.diagonal())
+        for start, stop in row_blocks(K):  # term by term within row blocks: bounded work arrays at any size
+            rows = again[(again >= start) & (again < stop)]
+            if rows.size:
+                rotation[rows], r = _local_rotation(K[rows], rows, d, at)
+                with np.errstate(divide="ignore", invalid="ignore"):
+                    offset[rows] = r / diag[rows]
     return translation, rotation, offset
 
 
