@@ -581,3 +581,26 @@ def test_info_says_what_the_stiffness_coordinate_check_compared(tmp_path, capsys
     import json
     c = json.loads(out)["geometry_check"]
     assert (c["checked"], c["nodes"], c["named"], c["skipped"]) == (99, 99, [], "") and c["level"] < 1e-14
+
+
+# --- hexahedra and tetrahedra turned inside out by the node coordinates ---
+
+@pytest.mark.parametrize("path", [CCX / "beam8_clamped_mat.sti", ABQ / "blockC3D8.inp", ABQ / "blockC3D10.inp"])
+def test_sound_meshes_have_no_inverted_cells(path):
+    from flexmor.io._geometry import inverted_cells
+    model = flexmor.io.read(path)
+    assert model.mesh is not None and model.mesh.n_cells > 0
+    assert len(inverted_cells(model)[1]) == 0
+
+
+def test_a_moved_node_without_equations_that_inverts_a_cell_is_named(tmp_path):
+    """Node 1 lies on the clamped face (no row or column in K): the stiffness cannot check it, its cell can."""
+    sti = _job(tmp_path, CCX / "beam8_clamped_mat")
+    inp = tmp_path / "job.inp"
+    inp.write_bytes(inp.read_bytes().replace(b"\n1, 0, 0, 0\n", b"\n1, 0, 1000, 0\n"))
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        flexmor.io.read(sti)
+    said = [str(w.message) for w in caught if "turned inside out" in str(w.message)]
+    assert len(said) == 1 and "1 element(s) turned inside out" in said[0] and "corner nodes 1, 2," in said[0], said
+    assert not [w for w in caught if "node coordinates disagree" in str(w.message)]  # node 1 has no equations

@@ -64,7 +64,7 @@ def test_a_changed_value_is_silent_different_despite_the_mapping_warning(tmp_pat
 
 
 @pytest.mark.parametrize("seed, cls, expect", [
-    (145, "warned", "node coordinates disagree at node 4 and"),     # CalculiX deck (gzip): a coordinate changed
+    (145, "warned", "2 element(s) turned inside out"),  # CalculiX deck (gzip): z of node 4 = 1e20 (also "disagree")
     (2084, "warned", "node coordinates disagree at node 4 and"),    # Ansys coordinates file: a field changed
     (13490, "warned", "node coordinates disagree at node 23 and"),  # Abaqus *NODE line: a changed byte
     (6184, "warned", "node coordinates disagree at node 37 and"),   # Nastran GRID with DMIG: a changed byte
@@ -72,6 +72,7 @@ def test_a_changed_value_is_silent_different_despite_the_mapping_warning(tmp_pat
     (44842, "warned", "Ke(1,1) = 0: elastic coordinate 1 has no stiffness"),  # SID: the one Ke line lost
     (48898, "refused", "Me: m0(1,1) in an object of structure 4 (a unit matrix"),  # SID: a line repeated
     (99082, "refused", "De: m0(1,1) in an object of structure 0 (a zero matrix"),
+    (13476, "warned", "1 element(s) turned inside out by the node coordinates"),  # node 1 (no equations) moved
     (23892, "refused", "the stiffness matrix of this model: entry (26, 146) = -3.59263e+23 exceeds sqrt"),
     (78241, "refused", "the mass matrix of this model: entry (7, 99) = 6e+13 exceeds sqrt"),  # gzip .mas
 ])

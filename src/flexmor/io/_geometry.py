@@ -44,7 +44,8 @@ from ..errors import FlexmorWarning
 from ._sparse import row_blocks
 
 __all__ = ["geometry_residual", "geometry_check", "describe_geometry_check", "check_stiffness_geometry",
-           "GEOMETRY_FLOOR", "GEOMETRY_FACTOR", "GEOMETRY_GLOBAL", "TRANSLATION_ROUNDING"]
+           "inverted_cells", "check_cells", "GEOMETRY_FLOOR", "GEOMETRY_FACTOR", "GEOMETRY_GLOBAL",
+           "TRANSLATION_ROUNDING"]
 
 #: Ratio |r_i| / s_i below which an equation follows a rigid rotation whatever the model's rounding.
 GEOMETRY_FLOOR = 1e-9
@@ -234,4 +235,66 @@ def check_stiffness_geometry(model, where: str = "") -> list[int]:
         f"there does not follow a rigid rotation (a constraint equation or a directional spring between nodes "
         f"apart: then a rigid motion built from these coordinates strains the body there), or a node coordinate "
         f"or stiffness value was changed, or the coordinates belong to another mesh"), stacklevel=3)
+    return nodes
+
+
+#: Corner triples of solid cells in VTK's node order, each right-handed in a cell of positive volume:
+#: ``det[x_a - x_c, x_b - x_c, x_t - x_c] > 0`` at corner ``c`` (hexahedra: the three edges at each corner;
+#: tetrahedra: one, their corners span the cell). Quadratic cells: their corners.
+_CORNERS = {
+    "hexahedron": ((0, 1, 3, 4), (1, 2, 0, 5), (2, 3, 1, 6), (3, 0, 2, 7),
+                   (4, 7, 5, 0), (5, 4, 6, 1), (6, 5, 7, 2), (7, 6, 4, 3)),
+    "tetra": ((0, 1, 2, 3),),
+}
+_CORNERS["hexahedron20"] = _CORNERS["hexahedron27"] = _CORNERS["hexahedron"]
+_CORNERS["tetra10"] = _CORNERS["tetra"]
+
+
+def inverted_cells(model) -> tuple[np.ndarray, np.ndarray]:
+    """``(cell nodes, corner node)`` of the hexahedra and tetrahedra of ``model.mesh`` turned inside out at a
+    corner (the corner's edge triple left-handed beyond rounding, ``det < -1e-8 |e1| |e2| |e3|``): the first
+    of each such cell. Other cell types are not checked."""
+    mesh = getattr(model, "mesh", None)
+    cells, corners = [], []
+    if mesh is None or not model.node_ids.size:
+        return np.zeros((0, 0), np.int64), np.zeros(0, np.int64)
+    for block in mesh.blocks:
+        triples = _CORNERS.get(block.type)
+        if triples is None or not len(block.nodes):
+            continue
+        x = model.node_xyz(block.nodes[:, :8 if block.type.startswith("hexa") else 4].ravel()).reshape(
+            len(block.nodes), -1, 3)
+        bad = np.zeros(len(block.nodes), dtype=bool)
+        first = np.zeros(len(block.nodes), dtype=np.int64)
+        for c, a, b, t in triples:
+            e1, e2, e3 = x[:, a] - x[:, c], x[:, b] - x[:, c], x[:, t] - x[:, c]
+            det = np.einsum("ij,ij->i", np.cross(e1, e2), e3)
+            scale = np.linalg.norm(e1, axis=1) * np.linalg.norm(e2, axis=1) * np.linalg.norm(e3, axis=1)
+            here = (det < -1e-8 * scale) & ~bad
+            first[here] = block.nodes[here, c]
+            bad |= here
+        cells += list(block.nodes[bad])
+        corners += list(first[bad])
+    if not cells:
+        return np.zeros((0, 0), np.int64), np.zeros(0, np.int64)
+    return np.array(cells, dtype=object), np.array(corners, dtype=np.int64)
+
+
+def check_cells(model, where: str = "") -> list[int]:
+    """Warn (FlexmorWarning) about hexahedra and tetrahedra whose node coordinates turn them inside out.
+
+    An FE program refuses such an element, so the deck's coordinates are not those it meshed: a
+    changed coordinate (also of a node without equations, which the stiffness cannot check) or
+    the nodes of another mesh. Returns the corner nodes named (empty: none, or no such cells).
+    """
+    cells, corners = inverted_cells(model)
+    if not len(corners):
+        return []
+    nodes = list(dict.fromkeys(int(k) for k in corners))
+    first = ", ".join(str(int(k)) for k in cells[0][:8])
+    warnings.warn(FlexmorWarning(
+        f"{where or model.source or model.name}: {len(cells)} element(s) turned inside out by the node "
+        f"coordinates (the first with corner nodes {first}, inverted at node {nodes[0]}): an FE program refuses "
+        "such elements, so a node coordinate was changed or the nodes belong to another mesh; the mesh shown and "
+        "node sets use these coordinates"), stacklevel=3)
     return nodes

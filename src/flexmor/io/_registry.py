@@ -29,7 +29,7 @@ from pathlib import Path
 
 from ..errors import OptionError, ReadError, did_you_mean
 from ..units import to_si, unit_system
-from ._geometry import check_stiffness_geometry
+from ._geometry import check_cells, check_stiffness_geometry
 from ._minors import check_minors
 from ._open import is_gzip, plain_name
 
@@ -290,6 +290,7 @@ def read(path, format: str | None = None, *, units: str | None = None, **options
     model = fmt.function(path, **options)
     check_minors(model)
     check_stiffness_geometry(model)
+    check_cells(model)
     return to_si(model, units)
 
 
