@@ -283,9 +283,11 @@ def inverted_cells(model) -> tuple[np.ndarray, np.ndarray]:
 def check_cells(model, where: str = "") -> list[int]:
     """Warn (FlexmorWarning) about hexahedra and tetrahedra whose node coordinates turn them inside out.
 
-    An FE program refuses such an element, so the deck's coordinates are not those it meshed: a
-    changed coordinate (also of a node without equations, which the stiffness cannot check) or
-    the nodes of another mesh. Returns the corner nodes named (empty: none, or no such cells).
+    FE programs refuse an inverted element (a trilinear hexahedron distorted enough to be inside out
+    at a corner only is flagged by them as distorted), so the deck's coordinates are probably not
+    those it meshed: a changed coordinate (also of a node without equations, which the stiffness
+    cannot check) or the nodes of another mesh. Returns the corner nodes named (empty: none, or no
+    such cells).
     """
     cells, corners = inverted_cells(model)
     if not len(corners):
@@ -294,7 +296,7 @@ def check_cells(model, where: str = "") -> list[int]:
     first = ", ".join(str(int(k)) for k in cells[0][:8])
     warnings.warn(FlexmorWarning(
         f"{where or model.source or model.name}: {len(cells)} element(s) turned inside out by the node "
-        f"coordinates (the first with corner nodes {first}, inverted at node {nodes[0]}): an FE program refuses "
-        "such elements, so a node coordinate was changed or the nodes belong to another mesh; the mesh shown and "
-        "node sets use these coordinates"), stacklevel=3)
+        f"coordinates (the first with corner nodes {first}, inverted at node {nodes[0]}): FE programs refuse an "
+        "inverted element (or flag a corner this distorted), so a node coordinate was probably changed or the "
+        "nodes belong to another mesh; the mesh shown and node sets use these coordinates"), stacklevel=3)
     return nodes
