@@ -604,3 +604,18 @@ def test_a_moved_node_without_equations_that_inverts_a_cell_is_named(tmp_path):
     said = [str(w.message) for w in caught if "turned inside out" in str(w.message)]
     assert len(said) == 1 and "1 element(s) turned inside out" in said[0] and "corner nodes 1, 2," in said[0], said
     assert not [w for w in caught if "node coordinates disagree" in str(w.message)]  # node 1 has no equations
+
+
+def test_a_mesh_in_the_other_orientation_is_not_named():
+    """Every cell left-handed (corner order mirrored) is a convention, not a moved node."""
+    import dataclasses
+
+    from flexmor.io._geometry import inverted_cells
+    from flexmor.mesh import CellBlock, Mesh
+    model = flexmor.io.read(CCX / "beam8_clamped_mat.sti")
+    block = model.mesh.blocks[0]
+    mirrored = Mesh([CellBlock(block.type, block.nodes[:, [0, 3, 2, 1, 4, 7, 6, 5]])])
+    assert len(inverted_cells(dataclasses.replace(model, mesh=mirrored))[1]) == 0
+    one = block.nodes.copy()
+    one[0] = one[0, [0, 3, 2, 1, 4, 7, 6, 5]]
+    assert len(inverted_cells(dataclasses.replace(model, mesh=Mesh([CellBlock(block.type, one)])))[1]) == 1

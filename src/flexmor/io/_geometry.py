@@ -253,7 +253,8 @@ _CORNERS["tetra10"] = _CORNERS["tetra"]
 def inverted_cells(model) -> tuple[np.ndarray, np.ndarray]:
     """``(cell nodes, corner node)`` of the hexahedra and tetrahedra of ``model.mesh`` turned inside out at a
     corner (the corner's edge triple left-handed beyond rounding, ``det < -1e-8 |e1| |e2| |e3|``): the first
-    of each such cell. Other cell types are not checked."""
+    of each such cell. Other cell types are not checked, nor a block whose cells are mostly left-handed
+    (a mesh written in the other orientation: damage turns a few cells, not most)."""
     mesh = getattr(model, "mesh", None)
     cells, corners = [], []
     if mesh is None or not model.node_ids.size:
@@ -273,6 +274,8 @@ def inverted_cells(model) -> tuple[np.ndarray, np.ndarray]:
             here = (det < -1e-8 * scale) & ~bad
             first[here] = block.nodes[here, c]
             bad |= here
+        if 2 * bad.sum() > len(bad):  # most of a block: the other orientation convention, not a damaged node
+            continue
         cells += list(block.nodes[bad])
         corners += list(first[bad])
     if not cells:
