@@ -201,7 +201,7 @@ def cmd_info(args) -> int:
     out.update(model.mass_properties())
     out["selections"] = {name: model.node_sets[name].tolist() for name in _selected_names(args)}
     out["backends"] = available_backends()
-    out["geometry_check"] = geometry_check(model)
+    out["geometry_check"] = geometry_check(keep.get("unloaded", keep.get("uncoupled", model)))  # the file's, as read
     solver = _solver(args)
     if args.modes:
         k = min(args.modes, model.n_dof)

@@ -41,6 +41,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from ..errors import FlexmorWarning
+from ..rigid import rigid_motions
 from ._sparse import row_blocks
 
 __all__ = ["geometry_residual", "geometry_check", "describe_geometry_check", "check_stiffness_geometry",
@@ -81,16 +82,10 @@ def geometry_residual(model) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     bad = (d < 1) | (d > 6)
     if model.node_frames:
         bad |= np.isin(model.dofs[:, 0], np.fromiter(model.node_frames, dtype=np.int64))
-    X = np.zeros((n, 6))
-    E = np.zeros((n, 7))
-    for a in range(3):
-        e = np.eye(3)[a]
-        X[d == a + 1, a] = 1.0
-        E[:, a] = X[:, a]
-        E[d == a + 4, 3 + a] = 1.0
-        for k in range(3):  # (e_a × x)_k on translations, 1 on the rotation about a
-            X[d == k + 1, 3 + a] = np.cross(e, xyz[d == k + 1])[:, k]
-        X[d == a + 4, 3 + a] = 1.0
+    X = rigid_motions(model)  # translations, rotations e_a × (x - x_o) about the same centroid x_o
+    E = np.zeros((n, 7))  # which terms count: the direction of each column, and the left-out DOF
+    E[:, :3] = X[:, :3]
+    E[:, 3:6] = d[:, None] == np.arange(4, 7)
     E[:, 6] = bad
     KX = K @ X
     S = np.empty((n, 7))
