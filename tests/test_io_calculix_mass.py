@@ -146,3 +146,25 @@ def test_dense_residual_check_rejects_a_nonsymmetric_pencil(clamped):
     K[0, 1] += 1e-3 * np.abs(K).max()  # eigh reads one triangle: the returned pairs do not solve this K
     with pytest.raises(ModelError, match="relative residual"):
         dense_eigenmodes(K, clamped.M.toarray(), 4)
+
+
+def test_a_mass_of_one_direction_singular_is_found_block_by_block(tmp_path, clamped):
+    """A solid's mass couples no two directions: checked per direction (x, y, z alike: one block of a
+    third of the equations); a singular y block alone is found."""
+    from flexmor.io._mass import check_mass, direction_blocks
+
+    blocks = direction_blocks(clamped.M, clamped.dofs)
+    assert len(blocks) == 1 and blocks[0].shape == (clamped.n_dof // 3,) * 2
+    M = clamped.M.toarray()
+    y = np.flatnonzero(clamped.dofs[:, 1] == 2)
+    mu, U = np.linalg.eigh(M[np.ix_(y, y)])
+    My = M[np.ix_(y, y)] - mu[0] * np.outer(U[:, 0], U[:, 0])
+    My[np.abs(My) < 1e-12 * np.abs(My).max()] = 0.0
+    M[np.ix_(y, y)] = 0.5 * (My + My.T)
+    model = flexmor.io.read(_job(tmp_path, M, etype="C3D8"))  # (a linear element: no mass check at read)
+    assert len(direction_blocks(model.M, model.dofs)) == 2  # x and z alike, y its own
+    with pytest.warns(FlexmorWarning, match="x: the mass matrix is singular"):
+        assert check_mass(model, "x") < 1e-12
+    coupled = model.M.tolil()
+    coupled[0, 1] = coupled[1, 0] = 1e-3 * model.M[0, 0]
+    assert len(direction_blocks(coupled.tocsr(), model.dofs)) == 1

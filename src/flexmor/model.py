@@ -73,6 +73,7 @@ def _as_csr(name: str, A, n: int | None = None) -> sp.csr_matrix:
             raise ModelError(f"{name} is complex; flexmor needs real matrices")
         A = A.astype(np.float64)
     A.sum_duplicates()
+    A.eliminate_zeros()  # (CalculiX writes M on K's pattern: two thirds of a solid's mass entries are zeros)
     return A
 
 

@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import io
 import re
-import warnings
 from pathlib import Path
 
 import numpy as np
@@ -20,7 +19,7 @@ from ..errors import ReadError
 from ._fastparse import fast_triplets
 from ._open import open_binary, read_all, size_hint
 
-__all__ = ["FOREIGN", "check_text", "entry_line", "parse_triplets", "read_bytes", "read_text", "split_lines"]
+__all__ = ["FOREIGN", "check_text", "entry_line", "parse_triplets", "read_bytes", "read_text", "split_lines", "both"]
 
 _COMMENT_CHARS = "#%*!"
 #: A character a data line of numbers never holds: control characters other than tab and line ends, and
@@ -108,12 +107,15 @@ def _to_index(tok: str) -> int:
         return int(v)
 
 
-def _loadtxt(src, skiprows: int = 0):
-    """``np.loadtxt`` into an (k, 3) float array, or None on any parse problem."""
+def _loadtxt(text: str):
+    """``np.loadtxt`` of ``text`` (Fortran exponents and commas allowed) into an (k, 3) float array, or None on
+    any parse problem. Blank text is None before NumPy would warn of it: no ``catch_warnings`` here, since the
+    parse runs on worker threads (:func:`both`) and that context would change the warning filters of all."""
+    text = text.replace(",", " ").replace("D", "E").replace("d", "e")
+    if not text.strip():
+        return None
     try:
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            a = np.loadtxt(src, dtype=np.float64, ndmin=2, comments=None, skiprows=skiprows)
+        a = np.loadtxt(io.StringIO(text), dtype=np.float64, ndmin=2, comments=None)
     except (ValueError, OverflowError):
         return None
     if a.shape[0] == 0 or a.shape[1] != 3:
@@ -213,7 +215,7 @@ def _loadtxt_chunk(b: np.ndarray):
     if np.any(((b < 32) & (b != 9) & (b != 10) & (b != 13)) | (b > 126)):
         return None  # a foreign character: the scanner names its line
     text = b.tobytes().decode("latin-1")
-    a = _loadtxt(io.StringIO(text.replace(",", " ").replace("D", "E").replace("d", "e")))
+    a = _loadtxt(text)
     if a is None or not np.all(a[:, :2] == np.floor(a[:, :2])) or np.abs(a[:, :2]).max() > 2**31:
         return None
     return a[:, 0], a[:, 1], a[:, 2]
@@ -298,7 +300,7 @@ def _scan_triplets(path: Path, text: str, base: int, n: int | None) -> np.ndarra
         joined = "\n".join(block)
         a = None
         if not any(ch in joined for ch in _COMMENT_CHARS) and not FOREIGN.search(joined):
-            a = _loadtxt(io.StringIO(joined.replace(",", " ").replace("D", "E").replace("d", "e")))
+            a = _loadtxt(joined)
         if a is None or not _valid(a, base, n):
             a = _scan_block(path, block, start, base, n)
         parts.append(a)
@@ -352,3 +354,17 @@ def entry_line(path, k: int) -> int | None:
         if count == k:
             return lineno
     return None
+
+
+def both(read, first, second):
+    """``(read(first), read(second))``, the two parsed side by side on two threads where the process has two
+    CPUs (the parse runs mostly without the GIL); the first file's error is raised first, as read in turn."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    from ..linalg.threads import cores
+
+    if cores() < 2:
+        return read(first), read(second)
+    with ThreadPoolExecutor(2) as ex:
+        a, b = ex.submit(read, first), ex.submit(read, second)
+        return a.result(), b.result()

@@ -50,7 +50,7 @@ from .._mass import QUADRATIC_TYPES, check_mass
 from .._open import beside, is_gzip, open_binary, stem, suffix
 from .._registry import MODEL_FORMATS
 from .._sparse import assemble
-from .._text import entry_line, parse_triplets, read_bytes, read_text
+from .._text import both, entry_line, parse_triplets, read_bytes, read_text
 from .deck import read_inp
 from .expanded import expanded_dofs
 from .frd import read_frd
@@ -306,8 +306,7 @@ def read_calculix(path) -> FEModel:
     dofs = read_dof(dof_path)
     n = dofs.shape[0]
     _sniff(mas)
-    K, nk, k_diag = _read_upper(path, n)
-    M, nm, m_diag = _read_upper(mas, n)
+    (K, nk, k_diag), (M, nm, m_diag) = both(lambda f: _read_upper(f, n), path, mas)
     _same_pattern(path, K, nk, mas, M, nm, k_diag, m_diag, dofs, dof_path)
     types: set = set()
     cells: list = []
