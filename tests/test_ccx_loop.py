@@ -153,3 +153,24 @@ def test_axisymmetric_model_is_not_taken_for_another_mesh(tmp_path):
     translation, rotation, _ = geometry_residual(model)
     assert 1e-4 < np.nanmedian(translation) < 1e-2 and np.nanmedian(translation) > TRANSLATION_ROUNDING  # skipped
     assert np.nanmedian(rotation) > 1e-2  # what it would have said
+
+
+@pytest.mark.parametrize("etype", ["C3D8", "C3D20R", "C3D10"])
+@pytest.mark.parametrize("dirs", ["1, 1", "3, 3", "1, 2"])
+def test_supports_of_some_directions_are_no_changed_value(tmp_path, etype, dirs):
+    """A face held in one or two directions leaves equations beside it that do not sum to zero in those
+    directions alone, alike along the face: no stiffness entry is named, and the mass stays alike in x, y, z
+    where both nodes have the direction."""
+    import warnings
+
+    text, _ = deck(etype, (6, 2, 2), clamped=False)
+    sti = run(tmp_path, "job", _with(text, ["*BOUNDARY", f"FIX, {dirs}"]))
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        model = read(sti)
+    said = [str(w.message) for w in caught if "stiffness entry" in str(w.message) or "x, y and z" in str(w.message)
+            or "two directions of motion" in str(w.message)]
+    assert said == []
+    from flexmor.io._mass import direction_mismatches
+    assert direction_mismatches(model.M, model.dofs) == []
+    assert model.n_dof < 3 * model.n_nodes  # the support removed equations

@@ -521,6 +521,65 @@ def test_supports_springs_to_ground_and_local_frames_are_not_named():
         check_stiffness_geometry(frames)
 
 
+
+@pytest.mark.parametrize("src, old, new, written", [
+    ("beam8_clamped_mat", b"\n236 268 -8.4134615384615e+08\n", b"\n236 268 -8.4134605384615e+08\n", "-841346153.8"),
+    ("beam8_free_mat", b"\n120 214  8.4134615384615e+08\n", b"\n120 214  8.4134615384615e+07\n", "841346153.8"),
+])
+def test_a_changed_stiffness_value_is_named_with_the_value_written(tmp_path, src, old, new, written):
+    """A value stored once changes the translation sums of its two equations by the same amount, each in the
+    direction of the other: the entry is named with the value the file held."""
+    sti = _job(tmp_path, CCX / src)
+    assert sti.read_bytes().count(old) == 1
+    sti.write_bytes(sti.read_bytes().replace(old, new))
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        flexmor.io.read(sti)
+    named = [str(w.message) for w in caught if "stiffness entry" in str(w.message)]
+    i, j = (int(k) for k in old.split()[:2])
+    assert len(named) == 1 and f"stiffness entry ({i}, {j}) = " in named[0], named
+    assert f"(written as {written}?)" in named[0]
+
+
+def test_springs_to_ground_alike_at_many_nodes_are_not_a_changed_value():
+    """Equal springs to ground along a row of nodes: every grounded equation alone at its node, but many by
+    the same amount, so none pairs up."""
+    import scipy.sparse as sp
+
+    from flexmor.io._geometry import geometry_check
+    model = flexmor.io.read(CCX / "beam8_free_mat.sti")
+    z = np.flatnonzero(model.dofs[:, 1] == 3)[:12]
+    model.K = sp.csr_matrix(model.K + sp.diags(np.isin(np.arange(model.n_dof), z) * 1e8))
+    assert geometry_check(model)["changed"] == []
+
+
+def test_a_changed_mass_value_is_named_against_the_other_directions(tmp_path):
+    """A solid's mass holds every value for x, y and z: a digit changed in one of them, and an explicit zero
+    between two directions turned into a number, are named."""
+    sti = _job(tmp_path, CCX / "beam8_clamped_mat")
+    mas = sti.with_suffix(".mas")
+    text = mas.read_bytes()
+    mas.write_bytes(text.replace(b"\n56 59  7.2685185185185e-02\n", b"\n56 59  7.2685195185185e-02\n"))
+    with pytest.warns(FlexmorWarning, match=r"same value for x, y and z of each pair of nodes except at entry "
+                                            r"\(56, 59\) = 0.0726852 .*the other directions hold 0.0726852"):
+        flexmor.io.read(sti)
+    mas.write_bytes(text.replace(b"\n236 268  0.0000000000000e+00\n", b"\n236 268  0.0005000000000e+00\n"))
+    with pytest.warns(FlexmorWarning, match=r"couples no two directions of motion except at entry \(236, 268\)"):
+        flexmor.io.read(sti)
+
+
+def test_a_mass_that_differs_by_direction_is_compared_only_where_alike():
+    from flexmor.io._mass import direction_mismatches
+    model = flexmor.io.read(CCX / "beam8_clamped_mat.sti")
+    assert direction_mismatches(model.M, model.dofs) == []
+    M = model.M.tolil()
+    i = int(np.flatnonzero((model.dofs[:, 0] == 50) & (model.dofs[:, 1] == 1))[0])
+    M[i, i] = M[i, i] + 2.0  # a point mass of node 50 in x only (an anisotropic point mass)
+    assert [f[:2] for f in direction_mismatches(M.tocsr(), model.dofs)] == [(i, i)]
+    z = model.dofs[:, 1] == 3
+    scaled = model.M.multiply(np.where(z, 2.0, 1.0)[:, None]).tocsr()  # every z value differs: not isotropic
+    assert direction_mismatches(scaled, model.dofs) is None
+
 # --- every 2 x 2 principal minor of K and M is non-negative: |A_ij| <= sqrt(A_ii A_jj) ---
 
 @pytest.mark.parametrize("suffix, old, new, what", [

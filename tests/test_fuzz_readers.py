@@ -56,11 +56,13 @@ def test_damage_the_format_cannot_show_is_warned_unverifiable(seed, kind, tmp_pa
     assert f": {kind}): " in text and "could not be cross-checked" in text, text
 
 
-def test_a_changed_value_is_silent_different_despite_the_mapping_warning(tmp_path):
-    """The Ansys set always warns about its mapping vector; a damage of another file of the set is
-    not covered by that warning (a digit of a mass value: no second copy, no check can see it)."""
+def test_a_changed_value_is_named_beside_the_mapping_warning(tmp_path):
+    """The Ansys set always warns about its mapping vector; a damage of another file of the set counts as
+    warned by the warning that names it (a digit of a mass value: its y and z copies hold the old one)."""
     cls, text = fuzz.run_case(7448, tmp_path)
-    assert cls == "silent-different" and "rotorAnsysMassMatrixSparse.txt: garbage-byte" in text, text
+    assert cls == "warned" and "rotorAnsysMassMatrixSparse.txt: garbage-byte" in text, text
+    assert "the mass matrix holds the same value for x, y and z of each pair of nodes except at entry (253, 253)" \
+        in text, text
 
 
 @pytest.mark.parametrize("seed, cls, expect", [
@@ -75,10 +77,16 @@ def test_a_changed_value_is_silent_different_despite_the_mapping_warning(tmp_pat
     (13476, "warned", "1 element(s) turned inside out by the node coordinates"),  # node 1 (no equations) moved
     (23892, "refused", "the stiffness matrix of this model: entry (26, 146) = -3.59263e+23 exceeds sqrt"),
     (78241, "refused", "the mass matrix of this model: entry (7, 99) = 6e+13 exceeds sqrt"),  # gzip .mas
+    (10884, "warned", "x, y and z of each pair of nodes except at entry (56, 59) = -0.0726852"),  # a .mas digit
+    (26233, "warned", "couples no two directions of motion except at entry (24, 146) = 0.0005"),  # gzip .mas
+    (69266, "warned", "x, y and z of each pair of nodes except at entry (480, 480) = 3.42222e+17"),  # Abaqus mass
+    (55004, "warned", "stiffness entry (161, 189) = 5280448.718"),  # Ansys text: a digit of a stiffness value
+    (63540, "warned", "stiffness entry (236, 268) = -841346053.8"),  # CalculiX .sti
+    (8065, "warned", "stiffness entry (59, 176) = "),  # gzip .sti
 ])
 def test_silent_cases_of_the_100k_run_are_named(seed, cls, expect, tmp_path):
-    """Cases that read another model without a word before the stiffness-coordinate, 2 x 2 minor and SID
-    structure checks."""
+    """Cases that read another model without a word before the stiffness-coordinate, 2 x 2 minor, SID
+    structure, mass-direction and changed-stiffness-entry checks."""
     got, text = fuzz.run_case(seed, tmp_path)
     assert got == cls and expect in text, text
 

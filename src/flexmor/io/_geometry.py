@@ -21,9 +21,13 @@ DOF of nodes apart (``*EQUATION`` tying ``u_x`` of two nodes; rigid-body constra
 ``*RIGID BODY`` follow it). For a free body this is worth knowing in any case: a rigid motion
 built from the coordinates strains the body there. A median ratio
 above :data:`GEOMETRY_GLOBAL` gives one warning for the whole node table (another mesh, or a
-stiffness with stress stiffening). What the check cannot see: a changed stiffness value
-(its equations no longer sum to zero, which looks like a support), the coordinates of nodes
-at supports or without equations, and a changed mass value.
+stiffness with stress stiffening). A changed off-diagonal stiffness value makes its two equations
+no longer sum to zero, which alone would look like a support; but it does so by the same amount in
+each, in the direction of the other, and at no other equation of their nodes: such a pair is named
+with the value the file held (:func:`changed_entries`). What the check cannot see: a changed
+diagonal value (it looks like a spring to ground), a value changed beside a support, the
+coordinates of nodes at supports or without equations, and a changed mass value (which
+:func:`flexmor.io._mass.check_mass_directions` compares across directions).
 
 Not checked: matrices whose equations mostly do not sum to zero beyond rounding
 (:data:`TRANSLATION_ROUNDING`: an axisymmetric model, whose radial translation strains the hoop, a
@@ -44,9 +48,9 @@ from ..errors import FlexmorWarning
 from ..rigid import rigid_motions
 from ._sparse import row_blocks
 
-__all__ = ["geometry_residual", "geometry_check", "describe_geometry_check", "check_stiffness_geometry",
-           "inverted_cells", "check_cells", "GEOMETRY_FLOOR", "GEOMETRY_FACTOR", "GEOMETRY_GLOBAL",
-           "TRANSLATION_ROUNDING"]
+__all__ = ["geometry_residual", "geometry_check", "changed_entries", "describe_geometry_check",
+           "check_stiffness_geometry", "inverted_cells", "check_cells", "GEOMETRY_FLOOR", "GEOMETRY_FACTOR",
+           "GEOMETRY_GLOBAL", "TRANSLATION_ROUNDING"]
 
 #: Ratio |r_i| / s_i below which an equation follows a rigid rotation whatever the model's rounding.
 GEOMETRY_FLOOR = 1e-9
@@ -61,7 +65,7 @@ TRANSLATION_ROUNDING = 1e-6
 GEOMETRY_GLOBAL = 1e-2
 
 
-def geometry_residual(model) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def geometry_residual(model, *, sums: bool = False) -> tuple:
     """Per equation: the translation ratio, the rotation ratio, the offset (``(n_dof,)`` each, NaN: not defined).
 
     ``translation[i] = max_b |Σ_j K_ij [dir j = b]| / max_b Σ_j |K_ij| [dir j = b]`` (no coordinates);
@@ -73,6 +77,8 @@ def geometry_residual(model) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     at a node whose coordinate is off (``r = K_pp (ω × δ)`` there, ``K_qp (ω × δ)`` beside it). Two sparse products
     with a few columns: ``r`` is formed from rotations about the centroid, ``K (ω × (x - x_o))``,
     less the translation sums times ``ω × (x_i - x_o)`` (rounding ``ε |x - x_o| / h`` of the scale).
+    ``sums=True`` adds ``(T, S)``: per equation and direction the translation sum ``Σ_j K_ij [dir j = b]`` and
+    its scale ``Σ_j |K_ij| [dir j = b]``, shape ``(n_dof, 3)`` each.
     """
     n = model.n_dof
     K = sp.csr_matrix(model.K)
@@ -119,6 +125,8 @@ def geometry_residual(model) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
                 rotation[rows], r = _local_rotation(K[rows], rows, d, at)
                 with np.errstate(divide="ignore", invalid="ignore"):
                     offset[rows] = r / diag[rows]
+    if sums:
+        return translation, rotation, offset, T, S[:, :3]
     return translation, rotation, offset
 
 
@@ -153,12 +161,14 @@ def geometry_check(model) -> dict:
         ``checked`` (nodes checked), ``nodes`` (total with equations), ``level`` (median rotation ratio
         of the checked nodes), ``named`` (node ids where ``K`` does not follow the rotation, the one
         that would have to move most first), ``worst`` (the ratio at the first), ``whole`` (True when
-        most nodes disagree), ``skipped`` (why nothing was checked, or ``""``).
+        most nodes disagree), ``skipped`` (why nothing was checked, or ``""``), ``changed``
+        (:func:`changed_entries`: stiffness entries whose two equations no longer sum to zero by the same amount).
     """
-    out = {"checked": 0, "nodes": 0, "level": None, "named": [], "worst": None, "whole": False, "skipped": ""}
+    out = {"checked": 0, "nodes": 0, "level": None, "named": [], "worst": None, "whole": False, "skipped": "",
+           "changed": []}
     if model.dofs is None or model.n_nodes == 0 or model.n_dof == 0 or model.K.nnz == 0:
         return dict(out, skipped="no node coordinates or no stiffness")
-    translation, rotation, offset = geometry_residual(model)
+    translation, rotation, offset, T, S = geometry_residual(model, sums=True)
     node = np.asarray(model.dofs[:, 0])
     out["nodes"] = int(np.unique(node).size)
     known = np.isfinite(translation)
@@ -169,6 +179,7 @@ def geometry_check(model) -> dict:
         return dict(out, skipped=f"the equations do not sum to zero in a translation (median {level:.0e}: "
                                  "axisymmetric, mostly supported, or values written with few digits)")
     supported = np.unique(node[known & (translation > max(GEOMETRY_FLOOR, GEOMETRY_FACTOR * level))])
+    out["changed"] = changed_entries(model.K, model.dofs, T, S, known, max(GEOMETRY_FLOOR, GEOMETRY_FACTOR * level))
     # every equation of a checked node must be complete (a node beside a support has some that are not)
     checked = known & np.isfinite(rotation) & ~np.isin(node, supported)
     if not checked.any():
@@ -186,12 +197,57 @@ def geometry_check(model) -> dict:
     return out
 
 
+def changed_entries(K, dofs, T, S, known, threshold: float) -> list[tuple[int, int, float, float]]:
+    """Stiffness entries changed after they were written, as ``(i, j, K_ij, excess)`` (``i < j``).
+
+    An entry ``K_ij`` (``i != j``) stored once and changed by ``δ`` changes two translation sums by
+    exactly ``δ``: that of equation ``i`` in the direction of ``j`` and that of equation ``j`` in the
+    direction of ``i``. Beside a support or a spring to ground an equation's sums do not vanish either,
+    but there they rarely do so in one direction of one equation of a node alone, and never pair up so:
+    an entry is named when equations ``i`` and ``j`` are the only ones of their nodes whose sum exceeds
+    ``threshold`` of its scale ``S``, each in the direction of the other, by the same amount (to 1e-6),
+    and no other such lone equation has that amount (a row of equal springs to ground, or of nodes
+    beside a support of one direction in a regular mesh, gives many). A changed diagonal entry looks
+    like a spring to ground and is not named.
+    """
+    with np.errstate(divide="ignore", invalid="ignore"):
+        hot = known[:, None] & (np.abs(T) > threshold * S)
+    rows = np.flatnonzero(hot.any(axis=1))
+    if rows.size < 2:
+        return []
+    node = np.asarray(dofs[:, 0])
+    d = np.asarray(dofs[:, 1], dtype=np.int64)
+    nodes, count = np.unique(node[rows], return_counts=True)
+    alone = count[np.searchsorted(nodes, node[rows])] == 1
+    lone = rows[alone & (hot[rows].sum(axis=1) == 1)]  # the only equation of its node off, in one direction
+    if lone.size < 2:
+        return []
+    a = np.argmax(hot[lone], axis=1) + 1  # the direction of each lone equation's sum
+    t = T[lone, a - 1]
+    order = np.argsort(t, kind="stable")
+    lone, a, t = lone[order], a[order], t[order]
+    close = np.abs(np.diff(t)) <= 1e-6 * np.abs(t[1:])  # neighbours in value with the same amount
+    K = sp.csr_matrix(K)
+    out = []
+    for k in np.flatnonzero(close):
+        if (k > 0 and close[k - 1]) or (k + 1 < close.size and close[k + 1]):
+            continue  # three or more alike: springs or a support, not one value
+        i, j = int(lone[k]), int(lone[k + 1])
+        if d[j] == a[k] and a[k + 1] == d[i] and j in K.indices[K.indptr[i]:K.indptr[i + 1]]:
+            i, j = min(i, j), max(i, j)
+            out.append((i, j, float(K[i, j]), float(t[k])))
+    return out
+
+
 def describe_geometry_check(c: dict) -> str:
     """One line for ``flexmor info``: what the check compared, and its outcome."""
     if c["skipped"]:
         return f"K vs node coordinates not checked: {c['skipped']}"
     rest = " (the others beside supports or springs)" if c["checked"] < c["nodes"] else ""
     head = f"K vs node coordinates: a rigid rotation at {c['checked']} of {c['nodes']} nodes{rest}"
+    if c.get("changed"):
+        i, j = c["changed"][0][:2]
+        head = f"K entry ({i + 1}, {j + 1}) changed? (see the warning); {head}"
     if c["whole"]:
         return f"{head}: disagrees at {len(c['named'])} (median {c['level']:.1e} of the terms), see the warning"
     if c["named"]:
@@ -209,6 +265,12 @@ def check_stiffness_geometry(model, where: str = "") -> list[int]:
     """
     c = geometry_check(model)
     nodes, where = c["named"], where or model.source or model.name
+    for i, j, v, excess in c["changed"]:
+        warnings.warn(FlexmorWarning(
+            f"{where}: stiffness entry ({i + 1}, {j + 1}) = {v:.10g} ({model.describe_dof(i)}, "
+            f"{model.describe_dof(j)}): its two equations are the only ones of their nodes whose terms do not sum "
+            f"to zero, each by {excess:.6g} in the direction of the other; a changed value (written as "
+            f"{v - excess:.10g}?), or two springs to ground of the same stiffness there"), stacklevel=3)
     if not nodes:
         return []
     if c["whole"]:

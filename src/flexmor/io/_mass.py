@@ -4,6 +4,10 @@ Quadratic elements (``C3D20R``, ``C3D20``, ``C3D15``, ``C3D10``, 8-node shells a
 elements) can give a singular mass matrix (reduced integration) or one with zero or negative
 diagonal entries (row-sum lumping of serendipity elements): the readers then warn instead of
 refusing the file, and :func:`check_mass` estimates the smallest eigenvalue of ``M``.
+
+Every reader's mass is also compared across directions (:func:`check_mass_directions`): a
+continuum's mass holds each value three times, once for ``x``, ``y`` and ``z``, so a value changed in
+one of them is named.
 """
 
 from __future__ import annotations
@@ -11,8 +15,11 @@ from __future__ import annotations
 import warnings
 
 import numpy as np
+import scipy.sparse as sp
 
-__all__ = ["QUADRATIC_TYPES", "check_mass", "direction_blocks"]
+from ..errors import FlexmorWarning
+
+__all__ = ["QUADRATIC_TYPES", "check_mass", "check_mass_directions", "direction_blocks", "direction_mismatches"]
 
 #: Element types whose mass matrix may legitimately be singular or indefinite (quadratic
 #: serendipity / reduced-integration / row-sum-lumped): such decks get warnings, not errors.
@@ -31,7 +38,6 @@ def check_mass(model, where, *, max_dof: int = 500_000, iterations: int = 12) ->
     and a block of one direction, a third of the equations, factorizes at a small part of the cost.
     Skipped (None) above ``max_dof`` equations.
     """
-    from ..errors import FlexmorWarning
     from ..model import SINGULAR_MASS_NOTE
 
     M = model.M
@@ -83,8 +89,6 @@ def direction_blocks(M, dofs) -> list:
     blocks are the same matrix on the same nodes (a solid's mass: ``x``, ``y`` and ``z`` alike).
     Otherwise (or without ``dofs``) ``[M]``.
     """
-    import scipy.sparse as sp
-
     if dofs is None or len(dofs) != M.shape[0]:
         return [M]
     coo = M.tocoo()
@@ -108,3 +112,112 @@ def direction_blocks(M, dofs) -> list:
 def _same(A, B) -> bool:
     return (A.shape == B.shape and np.array_equal(A.indptr, B.indptr) and np.array_equal(A.indices, B.indices)
             and np.array_equal(A.data, B.data))
+
+
+#: Relative difference below which the x, y and z entries of one pair of nodes count as the same value.
+DIRECTION_RTOL = 1e-9
+
+#: Share of node pairs whose x, y and z entries may differ for the rest to count as one isotropic mass.
+DIRECTION_ODD_SHARE = 1e-2
+
+
+def direction_mismatches(M, dofs) -> list[tuple[int, int, float, float]] | None:
+    """Entries of a mass whose x, y and z values for one pair of nodes differ, as ``(i, j, M_ij, usual)``.
+
+    A continuum's mass (consistent or lumped) and an isotropic point mass hold the same value for
+    ``u_x``, ``u_y`` and ``u_z`` of every pair of nodes and couple no two translations: every value is
+    written three times, so a value changed in one direction (a digit, an exponent) stands out
+    against the other two. ``usual`` is the value the other directions hold (the most common one;
+    0 where the entry is missing in this direction). Pairs are compared where both nodes have the
+    direction; an entry coupling two translations is odd too (``usual`` 0). None when more than
+    :data:`DIRECTION_ODD_SHARE` of the entries couple two translations or of the pairs differ (not an
+    isotropic mass: beams' and shells' rotations are not compared, nodes in local frames couple
+    translations). The entries listed are the odd ones out, upper triangle.
+    """
+    if dofs is None or len(dofs) != M.shape[0]:
+        return None
+    d = np.asarray(dofs)[:, 1]
+    trans = (d >= 1) & (d <= 3)
+    coo = M.tocoo()
+    keep = trans[coo.row] & trans[coo.col] & (coo.data != 0)
+    r, c, v = coo.row[keep], coo.col[keep], coo.data[keep]
+    across = d[r] != d[c]
+    if r.size == 0 or np.count_nonzero(across) > DIRECTION_ODD_SHARE * r.size:
+        return None
+    if not across.any() and _alike(M, dofs, trans):
+        return []
+    upper = r <= c
+    out = [(int(i), int(j), float(x), 0.0) for i, j, x in zip(r[upper & across], c[upper & across], v[upper & across])]
+    r, c, v = r[upper & ~across], c[upper & ~across], v[upper & ~across]
+    nodes, node = np.unique(np.asarray(dofs)[:, 0], return_inverse=True)
+    has = np.zeros((nodes.size, 3), dtype=bool)
+    has[node[trans], d[trans] - 1] = True
+    key = node[r].astype(np.int64) * nodes.size + node[c]
+    order = np.lexsort((v, key))
+    key, r, c, v = key[order], r[order], c[order], v[order]
+    start = np.flatnonzero(np.r_[True, key[1:] != key[:-1]])
+    count = np.diff(np.r_[start, key.size])
+    expected = (has[node[r[start]]] & has[node[c[start]]]).sum(axis=1)
+    scale = np.maximum.reduceat(np.abs(v), start)
+    spread = np.maximum.reduceat(v, start) - np.minimum.reduceat(v, start)
+    odd = (count != expected) | (spread > DIRECTION_RTOL * scale)
+    if np.count_nonzero(expected >= 2) == 0:
+        return out
+    if np.count_nonzero(odd) > DIRECTION_ODD_SHARE * np.count_nonzero(expected >= 2):
+        return None
+    for g in np.flatnonzero(odd):
+        lo, hi = start[g], start[g] + count[g]
+        vals = v[lo:hi]
+        same = np.abs(vals[:, None] - vals[None, :]) <= DIRECTION_RTOL * scale[g]
+        votes = same.sum(axis=1)
+        if count[g] < expected[g] and votes.max() == 1:  # present in fewer directions, and they disagree:
+            usual = 0.0  # the missing one(s) may be the damage; name the first given
+        else:
+            usual = float(vals[int(np.argmax(votes))])
+        if count[g] < expected[g] and votes.max() == count[g]:  # the given ones agree: the entry lost
+            missing = sorted(set(np.flatnonzero(has[node[r[lo]]] & has[node[c[lo]]]) + 1) - set(d[r[lo:hi]]))
+            i = _equation(dofs, nodes[node[r[lo]]], missing[0])
+            j = _equation(dofs, nodes[node[c[lo]]], missing[0])
+            out.append((i, j, 0.0, usual))
+            continue
+        for k in range(lo, hi):
+            if abs(v[k] - usual) > DIRECTION_RTOL * scale[g]:
+                out.append((int(r[k]), int(c[k]), float(v[k]), usual))
+    return out
+
+
+def _alike(M, dofs, trans) -> bool:
+    """Whether the x, y and z blocks of ``M`` are one matrix on the same nodes (a sound solid's mass: no sort)."""
+    d = np.asarray(dofs)[:, 1]
+    blocks = []
+    for code in (1, 2, 3):
+        idx = np.flatnonzero(d == code)
+        B = sp.csr_matrix(M[idx][:, idx])
+        B.eliminate_zeros()
+        B.sort_indices()
+        blocks.append((np.asarray(dofs)[idx, 0], B))
+    (n0, B0), rest = blocks[0], blocks[1:]
+    return all(np.array_equal(n, n0) and _same(B, B0) for n, B in rest)
+
+
+def _equation(dofs, node, direction) -> int:
+    return int(np.flatnonzero((np.asarray(dofs)[:, 0] == node) & (np.asarray(dofs)[:, 1] == direction))[0])
+
+
+def check_mass_directions(model) -> None:
+    """Warn (``FlexmorWarning`` naming ``model.source``) where the x, y and z values of the mass of one pair of
+    nodes differ in a mass that is otherwise the same in every direction (:func:`direction_mismatches`)."""
+    found = direction_mismatches(model.M, model.dofs)
+    if not found:
+        return
+    i, j, v, usual = found[0]
+    more = f" (and {len(found) - 1} more)" if len(found) > 1 else ""
+    entry = f"entry ({i + 1}, {j + 1}) = {v:.6g} ({model.describe_dof(i)}, {model.describe_dof(j)})"
+    if model.dofs[i, 1] != model.dofs[j, 1]:
+        what = (f"couples no two directions of motion except at {entry}{more}: a changed value (a digit, or an "
+                "explicit zero turned into a number)")
+    else:
+        what = (f"holds the same value for x, y and z of each pair of nodes except at {entry}, where the other "
+                f"directions hold {usual:.6g}{more}: a changed value (a digit or an exponent), or a point mass that "
+                "differs by direction")
+    warnings.warn(FlexmorWarning(f"{model.source or model.name}: the mass matrix {what}"), stacklevel=3)

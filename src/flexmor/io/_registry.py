@@ -30,6 +30,7 @@ from pathlib import Path
 from ..errors import OptionError, ReadError, did_you_mean
 from ..units import to_si, unit_system
 from ._geometry import check_cells, check_stiffness_geometry
+from ._mass import check_mass_directions
 from ._minors import check_minors
 from ._open import is_gzip, plain_name
 
@@ -289,6 +290,7 @@ def read(path, format: str | None = None, *, units: str | None = None, **options
         unit_system(units)  # an unknown name before the file is read
     model = fmt.function(path, **options)
     check_minors(model)
+    check_mass_directions(model)
     check_stiffness_geometry(model)
     check_cells(model)
     return to_si(model, units)
