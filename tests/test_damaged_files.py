@@ -665,6 +665,25 @@ def test_a_moved_node_without_equations_that_inverts_a_cell_is_named(tmp_path):
     assert not [w for w in caught if "node coordinates disagree" in str(w.message)]  # node 1 has no equations
 
 
+
+@pytest.mark.parametrize("new, named", [(b"\n1, -1, 0, 0\n", True),       # ten element lengths out: nearly flat
+                                        (b"\n1, -0.01, 0, 0\n", False),   # a tenth of an element length: a sound cell
+                                        (b"\n1, 0, 0.05, 0\n", False)])   # onto node 12: a collapsed corner
+def test_a_moved_node_without_equations_that_flattens_a_cell_is_named(tmp_path, new, named):
+    """Node 1 (clamped face, no equations) moved without turning its cell inside out: a corner angle below half
+    a degree is named; a cell moved a little, or collapsed onto a neighbour (a zero edge), is not."""
+    sti = _job(tmp_path, CCX / "beam8_clamped_mat")
+    inp = tmp_path / "job.inp"
+    inp.write_bytes(inp.read_bytes().replace(b"\n1, 0, 0, 0\n", new))
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        flexmor.io.read(sti)
+    said = [str(w.message) for w in caught if "nearly flat" in str(w.message) or "inside out" in str(w.message)]
+    if named:
+        assert len(said) == 1 and "1 element(s) nearly flat at a corner" in said[0] and "at node 1:" in said[0]
+    else:
+        assert said == []
+
 def test_a_mesh_in_the_other_orientation_is_not_named():
     """Every cell left-handed (corner order mirrored) is a convention, not a moved node."""
     import dataclasses

@@ -83,6 +83,9 @@ def test_a_changed_value_is_named_beside_the_mapping_warning(tmp_path):
     (55004, "warned", "stiffness entry (161, 189) = 5280448.718"),  # Ansys text: a digit of a stiffness value
     (63540, "warned", "stiffness entry (236, 268) = -841346053.8"),  # CalculiX .sti
     (8065, "warned", "stiffness entry (59, 176) = "),  # gzip .sti
+    (43321, "warned", "stiffness entry (259, 260) = 70 (equation 259 (node 96, x), equation 260 (node 96, y))"),
+    (67280, "refused", "character '_' in '231 185 -6.02964743_897478E+06'"),  # float() takes it: a digit dropped
+    (31201, "warned", "1 element(s) nearly flat at a corner"),  # node 1 (no equations) moved to x = -1
 ])
 def test_silent_cases_of_the_100k_run_are_named(seed, cls, expect, tmp_path):
     """Cases that read another model without a word before the stiffness-coordinate, 2 x 2 minor, SID

@@ -49,8 +49,8 @@ from ..rigid import rigid_motions
 from ._sparse import row_blocks
 
 __all__ = ["geometry_residual", "geometry_check", "changed_entries", "describe_geometry_check",
-           "check_stiffness_geometry", "inverted_cells", "check_cells", "GEOMETRY_FLOOR", "GEOMETRY_FACTOR",
-           "GEOMETRY_GLOBAL", "TRANSLATION_ROUNDING"]
+           "check_stiffness_geometry", "inverted_cells", "check_cells", "FLAT_CELL", "GEOMETRY_FLOOR",
+           "GEOMETRY_FACTOR", "GEOMETRY_GLOBAL", "TRANSLATION_ROUNDING"]
 
 #: Ratio |r_i| / s_i below which an equation follows a rigid rotation whatever the model's rounding.
 GEOMETRY_FLOOR = 1e-9
@@ -204,8 +204,9 @@ def changed_entries(K, dofs, T, S, known, threshold: float) -> list[tuple[int, i
     exactly ``δ``: that of equation ``i`` in the direction of ``j`` and that of equation ``j`` in the
     direction of ``i``. Beside a support or a spring to ground an equation's sums do not vanish either,
     but there they rarely do so in one direction of one equation of a node alone, and never pair up so:
-    an entry is named when equations ``i`` and ``j`` are the only ones of their nodes whose sum exceeds
-    ``threshold`` of its scale ``S``, each in the direction of the other, by the same amount (to 1e-6),
+    an entry is named when equations ``i`` and ``j`` are the only ones of their nodes (or of their one
+    node) whose sum exceeds ``threshold`` of its scale ``S``, each in the direction of the other, by the
+    same amount (to 1e-6),
     and no other such lone equation has that amount (a row of equal springs to ground, or of nodes
     beside a support of one direction in a regular mesh, gives many). A changed diagonal entry looks
     like a spring to ground and is not named.
@@ -218,10 +219,12 @@ def changed_entries(K, dofs, T, S, known, threshold: float) -> list[tuple[int, i
     node = np.asarray(dofs[:, 0])
     d = np.asarray(dofs[:, 1], dtype=np.int64)
     nodes, count = np.unique(node[rows], return_counts=True)
-    alone = count[np.searchsorted(nodes, node[rows])] == 1
-    lone = rows[alone & (hot[rows].sum(axis=1) == 1)]  # the only equation of its node off, in one direction
+    per_node = count[np.searchsorted(nodes, node[rows])]
+    # equations off in one direction, the only one of their node or one of two (an entry within a node)
+    lone = rows[(per_node <= 2) & (hot[rows].sum(axis=1) == 1)]
     if lone.size < 2:
         return []
+    per_node = dict(zip(nodes.tolist(), count.tolist()))
     a = np.argmax(hot[lone], axis=1) + 1  # the direction of each lone equation's sum
     t = T[lone, a - 1]
     order = np.argsort(t, kind="stable")
@@ -233,7 +236,8 @@ def changed_entries(K, dofs, T, S, known, threshold: float) -> list[tuple[int, i
         if (k > 0 and close[k - 1]) or (k + 1 < close.size and close[k + 1]):
             continue  # three or more alike: springs or a support, not one value
         i, j = int(lone[k]), int(lone[k + 1])
-        if d[j] == a[k] and a[k + 1] == d[i] and j in K.indices[K.indptr[i]:K.indptr[i + 1]]:
+        alone = per_node[node[i]] == per_node[node[j]] == (2 if node[i] == node[j] else 1)
+        if alone and d[j] == a[k] and a[k + 1] == d[i] and j in K.indices[K.indptr[i]:K.indptr[i + 1]]:
             i, j = min(i, j), max(i, j)
             out.append((i, j, float(K[i, j]), float(t[k])))
     return out
@@ -307,11 +311,18 @@ _CORNERS["hexahedron20"] = _CORNERS["hexahedron27"] = _CORNERS["hexahedron"]
 _CORNERS["tetra10"] = _CORNERS["tetra"]
 
 
-def inverted_cells(model) -> tuple[np.ndarray, np.ndarray]:
+#: Scaled corner Jacobian ``det[e1, e2, e3] / (|e1| |e2| |e3|)`` below which a cell counts as nearly flat there
+#: (a corner angle below about half a degree; 1 for a right-angled corner, 0.14 or more in the shared meshes).
+FLAT_CELL = 1e-2
+
+
+def inverted_cells(model, below: float = -1e-8) -> tuple[np.ndarray, np.ndarray]:
     """``(cell nodes, corner node)`` of the hexahedra and tetrahedra of ``model.mesh`` turned inside out at a
-    corner (the corner's edge triple left-handed beyond rounding, ``det < -1e-8 |e1| |e2| |e3|``): the first
-    of each such cell. Other cell types are not checked, nor a block whose cells are mostly left-handed
-    (a mesh written in the other orientation: damage turns a few cells, not most)."""
+    corner (the corner's edge triple left-handed beyond rounding, ``det < -1e-8 |e1| |e2| |e3|``; another
+    ``below`` than -1e-8: nearly flat there, e.g. :data:`FLAT_CELL`): the first of each such cell. Other cell
+    types are not checked, nor a block whose cells are mostly left-handed (a mesh written in the other
+    orientation: damage turns a few cells, not most), nor a corner with an edge of length 0 (a collapsed
+    hexahedron)."""
     mesh = getattr(model, "mesh", None)
     cells, corners = [], []
     if mesh is None or not model.node_ids.size:
@@ -323,16 +334,20 @@ def inverted_cells(model) -> tuple[np.ndarray, np.ndarray]:
         x = model.node_xyz(block.nodes[:, :8 if block.type.startswith("hexa") else 4].ravel()).reshape(
             len(block.nodes), -1, 3)
         bad = np.zeros(len(block.nodes), dtype=bool)
+        inside_out = np.zeros(len(block.nodes), dtype=bool)
         first = np.zeros(len(block.nodes), dtype=np.int64)
         for c, a, b, t in triples:
             e1, e2, e3 = x[:, a] - x[:, c], x[:, b] - x[:, c], x[:, t] - x[:, c]
             det = np.einsum("ij,ij->i", np.cross(e1, e2), e3)
             scale = np.linalg.norm(e1, axis=1) * np.linalg.norm(e2, axis=1) * np.linalg.norm(e3, axis=1)
-            here = (det < -1e-8 * scale) & ~bad
+            here = (det < below * scale) & (scale > 0) & ~bad
             first[here] = block.nodes[here, c]
             bad |= here
-        if 2 * bad.sum() > len(bad):  # most of a block: the other orientation convention, not a damaged node
+            inside_out |= (det < -1e-8 * scale) & (scale > 0)
+        if 2 * inside_out.sum() > len(bad):  # most of a block: the other orientation convention, not damage
             continue
+        if below > 0:  # nearly flat, not inside out (that is the other warning's)
+            bad &= ~inside_out
         cells += list(block.nodes[bad])
         corners += list(first[bad])
     if not cells:
@@ -349,9 +364,10 @@ def check_cells(model, where: str = "") -> list[int]:
     cannot check) or the nodes of another mesh. Returns the corner nodes named (empty: none, or no
     such cells).
     """
+    named = _flat_cells(model, where)
     cells, corners = inverted_cells(model)
     if not len(corners):
-        return []
+        return named
     nodes = list(dict.fromkeys(int(k) for k in corners))
     first = ", ".join(str(int(k)) for k in cells[0][:8])
     warnings.warn(FlexmorWarning(
@@ -359,4 +375,18 @@ def check_cells(model, where: str = "") -> list[int]:
         f"coordinates (the first with corner nodes {first}, inverted at node {nodes[0]}): FE programs refuse an "
         "inverted element (or flag a corner this distorted), so a node coordinate was probably changed or the "
         "nodes belong to another mesh; the mesh shown and node sets use these coordinates"), stacklevel=3)
-    return nodes
+    return named + nodes
+
+
+def _flat_cells(model, where: str) -> list[int]:
+    cells, corners = inverted_cells(model, below=FLAT_CELL)
+    if not len(corners):
+        return []
+    first = ", ".join(str(int(k)) for k in cells[0][:8])
+    warnings.warn(FlexmorWarning(
+        f"{where or model.source or model.name}: {len(cells)} element(s) nearly flat at a corner (the first with "
+        f"corner nodes {first}, at node {int(corners[0])}: an angle there below about half a degree, scaled "
+        f"Jacobian < {FLAT_CELL:g}): a node coordinate changed (also one of a node without equations, which the "
+        "stiffness cannot check), or a degenerate element of the mesh; the mesh shown and node sets use these "
+        "coordinates"), stacklevel=4)
+    return list(dict.fromkeys(int(k) for k in corners))

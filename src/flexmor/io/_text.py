@@ -22,10 +22,11 @@ from ._open import open_binary, read_all, size_hint
 __all__ = ["FOREIGN", "check_text", "entry_line", "parse_triplets", "read_bytes", "read_text", "split_lines", "both"]
 
 _COMMENT_CHARS = "#%*!"
-#: A character a data line of numbers never holds: control characters other than tab and line ends, and
+#: A character a data line of numbers never holds: control characters other than tab and line ends,
 #: anything beyond ASCII (Python's ``split`` and ``float`` take e.g. U+001C or a no-break space for a blank,
-#: so a changed byte could turn ``3.2e+01`` into the number ``.2e+01`` without a word).
-FOREIGN = re.compile(r"[^\t\n\r\x20-\x7e]")
+#: so a changed byte could turn ``3.2e+01`` into the number ``.2e+01`` without a word), and the underscore
+#: (``float`` and NumPy take ``-6.02964743_897478E+06`` for the number with that digit dropped).
+FOREIGN = re.compile(r"[^\t\n\r\x20-\x5e\x60-\x7e]")
 _COMMENT_BYTES = (b"#", b"%", b"*", b"!")
 _BLOCK = 50_000  # lines per block of the diagnosing scanner
 _CHUNK = 1 << 21  # bytes per chunk of the fast parser
