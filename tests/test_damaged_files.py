@@ -697,3 +697,18 @@ def test_a_mesh_in_the_other_orientation_is_not_named():
     one = block.nodes.copy()
     one[0] = one[0, [0, 3, 2, 1, 4, 7, 6, 5]]
     assert len(inverted_cells(dataclasses.replace(model, mesh=Mesh([CellBlock(block.type, one)])))[1]) == 1
+
+
+def test_the_masses_of_beam_nodes_are_not_compared_across_directions():
+    """A beam's consistent mass differs between its axial and transverse directions: nodes with rotational DOF
+    are left out, so a solid with a beam element's node is not named; as a node without rotations it is."""
+    import scipy.sparse as sp
+
+    from flexmor.io._mass import direction_mismatches
+    solid = flexmor.io.read(CCX / "beam8_clamped_mat.sti")
+    node = np.column_stack([np.full(3, 999), [1, 2, 3]])
+    rot = np.column_stack([np.full(3, 999), [4, 5, 6]])  # a node with rotations whose x mass differs from y, z
+    M = sp.block_diag([solid.M, sp.diags([1.0, 2.0, 2.0, 0.1, 0.1, 0.1])]).tocsr()
+    assert direction_mismatches(M, np.vstack([solid.dofs, node, rot])) == []
+    M3 = sp.block_diag([solid.M, sp.diags([1.0, 2.0, 2.0])]).tocsr()
+    assert [f[0] for f in direction_mismatches(M3, np.vstack([solid.dofs, node]))] == [solid.n_dof]

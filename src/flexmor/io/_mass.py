@@ -129,7 +129,8 @@ def direction_mismatches(M, dofs) -> list[tuple[int, int, float, float]] | None:
     written three times, so a value changed in one direction (a digit, an exponent) stands out
     against the other two. ``usual`` is the value the other directions hold (the most common one;
     0 where the entry is missing in this direction). Pairs are compared where both nodes have the
-    direction; an entry coupling two translations is odd too (``usual`` 0). None when more than
+    direction and neither has rotational DOF (a beam's consistent axial and transverse masses differ); an
+    entry coupling two translations is odd too (``usual`` 0). None when more than
     :data:`DIRECTION_ODD_SHARE` of the entries couple two translations or of the pairs differ (not an
     isotropic mass: beams' and shells' rotations are not compared, nodes in local frames couple
     translations). The entries listed are the odd ones out, upper triangle.
@@ -138,6 +139,8 @@ def direction_mismatches(M, dofs) -> list[tuple[int, int, float, float]] | None:
         return None
     d = np.asarray(dofs)[:, 1]
     trans = (d >= 1) & (d <= 3)
+    rotating = np.isin(np.asarray(dofs)[:, 0], np.asarray(dofs)[d >= 4, 0])
+    trans &= ~rotating  # a beam's axial and transverse masses differ: nodes with rotations are not compared
     coo = M.tocoo()
     keep = trans[coo.row] & trans[coo.col] & (coo.data != 0)
     r, c, v = coo.row[keep], coo.col[keep], coo.data[keep]
@@ -187,11 +190,12 @@ def direction_mismatches(M, dofs) -> list[tuple[int, int, float, float]] | None:
 
 
 def _alike(M, dofs, trans) -> bool:
-    """Whether the x, y and z blocks of ``M`` are one matrix on the same nodes (a sound solid's mass: no sort)."""
+    """Whether the x, y and z blocks of ``M`` over the equations ``trans`` are one matrix on the same nodes (a
+    sound solid's mass: no sort)."""
     d = np.asarray(dofs)[:, 1]
     blocks = []
     for code in (1, 2, 3):
-        idx = np.flatnonzero(d == code)
+        idx = np.flatnonzero(trans & (d == code))
         B = sp.csr_matrix(M[idx][:, idx])
         B.eliminate_zeros()
         B.sort_indices()

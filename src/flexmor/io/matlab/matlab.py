@@ -30,6 +30,7 @@ from ...model import FEModel
 from .._build import build_model
 from .._open import is_gzip, read_all, stem
 from .._registry import MODEL_FORMATS
+from .._unchecked import warn_unchecked
 from ._mat5 import checked_v5_stream
 
 __all__ = ["read_matlab"]
@@ -117,12 +118,16 @@ def read_matlab(path) -> FEModel:
         raise ReadError(path, f"B is {B.shape[0]} x {B.shape[1]}; expected n x m with n = {n} (transposed?)")
     if C is not None and C.shape[1] != n and C.shape[0] == n:
         raise ReadError(path, f"C is {C.shape[0]} x {C.shape[1]}; expected p x n with n = {n} (transposed?)")
-    return build_model(
+    model = build_model(
         path,
         M=M, K=K, D=D, B=B, C=C,
         damping={"type": "given"} if D is not None else {"type": "none"},
         name=stem(path), source=str(path),
     )
+    warn_unchecked(path, "a MAT-file holds no count of its variables and no node coordinates, so a file cut after "
+                         "a whole variable (D, B or C lost) could not be told from one written without it, and a "
+                         "value has no copy to be cross-checked with (compressed variables carry a checksum)")
+    return model
 
 
 MODEL_FORMATS.register("matlab", [".mat"], read_matlab, gzip=True,

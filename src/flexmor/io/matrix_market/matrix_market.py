@@ -36,6 +36,7 @@ from .._open import is_gzip, open_binary, plain_name, size_hint, stem, suffix
 from .._registry import MODEL_FORMATS
 from .._sparse import assemble
 from .._text import entry_line, parse_triplets
+from .._unchecked import warn_unchecked
 
 __all__ = ["read_matrix_market", "find_siblings"]
 
@@ -314,13 +315,16 @@ def read_matrix_market(path) -> FEModel:
     mats = {role: _read_one(p, role) for role, p in files.items()}
     _, head, tail = _role_of(stem(files["K"]))[0]
     base = (head.rstrip("_-. ") + tail) or files["K"].parent.name or "model"
-    return build_model(
+    model = build_model(
         path,
         roles=files,
         M=mats["M"], K=mats["K"], D=mats.get("D"),
         damping={"type": "given"} if "D" in mats else {"type": "none"},
         name=base, source=str(path),
     )
+    warn_unchecked(path, "Matrix Market files hold each entry once and no node coordinates, so a value changed "
+                         "within its bounds or an entry moved to a free position could not be cross-checked")
+    return model
 
 
 MODEL_FORMATS.register("matrix-market", [".mtx", ".mm"], read_matrix_market, gzip=True,
