@@ -379,7 +379,7 @@ def run_case(seed: int, folder: Path, targets=None, mutations=MUTATIONS):
         return "warned", f"{what}: {sorted(new)[0][:160]}"
     if same_model(got, ref):
         return "equal", what
-    mine = sorted(m for m in unchecked if m.startswith(victim.name + ":"))
+    mine = sorted(m for m in unchecked if victim.name in m.split(": ")[0].split(", "))
     if mine:  # the damaged file is one whose reader said what it could not cross-check
         return "warned-unverifiable", f"{what}: {mine[0][:160]}"
     return "silent-different", what

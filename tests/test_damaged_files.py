@@ -340,6 +340,23 @@ def test_op4_read_says_once_what_it_could_not_check(tmp_path):
                                   "matrix lost from the end of the file) could not be cross-checked"]
 
 
+
+def test_files_without_node_coordinates_say_what_they_could_not_check(tmp_path):
+    """A Matrix Market pair names both of its files; a MAT-file names what its format has no count of."""
+    import scipy.io
+
+    model = flexmor.io.read(CCX / "beam8_clamped_mat.sti")
+    scipy.io.mmwrite(tmp_path / "beam_K.mtx", model.K, symmetry="symmetric")
+    scipy.io.mmwrite(tmp_path / "beam_M.mtx", model.M, symmetry="symmetric")
+    for path, expect in ((DATA / "mor" / "LF10.mat", "LF10.mat: a MAT-file holds no count of its variables"),
+                         (tmp_path / "beam_K.mtx", "beam_K.mtx, beam_M.mtx: Matrix Market files hold each "
+                                                   "entry once and no node coordinates")):
+        with warnings.catch_warnings(record=True) as record:
+            warnings.simplefilter("always")
+            flexmor.io.read(path)
+        said = _unchecked(record)
+        assert len(said) == 1 and said[0].startswith(expect), said
+
 def test_op4_warning_shown_once_by_the_command_line(beam, tmp_path, capsys):
     shutil.copy(beam / "beam.op4", tmp_path / "beam.op4")
     code, _, err = run(capsys, "info", str(tmp_path / "beam.op4"))

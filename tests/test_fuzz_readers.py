@@ -86,6 +86,9 @@ def test_a_changed_value_is_named_beside_the_mapping_warning(tmp_path):
     (43321, "warned", "stiffness entry (259, 260) = 70 (equation 259 (node 96, x), equation 260 (node 96, y))"),
     (67280, "refused", "character '_' in '231 185 -6.02964743_897478E+06'"),  # float() takes it: a digit dropped
     (31201, "warned", "1 element(s) nearly flat at a corner"),  # node 1 (no equations) moved to x = -1
+    (15663, "warned-unverifiable", "mm_nan_K.mtx, mm_nan_M.mtx: Matrix Market files hold each entry once"),
+    (65751, "warned-unverifiable", "mm_nan_K.mtx, mm_nan_M.mtx: Matrix Market"),  # the M file's size line as entry
+    (99983, "warned-unverifiable", "LF10.mat: a MAT-file holds no count of its variables"),  # cut after K: D lost
 ])
 def test_silent_cases_of_the_100k_run_are_named(seed, cls, expect, tmp_path):
     """Cases that read another model without a word before the stiffness-coordinate, 2 x 2 minor, SID

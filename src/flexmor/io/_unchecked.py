@@ -26,5 +26,7 @@ class UncheckedWarning(FlexmorWarning):
 
 
 def warn_unchecked(path, what: str) -> None:
-    """Issue the :class:`UncheckedWarning` ``"<file name>: <what>"`` (once per read)."""
-    warnings.warn(UncheckedWarning(f"{Path(path).name}: {what}"), stacklevel=3)
+    """Issue the :class:`UncheckedWarning` ``"<file name>: <what>"`` (once per read); ``path`` may be a list of
+    the files of one set (``"<name>, <name>: <what>"``)."""
+    names = ", ".join(Path(p).name for p in path) if isinstance(path, (list, tuple)) else Path(path).name
+    warnings.warn(UncheckedWarning(f"{names}: {what}"), stacklevel=3)

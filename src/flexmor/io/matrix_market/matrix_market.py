@@ -322,8 +322,9 @@ def read_matrix_market(path) -> FEModel:
         damping={"type": "given"} if "D" in mats else {"type": "none"},
         name=base, source=str(path),
     )
-    warn_unchecked(path, "Matrix Market files hold each entry once and no node coordinates, so a value changed "
-                         "within its bounds or an entry moved to a free position could not be cross-checked")
+    warn_unchecked(list(files.values()), "Matrix Market files hold each entry once and no node coordinates, so a "
+                                         "value changed within its bounds or an entry moved to a free position "
+                                         "could not be cross-checked")
     return model
 
 
