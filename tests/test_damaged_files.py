@@ -558,6 +558,14 @@ def test_a_changed_stiffness_value_is_named_with_the_value_written(tmp_path, src
     assert f"(written as {written}?)" in named[0]
 
 
+def test_info_names_a_changed_stiffness_entry_on_its_checks_line(tmp_path, capsys):
+    sti = _job(tmp_path, CCX / "beam8_clamped_mat")
+    sti.write_bytes(sti.read_bytes().replace(b"\n236 268 -8.4134615384615e+08\n", b"\n236 268 -8.4134605384615e+08\n"))
+    code, out, err = run(capsys, "info", str(sti), "--modes", "0")
+    assert code == 0 and "stiffness entry (236, 268)" in err
+    line = next(ln for ln in out.splitlines() if ln.startswith("checks"))
+    assert "K entry (236, 268) changed? (see the warning); K vs node coordinates: a rigid rotation at" in line
+
 def test_springs_to_ground_alike_at_many_nodes_are_not_a_changed_value():
     """Equal springs to ground along a row of nodes: every grounded equation alone at its node, but many by
     the same amount, so none pairs up."""
