@@ -8,7 +8,11 @@ block classical Gram-Schmidt (full reorthogonalization, Grimes et al. 1994 use s
 reorthogonalization; full is affordable for the few hundred columns needed here), blocks are
 orthonormalized by an eigen-decomposition of their Gram matrix (rank-revealing, so a deflated
 Krylov space shrinks the block instead of producing noise). Eigenpairs are extracted by
-Rayleigh-Ritz on ``(K, M)`` and accepted by their true residual. When the basis grows beyond
+Rayleigh-Ritz on ``(K, M)`` and accepted by their true residual, formed once the wanted Ritz
+values have settled (moved by less than ``tol`` relative since the previous block: a Ritz value
+converges like the square of its vector's residual, so the products of ``k`` columns with ``K``
+and ``M`` are not made at every block). Only the basis is kept (its M-products are formed again
+per block by a sparse product). When the basis grows beyond
 its limit it is thick-restarted with the lowest Ritz vectors (Wu & Simon 2000) and the
 Krylov continuation block.
 """
@@ -28,17 +32,20 @@ __all__ = ["block_lanczos"]
 log = logging.getLogger(__name__)
 
 
-def _orthonormalize(W, MW, Q, MQ, m, drop_tol=1e-10):
+def _orthonormalize(W, MW, Q, m, M, drop_tol=1e-10):
     """M-orthogonalize the block ``W`` against ``Q[:, :m]`` (two passes) and within itself.
 
-    Returns the new columns and their M-products (possibly fewer columns than ``W``).
+    The M-inner products with the basis are ``Q^T (M W)``: ``M W`` is formed again after each
+    pass (a sparse product with the block) instead of keeping ``M Q`` beside ``Q``, which halves
+    the basis' memory and replaces a tall ``gemm`` by a sparse product. Returns the new columns
+    and their M-products (possibly fewer columns than ``W``).
     """
     norm0 = np.sqrt(np.maximum(np.einsum("ij,ij->j", W, MW), 0.0))
     for _ in range(2):
         if m:
-            C = MQ[:, :m].T @ W
+            C = Q[:, :m].T @ MW
             W = W - Q[:, :m] @ C
-            MW = MW - MQ[:, :m] @ C
+            MW = M @ W
         G = W.T @ MW
         G = 0.5 * (G + G.T)
         s, U = np.linalg.eigh(G)
@@ -51,6 +58,19 @@ def _orthonormalize(W, MW, Q, MQ, m, drop_tol=1e-10):
     return W, MW
 
 
+def _ritz_check(K, M, X, lam, scale, tol, res_old):
+    """``(R, done, lam, X, res)`` of the Ritz pairs ``(lam, X)``: true residuals ``R = K X - M X lam``, their
+    relative norms ``res`` and which pairs are converged (below ``tol``, or below ``0.01 sqrt(tol)`` and no
+    longer falling by half against ``res_old``: round-off puts a floor of about ``eps ||K|| ||x||`` under
+    ``||R||``)."""
+    MX = M @ X
+    R = K @ X - MX * lam
+    res = np.linalg.norm(R, axis=0) / ((np.abs(lam) + scale) * np.linalg.norm(MX, axis=0) + 1e-300)
+    stalled = res >= 0.5 * res_old if res_old is not None else np.zeros(lam.size, bool)
+    done = (res <= tol) | (stalled & (res <= np.sqrt(tol) * 1e-2))
+    return R, done, lam, X, res
+
+
 def _iterate(K, M, k, F, sigma, *, block=None, tol=1e-8, max_basis=None, max_restarts=50, seed=0):
     """The iteration of :func:`block_lanczos` (same parameters)."""
     n = K.shape[0]
@@ -59,7 +79,6 @@ def _iterate(K, M, k, F, sigma, *, block=None, tol=1e-8, max_basis=None, max_res
     cap = int(max_basis) if max_basis else max(5 * k, k + 14 * p)
     cap = min(max(cap, k + 2 * p), n)
     Q = np.empty((n, cap), order="F")  # column blocks contiguous for the BLAS products
-    MQ = np.empty((n, cap), order="F")
     H = np.zeros((cap, cap))  # Q^T K Q
     rng = np.random.default_rng(seed)
     W = F.solve(M @ rng.standard_normal((n, p)))  # one step of S smooths the random block
@@ -69,8 +88,9 @@ def _iterate(K, M, k, F, sigma, *, block=None, tol=1e-8, max_basis=None, max_res
     scale = abs(sigma)
     res_old = None
     last = None
+    theta_old = None
     while True:
-        W, MW = _orthonormalize(W, M @ W, Q, MQ, m)
+        W, MW = _orthonormalize(W, M @ W, Q, m, M)
         b = W.shape[1]
         if b == 0 or m + b > cap:
             if b == 0 and m < k:
@@ -83,15 +103,19 @@ def _iterate(K, M, k, F, sigma, *, block=None, tol=1e-8, max_basis=None, max_res
             restarts += 1
             if restarts > max_restarts:
                 n_done = int(last[1].sum()) if last is not None else 0
+                theta, Y = sla.eigh(H[:m, :m])  # the best Ritz pairs now (the last residual check may be older)
+                kk = min(k, m)
                 raise ConvergenceError(f"block Lanczos did not converge for {k} modes in {max_restarts} restarts "
-                                       f"({n_done} converged)", result=None if last is None else last[2:])
+                                       f"({n_done} converged)", result=(theta[:kk], Q[:, :m] @ Y[:, :kk]))
             keep = min(m - p, max(k + p, m // 2)) if m > k + p else m
             theta, Y = sla.eigh(H[:m, :m])
+            if last is None or last[-1] != m:  # the residuals of the Ritz pairs now, for the continuation
+                last = _ritz_check(K, M, Q[:, :m] @ Y[:, :k], theta[:k], scale, tol, None) + (m,)
             Y = Y[:, :keep]
             Q[:, :keep] = Q[:, :m] @ Y
-            MQ[:, :keep] = MQ[:, :m] @ Y
             H[:keep, :keep] = np.diag(theta[:keep])
             m = keep
+            theta_old = None
             if last is not None:
                 R, done = last[:2]
                 idx = np.flatnonzero(~done)[:p]
@@ -104,24 +128,24 @@ def _iterate(K, M, k, F, sigma, *, block=None, tol=1e-8, max_basis=None, max_res
             continue
         KW = K @ W
         Q[:, m:m + b] = W
-        MQ[:, m:m + b] = MW
         H[:m + b, m:m + b] = Q[:, :m + b].T @ KW
         H[m:m + b, :m] = H[:m, m:m + b].T
         m += b
         if m >= min(k + p, n):
             theta, Y = sla.eigh(H[:m, :m])
-            X = Q[:, :m] @ Y[:, :k]
-            MX = MQ[:, :m] @ Y[:, :k]
-            KX = K @ X
+            # the Ritz values settle (to about the square of the residual) before the Ritz vectors do:
+            # the true residuals, k columns of products with K and M, are formed once they have
+            moved = np.inf if theta_old is None else float(
+                np.max(np.abs(theta[:k] - theta_old) / (np.abs(theta[:k]) + scale)))
+            theta_old = theta[:k].copy()
+            if moved > tol and m < n:
+                W = F.solve(MW)
+                solves += 1
+                continue
             lam = theta[:k]
-            R = KX - MX * lam
-            res = np.linalg.norm(R, axis=0) / ((np.abs(lam) + scale) * np.linalg.norm(MX, axis=0) + 1e-300)
-            # round-off puts a floor of about eps ||K|| ||x|| under ||R||: accept a pair below
-            # 0.01 sqrt(tol) once its residual has stopped decreasing
-            stalled = res >= 0.5 * res_old if res_old is not None else np.zeros(k, bool)
+            last = _ritz_check(K, M, Q[:, :m] @ Y[:, :k], lam, scale, tol, res_old) + (m,)
+            R, done, _, X, res, _ = last  # X is a new array: a restart overwriting Q leaves it intact
             res_old = res
-            done = (res <= tol) | (stalled & (res <= np.sqrt(tol) * 1e-2))
-            last = (R, done, lam, X)  # X is a new array: a restart overwriting Q leaves it intact
             log.debug("block Lanczos: %d columns, %d solves, max residual %.1e", m, solves, res.max())
             if done.all() or m == n:
                 log.info("block Lanczos: %d modes from %d block solves of %d, %d columns, %d restarts",
