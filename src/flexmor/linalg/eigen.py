@@ -93,8 +93,8 @@ def eigenmodes(K, M, k: int, *, sigma: float | None = None, solver: SolverContex
         in shift-invert mode (one single-vector solve per step); ``dense``: LAPACK on dense
         copies. ``auto``: dense up to :data:`DENSE_LIMIT` DOF or ``k >= n/2``, else lanczos
         up to :data:`~flexmor.linalg.context.LANCZOS_MAX_K` modes and arpack above (measured
-        in ``bench/eigen.py``: at 94,500 DOF lanczos is 1.2x faster for k = 20, arpack 1.15x
-        faster for k = 50).
+        in ``bench/eigen.py``: at 94,500 DOF lanczos is 1.57x faster for k = 20 and 1.56x for
+        k = 50; at 36,300 DOF 1.2-1.6x for k = 60-150).
     block : int, optional
         Block size of ``lanczos`` (default: the policy's, else ``min(max(6, k // 4), 16)``).
     keep : bool
