@@ -58,6 +58,11 @@ def _orthonormalize(W, MW, Q, m, M, drop_tol=1e-10):
     return W, MW
 
 
+#: Ritz values that moved by less than this (or ``tol`` if larger) since the previous block have settled
+#: above the rounding (~1e-12 relative) with which they come out of ``eigh`` of the projected matrix.
+SETTLED = 1e-9
+
+
 def _ritz_check(K, M, X, lam, scale, tol, res_old):
     """``(R, done, lam, X, res)`` of the Ritz pairs ``(lam, X)``: true residuals ``R = K X - M X lam``, their
     relative norms ``res`` and which pairs are converged (below ``tol``, or below ``0.01 sqrt(tol)`` and no
@@ -138,7 +143,7 @@ def _iterate(K, M, k, F, sigma, *, block=None, tol=1e-8, max_basis=None, max_res
             moved = np.inf if theta_old is None else float(
                 np.max(np.abs(theta[:k] - theta_old) / (np.abs(theta[:k]) + scale)))
             theta_old = theta[:k].copy()
-            if moved > tol and m < n:
+            if moved > max(tol, SETTLED) and m < n:
                 W = F.solve(MW)
                 solves += 1
                 continue
