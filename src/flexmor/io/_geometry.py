@@ -49,7 +49,7 @@ from ..rigid import rigid_motions
 from ._sparse import row_blocks
 
 __all__ = ["geometry_residual", "geometry_check", "changed_entries", "describe_geometry_check",
-           "check_stiffness_geometry", "inverted_cells", "check_cells", "FLAT_CELL", "GEOMETRY_FLOOR",
+           "check_stiffness_geometry", "cell_corners", "inverted_cells", "check_cells", "FLAT_CELL", "GEOMETRY_FLOOR",
            "GEOMETRY_FACTOR", "GEOMETRY_GLOBAL", "TRANSLATION_ROUNDING"]
 
 #: Ratio |r_i| / s_i below which an equation follows a rigid rotation whatever the model's rounding.
@@ -316,77 +316,81 @@ _CORNERS["tetra10"] = _CORNERS["tetra"]
 FLAT_CELL = 1e-2
 
 
-def inverted_cells(model, below: float = -1e-8) -> tuple[np.ndarray, np.ndarray]:
-    """``(cell nodes, corner node)`` of the hexahedra and tetrahedra of ``model.mesh`` turned inside out at a
-    corner (the corner's edge triple left-handed beyond rounding, ``det < -1e-8 |e1| |e2| |e3|``; another
-    ``below`` than -1e-8: nearly flat there, e.g. :data:`FLAT_CELL`): the first of each such cell. Other cell
-    types are not checked, nor a block whose cells are mostly left-handed (a mesh written in the other
-    orientation: damage turns a few cells, not most), nor a corner with an edge of length 0 (a collapsed
-    hexahedron)."""
+def cell_corners(model) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
+    """Per block of hexahedra or tetrahedra of ``model.mesh``: ``(cell nodes, worst, corner node)``, per
+    cell its smallest scaled corner Jacobian ``det[e1, e2, e3] / (|e1| |e2| |e3|)`` over the corners' edge
+    triples (:data:`_CORNERS`; 1 at a right-angled corner, negative where the cell is inside out) and the
+    corner where it is. Other cell types are not checked, nor a block whose cells are mostly left-handed (a
+    mesh written in the other orientation: damage turns a few cells, not most), nor a corner with an edge of
+    length 0 (a collapsed hexahedron)."""
     mesh = getattr(model, "mesh", None)
-    cells, corners = [], []
-    if mesh is None or not model.node_ids.size:
-        return np.zeros((0, 0), np.int64), np.zeros(0, np.int64)
-    for block in mesh.blocks:
+    out = []
+    for block in (mesh.blocks if mesh is not None and model.node_ids.size else ()):
         triples = _CORNERS.get(block.type)
         if triples is None or not len(block.nodes):
             continue
         x = model.node_xyz(block.nodes[:, :8 if block.type.startswith("hexa") else 4].ravel()).reshape(
             len(block.nodes), -1, 3)
-        bad = np.zeros(len(block.nodes), dtype=bool)
-        inside_out = np.zeros(len(block.nodes), dtype=bool)
-        first = np.zeros(len(block.nodes), dtype=np.int64)
+        low = np.full(len(block.nodes), np.inf)
+        at = np.zeros(len(block.nodes), dtype=np.int64)
         for c, a, b, t in triples:
             e1, e2, e3 = x[:, a] - x[:, c], x[:, b] - x[:, c], x[:, t] - x[:, c]
             det = np.einsum("ij,ij->i", np.cross(e1, e2), e3)
             scale = np.linalg.norm(e1, axis=1) * np.linalg.norm(e2, axis=1) * np.linalg.norm(e3, axis=1)
-            here = (det < below * scale) & (scale > 0) & ~bad
-            first[here] = block.nodes[here, c]
-            bad |= here
-            inside_out |= (det < -1e-8 * scale) & (scale > 0)
-        if 2 * inside_out.sum() > len(bad):  # most of a block: the other orientation convention, not damage
-            continue
-        if below > 0:  # nearly flat, not inside out (that is the other warning's)
-            bad &= ~inside_out
-        cells += list(block.nodes[bad])
-        corners += list(first[bad])
-    if not cells:
-        return np.zeros((0, 0), np.int64), np.zeros(0, np.int64)
-    return np.array(cells, dtype=object), np.array(corners, dtype=np.int64)
+            with np.errstate(divide="ignore", invalid="ignore"):
+                sj = np.where(scale > 0, det / scale, np.inf)
+            lower = sj < low
+            low[lower], at[lower] = sj[lower], block.nodes[lower, c]
+        if 2 * np.count_nonzero(low < -1e-8) <= len(low):  # else the other orientation convention, not damage
+            out.append((block.nodes, low, at))
+    return out
+
+
+def _select(parts, keep) -> tuple[list, np.ndarray]:
+    """``(cell nodes, corner node)`` of the cells of ``parts`` (:func:`cell_corners`) whose worst corner ``keep``
+    selects."""
+    cells, corners = [], []
+    for nodes, worst, at in parts:
+        bad = keep(worst)
+        cells += list(nodes[bad])
+        corners.append(at[bad])
+    return cells, np.concatenate(corners) if corners else np.zeros(0, np.int64)
+
+
+def inverted_cells(model) -> tuple[list, np.ndarray]:
+    """``(cell nodes, corner node)`` of the cells of :func:`cell_corners` turned inside out at a corner (its
+    edge triple left-handed beyond rounding, scaled Jacobian below -1e-8): the worst corner of each."""
+    return _select(cell_corners(model), lambda worst: worst < -1e-8)
 
 
 def check_cells(model, where: str = "") -> list[int]:
-    """Warn (FlexmorWarning) about hexahedra and tetrahedra whose node coordinates turn them inside out.
+    """Warn (FlexmorWarning) about hexahedra and tetrahedra that the node coordinates turn inside out or
+    leave nearly flat at a corner (:data:`FLAT_CELL`).
 
     FE programs refuse an inverted element (a trilinear hexahedron distorted enough to be inside out
     at a corner only is flagged by them as distorted), so the deck's coordinates are probably not
     those it meshed: a changed coordinate (also of a node without equations, which the stiffness
-    cannot check) or the nodes of another mesh. Returns the corner nodes named (empty: none, or no
-    such cells).
+    cannot check) or the nodes of another mesh. A nearly flat corner (an angle below about half a
+    degree) is a node moved far without turning its cell inside out, or a degenerate element. Returns
+    the corner nodes named (empty: none, or no such cells).
     """
-    named = _flat_cells(model, where)
-    cells, corners = inverted_cells(model)
-    if not len(corners):
-        return named
-    nodes = list(dict.fromkeys(int(k) for k in corners))
-    first = ", ".join(str(int(k)) for k in cells[0][:8])
-    warnings.warn(FlexmorWarning(
-        f"{where or model.source or model.name}: {len(cells)} element(s) turned inside out by the node "
-        f"coordinates (the first with corner nodes {first}, inverted at node {nodes[0]}): FE programs refuse an "
-        "inverted element (or flag a corner this distorted), so a node coordinate was probably changed or the "
-        "nodes belong to another mesh; the mesh shown and node sets use these coordinates"), stacklevel=3)
-    return named + nodes
-
-
-def _flat_cells(model, where: str) -> list[int]:
-    cells, corners = inverted_cells(model, below=FLAT_CELL)
-    if not len(corners):
-        return []
-    first = ", ".join(str(int(k)) for k in cells[0][:8])
-    warnings.warn(FlexmorWarning(
-        f"{where or model.source or model.name}: {len(cells)} element(s) nearly flat at a corner (the first with "
-        f"corner nodes {first}, at node {int(corners[0])}: an angle there below about half a degree, scaled "
-        f"Jacobian < {FLAT_CELL:g}): a node coordinate changed (also one of a node without equations, which the "
-        "stiffness cannot check), or a degenerate element of the mesh; the mesh shown and node sets use these "
-        "coordinates"), stacklevel=4)
-    return list(dict.fromkeys(int(k) for k in corners))
+    where = where or model.source or model.name
+    parts = cell_corners(model)  # the corners once, for both warnings
+    named: list[int] = []
+    for keep, what, why in (
+            (lambda w: (w >= -1e-8) & (w < FLAT_CELL), "nearly flat at a corner",
+             f"at node {{}}: an angle there below about half a degree, scaled Jacobian < {FLAT_CELL:g}): a node "
+             "coordinate changed (also one of a node without equations, which the stiffness cannot check), or a "
+             "degenerate element of the mesh"),
+            (lambda w: w < -1e-8, "turned inside out by the node coordinates",
+             "inverted at node {}): FE programs refuse an inverted element (or flag a corner this distorted), so "
+             "a node coordinate was probably changed or the nodes belong to another mesh")):
+        cells, corners = _select(parts, keep)
+        if not cells:
+            continue
+        first = ", ".join(str(int(k)) for k in cells[0][:8])
+        warnings.warn(FlexmorWarning(
+            f"{where}: {len(cells)} element(s) {what} (the first with corner nodes {first}, "
+            f"{why.format(int(corners[0]))}; the mesh shown and node sets use these coordinates"), stacklevel=3)
+        named += [int(k) for k in corners]
+    return list(dict.fromkeys(named))

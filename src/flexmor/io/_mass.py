@@ -98,23 +98,32 @@ def direction_blocks(M, dofs) -> list:
     d = np.asarray(dofs)[:, 1]
     if np.any((d[coo.row] != d[coo.col]) & (coo.data != 0)):  # (stored zeros: K's pattern, CalculiX)
         return [M]
-    blocks, nodes = [], []
-    for code in np.unique(d):
-        idx = np.flatnonzero(d == code)
+    parts: list = []
+    for part in _parts(M, dofs, np.unique(d), np.ones(d.size, dtype=bool)):
+        if not any(_same(part, other) for other in parts):
+            parts.append(part)
+    return [B for _, B in parts]
+
+
+def _parts(M, dofs, codes, rows) -> list:
+    """``(nodes, block)`` of ``M`` over the equations ``rows`` of each direction code in ``codes`` (canonical
+    CSR without stored zeros, so that two blocks holding one matrix compare equal array by array)."""
+    d = np.asarray(dofs)[:, 1]
+    out = []
+    for code in codes:
+        idx = np.flatnonzero(rows & (d == code))
         B = sp.csr_matrix(M[idx][:, idx])
         B.eliminate_zeros()
         B.sort_indices()
-        n = np.asarray(dofs)[idx, 0]
-        if any(np.array_equal(n, n0) and _same(B, B0) for n0, B0 in zip(nodes, blocks)):
-            continue
-        blocks.append(B)
-        nodes.append(n)
-    return blocks
+        out.append((np.asarray(dofs)[idx, 0], B))
+    return out
 
 
-def _same(A, B) -> bool:
-    return (A.shape == B.shape and np.array_equal(A.indptr, B.indptr) and np.array_equal(A.indices, B.indices)
-            and np.array_equal(A.data, B.data))
+def _same(a, b) -> bool:
+    """Whether two ``(nodes, block)`` parts are one matrix on the same nodes."""
+    (na, A), (nb, B) = a, b
+    return (np.array_equal(na, nb) and A.shape == B.shape and np.array_equal(A.indptr, B.indptr)
+            and np.array_equal(A.indices, B.indices) and np.array_equal(A.data, B.data))
 
 
 #: Relative difference below which the x, y and z entries of one pair of nodes count as the same value.
@@ -195,16 +204,8 @@ def direction_mismatches(M, dofs) -> list[tuple[int, int, float, float]] | None:
 def _alike(M, dofs, trans) -> bool:
     """Whether the x, y and z blocks of ``M`` over the equations ``trans`` are one matrix on the same nodes (a
     sound solid's mass: no sort)."""
-    d = np.asarray(dofs)[:, 1]
-    blocks = []
-    for code in (1, 2, 3):
-        idx = np.flatnonzero(trans & (d == code))
-        B = sp.csr_matrix(M[idx][:, idx])
-        B.eliminate_zeros()
-        B.sort_indices()
-        blocks.append((np.asarray(dofs)[idx, 0], B))
-    (n0, B0), rest = blocks[0], blocks[1:]
-    return all(np.array_equal(n, n0) and _same(B, B0) for n, B in rest)
+    first, *rest = _parts(M, dofs, (1, 2, 3), trans)
+    return all(_same(first, part) for part in rest)
 
 
 def _equation(dofs, node, direction) -> int:
