@@ -2,6 +2,7 @@
 
 import numpy as np
 import pytest
+import scipy.sparse as sp
 from helpers import cond1
 
 from flexmor.dynamics.frf import ShiftedMatrices, frf_full
@@ -62,6 +63,16 @@ def test_shifted_matrices_equal_sparse_sum(clamped):
     ref = model.K - w**2 * model.M + 1j * w * model.D
     assert abs(S(w) - ref).max() <= 1e-12 * abs(ref).max()
     assert S(w).dtype == np.complex128 and ShiftedMatrices(model.K, model.M)(w).dtype == np.float64
+    # patterns that differ (a lumped mass, a damper between two DOFs not coupled in K), unsorted indices
+    Ml = sp.diags(np.asarray(model.M.sum(axis=1)).ravel()).tocsr()
+    n = model.n_dof
+    Dd = sp.csr_matrix(([3.0, -3.0, -3.0, 3.0], ([0, 0, n - 1, n - 1], [0, n - 1, 0, n - 1])), shape=(n, n))
+    Dd.indices = Dd.indices.copy()
+    Dd.data[:2], Dd.indices[:2] = Dd.data[1::-1].copy(), Dd.indices[1::-1].copy()
+    Dd.has_sorted_indices = False
+    S = ShiftedMatrices(model.K, Ml, Dd)
+    ref = model.K - w**2 * Ml + 1j * w * Dd
+    assert S(w).nnz == model.K.nnz + 2 and abs(S(w) - ref).max() <= 1e-12 * abs(ref).max()
 
 
 @pytest.mark.parametrize("backend", available_backends())

@@ -228,7 +228,8 @@ def test_surrogate_residuals_equal_the_full_ones(beam, proportional):
         d[ports.B.toarray()[:, 0] != 0] = 50.0
         model = FEModel(M=model.M, K=model.K, D=model.D + sp.diags(d), dofs=model.dofs, node_ids=model.node_ids,
                         xyz=model.xyz, node_sets=model.node_sets)
-    _, phi, F, sigma = modes_below(model, BAND[1], as_solver(None))
+    pre = modes_below(model, BAND[1], as_solver(None))
+    phi, F, sigma = pre.phi, pre.factorization, pre.sigma
     freqs = np.linspace(BAND[0], BAND[1], 700)
     sur = Surrogate(model, ports, BAND, phi=phi, factorization=F, sigma=sigma, candidates=freqs[::50], max_checks=1)
     assert (sur._modal is not None) == proportional
@@ -246,3 +247,30 @@ def test_surrogate_residuals_equal_the_full_ones(beam, proportional):
     # 3.4e-3 of the full residual where that is above a tenth of its largest value
     assert full.max() > 1e-5 and np.abs(res - gram).max() < 2e-2 * full.max()
     assert np.abs(res / full - 1)[big].max() < 0.05
+
+
+def test_surrogate_takes_the_inertia_count_factorization_at_the_band_end():
+    # the pre-pass keeps the count's factorization of K - (2 pi fmax)^2 M when asked; the surrogate's
+    # basis holds its solutions (Krylov vectors at the band's end) and the pre-pass no longer holds it
+    from flexmor.dynamics.modes import modes_below
+    from flexmor.dynamics.surrogate import MODES_MARGIN, Surrogate
+    from flexmor.linalg import EigenPolicy, SolverContext
+
+    model = cantilever(6).with_rayleigh(0.0, 1e-6)
+    ports = make_ports(model, ["TIP:y", "TIP:z"])
+    fmax = 3000.0
+    solver = SolverContext(eigen=EigenPolicy(dense_limit=100))
+    assert modes_below(model, fmax, solver).edge is None
+    pre = modes_below(model, MODES_MARGIN * fmax, solver, keep_edge=True)
+    F, shift = pre.edge
+    assert shift == pytest.approx((2 * np.pi * MODES_MARGIN * fmax) ** 2)
+    B = ports.B.toarray()
+    X = F.solve(B)
+    assert np.linalg.norm((model.K - shift * model.M) @ X - B) <= 1e-10 * np.linalg.norm(B)
+    assert pre.f.max() <= MODES_MARGIN * fmax < 1.5 * pre.f.max()  # modes up to the margin
+    sur = Surrogate(model, ports, (10.0, fmax), phi=pre.phi, factorization=pre.factorization, sigma=pre.sigma,
+                    solver=solver, candidates=np.linspace(10.0, fmax, 50), edge=pre.take_edge())
+    assert pre.edge is None and pre.take_edge() is None
+    outside = X - sur.V @ (sur.V.T @ X)
+    assert np.linalg.norm(outside) <= 1e-8 * np.linalg.norm(X)
+    assert sur.verified

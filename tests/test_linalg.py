@@ -73,6 +73,33 @@ def test_pardiso_reuses_the_ordering_of_a_pattern(clamped):
     assert np.linalg.norm(A @ G.solve(b) - b) / np.linalg.norm(b) < 1e-10
 
 
+@pytest.mark.skipif("pardiso" not in BACKENDS, reason="needs pardiso")
+def test_pardiso_symmetric_types_share_one_ordering(clamped):
+    """``K + s M`` (Cholesky), ``K - w^2 M`` (indefinite) and ``K - w^2 M + i w D`` (complex) are ordered once,
+    without weighted matching, and solve as SciPy does; a saddle-point matrix, whose zero pivots need the
+    matching, is factorized again with it."""
+    K, M = clamped.K, clamped.M
+    w = 2 * np.pi * 377.0
+    b = np.random.default_rng(3).standard_normal(clamped.n_dof)
+    ctx = SolverContext("pardiso")
+    seen = []
+    for A, positive in (((K + 1e4 * M).tocsr(), True), ((K - w**2 * M).tocsr(), False),
+                        ((K - w**2 * M + 1j * w * 1e-5 * K).tocsr(), False)):
+        F = factorize(A, solver=ctx, positive=positive, check=False)
+        seen.append((F.reused_ordering, F.matching))
+        x, x0 = F.solve(b), factorize(A, solver=SolverContext("scipy"), check=False).solve(b)
+        assert np.linalg.norm(x - x0) <= 1e-10 * np.linalg.norm(x0)
+    assert seen == [(False, False), (True, False), (True, False)] and len(ctx.orderings) == 1
+    # three DOFs held by Lagrange multipliers: [[K - w^2 M, C^T], [C, 0]] (a zero diagonal)
+    n = K.shape[0]
+    C = sp.csr_matrix((np.full(3, abs(K).max()), (np.arange(3), [10, 40, 70])), shape=(3, n))
+    A = sp.bmat([[K - w**2 * M, C.T], [C, sp.diags(np.full(3, 1e-300))]]).tocsr()
+    bb = np.concatenate([b, np.zeros(3)])
+    F = factorize(A, solver=ctx, check=False)
+    assert F.matching and not F.reused_ordering
+    assert np.linalg.norm(A @ F.solve(bb) - bb) <= 1e-10 * np.linalg.norm(bb)
+
+
 @pytest.mark.parametrize("backend", BACKENDS)
 def test_singular_matrix_is_refused(free, backend):
     with pytest.raises(SolverError, match="singular"):

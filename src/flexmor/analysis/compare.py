@@ -14,7 +14,7 @@ from ..damping import ModalDamping
 from ..dynamics.dense_frf import DenseResolvent, dense_applicable
 from ..dynamics.frf import angular_frequency, frf_full, frf_reduced, rel_error
 from ..dynamics.modes import modal_damping_ratios, modes_below
-from ..dynamics.surrogate import DEFAULT_SURROGATE_TOL
+from ..dynamics.surrogate import DEFAULT_SURROGATE_TOL, MODES_MARGIN
 from ..errors import ModelError, OptionError, PortError
 from ..linalg.context import SolverContext, as_solver, step
 from ..linalg.eigen import frequencies_hz
@@ -249,9 +249,10 @@ class FullResponse:
             phi = dense.phi[:, f_all <= fmax]
             f_all = f_all[f_all <= fmax]
         else:
-            f_modes = fmax * (1.1 if self.path == "surrogate" else 1.0)
+            f_modes = fmax * (MODES_MARGIN if self.path == "surrogate" else 1.0)
             with step(progress, f"modes below {f_modes:.4g} Hz ({model.n_dof} DOF)"):
-                f_all, phi, F0, sigma = modes_below(model, f_modes, solver)
+                pre = modes_below(model, f_modes, solver, keep_edge=self.path == "surrogate")
+                f_all, phi = pre.f, pre.phi
         z_all = modal_damping_ratios(model.damping, f_all, phi, model.D) if damped else None
         z_all = np.zeros(f_all.size) if z_all is None else np.maximum(z_all, 0.0)
         inband = (f_all >= fmin) & (f_all <= fmax)
@@ -262,8 +263,9 @@ class FullResponse:
             from ..dynamics.surrogate import Surrogate
 
             cand = initial_grid(fmin, fmax, n=400, resonances=self.resonances, zeta=self.zeta)
-            sur = Surrogate(model, ports, self.band, phi=phi, factorization=F0, sigma=sigma, solver=solver,
-                            tol=surrogate_tol, check_solver=check_solver, candidates=cand)
+            sur = Surrogate(model, ports, self.band, phi=phi, factorization=pre.factorization, sigma=pre.sigma,
+                            solver=solver, tol=surrogate_tol, check_solver=check_solver, candidates=cand,
+                            edge=pre.take_edge())
             evaluate = sur.frf
         elif dense is not None:
             sur = None

@@ -51,20 +51,24 @@ class ShiftedMatrices:
 
     def __init__(self, K, M, D=None):
         self.partitioned = is_partitioned(K)
-        mats = [sp.csr_matrix(X.local if is_partitioned(X) else X) for X in (K, M, D) if X is not None]
-        pattern = abs(mats[0])
-        for X in mats[1:]:
-            pattern = pattern + abs(X)
-        pattern = sp.csr_matrix(pattern)
-        pattern.sum_duplicates()
-        pattern.sort_indices()
+        mats = [_canonical(X.local if is_partitioned(X) else X) for X in (K, M, D) if X is not None]
+        first = mats[0]
+        if all(_same_pattern(first, X) for X in mats[1:]):  # one pattern (e.g. K, M and a Rayleigh D): as it is
+            pattern = first
+        else:
+            pattern = abs(first)
+            for X in mats[1:]:
+                pattern = pattern + abs(X)
+            pattern = _canonical(pattern)
         self.indptr, self.indices, self.shape = pattern.indptr, pattern.indices, pattern.shape
-        keys = self._keys(pattern)
+        keys = None
         self.data = []
         for X in mats:
-            X = X.copy()
-            X.sum_duplicates()
-            vals = np.zeros(pattern.nnz)
+            if _same_pattern(pattern, X):
+                self.data.append(X.data)
+                continue
+            keys = self._keys(pattern) if keys is None else keys
+            vals = np.zeros(pattern.nnz, dtype=X.dtype)
             vals[np.searchsorted(keys, self._keys(X))] = X.data
             self.data.append(vals)
         self.damped = D is not None
@@ -81,6 +85,21 @@ class ShiftedMatrices:
             data = data + 1j * w * self.data[2]
         A = sp.csr_matrix((data, self.indices, self.indptr), shape=self.shape)
         return PartitionedMatrix(A) if self.partitioned else A
+
+
+def _canonical(X) -> sp.csr_matrix:
+    """``X`` as CSR with sorted indices and no duplicates (a copy only where it is not so already)."""
+    X = sp.csr_matrix(X)
+    if not X.has_canonical_format:
+        X = X.copy()
+        X.sum_duplicates()
+    return X
+
+
+def _same_pattern(A, B) -> bool:
+    """Whether two canonical CSR matrices store the same positions."""
+    return A.shape == B.shape and A.nnz == B.nnz and np.array_equal(A.indptr, B.indptr) \
+        and np.array_equal(A.indices, B.indices)
 
 
 def frf_full(model, ports, freqs, *, solver: SolverContext | None = None,

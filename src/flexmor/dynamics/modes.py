@@ -8,16 +8,19 @@ one quadrature cell at each; both use :func:`modes_below` and the damping ratios
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from ..damping import Damping
 from ..errors import FlexmorError
 from ..linalg import factorize
+from ..linalg.backends import MEMORY_FRACTION
 from ..linalg.context import SolverContext
 from ..linalg.eigen import default_shift, eigenmodes, frequencies_hz
 from ..linalg.factorize import factorize_shifted
 
-__all__ = ["modal_damping_ratios", "modes_below"]
+__all__ = ["PrePass", "modal_damping_ratios", "modes_below"]
 
 
 def modal_damping_ratios(damping: Damping, freqs_hz, phi=None, D=None) -> np.ndarray | None:
@@ -36,14 +39,46 @@ def modal_damping_ratios(damping: Damping, freqs_hz, phi=None, D=None) -> np.nda
     return None
 
 
-def modes_below(model, fmax: float, solver: SolverContext, max_modes: int = 400):
-    """Modal pre-pass: eigenfrequencies (Hz) and mass-normalized modes up to ``fmax``.
+@dataclass
+class PrePass:
+    """The modal pre-pass of :func:`modes_below`.
+
+    Attributes
+    ----------
+    f : ndarray
+        Eigenfrequencies (Hz), ascending (rigid-body modes included, at about 0 Hz).
+    phi : ndarray, shape (n_dof, len(f))
+        Mass-normalized modes.
+    factorization : Factorization or None
+        The factorization of ``K - sigma M`` (None for small dense problems), reused by the
+        surrogate of :mod:`flexmor.dynamics.surrogate`.
+    sigma : float
+        Its shift.
+    edge : tuple or None
+        ``(factorization, shift)`` of the inertia count, ``K - shift M`` with ``shift`` at the
+        highest frequency wanted, when kept (:meth:`take_edge`).
+    """
+
+    f: np.ndarray
+    phi: np.ndarray
+    factorization: object | None
+    sigma: float
+    edge: tuple | None = None
+
+    def take_edge(self) -> tuple | None:
+        """The edge factorization, no longer referenced here (its memory goes with the caller's last reference)."""
+        edge, self.edge = self.edge, None
+        return edge
+
+
+def modes_below(model, fmax: float, solver: SolverContext, max_modes: int = 400, keep_edge: bool = False) -> PrePass:
+    """Modal pre-pass: eigenfrequencies and mass-normalized modes up to ``fmax``.
 
     Above the solver's dense limit (``solver.eigen.dense_limit``) the number of modes below
-    ``fmax`` is counted first (inertia of one factorization), then the modes come from one
-    shift-invert factorization of ``K - sigma M``: the one ``solver`` keeps for these matrices (e.g.
-    ``K_ii`` of a fixed-interface body, factorized for the constraint modes: ``sigma = 0``), else
-    one at the default shift.
+    ``fmax`` is counted first (inertia of one factorization of ``K - (2 pi fmax)^2 M``), then the
+    modes come from one shift-invert factorization of ``K - sigma M``: the one ``solver`` keeps for
+    these matrices (e.g. ``K_ii`` of a fixed-interface body, factorized for the constraint modes:
+    ``sigma = 0``), else one at the default shift.
 
     Parameters
     ----------
@@ -55,47 +90,48 @@ def modes_below(model, fmax: float, solver: SolverContext, max_modes: int = 400)
         Solver (backend, statistics, eigen policy) of :func:`flexmor.linalg.factorize`.
     max_modes : int
         Upper limit of the number of modes computed.
+    keep_edge : bool
+        Keep the count's factorization in :attr:`PrePass.edge` (when two more of its size fit in
+        the memory available): the surrogate's Krylov vectors at the band's end come from it.
 
     Returns
     -------
-    f : ndarray
-        Eigenfrequencies (Hz) up to ``fmax``, ascending (rigid-body modes included, at about 0 Hz).
-    phi : ndarray, shape (n_dof, len(f))
-        Mass-normalized modes.
-    F : Factorization or None
-        The factorization of ``K - sigma M`` (None for small dense problems), reused by the
-        surrogate of :mod:`flexmor.dynamics.surrogate`.
-    sigma : float
-        Its shift.
+    PrePass
+        Modes up to ``fmax``.
     """
     sigma = solver.kept_shift(model.K, model.M)  # a factorization kept for these matrices serves the pre-pass
     if sigma is None:
         sigma = default_shift(model.K, model.M)
-    F = None
+    F, edge = None, None
     k = min(model.n_dof, 20)
-    if model.n_dof > solver.eigen.dense_limit:  # count first: one large factorization alive at a time
-        k = _count_below(model, fmax, solver) or k
+    if model.n_dof > solver.eigen.dense_limit:  # count first
+        count, edge = _count_below(model, fmax, solver, keep_edge)
+        k = count or k
         F = factorize_shifted(model.K, model.M, sigma, solver=solver)
     while True:
         lam, phi = eigenmodes(model.K, model.M, k, sigma=sigma, factorization=F, solver=solver)
         f = frequencies_hz(lam)
         if f[-1] > fmax or k >= min(model.n_dof, max_modes):
             keep = f <= fmax
-            return f[keep], phi[:, keep], F, sigma
+            return PrePass(f[keep], phi[:, keep], F, sigma, edge)
         # the next k from the density of modes found so far (+15 %), at least 8 more
         k = min(model.n_dof, max_modes, max(k + 8, int(np.ceil(1.15 * k * fmax / max(f[-1], 1e-30)))))
 
 
-def _count_below(model, fmax: float, solver: SolverContext) -> int | None:
-    """Number of eigenfrequencies below ``fmax`` plus 2 from the inertia of ``K - w^2 M``.
+def _count_below(model, fmax: float, solver: SolverContext, keep: bool = False):
+    """Number of eigenfrequencies below ``fmax`` plus 2 from the inertia of ``K - w^2 M``, and that factorization.
 
     One real symmetric indefinite factorization (Sylvester's law of inertia) replaces the
-    guessing of the number of modes; None when the backend does not report the inertia.
+    guessing of the number of modes; the count is None when the backend does not report the
+    inertia. The factorization is returned as ``(F, w^2)`` when ``keep`` and two more of its size
+    fit in the memory available (the pre-pass's own and a check's), else None: by default only
+    one large factorization is alive at a time.
     """
+    shift = (2 * np.pi * fmax) ** 2
     try:
-        F = factorize((model.K - (2 * np.pi * fmax) ** 2 * model.M).tocsr(), solver=solver, symmetric=True, check=False)
+        F = factorize((model.K - shift * model.M).tocsr(), solver=solver, symmetric=True, check=False)
     except FlexmorError:  # the backends report every failure so (e.g. fmax exactly at an eigenvalue): guess
-        return None
-    if F.inertia is None:
-        return None
-    return min(model.n_dof, F.inertia[1] + 2)
+        return None, None
+    est, avail = F.memory_estimate, solver.memory_available()
+    kept = (F, shift) if keep and est and avail and 2 * est <= MEMORY_FRACTION * avail else None
+    return (None if F.inertia is None else min(model.n_dof, F.inertia[1] + 2)), kept

@@ -7,7 +7,10 @@ against direct solves:
 
 1. basis ``V``: the modes of the modal pre-pass (up to 1.1 ``fmax``), the static response
    ``(K - sigma M)^{-1} B`` and ``n_krylov - 1`` second-order Krylov blocks
-   ``(K - sigma M)^{-1} M X`` from the pre-pass factorization (no new factorization);
+   ``(K - sigma M)^{-1} M X`` from the pre-pass factorization, and as many from the factorization
+   of the pre-pass's inertia count at ``(2 pi 1.1 fmax)^2`` where it is kept (no new factorization:
+   the vectors about ``sigma`` alone converge slowly towards the band's end, where a mode just
+   above the pre-pass's last one dominates);
 2. greedy verification: the relative residual ``||A(w) V x(w) - B||_F / ||B||_F`` is
    evaluated on candidate frequencies (cheaply, through the Gram matrix of
    ``[K V, M V, D V, B]``); at the frequency with the largest residual the full model is
@@ -52,7 +55,7 @@ from ..linalg.backends import MEMORY_FRACTION
 from ..linalg.context import SolverContext, as_solver, step
 from .frf import ShiftedMatrices, angular_frequency
 
-__all__ = ["Surrogate", "DEFAULT_SURROGATE_TOL"]
+__all__ = ["Surrogate", "DEFAULT_SURROGATE_TOL", "MODES_MARGIN"]
 
 log = logging.getLogger(__name__)
 
@@ -62,13 +65,9 @@ CHECK_SOLVERS = ("auto", "direct", "iterative")
 #: Default largest pointwise relative error of the surrogate at its checks.
 DEFAULT_SURROGATE_TOL = 1e-6
 
-
-def _orthonormal(V: np.ndarray, rtol: float = 1e-10) -> np.ndarray:
-    """Orthonormal basis of the span of the columns of ``V`` (rank-revealing QR)."""
-    V = V / np.maximum(np.linalg.norm(V, axis=0), np.finfo(float).tiny)
-    Q, R, _ = sla.qr(V, mode="economic", pivoting=True)
-    d = np.abs(np.diag(R))
-    return Q[:, : int(np.sum(d > rtol * d[0]))]
+#: The modal pre-pass of a surrogate reaches this multiple of the band's end: a mode just above
+#: the band would otherwise dominate the response at its end and fail the first check there.
+MODES_MARGIN = 1.1
 
 
 class Surrogate:
@@ -103,11 +102,15 @@ class Surrogate:
     candidates : array_like
         Frequencies (Hz) where the greedy checks look for the largest residual (e.g. the error
         grid's initial points over the band and its peaks, or a quadrature's nodes).
+    edge : tuple, optional
+        ``(factorization, shift)`` of ``K - shift M`` near the band's end (the pre-pass's inertia
+        count, :attr:`flexmor.dynamics.modes.PrePass.edge`): ``n_krylov`` more Krylov blocks from
+        it; not kept (its memory is freed when the caller holds no other reference).
     """
 
     def __init__(self, model, ports, band, *, phi, factorization=None, sigma=0.0, solver: SolverContext | None = None,
                  tol: float = DEFAULT_SURROGATE_TOL, n_krylov: int = 3, max_checks: int = 10,
-                 check_solver: str = "auto", candidates):
+                 check_solver: str = "auto", candidates, edge=None):
         check_choice("check_solver", check_solver, CHECK_SOLVERS)
         solver = as_solver(solver)
         self.model, self.solver, self.tol = model, solver, float(tol)
@@ -120,9 +123,13 @@ class Surrogate:
             est, avail = F0.memory_estimate, solver.memory_available()
             check_solver = "iterative" if est and avail and 2 * est > MEMORY_FRACTION * avail else "direct"
         self.check_solver = check_solver
-        blocks = [phi, F0.solve(self.B)]
-        for _ in range(int(n_krylov) - 1):
-            blocks.append(F0.solve(model.M @ blocks[-1]))
+        blocks = [phi]
+        for F in (F0, None if edge is None else edge[0]):
+            if F is not None:
+                blocks.append(F.solve(self.B))
+                for _ in range(int(n_krylov) - 1):
+                    blocks.append(F.solve(model.M @ blocks[-1]))
+        del edge, F
         self._set_basis(np.hstack(blocks))
         self.checks = []
         cand = np.unique(np.asarray(candidates, float))
@@ -154,7 +161,7 @@ class Surrogate:
 
     def _set_basis(self, V):
         m = self.model
-        self.V = _orthonormal(V)
+        self.V = extend_orthonormal(None, V)
         KV, MV = m.K @ self.V, m.M @ self.V
         DV = m.D @ self.V
         self.Kr, self.Mr, self.Dr = (self.V.T @ X for X in (KV, MV, DV))

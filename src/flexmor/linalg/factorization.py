@@ -146,8 +146,11 @@ class OrderingCache:
     """Fill-reducing orderings of the last few sparsity patterns factorized by PARDISO.
 
     Shifted matrices ``K - w^2 M + i w D`` of one model share a pattern, so frequency sweeps,
-    quadrature nodes and expansion points compute METIS' nested dissection once and reuse it
-    (``iparm[4] = 1``); the symbolic factorization still runs. Keyed by :meth:`key`.
+    quadrature nodes, expansion points and the shifts of eigen solves compute METIS' nested
+    dissection once and reuse it (``iparm[4] = 1``; the symbolic factorization still runs, at a
+    quarter to a half of the cost with METIS). Keyed by :meth:`key`: the orderings of the symmetric
+    types without weighted matching are one (``mtype`` 0 in the key); with matching, MKL orders
+    by the values and ignores a given ordering.
 
     Parameters
     ----------

@@ -14,6 +14,7 @@ pypardiso and MKL are loaded only when that backend is checked or used.
 from __future__ import annotations
 
 import functools
+import logging
 
 import numpy as np
 import scipy.sparse as sp
@@ -23,7 +24,13 @@ from .factorization import Factorization
 from .memory import OutOfCore, pardiso_estimates
 from .resources import describe_memory
 
-__all__ = ["PARDISO_ERRORS", "PardisoFactorization", "mkl_pardiso"]
+__all__ = ["BACKWARD_TOL", "PARDISO_ERRORS", "PardisoFactorization", "mkl_pardiso"]
+
+log = logging.getLogger(__name__)
+
+#: Largest normwise backward error of a symmetric indefinite factor ordered without weighted matching
+#: (measured 1e-17 to 1e-16 on shifted solid, plate and beam models, with and without damping).
+BACKWARD_TOL = 1e-11
 
 
 @functools.cache
@@ -66,10 +73,16 @@ class PardisoFactorization(Factorization):
 
     Matrix types: real symmetric positive definite (2), real symmetric indefinite (-2,
     Bunch-Kaufman), complex symmetric (6, e.g. ``K - w^2 M + i w D``), real (11) and complex
-    (13) unsymmetric. Symmetric indefinite types use symmetric weighted matching and scaling
-    (iparm 11/13), recommended by Intel for saddle-point-like and shifted matrices. After the
-    analysis, the memory mode is chosen from its estimate; the mixed (``iparm[27] = 1``) and
-    out-of-core (``iparm[59] = 2``) modes analyse again with the ordering just computed.
+    (13) unsymmetric. The symmetric types are ordered by nested dissection of the pattern alone,
+    so ``K - sigma M`` and every ``K - w^2 M + i w D`` of a model share one ordering (computed
+    once, :class:`~flexmor.linalg.factorization.OrderingCache`; the analysis then costs a
+    quarter to a half of METIS' own at 35,000 DOF). An indefinite factor that had to perturb a
+    pivot, or whose solve of a random right-hand side misses a backward error of
+    :data:`BACKWARD_TOL`, is computed again with symmetric weighted matching and scaling
+    (iparm 11/13, recommended by Intel for saddle-point-like matrices; its ordering depends on the
+    values and is not reused); the unsymmetric types always use them. After the analysis, the
+    memory mode is chosen from its estimate; the mixed (``iparm[27] = 1``) and out-of-core
+    (``iparm[59] = 2``) modes analyse again with the ordering just computed.
     """
 
     backend = "pardiso"
@@ -78,8 +91,10 @@ class PardisoFactorization(Factorization):
         super().__init__(A, solver.stats)
         import ctypes
 
-        orderings = solver.orderings
         self._fn = mkl_pardiso()
+        self._ctypes = ctypes
+        self._live = False
+        self._ooc = None
         cplx = np.iscomplexobj(A.data)
         if cplx:
             self._mtype = 6 if symmetric else 13
@@ -91,59 +106,88 @@ class PardisoFactorization(Factorization):
         U.sort_indices()
         if np.any(np.diff(U.indptr) == 0):
             raise SolverError("matrix has an empty row: it is singular")
-        self._data = np.ascontiguousarray(U.data, dtype=self.dtype)
+        self._values = np.ascontiguousarray(U.data, dtype=self.dtype)
         self._ia = np.ascontiguousarray(U.indptr, dtype=np.int32)
         self._ja = np.ascontiguousarray(U.indices, dtype=np.int32)
         self._n = U.shape[0]
         self._pt = np.zeros(64, dtype=np.int64)
+        plain = symmetric  # ordered by the pattern alone (no weighted matching) first
+        try:
+            self._factor(A, solver, matching=not plain)
+            if plain and self._mtype != 2 and not self._stable(A):
+                log.info("PARDISO: %d perturbed pivots or a backward error above %.0e without weighted matching "
+                         "(n=%d): factorized again with it", self._iparm[13], BACKWARD_TOL, self._n)
+                self._release()
+                self._factor(A, solver, matching=True)
+        except SolverError:
+            self._release()
+            raise
+        self._values = None  # the values in use are self._data
+        self._live = True
+        # no perturbed pivots: exact inertia (not of a single-precision factor, whose rounding
+        # of ~1e-7 ||A|| may move the eigenvalues nearest the shift across it)
+        if self._mtype == -2 and self._iparm[13] == 0 and self.memory.mode != "mixed":
+            self.inertia = (int(self._iparm[21]), int(self._iparm[22]))
+
+    def _factor(self, A, solver, *, matching: bool) -> None:
+        """Analysis (with the ordering of this pattern when known), memory plan and numerical factorization."""
+        orderings = solver.orderings
+        cplx = self.dtype.kind == "c"
+        self._data = self._values
         self._iparm = np.zeros(64, dtype=np.int32)
         ip = self._iparm
         ip[0] = 1  # user values below, zeros are MKL defaults
         ip[1] = 2  # nested dissection (METIS)
         ip[7] = 0  # iterative refinement (two steps) only after perturbed pivots
         ip[9] = 13 if self._mtype in (11, 13) else 8  # pivot perturbation 1e-13 / 1e-8
-        indefinite = self._mtype in (-2, 6, 11, 13)
-        ip[10] = ip[12] = 1 if indefinite else 0  # scaling + weighted matching
+        ip[10] = ip[12] = 1 if matching else 0  # scaling + weighted matching
         ip[34] = 1  # zero-based indices
-        self._ctypes = ctypes
-        self._live = False
-        key = orderings.key(self._mtype, self._ia, self._ja)
-        self._perm = orderings.get(key)
+        # a plain ordering serves every symmetric type of the pattern; with matching MKL computes its own
+        key = orderings.key(self._mtype if matching else 0, self._ia, self._ja)
+        self._perm = None if matching else orderings.get(key)
         ip[4] = 2 if self._perm is None else 1  # 2: return METIS' permutation, 1: reuse a stored one
         if self._perm is None:
             self._perm = np.zeros(self._n, dtype=np.int32)
         self.reused_ordering = ip[4] == 1
-        self._ooc = None
-        try:
-            self._call(11, None, None, 0)  # analysis: ordering, symbolic factorization, memory
-            if not self.reused_ordering:
-                orderings.remember(key, self._perm)
-            self._plan(solver, A, pardiso_estimates(ip, A, self._data.size))
-            if self.memory.mode != "double":
-                self._release()
-                ip[4] = 1  # the ordering just computed
-                if self.memory.mode == "mixed":
-                    ip[27] = 1  # single-precision values, factor and solves
-                    self._data = self._data.astype(np.complex64 if cplx else np.float32)
-                else:
-                    ip[59] = 2  # out of core, in memory at most what fits (no more than in core)
-                    self._ooc = OutOfCore(min(self.memory.usable or np.inf, self.memory.estimates["double"]),
-                                          solver.scratch_dir)
-                self._call(11, None, None, 0)
-            if self._ooc is None:
-                self._call(22, None, None, 0)  # numerical factorization
-            else:
-                with self._ooc.environment():  # read by MKL in this phase only
-                    self._call(22, None, None, 0)
-                self._ooc.verify(A, self._solve_factor)
-        except SolverError:
+        self.matching = matching
+        self._call(11, None, None, 0)  # analysis: ordering, symbolic factorization, memory
+        if not self.reused_ordering and not matching:
+            orderings.remember(key, self._perm)
+        self._plan(solver, A, pardiso_estimates(ip, A, self._data.size))
+        plan = self.memory
+        assert plan is not None  # set by _plan
+        if plan.mode != "double":
             self._release()
-            raise
-        self._live = True
-        # no perturbed pivots: exact inertia (not of a single-precision factor, whose rounding
-        # of ~1e-7 ||A|| may move the eigenvalues nearest the shift across it)
-        if self._mtype == -2 and self._iparm[13] == 0 and self.memory.mode != "mixed":
-            self.inertia = (int(self._iparm[21]), int(self._iparm[22]))
+            ip[4] = 1  # the ordering just computed
+            if plan.mode == "mixed":
+                ip[27] = 1  # single-precision values, factor and solves
+                self._data = self._values.astype(np.complex64 if cplx else np.float32)
+            else:
+                ip[59] = 2  # out of core, in memory at most what fits (no more than in core)
+                self._ooc = OutOfCore(min(plan.usable or np.inf, plan.estimates["double"]),
+                                      solver.scratch_dir)
+            self._call(11, None, None, 0)
+        if self._ooc is None:
+            self._call(22, None, None, 0)  # numerical factorization
+        else:
+            with self._ooc.environment():  # read by MKL in this phase only
+                self._call(22, None, None, 0)
+            self._ooc.verify(A, self._solve_factor)
+
+    def _stable(self, A) -> bool:
+        """No perturbed pivot, and the normwise backward error ``||A x - b|| / (a ||x|| + ||b||)`` of one
+        solve with a random right-hand side ``b`` below :data:`BACKWARD_TOL` (a factor in single precision:
+        its unit round-off times 1e3); ``a = ||A b|| / ||b||`` is below ``||A||``, so the error is over-
+        rather than underestimated, at the cost of two products with ``A`` and no copy of it."""
+        if self._iparm[13] > 0:
+            return False
+        b = np.random.default_rng(0).standard_normal((self._n, 1))
+        x = self._solve_factor(b)
+        nb = float(np.linalg.norm(b))
+        eta = float(np.linalg.norm(A @ x - b) / (np.linalg.norm(A @ b) / nb * np.linalg.norm(x) + nb))
+        mixed = self.memory is not None and self.memory.mode == "mixed"
+        tol = 1e3 * float(np.finfo(np.float32).eps) if mixed else BACKWARD_TOL
+        return eta <= tol
 
     def _call(self, phase, b, x, nrhs):
         c = self._ctypes
@@ -180,6 +224,7 @@ class PardisoFactorization(Factorization):
             self._pt[:] = 0
         if self._ooc is not None:
             self._ooc.remove()
+            self._ooc = None
 
     def __del__(self):
         try:

@@ -118,14 +118,13 @@ class _Projected:
         from ..dynamics.surrogate import Surrogate
         from ..ports import Ports
 
-        phi, F, sigma = modes
         n, c = rhs.shape
         names = [f"rhs{j + 1}" for j in range(c)]
         state = Ports(B=sp.csr_matrix(rhs), C=sp.identity(n, format="csr"), input_names=names,
                       output_names=[""] * n)
         band = (float(nodes_hz.min()), float(nodes_hz.max()))
-        sur = Surrogate(work, state, band, phi=phi, factorization=F, sigma=sigma, solver=solver,
-                        tol=SURROGATE_GRAMIAN_TOL, candidates=nodes_hz)
+        sur = Surrogate(work, state, band, phi=modes.phi, factorization=modes.factorization, sigma=modes.sigma,
+                        solver=solver, tol=SURROGATE_GRAMIAN_TOL, candidates=nodes_hz, edge=modes.take_edge())
         check = sur.verify(nodes_hz)
         sur.release()
         self.sur, self.V = sur, sur.V
@@ -138,6 +137,11 @@ class _Projected:
 
     def solve(self, w):
         return self.sur.reduced_solution(w)
+
+
+def _columns(Y: np.ndarray) -> np.ndarray:
+    """The blocks ``Y[j]`` (nodes, k, c) side by side: shape (k, nodes c)."""
+    return Y.transpose(1, 0, 2).reshape(Y.shape[1], -1)
 
 
 def tail_share(work, rhs, m: int, wk, wt, modes, solver, traces) -> dict:
@@ -163,8 +167,8 @@ def tail_share(work, rhs, m: int, wk, wt, modes, solver, traces) -> dict:
         Number of inputs.
     wk, wt : ndarray
         Quadrature nodes (rad/s, the last one below ``wc``) and weights.
-    modes : tuple
-        ``(phi, factorization, sigma)`` of the modal pre-pass (rigid-body modes included).
+    modes : PrePass
+        The modal pre-pass (:class:`flexmor.dynamics.modes.PrePass`, rigid-body modes included).
     solver : SolverContext
     traces : dict
         M-traces of the computed factors, ``{'position', 'velocity'[, 'observability']}``.
@@ -177,7 +181,7 @@ def tail_share(work, rhs, m: int, wk, wt, modes, solver, traces) -> dict:
     """
     from ..linalg.eigen import is_rigid
 
-    phi, F, sigma = modes
+    phi, F, sigma = modes.phi, modes.factorization, modes.sigma
     alpha, beta = work.damping.alpha, work.damping.beta
     if F is None:
         F = factorize((work.K - sigma * work.M).tocsr(), solver=solver, positive=sigma < 0)
@@ -222,8 +226,9 @@ def projected_factors(solves: str, work, rhs, m: int, wk, wt, *, side: str, rigi
     side : {'input', 'both'}
     rigid_modes : ndarray or None
         M-orthonormal rigid-body modes removed from the solutions.
-    modes : tuple
-        ``(phi, factorization, sigma)`` of the modal pre-pass (surrogate solves).
+    modes : PrePass
+        The modal pre-pass (:class:`flexmor.dynamics.modes.PrePass`; surrogate solves: its edge
+        factorization is taken and freed once the surrogate's basis is built).
     solver : SolverContext
     store : callable
         ``store(n, limit)`` -> an empty factor store (:class:`flexmor.reduction.gramians._FactorStore`).
@@ -250,12 +255,12 @@ def projected_factors(solves: str, work, rhs, m: int, wk, wt, *, side: str, rigi
                     f"Gramian quadrature ({wk.size} nodes, {solves})"):
         w, weight = wk[s0:s0 + _CHUNK], wt[s0:s0 + _CHUNK]
         Y = basis.solve(w) * np.sqrt(weight / math.pi)[:, None, None]  # (nodes, k, columns)
-        for j in range(w.size):
-            Yr = np.hstack([Y[j, :, :m].real, Y[j, :, :m].imag])
-            stores[0].add(Yr)
-            stores[1].add(w[j] * Yr)
-            if side == "both":
-                stores[2].add(np.hstack([Y[j, :, m:].real, Y[j, :, m:].imag]))
+        # per node the real and imaginary parts side by side, all nodes of the chunk in one block
+        Yr = np.concatenate([Y[:, :, :m].real, Y[:, :, :m].imag], axis=2)  # (nodes, k, 2 m)
+        stores[0].add(_columns(Yr))
+        stores[1].add(_columns(w[:, None, None] * Yr))
+        if side == "both":
+            stores[2].add(_columns(np.concatenate([Y[:, :, m:].real, Y[:, :, m:].imag], axis=2)))
     R, Rv = V @ stores[0].result(), V @ stores[1].result()
     L = V @ stores[2].result() if side == "both" else None
     info = basis.info

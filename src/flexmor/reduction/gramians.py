@@ -57,7 +57,8 @@ import scipy.linalg as sla
 from ..basis import orthonormalize
 from ..damping import band_matched
 from ..dynamics.frf import ShiftedMatrices
-from ..dynamics.modes import modal_damping_ratios, modes_below
+from ..dynamics.modes import PrePass, modal_damping_ratios, modes_below
+from ..dynamics.surrogate import MODES_MARGIN
 from ..errors import ModelError, OptionError, check_choice
 from ..linalg import factorize
 from ..linalg.context import SolverContext, as_solver, track
@@ -134,28 +135,30 @@ def compress(R: np.ndarray, tol: float = COMPRESS_TOL, *, overwrite: bool = Fals
     return W if Q is None else Q @ W
 
 
-def _resonances(model, fmax: float, solver: SolverContext):
+def _resonances(model, fmax: float, solver: SolverContext, margin: float = 1.0):
     """Eigenfrequencies (Hz), damping ratios and the modal pre-pass for the quadrature cells.
 
     Small models (``n_dof <= DENSE_LIMIT``): all modes. Larger: the modal pre-pass of
-    :func:`flexmor.dynamics.modes.modes_below` up to ``fmax`` (finite). Returns
-    ``(f, zeta, (phi, factorization, sigma))``: the pre-pass's modes (rigid-body modes
-    included) and factorization of ``K - sigma M`` (None for small models), reused by the
-    surrogate solves of :mod:`flexmor.reduction.gramian_solves`.
+    :func:`flexmor.dynamics.modes.modes_below` up to ``margin * fmax`` (finite). Returns
+    ``(f, zeta, pre)``: the eigenfrequencies up to ``fmax`` and the pre-pass
+    (:class:`flexmor.dynamics.modes.PrePass`, rigid-body modes included, its factorization None
+    for small models), reused by the surrogate solves of :mod:`flexmor.reduction.gramian_solves`,
+    whose basis needs the modes up to 1.1 ``fmax`` (``margin``) and the inertia count's
+    factorization at the band's end (kept then).
     """
     if model.n_dof <= DENSE_LIMIT:
         lam, phi = eigenmodes(model.K, model.M, model.n_dof, solver=solver)
         f = frequencies_hz(lam)
-        keep = f <= fmax
-        pre = (phi[:, keep], None, default_shift(model.K, model.M))
-        keep &= ~is_rigid(lam, model.K, model.M)
+        near = f <= margin * fmax
+        pre = PrePass(f[near], phi[:, near], None, default_shift(model.K, model.M))
+        keep = (f <= fmax) & ~is_rigid(lam, model.K, model.M)
         f_all, phi_all = f[keep], phi[:, keep]
     else:
         if math.isinf(fmax):
             raise OptionError("the Gramian of a large model needs a finite cutoff frequency")
-        f_all, phi_all, F, sigma = modes_below(model, fmax, solver)
-        pre = (phi_all, F, sigma)
-        f_all, phi_all = f_all[f_all > 0], phi_all[:, f_all > 0]
+        pre = modes_below(model, margin * fmax, solver, keep_edge=margin > 1)
+        keep = (pre.f > 0) & (pre.f <= fmax)
+        f_all, phi_all = pre.f[keep], pre.phi[:, keep]
     z = modal_damping_ratios(model.damping, f_all, phi_all, model.D) if model.D is not None else None
     z = np.zeros(f_all.size) if z is None else np.asarray(z, float)
     return f_all, z, pre
@@ -278,7 +281,8 @@ def gramian_factors(model, ports, band=(0.0, math.inf), *, side: str = "both", n
         raise OptionError(f"nodes and panels must be positive integers, got {nodes}, {panels}")
     fcut = cutoff if cutoff is not None else (fmax if math.isfinite(fmax) else max(10 * fmin, 1e4))
     chosen = choose_solves(solves, model, fmax)
-    f_res, z, pre = _resonances(model, max(fcut, fmin), solver)
+    f_res, z, pre = _resonances(model, max(fcut, fmin), solver,
+                                margin=MODES_MARGIN if chosen == "surrogate" else 1.0)
     work, damping = _regularized(model, (fmin, fmax), f_res)
     if model.D is None:
         z = modal_damping_ratios(work.damping, f_res)
@@ -296,6 +300,8 @@ def gramian_factors(model, ports, band=(0.0, math.inf), *, side: str = "both", n
     limit = int(max_columns) if max_columns is not None else factor_store_columns(model.n_dof)
     sinfo, stores, one_side = {"solves": "direct"}, [], "input" if collocated else side
     chosen = "direct" if chosen == "surrogate" and math.isinf(fmax) and not tail else chosen  # tail not bounded
+    if chosen != "surrogate":
+        pre.take_edge()  # only the surrogate's basis uses it: freed here
     if chosen != "direct":
         try:
             R, Rv, L, sinfo = projected_factors(chosen, work, rhs, m, wk, wt, side=one_side, rigid_modes=rigid_modes,
