@@ -265,7 +265,7 @@ class FullResponse:
             cand = initial_grid(fmin, fmax, n=400, resonances=self.resonances, zeta=self.zeta)
             sur = Surrogate(model, ports, self.band, phi=phi, factorization=pre.factorization, sigma=pre.sigma,
                             solver=solver, tol=surrogate_tol, check_solver=check_solver, candidates=cand,
-                            edge=pre.take_edge())
+                            edge=pre.take_edge(), complete=pre.complete)
             evaluate = sur.frf
         elif dense is not None:
             sur = None

@@ -57,6 +57,9 @@ class PrePass:
     edge : tuple or None
         ``(factorization, shift)`` of the inertia count, ``K - shift M`` with ``shift`` at the
         highest frequency wanted, when kept (:meth:`take_edge`).
+    complete : bool
+        The modes are all of the model's up to the highest frequency wanted: as many as the
+        inertia count found, or all modes of a dense eigendecomposition.
     """
 
     f: np.ndarray
@@ -64,6 +67,7 @@ class PrePass:
     factorization: object | None
     sigma: float
     edge: tuple | None = None
+    complete: bool = False
 
     def take_edge(self) -> tuple | None:
         """The edge factorization, no longer referenced here (its memory goes with the caller's last reference)."""
@@ -102,24 +106,26 @@ def modes_below(model, fmax: float, solver: SolverContext, max_modes: int = 400,
     sigma = solver.kept_shift(model.K, model.M)  # a factorization kept for these matrices serves the pre-pass
     if sigma is None:
         sigma = default_shift(model.K, model.M)
-    F, edge = None, None
+    F, edge, below = None, None, None
     k = min(model.n_dof, 20)
-    if model.n_dof > solver.eigen.dense_limit:  # count first
-        count, edge = _count_below(model, fmax, solver, keep_edge)
-        k = count or k
+    dense = model.n_dof <= solver.eigen.dense_limit
+    if not dense:  # count first
+        below, edge = _count_below(model, fmax, solver, keep_edge)
+        k = k if below is None else min(model.n_dof, below + 2)
         F = factorize_shifted(model.K, model.M, sigma, solver=solver)
     while True:
         lam, phi = eigenmodes(model.K, model.M, k, sigma=sigma, factorization=F, solver=solver)
         f = frequencies_hz(lam)
         if f[-1] > fmax or k >= min(model.n_dof, max_modes):
             keep = f <= fmax
-            return PrePass(f[keep], phi[:, keep], F, sigma, edge)
+            complete = (dense and f[-1] > fmax) or int(keep.sum()) == below
+            return PrePass(f[keep], phi[:, keep], F, sigma, edge, bool(complete))
         # the next k from the density of modes found so far (+15 %), at least 8 more
         k = min(model.n_dof, max_modes, max(k + 8, int(np.ceil(1.15 * k * fmax / max(f[-1], 1e-30)))))
 
 
 def _count_below(model, fmax: float, solver: SolverContext, keep: bool = False):
-    """Number of eigenfrequencies below ``fmax`` plus 2 from the inertia of ``K - w^2 M``, and that factorization.
+    """Number of eigenfrequencies below ``fmax`` from the inertia of ``K - w^2 M``, and that factorization.
 
     One real symmetric indefinite factorization (Sylvester's law of inertia) replaces the
     guessing of the number of modes; the count is None when the backend does not report the
@@ -134,4 +140,4 @@ def _count_below(model, fmax: float, solver: SolverContext, keep: bool = False):
         return None, None
     est, avail = F.memory_estimate, solver.memory_available()
     kept = (F, shift) if keep and est and avail and 2 * est <= MEMORY_FRACTION * avail else None
-    return (None if F.inertia is None else min(model.n_dof, F.inertia[1] + 2)), kept
+    return (None if F.inertia is None else int(F.inertia[1])), kept

@@ -124,7 +124,8 @@ class _Projected:
                       output_names=[""] * n)
         band = (float(nodes_hz.min()), float(nodes_hz.max()))
         sur = Surrogate(work, state, band, phi=modes.phi, factorization=modes.factorization, sigma=modes.sigma,
-                        solver=solver, tol=SURROGATE_GRAMIAN_TOL, candidates=nodes_hz, edge=modes.take_edge())
+                        solver=solver, tol=SURROGATE_GRAMIAN_TOL, candidates=nodes_hz, edge=modes.take_edge(),
+                        complete=modes.complete)
         check = sur.verify(nodes_hz)
         sur.release()
         self.sur, self.V = sur, sur.V

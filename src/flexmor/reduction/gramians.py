@@ -150,7 +150,7 @@ def _resonances(model, fmax: float, solver: SolverContext, margin: float = 1.0):
         lam, phi = eigenmodes(model.K, model.M, model.n_dof, solver=solver)
         f = frequencies_hz(lam)
         near = f <= margin * fmax
-        pre = PrePass(f[near], phi[:, near], None, default_shift(model.K, model.M))
+        pre = PrePass(f[near], phi[:, near], None, default_shift(model.K, model.M), complete=True)
         keep = (f <= fmax) & ~is_rigid(lam, model.K, model.M)
         f_all, phi_all = f[keep], phi[:, keep]
     else:
