@@ -17,7 +17,7 @@ matrices ``B`` (n_dof, m) and ``C`` (p, n_dof).
 
 from __future__ import annotations
 
-import dataclasses
+import copy
 import functools
 import warnings
 from dataclasses import dataclass, field
@@ -427,4 +427,9 @@ class FEModel:
         alpha, beta = damping.alpha, damping.beta
         if not (np.isfinite(alpha) and np.isfinite(beta)) or alpha < 0 or beta < 0:
             raise ModelError(f"Rayleigh coefficients must be finite and >= 0, got alpha={alpha}, beta={beta}")
-        return dataclasses.replace(self, D=damping.matrix(self.M, self.K), damping=damping)
+        # M and K are this model's, checked: a copy with D (symmetric as they are), without checking them again
+        D = _as_csr("D", damping.matrix(self.M, self.K))
+        _check_square_symmetric("D", D, self.n_dof)
+        out = copy.copy(self)
+        out.D, out.damping = D, damping
+        return out

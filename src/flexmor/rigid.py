@@ -132,24 +132,22 @@ def rigid_residual(model, V, phi=None) -> float:
 
 
 def _orthonormal_in_order(X, tol: float, ref=None):
-    """Orthonormal columns spanning ``X`` built column by column (Gram-Schmidt order kept:
-    the first ``k`` results span the leading columns), dropping those whose part outside the
-    earlier ones is at most ``tol * ref[j]`` (``ref`` defaults to the columns' own norms; pass
-    the norms the columns had before a projection to drop columns that the projection emptied)."""
+    """Orthonormal columns spanning ``X`` in the order of its columns (the first ``k`` results span
+    the leading kept columns), dropping those whose part outside the earlier ones is at most
+    ``tol * ref[j]`` (``ref`` defaults to the columns' own norms; pass the norms the columns had
+    before a projection to drop columns that the projection emptied). The parts are the diagonal
+    of a Householder QR of ``X`` (no pivoting: the order is kept); a second QR of the kept columns
+    gives the result, with the signs of Gram-Schmidt (a positive diagonal)."""
     ref = np.linalg.norm(X, axis=0) if ref is None else np.asarray(ref, dtype=float)
-    keep = []
-    Q = np.zeros_like(X)
-    k = 0
-    for j in range(X.shape[1]):
-        x = X[:, j]
-        for _ in range(2):  # twice is enough
-            x = x - Q[:, :k] @ (Q[:, :k].T @ x)
-        s = np.linalg.norm(x)
-        if s > tol * ref[j] and s > 0:
-            Q[:, k] = x / s
-            keep.append(j)
-            k += 1
-    return Q[:, :k], keep
+    if X.shape[1] == 0:
+        return X[:, :0].copy(), []
+    d = np.abs(np.diag(np.linalg.qr(X, mode="r")))
+    keep = [j for j in range(X.shape[1]) if d[j] > tol * ref[j] and d[j] > 0]
+    if not keep:
+        return X[:, :0].copy(), keep
+    Q, R = np.linalg.qr(X[:, keep])
+    sign = np.sign(np.diag(R))
+    return Q * np.where(sign == 0, 1.0, sign), keep
 
 
 def exclude_rigid(model, basis: Basis) -> Basis:

@@ -111,14 +111,15 @@ def modes_below(model, fmax: float, solver: SolverContext, max_modes: int = 400,
     dense = model.n_dof <= solver.eigen.dense_limit
     if not dense:  # count first
         below, edge = _count_below(model, fmax, solver, keep_edge)
-        k = k if below is None else min(model.n_dof, below + 2)
+        k = k if below is None else min(model.n_dof, max(below, 1))  # as many as counted
         F = factorize_shifted(model.K, model.M, sigma, solver=solver)
     while True:
         lam, phi = eigenmodes(model.K, model.M, k, sigma=sigma, factorization=F, solver=solver)
         f = frequencies_hz(lam)
-        if f[-1] > fmax or k >= min(model.n_dof, max_modes):
-            keep = f <= fmax
-            complete = (dense and f[-1] > fmax) or int(keep.sum()) == below
+        keep = f <= fmax
+        counted = below is not None and int(keep.sum()) == below
+        if counted or f[-1] > fmax or k >= min(model.n_dof, max_modes):
+            complete = counted or (dense and f[-1] > fmax)
             return PrePass(f[keep], phi[:, keep], F, sigma, edge, bool(complete))
         # the next k from the density of modes found so far (+15 %), at least 8 more
         k = min(model.n_dof, max_modes, max(k + 8, int(np.ceil(1.15 * k * fmax / max(f[-1], 1e-30)))))

@@ -75,6 +75,14 @@ ITERATIVE_TARGET = 1e-4
 MODES_MARGIN = 1.1
 
 
+def _orthonormal(V: np.ndarray, rtol: float = 1e-10) -> np.ndarray:
+    """Orthonormal basis of the span of the columns of ``V`` (rank-revealing QR)."""
+    V = V / np.maximum(np.linalg.norm(V, axis=0), np.finfo(float).tiny)
+    Q, R, _ = sla.qr(V, mode="economic", pivoting=True, check_finite=False)
+    d = np.abs(np.diag(R))
+    return Q[:, : int(np.sum(d > rtol * d[0]))]
+
+
 class Surrogate:
     """Verified Galerkin surrogate of ``H(s) = C (s^2 M + s D + K)^{-1} B`` over a band.
 
@@ -126,7 +134,7 @@ class Surrogate:
         self.model, self.solver, self.tol = model, solver, float(tol)
         self.B = ports.B.toarray()
         self.C = ports.C
-        self.shifted = ShiftedMatrices(model.K, model.M, model.D)
+        self._shifted: ShiftedMatrices | None = None  # A(w) assembled: direct checks only
         F0 = factorization or factorize((model.K - sigma * model.M).tocsr(), solver=solver, positive=sigma < 0)
         self._F0 = F0
         blocks = [phi]
@@ -172,13 +180,14 @@ class Surrogate:
 
     def _set_basis(self, V):
         m = self.model
-        self.V = extend_orthonormal(None, V)
+        self.V = _orthonormal(V)
         KV, MV = m.K @ self.V, m.M @ self.V
         DV = m.D @ self.V
         self.Kr, self.Mr, self.Dr = (self.V.T @ X for X in (KV, MV, DV))
         self.Br, self.Cr = self.V.T @ self.B, np.asarray(self.C @ self.V)
-        P = np.hstack([KV, MV, DV, self.B])
-        self._gram = P.T @ P
+        P = (KV, MV, DV, self.B)  # the Gram matrix of [K V, M V, D V, B] by blocks (no copy of them side by side)
+        G = [[X.T @ Y if i <= j else None for j, Y in enumerate(P)] for i, X in enumerate(P)]
+        self._gram = np.block([[G[i][j] if i <= j else G[j][i].T for j in range(4)] for i in range(4)])
         lam, psi = sla.eigh((self.Kr + self.Kr.T) / 2, (self.Mr + self.Mr.T) / 2)
         self._psi = psi
         d = psi.T @ self.Dr @ psi
@@ -231,7 +240,9 @@ class Surrogate:
         info = {"solver": self.check_solver}
         with step(self.solver.progress, f"surrogate check at {f_hz:.4g} Hz (order {self.order})") as note:
             if self.check_solver == "direct":
-                F = factorize(self.shifted(w), solver=self.solver, symmetric=True, check=False)
+                if self._shifted is None:
+                    self._shifted = ShiftedMatrices(self.model.K, self.model.M, self.model.D)
+                F = factorize(self._shifted(w), solver=self.solver, symmetric=True, check=False)
                 X = F.solve(self.B)
                 del F
             else:
@@ -260,21 +271,29 @@ class Surrogate:
         reduced matrices; each further one costs a sparse product and a solve with the pre-pass
         factorization for the new block, and only the basis ``W`` and ``W^T A W`` are stored.
         """
-        A = self.shifted(w)
-        M = self.model.M
+        m = self.model
+        M = m.M
+
+        def A(X):  # A(w) X without assembling A(w): real products with K, M, D
+            Y = m.K @ X - w ** 2 * (M @ X)
+            return Y + 1j * w * (m.D @ X) if m.D is not None else Y
+
+        def apply(X):
+            return A(X) if not np.iscomplexobj(X) else A(X.real) + 1j * A(X.imag)
+
         target = ITERATIVE_TARGET * self.tol
         W = self.V
         Ar = self.Kr - w ** 2 * self.Mr + 1j * w * self.Dr
         for it in range(max_iter + 1):
             X = W @ np.linalg.solve(Ar, W.T @ self.B)
-            Z = self._F0.solve(self.B - A @ X)
+            Z = self._F0.solve(self.B - apply(X))
             est = float(np.sqrt(max(np.vdot(Z, M @ Z).real, 0.0) / max(np.vdot(X, M @ X).real, 1e-300)))
             if est <= target or it == max_iter:
                 break
             N = extend_orthonormal(W, np.hstack([Z.real, Z.imag]))
             if N.shape[1] == 0:
                 break
-            AN = A @ N
+            AN = apply(N)
             WAN = W.T @ AN  # A is complex symmetric: N^T A W = (W^T A N)^T
             Ar = np.block([[Ar, WAN], [WAN.T, N.T @ AN]])
             W = np.hstack([W, N])
