@@ -28,7 +28,8 @@ Parts (``--parts``, default all):
 ``free``
     The free plate structure (``plate_structure(56, lower='mass')``, RBE2 at the hole, 35,604 DOF)
     at order ``--free-order`` (40): ``krylov`` (inputs ``HOLE@RBE2:all``) against ``craig-bampton``,
-    ``cms-krylov`` and ``cms-gramian`` (interface ``HOLE@RBE2``).
+    ``cms-krylov`` and ``cms-gramian`` (interface ``HOLE@RBE2``); with ``--free-models plate,c3d10``
+    also the free CalculiX C3D10 bar (RBE2 at ``TIP``, inputs ``TIP@RBE2:all``, 34,686 DOF).
 
 ``--src A,B`` runs every case with each of the source trees given (``PYTHONPATH``), alternately, so
 that two versions compare under the same load. Each case runs in a fresh process (best of
@@ -225,7 +226,17 @@ def case_method(args) -> dict:
     from flexmor.ports import make_ports
     from flexmor.reduction import methods, reduce
 
-    if args.free_body:
+    if args.free_body and args.model == "c3d10":
+        import warnings
+
+        import flexmor
+        from flexmor.errors import FlexmorWarning
+
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", FlexmorWarning)
+            model = couple(flexmor.read(_c3d10(args.c3d10, False)), ["TIP@rbe2"]).model
+        ports, iface = make_ports(model, ["TIP@RBE2:all"]), ["TIP@RBE2"]
+    elif args.free_body:
         model = couple(plate_structure(args.busy_n, lower="mass"), ["HOLE@rbe2"]).model
         ports, iface = make_ports(model, ["HOLE@RBE2:all"]), ["HOLE@RBE2"]
     else:  # damped (Rayleigh 2 1/s, 1e-6 s): irka needs it, and the others take it as it is
@@ -296,6 +307,7 @@ def main(argv=None) -> int:
     ap.add_argument("--busy-n", type=int, default=40)
     ap.add_argument("--free-order", type=int, default=40)
     ap.add_argument("--free-n", type=int, default=56, help="plate_structure(n, lower='mass') of the free part")
+    ap.add_argument("--free-models", default="plate", help="of the free part: plate, c3d10 (needs ccx once)")
     ap.add_argument("--plate-n", type=int, default=56, help="plate_structure(n) of the krylov part")
     ap.add_argument("--cantilever-dofs", type=int, default=27000)
     ap.add_argument("--repeat", type=int, default=2)
@@ -365,19 +377,23 @@ def main(argv=None) -> int:
                 print(f"  {_label(src, srcs)}{method:14s} r={q['order']:3d} quiet {q['seconds']:6.2f} s  busy "
                       f"{b['seconds']:6.2f} s  ratio {row['ratio']:.2f}", flush=True)
     if "free" in parts:
-        print(f"free plate structure, RBE2 at the hole, order {args.free_order} (load {_load()})", flush=True)
         rows = out["parts"]["free"] = []
-        for src in srcs:
-            ref = None
-            for method in ("krylov", "craig-bampton", "cms-krylov", "cms-gramian"):
-                r = _row(rows, src, srcs, method, ["method", "--method", method, "--free-body", "--busy-n",
-                                                   str(args.free_n), "--order", str(args.free_order), *rep])
-                if r is None:
-                    continue
-                ref = r["seconds"] if method == "krylov" else ref
-                print(f"  {_label(src, srcs)}{method:14s} {r['n_dof']} DOF r={r['order']:3d} {r['seconds']:6.2f} s "
-                      f"({r['factorizations']} factorizations, {r['solves']} solves)  x krylov "
-                      f"{r['seconds'] / ref:.2f}" if ref else "", flush=True)
+        for fm in args.free_models.split(","):
+            what = "plate structure, RBE2 at the hole" if fm == "plate" else "C3D10 bar, RBE2 at TIP"
+            print(f"free {what}, order {args.free_order} (load {_load()})", flush=True)
+            for src in srcs:
+                ref = None
+                for method in ("krylov", "craig-bampton", "cms-krylov", "cms-gramian"):
+                    r = _row(rows, src, srcs, method, ["method", "--method", method, "--free-body", "--model", fm,
+                                                       "--busy-n", str(args.free_n), "--c3d10", args.c3d10,
+                                                       "--order", str(args.free_order), *rep])
+                    if r is None:
+                        continue
+                    r["free_model"] = fm
+                    ref = r["seconds"] if method == "krylov" else ref
+                    print(f"  {_label(src, srcs)}{method:14s} {r['n_dof']} DOF r={r['order']:3d} {r['seconds']:6.2f} s "
+                          f"({r['factorizations']} factorizations, {r['solves']} solves)  x krylov "
+                          f"{r['seconds'] / ref:.2f}" if ref else "", flush=True)
     out["load_end"] = _load()
     Path(args.out).parent.mkdir(parents=True, exist_ok=True)
     Path(args.out).write_text(json.dumps(out, indent=1, default=float))

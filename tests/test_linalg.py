@@ -67,9 +67,14 @@ def test_pardiso_reuses_the_ordering_of_a_pattern(clamped):
     assert not factorize(A, solver=SolverContext("pardiso"), check=False).reused_ordering  # a context of its own
     n = K.shape[0]
     E = sp.coo_matrix(([1.0, 1.0], ([0, n - 1], [n - 1, 0])), shape=(n, n))
-    A = (K - (2 * np.pi * 151.0) ** 2 * M + 1e-3 * abs(K).max() * E).tocsr()  # one more entry: another pattern
+    A = (K - (2 * np.pi * 151.0) ** 2 * M + 1e-3 * abs(K).max() * E).tocsr()  # one more entry: a near pattern
     G = factorize(A, solver=pardiso, check=False)
-    assert not G.reused_ordering
+    assert G.reused_ordering and len(pardiso.orderings) == 1
+    assert np.linalg.norm(A @ G.solve(b) - b) / np.linalg.norm(b) < 1e-10
+    E = sp.diags([np.ones(n - 7)], [7])  # an entry more in most rows: another pattern
+    A = (K - (2 * np.pi * 151.0) ** 2 * M + 1e-3 * abs(K).max() * (E + E.T)).tocsr()
+    G = factorize(A, solver=pardiso, check=False)
+    assert not G.reused_ordering and len(pardiso.orderings) == 2
     assert np.linalg.norm(A @ G.solve(b) - b) / np.linalg.norm(b) < 1e-10
 
 

@@ -142,6 +142,11 @@ class Factorization:
     __call__ = solve
 
 
+#: Share of the rows (and of the entries) in which a pattern may differ from a stored one and still take its
+#: ordering (:meth:`OrderingCache.near`).
+NEAR_SHARE = 0.01
+
+
 class OrderingCache:
     """Fill-reducing orderings of the last few sparsity patterns factorized by PARDISO.
 
@@ -150,7 +155,11 @@ class OrderingCache:
     dissection once and reuse it (``iparm[4] = 1``; the symbolic factorization still runs, at a
     quarter to a half of the cost with METIS). Keyed by :meth:`key`: the orderings of the symmetric
     types without weighted matching are one (``mtype`` 0 in the key); with matching, MKL orders
-    by the values and ignores a given ordering.
+    by the values and ignores a given ordering. A pattern that differs from a stored one of the same
+    size in a few entries (a few rows' counts and the number of entries, each by at most
+    :data:`NEAR_SHARE`; e.g. ``K_ii`` and ``K_ii - sigma M_ii`` of an interface's interior, whose mass
+    holds a few entries the stiffness does not) takes that one's ordering too (:meth:`near`): any
+    permutation gives a correct factorization, a near one about the same fill.
 
     Parameters
     ----------
@@ -161,6 +170,7 @@ class OrderingCache:
     def __init__(self, kept: int = 4):
         self.kept = int(kept)
         self._perms: dict = {}
+        self._rows: dict = {}  # the row counts of each stored pattern, for near()
 
     def __len__(self) -> int:
         return len(self._perms)
@@ -176,9 +186,23 @@ class OrderingCache:
         """The ordering stored for ``key``, or None."""
         return self._perms.get(key)
 
-    def remember(self, key: tuple, perm: np.ndarray) -> None:
-        """Store a copy of ``perm`` for ``key`` as the newest entry."""
+    def near(self, key: tuple, ia: np.ndarray) -> np.ndarray | None:
+        """The ordering of a stored pattern of the same kind and size that differs from ``(key, ia)`` in at
+        most :data:`NEAR_SHARE` of the rows' counts and of the entries (or 8 of them), or None."""
+        kind, n, nnz = key[:3]
+        counts = np.diff(ia)
+        for other, perm in reversed(self._perms.items()):
+            if other[:2] != (kind, n) or abs(other[2] - nnz) > max(NEAR_SHARE * nnz, 8):
+                continue
+            if np.count_nonzero(self._rows[other] != counts) <= max(NEAR_SHARE * n, 8):
+                return perm
+        return None
+
+    def remember(self, key: tuple, perm: np.ndarray, ia: np.ndarray | None = None) -> None:
+        """Store a copy of ``perm`` for ``key`` (and its row pointers ``ia``, for :meth:`near`) as the newest entry."""
         self._perms.pop(key, None)
         self._perms[key] = perm.copy()
+        self._rows[key] = np.diff(ia) if ia is not None else np.full(key[1], -1)
         while len(self._perms) > self.kept:
-            self._perms.pop(next(iter(self._perms)))
+            self._rows.pop(oldest := next(iter(self._perms)), None)
+            self._perms.pop(oldest)

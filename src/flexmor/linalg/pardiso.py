@@ -145,6 +145,10 @@ class PardisoFactorization(Factorization):
         # a plain ordering serves every symmetric type of the pattern; with matching MKL computes its own
         key = orderings.key(self._mtype if matching else 0, self._ia, self._ja)
         self._perm = None if matching else orderings.get(key)
+        if self._perm is None and not matching:
+            self._perm = orderings.near(key, self._ia)
+            if self._perm is not None:
+                self._perm = self._perm.copy()
         ip[4] = 2 if self._perm is None else 1  # 2: return METIS' permutation, 1: reuse a stored one
         if self._perm is None:
             self._perm = np.zeros(self._n, dtype=np.int32)
@@ -152,7 +156,7 @@ class PardisoFactorization(Factorization):
         self.matching = matching
         self._call(11, None, None, 0)  # analysis: ordering, symbolic factorization, memory
         if not self.reused_ordering and not matching:
-            orderings.remember(key, self._perm)
+            orderings.remember(key, self._perm, self._ia)
         self._plan(solver, A, pardiso_estimates(ip, A, self._data.size))
         plan = self.memory
         assert plan is not None  # set by _plan
