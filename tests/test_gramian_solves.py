@@ -319,3 +319,20 @@ def test_iterative_check_estimate_bounds_the_error_at_a_resonance(n_krylov):
         assert ratio <= 1 and dist(X, Xd) <= 6 * ratio * ITERATIVE_TARGET * sur.tol + 2 * dist(Xd, Xe), f
         steps.append(it)
     assert max(steps) > 0 or n_krylov > 1
+
+
+def test_without_an_inertia_count_the_checks_are_direct():
+    # SciPy's factorization reports no inertia: the pre-pass cannot say its modes are all below 1.1 fmax, so
+    # the iterative checks' estimate would not hold and auto takes direct checks
+    from flexmor.dynamics.modes import modes_below
+    from flexmor.dynamics.surrogate import MODES_MARGIN, Surrogate
+    from flexmor.linalg import EigenPolicy, SolverContext
+
+    model = cantilever(2).with_rayleigh(0.0, 1e-6)
+    ports = make_ports(model, ["TIP:y", "TIP:z"])
+    solver = SolverContext("scipy", eigen=EigenPolicy(dense_limit=100))
+    pre = modes_below(model, MODES_MARGIN * 3000.0, solver)
+    assert not pre.complete and pre.f.size > 0
+    sur = Surrogate(model, ports, (10.0, 3000.0), phi=pre.phi, factorization=pre.factorization, sigma=pre.sigma,
+                    solver=solver, candidates=np.linspace(10.0, 3000.0, 40), complete=pre.complete)
+    assert sur.check_solver == "direct" and sur.verified

@@ -119,7 +119,7 @@ def modes_below(model, fmax: float, solver: SolverContext, max_modes: int = 400,
         keep = f <= fmax
         counted = below is not None and int(keep.sum()) == below
         if counted or f[-1] > fmax or k >= min(model.n_dof, max_modes):
-            complete = counted or (dense and f[-1] > fmax)
+            complete = counted or (dense and (f[-1] > fmax or k >= model.n_dof))  # dense: every mode up to f[-1]
             return PrePass(f[keep], phi[:, keep], F, sigma, edge, bool(complete))
         # the next k from the density of modes found so far (+15 %), at least 8 more
         k = min(model.n_dof, max_modes, max(k + 8, int(np.ceil(1.15 * k * fmax / max(f[-1], 1e-30)))))
