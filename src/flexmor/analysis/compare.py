@@ -146,8 +146,9 @@ class FullResponse:
         Largest pointwise relative error of the surrogate at its direct checks.
     check_solver : {'auto', 'direct', 'iterative'}
         How the surrogate's checks solve the full model (see
-        :class:`flexmor.dynamics.surrogate.Surrogate`; ``auto``: iterative only when a complex
-        factorization would not fit into memory).
+        :class:`flexmor.dynamics.surrogate.Surrogate`; ``auto``: iterative where the pre-pass counted
+        its modes and the damping is proportional, or where a complex factorization would not fit
+        into memory, else direct).
     cache : bool or path-like
         Use the disk cache (True: :func:`flexmor.analysis.cache.cache_dir`; a path: that
         directory; False: neither read nor write).

@@ -14,22 +14,22 @@ against direct solves:
 2. greedy verification: the relative residual ``||A(w) V x(w) - B||_F / ||B||_F`` is
    evaluated on candidate frequencies (cheaply, through the Gram matrix of
    ``[K V, M V, D V, B]``); at the frequency with the largest residual the full model is
-   solved directly (one factorization) and the pointwise error of the surrogate
-   ``||H - H_s||_F / ||H||_F`` is measured. If it exceeds ``tol``, the direct solution is
-   added to the basis (rational Krylov enrichment) and the step is repeated; it stops after
-   two consecutive checks below ``tol``;
+   solved (a check) and the pointwise error of the surrogate ``||H - H_s||_F / ||H||_F`` is
+   measured. If it exceeds ``tol``, the full solution is added to the basis (rational Krylov
+   enrichment) and the step is repeated; it stops after two consecutive checks below ``tol``;
 3. :meth:`Surrogate.verify` repeats the check at the worst-residual point of the final grid.
 
-A direct check needs a complex factorization, about twice the memory of the real one of the
-pre-pass. When that would not fit next to it (a million DOF on one machine), the check
-solves the full model iteratively instead (``check_solver="iterative"``): block Galerkin
-steps on the surrogate's space enlarged by preconditioned residuals ``(K - sigma M)^{-1} r``
-with the pre-pass factorization (a deflated block Krylov method: the modes up to 1.1 ``fmax``
-are in the starting space, so the remaining spectrum of the preconditioned operator is
-clustered), until the error estimate ``||(K - sigma M)^{-1} r|| / ||x||`` is below ``1e-4 tol``
-(it bounds the error to a factor 6; the residual relative to ``B`` does not, at a resonance).
-Each check then reports the solver and its estimate relative to that target
-(``solution_residual <= 1``: converged).
+A check solves the full model iteratively (``check_solver="iterative"``): block Galerkin steps
+on the surrogate's space enlarged by preconditioned residuals ``(K - sigma M)^{-1} r`` with the
+pre-pass factorization (a deflated block Krylov method: the modes up to 1.1 ``fmax`` are in the
+starting space, so the remaining spectrum of the preconditioned operator is clustered), until
+the error estimate ``||(K - sigma M)^{-1} r||_M / ||x||_M`` is below ``1e-4 tol`` (it bounds the
+error to a factor 6; the residual relative to ``B`` does not, at a resonance). Each check reports
+the solver and its estimate relative to that target (``solution_residual <= 1``: converged). The
+bound needs every mode below 1.1 ``fmax`` in the space (``complete``: counted by the pre-pass)
+and proportional damping; otherwise the check is direct (``check_solver="direct"``): one complex
+factorization, about twice the memory of the real one of the pre-pass, unless that does not fit
+next to it (a million DOF on one machine).
 
 Every check and its error are reported, so the floor of the measured errors is known: a
 band_error well above ``tol**2`` is unaffected by the surrogate.
