@@ -136,16 +136,19 @@ def _orthonormal_in_order(X, tol: float, ref=None):
     the leading kept columns), dropping those whose part outside the earlier ones is at most
     ``tol * ref[j]`` (``ref`` defaults to the columns' own norms; pass the norms the columns had
     before a projection to drop columns that the projection emptied). The parts are the diagonal
-    of a Householder QR of ``X`` (no pivoting: the order is kept); a second QR of the kept columns
-    gives the result, with the signs of Gram-Schmidt (a positive diagonal)."""
+    of a Householder QR of ``X`` (no pivoting: the order is kept), whose ``Q`` is the result when no
+    column is dropped (else a QR of the kept columns), with the signs of Gram-Schmidt (a positive
+    diagonal)."""
     ref = np.linalg.norm(X, axis=0) if ref is None else np.asarray(ref, dtype=float)
     if X.shape[1] == 0:
         return X[:, :0].copy(), []
-    d = np.abs(np.diag(np.linalg.qr(X, mode="r")))
+    Q, R = np.linalg.qr(X)
+    d = np.abs(np.diag(R))
     keep = [j for j in range(X.shape[1]) if d[j] > tol * ref[j] and d[j] > 0]
     if not keep:
         return X[:, :0].copy(), keep
-    Q, R = np.linalg.qr(X[:, keep])
+    if len(keep) < X.shape[1]:
+        Q, R = np.linalg.qr(X[:, keep])
     sign = np.sign(np.diag(R))
     return Q * np.where(sign == 0, 1.0, sign), keep
 

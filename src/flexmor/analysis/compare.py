@@ -143,7 +143,7 @@ class FullResponse:
     path : {'auto', 'direct', 'dense', 'surrogate'}
         How H is evaluated on the grid (see :data:`PATHS`); ``grid["path"]`` tells the one used.
     surrogate_tol : float
-        Largest pointwise relative error of the surrogate at its direct checks.
+        Largest pointwise relative error of the surrogate at its checks.
     check_solver : {'auto', 'direct', 'iterative'}
         How the surrogate's checks solve the full model (see
         :class:`flexmor.dynamics.surrogate.Surrogate`; ``auto``: iterative where the pre-pass counted

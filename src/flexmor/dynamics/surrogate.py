@@ -107,7 +107,7 @@ class Surrogate:
     n_krylov : int
         Krylov blocks from the pre-pass factorization.
     max_checks : int
-        Largest number of direct checks (factorizations) while building.
+        Largest number of checks while building.
     check_solver : {'auto', 'direct', 'iterative'}
         How the checks solve the full model: a complex factorization, or the iterative solver
         on the pre-pass factorization; ``auto`` is iterative where its error estimate holds
@@ -167,7 +167,7 @@ class Surrogate:
         if not self.verified:
             log.warning("surrogate not verified after %d checks (last error %.1e > %.1e)",
                         len(self.checks), self.checks[-1]["rel_error"], self.tol)
-        log.info("surrogate of order %d, %d direct checks", self.order, len(self.checks))
+        log.info("surrogate of order %d, %d %s checks", self.order, len(self.checks), self.check_solver)
 
     def release(self) -> None:
         """Drop the reference to the pre-pass factorization (no more checks after this)."""
@@ -274,12 +274,11 @@ class Surrogate:
         m = self.model
         M = m.M
 
-        def A(X):  # A(w) X without assembling A(w): real products with K, M, D
+        def apply(X):  # A(w) X without assembling A(w): real products with K, M, D (no complex copy of them)
+            if np.iscomplexobj(X):
+                return apply(X.real) + 1j * apply(X.imag)
             Y = m.K @ X - w ** 2 * (M @ X)
             return Y + 1j * w * (m.D @ X) if m.D is not None else Y
-
-        def apply(X):
-            return A(X) if not np.iscomplexobj(X) else A(X.real) + 1j * A(X.imag)
 
         target = ITERATIVE_TARGET * self.tol
         W = self.V

@@ -20,6 +20,7 @@ Krylov continuation block.
 from __future__ import annotations
 
 import logging
+from typing import NamedTuple
 
 import numpy as np
 import scipy.linalg as sla
@@ -76,8 +77,17 @@ def _orthonormalize(W, MW, Q, m, M, drop_tol=1e-10):
 SETTLED = 1e-9
 
 
-def _ritz_check(K, M, X, lam, scale, tol, res_old):
-    """``(R, done, lam, X, res)`` of the Ritz pairs ``(lam, X)``: true residuals ``R = K X - M X lam``, their
+class _Check(NamedTuple):
+    """The residual check of the Ritz pairs of a basis of ``m`` columns (:func:`_ritz_check`)."""
+
+    R: np.ndarray  # true residuals K X - M X lam
+    done: np.ndarray  # converged pairs
+    res: np.ndarray  # relative residual norms
+    m: int
+
+
+def _ritz_check(K, M, X, lam, scale, tol, res_old, m) -> _Check:
+    """The true residuals ``R = K X - M X lam`` of the Ritz pairs ``(lam, X)`` of a basis of ``m`` columns, their
     relative norms ``res`` and which pairs are converged (below ``tol``, or below ``0.01 sqrt(tol)`` and no
     longer falling by half against ``res_old``: round-off puts a floor of about ``eps ||K|| ||x||`` under
     ``||R||``)."""
@@ -86,7 +96,7 @@ def _ritz_check(K, M, X, lam, scale, tol, res_old):
     res = np.linalg.norm(R, axis=0) / ((np.abs(lam) + scale) * np.linalg.norm(MX, axis=0) + 1e-300)
     stalled = res >= 0.5 * res_old if res_old is not None else np.zeros(lam.size, bool)
     done = (res <= tol) | (stalled & (res <= np.sqrt(tol) * 1e-2))
-    return R, done, lam, X, res
+    return _Check(R, done, res, m)
 
 
 def _iterate(K, M, k, F, sigma, *, block=None, tol=1e-8, max_basis=None, max_restarts=50, seed=0):
@@ -120,22 +130,22 @@ def _iterate(K, M, k, F, sigma, *, block=None, tol=1e-8, max_basis=None, max_res
             # (K, M) are not those of S, so W alone would not carry their residuals)
             restarts += 1
             if restarts > max_restarts:
-                n_done = int(last[1].sum()) if last is not None else 0
+                n_done = int(last.done.sum()) if last is not None else 0
                 theta, Y = sla.eigh(H[:m, :m])  # the best Ritz pairs now (the last residual check may be older)
                 kk = min(k, m)
                 raise ConvergenceError(f"block Lanczos did not converge for {k} modes in {max_restarts} restarts "
                                        f"({n_done} converged)", result=(theta[:kk], Q[:, :m] @ Y[:, :kk]))
             keep = min(m - p, max(k + p, m // 2)) if m > k + p else m
             theta, Y = sla.eigh(H[:m, :m])
-            if last is None or last[-1] != m:  # the residuals of the Ritz pairs now, for the continuation
-                last = _ritz_check(K, M, Q[:, :m] @ Y[:, :k], theta[:k], scale, tol, None) + (m,)
+            if last is None or last.m != m:  # the residuals of the Ritz pairs now, for the continuation
+                last = _ritz_check(K, M, Q[:, :m] @ Y[:, :k], theta[:k], scale, tol, None, m)
             Y = Y[:, :keep]
             Q[:, :keep] = Q[:, :m] @ Y
             H[:keep, :keep] = np.diag(theta[:keep])
             m = keep
             theta_old = None
             if last is not None:
-                R, done = last[:2]
+                R, done = last.R, last.done
                 idx = np.flatnonzero(~done)[:p]
                 if idx.size:
                     W = np.hstack([W, F.solve(R[:, idx])])
@@ -161,8 +171,9 @@ def _iterate(K, M, k, F, sigma, *, block=None, tol=1e-8, max_basis=None, max_res
                 solves += 1
                 continue
             lam = theta[:k]
-            last = _ritz_check(K, M, Q[:, :m] @ Y[:, :k], lam, scale, tol, res_old) + (m,)
-            R, done, _, X, res, _ = last  # X is a new array: a restart overwriting Q leaves it intact
+            X = Q[:, :m] @ Y[:, :k]  # a new array: a restart overwriting Q leaves it intact
+            last = _ritz_check(K, M, X, lam, scale, tol, res_old, m)
+            done, res = last.done, last.res
             res_old = res
             log.debug("block Lanczos: %d columns, %d solves, max residual %.1e", m, solves, res.max())
             if done.all() or m == n:

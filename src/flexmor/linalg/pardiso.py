@@ -21,7 +21,7 @@ import scipy.sparse as sp
 
 from ..errors import OutOfMemoryError, SolverError
 from .factorization import Factorization
-from .memory import OutOfCore, pardiso_estimates
+from .memory import OutOfCore, _backward, pardiso_estimates
 from .resources import describe_memory
 
 __all__ = ["BACKWARD_TOL", "PARDISO_ERRORS", "PardisoFactorization", "mkl_pardiso"]
@@ -187,8 +187,8 @@ class PardisoFactorization(Factorization):
             return False
         b = np.random.default_rng(0).standard_normal((self._n, 1))
         x = self._solve_factor(b)
-        nb = float(np.linalg.norm(b))
-        eta = float(np.linalg.norm(A @ x - b) / (np.linalg.norm(A @ b) / nb * np.linalg.norm(x) + nb))
+        nb = np.linalg.norm(b, axis=0)
+        eta = float(_backward(A @ x - b, x, nb, float(np.linalg.norm(A @ b) / nb[0]))[0])
         mixed = self.memory is not None and self.memory.mode == "mixed"
         tol = 1e3 * float(np.finfo(np.float32).eps) if mixed else BACKWARD_TOL
         return eta <= tol

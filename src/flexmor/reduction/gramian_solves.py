@@ -13,10 +13,10 @@ thousands of nodes). Three ways (``solves``) give them:
 ``surrogate``
     larger models with a finite band: the Galerkin surrogate of
     :class:`flexmor.dynamics.surrogate.Surrogate` (the modes up to 1.1 ``fmax``, static and
-    Krylov vectors of the modal pre-pass's factorization, rational Krylov enrichment by direct
+    Krylov vectors of the modal pre-pass's factorization, rational Krylov enrichment by the checks'
     solves), built for the right-hand sides ``[B, C^T]`` with the *state* as output, so its
     checks measure ``||X(w) - V x(w)||_F / ||X(w)||_F``. The candidates of its greedy checks
-    are the quadrature nodes; the residual at every node and a final direct check at the node
+    are the quadrature nodes; the residual at every node and a final check at the node
     of the largest residual are reported in ``info['solves']``.
 
 The full band ``[0, inf)`` (``sobt``) with the surrogate ends at the cutoff (the modes of the

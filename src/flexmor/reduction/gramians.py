@@ -135,17 +135,18 @@ def compress(R: np.ndarray, tol: float = COMPRESS_TOL, *, overwrite: bool = Fals
     return W if Q is None else Q @ W
 
 
-def _resonances(model, fmax: float, solver: SolverContext, margin: float = 1.0):
+def _resonances(model, fmax: float, solver: SolverContext, surrogate: bool = False):
     """Eigenfrequencies (Hz), damping ratios and the modal pre-pass for the quadrature cells.
 
     Small models (``n_dof <= DENSE_LIMIT``): all modes. Larger: the modal pre-pass of
-    :func:`flexmor.dynamics.modes.modes_below` up to ``margin * fmax`` (finite). Returns
+    :func:`flexmor.dynamics.modes.modes_below` up to ``fmax`` (finite). Returns
     ``(f, zeta, pre)``: the eigenfrequencies up to ``fmax`` and the pre-pass
     (:class:`flexmor.dynamics.modes.PrePass`, rigid-body modes included, its factorization None
-    for small models), reused by the surrogate solves of :mod:`flexmor.reduction.gramian_solves`,
-    whose basis needs the modes up to 1.1 ``fmax`` (``margin``) and the inertia count's
-    factorization at the band's end (kept then).
+    for small models), reused by the ``surrogate`` solves of :mod:`flexmor.reduction.gramian_solves`,
+    whose basis needs the modes up to :data:`~flexmor.dynamics.surrogate.MODES_MARGIN` ``fmax`` and
+    the inertia count's factorization at the band's end (kept then).
     """
+    margin = MODES_MARGIN if surrogate else 1.0
     if model.n_dof <= DENSE_LIMIT:
         lam, phi = eigenmodes(model.K, model.M, model.n_dof, solver=solver)
         f = frequencies_hz(lam)
@@ -156,7 +157,7 @@ def _resonances(model, fmax: float, solver: SolverContext, margin: float = 1.0):
     else:
         if math.isinf(fmax):
             raise OptionError("the Gramian of a large model needs a finite cutoff frequency")
-        pre = modes_below(model, margin * fmax, solver, keep_edge=margin > 1)
+        pre = modes_below(model, margin * fmax, solver, keep_edge=surrogate)
         keep = (pre.f > 0) & (pre.f <= fmax)
         f_all, phi_all = pre.f[keep], pre.phi[:, keep]
     z = modal_damping_ratios(model.damping, f_all, phi_all, model.D) if model.D is not None else None
@@ -281,8 +282,7 @@ def gramian_factors(model, ports, band=(0.0, math.inf), *, side: str = "both", n
         raise OptionError(f"nodes and panels must be positive integers, got {nodes}, {panels}")
     fcut = cutoff if cutoff is not None else (fmax if math.isfinite(fmax) else max(10 * fmin, 1e4))
     chosen = choose_solves(solves, model, fmax)
-    f_res, z, pre = _resonances(model, max(fcut, fmin), solver,
-                                margin=MODES_MARGIN if chosen == "surrogate" else 1.0)
+    f_res, z, pre = _resonances(model, max(fcut, fmin), solver, surrogate=chosen == "surrogate")
     work, damping = _regularized(model, (fmin, fmax), f_res)
     if model.D is None:
         z = modal_damping_ratios(work.damping, f_res)
