@@ -138,3 +138,45 @@ def test_sparse_dense_rows_over_threads_equal_scipys_product():
     for threads in (1, 2, 3):
         assert np.array_equal(sparse_dense(A, X, threads), ref)  # the same sums in the same order
     assert np.array_equal(sparse_dense(A.tocsc(), X, 2), A.tocsc() @ X)
+
+
+_SLEEP_PROBE = ("import numpy, json, os; numpy.ones((300, 300)) @ numpy.ones((300, 300)); "
+                "from flexmor.linalg import threads as t; "
+                "print(json.dumps([t._TIMEOUTS, t.blas_idle_sleeps(), t.dense_threads(t.DENSE_PARALLEL_MIN), "
+                "t.cores()]))")
+
+
+def _probe(env_extra: dict) -> list:
+    import json
+    import os
+    import subprocess
+    import sys
+
+    env = {k: v for k, v in os.environ.items() if k != "OPENBLAS_THREAD_TIMEOUT"}
+    env.update(env_extra)
+    out = subprocess.run([sys.executable, "-c", _SLEEP_PROBE], env=env, capture_output=True, text=True, check=True)
+    return json.loads(out.stdout.strip().splitlines()[-1])
+
+
+def test_idle_blas_workers_sleep_after_numpy_loaded_first():
+    """NumPy (and its OpenBLAS, with its threads started) before flexmor: the timeout is set afterwards."""
+    from flexmor.linalg.threads import BLAS_TIMEOUT, _handles
+
+    if not _handles():
+        pytest.skip("no OpenBLAS library loaded (NumPy built against another BLAS)")
+    timeouts, sleeps, dense, cores = _probe({})
+    assert timeouts and all(t == BLAS_TIMEOUT for t in timeouts)
+    assert sleeps and dense == cores
+
+
+def test_a_users_blas_timeout_is_kept():
+    """A timeout the user set stays; above QUICK_TIMEOUT the tall-skinny products keep to one thread."""
+    from flexmor.linalg.threads import QUICK_TIMEOUT, _handles
+
+    if not _handles():
+        pytest.skip("no OpenBLAS library loaded (NumPy built against another BLAS)")
+    timeouts, sleeps, dense, _ = _probe({"OPENBLAS_THREAD_TIMEOUT": str(QUICK_TIMEOUT + 4)})
+    assert timeouts and all(t == QUICK_TIMEOUT + 4 for t in timeouts)
+    assert not sleeps and dense == 1
+    timeouts, sleeps, _, _ = _probe({"OPENBLAS_THREAD_TIMEOUT": "6"})
+    assert all(t == 6 for t in timeouts) and sleeps

@@ -21,7 +21,7 @@ from .body import ReducedModel
 from .couplings import coupling_masters
 from .damping import ModalDamping
 from .errors import ModelError, PortError
-from .linalg.threads import blas_threads, sparse_dense
+from .linalg.threads import blas_threads, dense_threads, sparse_dense
 from .mesh import outer_surface
 from .model import FEModel
 from .origin import fingerprint
@@ -68,9 +68,10 @@ def reduced_matrices(model: FEModel, V: np.ndarray) -> ReducedMatrices:
     """
     # one row-major copy serves every sparse product (SciPy copies Fortran-ordered columns for each)
     Vc = np.ascontiguousarray(V, dtype=float)
-    Mr = _sym(Vc.T @ sparse_dense(model.M, Vc))
-    Kr = _sym(Vc.T @ sparse_dense(model.K, Vc))
-    Dr = _sym(Vc.T @ sparse_dense(model.D, Vc)) if model.D is not None else None
+    with blas_threads(dense_threads(Vc.size)):  # V^T (A V): the basis is read once per product, all cores
+        Mr = _sym(Vc.T @ sparse_dense(model.M, Vc))
+        Kr = _sym(Vc.T @ sparse_dense(model.K, Vc))
+        Dr = _sym(Vc.T @ sparse_dense(model.D, Vc)) if model.D is not None else None
     return ReducedMatrices(Mr, Kr, Dr, (V, model.M, model.K, model.D))
 
 

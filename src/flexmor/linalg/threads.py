@@ -1,10 +1,17 @@
 """Temporarily limit the threads of the OpenBLAS libraries loaded by NumPy and SciPy, or MKL's.
 
-PARDISO runs on MKL's own OpenMP threads; when OpenBLAS's threads run tall-skinny products
-between two solves, the two thread pools compete for the same cores (their idle threads
-spin), and small BLAS calls slow down by 3-10x on a 2-core machine. The block eigen solver
-therefore runs its dense algebra with one OpenBLAS thread (the solves stay multi-threaded).
-This is a small stand-in for ``threadpoolctl`` (not a dependency), which does the same.
+PARDISO runs on MKL's own OpenMP threads, the dense products between two solves on OpenBLAS's.
+Idle OpenBLAS workers spin (calling ``sched_yield``) for ``2^28`` cycles, about 0.1 s, before they
+sleep: between two solves they took the cores from the solver's threads (30 solves of a 35,988-DOF
+plate with a ``V^T X`` of 174 columns before each: 0.72 s instead of 0.36 s on two cores) and,
+beside a CPU-bound process, the products' own threads (a ``V^T X`` of 33,735 x 174: 1.0 s instead
+of 0.07 s). When this module is imported, every OpenBLAS library loaded lets its idle workers
+sleep after ``2^10`` cycles (``OPENBLAS_THREAD_TIMEOUT``, :data:`BLAS_TIMEOUT`, unless the user
+set it; :func:`_quick_sleep`). Then the tall-skinny products of a reduction run on all cores
+(:func:`dense_threads`, from 16 MB; memory-bound, 1.7x faster on two cores) without slowing the solves; where
+the workers keep spinning (a user's timeout above :data:`QUICK_TIMEOUT`, or another thread was
+running when flexmor was imported) they run on one thread, as before. :func:`blas_threads` is a
+small stand-in for ``threadpoolctl`` (not a dependency), which does the same.
 
 :func:`mkl_threads` sets MKL's thread count of the calling thread (PARDISO's solves): a loop of
 thousands of small solves, each followed by Python-side products, runs them faster on one
@@ -13,14 +20,14 @@ thread, since MKL's idle OpenMP workers spin between solves and take the core th
 :func:`sparse_dense` is SciPy's sparse-times-dense product (single-threaded, without the GIL) with
 the rows split over Python threads, one per CPU this process may use.
 
-The threads are chosen per kind of operation, not per machine load: the dense products of a
-reduction and of the full FRF's sweep (:func:`flexmor.reduction.reduce`,
-:class:`flexmor.analysis.compare.FullResponse`) are tall-skinny (``n x r``) or small (``r x r``),
-memory-bound, and run on one OpenBLAS thread: two threads gain at most 2x on an idle machine,
-but beside a CPU-bound process their spin-waits made a ``V^T X`` of 33,735 x 174 take 1.0 s
-instead of 0.07 s. The sparse factorizations and solves run on all cores (MKL), the sparse
-products split their rows (:func:`sparse_dense`): a thread that shares its core then delays the
-product by at most its share.
+The threads are chosen per operation, not per machine load: the dense algebra of a reduction, of
+the block eigen solver and of the full FRF's sweep (:func:`flexmor.reduction.reduce`,
+:class:`flexmor.analysis.compare.FullResponse`) runs on one OpenBLAS thread, except the large
+tall-skinny products of the Krylov basis and the projection (:func:`dense_threads`): beside a
+CPU-bound process two threads made the many small and medium products of the Gramian methods up
+to 1.3x slower than one (``bench/around_methods.py --parts busy``), for no gain on an idle machine.
+The sparse factorizations and solves run on all cores (MKL), the sparse products split their rows
+(:func:`sparse_dense`): a thread that shares its core then delays the product by about its share.
 
 MKL's OpenMP workers sleep at once after a parallel region (``KMP_BLOCKTIME=0`` unless set
 otherwise before MKL loads) instead of spinning for 200 ms (Intel's default) on the cores that
@@ -37,26 +44,60 @@ import ctypes
 import functools
 import logging
 import os
+import threading
 from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
+import scipy.linalg  # noqa: F401 - its OpenBLAS loaded before _handles() looks
 import scipy.sparse as sp
 
-__all__ = ["blas_threads", "mkl_threads", "blas_thread_count", "sparse_dense", "cores"]
+__all__ = ["blas_threads", "dense_threads", "mkl_threads", "blas_thread_count", "blas_idle_sleeps", "sparse_dense",
+           "cores"]
 
 log = logging.getLogger(__name__)
 
+_USER_ENV = frozenset(k for k in ("OPENBLAS_THREAD_TIMEOUT",) if k in os.environ)  # as the user started us
+
 # MKL's OpenMP workers: sleep after a parallel region (read when MKL loads; a user's setting stays)
 os.environ.setdefault("KMP_BLOCKTIME", "0")
+
+#: ``OPENBLAS_THREAD_TIMEOUT`` flexmor sets unless the user did: OpenBLAS's idle workers wait ``2^10`` cycles
+#: (below a microsecond) before they sleep, instead of ``2^28`` (~0.1 s of ``sched_yield`` calls).
+BLAS_TIMEOUT = 10
+#: Largest timeout (log2 of cycles) at which :func:`dense_threads` runs the tall-skinny products on all cores.
+QUICK_TIMEOUT = 16
+#: Entries of a tall factor (16 MB of doubles, ~3 ms of one core's memory bandwidth) from which
+#: :func:`dense_threads` gives it all cores.
+DENSE_PARALLEL_MIN = 1 << 21
 
 _SYMBOLS = (("scipy_openblas_set_num_threads64_", "scipy_openblas_get_num_threads64_"),
             ("scipy_openblas_set_num_threads", "scipy_openblas_get_num_threads"),
             ("openblas_set_num_threads64_", "openblas_get_num_threads64_"),
             ("openblas_set_num_threads", "openblas_get_num_threads"))
+def _quick_sleep(lib) -> int:
+    """Let the idle workers of one OpenBLAS library sleep after :data:`BLAS_TIMEOUT`: the timeout it read
+    (log2 of cycles; 0: OpenBLAS's default of 28). The library reads ``OPENBLAS_THREAD_TIMEOUT`` when it
+    loads (with NumPy, usually before flexmor); where neither the user nor :mod:`flexmor` had set it then,
+    it reads it again and its workers stop, to start with the new timeout at the next parallel call. Only
+    while this is the process's one Python thread (no other can be inside BLAS)."""
+    try:
+        get = lib.openblas_thread_timeout
+        timeout = int(get())
+        if timeout == 0 and threading.active_count() == 1 and "OPENBLAS_THREAD_TIMEOUT" not in _USER_ENV:
+            os.environ["OPENBLAS_THREAD_TIMEOUT"] = str(BLAS_TIMEOUT)
+            lib.openblas_read_env()
+            lib.blas_thread_shutdown_()
+            timeout = int(get())
+        return timeout
+    except (AttributeError, OSError):
+        return 0
+
+
 @functools.cache
 def _handles() -> tuple:
-    """``(set, get)`` thread-count functions of the OpenBLAS libraries loaded (found once per process)."""
+    """``(set, get)`` thread-count functions of the OpenBLAS libraries loaded (found once per process);
+    their idle workers sleep quickly (:func:`_quick_sleep`)."""
     try:
         with open("/proc/self/maps") as fh:
             paths = sorted({ln.split()[-1] for ln in fh if "openblas" in ln.lower() and ".so" in ln})
@@ -71,8 +112,31 @@ def _handles() -> tuple:
         for set_name, get_name in _SYMBOLS:
             if hasattr(lib, set_name) and hasattr(lib, get_name):
                 handles.append((getattr(lib, set_name), getattr(lib, get_name)))
+                _TIMEOUTS.append(_quick_sleep(lib))
                 break
     return tuple(handles)
+
+
+_TIMEOUTS: list[int] = []  # per OpenBLAS library of _handles(): the timeout its workers use (0: 28)
+
+
+def blas_idle_sleeps() -> bool:
+    """Whether the idle workers of every OpenBLAS library loaded sleep within ``2^QUICK_TIMEOUT`` cycles."""
+    _handles()
+    return bool(_TIMEOUTS) and all(0 < t <= QUICK_TIMEOUT for t in _TIMEOUTS)
+
+
+def dense_threads(entries: int) -> int:
+    """OpenBLAS threads for a tall-skinny product that reads ``entries`` numbers of its tall factor (``V^T X``,
+    ``V h`` of an ``n x r`` basis between two solves): all cores of the process (:func:`cores`) where idle
+    workers sleep at once (:func:`blas_idle_sleeps`) and the factor has :data:`DENSE_PARALLEL_MIN` entries or
+    more, else one. Memory-bound, such a product gains 1.7x from two threads on two cores; a smaller one
+    gains less than waking a worker costs beside a CPU-bound process (its scheduling delay of up to a few
+    milliseconds per call). With workers that spin (OpenBLAS's default) a second thread slowed the solver's
+    threads between the products by 2x. The count depends on the machine and the sizes, not the load."""
+    if int(entries) < DENSE_PARALLEL_MIN:
+        return 1
+    return cores() if blas_idle_sleeps() else 1
 
 
 @contextlib.contextmanager
@@ -181,3 +245,6 @@ def cores() -> int:
         return max(len(os.sched_getaffinity(0)), 1)
     except (AttributeError, OSError):
         return max(os.cpu_count() or 1, 1)
+
+
+_handles()  # at import (the process's one Python thread, as a rule): idle OpenBLAS workers sleep quickly

@@ -15,6 +15,7 @@ import numpy as np
 import scipy.linalg as sla
 
 from ..basis import Columns, rank_revealing_qr
+from ..linalg.threads import blas_threads, dense_threads
 
 __all__ = ["SecondOrderArnoldi", "DEFLATION_TOL"]
 
@@ -199,8 +200,10 @@ class SecondOrderArnoldi:
 
 def _gemm(Q: np.ndarray, h: np.ndarray, *, conj: bool = False, into: np.ndarray | None = None) -> np.ndarray:
     """``Q @ h``, ``Q^H @ h`` (``conj``) or ``into - Q @ h`` (in place if ``into`` is Fortran-ordered
-    of the type) by BLAS ``gemm``: for a tall ``Q`` and few columns 2-3x faster than ``@``."""
+    of the type) by BLAS ``gemm``: for a tall ``Q`` and few columns 2-3x faster than ``@``; on
+    :func:`~flexmor.linalg.threads.dense_threads` threads."""
     gemm = sla.blas.get_blas_funcs("gemm", (Q, h))
-    if into is not None:
-        return gemm(-1.0, Q, h, 1.0, into, overwrite_c=True)
-    return gemm(1.0, Q, h, trans_a=(2 if np.iscomplexobj(Q) else 1) if conj else 0)
+    with blas_threads(dense_threads(Q.size)):  # memory-bound: all cores for a large basis
+        if into is not None:
+            return gemm(-1.0, Q, h, 1.0, into, overwrite_c=True)
+        return gemm(1.0, Q, h, trans_a=(2 if np.iscomplexobj(Q) else 1) if conj else 0)
