@@ -26,7 +26,7 @@ import numpy as np
 import scipy.linalg as sla
 
 from ..errors import ConvergenceError
-from .threads import blas_threads
+from .threads import blas_threads, dense_threads
 
 __all__ = ["block_lanczos"]
 
@@ -51,11 +51,13 @@ def _orthonormalize(W, MW, Q, m, M, drop_tol=1e-10):
     M-products (possibly fewer columns than ``W``).
     """
     norm0 = np.sqrt(np.maximum(np.einsum("ij,ij->j", W, MW), 0.0))
+    n = W.shape[0]
     mild = False
     for k in range(2):
         if m and not (k and mild):
-            C = Q[:, :m].T @ MW
-            W = W - Q[:, :m] @ C
+            with blas_threads(dense_threads(n * m)):  # the basis read twice: all cores for a large one
+                C = Q[:, :m].T @ MW
+                W = W - Q[:, :m] @ C
             MW = M @ W
             if k == 0:  # kept share of each column: 1 - the cancellation the projection's rounding is amplified by
                 kept = np.sqrt(np.maximum(np.einsum("ij,ij->j", W, MW), 0.0)) / np.maximum(norm0, 1e-300)
@@ -156,7 +158,8 @@ def _iterate(K, M, k, F, sigma, *, block=None, tol=1e-8, max_basis=None, max_res
             continue
         KW = K @ W
         Q[:, m:m + b] = W
-        H[:m + b, m:m + b] = Q[:, :m + b].T @ KW
+        with blas_threads(dense_threads(n * (m + b))):
+            H[:m + b, m:m + b] = Q[:, :m + b].T @ KW
         H[m:m + b, :m] = H[:m, m:m + b].T
         m += b
         if m >= min(k + p, n):
@@ -228,7 +231,8 @@ def block_lanczos(K, M, k: int, F, sigma: float, *, block: int | None = None, to
     -----
     The dense block algebra runs with one OpenBLAS thread
     (:func:`~flexmor.linalg.threads.blas_threads`) so that it does not compete with the
-    solver's threads.
+    solver's threads; the products with a large basis on
+    :func:`~flexmor.linalg.threads.dense_threads`.
 
     References
     ----------
