@@ -140,6 +140,38 @@ def test_sparse_dense_rows_over_threads_equal_scipys_product():
     assert np.array_equal(sparse_dense(A.tocsc(), X, 2), A.tocsc() @ X)
 
 
+@pytest.mark.parametrize("order,kind", [("C", "real"), ("F", "real"), ("C", "complex"), ("F", "complex"),
+                                        ("C", "vector")])
+def test_mkl_sparse_product_within_rounding_of_scipys(order, kind):
+    """MKL's sparse times dense: SciPy's product up to the order of each row's sums (the bound
+    ``nnz_row eps |A| |X|``), in the order of ``X``, the same bytes in every call."""
+    from flexmor.linalg.mkl_sparse import mkl_product
+    from flexmor.linalg.threads import sparse_dense
+
+    rng = np.random.default_rng(5)
+    n = 20000
+    offsets = [0, 1, -1, 37, -37, 401, -401, 5003, -5003]
+    if kind == "vector":  # one column: enough entries to go to MKL
+        offsets += [s * k for k in range(2, 30) for s in (1, -1) if k != 37]
+    A = sp.diags([rng.standard_normal(n - abs(k)) for k in offsets], offsets, format="csr")
+    A.sum_duplicates()
+    shape = (n,) if kind == "vector" else (n, 60)
+    X = rng.standard_normal(shape) + (1j * rng.standard_normal(shape) if kind == "complex" else 0)
+    X = np.asarray(X, order=order)
+    Y = mkl_product(A, X)
+    if Y is None:
+        pytest.skip("no MKL (pypardiso's mkl wheel) in this environment")
+    ref = A @ X
+    absA = abs(A)
+    bound = np.diff(A.indptr).max() * np.finfo(float).eps * (absA @ np.abs(X.real) + absA @ np.abs(X.imag))
+    assert Y.shape == ref.shape and Y.dtype == ref.dtype and np.all(np.abs(Y - ref) <= bound)
+    assert np.array_equal(Y, mkl_product(A, X)) and np.array_equal(sparse_dense(A, X), Y)
+    if kind == "real":
+        assert Y.flags[f"{order}_CONTIGUOUS"]
+    assert mkl_product(A.tocsc(), X) is None and mkl_product(A.astype(complex), X) is None  # SciPy's then
+    assert mkl_product(A[:50, :50], X[:50]) is None  # small: SciPy's
+
+
 _SLEEP_PROBE = ("import numpy, json, os; numpy.ones((300, 300)) @ numpy.ones((300, 300)); "
                 "from flexmor.linalg import threads as t; "
                 "print(json.dumps([t._TIMEOUTS, t.blas_idle_sleeps(), t.dense_threads(t.DENSE_PARALLEL_MIN), "

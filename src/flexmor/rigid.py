@@ -39,6 +39,7 @@ import scipy.linalg as sla
 
 from .basis import Basis
 from .errors import FlexmorError, FlexmorWarning, ModelError
+from .linalg.threads import sparse_dense
 from .ports import make_ports
 from .projection import project
 
@@ -112,7 +113,7 @@ def rigid_body_modes(model) -> np.ndarray:
 
 def m_project(model, phi, X):
     """Displacements ``X`` made M-orthogonal to the modes ``phi``: ``(I - Φ Φᵀ M) X``."""
-    return X - phi @ (phi.T @ (model.M @ X))
+    return X - phi @ (phi.T @ sparse_dense(model.M, X))
 
 
 def elastic_loads(model, phi, F):
@@ -125,7 +126,7 @@ def rigid_residual(model, V, phi=None) -> float:
     phi = rigid_body_modes(model) if phi is None else phi
     if phi.shape[1] == 0 or V.shape[1] == 0:
         return 0.0
-    MV = model.M @ V
+    MV = sparse_dense(model.M, V)
     nrm = np.sqrt(np.clip(np.einsum("ij,ij->j", V, MV), 0.0, None))
     c = np.linalg.norm(phi.T @ MV, axis=0)
     return float(np.max(c / np.where(nrm > 0, nrm, 1.0)))
@@ -216,7 +217,7 @@ def rigid_content(model, V) -> float:
     Grr = R.T @ MR
     if R.shape[1] == 0 or not np.all(np.linalg.eigvalsh(Grr) > 0):
         return 1.0
-    Gvv = V.T @ (model.M @ V)
+    Gvv = V.T @ sparse_dense(model.M, V)
     Gvr = V.T @ MR
     P = Grr - Gvr.T @ np.linalg.solve(Gvv, Gvr)
     lam = sla.eigh(0.5 * (P + P.T), 0.5 * (Grr + Grr.T), eigvals_only=True)

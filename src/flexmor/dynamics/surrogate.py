@@ -54,6 +54,7 @@ from ..errors import check_choice
 from ..linalg import factorize
 from ..linalg.backends import MEMORY_FRACTION
 from ..linalg.context import SolverContext, as_solver, step
+from ..linalg.threads import sparse_dense
 from .frf import ShiftedMatrices, angular_frequency
 
 __all__ = ["Surrogate", "DEFAULT_SURROGATE_TOL", "MODES_MARGIN"]
@@ -142,7 +143,7 @@ class Surrogate:
             if F is not None:
                 blocks.append(F.solve(self.B))
                 for _ in range(int(n_krylov) - 1):
-                    blocks.append(F.solve(model.M @ blocks[-1]))
+                    blocks.append(F.solve(sparse_dense(model.M, blocks[-1])))
         del edge, F
         self._set_basis(np.hstack(blocks))
         if check_solver == "auto":
@@ -181,8 +182,8 @@ class Surrogate:
     def _set_basis(self, V):
         m = self.model
         self.V = _orthonormal(V)
-        KV, MV = m.K @ self.V, m.M @ self.V
-        DV = m.D @ self.V
+        KV, MV = sparse_dense(m.K, self.V), sparse_dense(m.M, self.V)
+        DV = sparse_dense(m.D, self.V)
         self.Kr, self.Mr, self.Dr = (self.V.T @ X for X in (KV, MV, DV))
         self.Br, self.Cr = self.V.T @ self.B, np.asarray(self.C @ self.V)
         P = (KV, MV, DV, self.B)  # the Gram matrix of [K V, M V, D V, B] by blocks (no copy of them side by side)
@@ -277,8 +278,8 @@ class Surrogate:
         def apply(X):  # A(w) X without assembling A(w): real products with K, M, D (no complex copy of them)
             if np.iscomplexobj(X):
                 return apply(X.real) + 1j * apply(X.imag)
-            Y = m.K @ X - w ** 2 * (M @ X)
-            return Y + 1j * w * (m.D @ X) if m.D is not None else Y
+            Y = sparse_dense(m.K, X) - w ** 2 * sparse_dense(M, X)
+            return Y + 1j * w * sparse_dense(m.D, X) if m.D is not None else Y
 
         target = ITERATIVE_TARGET * self.tol
         W = self.V

@@ -26,7 +26,7 @@ import numpy as np
 import scipy.linalg as sla
 
 from ..errors import ConvergenceError
-from .threads import blas_threads, dense_threads
+from .threads import blas_threads, dense_threads, sparse_dense
 
 __all__ = ["block_lanczos"]
 
@@ -58,7 +58,7 @@ def _orthonormalize(W, MW, Q, m, M, drop_tol=1e-10):
             with blas_threads(dense_threads(n * m)):  # the basis read twice: all cores for a large one
                 C = Q[:, :m].T @ MW
                 W = W - Q[:, :m] @ C
-            MW = M @ W
+            MW = sparse_dense(M, W)
             if k == 0:  # kept share of each column: 1 - the cancellation the projection's rounding is amplified by
                 kept = np.sqrt(np.maximum(np.einsum("ij,ij->j", W, MW), 0.0)) / np.maximum(norm0, 1e-300)
                 mild = bool(kept.min() >= REORTH_KEPT)
@@ -93,8 +93,8 @@ def _ritz_check(K, M, X, lam, scale, tol, res_old, m) -> _Check:
     relative norms ``res`` and which pairs are converged (below ``tol``, or below ``0.01 sqrt(tol)`` and no
     longer falling by half against ``res_old``: round-off puts a floor of about ``eps ||K|| ||x||`` under
     ``||R||``)."""
-    MX = M @ X
-    R = K @ X - MX * lam
+    MX = sparse_dense(M, X)
+    R = sparse_dense(K, X) - MX * lam
     res = np.linalg.norm(R, axis=0) / ((np.abs(lam) + scale) * np.linalg.norm(MX, axis=0) + 1e-300)
     stalled = res >= 0.5 * res_old if res_old is not None else np.zeros(lam.size, bool)
     done = (res <= tol) | (stalled & (res <= np.sqrt(tol) * 1e-2))
@@ -120,7 +120,7 @@ def _iterate(K, M, k, F, sigma, *, block=None, tol=1e-8, max_basis=None, max_res
     last = None
     theta_old = None
     while True:
-        W, MW = _orthonormalize(W, M @ W, Q, m, M)
+        W, MW = _orthonormalize(W, sparse_dense(M, W), Q, m, M)
         b = W.shape[1]
         if b == 0 or m + b > cap:
             if b == 0 and m < k:
@@ -156,7 +156,7 @@ def _iterate(K, M, k, F, sigma, *, block=None, tol=1e-8, max_basis=None, max_res
                 W = F.solve(M @ rng.standard_normal((n, p)))
                 solves += 1
             continue
-        KW = K @ W
+        KW = sparse_dense(K, W)
         Q[:, m:m + b] = W
         with blas_threads(dense_threads(n * (m + b))):
             H[:m + b, m:m + b] = Q[:, :m + b].T @ KW

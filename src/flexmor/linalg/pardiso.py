@@ -35,24 +35,14 @@ BACKWARD_TOL = 1e-11
 
 @functools.cache
 def mkl_pardiso():
-    """The MKL ``pardiso`` entry point, typed once: from ``libmkl_rt`` in the environment's ``lib``
-    folder (where the ``mkl`` wheel that pypardiso depends on puts it), else through pypardiso's own
-    search (a recursive search of the environment, ~0.3 s)."""
+    """The MKL ``pardiso`` entry point, typed once, from :func:`flexmor.linalg.mkl_sparse.mkl_library`."""
     import ctypes
-    import glob
-    import sys
 
-    lib = None
-    for path in sorted(glob.glob(f"{sys.prefix}/lib/libmkl_rt.so*"), key=len):
-        try:
-            lib = ctypes.CDLL(path)
-            break
-        except OSError:
-            continue
+    from .mkl_sparse import mkl_library
+
+    lib = mkl_library()
     if lib is None:
-        import pypardiso
-
-        lib = pypardiso.ps.libmkl
+        raise SolverError("PARDISO needs Intel MKL (pip install pypardiso, the 'fast' extra)")
     fn = lib.pardiso
     i32p = ctypes.POINTER(ctypes.c_int32)
     fn.argtypes = [ctypes.POINTER(ctypes.c_int64), i32p, i32p, i32p, i32p, i32p, ctypes.c_void_p,

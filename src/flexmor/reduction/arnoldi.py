@@ -15,7 +15,7 @@ import numpy as np
 import scipy.linalg as sla
 
 from ..basis import Columns, rank_revealing_qr
-from ..linalg.threads import blas_threads, dense_threads
+from ..linalg.threads import blas_threads, dense_threads, sparse_dense
 
 __all__ = ["SecondOrderArnoldi", "DEFLATION_TOL"]
 
@@ -185,9 +185,9 @@ class SecondOrderArnoldi:
         P, self._P, self._last = self._P, None, None
         b = u1.shape[1]
         # rhs = tau A1 V + tau^2 M L with A1 = 2 s M + D, V = Q u1 and L = Q u2: P = Q [w, u1] from _append
-        rhs = self.M @ P[:, :b]
+        rhs = sparse_dense(self.M, P[:, :b])
         if self.D is not None:
-            rhs += self.tau * (self.D @ P[:, b:])
+            rhs += self.tau * sparse_dense(self.D, P[:, b:])
         del P  # memory: the basis and a few n x b blocks
         if not np.any(rhs):  # e.g. s = 0 without damping: odd moments vanish, no solve needed
             return self._append(np.zeros_like(rhs), u1)

@@ -24,6 +24,7 @@ import scipy.sparse as sp
 
 from ..basis import Basis
 from ..linalg.context import SolverContext, as_solver
+from ..linalg.threads import sparse_dense
 from ..model import FEModel
 from ..options import Band, band_option
 from ..ports import Ports
@@ -47,7 +48,7 @@ def fixed_interface_body(model, ports, Psi, b, i, *, tol: float = 1e-8):
     """
     M, K = model.M.tocsr(), model.K.tocsr()
     B = ports.B.toarray()
-    Kb = Psi.T @ (K @ Psi)
+    Kb = Psi.T @ sparse_dense(K, Psi)
     x_b = np.linalg.lstsq(0.5 * (Kb + Kb.T), Psi.T @ B, rcond=1e-12)[0]
     Mii = M[i][:, i]
     loads = [M[i][:, b] @ x_b + Mii @ (Psi[i] @ x_b)]

@@ -30,6 +30,7 @@ import scipy.sparse.linalg  # noqa: F401  (sp.linalg.norm)
 
 from ..errors import FlexmorWarning
 from ..linalg.eigen import rigid_body_threshold
+from ..linalg.threads import sparse_dense
 from ..rigid import RIGID_DEFLATION_TOL, elastic_loads, m_project, rigid_body_modes, rigid_motions
 
 __all__ = ["interface_loads", "rigid_head", "inertia_relief_modes", "with_elastic_inputs", "with_inertia_loads",
@@ -92,7 +93,7 @@ def inertia_relief_modes(model, dofs, *, phi=None, solver=None, held=None) -> np
 
     x = m_project(model, phi, F.solve(f))
     for _ in range(50):
-        dx = m_project(model, phi, F.solve(f - model.K @ x))
+        dx = m_project(model, phi, F.solve(f - sparse_dense(model.K, x)))
         x = x + dx
         if np.linalg.norm(dx) <= RELIEF_TOL * np.linalg.norm(x):
             break

@@ -33,7 +33,7 @@ from ..linalg import factorize
 from ..linalg.context import SolverContext, as_solver
 from ..linalg.eigen import default_shift
 from ..linalg.factorize import factorize_shifted
-from ..linalg.threads import blas_threads
+from ..linalg.threads import blas_threads, sparse_dense
 from ..options import Band, band_option, option
 from ..projection import reduced_matrices
 from ._options import RIGID, SIDES, points_option, rigid_option, side_option
@@ -136,7 +136,7 @@ def blocks_at_points(model, ports, points, n_moments: int, *, side: str = "input
     if rigid_modes is not None and rigid_modes.shape[1]:
 
         def proj(X):
-            return X - rigid_modes @ (rigid_modes.T @ (model.M @ X))
+            return X - rigid_modes @ (rigid_modes.T @ sparse_dense(model.M, X))
 
     blocks, used = [], []
     for p in points:
