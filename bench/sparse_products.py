@@ -71,12 +71,12 @@ def main(argv=None) -> int:
         for label, A in (("K", model.K.tocsr()), ("M", model.M.tocsr())):
             for cols, order in ((6, "F"), (174, "C")):
                 X = np.asarray(rng.standard_normal((A.shape[0], cols)), order=order)
-                t_sp, ref = _best(lambda: A @ X, args.repeat)
-                t_th, _ = _best(lambda: sparse_dense(A, X, cores()), args.repeat)
+                t_sp, ref = _best(lambda A=A, X=X: A @ X, args.repeat)
+                t_th, _ = _best(lambda A=A, X=X: sparse_dense(A, X, cores()), args.repeat)
                 if mkl_product(A, X) is None:
                     t_mkl, diff = float("nan"), float("nan")
                 else:
-                    t_mkl, Y = _best(lambda: mkl_product(A, X), args.repeat)
+                    t_mkl, Y = _best(lambda A=A, X=X: mkl_product(A, X), args.repeat)
                     diff = float(np.abs(Y - ref).max() / np.abs(ref).max())
                 rows.append({"model": name, "matrix": label, "nnz": int(A.nnz), "columns": cols, "scipy_s": t_sp,
                              "threads_s": t_th, "mkl_s": t_mkl, "rel_diff": diff})
