@@ -17,8 +17,9 @@ small stand-in for ``threadpoolctl`` (not a dependency), which does the same.
 thousands of small solves, each followed by Python-side products, runs them faster on one
 thread, since MKL's idle OpenMP workers spin between solves and take the core the products need.
 
-:func:`sparse_dense` is SciPy's sparse-times-dense product (single-threaded, without the GIL) with
-the rows split over Python threads, one per CPU this process may use.
+:func:`sparse_dense` is the sparse-times-dense product: MKL's sparse BLAS on MKL's threads where MKL
+is installed (:mod:`flexmor.linalg.mkl_sparse`, 2.3-5.2x SciPy's), else SciPy's (single-threaded,
+without the GIL) with the rows split over Python threads, one per CPU this process may use.
 
 The threads are chosen per operation, not per machine load: the dense algebra of a reduction, of
 the block eigen solver and of the full FRF's sweep (:func:`flexmor.reduction.reduce`,
@@ -26,8 +27,8 @@ the block eigen solver and of the full FRF's sweep (:func:`flexmor.reduction.red
 tall-skinny products of the Krylov basis and the projection (:func:`dense_threads`): beside a
 CPU-bound process two threads made the many small and medium products of the Gramian methods up
 to 1.3x slower than one (``bench/around_methods.py --parts busy``), for no gain on an idle machine.
-The sparse factorizations and solves run on all cores (MKL), the sparse products split their rows
-(:func:`sparse_dense`): a thread that shares its core then delays the product by about its share.
+The sparse factorizations, solves and products run on all cores (MKL, or rows split over threads in
+:func:`sparse_dense`): a thread that shares its core then delays the product by about its share.
 
 MKL's OpenMP workers sleep at once after a parallel region (``KMP_BLOCKTIME=0`` unless set
 otherwise before MKL loads) instead of spinning for 200 ms (Intel's default) on the cores that
@@ -75,6 +76,8 @@ _SYMBOLS = (("scipy_openblas_set_num_threads64_", "scipy_openblas_get_num_thread
             ("scipy_openblas_set_num_threads", "scipy_openblas_get_num_threads"),
             ("openblas_set_num_threads64_", "openblas_get_num_threads64_"),
             ("openblas_set_num_threads", "openblas_get_num_threads"))
+
+
 def _quick_sleep(lib) -> int:
     """Let the idle workers of one OpenBLAS library sleep after :data:`BLAS_TIMEOUT`: the timeout it read
     (log2 of cycles; 0: OpenBLAS's default of 28). The library reads ``OPENBLAS_THREAD_TIMEOUT`` when it
@@ -178,7 +181,7 @@ def sparse_dense(A, X: np.ndarray, threads: int | None = None) -> np.ndarray:
     (:func:`cores`); one thread, a small product or a matrix that is not CSR is plain ``A @ X``. ``X``
     should be row-major there (SciPy copies other layouts).
     """
-    if threads is None:  # MKL's sparse BLAS where it is there (flexmor.linalg.mkl_sparse): 2-6x faster
+    if threads is None:  # MKL's sparse BLAS where it is there (flexmor.linalg.mkl_sparse)
         from .mkl_sparse import mkl_product
 
         Y = mkl_product(A, X)
