@@ -125,3 +125,18 @@ def test_a_kept_factorization_is_handed_over():
     assert factorize_shifted(model.K, model.M, -1e3, solver=ctx) is F
     assert ctx.kept(model.K, model.M, -1e3) is None
     assert ctx.stats.count == 2
+
+
+def test_rigid_body_modes_kept_by_the_model_while_its_matrices_are_the_same():
+    import copy
+
+    model = cantilever(3, clamped=False)
+    phi = rigid_body_modes(model)
+    assert phi.shape[1] == 6 and rigid_body_modes(model) is phi and not phi.flags.writeable
+    assert rigid_body_modes(model.with_rayleigh(0.0, 1e-6)) is phi  # damping leaves K, M and geometry
+    held = copy.copy(model)
+    fixed = np.flatnonzero(model.dofs[:, 0] == model.dofs[0, 0])  # one node held by stiff springs
+    held.K = (model.K + sp.csr_matrix((np.full(fixed.size, 1e3 * abs(model.K).max()), (fixed, fixed)),
+                                      shape=model.K.shape)).tocsr()
+    assert rigid_body_modes(held).shape[1] == 0  # a new K: computed again
+    assert rigid_body_modes(model) is phi

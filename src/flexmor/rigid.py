@@ -90,12 +90,25 @@ def frame_participation(model, V) -> tuple[np.ndarray, np.ndarray]:
 
 
 def rigid_body_modes(model) -> np.ndarray:
-    """M-orthonormal rigid-body modes of a free body from its geometry, (n_dof, k), k <= 6.
+    """M-orthonormal rigid-body modes of a free body from its geometry, (n_dof, k), k <= 6, read-only.
 
     The six rigid motions (:func:`rigid_motions`) with ``||K phi|| <= 1e-8 ||K||_1 ||phi||``
     are rigid-body modes of the model (none for a supported body or a model without
-    geometry). Costs six sparse products, no eigen solve.
+    geometry). Costs six sparse products, no eigen solve; kept by the model for the next call
+    while its ``K``, ``M``, equations, node ids and coordinates are the same objects (a reduction asks
+    three to four times).
     """
+    key = (model.K, model.M, model.dofs, model.node_ids, model.xyz)
+    kept = model.__dict__.get("_rigid_body_modes")
+    if kept is not None and all(a is b for a, b in zip(kept[0], key)):
+        return kept[1]
+    phi = _rigid_body_modes(model)
+    phi.flags.writeable = False
+    model.__dict__["_rigid_body_modes"] = (key, phi)
+    return phi
+
+
+def _rigid_body_modes(model) -> np.ndarray:
     R = rigid_motions(model)
     nrm = np.linalg.norm(R, axis=0)
     R = R[:, nrm > 0] / nrm[nrm > 0]
