@@ -48,6 +48,7 @@ from ..errors import OutOfMemoryError, SolverError
 from .resources import MEMORY_FRACTION
 from .resources import bound as _bound
 from .resources import megabytes as _mb
+from .threads import sparse_dense
 
 __all__ = ["BACKWARD_TARGET", "FACTOR_MEMORY", "MEMORY_FRACTION", "MODE_NAMES", "REFINE_MAX_ITER", "REFINE_RESTART",
            "REFINE_TOL", "MemoryPlan", "OutOfCore", "describe_factor", "estimate_memory", "factor_record",
@@ -323,7 +324,7 @@ def refine(A, low_solve, b: np.ndarray, *, anorm: float, tol: float = REFINE_TOL
                                 min(REFINE_RESTART, max_iter - steps))
         x[:, cols] += d
         steps += used
-        r[:, cols] = b[:, cols] - A @ x[:, cols]
+        r[:, cols] = b[:, cols] - sparse_dense(A, x[:, cols])
         eta[cols] = _backward(r[:, cols], x[:, cols], bnorm[cols], anorm)
         active[cols] = (eta[cols] > BACKWARD_TARGET) & (eta[cols] <= 0.5 * before)
     worst = float(np.max(eta, initial=0.0))
@@ -377,7 +378,7 @@ def _fgmres_cycle(A, low_solve, r, x0, bnorm, anorm, m):
         else:
             Z.append(np.zeros((n, k), dtype=z.dtype))
             Z[j][:, cols] = z
-        w = np.asarray(A @ z, dtype=dtype)  # in double precision
+        w = np.asarray(sparse_dense(A, z), dtype=dtype)  # in double precision
         for i in range(j + 1):  # modified Gram-Schmidt, column by column
             vi = V[i] if every else V[i][:, cols]
             h = np.einsum("nk,nk->k", vi.conj(), w)
