@@ -24,6 +24,7 @@ import scipy.linalg as sla
 from ..errors import ModelError, OptionError
 from ..linalg.context import SolverContext, as_solver
 from ..linalg.eigen import eigenmodes, frequencies_hz, is_rigid
+from ..linalg.threads import sparse_dense
 
 __all__ = ["DEGENERATE_RTOL", "PAIR_MAC_MIN", "full_modes", "mac", "modal_check"]
 
@@ -84,8 +85,8 @@ def _align_clusters(f, phi, Psi, M) -> np.ndarray:
             j += 1
         if j - i > 1 and Psi.shape[1]:
             P = phi[:, i:j]
-            G = P.T @ (M @ Psi)  # projections of the reduced modes on the eigenspace
-            psi_norm = np.sqrt(np.einsum("ij,ij->j", Psi, M @ Psi))
+            G = P.T @ sparse_dense(M, Psi)  # projections of the reduced modes on the eigenspace
+            psi_norm = np.sqrt(np.einsum("ij,ij->j", Psi, sparse_dense(M, Psi)))
             share = np.linalg.norm(G, axis=0) / np.where(psi_norm > 0, psi_norm, 1.0)
             J = np.sort(np.argsort(share)[::-1][: j - i])
             U, _, Wt = np.linalg.svd(G[:, J] / psi_norm[J])

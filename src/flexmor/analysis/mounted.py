@@ -54,6 +54,7 @@ from ..linalg import factorize
 from ..linalg.context import SolverContext, as_solver
 from ..linalg.distributed import is_partitioned
 from ..linalg.eigen import eigenmodes, frequencies_hz, rigid_body_threshold
+from ..linalg.threads import sparse_dense
 from ..rigid import rigid_body_modes, rigid_motions
 
 __all__ = ["HELD", "Support", "supports", "FullMounted", "MountedCase", "MountedCheck", "mounted_check",
@@ -235,7 +236,7 @@ def _mounted_body(model, body, eqs, phi):
     Ma[k:, k:], Ka[k:, k:] = body.M, body.K
     if k:
         Ma[:k, :k] = np.eye(k)
-        Ma[:k, k:] = phi.T @ (model.M @ V)
+        Ma[:k, k:] = phi.T @ sparse_dense(model.M, V)
         Ma[k:, :k] = Ma[:k, k:].T
     _, s, Wt = np.linalg.svd(X[list(eqs)], full_matrices=True)
     rank = int(np.sum(s > RANK_TOL * s[0])) if s.size and s[0] > 0 else 0

@@ -31,6 +31,7 @@ from ..damping import ModalDamping
 from ..errors import ModelError
 from ..linalg.distributed import is_partitioned
 from ..linalg.eigen import dense_eigenmodes
+from ..linalg.threads import sparse_dense
 
 __all__ = ["DENSE_FRF_MAX_DOF", "PROPORTIONAL_TOL", "STATE_COND_MAX", "DenseResolvent", "dense_applicable"]
 
@@ -107,7 +108,7 @@ class DenseResolvent:
         if D is None:
             self.kind, self._d = "modal", np.zeros(n)
             return
-        Dm = self.phi.T @ (D @ self.phi) if sp.issparse(D) else self.phi.T @ _dense(D) @ self.phi
+        Dm = self.phi.T @ sparse_dense(D, self.phi) if sp.issparse(D) else self.phi.T @ _dense(D) @ self.phi
         Dm = (Dm + Dm.T) / 2
         d = np.diag(Dm).copy()
         off = np.abs(Dm - np.diag(d)).max(initial=0.0)

@@ -19,6 +19,7 @@ from ..linalg.backends import MEMORY_FRACTION
 from ..linalg.context import SolverContext
 from ..linalg.eigen import default_shift, eigenmodes, frequencies_hz
 from ..linalg.factorize import factorize_shifted
+from ..linalg.threads import sparse_dense
 
 __all__ = ["PrePass", "modal_damping_ratios", "modes_below"]
 
@@ -35,7 +36,7 @@ def modal_damping_ratios(damping: Damping, freqs_hz, phi=None, D=None) -> np.nda
         return z
     w = 2 * np.pi * np.maximum(np.asarray(freqs_hz, float), 1e-30)
     if D is not None and phi is not None:
-        return np.einsum("ij,ij->j", phi, D @ phi) / (2 * w)
+        return np.einsum("ij,ij->j", phi, sparse_dense(D, phi)) / (2 * w)
     return None
 
 

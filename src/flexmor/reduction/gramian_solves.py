@@ -52,6 +52,7 @@ from ..errors import ModelError, check_choice
 from ..linalg import factorize
 from ..linalg.context import step, track
 from ..linalg.distributed import is_partitioned
+from ..linalg.threads import sparse_dense
 from ._options import SOLVES
 
 __all__ = ["DENSE_GRAMIAN_MAX_DOF", "SURROGATE_GRAMIAN_TOL", "choose_solves", "projected_factors",
@@ -187,7 +188,7 @@ def tail_share(work, rhs, m: int, wk, wt, modes, solver, traces) -> dict:
     if F is None:
         F = factorize((work.K - sigma * work.M).tocsr(), solver=solver, positive=sigma < 0)
     S = F.solve(rhs)
-    lam = np.einsum("ij,ij->j", phi, work.K @ phi)
+    lam = np.einsum("ij,ij->j", phi, sparse_dense(work.K, phi))
     b2 = (phi.T @ rhs) ** 2  # (modes, columns)
     flex = ~is_rigid(lam, work.K, work.M)
     lf, d = lam[flex], alpha + beta * lam[flex]
@@ -196,7 +197,7 @@ def tail_share(work, rhs, m: int, wk, wt, modes, solver, traces) -> dict:
              "velocity": np.maximum(1 / (2 * d) - inv @ (wt * wk ** 2) / math.pi, 0.0)}
     lam_h = float(lam.max())
     grow = (lam_h - sigma) / lam_h
-    rest = {"position": (np.einsum("ij,ij->j", S, work.M @ S) - (b2 / (lam - sigma)[:, None] ** 2).sum(0))
+    rest = {"position": (np.einsum("ij,ij->j", S, sparse_dense(work.M, S)) - (b2 / (lam - sigma)[:, None] ** 2).sum(0))
             * max(1.0, grow ** 2),
             "velocity": (np.einsum("ij,ij->j", rhs, S) - (b2 / (lam - sigma)[:, None]).sum(0)) * max(1.0, grow)}
     cols = {"position": slice(0, m), "velocity": slice(0, m), "observability": slice(m, None)}
@@ -249,7 +250,7 @@ def projected_factors(solves: str, work, rhs, m: int, wk, wt, *, side: str, rigi
                  else _Projected(work, rhs, wk / (2 * math.pi), modes, solver))
     V = basis.V
     if rigid_modes is not None and rigid_modes.shape[1]:
-        V = V - rigid_modes @ (rigid_modes.T @ (work.M @ V))
+        V = V - rigid_modes @ (rigid_modes.T @ sparse_dense(work.M, V))
     k = V.shape[1]
     stores = [store(k, max(4 * k, 256)) for _ in range(3 if side == "both" else 2)]
     for s0 in track(solver.progress, range(0, wk.size, _CHUNK), -(-wk.size // _CHUNK),
@@ -266,7 +267,7 @@ def projected_factors(solves: str, work, rhs, m: int, wk, wt, *, side: str, rigi
     L = V @ stores[2].result() if side == "both" else None
     info = basis.info
     if tail:
-        traces = {name: float(np.einsum("ij,ij->", X, work.M @ X))
+        traces = {name: float(np.einsum("ij,ij->", X, sparse_dense(work.M, X)))
                   for name, X in (("position", R), ("velocity", Rv), ("observability", L)) if X is not None}
         info["tail"] = tail_share(work, rhs, m, wk, wt, modes, solver, traces)
         log.info("Gramians up to %.4g Hz: the tail above is at most %.1e (position), %.1e (velocity) of the trace",

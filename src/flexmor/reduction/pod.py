@@ -11,6 +11,7 @@ import numpy as np
 from ..basis import Basis
 from ..errors import OptionError, check_choice
 from ..linalg.context import SolverContext, as_solver
+from ..linalg.threads import sparse_dense
 from ..options import Band, band_option, option
 from ..rigid import m_project
 from ._options import nodes_option, rigid_option, side_option, solves_option
@@ -43,7 +44,7 @@ def pod_modes(S: np.ndarray, M, order: int | None = None, energy: float | None =
         All POD eigenvalues (snapshot energies), descending.
     """
     Q, T = np.linalg.qr(S)  # Householder QR, then the M-weighted SVD of the small factor:
-    Lq = np.linalg.cholesky(Q.T @ (M @ Q))  # no squaring of singular values (accurate to eps)
+    Lq = np.linalg.cholesky(Q.T @ sparse_dense(M, Q))  # no squaring of singular values (accurate to eps)
     U, sig, _ = np.linalg.svd(Lq.T @ T, full_matrices=False)
     lam = sig ** 2
     pos = sig > 1e-13 * sig[0] if sig.size and sig[0] > 0 else np.zeros(sig.size, bool)
@@ -172,7 +173,7 @@ def pod(model, ports, order, *, band=None, energy: float | None = None, snapshot
         parts.append(m_project(model, phi, S))
         info["time"] = tinfo
     if len(parts) > 1:
-        parts = [P / math.sqrt(max(np.einsum("ij,ij->", P, model.M @ P), 1e-300)) for P in parts]
+        parts = [P / math.sqrt(max(np.einsum("ij,ij->", P, sparse_dense(model.M, P)), 1e-300)) for P in parts]
     if order is not None and order <= head.shape[1]:
         raise OptionError(f"order {order} leaves no room next to {head.shape[1]} rigid-body modes", params=("order",))
     V, lam = pod_modes(np.hstack(parts), model.M, None if order is None else order - head.shape[1], energy)
