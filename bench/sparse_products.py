@@ -8,11 +8,13 @@ cantilever (27,000 DOF), and of the CalculiX C3D10 bar export when it is there
 the projection): SciPy's ``A @ X`` (one thread), :func:`flexmor.linalg.threads.sparse_dense` with the
 rows split over Python threads (``threads=cores``), and :func:`flexmor.linalg.mkl_sparse.mkl_product`
 (MKL's threads), best of ``--repeat``; the largest difference to SciPy's product relative to its
-largest entry. Results: ``bench/results/sparse_products.json``.
+largest entry. ``--large 1000000`` adds the built-in cantilever of a million DOF. Results:
+``bench/results/sparse_products.json``.
 
 Usage::
 
     .venv/bin/python bench/sparse_products.py
+    .venv/bin/python bench/sparse_products.py --large 1000000 --repeat 2
 """
 
 from __future__ import annotations
@@ -31,7 +33,7 @@ import numpy as np
 HERE = Path(__file__).resolve().parent
 
 
-def _models():
+def _models(large: int):
     import flexmor
     from flexmor.errors import FlexmorWarning
     from flexmor.models import cantilever, plate_structure, size_for_dofs
@@ -43,6 +45,9 @@ def _models():
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", FlexmorWarning)
             yield "C3D10 bar 34,680", flexmor.read(sti)
+    if large:
+        model = cantilever(size_for_dofs(large))
+        yield f"cantilever {model.n_dof:,}", model
 
 
 def _best(fn, repeat: int) -> tuple[float, np.ndarray]:
@@ -58,6 +63,7 @@ def _best(fn, repeat: int) -> tuple[float, np.ndarray]:
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--repeat", type=int, default=5)
+    ap.add_argument("--large", type=int, default=0, help="also the built-in cantilever of about this many DOF")
     ap.add_argument("--out", default=str(HERE / "results" / "sparse_products.json"))
     args = ap.parse_args(argv)
     from flexmor.linalg.mkl_sparse import mkl_product
@@ -67,7 +73,7 @@ def main(argv=None) -> int:
     rows = []
     print(f"{'model':20s} {'A':2s} {'nnz':>9s} {'cols':>4s} {'scipy s':>9s} {'threads s':>9s} {'mkl s':>9s} "
           f"{'x scipy':>7s} {'rel diff':>8s}   (load {os.getloadavg()[0]:.2f})")
-    for name, model in _models():
+    for name, model in _models(args.large):
         for label, A in (("K", model.K.tocsr()), ("M", model.M.tocsr())):
             for cols, order in ((6, "F"), (174, "C")):
                 X = np.asarray(rng.standard_normal((A.shape[0], cols)), order=order)
