@@ -41,6 +41,8 @@ def test_around_methods_smoke_run(tmp_path):
     for row in parts["krylov"]:
         assert "error" not in row, row
         assert row["factorizations"] == 1 and row["order"] == 24 and row["ratio"] > 1.0
+        # the floor: the bare work plus one Gram-Schmidt pass and the projection's products, timed
+        assert row["floor_gram_schmidt_s"] > 0 and row["floor_projection_s"] > 0 and row["floor_ratio_r"] > 1.0
     assert {r["method"] for r in parts["busy"]} == {"krylov", "craig-bampton"}
     assert all(r["ratio"] > 0 for r in parts["busy"])
     free = {r["method"]: r for r in parts["free"]}
