@@ -287,7 +287,8 @@ class Surrogate:
         for it in range(max_iter + 1):
             X = W @ np.linalg.solve(Ar, W.T @ self.B)
             Z = self._F0.solve(self.B - apply(X))
-            est = float(np.sqrt(max(np.vdot(Z, M @ Z).real, 0.0) / max(np.vdot(X, M @ X).real, 1e-300)))
+            est = float(np.sqrt(max(np.vdot(Z, sparse_dense(M, Z)).real, 0.0)
+                                / max(np.vdot(X, sparse_dense(M, X)).real, 1e-300)))
             if est <= target or it == max_iter:
                 break
             N = extend_orthonormal(W, np.hstack([Z.real, Z.imag]))

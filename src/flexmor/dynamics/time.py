@@ -55,8 +55,7 @@ from ..errors import OptionError, check_choice
 from ..linalg import factorize
 from ..linalg.context import SolverContext, as_solver
 from ..linalg.distributed import is_partitioned
-from ..linalg.mkl_sparse import mkl_product
-from ..linalg.threads import mkl_threads
+from ..linalg.threads import mkl_threads, sparse_dense
 
 __all__ = [
     "QUANTITIES",
@@ -242,19 +241,6 @@ def _rayleigh_of(system, M, D, K) -> tuple[float, float] | None:
     return (alpha, beta) if gap <= 1e-12 * max(np.linalg.norm(d), np.finfo(float).tiny) else None
 
 
-def _product(A, X: np.ndarray) -> np.ndarray:
-    """``A @ X``: a sparse ``A`` by MKL's sparse BLAS where it is there (:mod:`flexmor.linalg.mkl_sparse`),
-    else times one or two columns column by column (measured about twice as fast as scipy's multi-vector
-    kernel at two columns, the same at four)."""
-    if sp.issparse(A):
-        Y = mkl_product(A, X)
-        if Y is not None:
-            return Y
-    if X.shape[1] > 2 or not sp.issparse(A):
-        return A @ X
-    return np.column_stack([A @ X[:, j] for j in range(X.shape[1])])
-
-
 def _dense_solver(S):
     try:
         c = sla.cho_factor(S)
@@ -278,16 +264,16 @@ def _march_sparse(Y, steps, mats, rayleigh, solve, F, state, p, h):
             rhs = (1 - af) * Fk + af * Fprev
             x = q + c_dd * v + c_dda * a
             if am:
-                rhs -= am * _product(M, a)
+                rhs -= am * sparse_dense(M, a)
             if rayleigh is not None:  # K x + D y as one product with K (and one with M when alpha > 0)
                 y = v + c_dv * a
-                rhs -= _product(K, x + rayleigh[1] * y)
+                rhs -= sparse_dense(K, x + rayleigh[1] * y)
                 if rayleigh[0]:
-                    rhs -= rayleigh[0] * _product(M, y)
+                    rhs -= rayleigh[0] * sparse_dense(M, y)
             else:
-                rhs -= _product(K, x)
+                rhs -= sparse_dense(K, x)
                 if D is not None:
-                    rhs -= _product(D, v + c_dv * a)
+                    rhs -= sparse_dense(D, v + c_dv * a)
             a_new = solve(rhs).reshape(n, ncase)
             q = q + h * v + h * h * ((0.5 - beta) * a + beta * a_new)
             v = v + h * ((1 - gamma) * a + gamma * a_new)

@@ -53,6 +53,7 @@ from ..linalg import factorize
 from ..linalg.context import step, track
 from ..linalg.distributed import is_partitioned
 from ..linalg.threads import sparse_dense
+from ..rigid import m_project
 from ._options import SOLVES
 
 __all__ = ["DENSE_GRAMIAN_MAX_DOF", "SURROGATE_GRAMIAN_TOL", "choose_solves", "projected_factors",
@@ -250,7 +251,7 @@ def projected_factors(solves: str, work, rhs, m: int, wk, wt, *, side: str, rigi
                  else _Projected(work, rhs, wk / (2 * math.pi), modes, solver))
     V = basis.V
     if rigid_modes is not None and rigid_modes.shape[1]:
-        V = V - rigid_modes @ (rigid_modes.T @ sparse_dense(work.M, V))
+        V = m_project(work, rigid_modes, V)
     k = V.shape[1]
     stores = [store(k, max(4 * k, 256)) for _ in range(3 if side == "both" else 2)]
     for s0 in track(solver.progress, range(0, wk.size, _CHUNK), -(-wk.size // _CHUNK),

@@ -63,7 +63,7 @@ from ..errors import ModelError, OptionError, check_choice
 from ..linalg import factorize
 from ..linalg.context import SolverContext, as_solver, track
 from ..linalg.eigen import DENSE_LIMIT, default_shift, eigenmodes, frequencies_hz, is_rigid
-from ..linalg.threads import sparse_dense
+from ..rigid import m_project
 from ._options import VARIANTS
 from .gramian_quadrature import quadrature_rule
 from .gramian_solves import choose_solves, projected_factors, tail_boundable
@@ -332,7 +332,7 @@ def _direct_factors(work, rhs, m, wk, wt, rigid_modes, stores, solver):
         X = F.solve(rhs)
         del F
         if rigid_modes is not None and rigid_modes.shape[1]:
-            X = X - rigid_modes @ (rigid_modes.T @ sparse_dense(work.M, X))
+            X = m_project(work, rigid_modes, X)
         s = math.sqrt(weight / math.pi)
         Xr = s * np.hstack([X[:, :m].real, X[:, :m].imag])
         stores[0].add(Xr)

@@ -33,9 +33,10 @@ from ..linalg import factorize
 from ..linalg.context import SolverContext, as_solver
 from ..linalg.eigen import default_shift
 from ..linalg.factorize import factorize_shifted
-from ..linalg.threads import blas_threads, sparse_dense
+from ..linalg.threads import blas_threads
 from ..options import Band, band_option, option
 from ..projection import reduced_matrices
+from ..rigid import m_project
 from ._options import RIGID, SIDES, points_option, rigid_option, side_option
 from ._registry import register_method
 from .arnoldi import DEFLATION_TOL, SecondOrderArnoldi
@@ -136,7 +137,7 @@ def blocks_at_points(model, ports, points, n_moments: int, *, side: str = "input
     if rigid_modes is not None and rigid_modes.shape[1]:
 
         def proj(X):
-            return X - rigid_modes @ (rigid_modes.T @ sparse_dense(model.M, X))
+            return m_project(model, rigid_modes, X)
 
     blocks, used = [], []
     for p in points:
