@@ -169,3 +169,18 @@ def test_info_formats_json(capsys):
     calculix = out["formats"]["model"][MODEL_FORMATS.names().index("calculix")]
     assert calculix["suffixes"] == [".sti"] and calculix["claims"] is None
     assert "flexmor_version" in out
+
+
+def test_a_format_given_for_another_formats_suffix_is_refused_and_a_strange_suffix_named(tmp_path):
+    red = ReducedModel(M=np.eye(2), K=np.diag([1.0, 4.0]), D=None, B=np.ones((2, 1)), C=np.ones((1, 2)))
+    with pytest.raises(OptionError, match=r"r\.mat: its suffix names mat files, format is hdf5; end the file's "
+                                          r"name in \.h5 or \.hdf5"):
+        flexmor.io.export(red, tmp_path / "r.mat", "hdf5")
+    assert not (tmp_path / "r.mat").exists()
+    with pytest.warns(flexmor.FlexmorWarning, match=r"r\.py: written as statespace \(\.ss\.npz or \.ss\.mat\) "
+                                                     r"although no export format has the suffix '\.py'"):
+        flexmor.io.export(red, tmp_path / "r.py", "ss")
+    assert sorted(np.load(tmp_path / "r.py")) == ["A", "Ae", "B", "Be", "C", "D", "E"]  # what the format writes
+    # the last part of the format's own suffix: the state space as .mat, Exudyn-less npz names
+    assert flexmor.io.export(red, tmp_path / "r.mat", "ss") == "statespace"
+    assert flexmor.io.export(red, tmp_path / "r.npz", "statespace") == "statespace"

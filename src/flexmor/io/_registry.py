@@ -23,11 +23,12 @@ families, which fill them.
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
-from ..errors import OptionError, ReadError, did_you_mean
+from ..errors import FlexmorWarning, OptionError, ReadError, did_you_mean
 from ..units import to_si, unit_system
 from ._geometry import check_cells, check_stiffness_geometry
 from ._mass import check_mass_directions
@@ -332,10 +333,28 @@ def export_format(path, format: str | None = None) -> str:
     Raises
     ------
     OptionError
-        Unknown ``format``, or a suffix no export format has (the message lists the formats).
+        Unknown ``format``, a suffix no export format has (the message lists the formats), or a
+        ``format`` whose files the suffix does not name while another format's do (``.mat`` for ``sid``).
+
+    Warns
+    -----
+    FlexmorWarning
+        A ``format`` given for a name whose suffix belongs to no export format (``body.py`` for
+        ``exudyn``: the file holds that format's data all the same).
     """
     if format is not None:
-        return EXPORT_FORMATS.by_name(format).name
+        fmt = EXPORT_FORMATS.by_name(format)
+        name = Path(path).name.lower()
+        # the format's own suffixes, or their last part (.mat of .ss.mat, .npz of .exudyn.npz)
+        if not any(name.endswith(s) or name.endswith("." + s.rsplit(".", 1)[-1]) for s in fmt.suffixes):
+            other, own = EXPORT_FORMATS.by_path(path), " or ".join(fmt.suffixes)
+            if other is not None:
+                raise OptionError(f"{path}: its suffix names {other.name} files, format is {fmt.name}; end the "
+                                  f"file's name in {own} or leave format out", params=("format",))
+            warnings.warn(FlexmorWarning(f"{path}: written as {fmt.name} ({own}) although no export format has the "
+                                         f"suffix {Path(path).suffix or '(none)'!r}", params=("format",)))  # here: once, also when
+            # export() asks again for the name its caller had
+        return fmt.name
     fmt = EXPORT_FORMATS.by_path(path)
     if fmt is None:
         ext = Path(path).suffix.lower() or "(none)"
