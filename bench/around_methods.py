@@ -397,7 +397,8 @@ def main(argv=None) -> int:
                       f"{r['solves']} solves x {r['width']} {r['solve_s']:.2f} s) | bare {r['bare_factorize_s']:.2f} + "
                       f"{r['bare_solves_s']:.2f} = {r['bare_s']:.2f} s | ratio {r['ratio']:.2f} | bare with r columns "
                       f"only {r['bare_r_s']:.2f} s: ratio {r['ratio_r']:.2f}, without the rigid-body check "
-                      f"({r.get('check_s', 0):.2f} s) {r.get('ratio_r_no_check', 0):.2f} | floor: + one Gram-Schmidt pass "
+                      f"({r.get('check_s', 0):.2f} s) {r.get('ratio_r_no_check', 0):.2f} | floor: + one "
+                      f"Gram-Schmidt pass "
                       f"{r['floor_gram_schmidt_s']:.2f} + projection products {r['floor_projection_s']:.2f} s: "
                       f"{r['floor_ratio_r']:.2f} x bare", flush=True)
     if "read" in parts:

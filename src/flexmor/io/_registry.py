@@ -352,8 +352,8 @@ def export_format(path, format: str | None = None) -> str:
                 raise OptionError(f"{path}: its suffix names {other.name} files, format is {fmt.name}; end the "
                                   f"file's name in {own} or leave format out", params=("format",))
             warnings.warn(FlexmorWarning(f"{path}: written as {fmt.name} ({own}) although no export format has the "
-                                         f"suffix {Path(path).suffix or '(none)'!r}", params=("format",)))  # here: once, also when
-            # export() asks again for the name its caller had
+                                         f"suffix {Path(path).suffix or '(none)'!r}", params=("format",)),
+                          stacklevel=1)  # at this line: once, also when export() asks again for its caller's name
         return fmt.name
     fmt = EXPORT_FORMATS.by_path(path)
     if fmt is None:
