@@ -117,12 +117,11 @@ def _warm_up():
 def case_krylov(args) -> dict:
     import numpy as np
 
+    import flexmor.workflow as workflow
     from flexmor.io.hdf5 import write_body
     from flexmor.linalg import SolverContext, factorize
     from flexmor.ports import make_ports
     from flexmor.workflow import reduce_and_judge
-
-    import flexmor.workflow as workflow
 
     model, inputs = _model(args.model, args)
     ports = make_ports(model, inputs)
