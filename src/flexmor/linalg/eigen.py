@@ -14,6 +14,7 @@ from .block_eigen import block_lanczos
 from .context import DENSE_LIMIT, EIGEN_METHODS, SolverContext, as_solver
 from .distributed import is_partitioned
 from .factorize import factorize_shifted
+from .threads import sparse_dense
 
 __all__ = ["eigenmodes", "dense_eigenmodes", "default_shift", "rigid_body_threshold", "is_rigid", "frequencies_hz",
            "whole_clusters", "CLUSTER_RTOL",
@@ -155,12 +156,13 @@ def eigenmodes(K, M, k: int, *, sigma: float | None = None, solver: SolverContex
                     result=(exc.eigenvalues[order], exc.eigenvectors[:, order])) from None
             order = np.argsort(lam)
             lam, phi = lam[order], phi[:, order]
+    mass = np.einsum("ij,ij->j", phi, sparse_dense(M, phi))
+    if method != "dense":
         # Rayleigh quotients: quadratically accurate in the eigenvector error, they remove
         # the spectral transformation's loss of accuracy for eigenvalues far from sigma
-        lam = np.einsum("ij,ij->j", phi, K @ phi) / np.einsum("ij,ij->j", phi, M @ phi)
+        lam = np.einsum("ij,ij->j", phi, sparse_dense(K, phi)) / mass
     # mass normalization (ARPACK returns M-orthonormal vectors up to round-off)
-    mnorm = np.sqrt(np.einsum("ij,ij->j", phi, M @ phi))
-    phi = phi / mnorm
+    phi = phi / np.sqrt(mass)
     return lam, phi
 
 
