@@ -90,3 +90,25 @@ def test_free_body_runs_and_rigid_motion_is_documented(free, free_ref, method):
     red = reduce(model, method, 8, ports, band=(10.0, 3000.0))
     assert red.info["n_rigid_excluded"] == 6 and np.all(red.frequencies_hz() > 1.0)
     assert abs(red.frequencies_hz()[0] / free_ref[6] - 1) < 1e-3
+
+
+def test_tol_mode_keeps_a_pair_whole_whatever_the_largest_order(clamped):
+    """The search's trial orders cut the nested Craig-Bampton basis of its largest order: a cut inside a pair of
+    equal fixed-interface frequencies (the beam's bending pairs) keeps the whole pair, as the method does for that
+    order, so that the body does not depend on the largest order allowed (it did: order 46, band_error 1.76e-7
+    with order <= 60 and 1.50e-7 with order <= 80, each keeping another vector of the pair at 9465 Hz)."""
+    model = clamped.with_rayleigh(5.0, 2e-6)
+    ports = make_ports(model, ["TIP:y"])
+    full = FullResponse(model, ports, (10.0, 3000.0))
+    found = []
+    for cap in (60, 80):
+        red, res = reduce_and_judge(model, "craig-bampton", cap, ports, full=full, tol=1e-6, interface=["TIP"])
+        f = np.asarray(red.info["fixed_interface_hz"])
+        assert f.size == red.info["n_modes"] == red.order - 27  # the TIP node set's 27 DOF, then the modes
+        found.append((red.order, res["band_error"], f))
+    (order_a, err_a, f_a), (order_b, err_b, _) = found
+    assert order_a == order_b == 47  # 46 cuts the pair at 9465 Hz
+    assert abs(f_a[-1] - f_a[-2]) <= 1e-6 * f_a[-1] and abs(f_a[-1] - 9465.1) < 0.1
+    assert abs(err_a - err_b) <= 1e-6 * err_a  # the bases differ by the modes' Lanczos tolerance only
+    direct = reduce(model, "craig-bampton", 46, ports, interface=["TIP"])  # the method's own answer for 46
+    assert direct.order == 47 and abs(full.evaluate(direct).band_error - err_a) <= 1e-6 * err_a

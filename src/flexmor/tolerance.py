@@ -16,14 +16,18 @@ from __future__ import annotations
 import logging
 import time
 
+import numpy as np
+
 from .analysis.frequency import TOL_MEASURES
 from .basis import Basis
 from .errors import OptionError, check_choice
 from .linalg.context import SolverContext, as_solver, step
+from .linalg.eigen import whole_clusters
 from .projection import project
 from .reduction import reduce
+from .reduction.modal import cluster_note
 
-__all__ = ["reduce_to_tolerance", "NESTED", "min_order", "tol_methods", "check_tol_method"]
+__all__ = ["reduce_to_tolerance", "NESTED", "leading", "min_order", "tol_methods", "check_tol_method"]
 
 log = logging.getLogger(__name__)
 
@@ -58,6 +62,28 @@ def min_order(model, method: str, ports, options: dict) -> int:
     fields = option_fields(m.options_class)
     rigid = options.get("rigid", fields["rigid"].default) if "rigid" in fields else "include"
     return max(lowest_order(model, method, options["interface"], rigid) + 1, 1)
+
+
+def leading(big, r: int) -> tuple[int, dict]:
+    """``(columns, info)`` of the body of order ``r`` that the nested basis of ``big`` holds: as many leading
+    columns as the method itself returns for order ``r`` (a multiple eigenvalue that ``r`` cuts kept whole, as
+    :func:`flexmor.reduction.modal.modal` and ``craig_bampton`` keep it: the basis is then the same whatever
+    order ``big`` has) and ``big.info`` with the mode frequencies (``frequencies_hz`` of ``modal``,
+    ``fixed_interface_hz`` and ``n_modes`` of the Craig-Bampton family) and ``order_note`` of those columns."""
+    info = dict(big.info)
+    info.pop("order_note", None)  # big's own, of its order
+    key = next((k for k in ("fixed_interface_hz", "frequencies_hz") if isinstance(info.get(k), list)), None)
+    if key is None:
+        return r, info
+    f = np.asarray(info[key], dtype=float)
+    lead = big.V.shape[1] - f.size  # the columns before the modes (interface, relief)
+    n = whole_clusters((2 * np.pi * f) ** 2, r - lead) if r > lead else 0
+    if r > lead and lead + n > r:
+        info["order_note"] = cluster_note(r, lead + n, float(f[r - lead - 1]))
+    info[key] = f[:n].tolist()
+    if "n_modes" in info:
+        info["n_modes"] = int(n)
+    return lead + n if r > lead else r, info
 
 
 def reduce_to_tolerance(model, method: str, ports, *, tol: float, full, max_order: int | None = None,
@@ -118,7 +144,8 @@ def reduce_to_tolerance(model, method: str, ports, *, tol: float, full, max_orde
     def error(r):
         if r not in tried:
             if big is not None and (big.info.get("nested") or method in NESTED) and r <= big.order:
-                tried[r] = trial(r, project(model, Basis(big.V[:, :r], method, dict(big.info)), ports))
+                cut, info = leading(big, r)
+                tried[r] = trial(r, project(model, Basis(big.V[:, :cut], method, info), ports))
             else:
                 tried[r] = trial(r)
         return tried[r][0]
