@@ -116,7 +116,9 @@ def reduce_to_tolerance(model, method: str, ports, *, tol: float, full, max_orde
     timings : dict
         ``basis`` (the whole search, bases and trial projections) and ``project``.
     search : dict
-        ``tol``, ``measure``, ``tol_reached``, ``orders_tried`` with their value of ``measure``.
+        ``tol``, ``measure``, ``tol_reached``, ``orders_tried``: the orders of the bodies tried with their
+        value of ``measure`` (an order asked for inside a multiple eigenvalue gives the body that keeps it
+        whole, :func:`leading`).
     """
     solver = as_solver(solver)
     if tol is None or not tol > 0:
@@ -130,7 +132,9 @@ def reduce_to_tolerance(model, method: str, ports, *, tol: float, full, max_orde
                           f"{max_order}", params=("order",))
     R = int(start or (low - 1 + max(4, 2 * ports.n_inputs) if low > 1 else max(4, 2 * ports.n_inputs)))
     t0 = time.perf_counter()
-    tried, big, lo = {}, None, low - 1
+    # tried: the bodies by their order; asked: the order each order asked for gave (larger where it would cut
+    # a multiple eigenvalue, smaller where the method found fewer directions)
+    tried, asked, big, lo = {}, {}, None, low - 1
 
     def trial(r, body=None):
         """``(measure, body)`` of order ``r`` (``body`` given, else made), shown as one step."""
@@ -142,23 +146,27 @@ def reduce_to_tolerance(model, method: str, ports, *, tol: float, full, max_orde
         return value, body
 
     def error(r):
-        if r not in tried:
+        """``measure`` of the body asked for with order ``r``."""
+        if r not in asked:
             if big is not None and (big.info.get("nested") or method in NESTED) and r <= big.order:
                 cut, info = leading(big, r)
-                tried[r] = trial(r, project(model, Basis(big.V[:, :cut], method, info), ports))
+                value, body = trial(r, project(model, Basis(big.V[:, :cut], method, info), ports))
             else:
-                tried[r] = trial(r)
-        return tried[r][0]
+                value, body = trial(r)
+            asked[r] = body.order
+            tried.setdefault(body.order, (value, body))
+        return tried[asked[r]][0]
 
     while True:
         R = min(R, max_order)
         value, big = trial(R)
         tried[big.order] = (value, big)
-        if tried[big.order][0] <= tol or R >= max_order or big.order < R:
+        if value <= tol or R >= max_order or big.order < R:
             break
         lo, R = big.order, 2 * R
-    hi = big.order
-    reached = tried[hi][0] <= tol
+    hi = min(R, big.order)
+    asked[hi] = big.order
+    reached = tried[big.order][0] <= tol
     if reached:
         while hi - lo > 1:
             mid = (lo + hi) // 2
@@ -167,8 +175,9 @@ def reduce_to_tolerance(model, method: str, ports, *, tol: float, full, max_orde
             else:
                 lo = mid
     else:
-        log.warning("%s: %s %.2e at order %d misses the target (tol) %.1e", method, measure, tried[hi][0], hi, tol)
-    red = tried[hi][1]
+        log.warning("%s: %s %.2e at order %d misses the target (tol) %.1e", method, measure, tried[big.order][0],
+                    big.order, tol)
+    red = tried[asked[hi]][1]
     search = {"tol": tol, "measure": measure, "tol_reached": reached,
               "orders_tried": {str(k): v[0] for k, v in sorted(tried.items())}}
     red.info["tol_search"] = search
