@@ -286,8 +286,9 @@ def _print_reference(path, ref: dict) -> None:
     macs = ref["mac"] if shapes else [None] * len(ref["frequencies_hz"])
     for i, (f, g, d, mac) in enumerate(zip(ref["frequencies_hz"], ref["model_frequencies_hz"], ref["rel_diff"],
                                            macs), 1):
-        diff = "    rigid" if d is None else f"{d:9.2e}"
-        print(f"{i:5d}   {f:14.6f}   {g:14.6f}   {diff}" + (f"   {mac:.6f}" if shapes else ""))
+        diff = "    rigid" if d is None and g is not None else "        -" if d is None else f"{d:9.2e}"
+        print(f"{i:5d}   {f:14.6f}   " + ("             -" if g is None else f"{g:14.6f}") + f"   {diff}"
+              + (f"   {mac:.6f}" if shapes else ""))
 
 
 def _selected_names(args) -> list:
