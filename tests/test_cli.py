@@ -118,6 +118,47 @@ def test_console_script_exit_code(tmp_path):
     assert r.stderr.strip() == f"flexmor: error: {tmp_path / 'nope.sti'}: file not found"
 
 
+def test_a_closed_pipe_ends_the_run_quietly(capsys, monkeypatch):
+    """``flexmor info MODEL | head -1``: the reader leaves; no error message, the exit code of SIGPIPE."""
+
+    class Closed:  # stdout whose reader has gone
+        def write(self, text):
+            raise BrokenPipeError(32, "Broken pipe")
+
+        def flush(self):
+            pass
+
+    monkeypatch.setattr(sys, "stdout", Closed())
+    code = main(["info", CLAMPED])
+    monkeypatch.undo()
+    assert code == 141 and capsys.readouterr().err == ""
+
+
+@pytest.mark.parametrize("argv,expect", [
+    (["--band", "-5:1000"], "--band needs 0 < FMIN < FMAX in Hz, got -5.0:1000.0"),  # the value, not a flag
+    (["--rayleigh", "-1:0"], "Rayleigh coefficients must be finite and >= 0, got alpha=-1.0"),
+])
+def test_a_value_beginning_with_a_minus_gets_its_own_check(argv, expect, tmp_path, capsys):
+    code, _, err = run(capsys, "reduce", CLAMPED, "--method", "krylov", "--order", "4", "--input", "TIP:y", *argv,
+                       "-o", tmp_path / "k.h5")
+    assert code == 2 and expect in err and not (tmp_path / "k.h5").exists()
+    with pytest.raises(SystemExit) as exc:  # argparse's own exit
+        main(["info", CLAMPED, "--modes", "-1"])
+    assert exc.value.code == 2
+    assert "argument --modes: expected a whole number (0 or more), got -1" in capsys.readouterr().err
+
+
+def test_reduce_writes_a_body_under_a_body_name(tmp_path, capsys):
+    base = ["reduce", CLAMPED, "--method", "krylov", "--order", "4", "--input", "TIP:y", "--no-error", "-o"]
+    code, _, err = run(capsys, *base, tmp_path / "k.mat")
+    assert code == 2 and "k.mat: reduce writes a flexmor body (.h5); a mat file is made from it by flexmor " \
+                         "export BODY.h5 -o k.mat" in err and not (tmp_path / "k.mat").exists()
+    code, _, err = run(capsys, *base, tmp_path / "k.txt")
+    assert code == 0 and "k.txt: written as a flexmor body (HDF5, .h5) although its suffix is '.txt'" in err
+    code, _, err = run(capsys, "info", tmp_path)
+    assert code == 2 and f"{tmp_path}: is a folder; give the main file of the FE export in it" in err
+
+
 @pytest.mark.slow
 def test_demo_writes_bodies_and_plot(capsys, tmp_path):
     out = run_json(capsys, "demo", "--out", str(tmp_path), "--n", "2", "--json")

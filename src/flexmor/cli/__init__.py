@@ -237,6 +237,12 @@ def _dispatch(args) -> int:
         print(f"flexmor: error: out of memory ({describe_memory()}); try --factor-memory mixed or ooc, a smaller "
               "--order, or a machine with more memory", file=sys.stderr)
         return 1
+    except BrokenPipeError:  # the reader of stdout closed it (| head): nothing wrong with the run
+        try:  # no second error when Python flushes stdout at exit
+            os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        except (OSError, ValueError, AttributeError):  # a stdout without a descriptor (a capture)
+            pass
+        return 141
     except OSError as exc:  # writing an output: permission denied, disk full, ...
         where = f"{exc.filename}: " if exc.filename else ""
         print(f"flexmor: error: {where}{exc.strerror or exc}", file=sys.stderr)

@@ -87,6 +87,23 @@ def _check_new(path, args) -> Path:
     return path
 
 
+def _body_suffix(path) -> None:
+    """``reduce -o`` writes a flexmor body (HDF5): a name another export format's suffix names is refused (the
+    export makes that file from the body), another suffix is named in a warning."""
+    import warnings
+
+    from ..errors import FlexmorWarning
+    from ..io import EXPORT_FORMATS
+
+    fmt = EXPORT_FORMATS.by_path(path)
+    if fmt is not None and fmt.name != "hdf5":
+        raise OptionError(f"{path}: reduce writes a flexmor body (.h5); a {fmt.name} file is made from it by "
+                          f"flexmor export BODY.h5 -o {Path(path).name}")
+    if fmt is None:
+        warnings.warn(FlexmorWarning(f"{path}: written as a flexmor body (HDF5, .h5) although its suffix is "
+                                     f"{Path(path).suffix or '(none)'!r}"), stacklevel=2)
+
+
 def _solver(args):
     """The solver context of one command: ``--backend``, ``--factor-memory``, ``--memory-limit`` (out-of-core
     files beside ``-o FILE``), the progress callback."""
@@ -313,6 +330,7 @@ def cmd_reduce(args) -> int:
         raise OptionError("--tol-measure chooses the measure of --tol; give --tol too")
     if args.output_file:
         _check_new(args.output_file, args)
+        _body_suffix(args.output_file)
     couplings = coupling_specs(args.interface, args.input + args.output)
     keep = {}
     model, t_read, given_band = _read_model(args, couplings, keep=keep)

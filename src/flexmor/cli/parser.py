@@ -171,7 +171,13 @@ def _add_model_args(p, damping=True):
 
 
 class Parser(argparse.ArgumentParser):
-    """An argument parser whose errors name the closest choice or flag ("did you mean")."""
+    """An argument parser whose errors name the closest choice or flag ("did you mean"), and that takes a
+    value beginning with a minus and a digit as a value (``--band -5:1000``, ``--rayleigh -1:0``), so that its
+    own check explains it, rather than as an unknown flag (no flag begins so)."""
+
+    def __init__(self, *args, **kwargs):
+        super().__init__(*args, **kwargs)
+        self._negative_number_matcher = re.compile(r"^-\.?\d")
 
     def parse_args(self, args=None, namespace=None):
         ns, extras = self.parse_known_args(args, namespace)
@@ -188,6 +194,17 @@ class Parser(argparse.ArgumentParser):
             if hint:
                 message = f"{message}; {hint}"
         super().error(message)
+
+
+def _count(text: str) -> int:
+    """A count of at least 0 (argparse type)."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a whole number (0 or more), got {text!r}") from None
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"expected a whole number (0 or more), got {value}")
+    return value
 
 
 def _unrecognized(extras, parser) -> str:
@@ -221,7 +238,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("info", help="sizes, checks and lowest eigenfrequencies of a model")
     _add_model_args(p, damping=False)
-    p.add_argument("--modes", type=int, nargs="?", const=-1, default=0, metavar="N",
+    p.add_argument("--modes", type=_count, nargs="?", const=-1, default=0, metavar="N",
                    help="a model: its N lowest eigenfrequencies (12 without N); a body: its mode table (frequency, "
                    "damping ratio, effective mass and rotary inertia about the frame, share of the port response; "
                    "all modes without N)")

@@ -284,6 +284,9 @@ def read(path, format: str | None = None, *, units: str | None = None, **options
         ``units`` other than SI for a model without an equation map.
     """
     path = Path(path)
+    if path.is_dir():  # before its (missing) suffix is asked about
+        raise ReadError(path, "is a folder; give the main file of the FE export in it (the suffixes: flexmor "
+                              "info --formats)")
     fmt = _choose_reader(MODEL_FORMATS, path, format, " (or give format)")
     _checked(path)
     fmt.check_gzip(path)
@@ -321,6 +324,8 @@ def read_body(path, format: str | None = None, **options):
         Unknown ``format``.
     """
     path = Path(path)
+    if path.is_dir():
+        raise ReadError(path, "is a folder; give a reduced body file (.h5)")
     fmt = _choose_reader(BODY_FORMATS, path, format)
     _checked(path)
     fmt.check_gzip(path)
