@@ -222,3 +222,16 @@ def test_report_plots_judge_what_the_table_judges(free, tmp_path):
     page = render_html(rep)
     assert "judged against the <b>full model with RBE2 at FIX, RBE2 at TIP</b>" in page
     assert "full [Hz]" not in page and "full model with RBE2 at FIX, RBE2 at TIP [Hz]" in page
+
+
+def test_a_coupling_that_changes_nothing_shows_no_negative_zero():
+    """A rigid coupling of nodes that move together changes the frequencies by round-off of either sign:
+    the tables show +0.000 %, not -0.000 %."""
+    from flexmor.checks import signed_percent
+    from flexmor.cli.info import coupling_lines
+
+    assert [signed_percent(x, 3) for x in (-5.7e-14, 0.0, -4.9e-6, 3.4e-3)] == ["+0.000", "+0.000", "+0.000", "+0.340"]
+    assert signed_percent(-6e-6, 3) == "-0.001" and signed_percent(-1.2e-4, 2) == "-0.01"
+    rec = {"couplings": [], "uncoupled_hz": [100.0, 200.0], "coupled_hz": [100.0, 200.0], "rel_change": [-5.7e-14, 0.0]}
+    lines = coupling_lines(rec)
+    assert "by +0.00 to +0.00 %" in lines[0] and lines[2].endswith("+0.000 %") and "-0.0" not in "".join(lines)

@@ -20,7 +20,7 @@ from .errors import FlexmorWarning, ModelError
 from .linalg.context import SolverContext, as_solver
 
 __all__ = ["MAX_RIGID_BODY_MODES", "COUPLING_MODES", "check_rigid_body_modes", "first_elastic_hz",
-           "lowest_elastic_hz", "coupling_frequencies", "describe_couplings", "mechanism_error"]
+           "lowest_elastic_hz", "coupling_frequencies", "describe_couplings", "mechanism_error", "signed_percent"]
 
 #: Zero-energy modes an elastic body can have (3 translations + 3 rotations).
 MAX_RIGID_BODY_MODES = 6
@@ -147,6 +147,12 @@ def coupling_frequencies(uncoupled, coupled, couplings, *, n: int = COUPLING_MOD
     k = min(f0.size, f1.size)
     return {"couplings": [str(c) for c in couplings], "uncoupled_hz": f0[:k].tolist(), "coupled_hz": f1[:k].tolist(),
             "rel_change": (f1[:k] / f0[:k] - 1.0).tolist()}
+
+
+def signed_percent(x: float, digits: int) -> str:
+    """``100 x`` with its sign and ``digits`` decimals; a change that rounds to zero is ``+0.0...``, not ``-0.0...``
+    (a coupling that changes nothing moves the frequencies by round-off of either sign)."""
+    return f"{round(100.0 * float(x), digits) + 0.0:+.{digits}f}"
 
 
 def describe_couplings(couplings) -> str:

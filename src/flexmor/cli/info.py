@@ -299,15 +299,15 @@ def print_mass_properties(out: dict) -> None:
 
 def coupling_lines(rec) -> list[str]:
     """Lines on the coupling record of :func:`flexmor.checks.coupling_frequencies` (none without one)."""
-    from ..checks import describe_couplings
+    from ..checks import describe_couplings, signed_percent
 
     if not rec or not rec.get("coupled_hz"):
         return []
     ch = rec["rel_change"]
     lines = [f"{describe_couplings(rec['couplings'])} changes the lowest elastic frequencies by "
-             f"{100 * min(ch):+.2f} to {100 * max(ch):+.2f} % against the FE model as read "
+             f"{signed_percent(min(ch), 2)} to {signed_percent(max(ch), 2)} % against the FE model as read "
              "(the coupled model is the one reduced and judged against)"]
     lines.append("mode  FE model [Hz]  coupled [Hz]  change")
-    lines += [f"{i:4d}  {a:13.6g}  {b:12.6g}  {100 * c:+.3f} %"
+    lines += [f"{i:4d}  {a:13.6g}  {b:12.6g}  {signed_percent(c, 3)} %"
               for i, (a, b, c) in enumerate(zip(rec["uncoupled_hz"], rec["coupled_hz"], ch), 1)]
     return lines

@@ -16,7 +16,7 @@ import numpy as np
 
 from .._version import __version__
 from ..analysis.frequency import ANTIRESONANCE_FACTOR, MEASURES
-from ..checks import describe_couplings
+from ..checks import describe_couplings, signed_percent
 from ..damping import damping_from_dict
 from ..io import atomic_write
 from ..origin import describe_damping
@@ -157,11 +157,12 @@ def _coupling_section(rep: Report) -> list:
         return []
     e = html.escape
     ch = c["rel_change"]
-    rows = [[i, fmt(float(a), ".4f"), fmt(float(b), ".4f"), f"{100 * d:+.3f} %"]
+    rows = [[i, fmt(float(a), ".4f"), fmt(float(b), ".4f"), f"{signed_percent(d, 3)} %"]
             for i, (a, b, d) in enumerate(zip(c["uncoupled_hz"], c["coupled_hz"], ch), 1)]
     return ['<h2 id="coupling">Coupling</h2>',
             (f"<p>{e(describe_couplings(c['couplings']))} changes the lowest elastic frequencies by "
-             f"{100 * min(ch):+.2f} to {100 * max(ch):+.2f} % over the FE model as read: the {e(rep.reference)} "
+             f"{signed_percent(min(ch), 2)} to {signed_percent(max(ch), 2)} % over the FE model as read: the "
+             f"{e(rep.reference)} "
              "is what the bodies are reduced from and judged against (right for the assembly the coupling "
              "stands for; the FE model as read is another model).</p>"),
             _table(["mode (by rank)", "FE model as read [Hz]", "coupled [Hz]", "change"], rows, ())]
