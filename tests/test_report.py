@@ -96,6 +96,12 @@ def test_report_is_self_contained_with_valid_images(report):
     for sec in ("summary", "body", "frf", "rel-error", "singular-values", "modal", "time"):
         assert f'id="{sec}"' in text
     assert list(rep.figures) == ["frf", "rel_error", "singular_values", "mac", "time", "body"]
+    # the labels (modal r=8, craig-bampton r=33) say method and order: no columns of their own, the table fits
+    assert "<th>body</th><th>band_<wbr>error</th>" in text and "<th>method</th>" not in text
+    from flexmor.report.html import _summary_table
+
+    rows = [dict(r, label=f"body{k}.h5") for k, r in enumerate(rep.rows)]  # labels of files: the columns stay
+    assert "<th>body</th><th>method</th><th>order</th>" in _summary_table(rows)
 
 
 @pytest.mark.slow

@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import re
 from dataclasses import dataclass
+from typing import NamedTuple
 from pathlib import Path
 
 import numpy as np
@@ -32,7 +33,8 @@ from ..linalg.context import SolverContext, as_solver
 from ._open import suffix
 from ._text import read_text
 
-__all__ = ["KINDS", "Reference", "compare_frequencies", "compare_reference", "read_reference"]
+__all__ = ["KINDS", "MISMATCH", "Pairing", "Reference", "compare_frequencies", "compare_reference", "paired_modes",
+           "pairing_record", "read_reference"]
 
 #: The kinds of reference file, as the messages name them.
 KINDS = {"frd": "CalculiX .frd (frequencies and mode shapes)",
@@ -224,17 +226,10 @@ def _monotone_pairs(f_ref: np.ndarray, f_mod: np.ndarray) -> list:
 def compare_frequencies(model, f_ref, *, solver: SolverContext | None = None) -> dict:
     """Compare the eigenfrequencies of ``model`` with ``f_ref`` (Hz), without mode shapes.
 
-    The pairing is one-to-one and keeps the order: each reference frequency gets a distinct
-    model mode, in ascending order of both, with the smallest sum of relative differences; the
-    reference may leave out model modes (a list of elastic frequencies may leave out the six
-    rigid-body modes of a free body). Rigid-body modes (below 1e-4 of the largest frequency)
-    pair with rigid-body modes only and get no relative difference. The lowest
-    ``len(f_ref) + 8`` model modes are computed, more when needed to give every elastic
-    reference mode an elastic model mode.
-
-    A :class:`~flexmor.errors.FlexmorWarning` is issued (and kept in ``notes``) when the numbers
-    of rigid-body modes differ, when the largest relative difference of the elastic pairs exceeds
-    :data:`MISMATCH`, and when a reference mode is left without a model mode.
+    The pairing is that of :func:`paired_modes`: one-to-one and in order, rigid-body modes with
+    rigid-body modes; a :class:`~flexmor.errors.FlexmorWarning` is issued (and kept in ``notes``)
+    when the numbers of rigid-body modes differ, when the largest relative difference of the
+    elastic pairs exceeds :data:`MISMATCH`, and when a reference mode is left without a model mode.
 
     Returns
     -------
@@ -244,16 +239,39 @@ def compare_frequencies(model, f_ref, *, solver: SolverContext | None = None) ->
         unpaired ones), ``mac`` (None: no shapes), ``model_modes`` (the 1-based model mode
         paired with each reference mode, or None) and ``notes`` (the warnings, as text).
     """
-    import warnings
+    f_ref = np.asarray(f_ref, float)
+    p = paired_modes(model, f_ref, solver=solver)
+    return dict(pairing_record(f_ref, p), mac=None)
 
-    from ..errors import FlexmorWarning
+
+class Pairing(NamedTuple):
+    """The model's lowest modes and their pairing with reference frequencies (:func:`paired_modes`)."""
+
+    f_mod: np.ndarray  # the model's frequencies (Hz), ascending
+    phi: np.ndarray | None  # their M-orthonormal mode shapes (``vectors``), else None
+    pair: list  # per reference frequency: the index of its model mode, or None
+    rigid_ref: np.ndarray  # which reference frequencies are rigid-body modes
+    rigid_mod: np.ndarray  # which model frequencies are
+
+
+def paired_modes(model, f_ref, *, solver: SolverContext | None = None, vectors: bool = False) -> Pairing:
+    """The lowest modes of ``model`` paired with the reference frequencies ``f_ref`` (Hz).
+
+    The pairing is one-to-one and keeps the order: each reference frequency gets a distinct
+    model mode, in ascending order of both, with the smallest sum of relative differences; the
+    reference may leave out model modes (a list of elastic frequencies may leave out the six
+    rigid-body modes of a free body). Rigid-body modes (below 1e-4 of the largest frequency)
+    pair with rigid-body modes only, in turn. The lowest ``len(f_ref) + 8`` model modes are
+    computed, more when needed to give every elastic reference mode an elastic model mode;
+    ``vectors`` keeps their shapes.
+    """
     from ..linalg.eigen import eigenmodes
 
     solver = as_solver(solver)
     f_ref = np.asarray(f_ref, float)
     k = min(f_ref.size + 8, model.n_dof)
     while True:
-        lam, _ = eigenmodes(model.K, model.M, k, solver=solver)
+        lam, phi = eigenmodes(model.K, model.M, k, solver=solver)
         f_mod = np.sqrt(np.clip(lam, 0, None)) / (2 * np.pi)
         tiny = 1e-4 * max(float(f_ref.max(initial=0.0)), float(f_mod.max(initial=0.0)), 1e-300)
         rig_ref, rig_mod = f_ref <= tiny, f_mod <= tiny
@@ -269,9 +287,21 @@ def compare_frequencies(model, f_ref, *, solver: SolverContext | None = None) ->
         js = range(i_mod.size) if rigid else _monotone_pairs(f_ref[i_ref], f_mod[i_mod])  # rigid: in turn
         for i, j in zip(i_ref, js):
             pair[i] = None if j is None else int(i_mod[j])
+    return Pairing(f_mod, phi if vectors else None, pair, rig_ref, rig_mod)
+
+
+def pairing_record(f_ref, p: Pairing) -> dict:
+    """``frequencies_hz``, ``model_frequencies_hz``, ``rel_diff``, ``model_modes`` and ``notes`` of the pairing
+    ``p`` (see :func:`compare_frequencies`); the notes are also issued as warnings."""
+    import warnings
+
+    from ..errors import FlexmorWarning
+
+    f_ref = np.asarray(f_ref, float)
+    pair, rig_ref, rig_mod = p.pair, p.rigid_ref, p.rigid_mod
     out_f, rel = [], []
     for i, f in enumerate(f_ref):
-        g = None if pair[i] is None else float(f_mod[pair[i]])
+        g = None if pair[i] is None else float(p.f_mod[pair[i]])
         out_f.append(g)
         rel.append(None if g is None or rig_ref[i] else abs(g - f) / max(abs(f), 1e-12))
     notes = []
@@ -290,8 +320,8 @@ def compare_frequencies(model, f_ref, *, solver: SolverContext | None = None) ->
                          f"{f_ref[i]:.6g} Hz, against the model's mode {pair[i] + 1}, {out_f[i]:.6g} Hz), above "
                          f"{MISMATCH:g}: the reference may be of another model or support")
     for text in notes:
-        warnings.warn(FlexmorWarning(text), stacklevel=2)
-    return {"frequencies_hz": f_ref.tolist(), "model_frequencies_hz": out_f, "rel_diff": rel, "mac": None,
+        warnings.warn(FlexmorWarning(text), stacklevel=3)
+    return {"frequencies_hz": f_ref.tolist(), "model_frequencies_hz": out_f, "rel_diff": rel,
             "model_modes": [None if j is None else j + 1 for j in pair], "notes": notes}
 
 

@@ -61,6 +61,15 @@ def _table(header, rows, left=(0,)) -> str:
     return f'<div class="t"><table><tr>{h}</tr>{body}</table></div>'
 
 
+def _summary_table(rows) -> str:
+    """The summary table of :data:`COLUMNS`; without the method and order columns where every body's label
+    says them already (``craig-bampton r=17``), so that the table fits the page."""
+    said = all(str(r.get("label")) == f"{r.get('method')} r={r.get('order')}" for r in rows)
+    cols = [c for c in COLUMNS if not (said and c[0] in ("method", "order"))]
+    return _table([c[1] for c in cols], [[fmt(r.get(k), s) for k, _, s in cols] for r in rows],
+                  [k for k, c in enumerate(cols) if c[2] == "s"])
+
+
 def _units_words(units) -> str:
     """The units of the report's numbers: SI (the file's system named), or as given."""
     if units is None:
@@ -80,8 +89,7 @@ def render_html(rep: Report) -> str:
            f"Band {rep.band[0]:g}-{rep.band[1]:g} Hz. Bodies judged against the <b>{e(rep.reference)}</b>. "
            f"flexmor {e(__version__)}, {datetime.datetime.now().isoformat(timespec='seconds')}.</p>"),
            '<h2 id="summary">Summary</h2>',
-           _table([c[1] for c in COLUMNS], [[fmt(r.get(k), s) for k, _, s in COLUMNS] for r in rep.rows],
-                  [k for k, c in enumerate(COLUMNS) if c[2] == "s"]),
+           _summary_table(rep.rows),
            "<p class=note>Error measures over the band: " + "; ".join(
                f"<b>{e(k)}</b> = {e(v)}" for k, v in MEASURES.items()) + ". "
            + (f"An anti-resonance is a local minimum of &Vert;H&Vert; at most 1/{ANTIRESONANCE_FACTOR:g} of the "

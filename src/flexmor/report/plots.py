@@ -365,7 +365,7 @@ def body_png(xyz, marks: dict, *, title: str = "", units=None) -> bytes:
         if pts.size:
             mk, s = styles[k % len(styles)]
             ax.scatter(pts[:, 0], pts[:, 1], pts[:, 2], s=s, marker=mk, color=f"C{k}", depthshade=False,
-                       label=f"{label} ({len(pts)})")
+                       label=f"{label}: {len(pts)} node{'s' if len(pts) != 1 else ''}")  # nodes, not DOFs
     span = np.ptp(xyz, axis=0) if len(xyz) else np.ones(3)
     ax.set_box_aspect(np.maximum(span, 0.15 * max(span.max(), 1e-30)))  # slender bodies stay visible
     from matplotlib.ticker import MaxNLocator

@@ -303,7 +303,8 @@ var FlexmorView = (function () {
     Object.keys(MARK_COLORS).forEach(function (k) {
       if (!body.marks[k]) return;
       var s = el("span"); s.style.background = "rgb(" + MARK_COLORS[k].map(function (v) { return Math.round(v * 255); }).join(",") + ")";
-      legend.appendChild(s); legend.appendChild(document.createTextNode(k + " (" + body.marks[k].length + ")"));
+      legend.appendChild(s); var nm = body.marks[k].length;  // nodes, not DOFs
+      legend.appendChild(document.createTextNode(k + ": " + nm + (nm === 1 ? " node" : " nodes")));
     });
     ctl.appendChild(select("v3d-view", "show", ["modes", "deformation"]));
     ctl.appendChild(select("v3d-body", "body", labels.length ? labels : ["(none)"]));
