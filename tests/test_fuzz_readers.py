@@ -70,7 +70,7 @@ def test_a_changed_value_is_named_beside_the_mapping_warning(tmp_path):
     (2084, "warned", "node coordinates disagree at node 4 and"),    # Ansys coordinates file: a field changed
     (13490, "warned", "node coordinates disagree at node 23 and"),  # Abaqus *NODE line: a changed byte
     (6184, "warned", "node coordinates disagree at node 37 and"),   # Nastran GRID with DMIG: a changed byte
-    (69470, "warned", "no elements, so the COORDINATE form's equations were taken as 6"),  # deck cut in its nodes
+    (69470, "refused", "the deck ends inside *INSTANCE block-1 (line 16), without *END INSTANCE"),  # cut in its nodes
     (44842, "warned", "Ke(1,1) = 0: elastic coordinate 1 has no stiffness"),  # SID: the one Ke line lost
     (48898, "refused", "Me: m0(1,1) in an object of structure 4 (a unit matrix"),  # SID: a line repeated
     (99082, "refused", "De: m0(1,1) in an object of structure 0 (a zero matrix"),

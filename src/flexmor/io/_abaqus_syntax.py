@@ -16,9 +16,10 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from ..errors import ReadError
+from ._open import is_gzip, open_binary
 from ._text import FOREIGN, read_text, split_lines
 
-__all__ = ["MAX_INCLUDE_DEPTH", "Data", "Keyword", "include_path", "keyword_options", "walk"]
+__all__ = ["MAX_INCLUDE_DEPTH", "Data", "Keyword", "check_last_lines", "include_path", "keyword_options", "walk"]
 
 #: Deepest nesting of ``*INCLUDE`` files.
 MAX_INCLUDE_DEPTH = 10
@@ -133,3 +134,30 @@ def walk(path, _depth: int = 0) -> Iterator[Keyword | Data]:
             keyword = None
     if data:
         yield Data(keyword, data, linenos, path)
+
+
+def _cut_last_line(path: Path) -> bool:
+    """Whether the last line of ``path`` holds data (no blank, no comment) but no line end."""
+    with open_binary(path) as f:
+        if is_gzip(path):
+            tail = b""
+            for chunk in iter(lambda: f.read(1 << 20), b""):
+                tail = (tail + chunk)[-4096:]
+        else:
+            f.seek(0, 2)
+            f.seek(max(f.tell() - 4096, 0))
+            tail = f.read()
+    last = tail.replace(b"\r", b"\n").rpartition(b"\n")[2].strip()
+    return bool(last) and not last.startswith(b"**")
+
+
+def check_last_lines(last: dict) -> None:
+    """Refuse a deck file cut off in a data line: ``last`` maps each file of a deck to its last
+    :class:`~flexmor.io._abaqus_syntax.Keyword` or :class:`~flexmor.io._abaqus_syntax.Data` item; a file
+    whose last data line has no line end is named with that line (its last number may be cut short)."""
+    for p, item in last.items():
+        if isinstance(item, Data) and _cut_last_line(p):
+            what = f"its *{item.keyword.name} data" if item.keyword is not None else "a data line"
+            raise ReadError(p, f"last line {item.lines[-1][:40]!r} has no line end: the deck was cut off inside "
+                               f"{what} (disk full, interrupted copy?); copy or write it again (a line that is "
+                               "complete needs its line end)", item.linenos[-1])

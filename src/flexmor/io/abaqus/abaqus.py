@@ -18,7 +18,8 @@ COORDINATE, ``row, col, value``
     :mod:`flexmor.io.abaqus.abaqus_inp`) with the same number of DOFs per node, ``d``: equation
     ``(k - 1) * d + j`` is direction ``j`` of the ``k``-th node. ``d`` is 3 for continuum
     elements (``C3D*``), 2 for plane ones (``CPS* CPE* CAX*``), 6 for shells and beams; for
-    mixed meshes pass ``dof_per_node=`` or use the LABELS form.
+    mixed meshes pass ``dof_per_node=`` or use the LABELS form. Equation numbers beyond what the
+    nodes of the deck carry are refused naming the deck (cut off in its node block?) and the ``.mtx``.
 LABELS, ``node, dof, node, dof, value``
     Node labels (``instance.label`` in assemblies) and directions 1..6.
 
@@ -29,6 +30,11 @@ equation with mass but no stiffness entry (lines lost from the stiffness file). 
 last equations of the stiffness have no mass, a FlexmorWarning says that the mass file may be
 cut off (its format cannot tell that from massless directions). Equations that have neither stiffness nor mass (a
 direction no element uses) are removed and logged. Units are those of the deck.
+
+The deck is checked for a cut (:mod:`flexmor.io.abaqus.abaqus_inp`); a deck with elements but
+without the ``*STEP`` that a ``*MATRIX GENERATE`` job has is read with a FlexmorWarning, as the
+CalculiX reader does: it may be a mesh written for the matrices, or cut off after its element
+blocks (what followed, such as sets and materials, is then missing).
 
 Decks with quadratic elements (``C3D20R``, ``C3D10`` ...) may have a singular or
 indefinite mass matrix: that is a FlexmorWarning (see :func:`flexmor.io._mass.check_mass`),
@@ -185,7 +191,8 @@ def _labels_to_equations(path, text, deck: AbaqusDeck):
     return ids[inv[: n1.size]], d1, ids[inv[n1.size:]], d2, v
 
 
-def _dof_per_node(deck: AbaqusDeck, n_max: int, path: Path) -> int:
+def _element_dofs(deck: AbaqusDeck, path: Path) -> int | None:
+    """DOFs per node told by the element types of the deck; None when no element tells it."""
     kinds = set()
     for etype, _ in deck.elements:
         if etype.startswith(("C3D", "SC8", "SC6")):
@@ -194,21 +201,54 @@ def _dof_per_node(deck: AbaqusDeck, n_max: int, path: Path) -> int:
             kinds.add(2)
         elif etype.startswith(("S", "B3", "B2", "PIPE")):
             kinds.add(6)
-    if len(kinds) == 1:
-        return kinds.pop()
     if len(kinds) > 1:
         raise ReadError(path, f"elements with {sorted(kinds)} DOFs per node: the COORDINATE form is ambiguous; "
-                              "write FORMAT=LABELS or pass dof_per_node=")
+                              "write the matrices with *MATRIX OUTPUT, FORMAT=LABELS, which names the node and "
+                              "direction of every entry")
+    return kinds.pop() if kinds else None
+
+
+def _deck_too_short(path: Path, deck: AbaqusDeck, r, c, d: int | None) -> ReadError | None:
+    """The error naming the deck when the matrix of ``path`` has more equations than the deck's nodes carry
+    (``d`` DOFs each; none of 2, 3 or 6 fits when None) yet is whole: every equation up to the largest has its
+    diagonal entry, as Abaqus writes them. Then the deck seems cut off in its node block; None when the
+    matrix itself looks damaged (an index changed), which its own line names."""
+    n_max = int(max(r.max(), c.max())) + 1
+    if np.unique(r[r == c]).size != n_max:  # (no array of n_max: a damaged index may be huge)
+        return None
+    n_nodes, where = deck.node_ids.size, deck.path or path
+    if d is not None:
+        return ReadError(where, f"its {n_nodes} nodes carry {n_nodes * d} equations ({d} DOFs per node), but "
+                                f"{path.name} has {n_max}, each with its diagonal entry: the deck seems cut off in "
+                                "its node block, or the files are from different jobs")
+    return ReadError(where, f"{path.name} has {n_max} equations, each with its diagonal entry, which fit no count "
+                            f"of 2, 3 or 6 DOFs per node of the {n_nodes} nodes of the deck (no element type tells "
+                            "the count): the deck seems cut off in its node block, or the files are from different "
+                            "jobs")
+
+
+def _dof_per_node(deck: AbaqusDeck, r, c, path: Path) -> int:
+    d = _element_dofs(deck, path)
+    if d is not None:
+        return d
+    n_max = int(max(r.max(), c.max())) + 1
+    n_nodes = deck.node_ids.size
     for d in (3, 6, 2):
-        if n_max <= d * deck.node_ids.size and n_max > d * (deck.node_ids.size - 1):
+        if n_max <= d * n_nodes and n_max > d * (n_nodes - 1):
             # no element says it: a deck cut inside its node block can fit another count (88 nodes x 6 = 176 x 3)
             warnings.warn(FlexmorWarning(
-                f"{path.name}: the input deck has no elements, so the COORDINATE form's equations were taken as {d} "
-                f"DOFs per node of its {deck.node_ids.size} nodes (the count that fits {n_max} equations); a deck "
-                "cut off in its node block fits another count: pass dof_per_node= if this is not the model"),
-                stacklevel=2)
+                f"{path.name}: {deck.path.name if deck.path else 'the input deck'} has no elements, so the "
+                f"COORDINATE form's equations were taken as {d} DOFs per node of its {n_nodes} nodes (the count "
+                f"that fits {n_max} equations); a deck cut off in its node block fits another count: check that "
+                "the deck is complete, or write the matrices with *MATRIX OUTPUT, FORMAT=LABELS"), stacklevel=2)
             return d
-    raise ReadError(path, f"equation numbers up to {n_max} do not fit {deck.node_ids.size} nodes; pass dof_per_node=")
+    exc = _deck_too_short(path, deck, r, c, None)
+    if exc is not None:
+        raise exc
+    k = int(np.argmax(np.maximum(r, c)))
+    raise ReadError(path, f"equation {n_max} fits no count of 2, 3 or 6 DOFs per node of the {n_nodes} nodes of "
+                          "the input deck, and not every equation up to it has its diagonal entry: is an index "
+                          "damaged, or are the .mtx and .inp from different jobs?", entry_line(path, k))
 
 
 def _read_matrix(path: Path, deck: AbaqusDeck, dpn):
@@ -221,10 +261,21 @@ def _read_matrix(path: Path, deck: AbaqusDeck, dpn):
         raise ReadError(path, f"first entry has {ncol} columns; expected 3 (COORDINATE: row, col, value) or "
                               "5 (LABELS: node, dof, node, dof, value)")
     n_cap = deck.node_ids.size * (dpn or 6)
-    r, c, v = parse_triplets(path, one_based=True, n=n_cap, index_dtype=np.int32 if 8 * n_cap < 2**31 else np.int64)
-    d = dpn or _dof_per_node(deck, int(max(r.max(), c.max())) + 1, path)
+    try:
+        r, c, v = parse_triplets(path, one_based=True, n=n_cap,
+                                 index_dtype=np.int32 if 8 * n_cap < 2**31 else np.int64)
+    except ReadError as exc:  # an index beyond the nodes: a damaged line, or a deck cut off in its node block
+        try:
+            r, c, _ = parse_triplets(path, one_based=True)
+        except ReadError:
+            raise exc from None
+        raise (_deck_too_short(path, deck, r, c, dpn or _element_dofs(deck, path)) or exc) from None
+    d = dpn or _dof_per_node(deck, r, c, path)
     big = np.flatnonzero(np.maximum(r, c) >= d * deck.node_ids.size)
     if big.size:
+        exc = _deck_too_short(path, deck, r, c, d)
+        if exc is not None:
+            raise exc
         k = int(big[0])
         raise ReadError(path, f"equation {max(r[k], c[k]) + 1} is beyond {deck.node_ids.size} nodes x {d} DOFs of "
                               "the input deck; are the .mtx and .inp from the same job?", entry_line(path, k))
@@ -283,6 +334,24 @@ def _check_complete(files: dict, mats: dict, deck: AbaqusDeck) -> None:
             warnings.warn(f"{files['M']}: the last {k_rows.size - first} equations (from {label(int(k_rows[first]))}) "
                           "have no mass entry: the file may be cut off at a line end, which its format cannot "
                           "tell from massless directions", FlexmorWarning, stacklevel=3)
+
+
+def _check_step(deck: AbaqusDeck, deck_path: Path) -> None:
+    """Warn when a deck with elements lacks the ``*STEP`` of the job that wrote the matrices.
+
+    Abaqus writes matrices only in a step (``*MATRIX GENERATE``): a deck with ``*ELEMENT`` but
+    without ``*STEP`` was cut off after a block (a cut inside one is refused by
+    :func:`~flexmor.io.abaqus.abaqus_inp.read_deck`) and lost what followed (sets, sections,
+    materials), or it is a mesh written for the matrices. The matrices and the nodes read are
+    complete, so the model is read, as by the CalculiX reader. (A deck of nodes only is taken for
+    a geometry deck.)
+    """
+    if "STEP" in deck.keywords or "ELEMENT" not in deck.keywords:
+        return
+    where, line = deck.end if deck.end is not None else (deck_path, None)
+    warnings.warn(f"{where}{f':{line}' if line else ''}: the deck ends without *STEP, which the job that wrote the "
+                  "matrices had (*MATRIX GENERATE): it seems cut off after its element blocks; elements, node sets "
+                  "and materials after the cut are missing from the model", FlexmorWarning, stacklevel=3)
 
 
 def _compress(A: sp.csr_matrix, code: np.ndarray, number: np.ndarray) -> sp.csr_matrix:
@@ -356,6 +425,7 @@ def read_abaqus(path, *, dof_per_node: int | None = None) -> FEModel:
                         f"not found; Abaqus writes it for *MATRIX GENERATE, STIFFNESS, MASS in {deck_path.name} "
                         f"(a CalculiX job would have {stem(deck_path)}.sti)")
     deck = read_deck(deck_path)
+    _check_step(deck, deck_path)
     sorter = np.argsort(deck.node_ids)
     ids_sorted = deck.node_ids[sorter]
 

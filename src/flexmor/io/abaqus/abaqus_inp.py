@@ -18,6 +18,11 @@ labels when they are unique over all instances; otherwise instance ``k`` (0-base
 ``k * 10**d + label`` with ``10**d`` above the largest label, and the log says so.
 Set names are upper case; a set of an instance is available as ``INSTANCE.SET`` and, when the
 name is unique, as ``SET``.
+
+A deck cut off (a copy interrupted, a disk full) is refused, naming the deck and the line where it
+ends: a last data line without its line end (its last number may be cut short, ``1.2`` of
+``1.20000005``), and a ``*PART``, ``*INSTANCE``, ``*ASSEMBLY`` or ``*STEP`` without its ``*END ...``
+line (what followed the cut, such as sets, sections and materials, would be missing silently).
 """
 
 from __future__ import annotations
@@ -30,7 +35,7 @@ from pathlib import Path
 import numpy as np
 
 from ...errors import ReadError
-from .._abaqus_syntax import Data, Keyword, walk
+from .._abaqus_syntax import Data, Keyword, check_last_lines, walk
 
 __all__ = ["AbaqusDeck", "read_deck"]
 
@@ -79,6 +84,12 @@ class AbaqusDeck:
         The label of each element of ``elements`` (within its instance).
     element_materials : list of str or None
         The material of each element of ``elements`` by its part's sections (None: no section).
+    keywords : set of str
+        The name of every keyword of the deck and its includes (upper case, e.g. ``STEP``).
+    path : Path or None
+        The deck file.
+    end : tuple or None
+        ``(file, line)`` of the deck's last keyword or data line.
     """
 
     node_ids: np.ndarray
@@ -91,6 +102,9 @@ class AbaqusDeck:
     sections: list
     element_labels: list = field(default_factory=list)
     element_materials: list = field(default_factory=list)
+    keywords: set = field(default_factory=set)
+    path: Path | None = None
+    end: tuple | None = None
 
     def lookup(self) -> dict:
         """Map ``(instance, label)`` and, for unambiguous labels, ``('', label)`` to node ids."""
@@ -102,6 +116,10 @@ class AbaqusDeck:
             if counts[lab] == 1:
                 out.setdefault(("", lab), int(i))
         return out
+
+
+#: Keywords that open a block ended by ``*END <keyword>``, the innermost first.
+_BLOCKS = ("INSTANCE", "PART", "ASSEMBLY", "STEP")
 
 
 def _floats(path, lineno, s, what):
@@ -130,15 +148,42 @@ class _Parser:
         self.asm_nsets: list = []  # (set name, instance or None, members, path, lineno)
         self.materials: dict = {}
         self.has_assembly = False
+        self.keywords: set = set()
+        self.open: dict = {}  # "PART", "INSTANCE", "ASSEMBLY", "STEP" -> the Keyword not yet ended
+        self.last: dict = {}  # file -> its last item (Keyword or Data)
+        self.end = None  # (file, line) of the deck's last line
 
     def parse(self, path: Path):
         st = {"block": None, "opts": {}, "part": None, "inst": None, "mat": None, "elem": None, "cont": []}
         for item in walk(path):
+            self.last[item.path] = item
             if isinstance(item, Keyword):
+                self.end = (item.path, item.line)
+                self.keywords.add(item.name)
+                if item.name in _BLOCKS:
+                    self.open[item.name] = item
+                elif item.name.startswith("END ") and item.name[4:] in _BLOCKS:
+                    self.open.pop(item.name[4:], None)
                 self._keyword(item.path, item.line, item, st)
-            elif item.keyword is not None:  # data lines of st["block"]
-                self._data_lines(item, st)
+            else:
+                self.end = (item.path, item.linenos[-1])
+                if item.keyword is not None:  # data lines of st["block"]
+                    self._data_lines(item, st)
+        self._check_cut()
         return self
+
+    def _check_cut(self) -> None:
+        """Refuse a deck that was cut off: a last data line without its line end, or a block without its end."""
+        check_last_lines(self.last)
+        if self.open:
+            kw = min(self.open.values(), key=lambda k: _BLOCKS.index(k.name))
+            name = kw.options.get("NAME", "")
+            where = kw.line if kw.path == self.end[0] else f"{kw.path.name}:{kw.line}"
+            lost = ("" if kw.name == "STEP" else
+                    ", and what followed the cut (elements, node and element sets, sections, materials) is missing")
+            raise ReadError(self.end[0], f"the deck ends inside *{kw.name}{f' {name}' if name else ''} (line {where}), "
+                                         f"without *END {kw.name}: it seems cut off{lost}; copy or write it again",
+                            self.end[1])
 
     def _data_lines(self, item: Data, st) -> None:
         """The data lines of a keyword; runs of node lines on consecutive lines at once where they allow."""
@@ -347,7 +392,9 @@ def read_deck(path) -> AbaqusDeck:
     ------
     ReadError
         Malformed node, element or set lines, duplicate nodes, unknown parts, set members
-        that are not nodes, missing includes, a deck without nodes.
+        that are not nodes, missing includes, a deck without nodes; a deck cut off (a last data
+        line without its line end, a ``*PART``, ``*INSTANCE``, ``*ASSEMBLY`` or ``*STEP`` without
+        its ``*END ...``), naming the line where it ends.
     """
     path = Path(path)
     P = _Parser().parse(path)
@@ -425,5 +472,5 @@ def read_deck(path) -> AbaqusDeck:
         if len(arrs) == 1 and sname not in node_sets:
             node_sets[sname] = arrs[0]
     return AbaqusDeck(ids, np.vstack(xyz), keys, elements, element_sets, node_sets, P.materials, sections,
-                      labels_, materials_)
+                      labels_, materials_, P.keywords, path, P.end)
 

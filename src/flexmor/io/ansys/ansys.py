@@ -13,7 +13,10 @@ Matrix Market set (``.txt`` or ``.mtx``; pass the stiffness or the mass file)
       header line, then ``node  x  y  z`` separated by tabs or semicolons, decimal points or
       decimal commas (the German Workbench export ``Knotennummer  X-Position (m) ...``).
 
-    Without a map the model has no nodes (like plain Matrix Market).
+    Without a map the model has no nodes (like plain Matrix Market), and without the
+    coordinates its nodes have no position; a FlexmorWarning names the missing file (as
+    ``<base>MatrixDofMappingVector.txt`` and ``<base>NodalCoordinates.txt``, the names of the
+    export). A missing stiffness or mass partner is named with the case of the export.
 Binary ``.full`` (``ansys-mapdl-reader``, optional: ``pip install flexmor[ansys]``)
     Upper triangles are expanded; constrained DOFs (zero rows and columns) are removed, logged
     and listed in ``model.constrained_dofs`` (k, 2: node, direction). Coordinates and node
@@ -32,13 +35,14 @@ from __future__ import annotations
 
 import logging
 import re
+import warnings
 from pathlib import Path
 
 import numpy as np
 import scipy.sparse as sp
 
 from ...elements import ElementBlock, Elements, Material
-from ...errors import ModelError, ReadError
+from ...errors import FlexmorWarning, ModelError, ReadError
 from ...model import FEModel
 from .._build import build_model
 from .._cells import ansys_cell, build_mesh
@@ -270,6 +274,46 @@ def _companions(stiff: Path):
     return mapping, coords
 
 
+def _partner(path: Path) -> tuple[str, str, Path] | None:
+    """``(role, other role, file)``: the other matrix file of an MMF pair as the export names it
+    (``rotorAnsysMassMatrixSparse.txt`` for ``rotorAnsysStiffnessMatrixSparse.txt``: the word swapped in the
+    case it is written in), or None."""
+    name = stem(path)
+    m = list(re.finditer(r"stiffness|stiff|stif|mass", name, re.I))
+    if not m:
+        return None
+    word = m[-1].group()
+    role, other = ("stiffness", "mass") if word.lower().startswith("stif") else ("mass", "stiffness")
+    written = other.upper() if word.isupper() else other.capitalize() if word[0].isupper() else other
+    return role, other, path.parent / f"{name[:m[-1].start()]}{written}{name[m[-1].end():]}{suffix(path)}"
+
+
+def _siblings(path: Path) -> dict:
+    """:func:`~flexmor.io.matrix_market.find_siblings`; a missing partner is named as the Ansys export names
+    it (the Matrix Market reader names the candidates it tried in lower case)."""
+    try:
+        return find_siblings(path)
+    except ReadError:
+        got = _partner(path)
+        if got is None:
+            raise
+        role, other, want = got
+        names = {p.name.lower() for p in path.parent.iterdir()}
+        if want.name.lower() in names or f"{want.name}.gz".lower() in names:
+            raise
+        raise ReadError(want, f"not found (nor {want.name}.gz): {path.name} was read as the {role} matrix, and the "
+                              f"Ansys export writes the {other} matrix beside it") from None
+
+
+def _missing_companion(stiff: Path, what: str, name: str, words: str, lost: str) -> None:
+    """Warn that the ``what`` file (``<base><name>``, or any ``<base>*<words>*``) is not beside ``stiff``."""
+    m = re.search(r"stiff", stem(stiff), re.I)
+    base = stem(stiff)[: m.start()] if m else stem(stiff)
+    warnings.warn(FlexmorWarning(f"{stiff.parent / (base + name + suffix(stiff))}: not found (nor another "
+                                 f"{base}*{words}* file) beside {stiff.name}: without the {what}, {lost}"),
+                  stacklevel=3)
+
+
 def _drop_empty(path, mats, dofs, what="without stiffness and mass"):
     used = rows_in_use(mats["K"]) | rows_in_use(mats["M"])
     if np.all(used):
@@ -283,10 +327,17 @@ def _drop_empty(path, mats, dofs, what="without stiffness and mass"):
 
 def _read_mmf(path: Path):
     _check_header(path)
-    files = find_siblings(path)
+    files = _siblings(path)
     mats = {role: _read_one(p, role) for role, p in files.items()}
     n = mats["K"].shape[0]
     mapping, coords = _companions(files["K"])
+    if mapping is None:
+        _missing_companion(files["K"], "equation map", "MatrixDofMappingVector", "mapping",
+                           "the equations cannot be tied to nodes, so the model has no nodes (no coordinates, node "
+                           "sets or ports by node)")
+    elif coords is None:
+        _missing_companion(files["K"], "nodal coordinates", "NodalCoordinates", "coord",
+                           "the model has no node positions (the nodes of the equation map are left out)")
     dofs = read_mapping(mapping, n) if mapping else None
     node_ids, xyz = (read_coordinates(coords) if coords else (np.zeros(0, np.int64), np.zeros((0, 3))))
     if dofs is None:

@@ -21,6 +21,7 @@ a line end or with lines lost (which parses without a defect) shows as a differe
 entry counts or positions, or as an equation of the ``.dof`` without its diagonal entry: all
 refused. A ``.dof`` out of node order (CalculiX numbers the equations node by node) is read
 with a :class:`~flexmor.errors.FlexmorWarning`, since swapped lines cannot be told from an edit.
+A ``.dof`` cut off (fewer equations than both matrices have) is named as the file at fault.
 
 Quadratic elements (``C3D20R``, ``C3D20``, ``C3D15``, ``C3D10``, 8-node shells and plane
 elements, found in the ``*ELEMENT, TYPE=`` lines) can give a singular mass matrix (reduced
@@ -259,6 +260,22 @@ def _same_pattern(sti: Path, K: sp.csr_matrix, nk: int, mas: Path, M: sp.csr_mat
                          "files is damaged or they are from different jobs")
 
 
+def _dof_too_short(sti: Path, mas: Path, dof_path: Path, n: int, exc: ReadError) -> ReadError | None:
+    """The error naming a ``.dof`` cut off, ``exc`` (an index of a matrix file beyond its ``n`` equations) as
+    the evidence: both matrix files have entries beyond them, up to the same equation (a single damaged index
+    is the matrix file's defect, named by ``exc``); None otherwise."""
+    try:
+        top = [int(max(r.max(), c.max())) + 1 for r, c, _ in (parse_triplets(p, one_based=True) for p in (sti, mas))]
+    except ReadError:
+        return None
+    if top[0] != top[1] or top[0] <= n:
+        return None
+    first = f"{Path(exc.path).name}:{exc.line}: " if exc.line else ""
+    return ReadError(dof_path, f"{n} equations, but {sti.name} and {mas.name} have entries up to equation {top[0]} "
+                               f"({first}{exc.reason}): the .dof seems cut off (or is from another job); write it "
+                               "again with CalculiX")
+
+
 def _geometry_file(path: Path) -> Path:
     """The input deck ``<job>.inp`` beside ``path``, else the result file ``<job>.frd`` (its node block);
     each plain or ``.gz``."""
@@ -306,7 +323,10 @@ def read_calculix(path) -> FEModel:
     dofs = read_dof(dof_path)
     n = dofs.shape[0]
     _sniff(mas)
-    (K, nk, k_diag), (M, nm, m_diag) = both(lambda f: _read_upper(f, n), path, mas)
+    try:
+        (K, nk, k_diag), (M, nm, m_diag) = both(lambda f: _read_upper(f, n), path, mas)
+    except ReadError as exc:
+        raise (_dof_too_short(path, mas, dof_path, n, exc) or exc) from None
     _same_pattern(path, K, nk, mas, M, nm, k_diag, m_diag, dofs, dof_path)
     types: set = set()
     cells: list = []

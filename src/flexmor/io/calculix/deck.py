@@ -15,7 +15,7 @@ import numpy as np
 from ...errors import ReadError
 from ...mesh import NODES_PER_CELL
 from .._abaqus_materials import DeckElements
-from .._abaqus_syntax import Keyword, walk
+from .._abaqus_syntax import Keyword, check_last_lines, walk
 from .._cells import abaqus_cell
 
 __all__ = ["read_inp"]
@@ -56,12 +56,14 @@ def read_inp(path, *, element_types: set | None = None, cells: list | None = Non
     ------
     ReadError
         For malformed node or element lines, duplicate node ids, unreadable includes or set
-        members that are no node.
+        members that are no node, a file of the deck whose last data line has no line end (cut off).
     """
     path = Path(path)
     st = {"ids": [], "xyz": [], "src": [], "sets": {}, "set_lines": []}
     cur_set = None
+    last: dict = {}  # file -> its last item
     for item in walk(path):
+        last[item.path] = item
         if isinstance(item, Keyword):
             if keywords is not None:
                 keywords.add(item.name)
@@ -84,6 +86,7 @@ def read_inp(path, *, element_types: set | None = None, cells: list | None = Non
                                [] if cells is None else cells)
             if a is not None and elements is not None:
                 elements.element_block(kw.options.get("TYPE", ""), kw.options.get("ELSET"), a)
+    check_last_lines(last)
     ids = np.concatenate(st["ids"]) if st["ids"] else np.zeros(0, np.int64)
     xyz = np.concatenate(st["xyz"]) if st["xyz"] else np.zeros((0, 3))
     _check_unique(ids, st["src"])
