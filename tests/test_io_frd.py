@@ -149,3 +149,23 @@ def test_info_reference(tmp_path, clamped, clamped_ref, capsys):
     p.write_text(p.read_text().replace(" 9999\n", ""))
     assert main(["info", CLAMPED, "--reference", str(p)]) == 2
     assert "job.frd" in capsys.readouterr().err
+
+
+def test_the_frd_of_a_free_body_pairs_one_to_one(free, clamped):
+    """CalculiX's own .frd of the free beam: its six rigid-body modes pair with the model's and lie in their span
+    (MAC 1; they were measured against the modes near each one's frequency, 0.28-0.97), and against the clamped
+    model nothing is paired twice and the missing rigid-body modes are said."""
+    from helpers import CCX
+
+    from flexmor.errors import FlexmorWarning
+
+    res = read_frd(CCX / "beam8_free_mat.frd")
+    cmp = compare_modes(free, res)
+    assert cmp["model_modes"] == list(range(1, len(cmp["model_modes"]) + 1)) and cmp["notes"] == []
+    assert min(cmp["mac"]) > 1 - 1e-6 and cmp["rel_diff"][:6] == [None] * 6
+    assert max(d for d in cmp["rel_diff"] if d is not None) < 1e-6
+    with pytest.warns(FlexmorWarning, match="the reference has 6 rigid-body modes, the model 0"):
+        cmp = compare_modes(clamped, res)
+    paired = [j for j in cmp["model_modes"] if j is not None]
+    assert cmp["model_modes"][:6] == [None] * 6 and cmp["mac"][:6] == [None] * 6
+    assert paired == sorted(set(paired))  # one-to-one, in order

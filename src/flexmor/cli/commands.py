@@ -305,7 +305,7 @@ def _print_reference(path, ref: dict) -> None:
                                            macs), 1):
         diff = "    rigid" if d is None and g is not None else "        -" if d is None else f"{d:9.2e}"
         print(f"{i:5d}   {f:14.6f}   " + ("             -" if g is None else f"{g:14.6f}") + f"   {diff}"
-              + (f"   {mac:.6f}" if shapes else ""))
+              + (f"   {fmt(mac, '.6f')}" if shapes else ""))
 
 
 def _selected_names(args) -> list:

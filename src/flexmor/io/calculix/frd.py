@@ -36,7 +36,7 @@ from pathlib import Path
 import numpy as np
 
 from ...errors import ModelError, ReadError
-from ...linalg.context import SolverContext, as_solver
+from ...linalg.context import SolverContext
 from .._open import read_all
 
 __all__ = ["ELEMENT_TYPES", "FrdResult", "compare_modes", "modes", "read_frd"]
@@ -319,41 +319,47 @@ def compare_modes(model, res: FrdResult, *, k: int | None = None, solver: Solver
                   cluster: float = 1e-3):
     """Compare ``model`` with the modes of an frd file.
 
-    Each frd mode is mapped to the model's translational equations (its nodes and x y z) and
-    measured against the span of the model's modes whose frequency is within ``cluster``
-    (relative) of it: ``mac = |S^T M phi|^2 / (phi^T M phi)`` with M-orthonormal ``S`` (1 for
-    a mode the model reproduces, also within a pair of equal frequencies).
+    The frd modes are paired with the model's one-to-one and in order by frequency
+    (:func:`flexmor.io.reference.paired_modes`: rigid-body modes with rigid-body modes, the
+    least sum of relative differences; the notes and warnings of
+    :func:`flexmor.io.reference.pairing_record`). Each frd mode is mapped to the model's
+    translational equations (its nodes and x y z) and measured against the span ``S`` of the
+    model's modes of its pair's frequency, those within ``cluster`` (relative) of it, or all the
+    model's rigid-body modes for a rigid-body mode: ``mac = |S^T M phi|^2 / (phi^T M phi)`` with
+    M-orthonormal ``S`` (1 for a mode the model reproduces, also within a pair of equal
+    frequencies or among the rigid-body motions).
 
     Returns
     -------
     dict
-        ``frequencies_hz`` (the frd's), ``model_frequencies_hz``, ``rel_diff`` and ``mac``.
+        As :func:`flexmor.io.reference.compare_frequencies` (``frequencies_hz`` the frd's,
+        ``model_frequencies_hz``, ``rel_diff``, ``model_modes``, ``notes``) with ``mac`` (None for an
+        frd mode without a model mode).
     """
-    solver = as_solver(solver)
-    from ...linalg.eigen import eigenmodes
+    from ..reference import paired_modes, pairing_record
 
     f_ref, nodes, shapes = modes(res)
     k = len(f_ref) if k is None else min(k, len(f_ref))
     if model.dofs is None:
         raise ModelError("the model has no equation map to compare mode shapes with")
-    lam, phi = eigenmodes(model.K, model.M, min(k + 2, model.n_dof), solver=solver)
-    f_mod = np.sqrt(np.clip(lam, 0, None)) / (2 * np.pi)
+    f_ref = f_ref[:k]
+    p = paired_modes(model, f_ref, solver=solver, vectors=True)
     pos = {int(n): i for i, n in enumerate(nodes)}
     rows = [(e, pos.get(int(g)), d - 1) for e, (g, d) in enumerate(model.dofs) if d <= 3]
-    out_f, out_mac = [], []
+    rigid = np.flatnonzero(p.rigid_mod)
+    out_mac = []
     for i in range(k):
+        j = p.pair[i]
+        if j is None:
+            out_mac.append(None)
+            continue
         v = np.zeros(model.n_dof)
-        for e, p, d in rows:
-            if p is not None:
-                v[e] = shapes[i, p, d]
-        near = np.flatnonzero(np.abs(f_mod - f_ref[i]) <= cluster * max(f_ref[i], 1e-3 * f_mod.max(), 1e-12))
-        if near.size == 0:
-            near = np.array([int(np.argmin(np.abs(f_mod - f_ref[i])))])
+        for e, q, d in rows:
+            if q is not None:
+                v[e] = shapes[i, q, d]
+        near = rigid if p.rigid_mod[j] else np.flatnonzero(
+            ~p.rigid_mod & (np.abs(p.f_mod - p.f_mod[j]) <= cluster * p.f_mod[j]))
         Mv = model.M @ v
         vMv = float(v @ Mv)
-        out_mac.append(float(np.sum((phi[:, near].T @ Mv) ** 2) / vMv) if vMv > 0 else 0.0)
-        out_f.append(float(f_mod[int(near[np.argmin(np.abs(f_mod[near] - f_ref[i]))])]))
-    f_ref = f_ref[:k]
-    return {"frequencies_hz": f_ref.tolist(), "model_frequencies_hz": out_f,
-            "rel_diff": (np.abs(np.array(out_f) - f_ref) / np.maximum(np.abs(f_ref), 1e-12)).tolist(),
-            "mac": out_mac}
+        out_mac.append(float(np.sum((p.phi[:, near].T @ Mv) ** 2) / vMv) if vMv > 0 else 0.0)
+    return dict(pairing_record(f_ref, p), mac=out_mac)
