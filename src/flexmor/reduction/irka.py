@@ -27,7 +27,7 @@ from ..errors import OptionError, SolverError
 from ..linalg.context import SolverContext, as_solver
 from ..options import Band, band_option, option
 from ..projection import project
-from ..rigid import rigid_body_modes
+from ..rigid import m_project, rigid_body_modes
 from ._registry import register_method
 from .krylov import krylov, merge_blocks, shifted_factorization
 
@@ -99,13 +99,16 @@ def _shift_change(new, old) -> float:
     return float(np.max(d / np.maximum(np.abs(new), np.finfo(float).tiny)))
 
 
-def tangential_basis(model, B, sigma, dirs, order, solver: SolverContext | None = None):
-    """Orthonormal real basis of ``(s_j^2 M + s_j D + K)^{-1} B b_j`` (real and imaginary parts)."""
+def tangential_basis(model, B, sigma, dirs, order, solver: SolverContext | None = None, rigid_modes=None):
+    """Orthonormal real basis of ``(s_j^2 M + s_j D + K)^{-1} B b_j`` (real and imaginary parts); with
+    ``rigid_modes`` (M-orthonormal, of a free body) their flexible parts, M-orthogonal to them."""
     solver = as_solver(solver)
     blocks = []
     for s, b in zip(sigma, dirs):
         F, s = shifted_factorization(model, s, solver)
         x = F.solve(B @ b)
+        if rigid_modes is not None and rigid_modes.shape[1]:
+            x = m_project(model, rigid_modes, x)
         blocks.append([np.hstack([x.real, x.imag]) if s.imag != 0 else np.real(x)])
         del F
     return merge_blocks(blocks, order)
@@ -130,7 +133,12 @@ def irka(model, ports, order, *, max_iter: int = 50, shift_tol: float = 1e-4, ba
     model : FEModel
         Needs damping (``D``) for the poles to leave the imaginary axis; on an undamped body
         the points land on (nearly) its eigenfrequencies, and a singular shifted matrix is
-        reported as such (:class:`flexmor.errors.SolverError`).
+        reported as such (:class:`flexmor.errors.SolverError`). A free body (rigid-body modes,
+        :func:`flexmor.rigid.rigid_body_modes`) is reduced as the floating frame wants it: the
+        start basis and every interpolation vector are made M-orthogonal to the rigid-body modes,
+        so that the reduced poles are elastic ones (none at ``s = 0``, whose mirror image would be
+        a singular point) and ``H``'s flexible part is interpolated (exact for proportional damping);
+        ``info['rigid'] = 'exclude'``, judged on the elastic part.
     ports : Ports
         ``B`` gives the tangential interpolation data (``C`` enters through the residues).
     order : int
@@ -164,10 +172,7 @@ def irka(model, ports, order, *, max_iter: int = 50, shift_tol: float = 1e-4, ba
     structure-preserving model reduction. Systems Control Lett. 58(3), 225-232.
     """
     solver = as_solver(solver)
-    if rigid_body_modes(model).shape[1]:
-        raise OptionError("irka does not reduce a free body: the mirror images of its rigid-body poles at s = 0 "
-                          "make s^2 M + K singular; use krylov, pod, two-step or craig-bampton (rigid-body modes "
-                          "excluded for the floating frame)", params=("method",))
+    phi = rigid_body_modes(model)  # a free body: its flexible part (the frame carries the rigid motion)
     if order is None:
         raise OptionError("irka needs order", params=("order",))
     if int(max_iter) != max_iter or max_iter < 1:
@@ -187,7 +192,7 @@ def irka(model, ports, order, *, max_iter: int = 50, shift_tol: float = 1e-4, ba
         if change < shift_tol:
             break
         try:
-            V = tangential_basis(model, B, sigma, dirs, order, solver)
+            V = tangential_basis(model, B, sigma, dirs, order, solver, rigid_modes=phi)
         except SolverError:
             if model.D is not None:
                 raise
@@ -204,4 +209,6 @@ def irka(model, ports, order, *, max_iter: int = 50, shift_tol: float = 1e-4, ba
     info = {"converged": bool(converged), "iterations": it, "shift_change": change,
             "shift_history": history, "shifts_rad_s": [str(s) for s in (old if old is not None else [])],
             "max_iter": int(max_iter), "shift_tol": float(shift_tol)}
+    if phi.shape[1]:
+        info.update(rigid="exclude", n_rigid_included=0)
     return Basis(V, "irka", info)
