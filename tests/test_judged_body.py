@@ -235,3 +235,18 @@ def test_a_coupling_that_changes_nothing_shows_no_negative_zero():
     rec = {"couplings": [], "uncoupled_hz": [100.0, 200.0], "coupled_hz": [100.0, 200.0], "rel_change": [-5.7e-14, 0.0]}
     lines = coupling_lines(rec)
     assert "by +0.00 to +0.00 %" in lines[0] and lines[2].endswith("+0.000 %") and "-0.0" not in "".join(lines)
+
+
+def test_a_spurious_pair_is_named_once():
+    """The demo's craig-bampton 8 on the square cantilever: its bending pair at 1429 Hz (y and z) is spurious;
+    the note named it twice ('1429 Hz (...); 1429 Hz (...)')."""
+    from flexmor.models import cantilever
+
+    model = cantilever(n=4).with_rayleigh(0.0, 1e-6)
+    ports = make_ports(model, ["TIP:y", "TIP:z"])
+    full = FullResponse(model, ports, (10.0, 3000.0))
+    err = full.evaluate(reduce(model, "craig-bampton", 8, ports, interface=["TIP_CENTER"]))
+    f = np.asarray(err.spurious_resonances_hz)
+    assert f.size == 3 and abs(f[1] / f[0] - 1) < 1e-6 and abs(f[0] - 1429) < 1  # the pair, and one more
+    note = next(n for n in err.notes if n.startswith("spurious resonances"))
+    assert note.count("1429 Hz") == 1 and "1429 Hz (2 modes) (nearest full resonances" in note

@@ -129,15 +129,17 @@ def spurious_resonances(body, freqs, H, resonances, zeta=None, *, band=None, max
         d_f = np.min(np.abs(res - max_rel_error_hz) / res) if res.size else np.inf
         out["max_rel_error_at_spurious_resonance"] = bool(d_s <= SPURIOUS_REL and d_s < d_f)
     near = []
-    for f in bad[:4]:
+    groups = np.split(bad, np.flatnonzero(np.diff(bad) > 1e-6 * bad[1:]) + 1)  # a pair (y, z bending) once
+    for g in groups[:4]:
+        f = float(g[0])
         lo, hi = res[res < f], res[res > f]
-        near.append(f"{f:.4g} Hz (nearest full resonances in the band: "
+        near.append(f"{f:.4g} Hz{f' ({g.size} modes)' if g.size > 1 else ''} (nearest full resonances in the band: "
                     + (f"{lo.max():.4g} Hz" if lo.size else "none") + " below, "
                     + (f"{hi.min():.4g} Hz" if hi.size else "none") + " above)")
     where = (f"; max_rel_error {max_rel_error:.3g} lies there" if out["max_rel_error_at_spurious_resonance"]
              and max_rel_error is not None else "")
     out["note"] = (f"spurious resonance{'s' if bad.size > 1 else ''}: the body resonates at {'; '.join(near)}"
-                   f"{' ...' if bad.size > 4 else ''}, where the full model has none (none within "
+                   f"{' ...' if len(groups) > 4 else ''}, where the full model has none (none within "
                    f"{100 * SPURIOUS_REL:g} % or two damping ratios) and the body's |H| is "
                    f"{ratio[ratio >= SPURIOUS_PEAK].min():.3g}x the full one or more{where}; raise the order, or check "
                    "the method's expansion points / band")
