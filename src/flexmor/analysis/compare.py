@@ -21,7 +21,7 @@ from ..linalg.eigen import frequencies_hz
 from ..linalg.threads import blas_threads
 from ..options import Band
 from ..origin import check_origin, describe_damping, fingerprint, same_damping
-from ..reduction.free_body import with_elastic_inputs
+from ..reduction.free_body import split_elastic, with_elastic_part
 from . import cache as frf_cache
 from .frequency import MEASURE_KEYS, error_measures, error_notes
 from .grid import DEFAULT_TOL, adaptive_grid, initial_grid
@@ -202,8 +202,8 @@ class FullResponse:
             raise OptionError("the surrogate path needs a damped model (rayleigh or modal_damping)",
                               params=("rayleigh", "modal_damping"))
         self.path = path
-        m = ports.n_inputs
-        ports = with_elastic_inputs(model, ports)  # a free body: the elastic part of H too, computed directly
+        given = ports
+        ports = with_elastic_part(model, ports)  # a free body: the elastic part of H too, computed directly
         params = {"band": self.band, "n": int(n), "tol": float(tol), "max_points": int(max_points), "path": path}
         if path == "surrogate":
             params["surrogate_tol"] = float(surrogate_tol)
@@ -227,9 +227,9 @@ class FullResponse:
                 frf_cache.store(key, self.freqs, self.H, self.resonances, self.zeta, self.grid, directory)
                 self.timings["cache"] += time.perf_counter() - t1
         self.grid["cache_hit"] = self.cache_hit
-        #: the elastic part of H (inputs made orthogonal to the rigid-body modes), None for a supported body
-        self.H_elastic = self.H[:, :, m:] if ports.n_inputs > m else None
-        self.H = self.H[:, :, :m]
+        #: the elastic part of H (inputs and outputs projected off the rigid-body modes, with_elastic_part), None
+        #: for a supported body
+        self.H, self.H_elastic = split_elastic(self.H, given)
         self.n_factorizations = solver.stats.count - c0
         self.seconds = time.perf_counter() - t0
         log.info("full FRF: %d frequencies in %.2f s (%s%s)", self.freqs.size, self.seconds, path,
@@ -237,7 +237,7 @@ class FullResponse:
         #: what a body judged here must have been reduced from (:meth:`check_judgeable`)
         self.origin = fingerprint(model)
         self.damping = model.damping
-        self.input_names, self.output_names = list(ports.input_names[:m]), list(ports.output_names)
+        self.input_names, self.output_names = list(given.input_names), list(given.output_names)
         self.model_label = str(model.source or model.name)
 
     def _compute(self, model, ports, *, n, tol, max_points, solver, progress, surrogate_tol, check_solver):
@@ -338,7 +338,8 @@ class FullResponse:
 
         A free body whose basis excludes the rigid-body modes (``info['n_rigid_excluded']``, the
         floating-frame case: the frame carries the rigid motion) is judged on the elastic part
-        of ``H`` (:attr:`H_elastic`, the FRF of the inputs' elastic part ``(I - M Φ Φᵀ) B``: exact
+        of ``H`` (:attr:`H_elastic`, the FRF from the inputs' elastic part ``(I - M Φ Φᵀ) B`` to the outputs'
+        ``C (I - Φ Φᵀ M)``, :func:`~flexmor.reduction.free_body.with_elastic_part`: exact
         for proportional damping, and computed directly rather than as ``H`` minus the rigid-body
         response, which at low frequencies exceeds it by orders of magnitude).
         """

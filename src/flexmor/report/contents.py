@@ -226,8 +226,9 @@ def _h2_errors(rep: Report, model, ports, bodies, h2_max_dof: int) -> None:
             else "undamped bodies have no finite H2 norm"))
         return
     from ..analysis.norms import h2_error
+    from ..reduction.free_body import elastic_ports
 
-    e_ports = _elastic_ports(model, ports)
+    e_ports = elastic_ports(model, ports)
     for row, red in zip(rep.rows, bodies):
         try:  # against the row's reference: the elastic part for a body without rigid motion
             with np.errstate(divide="ignore", invalid="ignore"):
@@ -278,7 +279,7 @@ def _time_section(rep: Report, model, ports, bodies, labels, ref_of, *, f_lo: fl
     """``rep.time``, the rows' time errors and the time figure: the full model and each body under
     ``signal`` (one full run for both the whole and the elastic response)."""
     from ..dynamics.time import simulate, time_errors
-    from ..reduction.free_body import with_elastic_inputs
+    from ..reduction.free_body import with_elastic_part
 
     band = rep.band
     t_end = float(t_end) if t_end else 3.0 / f_lo
@@ -287,10 +288,10 @@ def _time_section(rep: Report, model, ports, bodies, labels, ref_of, *, f_lo: fl
     elastic = [bool(red.info.get("n_rigid_excluded")) for red in bodies]
     # one run for both responses (a single-channel signal is applied to each input in turn)
     single = np.ndim(u(np.array([0.0, dt])) if callable(u) else u) == 1
-    sim_ports = with_elastic_inputs(model, ports) if any(elastic) and single else ports
+    sim_ports = with_elastic_part(model, ports) if any(elastic) and single else ports
     y_all = simulate(model, u, dt=dt, t_end=t_end, ports=sim_ports, scheme=scheme, rho_inf=rho_inf, solver=solver,
                      progress=progress)
-    y_full, y_elastic = _split_inputs(y_all, ports.n_inputs)
+    y_full, y_elastic = _split_elastic(y_all, ports)
     y_red, y_refs, t_ref_of = {}, {}, {}
     for lb, red, row, el in zip(labels, bodies, rep.rows, elastic):
         yr, q = _body_run(red, u, dt=dt, t_end=t_end, scheme=scheme, rho_inf=rho_inf)
@@ -403,25 +404,15 @@ def _reference_label(ref_name: str, judged: str) -> str:
     return f"{ref_name}, {_SHORT[judged]}" if judged in _SHORT else ref_name
 
 
-def _elastic_ports(model, ports):
-    """``ports`` with the inputs' elastic part ``(I - M Φ Φᵀ) B`` as inputs (``ports`` for a supported model)."""
-    from ..ports import Ports
-    from ..reduction.free_body import with_elastic_inputs
-
-    aug = with_elastic_inputs(model, ports)
-    if aug is ports:
-        return ports
-    return Ports(B=aug.B[:, ports.n_inputs:].tocsr(), C=ports.C, input_names=list(ports.input_names),
-                 output_names=list(ports.output_names))
-
-
-def _split_inputs(y, m: int):
-    """``(y for the first m inputs, y for the rest or None)`` of a :class:`TimeResponse` whose inputs were
-    extended by :func:`flexmor.reduction.free_body.with_elastic_inputs`."""
+def _split_elastic(y, ports):
+    """``(y for ports, y of the elastic part or None)`` of a :class:`TimeResponse` of the ports of
+    :func:`flexmor.reduction.free_body.with_elastic_part`."""
     import dataclasses
 
-    if y.displacement.shape[2] == m:
+    from ..reduction.free_body import split_elastic
+
+    whole, elastic = zip(*(split_elastic(getattr(y, f), ports) for f in ("displacement", "velocity", "acceleration")))
+    if elastic[0] is None:
         return y, None
     fields = ("displacement", "velocity", "acceleration")
-    return tuple(dataclasses.replace(y, **{f: getattr(y, f)[:, :, part] for f in fields})
-                 for part in (slice(None, m), slice(m, None)))
+    return tuple(dataclasses.replace(y, **dict(zip(fields, part))) for part in (whole, elastic))
