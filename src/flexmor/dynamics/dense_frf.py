@@ -30,7 +30,7 @@ import scipy.sparse as sp
 from ..damping import ModalDamping
 from ..errors import ModelError
 from ..linalg.distributed import is_partitioned
-from ..linalg.eigen import dense_eigenmodes
+from ..linalg.eigen import dense_eigenmodes, is_rigid
 from ..linalg.threads import sparse_dense
 
 __all__ = ["DENSE_FRF_MAX_DOF", "PROPORTIONAL_TOL", "STATE_COND_MAX", "DenseResolvent", "dense_applicable"]
@@ -98,6 +98,9 @@ class DenseResolvent:
     def __init__(self, K, M, D=None, damping=None):
         n = K.shape[0]
         self.lam, self.phi = dense_eigenmodes(K, M)
+        # rigid-body modes at exactly 0: their computed eigenvalues are the rounding of K's null space (~1e-4
+        # rad²/s² on the free CalculiX beam), which put poles near 0.002 Hz and an error ~ lam / w² in the response
+        self.lam[is_rigid(self.lam, K, M)] = 0.0
         if self.lam.size < n:
             raise ModelError(f"the mass matrix is singular ({n - self.lam.size} infinite eigenvalues): the modal "
                              "sum misses a static term")
