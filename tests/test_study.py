@@ -199,3 +199,36 @@ def test_system_reduce_and_judge_computes_the_full_frf_once_and_after_the_reduct
     assert second["band_error"] < first["band_error"] < 1e-3
     prepared = flexmor.System.prepared(s.model, s.ports, band=BAND, cache=False)
     assert prepared.judge(s.reduce("krylov", 8)).band_error == pytest.approx(first["band_error"], rel=1e-9)
+
+
+def test_wrong_arguments_of_the_python_api_are_named(beam, clamped, free, tmp_path):
+    """Each wrong type at the API's entry points is a FlexmorError that names the argument, not an
+    AttributeError or ValueError from inside (as they were: 'int' object has no attribute 'node_sets', 'list'
+    object has no attribute 'B', could not convert string to float ...)."""
+    from flexmor.errors import OptionError
+
+    cases = [
+        (lambda: flexmor.System(42, inputs=["TIP:y"]), ModelError, "System needs an FE model or the path of its file"),
+        (lambda: flexmor.System(clamped, inputs="TIP:y"), PortError, "inputs must be a list of port SPECs, e.g. "
+                                                                     "['TIP:y'], got the string 'TIP:y'"),
+        (lambda: flexmor.System(clamped, inputs=["TIP:y"], interfaces="TIP"), OptionError,
+         "interfaces must be a list of SPECs"),
+        (lambda: flexmor.System(clamped, inputs=["TIP:y"], damping=0.02), OptionError,
+         "damping must be a flexmor.damping object"),
+        (lambda: flexmor.System(clamped, inputs=["TIP:y"], damping={"foo": 0.02}), OptionError,
+         "unknown key(s) 'foo'"),
+        (lambda: beam.judge("body.h5"), ModelError, "a reduced body (flexmor.reduce(...), or flexmor.io.read_body"),
+        (lambda: beam.frf("abc"), OptionError, "freqs must be frequencies in Hz"),
+        (lambda: beam.simulate("step", dt=1e-4, t_end=1e-3), OptionError, "the input signal u must be numbers"),
+        (lambda: flexmor.reduce(clamped, "krylov", 8, ["TIP:y"]), PortError, "ports must be a Ports"),
+        (lambda: flexmor.export("abc", tmp_path / "x.h5"), OptionError, "export writes a reduced body"),
+        (lambda: beam.reduce_and_judge("krylov", 40, tol="1e-6"), OptionError, "tol must be a positive number"),
+    ]
+    for call, kind, words in cases:
+        with pytest.raises(kind) as exc:
+            call()
+        assert words in str(exc.value), str(exc.value)
+    # the FE model's file where a model is wanted, as add_to_exudyn takes it
+    fs = flexmor.System(free, inputs=["TIP@rbe2:y"], interfaces=["TIP@rbe2"], band=BAND, damping=Rayleigh(5, 2e-6))
+    body = fs.reduce("craig-bampton", 16)
+    assert flexmor.export(body, tmp_path / "b.SID_FEM", model=CCX / "beam8_free_mat.sti") == "sid"

@@ -284,6 +284,13 @@ def make_ports(model: FEModel, inputs=(), outputs=()) -> Ports:
     PortError
         Unknown node, set or direction, or no inputs at all.
     """
+    for name, specs in (("inputs", inputs), ("outputs", outputs)):
+        if isinstance(specs, (str, bytes)):
+            raise PortError(f"{name} must be a list of port SPECs, e.g. [{specs!r}], got the string {specs!r}",
+                            params=(name,))
+    if not hasattr(model, "node_sets") or not hasattr(model, "n_dof"):
+        raise PortError(f"make_ports needs an FEModel (flexmor.read(path)), got {type(model).__name__}",
+                        params=("model",))
     inputs, outputs = expand_specs(model, inputs or []), expand_specs(model, outputs or [])
     if inputs:
         B, in_names = _matrix(model, inputs), inputs

@@ -22,12 +22,17 @@ from os import PathLike
 
 from .analysis.compare import ErrorMeasures, FullResponse, check_judgeable
 from .damping import Damping
+from .errors import ModelError, OptionError
 from .linalg.context import SolverContext, as_solver
+from .model import FEModel
 from .options import Band
 from .ports import make_ports
 from .workflow import coupling_specs, damping_of, prepare_model, record_setup, reduce_and_judge, with_method_band
 
 __all__ = ["System"]
+
+#: The dict forms of ``damping`` (the keywords of :func:`flexmor.workflow.damping_of`).
+_DAMPING_KEYS = "{'rayleigh': (alpha, beta)}, {'modal_damping': zeta} or {'band_rayleigh': zeta}"
 
 
 class System:
@@ -76,11 +81,25 @@ class System:
             from .io import read
 
             model = read(model)
+        if not isinstance(model, FEModel):
+            raise ModelError(f"System needs an FE model or the path of its file, got {type(model).__name__}",
+                             params=("model",))
+        if isinstance(interfaces, (str, bytes)):
+            raise OptionError(f"interfaces must be a list of SPECs, e.g. [{interfaces!r}], got the string "
+                              f"{interfaces!r}", params=("interfaces",))
         interfaces = [str(s) for s in interfaces]
         couplings = coupling_specs(interfaces, [*inputs, *outputs])
         coupled = prepare_model(model, couplings)
+        if damping is not None and not isinstance(damping, Damping):
+            if not isinstance(damping, dict):
+                raise OptionError(f"damping must be a flexmor.damping object (Rayleigh(alpha, beta), ...) or a dict "
+                                  f"{_DAMPING_KEYS}, got {type(damping).__name__} {damping!r}", params=("damping",))
+            unknown = sorted(set(damping) - {"rayleigh", "modal_damping", "band_rayleigh"})
+            if unknown:
+                raise OptionError(f"damping {damping!r}: unknown key(s) {', '.join(map(repr, unknown))}; give "
+                                  f"{_DAMPING_KEYS}", params=("damping",))
+            damping = damping_of(**{"band": Band.of(band), **damping})
         if damping is not None:
-            damping = damping if isinstance(damping, Damping) else damping_of(**{"band": Band.of(band), **damping})
             coupled = coupled.with_damping(damping)
         self._setup(coupled, make_ports(coupled, inputs, outputs), as_read=model, couplings=couplings,
                     interfaces=interfaces, band=band, solver=solver, grid=grid)
@@ -197,7 +216,14 @@ class System:
 
         from .dynamics.frf import frf_full
 
-        return frf_full(self.model, self.ports, np.atleast_1d(np.asarray(freqs, float)), solver=self.solver)
+        try:
+            f = np.atleast_1d(np.asarray(freqs, float))
+        except (TypeError, ValueError):
+            raise OptionError(f"freqs must be frequencies in Hz (numbers), got {freqs!r}", params=("freqs",)) from None
+        if f.ndim != 1 or not np.all(np.isfinite(f)) or np.any(f < 0):
+            raise OptionError(f"freqs must be finite frequencies >= 0 in Hz, one list, got {freqs!r}",
+                              params=("freqs",))
+        return frf_full(self.model, self.ports, f, solver=self.solver)
 
     def simulate(self, u, *, dt: float, t_end: float, **options):
         """The full model's time response at the outputs to the input signal ``u``

@@ -121,8 +121,8 @@ def reduce_to_tolerance(model, method: str, ports, *, tol: float, full, max_orde
         whole, :func:`leading`).
     """
     solver = as_solver(solver)
-    if tol is None or not tol > 0:
-        raise OptionError(f"tol must be a positive number, got {tol}", params=("tol",))
+    if isinstance(tol, bool) or not isinstance(tol, (int, float, np.floating, np.integer)) or not tol > 0:
+        raise OptionError(f"tol must be a positive number, got {tol!r}", params=("tol",))
     check_choice("tol_measure", measure, TOL_MEASURES)
     check_tol_method(method)
     low = min_order(model, method, ports, options)

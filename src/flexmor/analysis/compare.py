@@ -389,8 +389,14 @@ def check_judgeable(body, *, origin: dict, damping, inputs, outputs, label: str 
         The body's fingerprint names another model (DOF count, equation map, K, M, D:
         :func:`flexmor.origin.check_origin`), or its damping is another.
     PortError
-        Its inputs or outputs are others (names, or their number).
+        Its inputs or outputs are others (names, or their number); ``body`` is no reduced body.
     """
+    from ..body import ReducedModel
+
+    if not isinstance(body, ReducedModel):
+        raise ModelError(f"a reduced body (flexmor.reduce(...), or flexmor.io.read_body(path) for a file) is judged, "
+                         f"got {type(body).__name__}{f' {body!r}' if isinstance(body, str) else ''}",
+                         params=("body",))
     check_origin(body, origin, label=label, advice="judge it against the model it was reduced from")
     name = f"body ({body.method or 'reduced'}, order {body.order})"
     if not same_damping(body.damping, damping):

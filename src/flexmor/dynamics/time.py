@@ -188,7 +188,11 @@ def scheme_parameters(scheme: str = "newmark", rho_inf: float = 0.9) -> dict:
 
 def _signal(u, t: np.ndarray, m: int) -> tuple[np.ndarray, bool]:
     """Sample ``u`` on ``t``: returns ``(U, each)``, U (n_t, k); ``each`` for one channel per input."""
-    U = np.asarray(u(t) if callable(u) else u, dtype=float)
+    try:
+        U = np.asarray(u(t) if callable(u) else u, dtype=float)
+    except (TypeError, ValueError):
+        raise OptionError(f"the input signal u must be numbers (one value, samples on the time grid) or a "
+                          f"function of the time array, got {u!r}"[:300], params=("u",)) from None
     if U.ndim == 0:
         U = np.full(t.size, float(U))
     if U.shape[0] != t.size:

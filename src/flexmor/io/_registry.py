@@ -26,6 +26,7 @@ from __future__ import annotations
 import warnings
 from collections.abc import Callable
 from dataclasses import dataclass
+from os import PathLike
 from pathlib import Path
 
 from ..errors import FlexmorWarning, OptionError, ReadError, did_you_mean
@@ -390,8 +391,8 @@ def export(body, path, format: str | None = None, *, model=None, units: str | No
     format : str, optional
         A name or alias from :data:`EXPORT_FORMATS` (``sid``, ``exudyn``, ``mat``, ``statespace``
         or ``ss``, ``hdf5``); default from the suffix (``.SID_FEM``, ``.mat``, ``.h5``, ...).
-    model : FEModel, optional
-        The full model the body was reduced from (required by ``sid`` and ``exudyn``).
+    model : FEModel or path-like, optional
+        The full model the body was reduced from (required by ``sid`` and ``exudyn``), or its file.
     units : str, optional
         The unit system of the file (:data:`flexmor.units.SYSTEMS`), for the formats of
         :func:`unit_formats` (``sid``, ``mat``; the file states it); default SI. The body must
@@ -409,6 +410,13 @@ def export(body, path, format: str | None = None, *, model=None, units: str | No
     OptionError
         Unknown ``format`` or ``units``, or ``units`` other than SI for a format that writes SI only.
     """
+    from ..body import ReducedModel
+
+    if not isinstance(body, ReducedModel):
+        raise OptionError(f"export writes a reduced body (flexmor.reduce(...), or flexmor.io.read_body(path)), got "
+                          f"{type(body).__name__}", params=("body",))
+    if isinstance(model, (str, PathLike)):  # the FE model's file, as add_to_exudyn takes it
+        model = read(model)
     name = export_format(path, format)
     if units is not None:
         system = unit_system(units)

@@ -93,8 +93,8 @@ def factorize(A, *, solver: SolverContext | None = None, symmetric: bool = True,
         res = np.linalg.norm(A @ x - b) / np.linalg.norm(b)
         if not np.isfinite(res) or res > RESIDUAL_TOL:
             raise SolverError(
-                f"the matrix is singular or badly conditioned (relative residual {res:.1e} with {name}); "
-                "a free-free body needs a shift or reference conditions"
+                f"the matrix is singular or badly conditioned (relative residual {res:.1e} with {name}): a shift "
+                "at an eigenfrequency of the body, or a free-free body without a shift or reference conditions"
             )
     return F
 

@@ -18,11 +18,13 @@ import math
 import time
 
 from ..body import ReducedModel
+from ..errors import PortError
 from ..linalg.context import as_solver
 from ..linalg.distributed import is_partitioned
 from ..linalg.resources import check_basis_memory
 from ..linalg.threads import blas_threads
 from ..options import Band, check_option_types, check_order
+from ..ports import Ports
 from ..projection import project
 from ..rigid import exclude_rigid, frame_participation
 from . import (  # noqa: F401  (each method module registers its methods in METHODS)
@@ -91,6 +93,9 @@ def reduce(model, method: str, order: int | None, ports, *, inertia_loads: str =
     """
     method = method_name(method)
     m = METHODS[method]
+    if not isinstance(ports, Ports):
+        raise PortError(f"ports must be a Ports (flexmor.make_ports(model, inputs, outputs), e.g. inputs "
+                        f"['TIP:y']), got {type(ports).__name__}", params=("ports",))
     check_keywords(method, options, m.keywords)
     opts = {k: v for k, v in options.items() if v is not None}
     check_option_types(m.options_class, opts)

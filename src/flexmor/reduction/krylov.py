@@ -111,8 +111,13 @@ def shifted_factorization(model, s: complex, solver: SolverContext | None = None
         A = A + (s.real if real else s) * model.D
     try:
         return factorize(A.tocsr(), solver=solver, symmetric=True, positive=real and s.real >= 0), s
-    except SolverError:
+    except SolverError as exc:
         if s != 0:
+            if not real and abs(s.real) <= 1e-12 * abs(s):  # a point on the frequency axis
+                raise SolverError(f"s^2 M + s D + K is singular at the expansion point {abs(s) / (2 * math.pi):.8g} "
+                                  f"Hz{'' if model.D is not None else ' of the undamped body'}: it lies at an "
+                                  "eigenfrequency; move the point off it (or give the body damping)",
+                                  params=("points",)) from exc
             raise
     s0 = math.sqrt(-default_shift(model.K, model.M))
     log.warning("K is singular (free body?): expansion point 0 moved to the real point s = %.4g rad/s", s0)
