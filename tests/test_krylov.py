@@ -210,3 +210,17 @@ def test_one_point_merge_against_the_rigid_head_is_block_gram_schmidt():
         assert np.max(sla.subspace_angles(fast[:, :k], slow[:, :k])) < 1e-8, k
     plain = merge_blocks(blocks, 9, orthonormal=True)
     assert np.shares_memory(plain, blocks[0][0]) and np.array_equal(plain, np.hstack(blocks[0])[:, :9])
+
+
+def test_a_point_on_an_eigenfrequency_is_named(clamped, clamped_ref):
+    """An expansion point on the frequency axis exactly at the clamped beam's first eigenfrequency: the shifted
+    matrix is singular, and the message says where (it said 'a free-free body needs a shift')."""
+    import scipy.linalg as sla
+
+    from flexmor.errors import SolverError
+
+    lam = sla.eigh(clamped.K.toarray(), clamped.M.toarray(), eigvals_only=True, subset_by_index=[0, 0])[0]
+    f1 = math.sqrt(lam) / (2 * math.pi)
+    with pytest.raises(SolverError, match=r"singular at the expansion point 100\.0459\d* Hz of the undamped body: it "
+                                          r"lies at an eigenfrequency"):
+        reduce(clamped, "krylov", 8, make_ports(clamped, ["TIP:y"]), points=f"{f1!r}j")
