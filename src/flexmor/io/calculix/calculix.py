@@ -264,9 +264,14 @@ def _dof_too_short(sti: Path, mas: Path, dof_path: Path, n: int, exc: ReadError)
     """The error naming a ``.dof`` cut off, ``exc`` (an index of a matrix file beyond its ``n`` equations) as
     the evidence: both matrix files have entries beyond them, up to the same equation (a single damaged index
     is the matrix file's defect, named by ``exc``); None otherwise."""
+    if "beyond the matrix size" not in exc.reason:
+        return None
     try:
-        top = [int(max(r.max(), c.max())) + 1 for r, c, _ in (parse_triplets(p, one_based=True) for p in (sti, mas))]
-    except ReadError:
+        with np.errstate(all="ignore"), warnings.catch_warnings():  # an index beyond 64 bits: the matrix's defect
+            warnings.simplefilter("ignore")
+            top = [int(max(r.max(), c.max())) + 1 for r, c, _ in (parse_triplets(p, one_based=True)
+                                                                   for p in (sti, mas))]
+    except (ReadError, ValueError, OverflowError):
         return None
     if top[0] != top[1] or top[0] <= n:
         return None

@@ -320,9 +320,9 @@ def compare_modes(model, res: FrdResult, *, k: int | None = None, solver: Solver
     """Compare ``model`` with the modes of an frd file.
 
     The frd modes are paired with the model's one-to-one and in order by frequency
-    (:func:`flexmor.io.reference.paired_modes`: rigid-body modes with rigid-body modes, the
+    (:func:`flexmor.io._pairing.paired_modes`: rigid-body modes with rigid-body modes, the
     least sum of relative differences; the notes and warnings of
-    :func:`flexmor.io.reference.pairing_record`). Each frd mode is mapped to the model's
+    :func:`flexmor.io._pairing.pairing_record`). Each frd mode is mapped to the model's
     translational equations (its nodes and x y z) and measured against the span ``S`` of the
     model's modes of its pair's frequency, those within ``cluster`` (relative) of it, or all the
     model's rigid-body modes for a rigid-body mode: ``mac = |S^T M phi|^2 / (phi^T M phi)`` with
@@ -336,7 +336,7 @@ def compare_modes(model, res: FrdResult, *, k: int | None = None, solver: Solver
         ``model_frequencies_hz``, ``rel_diff``, ``model_modes``, ``notes``) with ``mac`` (None for an
         frd mode without a model mode).
     """
-    from ..reference import paired_modes, pairing_record
+    from .._pairing import paired_modes, pairing_record
 
     f_ref, nodes, shapes = modes(res)
     k = len(f_ref) if k is None else min(k, len(f_ref))
