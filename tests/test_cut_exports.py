@@ -13,21 +13,15 @@ import shutil
 import warnings
 
 import pytest
-from helpers import SHARED, run
+from helpers import DATA, run
 
 import flexmor.io
 from flexmor.errors import FlexmorWarning, ReadError
 from flexmor.io import UncheckedWarning
 
-ABQ = SHARED / "abaqus"
-CCX = SHARED / "calculix"
-ANSYS = SHARED / "ansys"
-
-
-@pytest.fixture(autouse=True)
-def _shared_data():
-    if not SHARED.is_dir():
-        pytest.skip(f"the shared sample files ({SHARED}) are not available")
+ABQ = DATA / "abaqus"  # the shared FE exports, as the repository keeps them
+CCX = DATA / "calculix"
+ANSYS = DATA / "ansys"
 
 
 def _flexmor_warnings(record):

@@ -13,7 +13,7 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 import scipy.sparse as sp
-from helpers import SHARED, run
+from helpers import CCX, run
 
 from flexmor.cli.commands import _print_reference
 from flexmor.errors import FlexmorWarning
@@ -92,14 +92,9 @@ def test_more_reference_modes_than_the_model_has():
     assert len(rows) == 15 and sum(ln.split()[2:] == ["-", "-"] for ln in rows) == 1
 
 
-needs_shared = pytest.mark.skipif(not (SHARED / "calculix").is_dir(),
-                                  reason=f"the shared sample files ({SHARED / 'calculix'}) are absent")
-
-
-@needs_shared
 def test_free_model_against_the_clamped_reference(capsys):
     """The tester's case: a free beam against the clamped beam's CalculiX .dat (the wrong reference)."""
-    ccx = SHARED / "calculix"
+    ccx = CCX
     argv = ("info", ccx / "beam8_free_mat.sti", "--modes", 10, "--reference", ccx / "beam8_clamped_freq.dat")
     code, out, err = run(capsys, *argv, "--json")
     assert code == 0
@@ -115,10 +110,9 @@ def test_free_model_against_the_clamped_reference(capsys):
     assert code == 0 and err.count(RIGID_NOTE.format(0, 6)) == 1 and err.count(OTHER) == 1 and OTHER not in out
 
 
-@needs_shared
 @pytest.mark.parametrize("support", ["free", "clamped"])
 def test_the_right_reference_stays_as_good(capsys, support):
-    ccx = SHARED / "calculix"
+    ccx = CCX
     code, out, err = run(capsys, "info", ccx / f"beam8_{support}_mat.sti", "--modes", 10,
                          "--reference", ccx / f"beam8_{support}_freq.dat", "--json")
     assert code == 0 and "warning" not in err
