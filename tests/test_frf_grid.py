@@ -194,3 +194,25 @@ def test_band_error_of_a_noisy_error_curve_on_a_graded_grid():
         wt = np.r_[np.diff(f), 0] / 2 + np.r_[0, np.diff(f)] / 2
         mean = wt @ r2 / wt.sum()
         assert 0.5 * mean <= band_error(f, H, Hr) <= 2 * mean
+
+
+def test_max_rel_error_at_an_anti_resonance_is_that_of_the_curve(clamped):
+    """The relative error of a body peaks where ||H|| has its minimum; the grid bisects the intervals beside
+    each anti-resonance until that minimum stops falling, so that max_rel_error is the curve's: against 20,001
+    points within ±3 % of it, to 0.5 % (on the grid refined for the integral alone it was 6.66 for 7.15, modal 8
+    of the damped clamped beam, input TIP:y, 10-3000 Hz)."""
+    from flexmor.dynamics.dense_frf import DenseResolvent
+
+    model = clamped.with_rayleigh(5.0, 2e-6)
+    ports = make_ports(model, ["TIP:y"])
+    full = FullResponse(model, ports, (10.0, 3000.0), cache=False)
+    assert full.grid["n_antiresonance_points"] > 0
+    res = DenseResolvent(model.K, model.M, model.D, damping=model.damping)
+    for method, order in (("modal", 8), ("modal", 4), ("sobt", 8)):
+        body = reduce(model, method, order, ports)
+        err = full.evaluate(body)
+        f = np.geomspace(err.max_rel_error_hz * 0.97, err.max_rel_error_hz * 1.03, 20001)
+        H = res.frf(2 * np.pi * f, ports.B.toarray(), ports.C)
+        Hr = frf_reduced(body, f)
+        true = np.max(np.abs(H - Hr).ravel() / np.abs(H).ravel())
+        assert abs(err.max_rel_error / true - 1) < 5e-3, (method, order, err.max_rel_error, true)

@@ -29,7 +29,7 @@ __all__ = ["cache_dir", "frf_key", "load", "store", "FORMAT_VERSION"]
 log = logging.getLogger(__name__)
 
 #: Bumped whenever the meaning of a cached FRF changes (grid rules, solver conventions).
-FORMAT_VERSION = 1
+FORMAT_VERSION = 2
 
 
 def cache_dir() -> Path:

@@ -18,6 +18,7 @@ from collections.abc import Callable
 import numpy as np
 
 from ..errors import OptionError
+from .frequency import ANTIRESONANCE_FACTOR
 
 __all__ = ["initial_grid", "quadrature_weights", "trapezoid_simpson_gap", "adaptive_grid", "DEFAULT_TOL",
            "PEAK_OFFSETS"]
@@ -185,6 +186,44 @@ def _balance(f, pick) -> np.ndarray:
         sel |= bad
 
 
+#: An anti-resonance is resolved when a round of bisection lowers its smallest ``||H||_F`` by less than this
+#: (relative): the bodies' ``max_rel_error`` (largest there) is then that of the curve, not of the grid.
+ANTIRESONANCE_RESOLVED = 0.01
+
+#: Rounds of bisection at the anti-resonances at most (each halves the interval around every unresolved one).
+ANTIRESONANCE_ROUNDS = 12
+
+
+def _resolve_antiresonances(evaluate, f, H, max_points: int):
+    """``(f, H, added)``: the grid with the intervals beside each anti-resonance (an interior local minimum of
+    ``||H||_F`` at most its band median / ANTIRESONANCE_FACTOR) bisected until a round lowers that minimum by
+    less than :data:`ANTIRESONANCE_RESOLVED`. The relative error of a body, ``||H - Hr|| / ||H||``, peaks at
+    the minimum of ``||H||``; on a grid refined for the integral it fell between points (``max_rel_error``
+    7 % low on the damped clamped beam, modal 8)."""
+    added, last = 0, {}
+    for _ in range(ANTIRESONANCE_ROUNDS):
+        h = np.sqrt(np.sum(np.abs(H) ** 2, axis=(1, 2)))
+        floor = np.median(h) / ANTIRESONANCE_FACTOR
+        i = np.flatnonzero((h[1:-1] < h[:-2]) & (h[1:-1] <= h[2:]) & (h[1:-1] <= floor)) + 1
+        todo = []
+        for k in i:
+            key = round(float(np.log(f[k])), 3)  # the same minimum from round to round (it moves by < 0.1 %)
+            if key in last and h[k] >= (1 - ANTIRESONANCE_RESOLVED) * last[key]:
+                continue
+            last[key] = h[k]
+            if f[k + 1] - f[k - 1] > 1e-9 * f[k]:
+                todo.append(k)
+        if not todo or f.size + 2 * len(todo) > max_points:
+            break
+        new = np.unique(np.concatenate([(f[np.array(todo) - 1] + f[todo]) / 2, (f[todo] + f[np.array(todo) + 1]) / 2]))
+        Hn = np.asarray(evaluate(new))
+        f = np.concatenate([f, new])
+        order = np.argsort(f)
+        f, H = f[order], np.concatenate([H, Hn])[order]
+        added += new.size
+    return f, H, added
+
+
 def adaptive_grid(evaluate: Callable, fmin: float, fmax: float, *, n: int = 50, resonances=None, zeta=None,
                   tol: float = DEFAULT_TOL, max_points: int = 3000, max_rounds: int = 12, refine: bool = True):
     """Build the error grid and the full FRF on it, refining where ``||H||_F^2`` is unresolved.
@@ -250,15 +289,22 @@ def adaptive_grid(evaluate: Callable, fmin: float, fmax: float, *, n: int = 50, 
         f, H = f[order], np.concatenate([H, Hn])[order]
         rounds += 1
         log.debug("grid round %d: %d new points, %d in all, gap %.1e", rounds, new.size, f.size, gap)
+    n_anti = 0
+    if refine:  # the anti-resonances, where the relative errors of the bodies peak
+        f, H, n_anti = _resolve_antiresonances(evaluate, f, H, max_points)
     res = np.asarray([] if resonances is None else resonances, float)
     n_res = int(np.sum((res >= fmin) & (res <= fmax)))
     info = {
         "n_points": int(f.size), "n_initial": int(n_initial), "n_base": int(n), "n_resonances": n_res,
         "tol": float(tol), "rounds": rounds, "converged": bool(converged), "quadrature_gap": gap,
+        "n_antiresonance_points": int(n_anti),
         "rule": "piecewise parabolic (quadrature_weights)",
         "rationale": (f"{int(n)} log-spaced points, {len(PEAK_OFFSETS)} points per damped resonance at "
                       "f_k (1 + c zeta_k), c in {0, ±0.5, ±1.5, ±4}; intervals bisected (2:1 graded) "
-                      "while, in the cell of any resonance, sum |Simpson - trapezoid| of ∫||H||² > tol ∫||H||²"
+                      "while, in the cell of any resonance, sum |Simpson - trapezoid| of ∫||H||² > tol ∫||H||²; "
+                      "then both intervals beside each anti-resonance (a local minimum of ||H|| below 1/"
+                      f"{ANTIRESONANCE_FACTOR:g} of its band median) bisected until its minimum moves by less than "
+                      f"{100 * ANTIRESONANCE_RESOLVED:g} %"
                       if refine else
                       f"{int(n)} log-spaced points plus relative offsets ±{{1e-3, 3e-3, 1e-2, 3e-2}} at each "
                       "undamped resonance; no refinement (∫||H||² has poles at undamped resonances)"),
