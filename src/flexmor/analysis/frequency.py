@@ -27,6 +27,7 @@ import numpy as np
 
 from ..dynamics.frf import rel_error
 from ..errors import OptionError
+from .grid import ANTIRESONANCE_FACTOR as _ANTIRESONANCE_FACTOR
 
 __all__ = ["rel_error", "band_error", "max_rel_error", "hinf_error", "band_grid", "error_measures", "MEASURES",
            "TOL_MEASURES", "MEASURE_KEYS", "measure_record", "at_antiresonance", "resonance_share", "error_notes",
@@ -51,8 +52,9 @@ TOL_MEASURES = tuple(MEASURES)
 MEASURE_KEYS = ("band_error", "band_rms_error", "rms_rel_error_pct", "hinf_error", "max_rel_error",
                 "max_rel_error_hz", "max_rel_error_at_antiresonance", "resonance_share",
                 "max_rel_error_at_spurious_resonance", "spurious_resonances_hz", "judged")
-#: ``||H||_F`` at an anti-resonance is at most the band median divided by this factor.
-ANTIRESONANCE_FACTOR = 10.0
+#: ``||H||_F`` at an anti-resonance is at most the band median divided by this factor (defined with the grid,
+#: which resolves the anti-resonances: :data:`flexmor.analysis.grid.ANTIRESONANCE_FACTOR`).
+ANTIRESONANCE_FACTOR = _ANTIRESONANCE_FACTOR
 #: Relative frequency window (±) in which an anti-resonance is a local minimum of ``||H||_F``.
 ANTIRESONANCE_WINDOW = 0.05
 #: Share of the band_error within ±1 % of the resonances above which an undamped body's

@@ -18,7 +18,6 @@ from collections.abc import Callable
 import numpy as np
 
 from ..errors import OptionError
-from .frequency import ANTIRESONANCE_FACTOR
 
 __all__ = ["initial_grid", "quadrature_weights", "trapezoid_simpson_gap", "adaptive_grid", "DEFAULT_TOL",
            "PEAK_OFFSETS"]
@@ -185,6 +184,9 @@ def _balance(f, pick) -> np.ndarray:
             return np.flatnonzero(sel)
         sel |= bad
 
+
+#: ``||H||_F`` at an anti-resonance is at most the band median divided by this factor.
+ANTIRESONANCE_FACTOR = 10.0
 
 #: An anti-resonance is resolved when a round of bisection lowers its smallest ``||H||_F`` by less than this
 #: (relative): the bodies' ``max_rel_error`` (largest there) is then that of the curve, not of the grid.
