@@ -1,12 +1,17 @@
 """Greedy (adaptive) choice of expansion points: no mode or point selection by hand.
 
 Start with a real point at the lower band edge and a point on the frequency axis at the
-upper edge; then repeatedly add the point ``s = i 2 pi f*`` where a cheap error estimate is
-largest. The estimate is the difference between the two latest reduced bodies,
-``est(f) = ||H_k(f) - H_{k-1}(f)||_F / ||H_k(f)||_F`` on a fine candidate grid: it costs only
-small dense solves (:func:`flexmor.dynamics.frf.frf_reduced`), never a full-model
-frequency sweep, and it is large where the reduced body has not settled yet. Each new point
-costs one factorization and ``moments`` block solves
+upper edge; then repeatedly add the point ``s = i 2 pi f*`` where the residual of the full
+equations left by the reduced body's states, ``||B - A(s) V x(s)||_F / ||B||_F`` on a fine
+candidate grid, is largest (:func:`_residuals`: one Gram matrix of ``[K V, M V, D V]`` per basis,
+then small dense products per candidate; never a full-model frequency sweep). It is large
+where the basis misses the response, also where two successive bodies agree because both
+miss the same modes. (The difference of the two latest bodies, chosen before, went to 2.7-7 Hz
+on a 48-state building model while its dominant modes at 0.8-2.1 Hz were missing: band_error
+0.23 at order 16, 1.8e-5 now; on the clamped CalculiX beam at order 10 2.2e-3 before, 8.4e-7
+now.) The stopping estimate stays the difference of the two latest bodies,
+``∫||H_k - H_{k-1}||² / ∫||H_k||²``: cheap, but not a bound (a point that adds nothing new
+makes it small). Each new point costs one factorization and ``moments`` block solves
 (:func:`flexmor.reduction.krylov.blocks_at_points`).
 """
 
@@ -18,12 +23,13 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..basis import Basis, extend_orthonormal
-from ..dynamics.frf import frf_reduced, rel_error
+from ..dynamics.frf import frf_reduced
 from ..errors import OptionError, check_choice
 from ..linalg.context import SolverContext, as_solver
+from ..linalg.threads import sparse_dense
 from ..options import Band, band_option, option
 from ..projection import project
-from ..rigid import rigid_body_modes
+from ..rigid import elastic_loads, rigid_body_modes
 from ._options import RIGID, SIDES, rigid_option, side_option
 from ._registry import register_method
 from .krylov import DEFLATION_TOL, blocks_at_points, start_block
@@ -38,6 +44,33 @@ def _band_estimate(freqs, Hk, Hprev) -> float:
     num = np.trapezoid(np.sum(np.abs(Hk - Hprev) ** 2, axis=(1, 2)), freqs)
     den = np.trapezoid(np.sum(np.abs(Hk) ** 2, axis=(1, 2)), freqs)
     return float(num / den) if den > 0 else np.inf
+
+
+def _residuals(model, V, body, loads, freqs) -> np.ndarray:
+    """``||F - A(w) V x(w)||_F / ||F||_F`` at ``freqs`` (Hz): the residual of the full equations
+    ``A(w) = K - w² M + i w D`` left by the states ``x(w)`` of the Galerkin body of ``V`` under the loads
+    ``F`` (``B``, or its elastic part). It is large where the basis misses the response, also where two
+    successive bodies agree (both without the modes there), which the difference of the bodies does not see.
+    One Gram matrix of ``[K V, M V, D V]`` per basis; each frequency costs small dense products only. The
+    Gram form cancels terms of very different size (``K V x`` against ``w² M V x``): residuals below about
+    ``sqrt(eps |c|ᵀ|G||c|) / ||F||`` are rounding (6.6e-6 at a point of the damped clamped beam, where the
+    residual is 6e-10), far below where a point is chosen."""
+    W = [sparse_dense(model.K, V), sparse_dense(model.M, V)] + ([sparse_dense(model.D, V)] if model.D is not None
+                                                                 else [])
+    W = np.hstack(W)
+    G, P = W.T @ W, W.T @ loads
+    w = 2 * np.pi * np.asarray(freqs, float)
+    r = V.shape[1]
+    A = body.K[None] - (w ** 2)[:, None, None] * body.M[None] + 0j
+    if model.D is not None:  # the Galerkin states of the equations whose residual is formed (V^T D V: also
+        A = A + (1j * w)[:, None, None] * (V.T @ W[:, 2 * r:])[None]  # where the body holds modal damping)
+    Vt_loads = V.T @ loads
+    X = np.linalg.solve(A, np.broadcast_to(Vt_loads + 0j, (w.size, r, loads.shape[1])))
+    parts = [X, -(w ** 2)[:, None, None] * X] + ([(1j * w)[:, None, None] * X] if model.D is not None else [])
+    c = np.concatenate(parts, axis=1)
+    n2 = float(np.sum(loads ** 2))
+    r2 = n2 - 2 * np.real(np.einsum("km,fkm->f", P, c)) + np.real(np.einsum("fkm,kl,flm->f", c.conj(), G, c))
+    return np.sqrt(np.maximum(r2, 0.0) / max(n2, np.finfo(float).tiny))
 
 
 @dataclass(frozen=True)
@@ -129,6 +162,9 @@ def adaptive(model, ports, order, *, band=None, estimate_tol: float | None = Non
         w = np.linalg.norm(phi.T @ start_block(ports, side), axis=1)
         V = extend_orthonormal(None, phi[:, w > 1e-8 * w.max()], tol=DEFLATION_TOL) if w.max() > 0 else V
     n_head = int(V.shape[1])
+    loads = ports.C.toarray().T if side == "output" else ports.B.toarray()
+    if phi.shape[1] and rigid == "exclude":  # the body holds the flexible part: its loads' elastic part
+        loads = elastic_loads(model, phi, loads)
     while points and len(chosen) < max_points:
         p = points.pop(0)
         blocks, _ = blocks_at_points(model, ports, [p], int(moments), side=side, solver=solver,
@@ -138,16 +174,19 @@ def adaptive(model, ports, order, *, band=None, estimate_tol: float | None = Non
         chosen.append(p)
         if V.shape[1] >= limit:
             break
-        Hk = frf_reduced(project(model, Basis(V, "adaptive"), ports), cand)
+        body = project(model, Basis(V, "adaptive"), ports)
+        Hk = frf_reduced(body, cand)
         if H_prev is not None:
-            est = rel_error(Hk, H_prev)
             estimates.append(_band_estimate(cand, Hk, H_prev))
             log.debug("adaptive: %d points, order %d, estimated band error %.2e", len(chosen), V.shape[1],
                       estimates[-1])
             if estimate_tol is not None and estimates[-1] < estimate_tol:
                 break
-            if not points:
-                points.append(1j * cand[int(np.argmax(est))])
+            if not points:  # where the body's states leave the largest residual of the full equations
+                res = _residuals(model, V, body, loads, cand)
+                taken = np.array([abs(complex(q).imag) for q in chosen])
+                res[np.min(np.abs(cand[:, None] - taken[None, :]), axis=1) <= 1e-9 * cand] = -1.0  # chosen
+                points.append(1j * cand[int(np.argmax(res))])
         H_prev = Hk
     V = V[:, :limit]
     n_rb = int(phi.shape[1]) if rigid == "exclude" else 0
