@@ -173,3 +173,13 @@ def test_stress_modes_of_a_mm_model_are_in_pa(capsys, tmp_path):
     peak = np.abs(fields[0]).max()
     assert 100 < peak < 1e5  # Pa per N (669 here): not MPa per N, which would be 1e-6 of it
     assert np.abs(fields[1] - fields[0]).max() <= 1e-6 * peak
+    # the MATLAB file in mm-t-s states stress in MPa: its stress modes are MPa per reduced coordinate (they stayed
+    # in Pa, a factor 1e6 off, while the rest of the file was converted)
+    import scipy.io
+
+    assert run(capsys, "export", tmp_path / "mm.h5", "-o", tmp_path / "si.mat")[0] == 0
+    assert run(capsys, "export", tmp_path / "mm.h5", "--export-units", "mm-t-s", "-o", tmp_path / "mm.mat")[0] == 0
+    a, b = scipy.io.loadmat(tmp_path / "si.mat"), scipy.io.loadmat(tmp_path / "mm.mat")
+    assert "stress MPa" in str(b["units"][0])
+    assert np.allclose(b["stress_modes"], a["stress_modes"] * 1e-6, rtol=1e-12, atol=0)
+    assert np.allclose(b["Kr"], a["Kr"] * 1e3, rtol=1e-12)  # the coordinates keep their scale: N mm per unit

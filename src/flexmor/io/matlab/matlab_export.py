@@ -140,6 +140,8 @@ def _in_units(out: dict, body, system) -> dict:
             raise OptionError("the body has no equation map, so which rows of its basis are rotations is not "
                               "known: the .mat file of this body is written in SI only", params=("units",))
         out["V"] = np.asarray(out["V"]) / dof_lengths(out["dofs"].astype(np.int64), system)[:, None]
+    if np.size(out["stress_modes"]):  # stress per reduced coordinate (the coordinates keep their scale, as V shows)
+        out["stress_modes"] = np.asarray(out["stress_modes"]) / system.stress
     if isinstance(out["inv"], dict):
         dims = MAT_DIMENSIONS["inv"]
         out["inv"] = {k: system.from_si(v, *dims[k]) if k in dims else v for k, v in out["inv"].items()}
