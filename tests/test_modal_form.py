@@ -161,3 +161,17 @@ def test_sid_export_of_a_free_body_in_modal_form(capsys, tmp_path):
     assert sid.nq == rec["modal_form"]["order"] < 12
     np.testing.assert_allclose(sid.frequencies_hz(), rec["modal_form"]["frequencies_hz"], rtol=1e-6)
     assert sid.mass == pytest.approx(78.5, rel=1e-10)
+
+
+def test_trim_of_an_undamped_body_without_the_full_model(clamped):
+    """An undamped body trimmed against itself: its |H|^2 has poles, so its reference grid is not refined (it
+    was, towards a pole, until a point fell on one: numpy's 'Singular matrix' from export --modal-form)."""
+    from flexmor.ports import make_ports
+    from flexmor.reduction import reduce
+
+    body = reduce(clamped, "krylov", 12, make_ports(clamped, ["TIP:y"]))
+    trimmed, rec = trim(body, band=(1.0, 1000.0))
+    assert rec["reference"] == REFERENCE_BODY and rec["order"] == 12 and rec["band_error"] < 1e-12
+    np.testing.assert_allclose(trimmed.frequencies_hz(), body.frequencies_hz(), rtol=1e-9)
+    trimmed, rec = trim(body, band=(1.0, 1000.0), max_frequency=600.0)
+    assert rec["order"] == int(np.sum(body.frequencies_hz() <= 600.0)) < 12

@@ -32,7 +32,10 @@ class _BodyReference:
             lam = np.diag(body.K)
             zeta = np.diag(body.D) / (2 * np.sqrt(np.clip(lam, 1e-300, None)))
         self.band = tuple(float(b) for b in band)
-        self.freqs, self.H, _ = adaptive_grid(body.frf, *self.band, resonances=f, zeta=zeta)
+        # an undamped body's |H|^2 has poles: the grid stays the initial one (points beside its resonances), as the
+        # full model's does; refining it bisected towards a pole until a point fell on it (singular)
+        refine = zeta is not None and bool(np.all(zeta > 0))
+        self.freqs, self.H, _ = adaptive_grid(body.frf, *self.band, resonances=f, zeta=zeta, refine=refine)
 
     def measures(self, body) -> dict:
         return error_measures(self.freqs, self.H, body.frf(self.freqs))
