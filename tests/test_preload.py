@@ -187,3 +187,21 @@ def test_with_preload_records_and_refuses_a_second_time(clamped):
     assert abs(pre.K - preload_stiffness(clamped, "TIP:x=5e5").K).max() == 0
     with pytest.raises(ModelError, match="preloaded already"):
         with_preload(pre, "TIP:x=1")
+
+
+@pytest.mark.parametrize("argv", [("info", "--modes", "3"),
+                                  ("reduce", "--method", "modal", "--order", "4", "--input", "TIP:y", "--no-error"),
+                                  ("reduce", "--method", "krylov", "--order", "8", "--input", "TIP:y", "--no-error")])
+def test_a_preload_beyond_buckling_is_refused(capsys, tmp_path, argv):
+    """A compression above the buckling load makes K + K_G indefinite: its negative eigenvalues were shown as
+    '2 rigid-body modes', modal dropped the unstable modes silently (band_error 1.00 written), krylov failed with
+    PARDISO's 'zero pivot'. Below the load the body reduces (and softens)."""
+    from helpers import CLAMPED
+
+    extra = ["-o", str(tmp_path / "b.h5")] if argv[0] == "reduce" else []
+    code, out, err = run(capsys, argv[0], CLAMPED, "--preload", "TIP:x=-1e7", *argv[1:], *extra)
+    assert code == 2 and ("negative eigenvalue" in err or "is not positive definite" in err), err
+    assert "the --preload (TIP:x=-1e7) exceeds the body's buckling load: K + K_G is indefinite" in err
+    assert "rigid" not in err and not (tmp_path / "b.h5").exists()
+    code, out, err = run(capsys, argv[0], CLAMPED, "--preload", "TIP:x=-3e6", *argv[1:], *extra)
+    assert code == 0, err

@@ -16,7 +16,7 @@ import warnings
 
 import numpy as np
 
-from .errors import FlexmorWarning, ModelError
+from .errors import FlexmorWarning, ModelError, SolverError
 from .linalg.context import SolverContext, as_solver
 
 __all__ = ["MAX_RIGID_BODY_MODES", "COUPLING_MODES", "check_rigid_body_modes", "first_elastic_hz",
@@ -56,9 +56,15 @@ def check_rigid_body_modes(model, *, solver: SolverContext | None = None, sigma:
     ModelError
         More than six zero-energy modes (a mechanism).
     """
-    from .linalg.eigen import is_rigid
+    from .linalg.eigen import is_rigid, rigid_body_threshold
 
-    lam = _lowest_eigenvalues(model, as_solver(solver), sigma=sigma, keep=keep)
+    try:
+        lam = _lowest_eigenvalues(model, as_solver(solver), sigma=sigma, keep=keep)
+    except SolverError as exc:  # K - sigma M, sigma < 0, is positive definite for a stable body and mass
+        raise unstable_error(model, None, exc) from None
+    unstable = lam[lam < -rigid_body_threshold(model.K, model.M)]
+    if unstable.size:
+        raise unstable_error(model, unstable)
     n_zero = int(np.sum(is_rigid(lam, model.K, model.M)))
     if n_zero > MAX_RIGID_BODY_MODES:
         raise mechanism_error(model, n_zero)
@@ -66,6 +72,25 @@ def check_rigid_body_modes(model, *, solver: SolverContext | None = None, sigma:
         warnings.warn(f"{model.source or model.name}: {n_zero} rigid-body modes (free or partly supported body); "
                       "methods exclude them or use shifted expansion points", FlexmorWarning, stacklevel=2)
     return n_zero
+
+
+def unstable_error(model, lam, failed=None) -> ModelError:
+    """The error for a stiffness with negative eigenvalues ``lam`` (rad²/s², modes that grow instead of
+    oscillating), or whose shifted matrix ``K - sigma M`` (``sigma < 0``) ``failed`` to factorize as positive
+    definite (then eigenvalues below ``sigma``, or an indefinite mass). Under a preload (``model.preload``):
+    the preload beyond the buckling load."""
+    where = model.source or model.name
+    what = (f"the preload ({', '.join(map(str, model.preload.get('specs', [])))}) exceeds the body's buckling load: "
+            "K + K_G is indefinite; lower the preload below the buckling load" if model.preload is not None else
+            "the stiffness matrix is indefinite (a damaged file, a negative material constant, or a geometric "
+            "stiffness in K)")
+    if lam is None:
+        return ModelError(f"{where}: K - sigma M (sigma < 0) is not positive definite ({failed}): the body has modes "
+                          f"with negative eigenvalues, unstable ones, or its mass matrix is indefinite; {what}",
+                          params=("preload",) if model.preload is not None else ())
+    return ModelError(f"{where}: {lam.size} mode(s) with a negative eigenvalue (the lowest {float(np.min(lam)):.4g} "
+                      f"rad^2/s^2: unstable, not oscillating): {what}",
+                      params=("preload",) if model.preload is not None else ())
 
 
 #: Relative residual of the lowest eigenpairs that the checks compute (only their eigenvalues are kept): a
