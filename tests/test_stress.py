@@ -413,3 +413,28 @@ def test_sid_frame_nodes_carry_their_modal_stresses(tmp_path, capsys):
              "--export-units", "mm-t-s", "-o", tmp_path / "mm.SID_FEM")
     mm = next(n for n in read_sid(tmp_path / "mm.SID_FEM").nodes if n.id == node)
     np.testing.assert_allclose(mm.sigma.m1, 1e-6 * nd.sigma.m1, rtol=1e-14)  # Pa -> MPa (N/mm^2)
+
+
+def test_remove_rigid_keeps_the_stress_modes(free):
+    """A free body with rigid motion in its basis and stress modes, exported with remove_rigid: its new basis
+    (I - Φ Φᵀ M) V T carries the stress modes S T (rigid motion has none); they were dropped (Exudyn's
+    postProcessingModes {}, the SID without sigma). They equal the stresses recovered from the new basis."""
+    import warnings
+
+    from flexmor.errors import FlexmorWarning
+    from flexmor.ports import make_ports
+    from flexmor.reduction import reduce
+    from flexmor.rigid import elastic_body
+    from flexmor.stress import body_stresses
+
+    red = reduce(free, "krylov", 16, make_ports(free, ["TIP:y"]), rigid="include")
+    out = body_stresses(free, red, nodes="all")
+    red.stress_nodes, red.stress_modes = out.node_ids, out.values
+    assert red.info["n_rigid_included"] > 0
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", FlexmorWarning)
+        el = elastic_body(free, red, remove_rigid=True)
+    assert el.order < red.order and el.stress_modes.shape == (el.order, red.stress_nodes.size, 6)
+    direct = nodal_stresses(free, el.V, nodes=red.stress_nodes).values
+    assert direct.shape == el.stress_modes.shape
+    assert np.abs(el.stress_modes - direct).max() <= 1e-8 * np.abs(direct).max()

@@ -286,6 +286,10 @@ def elastic_body(model, body, *, remove_rigid: bool = False):
     elastic.origin = dict(body.origin)  # with the couplings and selections the body was made with
     elastic.couplings, elastic.selections = list(body.couplings), list(body.selections)
     elastic.order_note = body.order_note
+    if body.stress_modes is not None:  # linear in the basis: V_e = (I - Φ Φᵀ M) V T, and rigid motion has no stress
+        T = np.linalg.lstsq(m_project(model, phi, np.asarray(body.V, float)), elastic.V, rcond=None)[0]
+        elastic.stress_modes = np.einsum("ij,ikl->jkl", T, body.stress_modes)
+        elastic.stress_nodes = body.stress_nodes
     warnings.warn(f"{body.method} body: its basis holds rigid-body motion, which the floating frame carries; "
                   f"exported with its basis {change}", FlexmorWarning, stacklevel=2)
     return elastic
