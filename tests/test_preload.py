@@ -205,3 +205,23 @@ def test_a_preload_beyond_buckling_is_refused(capsys, tmp_path, argv):
     assert "rigid" not in err and not (tmp_path / "b.h5").exists()
     code, out, err = run(capsys, argv[0], CLAMPED, "--preload", "TIP:x=-3e6", *argv[1:], *extra)
     assert code == 0, err
+
+
+def test_a_preloaded_body_says_so(capsys, tmp_path):
+    """info of the body and the report name its preload; a model with another preload (or none) is refused
+    naming the preloads (it said only 'a different stiffness matrix K (the body's model: beam8_clamped_mat.sti;
+    this model: beam8_clamped_mat.sti)')."""
+    from helpers import CLAMPED
+
+    body = tmp_path / "pre.h5"
+    code, _, err = run(capsys, "reduce", CLAMPED, "--preload", "TIP:x=2e6", "--method", "krylov", "--order", "8",
+                       "--input", "TIP:y", "-o", body)
+    assert code == 0, err
+    code, out, _ = run(capsys, "info", body)
+    assert code == 0 and "preload     TIP:x=2e6: its K holds their geometric stiffness" in out
+    code, _, err = run(capsys, "compare", CLAMPED, body, "--preload", "TIP:x=1e6")
+    assert code == 2 and "the body was reduced with the --preload TIP:x=2e6 (its K holds the geometric " \
+                         "stiffness), this model has the --preload TIP:x=1e6" in err
+    code, _, err = run(capsys, "report", CLAMPED, body, "-o", tmp_path / "r.html")
+    assert code == 0, err
+    assert "Preload TIP:x=2e6: K holds its geometric stiffness." in (tmp_path / "r.html").read_text()

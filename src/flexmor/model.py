@@ -376,6 +376,7 @@ class FEModel:
             "inputs": list(self.input_names),
             "outputs": list(self.output_names),
             "units": self.units,
+            "preload": None if self.preload is None else dict(self.preload),
         }
 
     def mass_properties(self) -> dict:

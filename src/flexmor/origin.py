@@ -148,8 +148,26 @@ def check_origin(body, model, path=None, *, couplings=(), label: str | None = No
         f" with {', '.join(couplings)}" if couplings else "")
     came = recorded.get("source") or recorded.get("name") or "unknown"
     read_in = _units_advice(body, model)
+    preload = _preload_advice(body, model)
     raise ModelError(f"{name} was reduced from a model with {'; '.join(diffs)} (the body's model: {came}; "
-                     f"this model: {where}); {read_in or advice}", params=("units",) if read_in else ())
+                     f"this model: {where}); {read_in or preload or advice}",
+                     params=("units",) if read_in else ("preload",) if preload else ())
+
+
+def _preload_advice(body, model) -> str:
+    """What to do when ``body`` was reduced with another preload than ``model`` has (or "")."""
+    if isinstance(model, dict):
+        return ""
+
+    def specs(record):
+        return ", ".join(map(str, (record or {}).get("specs", []))) or None
+
+    theirs, ours = specs((getattr(body, "info", None) or {}).get("preload")), specs(getattr(model, "preload", None))
+    if theirs == ours:
+        return ""
+    return (f"the body was reduced with {'the preload ' + theirs if theirs else 'no preload'} (its K holds the "
+            f"geometric stiffness), this model has {'the preload ' + ours if ours else 'none'}: give the body's "
+            "preload (or none) with the model")
 
 
 def _units_advice(body, model) -> str:

@@ -53,7 +53,7 @@ def info_body(args, emit_json) -> int:
     red = read_body(args.model, format=args.format)
     se = red.info.get("format") == _NASTRAN_SE
     out = dict(red.summary(), file=str(args.model), coupling_frequencies=red.info.get("coupling_frequencies"),
-               made_by="nastran" if se else "flexmor", coordinates=_coordinates(red))
+               made_by="nastran" if se else "flexmor", coordinates=_coordinates(red), preload=red.info.get("preload"))
     if se:
         out["nastran"] = {k: red.info.get(k) for k in ("source", "matrices", "n_boundary", "n_modal",
                                                          "fixed_interface_hz", "kbq_rel")}
@@ -81,6 +81,10 @@ def info_body(args, emit_json) -> int:
     for line in coupling_lines(red.info.get("coupling_frequencies")):
         _row("", line)
     _row("damping", describe_damping(damping_from_dict(out["damping"])))
+    preload = red.info.get("preload")
+    if isinstance(preload, dict) and preload.get("specs"):
+        _row("preload", f"{', '.join(map(str, preload['specs']))}: its K holds their geometric stiffness (judge, "
+                        "compare and export it with the same --preload)")
     _row("units", _units_line(out["units"], "the body is in SI; export --export-units writes other systems"))
     fr = out["frequencies_hz"]
     if fr is not None:

@@ -86,6 +86,8 @@ def render_html(rep: Report) -> str:
            (f"<p>Model <b>{e(str(m['name']))}</b> ({e(str(m.get('source', '')))}): {m['n_dof']} DOF, "
            f"{m['n_nodes']} nodes, damping {e(describe_damping(damping_from_dict(m['damping'])))}, "
            f"units {e(_units_words(m.get('units')))}. "
+           + (f"Preload {e(', '.join(map(str, m['preload'].get('specs', []))))}: K holds its geometric stiffness. "
+              if isinstance(m.get("preload"), dict) else "") +
            f"Band {rep.band[0]:g}-{rep.band[1]:g} Hz. Bodies judged against the <b>{e(rep.reference)}</b>. "
            f"flexmor {e(__version__)}, {datetime.datetime.now().isoformat(timespec='seconds')}.</p>"),
            '<h2 id="summary">Summary</h2>',
