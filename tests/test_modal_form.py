@@ -178,3 +178,19 @@ def test_trim_of_an_undamped_body_without_the_full_model():
     np.testing.assert_allclose(trimmed.frequencies_hz(), body.frequencies_hz(), rtol=1e-9)
     trimmed, rec = trim(body, band=(1.0, 1000.0), max_frequency=600.0)
     assert rec["order"] == int(np.sum(body.frequencies_hz() <= 600.0)) < 12
+
+
+def test_a_trimmed_body_says_what_it_is(capsys, tmp_path):
+    """The body export --modal-form --max-frequency writes carries its own order note and error record (info said
+    'order 7 (20 requested)' and 'errors not evaluated' although export had judged it)."""
+    run_json(capsys, "reduce", CLAMPED, "--method", "krylov", "--order", "20", "--input", "TIP:y", "--rayleigh",
+             "5:2e-6", "--band", "10:3000", "-o", tmp_path / "k.h5")
+    out = run_json(capsys, "export", tmp_path / "k.h5", "--model", CLAMPED, "--modal-form", "--max-frequency",
+                   "3000", "-o", tmp_path / "m.h5")
+    rec = out["modal_form"]
+    body = flexmor.io.read_body(tmp_path / "m.h5")
+    assert body.order == rec["order"] < 20
+    assert body.order_note == f"modal form: {rec['order']} of the 20 elastic modes of the body reduced (up to " \
+                              f"{rec['max_frequency_hz']:.4g} Hz)"
+    assert body.errors["band_error"] == pytest.approx(rec["band_error"], rel=1e-12)
+    assert body.errors["judged"] == REFERENCE_FULL and body.errors["band_hz"] == [10.0, 3000.0]

@@ -108,6 +108,11 @@ def trim(body, *, band, max_frequency: float | None = None, tol: float | None = 
     err = measures(trimmed)
     record.update(order=trimmed.order, modes_kept=(keep + 1).tolist(), frequencies_hz=f[keep].tolist(),
                   max_frequency_hz=float(f[keep].max()), **err)
+    # the body written says what it is: its order and its error, as judged here (info, compare)
+    trimmed.order_note = (f"modal form: {trimmed.order} of the {modal.order} elastic modes of the body reduced"
+                          + (f" (up to {record['max_frequency_hz']:.4g} Hz)" if trimmed.order < modal.order else ""))
+    trimmed.errors = dict({k: v for k, v in err.items() if k != "notes"}, band_hz=[float(b) for b in band],
+                          judged=reference, notes=list(err.get("notes") or []))
     return trimmed, record
 
 
