@@ -222,6 +222,8 @@ def test_a_preloaded_body_says_so(capsys, tmp_path):
     code, _, err = run(capsys, "compare", CLAMPED, body, "--preload", "TIP:x=1e6")
     assert code == 2 and "the body was reduced with the --preload TIP:x=2e6 (its K holds the geometric " \
                          "stiffness), this model has the --preload TIP:x=1e6" in err
+    code, out, err = run(capsys, "compare", CLAMPED, body)
+    assert code == 0 and "preload TIP:x=2e6: the model stiffened by the preload the bodies record" in out, err
     code, _, err = run(capsys, "report", CLAMPED, body, "-o", tmp_path / "r.html")
     assert code == 0, err
     assert "Preload TIP:x=2e6: K holds its geometric stiffness." in (tmp_path / "r.html").read_text()

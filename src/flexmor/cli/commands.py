@@ -422,6 +422,7 @@ def _model_and_bodies(args):
                 for b in bodies}
     if not getattr(args, "preload", None) and len(preloads) == 1 and () not in preloads:
         args.preload = list(preloads.pop())  # the model stiffened by the preload its bodies record
+        args.preload_from_bodies = True
     model, t_read, band = _read_model(args, damped=False)
     if band is not None:
         bands, sources = [band] * len(bodies), ["--band"] * len(bodies)
@@ -496,6 +497,8 @@ def cmd_compare(args) -> int:
     print(f"reference: the {' / '.join(refs)} with each body's own damping ({'; '.join(damp)})")
     for line in _band_lines(args.reduced, bands, sources):
         print(line)
+    if getattr(args, "preload_from_bodies", False):
+        print(f"preload {', '.join(map(str, args.preload))}: the model stiffened by the preload the bodies record")
     return 0
 
 
