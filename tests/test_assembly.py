@@ -150,3 +150,16 @@ def test_mixed_full_and_reduced_assembly(beam_and_krylov):
         assert asm.sparse
         H.append(asm.frf(f, **io))
     assert np.abs(H[0] - H[1]).max() < 1e-3 * np.abs(H[0]).max()
+
+
+def test_a_floating_frame_body_in_an_assembly_is_warned(free):
+    """The free beam reduced with its rigid motion excluded (the default: the floating frame carries it) cannot
+    move rigidly in an assembly: on soft springs its suspension modes were missing without a word. A body
+    reduced with rigid='include' couples without the warning."""
+    ports = make_ports(free, ["TIP:y", "FIX:y"])
+    with pytest.warns(FlexmorWarning, match=r"excludes the 6 rigid-body modes of its free model .* reduce it with "
+                                            r"rigid='include' to couple it here"):
+        Assembly().add_body("beam", reduce(free, "krylov", 12, ports))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", FlexmorWarning)
+        Assembly().add_body("beam", reduce(free, "krylov", 12, ports, rigid="include"))

@@ -159,7 +159,10 @@ class Assembly:
         Warns
         -----
         FlexmorWarning
-            If ``body`` was reduced by a method whose guarantee does not survive coupling.
+            If ``body`` was reduced by a method whose guarantee does not survive coupling, or is a
+            free body whose basis excludes its rigid-body modes (the floating frame's body: it cannot
+            move rigidly in an assembly; on two soft springs the free CalculiX beam lost its 8.0 and
+            13.8 Hz suspension modes).
         """
         name = str(name)
         if name in self.bodies:
@@ -169,6 +172,13 @@ class Assembly:
             if msg:
                 log.info(msg)
                 warnings.warn(msg, FlexmorWarning, stacklevel=2)
+            n_rb = int((body.info or {}).get("n_rigid_excluded") or 0)
+            if n_rb:  # the floating frame's body: its rigid motion is the frame's, which an assembly does not have
+                warnings.warn(FlexmorWarning(
+                    f"body {name!r} ({body.method}, order {body.order}) excludes the {n_rb} rigid-body modes of its "
+                    "free model (the floating frame carries them): in this assembly it cannot move rigidly, so its "
+                    "suspension modes and low-frequency response are missing; reduce it with rigid='include' to "
+                    "couple it here", params=("rigid",)), stacklevel=2)
             ports = None
         elif not isinstance(body, FEModel):
             raise ModelError(f"body {name!r} must be an FEModel or a ReducedModel, got {type(body).__name__}")
