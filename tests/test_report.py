@@ -170,6 +170,9 @@ def test_cli_report_writes_html_and_json(report, tmp_path, capsys):
         assert got["band_error"] == pytest.approx(want["band_error"], rel=1e-6)
         assert got["time_max_error"] == pytest.approx(want["time_max_error"], rel=1e-9)
     assert out.read_text(encoding="utf-8").count("data:image/png;base64,") == 6  # hankel_sv kept in the .h5
+    # a dt coarser than 1/(20 FMAX) is said, with the frequency the time responses resolve
+    assert "time responses with dt = 5e-05 s (as given), coarser than 1/(20 FMAX) = 1.67e-05 s: they resolve up " \
+           "to about 1000 Hz of the 10-3000 Hz band" in out.read_text(encoding="utf-8")
 
 
 def test_report_on_a_model_without_node_coordinates():

@@ -193,3 +193,25 @@ def test_mkl_threads_sets_and_restores_the_calling_threads_count(clamped):
     with mkl_threads(1):
         assert set_local(1) == 1  # set_local returns the count it replaces
     assert set_local(before) == 0
+
+
+@pytest.mark.parametrize("kwargs, words", [
+    (dict(dt=1e-3, t_end=3e-4), "t_end 0.0003 s is shorter than one step dt 0.001 s"),  # it ran one step to 1e-3
+    (dict(dt="x", t_end=1.0), "dt and t_end are times in s (numbers), got dt='x'"),
+    (dict(dt=1e-4, t_end=1e-3, q0=np.ones(5)), "q0 must have 270 rows (one per equation of the system), got shape"),
+])
+def test_time_arguments_are_checked(clamped, kwargs, words):
+    with pytest.raises(OptionError) as exc:
+        simulate(clamped, step(), ports=make_ports(clamped, ["TIP:y"]), **kwargs)
+    assert words in str(exc.value)
+
+
+def test_a_run_whose_records_do_not_fit_is_refused_before_it_starts(clamped, monkeypatch):
+    """dt = 1e-12 s over 0.01 s: 1e10 steps whose records need 229 GB (numpy's MemoryError, and the CLI said
+    'out of memory ... try --factor-memory mixed')."""
+    import flexmor.linalg.resources as resources
+
+    monkeypatch.setattr(resources, "memory_available", lambda: 16 * 2.0 ** 30)
+    with pytest.raises(OptionError, match=r"t_end / dt = 0.01 s / 1e-12 s = 10,000,000,000 steps: the recorded "
+                                          r"responses need \d+ MB, more than half the memory available"):
+        simulate(clamped, step(), ports=make_ports(clamped, ["TIP:y"]), dt=1e-12, t_end=0.01)

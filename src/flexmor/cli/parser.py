@@ -306,7 +306,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--force", action="store_true", help="overwrite an existing output file")
     p.add_argument("--signal", choices=["step", "impulse", "sweep"], default="step",
                    help="input of the time-domain comparison, applied to each input in turn (default step)")
-    p.add_argument("--dt", type=float, help="time step in s (default 1/(20 FMAX))")
+    p.add_argument("--dt", type=float, help="time step in s (default 1/(20 FMAX), or t_end/5000 where that is "
+                   "longer: the report then says up to which frequency the time responses resolve)")
     p.add_argument("--t-end", type=float, help="end time in s (default 3 periods of the lowest mode)")
     p.add_argument("--scheme", choices=["newmark", "generalized-alpha"], default="newmark",
                    help="time integrator (default newmark, average acceleration)")

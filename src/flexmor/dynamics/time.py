@@ -314,6 +314,19 @@ def _march_dense(Y, steps, mats, S, U, each, state, p, h):
         Y[:, k] = (C3 @ x).reshape(shape)
 
 
+def _check_records(n_steps: int, p: int, m: int, dt: float, t_end: float) -> None:
+    """Refuse a run whose recorded responses (three quantities, ``n_steps + 1`` times, ``p`` outputs, ``m``
+    cases at most) would not fit into the memory available (a dt of 1e-12 s: 74.5 GiB, then numpy's MemoryError)."""
+    from ..linalg.resources import describe_memory, megabytes, memory_available
+
+    need = 3.0 * 8.0 * (n_steps + 1) * max(p, 1) * max(m, 1)
+    room = memory_available()
+    if room is not None and need > 0.5 * room:
+        raise OptionError(f"t_end / dt = {t_end:g} s / {dt:g} s = {n_steps:,} steps: the recorded responses need "
+                          f"{megabytes(need)}, more than half the memory available ({describe_memory()}); give a "
+                          "larger dt or a shorter t_end", params=("dt", "t_end"))
+
+
 def simulate(system, u, *, dt: float, t_end: float, ports=None, scheme: str = "newmark", rho_inf: float = 0.9,
              q0=None, v0=None, solver: SolverContext | None = None, progress: Callable | None = None) -> TimeResponse:
     """Integrate ``M q'' + D q' + K q = B u(t)`` from ``t = 0`` to ``t_end`` and record ``y = C q``.
@@ -355,14 +368,25 @@ def simulate(system, u, *, dt: float, t_end: float, ports=None, scheme: str = "n
     """
     solver = as_solver(solver)
     t_start = time.perf_counter()
-    dt, t_end = float(dt), float(t_end)
+    try:
+        dt, t_end = float(dt), float(t_end)
+    except (TypeError, ValueError):
+        raise OptionError(f"dt and t_end are times in s (numbers), got dt={dt!r}, t_end={t_end!r}",
+                          params=("dt", "t_end")) from None
     if not (np.isfinite(dt) and np.isfinite(t_end)) or dt <= 0 or t_end <= 0:
-        raise OptionError(f"need dt > 0 and t_end > 0, got dt={dt}, t_end={t_end}")
+        raise OptionError(f"need dt > 0 and t_end > 0, got dt={dt}, t_end={t_end}", params=("dt", "t_end"))
+    if t_end < dt * (1 - 1e-9):
+        raise OptionError(f"t_end {t_end:g} s is shorter than one step dt {dt:g} s", params=("dt", "t_end"))
     n_steps = max(1, round(t_end / dt))
     p = scheme_parameters(scheme, rho_inf)
     am, af, beta, gamma = p["alpha_m"], p["alpha_f"], p["beta"], p["gamma"]
     M, D, K, B, C, sparse = _matrices(system, *((ports.B, ports.C) if ports is not None else (None, None)))
     n, m = B.shape
+    _check_records(n_steps, C.shape[0], m, dt, t_end)
+    for name, x0 in (("q0", q0), ("v0", v0)):
+        if x0 is not None and (np.size(x0) == 0 or np.size(x0) % n):
+            raise OptionError(f"{name} must have {n} rows (one per equation of the system), got shape "
+                              f"{np.shape(x0)}", params=(name,))
     t = dt * np.arange(n_steps + 1)
     U, each = _signal(u, t, m)
     F = (lambda k: B * U[k]) if each else (lambda k: (B @ U[k]).reshape(n, 1))

@@ -283,7 +283,14 @@ def _time_section(rep: Report, model, ports, bodies, labels, ref_of, *, f_lo: fl
 
     band = rep.band
     t_end = float(t_end) if t_end else 3.0 / f_lo
-    dt = float(dt) if dt else max(1.0 / (20.0 * band[1]), t_end / max_steps)
+    fine = 1.0 / (20.0 * band[1])
+    given = bool(dt)
+    dt = float(dt) if given else max(fine, t_end / max_steps)
+    if dt > fine * (1 + 1e-9):  # the responses then resolve only the lower part of the band
+        why = "as given" if given else f"t_end / {max_steps} steps"
+        rep.notes.append(f"time responses with dt = {dt:.3g} s ({why}), coarser than 1/(20 FMAX) = {fine:.3g} s: "
+                         f"they resolve up to about {1 / (20 * dt):.4g} Hz of the {band[0]:g}-{band[1]:g} Hz band "
+                         "(give --dt, or a shorter --t-end)")
     u, desc = _signal(signal, dt, t_end, band)
     elastic = [bool(red.info.get("n_rigid_excluded")) for red in bodies]
     # one run for both responses (a single-channel signal is applied to each input in turn)
