@@ -339,3 +339,16 @@ def test_craig_bampton_tol_on_a_free_body_starts_above_the_interface(capsys, tmp
     assert all(v > 1e-3 for k, v in tried.items() if k < out["order"])
     f = out["info"]["fixed_interface_hz"]  # one order less was tried, or would cut a pair
     assert out["order"] - 1 in tried or abs(f[-1] - f[-2]) <= 1e-6 * f[-1]
+
+
+def test_every_method_takes_a_coupling_interface(capsys, tmp_path):
+    """--interface SET@rbe2 is a joint of the model (coupled, judged held there, its inertia loads in the basis),
+    as README says and System(interfaces=...) does; krylov refused it ('does not take --interface'). A plain node
+    set stays a Craig-Bampton option."""
+    out = run_json(capsys, "reduce", FREE, "--method", "krylov", "--order", "12", "--interface", "FIX@rbe2",
+                   "--input", "TIP:y", "--rayleigh", "5:2e-6", "--band", "10:3000", "-o", tmp_path / "k.h5")
+    assert out["mounted"] is not None and out["info"]["masters"][0]["name"] == "FIX@RBE2"
+    assert out["info"]["n_inertia_loads"] == 6
+    code, _, err = run(capsys, "reduce", FREE, "--method", "krylov", "--order", "12", "--interface", "FIX",
+                       "--input", "TIP:y", "-o", tmp_path / "x.h5")
+    assert code == 2 and "does not take --interface (as a node set; a coupling --interface SET@rbe2" in err

@@ -209,7 +209,9 @@ def test_cli_refuses_a_flag_the_method_does_not_take(capsys, tmp_path):
     assert err == "flexmor: error: method 'modal' does not take --points, --intermediate; it takes: --rigid, --sigma"
     err = _err(capsys, "reduce", CLAMPED, "--method", "krylov", "--order", "4", "--input", "TIP:y",
                "--interface", "TIP", "-o", str(tmp_path / "b.h5"))
-    assert "'krylov' does not take --interface; it takes: --points, --moments, --side, --band, --rigid" in err
+    assert ("'krylov' does not take --interface (as a node set; a coupling --interface SET@rbe2 or SET@rbe3 is a "
+            "joint of the model, which every method takes); it takes: --points, --moments, --side, --band, --rigid"
+            in err)
 
 
 def test_cli_adaptive_estimate_tol_is_reachable_and_tol_keeps_its_meaning(capsys, tmp_path):

@@ -41,8 +41,12 @@ def method_options(args, method: str) -> dict:
     given = {n: getattr(args, n) for n in all_options() if getattr(args, n, None) not in (None, [])}
     given.pop("band", None)  # the workflow passes the band to the methods that take one
     taken = list(option_fields(METHODS[method].options_class))
+    if "interface" not in taken and all("@" in str(s) for s in given.get("interface", [None])):
+        given.pop("interface")  # couplings (joints) of the model, applied as System(interfaces=...) applies them
     bad = [n for n in given if n not in taken]
     if bad:
-        raise OptionError(f"method {method!r} does not take {', '.join(flag(n) for n in bad)}; it takes: "
+        joint = (" (as a node set; a coupling --interface SET@rbe2 or SET@rbe3 is a joint of the model, which "
+                 "every method takes)" if "interface" in bad else "")
+        raise OptionError(f"method {method!r} does not take {', '.join(flag(n) for n in bad)}{joint}; it takes: "
                           + (", ".join(flag(n) for n in taken) or "no options"))
     return given
