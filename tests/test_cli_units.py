@@ -123,6 +123,8 @@ def test_export_units(capsys, bodies):
     from flexmor.io.sid import read_sid
 
     a, b = read_sid(tmp / "si.sid"), read_sid(tmp / "mm.sid")
+    code, out, _ = run(capsys, "info", tmp / "mm.sid")  # read back as a model: the header's units are said
+    assert code == 0 and "units     as in the file, whose header states mm-t-s (read as given)" in out
     assert np.allclose(b.objects["J"].m0, a.objects["J"].m0 / (1e3 * 1e-6), rtol=1e-12)  # t mm^2
     assert np.allclose(b.nodes[0].origin.m0, a.nodes[0].origin.m0 * 1e3, rtol=1e-12)  # mm
     lam = np.linalg.eigvals(np.linalg.solve(b.objects["Me"].m0, b.objects["Ke"].m0))

@@ -182,6 +182,9 @@ class FEModel:
     preload : dict, optional
         The record of the preloads whose geometric stiffness ``K`` holds
         (:func:`flexmor.preload.with_preload`: their SPECs ...); None for a model as read.
+    stated_units : str, optional
+        The unit system the file states for numbers that were read as given (not converted to SI:
+        ``units`` is None), e.g. a SID file's header; None where the file states none.
 
     Raises
     ------
@@ -210,6 +213,7 @@ class FEModel:
     units: str | None = None
     elements: Elements | None = None
     preload: dict | None = None
+    stated_units: str | None = None
 
     def __post_init__(self):
         if not isinstance(self.damping, Damping):
@@ -377,6 +381,7 @@ class FEModel:
             "outputs": list(self.output_names),
             "units": self.units,
             "preload": None if self.preload is None else dict(self.preload),
+            "stated_units": self.stated_units,
         }
 
     def mass_properties(self) -> dict:

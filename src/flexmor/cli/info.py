@@ -273,10 +273,13 @@ def info_formats(args, emit_json) -> int:
     return 0
 
 
-def _units_line(units, si_note: str) -> str:
-    """The ``units`` row: the file's system (and ``si_note``), or the model's numbers as given."""
+def _units_line(units, si_note: str, stated: str | None = None) -> str:
+    """The ``units`` row: the file's system (and ``si_note``), or the model's numbers as given (in the
+    system the file ``stated``, where it names one)."""
     from ..units import describe_units
 
+    if units is None and stated:
+        return f"as in the file, whose header states {stated} (read as given)"
     if units is None:
         return "as given (the file states no unit system; give --units SI, mm-t-s, ... to convert to SI)"
     return f"{describe_units(units)}; {si_note}"
@@ -285,7 +288,7 @@ def _units_line(units, si_note: str) -> str:
 def print_mass_properties(out: dict) -> None:
     """The units, bounding box, mass and centre of mass lines of ``flexmor info MODEL``."""
     known_units = out.get("units") is not None
-    _row("units", _units_line(out.get("units"), "the numbers below are SI"), 10)
+    _row("units", _units_line(out.get("units"), "the numbers below are SI", out.get("stated_units")), 10)
     box = out.get("bounding_box")
     if box:
         _row("bbox", "x {:.6g} .. {:.6g}, y {:.6g} .. {:.6g}, z {:.6g} .. {:.6g} ({})".format(

@@ -38,6 +38,7 @@ R. Schwertassek, O. Wallrapp, *Dynamik flexibler Mehrkörpersysteme*, Vieweg, 19
 from __future__ import annotations
 
 import logging
+import re
 from pathlib import Path
 
 import numpy as np
@@ -306,9 +307,11 @@ def _read_as_model(path, **options):
 
     sid = read_sid(path, **options)
     De = sid.objects["De"].m0
+    stated = re.search(r"\bunits ([A-Za-z0-9-]+) \(", sid.header or "")  # flexmor's own header names them
     return FEModel(M=sid.objects["Me"].m0, K=sid.objects["Ke"].m0, D=De if np.any(De) else None,
                    name=stem(path), source=str(path),
-                   damping={"type": "given"} if np.any(De) else {"type": "none"})
+                   damping={"type": "given"} if np.any(De) else {"type": "none"},
+                   stated_units=stated.group(1) if stated else None)
 
 
 MODEL_FORMATS.register("sid", [".sid_fem", ".sid"], _read_as_model, gzip=True,
