@@ -163,3 +163,16 @@ def test_a_floating_frame_body_in_an_assembly_is_warned(free):
     with warnings.catch_warnings():
         warnings.simplefilter("error", FlexmorWarning)
         Assembly().add_body("beam", reduce(free, "krylov", 12, ports, rigid="include"))
+
+
+def test_an_element_between_a_point_and_itself_is_refused(beam_and_krylov):
+    """A spring whose two ends are one point was accepted and did nothing."""
+    from flexmor.errors import OptionError
+
+    model, ports, red = beam_and_krylov
+    asm = Assembly()
+    asm.add_body("beam", red)
+    spec = red.input_names[0]
+    with pytest.raises(OptionError, match="and the same point .* does nothing"):
+        asm.spring(("beam", spec), ("beam", spec), 1e5)
+    asm.spring(("beam", spec), None, 1e5)  # to the ground: fine

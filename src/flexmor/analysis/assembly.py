@@ -205,9 +205,10 @@ class Assembly:
         a, b = self._point(a), self._point(b)
         if a is None and b is None:
             raise OptionError(f"a {kind} needs at least one point on a body")
-        for p in (a, b):  # fail early on undeclared ports
-            if p is not None:
-                self.bodies[p[0]].vector(p[1])
+        g = [None if p is None else self.bodies[p[0]].vector(p[1]) for p in (a, b)]  # undeclared ports fail here
+        if a is not None and b is not None and a[0] == b[0] and np.array_equal(g[0], g[1]):
+            raise OptionError(f"a {kind} between {a[0]}:{a[1]} and the same point {b[0]}:{b[1]} does nothing "
+                              "(its ends move together); give two points, or None for the ground")
         self.elements.append((kind, value, a, b))
 
     def spring(self, a, b, k: float) -> None:
