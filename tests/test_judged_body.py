@@ -293,3 +293,27 @@ def test_the_whole_frf_of_a_free_body_is_exact_down_to_zero(free, damping):
                                                                                       axis=1)
         assert rel.max() < 1e-10, rel
     assert np.all(np.isinf(frf_full(model, ports, [0.0])))
+
+
+def test_a_mode_the_ports_do_not_see_is_noted(tmp_path):
+    """krylov 8 of a clamped C3D8 bar (square section), input TIP:y only: the y-Krylov vectors carry the section's
+    Poisson deformation in z, and the basis approximates a z-bending mode poorly, in the band, far from every full
+    mode. The ports do not see it (band_error at round-off), so no spurious resonance: a note says so (an MBS
+    body loaded in z would carry it)."""
+    from ccx_models import CCX, deck, run
+
+    if CCX is None:
+        pytest.skip("ccx (CalculiX) is not installed")
+    from flexmor.io import read
+
+    text, _ = deck("C3D8", (10, 2, 2), clamped=True, modes=10)
+    model = read(run(tmp_path, "bar", text))
+    ports = make_ports(model, ["TIP:y"])
+    full = FullResponse(model, ports, (1.0, 1000.0), cache=False)
+    body = reduce(model, "krylov", 8, ports)
+    err = full.evaluate(body)
+    assert err.band_error < 1e-12 and not err.spurious_resonances_hz
+    note = next(n for n in err.notes if n.startswith("the body has a mode at "))
+    f = float(note.split(" at ")[1].split(" Hz")[0])
+    assert 1.0 < f < 1000.0 and np.min(np.abs(full.resonances - f) / full.resonances) > 0.03
+    assert "its ports hardly see it, loads elsewhere (the frame's inertia, other joints) would" in note

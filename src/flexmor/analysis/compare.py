@@ -351,8 +351,9 @@ class FullResponse:
         sr = spurious_resonances(body, self.freqs, H, self.resonances, self.zeta, band=self.band,
                                  max_rel_error_hz=out["max_rel_error_hz"], max_rel_error=out["max_rel_error"])
         note = sr.pop("note")
+        unseen = sr.pop("unseen_note", None)
         out.update(sr)
-        notes = error_notes(out, damped=body.D is not None) + ([note] if note else [])
+        notes = error_notes(out, damped=body.D is not None) + ([note] if note else []) + ([unseen] if unseen else [])
         built = (body.info or {}).get("band")
         if built and not np.allclose(built, self.band, rtol=1e-9, atol=0.0):
             notes.append(f"{body.method or 'the body'} was built for {built[0]:g}-{built[1]:g} Hz, "

@@ -121,6 +121,14 @@ def spurious_resonances(body, freqs, H, resonances, zeta=None, *, band=None, max
     at = f_c * (1 + np.where(np.array([c[1] for c in cand]) > 0, 0.0, 1e-3))  # an undamped pole: just beside it
     ratio = np.linalg.norm(frf_reduced(body, at).reshape(at.size, -1), axis=1) / _interp_norm(freqs, H, at)
     bad = f_c[ratio >= SPURIOUS_PEAK]
+    unseen = f_c[ratio < SPURIOUS_PEAK]
+    if unseen.size:  # modes the ports hardly see: no error at the ports, but another load (the frame's) would
+        shown = "; ".join(f"{f:.4g} Hz" for f in unseen[:4]) + (" ..." if unseen.size > 4 else "")
+        what, it = ("modes", "them") if unseen.size > 1 else ("a mode", "it")
+        out["unseen_note"] = (f"the body has {what} at {shown} in the band with no full mode within "
+                              f"{100 * SPURIOUS_REL:g} % ({what} the basis approximates poorly): its ports hardly see "
+                              f"{it}, loads elsewhere (the frame's inertia, other joints) would; raise the order or "
+                              "add those loads as inputs")
     if not bad.size:
         return out
     out["spurious_resonances_hz"] = bad.tolist()
