@@ -234,7 +234,7 @@ def test_a_coupling_that_changes_nothing_shows_no_negative_zero():
     assert signed_percent(-6e-6, 3) == "-0.001" and signed_percent(-1.2e-4, 2) == "-0.01"
     rec = {"couplings": [], "uncoupled_hz": [100.0, 200.0], "coupled_hz": [100.0, 200.0], "rel_change": [-5.7e-14, 0.0]}
     lines = coupling_lines(rec)
-    assert "by +0.00 to +0.00 %" in lines[0] and lines[2].endswith("+0.000 %") and "-0.0" not in "".join(lines)
+    assert "by +0.000 to +0.000 %" in lines[0] and lines[2].endswith("+0.000 %") and "-0.0" not in "".join(lines)
 
 
 def test_a_spurious_pair_is_named_once():

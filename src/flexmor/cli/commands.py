@@ -425,7 +425,7 @@ def _model_and_bodies(args):
         args.preload_from_bodies = True
     model, t_read, band = _read_model(args, damped=False)
     if band is not None:
-        bands, sources = [band] * len(bodies), ["--band"] * len(bodies)
+        bands, sources = [band] * len(bodies), ["as given by --band"] * len(bodies)
     else:
         own = [r.info.get("band") or (r.errors or {}).get("band_hz") for r in bodies]
         bands = [Band.of(b) if b else DEFAULT_BAND for b in own]

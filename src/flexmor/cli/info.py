@@ -312,7 +312,7 @@ def coupling_lines(rec) -> list[str]:
         return []
     ch = rec["rel_change"]
     lines = [f"{describe_couplings(rec['couplings'])} changes the lowest elastic frequencies by "
-             f"{signed_percent(min(ch), 2)} to {signed_percent(max(ch), 2)} % against the FE model as read "
+             f"{signed_percent(min(ch), 3)} to {signed_percent(max(ch), 3)} % against the FE model as read "
              "(the coupled model is the one reduced and judged against)"]
     lines.append("mode  FE model [Hz]  coupled [Hz]  change")
     lines += [f"{i:4d}  {a:13.6g}  {b:12.6g}  {signed_percent(c, 3)} %"

@@ -171,7 +171,7 @@ def _coupling_section(rep: Report) -> list:
             for i, (a, b, d) in enumerate(zip(c["uncoupled_hz"], c["coupled_hz"], ch), 1)]
     return ['<h2 id="coupling">Coupling</h2>',
             (f"<p>{e(describe_couplings(c['couplings']))} changes the lowest elastic frequencies by "
-             f"{signed_percent(min(ch), 2)} to {signed_percent(max(ch), 2)} % over the FE model as read: the "
+             f"{signed_percent(min(ch), 3)} to {signed_percent(max(ch), 3)} % over the FE model as read: the "
              f"{e(rep.reference)} "
              "is what the bodies are reduced from and judged against (right for the assembly the coupling "
              "stands for; the FE model as read is another model).</p>"),
