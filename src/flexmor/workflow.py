@@ -314,11 +314,11 @@ def run_demo(out, *, n: int = 4, band=(10.0, 3000.0), progress=None, on_result=N
     for method, order, opts in jobs:
         red, res = reduce_and_judge(model, method, order, ports, full=full, solver=solver, **opts)
         reds.append(red)
-        path = out / f"{model.name}_{method}_{order}.h5"
+        path = out / f"{model.name}_{method}_{red.order}.h5"  # the order of the body (a pair kept whole: 17 for 16)
         write_body(red, path)
         res["file"] = str(path)
         results.append(res)
-        curves[f"{method} r={order}"] = red.errors["rel_error"]
+        curves[f"{method} r={red.order}"] = red.errors["rel_error"]
         if on_result:
             on_result(res)
     plot_rel_error(full.freqs, curves, out / "rel_error.png",

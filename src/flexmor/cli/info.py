@@ -29,7 +29,8 @@ def _made_by(red, path, version) -> str:
     if red.info.get("format") != _NASTRAN_SE:
         return f"written by flexmor {version}"
     src = Path(str(red.info.get("source") or path)).name
-    what = (f"a Nastran Craig-Bampton superelement: {red.info.get('n_boundary', '?')} boundary DOFs, "
+    nb = red.info.get("n_boundary", "?")
+    what = (f"a Nastran Craig-Bampton superelement: {nb} boundary DOF{'' if nb == 1 else 's'}, "
             f"{red.info.get('n_modal', '?')} modal coordinates")
     return what if src == Path(path).name else f"{what}, from {src}; written by flexmor {version}"
 
