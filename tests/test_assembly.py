@@ -176,3 +176,15 @@ def test_an_element_between_a_point_and_itself_is_refused(beam_and_krylov):
     with pytest.raises(OptionError, match="and the same point .* does nothing"):
         asm.spring(("beam", spec), ("beam", spec), 1e5)
     asm.spring(("beam", spec), None, 1e5)  # to the ground: fine
+
+
+def test_a_reduced_body_port_is_found_in_any_case(beam_and_krylov):
+    """A reduced body's port SPEC matches as make_ports reads a full body's: case and blanks aside ('tip:y' was
+    refused for a reduced body and taken for a full one)."""
+    model, ports, red = beam_and_krylov
+    spec = red.input_names[0]
+    asm = Assembly()
+    asm.add_body("beam", red)
+    np.testing.assert_array_equal(asm.global_vector(("beam", spec.lower())), asm.global_vector(("beam", spec)))
+    np.testing.assert_array_equal(asm.global_vector(("beam", f" {spec.upper()} ")),
+                                  asm.global_vector(("beam", spec)))

@@ -109,9 +109,13 @@ class Body:
         red = self.model
         ins, outs = list(red.input_names), list(red.output_names)
         order = (("in", ins), ("out", outs)) if role == "input" else (("out", outs), ("in", ins))
+        def key(name):  # SPECs as make_ports reads them: case and blanks do not matter (tip@rbe2:Y = TIP@RBE2:y)
+            return str(name).replace(" ", "").upper()
+
         for kind, names in order:
-            if spec in names:
-                j = names.index(spec)
+            keys = [key(n) for n in names]
+            if key(spec) in keys:
+                j = keys.index(key(spec))
                 return np.asarray(red.B[:, j] if kind == "in" else red.C[j, :], dtype=float)
         raise PortError(
             f"port {spec!r} of reduced body {self.name!r} was not declared at reduction time (inputs: "
