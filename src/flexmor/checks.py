@@ -20,7 +20,8 @@ from .errors import FlexmorWarning, ModelError, SolverError
 from .linalg.context import SolverContext, as_solver
 
 __all__ = ["MAX_RIGID_BODY_MODES", "COUPLING_MODES", "check_rigid_body_modes", "first_elastic_hz",
-           "lowest_elastic_hz", "coupling_frequencies", "describe_couplings", "mechanism_error", "signed_percent"]
+           "lowest_elastic_hz", "coupling_frequencies", "describe_couplings", "mechanism_error", "signed_percent",
+           "stable_lowest_eigenvalues", "unstable_error"]
 
 #: Zero-energy modes an elastic body can have (3 translations + 3 rotations).
 MAX_RIGID_BODY_MODES = 6
@@ -56,15 +57,9 @@ def check_rigid_body_modes(model, *, solver: SolverContext | None = None, sigma:
     ModelError
         More than six zero-energy modes (a mechanism).
     """
-    from .linalg.eigen import is_rigid, rigid_body_threshold
+    from .linalg.eigen import is_rigid
 
-    try:
-        lam = _lowest_eigenvalues(model, as_solver(solver), sigma=sigma, keep=keep)
-    except SolverError as exc:  # K - sigma M, sigma < 0, is positive definite for a stable body and mass
-        raise unstable_error(model, None, exc) from None
-    unstable = lam[lam < -rigid_body_threshold(model.K, model.M)]
-    if unstable.size:
-        raise unstable_error(model, unstable)
+    lam = stable_lowest_eigenvalues(model, as_solver(solver), sigma=sigma, keep=keep)
     n_zero = int(np.sum(is_rigid(lam, model.K, model.M)))
     if n_zero > MAX_RIGID_BODY_MODES:
         raise mechanism_error(model, n_zero)
@@ -72,6 +67,23 @@ def check_rigid_body_modes(model, *, solver: SolverContext | None = None, sigma:
         warnings.warn(f"{model.source or model.name}: {n_zero} rigid-body modes (free or partly supported body); "
                       "methods exclude them or use shifted expansion points", FlexmorWarning, stacklevel=2)
     return n_zero
+
+
+def stable_lowest_eigenvalues(model, solver: SolverContext, k: int = MAX_RIGID_BODY_MODES + 1, *,
+                              sigma: float | None = None, keep: bool = False) -> np.ndarray:
+    """The ``k`` lowest eigenvalues of ``(K, M)`` (as :func:`check_rigid_body_modes` computes them); an
+    :func:`unstable_error` for a stiffness with negative ones (a preload beyond buckling), which would
+    otherwise count as rigid-body modes, or whose ``K - sigma M`` (``sigma < 0``) is not positive definite."""
+    from .linalg.eigen import rigid_body_threshold
+
+    try:
+        lam = _lowest_eigenvalues(model, solver, k, sigma=sigma, keep=keep)
+    except SolverError as exc:  # K - sigma M, sigma < 0, is positive definite for a stable body and mass
+        raise unstable_error(model, None, exc) from None
+    unstable = lam[lam < -rigid_body_threshold(model.K, model.M)]
+    if unstable.size:
+        raise unstable_error(model, unstable)
+    return lam
 
 
 def unstable_error(model, lam, failed=None) -> ModelError:

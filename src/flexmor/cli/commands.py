@@ -192,10 +192,9 @@ def _asked_damping(args, band):
 
 # -- info --------------------------------------------------------------------------------------
 def cmd_info(args) -> int:
-    from ..checks import MAX_RIGID_BODY_MODES, mechanism_error, unstable_error
-    from ..errors import SolverError
+    from ..checks import MAX_RIGID_BODY_MODES, mechanism_error, stable_lowest_eigenvalues
     from ..linalg import available_backends
-    from ..linalg.eigen import eigenmodes, frequencies_hz, is_rigid, rigid_body_threshold
+    from ..linalg.eigen import eigenmodes, frequencies_hz, is_rigid
 
     if args.backends:
         return info_backends(args)
@@ -223,12 +222,7 @@ def cmd_info(args) -> int:
     solver = _solver(args)
     if args.modes:
         k = min(args.modes, model.n_dof)
-        try:
-            lam, _ = eigenmodes(model.K, model.M, min(max(k, 7), model.n_dof), solver=solver)
-        except SolverError as exc:  # K - sigma M, sigma < 0, not positive definite
-            raise unstable_error(model, None, exc) from None
-        if np.any(lam < -rigid_body_threshold(model.K, model.M)):  # a buckled preload: not rigid-body modes
-            raise unstable_error(model, lam[lam < -rigid_body_threshold(model.K, model.M)])
+        lam = stable_lowest_eigenvalues(model, solver, k)  # a buckled preload is refused, not rigid-body modes
         n_zero = int(np.sum(is_rigid(lam, model.K, model.M)))
         if n_zero > MAX_RIGID_BODY_MODES:
             raise mechanism_error(model, n_zero)

@@ -153,18 +153,21 @@ class _RigidPart:
     """A free body's FRF as its rigid part, exactly, plus its elastic part (see :func:`_rigid_part`)."""
 
     def __init__(self, model, phi, B, C):
-        self.phi, self.M_phi = phi, sparse_dense(model.M, phi)
-        self.elastic_loads = B - self.M_phi @ (phi.T @ B)  # (I - M Φ Φᵀ) B
+        from ..rigid import elastic_loads
+
+        self.model, self.phi, self.C = model, phi, C
+        self.elastic_loads = elastic_loads(model, phi, B)  # (I - M Φ Φᵀ) B
         self.C_phi, self.phi_B = np.asarray(C @ phi), phi.T @ B
         D = model.D
         self.D_r = np.zeros((phi.shape[1],) * 2) if D is None else phi.T @ sparse_dense(D, phi)
-        self.C = C
 
     def response(self, X, w: float) -> np.ndarray:
         """``C (I - Φ Φᵀ M) X + C Φ (-w² I + i w Φᵀ D Φ)⁻¹ Φᵀ B`` for ``X = A(w)⁻¹ (I - M Φ Φᵀ) B``."""
-        X = X - self.phi @ (self.M_phi.T @ X)
+        from ..rigid import m_project
+
         k = self.phi.shape[1]
-        return self.C @ X + self.C_phi @ np.linalg.solve(-w * w * np.eye(k) + 1j * w * self.D_r, self.phi_B)
+        return (self.C @ m_project(self.model, self.phi, X)
+                + self.C_phi @ np.linalg.solve(-w * w * np.eye(k) + 1j * w * self.D_r, self.phi_B))
 
 
 def _rigid_part(model, B, C):
