@@ -5,26 +5,8 @@ the CalculiX beams under the relative path the tutorial reads them from; the sta
 each block is compared with the ```text block right after it (a block without one must print
 nothing). Plots go to the Agg backend, chosen here: the library never switches backends.
 
-How printed numbers are compared (text between the numbers must match exactly). The rules go by
-size: every number the tutorial prints below 1e-8 is a dimensionless error (it prints physical
-quantities in units that keep them larger, e.g. an FRF in nm/N).
-
-* integers (DOF and node counts, orders, node ids, sizes) exactly;
-* numbers below 1e-9 (``FLOOR``) match any number below 1e-9: they are round-off, not truncation.
-  The relative frequency error of an exact reduction (a Craig-Bampton body clamped at its own
-  interface) is double-precision round-off (2.2e-16) magnified by the conditioning of the
-  eigenproblems and left by the eigensolvers' stopping tolerance; on one machine it printed
-  6.1e-12 with two BLAS threads and 4.9e-11 with one. Such a number says "exact", and a
-  regression makes it 1e-6 or more;
-* numbers between 1e-9 and 1e-8 within a factor of 3 (``|log10(got / expected)| <= 0.5``, same
-  sign): errors this small are still partly round-off;
-* every other number to ``1e-6`` relative or one unit in its last printed digit, whichever is
-  larger. Frequencies (Hz) of a symmetric eigenproblem of this size are reproducible to far better
-  than 1e-6; error measures above 1e-8 are truncation errors of the bases, set by the method and
-  not by round-off, and agree to every printed digit across machines (for bases that keep pairs
-  of equal eigenfrequencies whole: the tutorial's orders do, and say why). One unit in the last digit
-  lets a value that sits on a rounding boundary round either way: a drift of two units or more in
-  any printed error measure fails the test.
+Printed numbers are compared by the rules of ``tests/printed.py`` (text between the numbers exactly,
+round-off figures as round-off).
 
 ``python tests/test_tutorial.py`` prints each block's output; with ``--write`` it rewrites the
 tutorial's text blocks with them (run it from the repository root after changing the tutorial or
@@ -35,7 +17,6 @@ from __future__ import annotations
 
 import contextlib
 import io
-import math
 import os
 import re
 import shutil
@@ -44,6 +25,8 @@ import tempfile
 import time
 from pathlib import Path
 
+from printed import lines, output_differs
+
 ROOT = Path(__file__).resolve().parents[1]
 DOC = ROOT / "docs" / "tutorial.md"
 DATA = Path("tests") / "data" / "calculix"  # relative to the working directory, as in the tutorial
@@ -51,10 +34,6 @@ FILES = [f"beam8_{kind}_mat.{ext}" for kind in ("free", "clamped") for ext in ("
 
 #: a python block, then (blank lines allowed) the text block of its output, if any
 BLOCK = re.compile(r"^```python\n(.*?)^```\n(?:\s*\n)*(?:^```text\n(.*?)^```\n)?", re.S | re.M)
-NUMBER = re.compile(r"[-+]?(?:\d+\.\d*|\.\d+|\d+)(?:[eE][-+]?\d+)?")
-FLOOR = 1e-9
-TINY = 1e-8
-REL = 1e-6
 
 
 def blocks(text: str) -> list[tuple[str, str | None]]:
@@ -87,58 +66,6 @@ def run_blocks(code_blocks: list[str], workdir: Path) -> list[str]:
 
         plt.close("all")
     return outputs
-
-
-def _lines(text: str) -> str:
-    return "\n".join(line.rstrip() for line in text.strip("\n").splitlines())
-
-
-def _is_int(s: str) -> bool:
-    return re.fullmatch(r"[-+]?\d+", s) is not None
-
-
-def _last_digit(s: str) -> float:
-    """The value of one unit in the last printed digit of the number ``s``."""
-    mantissa, _, exponent = s.lower().partition("e")
-    decimals = len(mantissa.split(".")[1]) if "." in mantissa else 0
-    return 10.0 ** (int(exponent or 0) - decimals)
-
-
-def number_differs(expected: str, got: str) -> str | None:
-    """Why the printed number ``got`` is not ``expected`` (rules in the module docstring), or None."""
-    if expected == got:
-        return None
-    if _is_int(expected) or _is_int(got):
-        return "integers differ"
-    e, g = float(expected), float(got)
-    if abs(e) < FLOOR:
-        return None if abs(g) < FLOOR else f"round-off-level number (below {FLOOR:g}) is now {got}"
-    if abs(e) < TINY:
-        if e == g or (e * g > 0 and abs(math.log10(g / e)) <= 0.5):
-            return None
-        return "round-off-level number off by more than a factor of 3 (tolerance: |log10 ratio| <= 0.5)"
-    tol = max(REL * abs(e), _last_digit(expected) * (1 + 1e-9))
-    if abs(g - e) <= tol:
-        return None
-    return f"differs by {abs(g - e):.3g} (> {tol:.3g}: {REL:g} relative or one unit in the last digit)"
-
-
-def output_differs(expected: str, got: str) -> str | None:
-    """Why the printed text ``got`` is not ``expected``: the text between numbers exactly, the numbers
-    by :func:`number_differs`; None when they agree."""
-    expected, got = _lines(expected), _lines(got)
-    e_text, g_text = NUMBER.split(expected), NUMBER.split(got)
-    if e_text != g_text:
-        for line_e, line_g in zip(expected.splitlines() + [""] * 99, got.splitlines() + [""] * 99):
-            if NUMBER.split(line_e) != NUMBER.split(line_g):
-                return f"text differs:\n  expected: {line_e!r}\n  got:      {line_g!r}"
-        return "text differs"
-    for e, g in zip(NUMBER.findall(expected), NUMBER.findall(got)):
-        why = number_differs(e, g)
-        if why:
-            line = next(line for line in got.splitlines() if g in line)
-            return f"the tutorial says {e}, the run printed {g}: {why}\n  in: {line!r}"
-    return None
 
 
 def test_the_tutorial_runs_and_prints_its_output(tmp_path):
@@ -176,7 +103,7 @@ def test_the_comparison_catches_drift():
     assert output_differs("static 1.3e-09", "static 3.5e-09") is None  # nearly round-off: a factor 3
     assert output_differs("static 1.3e-09", "static 4.5e-09") is not None
     assert output_differs("255 DOF", "256 DOF") == \
-        "the tutorial says 255, the run printed 256: integers differ\n  in: '256 DOF'"
+        "the document says 255, the run printed 256: integers differ\n  in: '256 DOF'"
     assert output_differs("judged: elastic part", "judged: full response") is not None
 
 
@@ -196,7 +123,7 @@ def _main(argv: list[str]) -> None:
     for m, out in zip(BLOCK.finditer(text), outputs):
         pieces.append(text[pos:m.start()])
         code_block = text[m.start():m.end(1)] + "```\n"
-        pieces.append(code_block + (f"\n```text\n{_lines(out)}\n```\n" if out.strip() else ""))
+        pieces.append(code_block + (f"\n```text\n{lines(out)}\n```\n" if out.strip() else ""))
         if m.group(2) is None:  # the blank lines after the code block were part of the match
             pieces.append("\n")
         pos = m.end()

@@ -16,6 +16,8 @@ __all__ = ["MISMATCH", "Pairing", "paired_modes", "pairing_record"]
 
 #: Above this largest relative difference of the elastic pairs, the comparison warns.
 MISMATCH = 1e-3
+#: Relative differences that agree to this (relative to the larger of the difference and 1) are equal.
+EQUAL_REL = 1e-8
 
 
 def _monotone_pairs(f_ref: np.ndarray, f_mod: np.ndarray) -> list:
@@ -120,7 +122,10 @@ def pairing_record(f_ref, p: Pairing) -> dict:
                      f"has {n_mod} rigid-body and {int(np.sum(~rig_mod))} elastic modes)")
     elastic = [(d, i) for i, d in enumerate(rel) if d is not None]
     if elastic:
-        d, i = max(elastic, key=lambda t: t[0])  # the first of equal ones
+        # the first of the largest, equal ones taken as equal to the eigensolver's accuracy (the two modes of
+        # a pair of equal frequencies differ by round-off: which of them is named is not left to it)
+        top = max(t[0] for t in elastic)
+        d, i = next(t for t in elastic if t[0] >= top - EQUAL_REL * max(top, 1.0))
         if d > MISMATCH:
             notes.append(f"the largest relative difference of the elastic modes is {d:.2e} (reference mode {i + 1}, "
                          f"{f_ref[i]:.6g} Hz, against the model's mode {pair[i] + 1}, {out_f[i]:.6g} Hz), above "
