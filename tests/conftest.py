@@ -53,3 +53,12 @@ def _hermetic_frf_cache(tmp_path_factory):
     with pytest.MonkeyPatch.context() as mp:
         mp.setenv("FLEXMOR_CACHE_DIR", str(tmp_path_factory.getbasetemp() / "flexmor-cache"))
         yield
+
+
+@pytest.fixture
+def auto_unrestricted(monkeypatch):
+    """``backend="auto"`` chooses from every available backend, also in a run that restricts it
+    (``make test-arith`` sets ``FLEXMOR_AUTO_BACKENDS``): for tests of what ``auto`` picks."""
+    from flexmor.linalg.context import AUTO_BACKENDS_VARIABLE
+
+    monkeypatch.delenv(AUTO_BACKENDS_VARIABLE, raising=False)

@@ -75,3 +75,25 @@ def test_backend_table_and_validation():
         SolverContext(backend="mumps")
     assert SolverContext().layout().size == 1 and SolverContext().layout().row_range(10) == (0, 10)
     assert SolverContext(mpi=MPILayout(rank=1, size=3)).layout().row_range(10) == (4, 7)
+
+
+def test_auto_backends_restricted_by_the_environment(clamped, monkeypatch):
+    """``FLEXMOR_AUTO_BACKENDS`` restricts what ``auto`` chooses from (a run on another arithmetic path);
+    a backend asked for by name is not affected, and a name that is no backend is refused naming it."""
+    from flexmor.linalg.context import AUTO_BACKENDS_VARIABLE
+
+    shifted = (clamped.K - 1e5 * clamped.M).tocsr()
+    monkeypatch.setenv(AUTO_BACKENDS_VARIABLE, "scipy")
+    F = factorize(shifted, check=False)
+    assert F.backend == "scipy"
+    b = np.ones(clamped.n_dof)
+    assert np.linalg.norm(shifted @ F.solve(b) - b) <= 1e-10 * np.linalg.norm(b)
+    avail = SolverContext().available()
+    if "pardiso" in avail:
+        assert factorize(shifted, solver=SolverContext("pardiso"), check=False).backend == "pardiso"
+        monkeypatch.setenv(AUTO_BACKENDS_VARIABLE, " pardiso , scipy")
+        assert factorize(shifted, check=False).backend == "pardiso"
+    monkeypatch.setenv(AUTO_BACKENDS_VARIABLE, "scipy,superlu")
+    with pytest.raises(OptionError, match=r"FLEXMOR_AUTO_BACKENDS='scipy,superlu' names no backend 'superlu'; "
+                                          r"choose from: .*scipy"):
+        factorize(shifted, check=False)

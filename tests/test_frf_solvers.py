@@ -37,6 +37,7 @@ def test_complex_symmetric_pardiso_matches_scipy(clamped, f_hz):
 
 
 @needs_pardiso
+@pytest.mark.usefixtures("auto_unrestricted")
 def test_auto_picks_pardiso_for_complex_and_real_shift_stays_indefinite(clamped):
     assert factorize(_shifted(clamped, 300.0)).backend == "pardiso"
     w = 2 * np.pi * 300.0

@@ -300,7 +300,7 @@ def test_iterative_check_estimate_bounds_the_error_at_a_resonance(n_krylov):
     model = cantilever(2).with_rayleigh(0.0, 1e-6)
     ports = make_ports(model, ["TIP:y", "TIP:z"])
     fmax = 3000.0
-    solver = SolverContext(eigen=EigenPolicy(dense_limit=100))
+    solver = SolverContext("pardiso", eigen=EigenPolicy(dense_limit=100))
     pre = modes_below(model, MODES_MARGIN * fmax, solver)
     assert pre.complete
     sur = Surrogate(model, ports, (10.0, fmax), phi=pre.phi, factorization=pre.factorization, sigma=pre.sigma,

@@ -108,7 +108,8 @@ def test_auto_takes_the_first_mode_that_fits_the_memory_limit(beam, backend, tmp
     if backend == "pardiso":
         assert est["ooc"] < est["mixed"]
         below = (est["ooc"] + est["mixed"]) / 2 / MEMORY_FRACTION
-        H = factorize(A, solver=SolverContext(memory_limit=below, scratch_dir=str(tmp_path)), positive=positive)
+        H = factorize(A, solver=SolverContext(backend, memory_limit=below, scratch_dir=str(tmp_path)),
+                      positive=positive)
         assert H.memory.mode == "ooc"
         assert np.linalg.norm(H.solve(b) - x0) / np.linalg.norm(x0) < 1e-10
         del H
@@ -213,7 +214,8 @@ def test_cli_reduce_records_the_memory_mode(capsys, tmp_path):
     from helpers import CLAMPED
 
     model = CLAMPED
-    base = ["reduce", model, "--method", "krylov", "--order", "6", "--input", "TIP:y", "--no-cache", "--json"]
+    base = ["reduce", model, "--method", "krylov", "--order", "6", "--input", "TIP:y", "--backend", "pardiso",
+            "--no-cache", "--json"]
 
     def run(*extra, name):
         assert main(base + ["-o", str(tmp_path / name), *extra]) == 0

@@ -66,6 +66,7 @@ class _ScipyLU(Factorization):
         C = sp.csc_matrix(A)
         if self.memory.mode == "mixed":  # the factor in single precision
             C = C.astype(np.complex64 if self.dtype.kind == "c" else np.float32)
+        self._factor_dtype = C.dtype  # (SuperLU's .U builds a copy of the factor at every access)
         try:
             self._lu = splu(C, **opts)
         except RuntimeError as exc:
@@ -77,7 +78,7 @@ class _ScipyLU(Factorization):
                                    params=("backend", "factor_memory")) from None
 
     def _solve_factor(self, b):
-        return self._lu.solve(np.asarray(b, dtype=self._lu.U.dtype))
+        return self._lu.solve(np.asarray(b, dtype=self._factor_dtype))
 
 
 class _Cholmod(Factorization):

@@ -22,6 +22,7 @@ neither share counts nor caches.
 
 from __future__ import annotations
 
+import os
 import weakref
 from collections.abc import Callable
 from contextlib import contextmanager
@@ -96,7 +97,10 @@ class SolverContext:
     backend : str
         ``auto`` or a name of :data:`~flexmor.linalg.backends.BACKENDS` (``cholmod``,
         ``pardiso``, ``scipy``, ``petsc``); ``auto`` picks per matrix the fastest available
-        backend that supports it.
+        backend that supports it. The environment variable ``FLEXMOR_AUTO_BACKENDS`` (names
+        separated by commas, e.g. ``scipy``) restricts the backends ``auto`` chooses from, so that
+        a whole run takes another arithmetic path without changing a call (``scipy`` serves every
+        matrix, and takes it where none of the named ones does).
     eigen : EigenPolicy
         Defaults of :func:`flexmor.linalg.eigenmodes`.
     mpi : MPILayout, optional
@@ -196,7 +200,7 @@ class SolverContext:
                     require()  # OptionError naming the install route
                 raise SolverError(f"backend {self.backend!r} is not available here; available: {', '.join(avail)}")
             return self.backend
-        for name in avail:
+        for name in _auto_candidates(avail):
             b = BACKENDS[name]
             if (is_complex and not b.complex) or (b.positive_only and not (positive and symmetric)):
                 continue
@@ -247,6 +251,24 @@ class SolverContext:
     def release(self) -> None:
         """Drop the factorization kept by :meth:`keep` (its memory is free once nothing else holds it)."""
         self._kept = None
+
+
+#: The environment variable that restricts the backends ``backend="auto"`` chooses from.
+AUTO_BACKENDS_VARIABLE = "FLEXMOR_AUTO_BACKENDS"
+
+
+def _auto_candidates(available: tuple[str, ...]) -> tuple[str, ...]:
+    """The available backends ``auto`` may choose from: all of them, or those that
+    ``FLEXMOR_AUTO_BACKENDS`` names (an unknown name is an :class:`OptionError`)."""
+    value = os.environ.get(AUTO_BACKENDS_VARIABLE, "").strip()
+    if not value:
+        return available
+    names = [n.strip() for n in value.split(",") if n.strip()]
+    unknown = [n for n in names if n not in BACKENDS]
+    if unknown:
+        raise OptionError(f"{AUTO_BACKENDS_VARIABLE}={value!r} names no backend {', '.join(map(repr, unknown))}; "
+                          f"choose from: {', '.join(BACKENDS)}", params=("backend",))
+    return tuple(n for n in available if n in names)
 
 
 def as_solver(solver: SolverContext | None) -> SolverContext:
