@@ -50,12 +50,13 @@ test: lint
 
 # The tests once more on another arithmetic path, so that a test that passes only with one rounding fails
 # here: SciPy's SuperLU wherever `auto` would take PARDISO or CHOLMOD (FLEXMOR_AUTO_BACKENDS), OpenBLAS's
-# Haswell kernels instead of the ones it picks for this CPU, and one BLAS thread. The browser tests and the
-# fuzzers (no numerics) are left out.
+# Haswell kernels instead of the ones it picks for this CPU, and one BLAS thread. The browser tests, the
+# fuzzers and the resource-limit runs (no numerics) are left out.
 ARITH_ENV := FLEXMOR_AUTO_BACKENDS=scipy OPENBLAS_CORETYPE=Haswell OPENBLAS_NUM_THREADS=1 MKL_NUM_THREADS=1
 test-arith: $(STAMP)
 	$(ARITH_ENV) $(BIN)/python -m pytest -m "not browser and not mpi" \
-		--ignore=tests/test_ui_fuzz.py --ignore=tests/test_fuzz_readers.py --ignore=tests/test_bad_corpus.py
+		--ignore=tests/test_ui_fuzz.py --ignore=tests/test_fuzz_readers.py --ignore=tests/test_bad_corpus.py \
+		--ignore=tests/test_resource_faults.py
 
 # The petsc backend under MPI: a second environment on the system Python, which sees Debian's
 # petsc4py/slepc4py/mpi4py (apt-get install python3-petsc4py python3-slepc4py python3-mpi4py

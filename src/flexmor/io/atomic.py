@@ -71,18 +71,44 @@ def write_failure(path, exc: OSError) -> ResourceError:
 
 
 class DiscardAfterFailure(io.FileIO):
-    """A binary file whose first failed write raises (and is kept in :attr:`failed`) and whose
-    later writes are dropped: a library that writes again while it closes after the failure
-    (HDF5 flushing its metadata) then closes cleanly; the file is discarded anyway."""
+    """A binary file for a library that writes through a Python file object and cannot survive
+    an exception raised by it (h5py's ``fileobj`` driver: HDF5 then leaves a dataset half
+    closed, and closes it at interpreter exit through the freed file, a segmentation fault).
 
-    failed: OSError | None = None
+    No method raises: the first failure of :meth:`write` or :meth:`truncate` (an
+    :class:`OSError` such as a full disk or the file-size limit, or an exception raised by a
+    signal handler while the call waited) is kept in :attr:`failed`, that write and every later
+    one are dropped, and the library carries on and closes its file cleanly. A write the system
+    takes only in part is continued (h5py ignores the count): the one that reaches the file-size
+    limit or fills the disk, whose end then fails and is kept too, and any of more than 2 GiB,
+    which Linux takes in parts. The caller raises :attr:`failed` (:meth:`check`) once the
+    library has closed its file, and may check earlier to stop early; the file is discarded then.
+    """
+
+    failed: BaseException | None = None
 
     def write(self, data):
-        if self.failed is not None:
-            return len(data)
+        view = memoryview(data)
         try:
-            return super().write(data)
-        except OSError as exc:
+            rest = view.cast("B")
+            while self.failed is None and rest:
+                n = super().write(rest)
+                if not n:
+                    raise OSError(errno.EIO, "the system wrote nothing")
+                rest = rest[n:]
+        except BaseException as exc:  # noqa: BLE001 - kept for check(): nothing may reach the library
             self.failed = exc
-            raise
+        return view.nbytes
 
+    def truncate(self, size=None):
+        if self.failed is None:
+            try:
+                return super().truncate(size)
+            except BaseException as exc:  # noqa: BLE001 - as in write
+                self.failed = exc
+        return self.tell() if size is None else size
+
+    def check(self) -> None:
+        """Raise the failure kept, if any."""
+        if self.failed is not None:
+            raise self.failed

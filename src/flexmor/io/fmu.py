@@ -47,12 +47,14 @@ N. J. Higham, *Functions of Matrices*, SIAM, 2008, ch. 10 (scaling and squaring)
 
 from __future__ import annotations
 
+import errno
 import hashlib
 import os
 import platform
 import re
 import shlex
 import shutil
+import signal
 import subprocess
 import tempfile
 import uuid
@@ -368,6 +370,10 @@ def _default_experiment(body) -> str:
             f'stepSize="{1 / (20 * f.min()):.6g}"/>')
 
 
+#: the errors of a write that found no room, which a compiler reports in its messages
+_SHORT_OF_ROOM = (errno.ENOSPC, errno.EFBIG, errno.EDQUOT)
+
+
 def _compile(cc: list[str], source: str, folder: Path, identifier: str, suffix: str) -> Path:
     src = folder / f"{identifier}.c"
     try:
@@ -376,11 +382,18 @@ def _compile(cc: list[str], source: str, folder: Path, identifier: str, suffix: 
         raise write_failure(src, exc) from None
     out = folder / f"{identifier}{suffix}"
     cmd = [*cc, "-std=c99", "-O2", "-fPIC", "-shared", "-Wall", "-o", str(out), str(src), "-lm"]
-    try:
-        run = subprocess.run(cmd, capture_output=True, text=True, timeout=1800)
+    try:  # SIGXFSZ stays ignored: at the file-size limit the compiler's writes fail and it says so (in the C locale)
+        run = subprocess.run(cmd, capture_output=True, text=True, timeout=1800, restore_signals=False,
+                             env={**os.environ, "LC_ALL": "C"})
     except (OSError, subprocess.TimeoutExpired) as exc:
         raise FlexmorError(f"the C compiler {cc[0]} could not build the FMU: {exc}") from None
     if run.returncode != 0 or not out.exists():
+        said = run.stderr + run.stdout
+        short = next((e for e in _SHORT_OF_ROOM if os.strerror(e) in said), None)
+        if short is None and signal.strsignal(signal.SIGXFSZ) in said:  # a compiler that restores the signal
+            short = errno.EFBIG
+        if short is not None:  # the compiler's files (the binary, its scratch files) did not fit
+            raise write_failure(out, OSError(short, os.strerror(short))) from None
         tail = "\n".join((run.stderr or run.stdout).strip().splitlines()[-12:])
         raise FlexmorError(f"the C compiler {cc[0]} could not build the FMU (exit {run.returncode}):\n{tail}")
     return out

@@ -50,14 +50,13 @@ def write_body(body, path) -> None:
     errors = {k: v for k, v in body.errors.items() if k not in ("rel_error", "freqs_hz")}
 
     def write(tmp):
-        # HDF5 writes through this file object: after a failed write (a full disk, the file-size limit)
-        # its closing flushes are dropped instead of failing again inside HDF5 (which crashed the process)
+        # HDF5 writes through this file object, which never raises into it (a failed write, e.g. a full
+        # disk or the file-size limit, is kept and raised here once HDF5 has closed the file)
         with DiscardAfterFailure(tmp, "w+") as fh:
             try:
                 _fill(fh)
             finally:
-                if fh.failed is not None:
-                    raise fh.failed
+                fh.check()
 
     def _fill(fh):
         with h5py.File(fh, "w") as h:
@@ -71,6 +70,7 @@ def write_body(body, path) -> None:
                     val = np.asarray(val)
                     packs = val.size > 4096 and val.dtype.kind in "iub"
                     h.create_dataset(name, data=val, compression="gzip" if packs else None)
+                    fh.check()  # a write failed: stop here (closing the file is clean, its writes dropped)
             for name in _JSON:
                 h.attrs[name] = json.dumps(jsonable(errors if name == "errors" else getattr(body, name)))
             if "rel_error" in body.errors and "freqs_hz" in body.errors:
