@@ -9,14 +9,16 @@ from __future__ import annotations
 import importlib.util
 import json
 import os
+import re
 import shutil
+import signal
 import subprocess
 import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
-from helpers import CLAMPED
+from helpers import CLAMPED, FREE, run_json
 
 from flexmor.errors import OptionError
 
@@ -160,14 +162,38 @@ def test_partitioned_matrix_is_an_operator_of_its_own():
 BAND_ERROR_RTOL = 1e-4
 
 
+#: Time allowed to one mpirun of a command on the small CalculiX beams (seconds each when the machine is quiet).
+CLI_TIMEOUT = 300
+
+
 def _mpirun(args, tmp_path, n=2, timeout=3600, returncode=0):
+    """Run ``python ARGS`` on ``n`` ranks; its stdout (``returncode`` 0) or stderr. A job still running after
+    ``timeout`` seconds (a rank waiting for another) is ended, ranks included, and fails the test."""
     env = dict(os.environ, OMP_NUM_THREADS="1", OPENBLAS_NUM_THREADS="1", FLEXMOR_CACHE_DIR=str(tmp_path / "cache"),
                OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1", OMPI_MCA_rmaps_base_oversubscribe="1",
                OMPI_MCA_mpi_yield_when_idle="1")
     cmd = [MPIRUN, "-n", str(n), sys.executable, *map(str, args)]
-    proc = subprocess.run(cmd, check=False, capture_output=True, text=True, env=env, cwd=tmp_path, timeout=timeout)
-    assert proc.returncode == returncode, proc.stderr[-3000:]
-    return proc.stdout if returncode == 0 else proc.stderr
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env, cwd=tmp_path,
+                            start_new_session=True)  # its own process group: the ranks end with it
+    try:
+        out, err = proc.communicate(timeout=timeout)
+    except subprocess.TimeoutExpired:
+        proc.terminate()  # mpirun ends its ranks on SIGTERM
+        try:
+            out, err = proc.communicate(timeout=30)
+        except subprocess.TimeoutExpired:
+            os.killpg(proc.pid, signal.SIGKILL)
+            out, err = proc.communicate()
+        pytest.fail(f"mpirun {' '.join(map(str, args))} still running after {timeout} s:\n{err[-3000:]}")
+    assert proc.returncode == returncode, err[-3000:]
+    return out if returncode == 0 else err
+
+
+def _one_json(out: str) -> dict:
+    """The one JSON object a command printed (only rank 0 prints)."""
+    lines = [ln for ln in out.splitlines() if ln.strip()]
+    assert len(lines) == 1, out
+    return json.loads(lines[0])
 
 
 @needs_mpi
@@ -222,6 +248,168 @@ def test_cli_two_ranks_refuse_couplings_of_partitioned_model(tmp_path):
     err = _mpirun(["-m", "flexmor", "compare", CLAMPED, body, "--band", "10:3000", "--backend", "petsc", "--no-cache"],
                   tmp_path, timeout=120, returncode=2)
     assert err.count("need the whole model in one process") == 2, err
+
+
+# -- every command on a file model under mpirun: the same answers as the serial SciPy run ---------------------
+#: ``info`` cases: a supported body; a free one (six rigid-body modes, the rigid-body check of a model held by
+#: rows); a coupled and preloaded one (the model before the coupling and the one without the preload are held
+#: by rows too: the coupling frequencies and those without the preload).
+INFO_CASES = {
+    "clamped": [CLAMPED, "--modes", "8"],
+    "free": [FREE, "--modes", "10"],
+    "coupled-preloaded": [CLAMPED, "--modes", "8", "--interface", "TIP@rbe2", "--preload", "TIP:x=-1e6"],
+}
+
+
+@needs_mpi
+@pytest.mark.parametrize("case", sorted(INFO_CASES))
+def test_cli_two_ranks_info(case, tmp_path, capsys):
+    """info --modes of a file model held by rows: the checks of the file as read (rank 0 reads it), the sizes,
+    mass and eigenfrequencies as in the serial run."""
+    argv = ["info", *INFO_CASES[case], "--json"]
+    par = _one_json(_mpirun(["-m", "flexmor", *argv, "--backend", "petsc"], tmp_path, timeout=CLI_TIMEOUT))
+    ser = run_json(capsys, *argv, "--backend", "scipy")
+    for key in ("n_dof", "n_nodes", "nnz_K", "nnz_M", "node_sets", "n_rigid"):
+        assert par[key] == ser[key], key
+    assert _rel(par["mass"], ser["mass"]) < 1e-10 and _rel(par["center_of_mass"], ser["center_of_mass"]) < 1e-10
+    outcome = ("checked", "nodes", "named", "whole", "skipped", "changed")
+    assert par["geometry_check"]["checked"] > 0
+    assert {k: par["geometry_check"][k] for k in outcome} == {k: ser["geometry_check"][k] for k in outcome}
+    r = ser["n_rigid"]
+    assert r == (6 if case == "free" else 0) and len(par["frequencies_hz"]) == len(ser["frequencies_hz"])
+    assert _rel(par["frequencies_hz"][r:], ser["frequencies_hz"][r:]) < 1e-8
+    if case == "coupled-preloaded":
+        assert _rel(par["preload"]["frequencies_unloaded_hz"], ser["preload"]["frequencies_unloaded_hz"]) < 1e-8
+        for key in ("uncoupled_hz", "coupled_hz"):
+            assert _rel(par["coupling_frequencies"][key], ser["coupling_frequencies"][key]) < 1e-8, key
+
+
+#: One method of each family that test_cli_two_ranks_beam8 (modal truncation, interpolation) leaves out:
+#: condensation, component mode synthesis (an RBE2 interface: coupled on rank 0, the coupling frequencies from
+#: the model before it), Gramian-based, hybrid.
+FAMILIES = {
+    "guyan": ["--interface", "TIP", "--input", "5:y", "--input", "5:z"],
+    "craig-bampton": ["--order", "12", "--interface", "TIP@rbe2", "--input", "TIP@rbe2:y", "--input", "TIP@rbe2:z"],
+    "sobt": ["--order", "10", "--input", "5:y", "--input", "5:z"],
+    "two-step": ["--order", "10", "--input", "5:y", "--input", "5:z"],
+}
+
+
+@needs_mpi
+@pytest.mark.parametrize("method", list(FAMILIES))
+def test_cli_two_ranks_reduce_families(method, tmp_path, capsys):
+    """reduce under mpirun with one method of each family: the body and its errors as in the serial run."""
+    from flexmor.dynamics.frf import frf_reduced
+    from flexmor.io import read_body
+
+    argv = ["reduce", CLAMPED, "--method", method, *FAMILIES[method], "--band", "10:3000", "--rayleigh", "0:1e-6",
+            "--full-frf", "surrogate", "--no-cache", "--json"]
+    par = _one_json(_mpirun(["-m", "flexmor", *argv, "--backend", "petsc", "-o", tmp_path / "mpi.h5"], tmp_path,
+                            timeout=CLI_TIMEOUT))
+    ser = run_json(capsys, *argv, "--backend", "scipy", "-o", tmp_path / "serial.h5")
+    red_p, red_s = read_body(tmp_path / "mpi.h5"), read_body(tmp_path / "serial.h5")
+    assert red_p.order == red_s.order == par["order"]
+    assert _rel(red_p.frequencies_hz(), red_s.frequencies_hz()) < 1e-8
+    f = np.geomspace(10, 3000, 40)
+    assert _rel(frf_reduced(red_p, f), frf_reduced(red_s, f)) < 1e-8
+    assert par["band_error"] == pytest.approx(ser["band_error"], rel=BAND_ERROR_RTOL)
+    assert ("coupling_frequencies" in par) == ("coupling_frequencies" in ser) == (method == "craig-bampton")
+    if method == "craig-bampton":
+        for key in ("uncoupled_hz", "coupled_hz"):
+            assert _rel(par["coupling_frequencies"][key], ser["coupling_frequencies"][key]) < 1e-8, key
+
+
+@needs_mpi
+@pytest.mark.parametrize("flags, message", [
+    (["--stress"], "--stress needs the model on one process"),
+    (["--factor-memory", "mixed"], "--factor-memory='mixed' needs --backend pardiso or scipy"),
+])
+def test_cli_two_ranks_refusals(flags, message, tmp_path):
+    """What needs the whole model in one process, or another backend, is refused on every rank alike: one
+    line each, exit code 2, no body written."""
+    err = _mpirun(["-m", "flexmor", "reduce", CLAMPED, "--method", "krylov", "--order", "6", "--input", "5:y",
+                   "--band", "10:3000", "--no-error", "--backend", "petsc", *flags, "-o", tmp_path / "body.h5"],
+                  tmp_path, timeout=CLI_TIMEOUT, returncode=2)
+    assert err.count("flexmor: error:") == 2 and err.count(message) == 2, err
+    assert not (tmp_path / "body.h5").exists()
+
+
+@needs_mpi
+@pytest.mark.parametrize("rank, kind, code", [(1, "bug", 1), (0, "model", 2)])
+def test_cli_two_ranks_fault_on_one_rank(rank, kind, code, tmp_path):
+    """An error on one rank only, the other going on into collective operations that wait for it
+    (tests/mpi_fault.py): that rank's one line, then the whole job ends with its exit code instead of hanging."""
+    err = _mpirun([HERE / "mpi_fault.py", rank, kind, "info", CLAMPED, "--modes", "8", "--backend", "petsc",
+                   "--json"], tmp_path, timeout=120, returncode=code)
+    lines = [ln for ln in err.splitlines() if ln.startswith("flexmor: error:")]
+    assert len(lines) == 1 and f"fault raised on rank {rank} only" in lines[0], err
+    assert ("RuntimeError" in lines[0]) == (kind == "bug")
+
+
+def _free_bodies(tmp_path) -> list:
+    """Two bodies of the free beam (krylov and modal, order 12, ports 5:y and 5:z), reduced serially."""
+    from flexmor.cli import main
+
+    paths = []
+    for method in ("krylov", "modal"):
+        path = tmp_path / f"{method}.h5"
+        assert main(["reduce", FREE, "--method", method, "--order", "12", "--input", "5:y", "--input", "5:z",
+                     "--band", "10:3000", "--rayleigh", "0:1e-6", "--no-error", "-o", str(path)]) == 0
+        paths.append(path)
+    return paths
+
+
+@needs_mpi
+def test_cli_two_ranks_compare(tmp_path, capsys):
+    """compare of a free body's bodies against its model held by rows: the errors of the serial run."""
+    bodies = _free_bodies(tmp_path)
+    capsys.readouterr()
+    argv = ["compare", FREE, *bodies, "--full-frf", "surrogate", "--no-cache", "--json"]
+    par = _one_json(_mpirun(["-m", "flexmor", *argv, "--backend", "petsc"], tmp_path, timeout=CLI_TIMEOUT))
+    ser = run_json(capsys, *argv, "--backend", "scipy")
+    assert [r["file"] for r in par["results"]] == [r["file"] for r in ser["results"]] == [str(b) for b in bodies]
+    for p, s in zip(par["results"], ser["results"]):
+        for key in ("band_error", "hinf_error", "max_rel_error"):
+            assert p[key] == pytest.approx(s[key], rel=BAND_ERROR_RTOL), (p["file"], key)
+
+
+@needs_mpi
+def test_cli_two_ranks_report(tmp_path, capsys):
+    """report under mpirun: written once (by rank 0), with the errors and time responses of the serial run."""
+    bodies = _free_bodies(tmp_path)
+    capsys.readouterr()
+    argv = ["report", FREE, *bodies, "--full-frf", "surrogate", "--no-cache", "--json"]
+    par = _one_json(_mpirun(["-m", "flexmor", *argv, "--backend", "petsc", "-o", tmp_path / "mpi.html"], tmp_path,
+                            timeout=CLI_TIMEOUT))
+    ser = run_json(capsys, *argv, "--backend", "scipy", "-o", tmp_path / "serial.html")
+    assert (tmp_path / "mpi.html").stat().st_size > 0
+    assert [r["label"] for r in par["results"]] == [r["label"] for r in ser["results"]]
+    for p, s in zip(par["results"], ser["results"]):
+        assert p["band_error"] == pytest.approx(s["band_error"], rel=BAND_ERROR_RTOL), p["label"]
+        # the full model's time response: Newmark steps with MUMPS on the rows vs SuperLU
+        assert p["time_max_error"] == pytest.approx(s["time_max_error"], rel=1e-6), p["label"]
+
+
+def _sid_numbers(path) -> tuple[str, np.ndarray]:
+    """A SID file as its text with the numbers taken out, and the numbers."""
+    number = r"[-+]?(?:\d+\.\d*|\.\d+|\d+)(?:[DdEe][-+]?\d+)?"
+    text = Path(path).read_text()
+    values = [float(v.replace("D", "E").replace("d", "e")) for v in re.findall(number, text)]
+    return re.sub(number, "#", text), np.array(values)
+
+
+@needs_mpi
+def test_cli_two_ranks_export(tmp_path):
+    """export --model under mpirun (every rank reads the model, rank 0 writes): the serial run's SID file."""
+    from flexmor.cli import main
+
+    body = _free_bodies(tmp_path)[0]
+    _mpirun(["-m", "flexmor", "export", body, "--model", FREE, "-o", tmp_path / "mpi.SID_FEM"], tmp_path,
+            timeout=CLI_TIMEOUT)
+    assert main(["export", str(body), "--model", FREE, "-o", str(tmp_path / "serial.SID_FEM")]) == 0
+    (text_p, num_p), (text_s, num_s) = _sid_numbers(tmp_path / "mpi.SID_FEM"), _sid_numbers(tmp_path / "serial.SID_FEM")
+    assert text_p == text_s and num_p.shape == num_s.shape and num_s.size > 100
+    assert np.allclose(num_p, num_s, rtol=1e-10, atol=1e-12 * np.max(np.abs(num_s)))
 
 
 def _serial_reference(n):

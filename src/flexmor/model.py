@@ -397,7 +397,7 @@ class FEModel:
         out: dict[str, Any] = {"mass": None, "center_of_mass": None, "bounding_box": None}
         if self.n_nodes:
             out["bounding_box"] = [self.xyz.min(axis=0).tolist(), self.xyz.max(axis=0).tolist()]
-        if self.dofs is None or not self.n_nodes or is_partitioned(self.M):
+        if self.dofs is None or not self.n_nodes:  # (M partitioned over MPI ranks: M @ e is reduced over them)
             return out
         mass: list[float | None] = []
         com: list[float | None] = []

@@ -20,6 +20,7 @@ from __future__ import annotations
 import numpy as np
 import scipy.linalg as sla
 import scipy.sparse as sp
+from scipy.integrate import trapezoid  # any numpy (np.trapezoid: numpy >= 2 only)
 
 from ..damping import Rayleigh
 from ..dynamics.frf import frf_full, frf_reduced
@@ -76,8 +77,8 @@ def _h2_quadrature(model, ports, body, omega):
     h2 = np.sum(np.abs(H) ** 2, axis=(1, 2))
     u = np.log(w)
     # [0, w0]: the integrand is constant near 0; int_0^w0 = w0 * value(w0)
-    err2 = (np.trapezoid(e2 * w, u) + w[0] * e2[0]) / np.pi
-    full2 = (np.trapezoid(h2 * w, u) + w[0] * h2[0]) / np.pi
+    err2 = (trapezoid(e2 * w, u) + w[0] * e2[0]) / np.pi
+    full2 = (trapezoid(h2 * w, u) + w[0] * h2[0]) / np.pi
     return np.sqrt(err2), np.sqrt(full2)
 
 

@@ -5,7 +5,9 @@ file and line where there is one, and the flags concerned), 1 the machine ran sh
 disk space, a file-size limit, the permission to write: one line naming what and the options
 left), 130 interrupted (Ctrl-C), 143 terminated (SIGTERM). Output files are written atomically
 (:func:`flexmor.io.atomic_write`), so an interrupted run leaves neither a partial nor a
-temporary file; an existing output file is only replaced with ``--force``.
+temporary file; an existing output file is only replaced with ``--force``. Under mpirun only rank 0
+prints and writes; a rank that fails prints its one line and ends the whole job unless every rank
+failed alike (:func:`flexmor.linalg.distributed.end_failed_run`).
 
 Modules: :mod:`.parser` (arguments, generated per-method options), :mod:`.method_flags` (the
 method options as flags), :mod:`.commands` (the subcommands and their output), :mod:`.ui` (the
@@ -22,11 +24,12 @@ import os
 import signal
 import sys
 import threading
+import traceback
 import warnings
 
 from .. import io
 from ..errors import ConvergenceError, FlexmorError, FlexmorWarning, ModelError, PortError, ResourceError, SolverError
-from ..linalg.distributed import quiet_other_ranks
+from ..linalg.distributed import end_failed_run, quiet_other_ranks, several_ranks
 from .parser import build_parser
 
 __all__ = ["main", "build_parser"]
@@ -215,6 +218,14 @@ def main(argv=None) -> int:
 
 
 def _dispatch(args) -> int:
+    """Run the command of ``args``; errors become messages and exit codes. Under mpirun a rank that
+    fails ends the whole job unless every rank failed (:func:`flexmor.linalg.distributed.end_failed_run`):
+    no rank waits for it forever."""
+    code = _run_command(args)
+    return code if code == 0 else end_failed_run(code)
+
+
+def _run_command(args) -> int:
     """Run the command of ``args``; errors become messages and exit codes."""
     from ..linalg.resources import start_room
 
@@ -253,6 +264,13 @@ def _dispatch(args) -> int:
     except _Terminated:
         print("flexmor: terminated", file=sys.stderr)
         return 143
+    except Exception as exc:  # under mpirun: the one line, then the job ends (other ranks may wait for this one)
+        if not several_ranks():
+            raise
+        print(f"flexmor: error: {type(exc).__name__}: {exc}", file=sys.stderr)
+        if getattr(args, "verbose", 0):
+            traceback.print_exc()
+        return 1
 
 
 if __name__ == "__main__":

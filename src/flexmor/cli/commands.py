@@ -122,10 +122,14 @@ def _factor_note(out: dict, solver) -> str:
     return f"factor: {describe_factor(solver.stats)}" if solver.stats.mixed or solver.stats.ooc else ""
 
 
-def _read_model(args, couplings=(), *, damped=True, keep=None):
+def _read_model(args, couplings=(), *, damped=True, keep=None, check=None):
     """The model of ``args.model`` (selections and ``couplings`` applied), the read time and the
     band; with ``damped`` the damping flags applied, else they are left to the caller
-    (:func:`_asked_damping`). ``keep["uncoupled"]`` (a dict given) gets the model before the couplings."""
+    (:func:`_asked_damping`). ``keep`` (a dict given) gets the entries it names: ``"uncoupled"`` the
+    model before the couplings, ``"unloaded"`` the model without ``--preload`` (couplings applied; None
+    without a preload); and ``keep["check"] = check(model)`` of the model as read (selections applied),
+    computed where the file is read. Under mpirun with ``--backend petsc`` rank 0 reads and ``keep`` is
+    the same on every rank, its models held by rows too (:func:`flexmor.models.distributed.read_on_root`)."""
     from ..io import read
     from ..options import Band
     from ..units import to_si
@@ -138,20 +142,24 @@ def _read_model(args, couplings=(), *, damped=True, keep=None):
 
             model = with_selections(model, args.select)
             _print_nearest(nearest_report(model, args.select))
-        if getattr(args, "preload", None):  # K about the preloaded equilibrium; the model as read kept for info
+        if keep is not None and check is not None:
+            keep["check"] = check(model)
+        unloaded = model
+        if getattr(args, "preload", None):  # K about the preloaded equilibrium
             from ..preload import with_preload
 
-            model = with_preload(keep.setdefault("unloaded", model) if keep is not None else model, args.preload,
-                                 material=getattr(args, "material", None))
-        if keep is not None:
+            model = with_preload(model, args.preload, material=getattr(args, "material", None))
+        if keep is not None and "uncoupled" in keep:
             keep["uncoupled"] = model
+        if keep is not None and "unloaded" in keep and getattr(args, "preload", None):
+            keep["unloaded"] = prepare_model(unloaded, couplings)
         return prepare_model(model, couplings)
 
     t0 = time.perf_counter()
     if getattr(args, "backend", None) == "petsc":  # under mpirun: rank 0 reads, each rank gets its rows
         from ..models.distributed import read_on_root
 
-        model = read_on_root(load)
+        model = read_on_root(load, keep)
     else:
         with step(_progress(args), f"read {args.model}"):
             model = load()
@@ -212,13 +220,13 @@ def cmd_info(args) -> int:
     if args.modes < 0:  # --modes without N
         args.modes = 12
     couplings = coupling_specs(args.interface)
-    keep = {}
-    model, t_read, _ = _read_model(args, couplings, keep=keep)
+    keep = {"uncoupled": None, "unloaded": None}
+    model, t_read, _ = _read_model(args, couplings, keep=keep, check=geometry_check)  # the check: the file's, as read
     out = model.summary()
     out.update(model.mass_properties())
     out["selections"] = {name: model.node_sets[name].tolist() for name in _selected_names(args)}
     out["backends"] = available_backends()
-    out["geometry_check"] = geometry_check(keep.get("unloaded", keep.get("uncoupled", model)))  # the file's, as read
+    out["geometry_check"] = keep["check"]
     solver = _solver(args)
     if args.modes:
         k = min(args.modes, model.n_dof)
@@ -230,11 +238,9 @@ def cmd_info(args) -> int:
         out["frequencies_hz"] = frequencies_hz(lam).tolist()
         out["n_rigid"] = min(n_zero, k)
     if model.preload:  # the frequencies of the model as read beside the preloaded ones
-        from ..workflow import prepare_model
-
         out["preload"] = dict(model.preload)
         if args.modes:
-            free = prepare_model(keep["unloaded"], couplings)
+            free = keep["unloaded"]
             out["preload"]["frequencies_unloaded_hz"] = frequencies_hz(eigenmodes(free.K, free.M, k,
                                                                                    solver=solver)[0]).tolist()
     if args.reference:
@@ -243,7 +249,7 @@ def cmd_info(args) -> int:
         ref = read_reference(args.reference)
         out["reference"] = dict(compare_reference(model, ref, solver=solver), file=str(args.reference),
                                 described=ref.describe())
-    if couplings and "uncoupled" in keep:
+    if couplings:
         from ..checks import COUPLING_MODES, coupling_frequencies
 
         out["couplings"] = couplings
@@ -332,11 +338,13 @@ def cmd_reduce(args) -> int:
         _check_new(args.output_file, args)
         _body_suffix(args.output_file)
     couplings = coupling_specs(args.interface, args.input + args.output)
-    keep = {}
+    keep = {"uncoupled": None}
     model, t_read, given_band = _read_model(args, couplings, keep=keep)
+    if args.stress and is_partitioned(model.K):  # refused before the reduction, not after it
+        raise OptionError("--stress needs the model on one process (not with --backend petsc under mpirun)")
     solver = _solver(args)
     system = System.prepared(model, make_ports(model, args.input, args.output),
-                             as_read=None if is_partitioned(model.K) else keep.get("uncoupled"),  # (MPI: coupled only)
+                             as_read=keep["uncoupled"],
                              couplings=couplings, interfaces=args.interface, selections=args.select,
                              band=given_band, solver=solver, **_grid_options(args))
     red, res = system.reduce_and_judge(args.method, args.order, judge=not args.no_error, tol=args.tol,
@@ -346,7 +354,7 @@ def cmd_reduce(args) -> int:
     if is_partitioned(model.K):  # under mpirun with --backend petsc: the rows of K held by each rank
         res["partition"] = row_blocks(model.K)
     if args.stress:
-        _stress_modes(red, keep.get("uncoupled", model), args, res)
+        _stress_modes(red, keep["uncoupled"], args, res)
     if couplings:
         res["couplings"] = list(couplings)
     if args.select:
@@ -386,8 +394,6 @@ def _stress_modes(red, model, args, res) -> None:
     """Store the stress modes of ``red`` (``--stress``) at ``--stress-nodes``, with ``--material``."""
     from ..stress import body_stresses
 
-    if is_partitioned(model.K):
-        raise OptionError("--stress needs the model on one process (not with --backend petsc under mpirun)")
     t0 = time.perf_counter()
     out = body_stresses(model, red, material=args.material, nodes=args.stress_nodes)
     red.stress_nodes, red.stress_modes = out.node_ids, out.values
@@ -550,7 +556,7 @@ def cmd_report(args) -> int:
     rep = build_report(model, ports, reds, band=band, full=full, signal=args.signal, dt=args.dt, t_end=args.t_end,
                        scheme=args.scheme, n_modes=args.modes, solver=solver, coupling=coupling,
                        time_progress=_progress(args, "time steps", unit="step"))
-    write_report(rep, _check_new(args.output_file, args))
+    on_root(write_report, rep, _check_new(args.output_file, args))  # under MPI: written once, by rank 0
     if args.json:
         _emit_json({"file": str(args.output_file), "model": model.name, "band_hz": list(band),
                     "band_source": band_source, "results": rep.rows,

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from ..errors import OptionError
+from ..linalg.distributed import on_root
 from .commands import _check_new, _emit_json, _with_mesh
 from .tables import fmt
 
@@ -44,7 +45,7 @@ def cmd_export(args) -> int:
         opts["m1_order"] = args.m1_order
     if args.allow_clamped and name in ("sid", "exudyn"):  # the writers of a floating frame
         opts["allow_clamped"] = True
-    export(body, args.output_file, name, model=model, units=args.export_units, **opts)
+    on_root(export, body, args.output_file, name, model=model, units=args.export_units, **opts)  # under MPI: rank 0
     if args.json:
         _emit_json(out)
         return 0

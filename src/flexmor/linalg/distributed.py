@@ -28,6 +28,7 @@ import functools
 import logging
 import os
 import sys
+import time
 from dataclasses import dataclass
 
 import numpy as np
@@ -42,16 +43,19 @@ __all__ = [
     "allreduce",
     "barrier",
     "comm",
+    "end_failed_run",
     "is_partitioned",
     "is_root",
     "launched_by_mpi",
     "layout",
     "on_root",
     "quiet_other_ranks",
+    "raise_root_failure",
     "rank",
     "row_blocks",
     "row_range",
     "scatter_rows",
+    "several_ranks",
     "size",
 ]
 
@@ -122,11 +126,38 @@ def barrier() -> None:
 
 
 def on_root(fn, *args, **kwargs):
-    """Call ``fn`` on rank 0 only, between two barriers (so no rank runs ahead of a file write)."""
+    """Call ``fn`` on rank 0 only, once every rank has come here (so no rank runs ahead of a file write);
+    its result on rank 0, None on the others. An exception ``fn`` raises is raised on every rank
+    (:func:`raise_root_failure`): no rank goes on without rank 0."""
+    if size() == 1:
+        return fn(*args, **kwargs)
     barrier()
-    out = fn(*args, **kwargs) if is_root() else None
-    barrier()
+    out, failure = None, None
+    if is_root():
+        try:
+            out = fn(*args, **kwargs)
+        except Exception as exc:  # noqa: BLE001 - raised on every rank just below
+            failure = exc
+    raise_root_failure(failure)
     return out
+
+
+def raise_root_failure(failure: Exception | None) -> None:
+    """Raise on every rank the exception ``failure`` of rank 0 (ignored on the other ranks): there
+    itself, elsewhere one of the same class with the same message. Nothing when rank 0 passes None.
+    Collective (one broadcast)."""
+    if size() == 1:
+        if failure is not None:
+            raise failure
+        return
+    sent = comm().bcast(None if failure is None else (type(failure), str(failure)), root=0)
+    if sent is None:
+        return
+    if is_root() and failure is not None:
+        raise failure
+    exc = sent[0].__new__(sent[0])
+    Exception.__init__(exc, sent[1])
+    raise exc
 
 
 def quiet_other_ranks() -> None:
@@ -140,6 +171,56 @@ def quiet_other_ranks() -> None:
         return
     sys.stdout = open(os.devnull, "w")  # noqa: SIM115 - lives as long as the process
     logging.getLogger().setLevel(logging.ERROR)
+
+
+def several_ranks() -> bool:
+    """True in a run of more than one MPI rank (False without a launcher, or without mpi4py)."""
+    if not launched_by_mpi():
+        return False
+    try:
+        return size() > 1
+    except SolverError:
+        return False
+
+
+#: Seconds a failed rank waits for word that every other rank failed too before it ends the job.
+FAIL_WAIT = 5.0
+#: Message tag of that word (point-to-point, apart from the collectives any rank may be waiting in).
+_FAIL_TAG = 31_415
+
+
+def end_failed_run(code: int, wait: float = FAIL_WAIT) -> int:
+    """The exit code of a rank whose run failed with ``code`` (not 0), once no rank can wait for it.
+
+    Every rank that fails tells all others so, by a point-to-point message, and waits up to
+    ``wait`` seconds for the same word from each of them. When it comes (an error every rank
+    raised alike, e.g. from :func:`flexmor.models.distributed.read_on_root`) ``code`` is returned
+    and each process ends by itself. Otherwise some rank may wait for this one in a collective
+    operation forever: the whole job is ended with ``MPI_Abort(code)`` (the launcher then ends
+    every rank). One process: ``code`` at once.
+    """
+    if not several_ranks():
+        return code
+    from mpi4py import MPI
+
+    c = comm()
+    me, n = c.Get_rank(), c.Get_size()
+    others = [r for r in range(n) if r != me]
+    word = np.array([code], dtype=np.int64)
+    heard = [np.zeros(1, dtype=np.int64) for _ in others]
+    sends = [c.Isend(word, dest=r, tag=_FAIL_TAG) for r in others]
+    recvs = [c.Irecv(buf, source=r, tag=_FAIL_TAG) for buf, r in zip(heard, others)]
+    deadline = time.monotonic() + wait
+    while time.monotonic() < deadline:
+        if MPI.Request.Testall(recvs):
+            MPI.Request.Waitall(sends)
+            return code
+        time.sleep(0.01)
+    silent = [r for r, req in zip(others, recvs) if not req.Test()]
+    log.info("rank %d of %d failed alone (rank(s) %s did not fail within %g s): ending all ranks (MPI_Abort)",
+              me, n, ", ".join(map(str, silent)), wait)
+    c.Abort(code)
+    return code  # not reached: MPI_Abort ends this process too
 
 
 def row_range(n: int, nranks: int | None = None, r: int | None = None) -> tuple[int, int]:

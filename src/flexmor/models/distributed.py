@@ -106,7 +106,7 @@ def partitioned_cantilever(n: int = 4, *, length: float = 1.0, width: float = 0.
     return FEModel(M=M, K=K, node_ids=node_ids, xyz=xyz, dofs=dofs, node_sets=sets, name=name, source="built-in")
 
 
-def read_on_root(load) -> FEModel:
+def read_on_root(load, keep: dict | None = None) -> FEModel:
     """The model ``load()`` returns, read by rank 0 alone and held by rows over the MPI ranks.
 
     ``load`` (no arguments) runs on rank 0 only, e.g. reading a file and applying node selections
@@ -116,6 +116,16 @@ def read_on_root(load) -> FEModel:
     table, node sets, equation map, ``B``, ``C``, names and damping. Collective over all ranks;
     with one process it returns ``load()`` itself.
 
+    Parameters
+    ----------
+    load : callable
+        Returns the model; called on rank 0 only.
+    keep : dict, optional
+        What ``load`` puts in it on rank 0 (a model before its couplings, the outcome of a check of
+        the file as read, ...) is afterwards in it on every rank: its models held by rows like the
+        returned one (an entry that is the returned model, or another entry's model, is that model),
+        its other entries broadcast (small, picklable values).
+
     Raises
     ------
     Exception
@@ -124,27 +134,52 @@ def read_on_root(load) -> FEModel:
     """
     if dist.size() == 1:
         return load()
-    model, failure, meta = None, None, None
+    model, failure = None, None
     if dist.is_root():
         try:
             model = load()
-            meta = {f.name: getattr(model, f.name) for f in dataclasses.fields(model) if f.name not in ("M", "K", "D")}
-            meta["_shape"], meta["_has_D"] = model.M.shape, model.D is not None
         except Exception as exc:  # noqa: BLE001 - passed on to the other ranks, then raised here too
             failure = exc
-    status = dist.comm().bcast(("error", type(failure), str(failure)) if failure is not None else ("ok", meta), root=0)
-    if failure is not None:
-        raise failure
-    if status[0] == "error":
-        exc = status[1].__new__(status[1])
-        Exception.__init__(exc, status[2])
-        raise exc
-    meta = dict(status[1])
+    dist.raise_root_failure(failure)
+    out = _by_rows(model)
+    if keep is not None:
+        _share_kept(keep, model, out)
+    log.info("rank %d: rows [%d, %d) of %d, %d local entries of K", dist.rank(), *dist.row_range(out.n_dof),
+             out.n_dof, out.K.nnz)
+    return out
+
+
+def _by_rows(model) -> FEModel:
+    """Rank 0's ``model`` (None on the other ranks) held by rows on every rank. Collective."""
+    meta = None
+    if dist.is_root():
+        meta = {f.name: getattr(model, f.name) for f in dataclasses.fields(model) if f.name not in ("M", "K", "D")}
+        meta["_shape"], meta["_has_D"] = model.M.shape, model.D is not None
+    meta = dict(dist.comm().bcast(meta, root=0))
     (n, _), has_d = meta.pop("_shape"), meta.pop("_has_D")
     mats = {k: dist.scatter_rows(getattr(model, k, None), n) for k in ("M", "K", "D") if k != "D" or has_d}
-    del model  # rank 0: the whole matrices go; each rank keeps its rows
-    log.info("rank %d: rows [%d, %d) of %d, %d local entries of K", dist.rank(), *dist.row_range(n), n, mats["K"].nnz)
     return FEModel(**mats, **meta)
+
+
+def _share_kept(keep: dict, model, out: FEModel) -> None:
+    """Rank 0's ``keep`` on every rank (:func:`read_on_root`); ``model`` is rank 0's whole model, ``out``
+    the same held by rows. Collective."""
+    plan = None
+    if dist.is_root():
+        plan, owner = [], {id(model): None}  # each whole model once: the key that distributes it
+        for key, value in keep.items():
+            if isinstance(value, FEModel):
+                plan.append((key, "same", owner[id(value)]) if id(value) in owner else (key, "rows", None))
+                owner.setdefault(id(value), key)
+            else:
+                plan.append((key, "value", value))
+    for key, kind, arg in dist.comm().bcast(plan, root=0):
+        if kind == "rows":
+            keep[key] = _by_rows(keep.get(key))
+        elif kind == "same":
+            keep[key] = out if arg is None else keep[arg]
+        else:
+            keep[key] = arg
 
 
 def _assemble_slab(element, cols, divisions, extent, lam, mu, rho, q, rows, first, per_plane, n_eq):

@@ -21,6 +21,7 @@ import logging
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.integrate import trapezoid  # any numpy (np.trapezoid: numpy >= 2 only)
 
 from ..basis import Basis, extend_orthonormal
 from ..dynamics.frf import frf_reduced
@@ -41,8 +42,8 @@ log = logging.getLogger(__name__)
 
 def _band_estimate(freqs, Hk, Hprev) -> float:
     """``∫||Hk - Hprev||^2 df / ∫||Hk||^2 df``: the band_error of the previous body w.r.t. the latest."""
-    num = np.trapezoid(np.sum(np.abs(Hk - Hprev) ** 2, axis=(1, 2)), freqs)
-    den = np.trapezoid(np.sum(np.abs(Hk) ** 2, axis=(1, 2)), freqs)
+    num = trapezoid(np.sum(np.abs(Hk - Hprev) ** 2, axis=(1, 2)), freqs)
+    den = trapezoid(np.sum(np.abs(Hk) ** 2, axis=(1, 2)), freqs)
     return float(num / den) if den > 0 else np.inf
 
 
