@@ -8,7 +8,7 @@ STAMP := $(VENV)/.installed
 EXTRAS := full,fast,test,ansys,exudyn,mesh
 MPI_EXTRAS := full,test
 
-.PHONY: demo lint test test-arith test-mpi install bench clean lock
+.PHONY: demo lint test test-arith test-wheel test-mpi install bench clean lock
 
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
@@ -58,6 +58,19 @@ test-arith: $(STAMP)
 		--ignore=tests/test_ui_fuzz.py --ignore=tests/test_fuzz_readers.py --ignore=tests/test_bad_corpus.py \
 		--ignore=tests/test_resource_faults.py
 
+# The package a user installs: sdist and wheel built (python -m build: the wheel from the sdist), the wheel
+# installed with the lock in a clean environment, and the tests that use its entry points and each of its
+# package-data files (the FMU's C runtime, the 3D viewer's JavaScript, the web app's page) run against it.
+VENV_WHEEL := .venv-wheel
+WHEEL_TESTS := tests/test_installed.py tests/test_cli.py tests/test_export_fmu.py tests/test_view3d.py tests/test_ui.py
+test-wheel: $(STAMP)
+	rm -rf dist $(VENV_WHEEL)
+	PIP_CONSTRAINT=constraints.txt $(BIN)/python -m build --outdir dist . >/dev/null
+	$(PYTHON) -m venv $(VENV_WHEEL)
+	PIP_CONSTRAINT=constraints.txt $(VENV_WHEEL)/bin/pip install -q -c constraints.txt \
+		"$$(ls dist/flexmor-*.whl)[$(EXTRAS)]"
+	FLEXMOR_TEST_INSTALLED=1 $(VENV_WHEEL)/bin/python -m pytest -p no:cacheprovider $(WHEEL_TESTS)
+
 # The petsc backend under MPI: a second environment on the system Python, which sees Debian's
 # petsc4py/slepc4py/mpi4py (apt-get install python3-petsc4py python3-slepc4py python3-mpi4py
 # openmpi-bin); numpy < 2 because those modules are built against Debian's numpy 1.x.
@@ -81,4 +94,4 @@ bench: $(STAMP)
 	$(BIN)/python bench/solvers.py
 
 clean:
-	rm -rf $(VENV) $(VENV_MPI) .venv-lock demo-output
+	rm -rf $(VENV) $(VENV_MPI) $(VENV_WHEEL) dist .venv-lock demo-output
