@@ -8,7 +8,7 @@ STAMP := $(VENV)/.installed
 EXTRAS := full,fast,test,ansys,exudyn,mesh
 MPI_EXTRAS := full,test
 
-.PHONY: demo lint test test-arith test-wheel test-mpi install bench clean lock
+.PHONY: demo lint test test-arith test-wheel test-mpi install bench clean lock docs
 
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
@@ -23,7 +23,7 @@ $(STAMP): $(BIN)/python pyproject.toml constraints.txt
 lock:
 	rm -rf .venv-lock && $(PYTHON) -m venv .venv-lock
 	.venv-lock/bin/pip install -q --upgrade setuptools wheel
-	.venv-lock/bin/pip install -q -e ".[$(EXTRAS)]"
+	.venv-lock/bin/pip install -q -e ".[$(EXTRAS),docs]"
 	{ echo "# make lock: exact versions for make demo / make test ($$(.venv-lock/bin/python -V))"; \
 	  .venv-lock/bin/pip freeze --all --exclude-editable | grep -v -E '^pip=='; } > constraints.txt.tmp
 	mv constraints.txt.tmp constraints.txt
@@ -90,8 +90,25 @@ $(MPI_STAMP): pyproject.toml constraints-mpi.txt
 test-mpi: $(MPI_STAMP)
 	$(VENV_MPI)/bin/python -m pytest -q tests/test_petsc.py
 
+# The documentation site: Sphinx (numpydoc, MyST Markdown, pydata theme) with the docs extra at the lock's
+# versions; warnings are errors (a broken reference, a public name without docstring), the gallery runs
+# the examples at a small size. Output in docs/_build/html (open docs/_build/html/index.html).
+DOCS_STAMP := $(VENV)/.installed-docs
+$(DOCS_STAMP): $(STAMP)
+	PIP_CONSTRAINT=constraints.txt $(BIN)/pip install -q -c constraints.txt -e ".[$(EXTRAS),docs]"
+	touch $(DOCS_STAMP)
+
+docs: $(DOCS_STAMP)
+	rm -rf docs/_build docs/generated docs/auto_examples
+	MPLBACKEND=Agg $(BIN)/sphinx-build -W --keep-going -q -b html docs docs/_build/html
+
 bench: $(STAMP)
 	$(BIN)/python bench/solvers.py
 
+# docs/benchmark.md: every reduction method on the benchmark's models; writes the page's tables
+.PHONY: benchmark
+benchmark: $(STAMP)
+	$(BIN)/python bench/benchmark.py
+
 clean:
-	rm -rf $(VENV) $(VENV_MPI) $(VENV_WHEEL) dist .venv-lock demo-output
+	rm -rf $(VENV) $(VENV_MPI) $(VENV_WHEEL) dist .venv-lock demo-output docs/_build docs/generated docs/auto_examples
