@@ -88,7 +88,7 @@ $(MPI_STAMP): pyproject.toml constraints-mpi.txt
 	touch $(MPI_STAMP)
 
 test-mpi: $(MPI_STAMP)
-	$(VENV_MPI)/bin/python -m pytest -q tests/test_petsc.py
+	$(VENV_MPI)/bin/python -m pytest tests/test_petsc.py
 
 # The documentation site: Sphinx (numpydoc, MyST Markdown, pydata theme) with the docs extra at the lock's
 # versions; warnings are errors (a broken reference, a public name without docstring), the gallery runs
