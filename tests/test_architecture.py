@@ -48,7 +48,8 @@ LAYERS = [
     ["flexmor.model", "flexmor.damping", "flexmor.mesh", "flexmor.units", "flexmor.elements"],  # the FE model,
     # damping values, mesh surface, unit systems, elements and materials
     ["flexmor.linalg"],  # solver layer
-    ["flexmor.errors", "flexmor.jsonutil", "flexmor._version"],  # errors, JSON values, the version
+    ["flexmor.errors", "flexmor.jsonutil", "flexmor._version", "flexmor.display"],  # errors, JSON values, the
+    # version, short reprs and HTML tables
 ]
 
 #: Modules whose methods delegate upward, importing at call time: their imports inside functions
@@ -283,12 +284,13 @@ def test_no_import_up_the_layers():
 
 
 def test_body_delegates_only_to_its_concerns():
-    """``body.py`` imports at module level only what lies below it; inside its methods only the
-    modules of the concerns it delegates to (FRF, time response, expansion, state space)."""
+    """``body.py`` imports at module level only what lies below it (its reprs from ``display``); inside
+    its methods only the modules of the concerns it delegates to (FRF, time response, expansion,
+    state space)."""
     path = ROOT / "body.py"
     modules = {module_name(p) for p in ROOT.rglob("*.py")}
     top = {unit(t) for t, _, _ in imports_of(path, modules, in_functions=False)} - {"flexmor.body"}
-    assert top <= {"flexmor._version", "flexmor.damping", "flexmor.errors"}, top
+    assert top <= {"flexmor._version", "flexmor.damping", "flexmor.errors", "flexmor.display"}, top
     called = {t for t, _, _ in imports_of(path, modules)} - {t for t, _, _ in imports_of(path, modules,
                                                                                           in_functions=False)}
     assert called == {"flexmor.dynamics.frf", "flexmor.dynamics.time", "flexmor.expansion", "flexmor.io.statespace"}

@@ -9,8 +9,23 @@ The names of a study, one import away::
     body = beam.reduce("krylov", 8)
     print(beam.judge(body).band_error)
 
-Every name here lives in a module of its own (listed in ``__all__`` below with its home);
-``flexmor.io``, ``flexmor.reduction`` ... are the subpackages behind them.
+Every name of ``__all__`` with its home, the module to read (and import) it from::
+
+    __version__                   flexmor._version
+    io                            flexmor.io
+    read, read_body, export       flexmor.io
+    state_space                   flexmor.io.statespace
+    System                        flexmor.study
+    make_ports                    flexmor.ports
+    project                       flexmor.projection
+    reduce                        flexmor.reduction
+    simulate                      flexmor.dynamics.time
+    FullResponse, ErrorMeasures   flexmor.analysis.compare
+    FlexmorError, ReadError, ModelError, PortError, SolverError, ConvergenceError, OptionError,
+    FlexmorWarning                flexmor.errors
+
+The full FRF a study judges against is cached on disk (``~/.cache/flexmor`` by default, bounded,
+:mod:`flexmor.analysis.cache` says where, how large and how to turn it off).
 """
 
 from . import io

@@ -45,6 +45,7 @@ class Basis:
 
     @property
     def order(self) -> int:
+        """Number of columns of ``V``."""
         return int(self.V.shape[1])
 
 
@@ -222,9 +223,11 @@ class Columns:
 
     @property
     def view(self) -> np.ndarray:
+        """The ``k`` columns held, shape (n, k) (a view of the store, not a copy)."""
         return self._A[:, : self.k]
 
     def append(self, Q: np.ndarray) -> None:
+        """Add the columns of ``Q`` (shape (n, q)) after those held, growing the store by doubling."""
         q = Q.shape[1]
         if self.k + q > self._A.shape[1]:
             A = np.empty((self._A.shape[0], max(2 * self._A.shape[1], self.k + q)), dtype=self._A.dtype, order="F")

@@ -14,18 +14,31 @@ import numpy as np
 import scipy.linalg as sla
 
 from ._version import __version__
-from .damping import Damping, NoDamping, damping_from_dict
+from .damping import Damping, NoDamping, damping_from_dict, describe_damping
+from .display import Shown, band_text, names_text
 from .errors import ModelError
 
-__all__ = ["ReducedModel"]
+__all__ = ["ReducedModel", "convergence_record"]
+
+
+def convergence_record(body) -> dict:
+    """``converged`` (None for a method that does not iterate) and ``convergence_note`` of ``body``.
+
+    An iterative method (``irka``) records whether it converged in the body's ``info``; a body
+    whose iteration stopped without converging carries the note that says so and what to change.
+    """
+    info = getattr(body, "info", None) or {}
+    converged = info.get("converged")
+    return {"converged": None if converged is None else bool(converged),
+            "convergence_note": info.get("convergence_note")}
 
 
 #: ``id(body) -> (K, M, eigenvalues)`` of :meth:`ReducedModel.eigenvalues`, dropped with the body
 _EIGENVALUES: dict = {}
 
 
-@dataclass
-class ReducedModel:
+@dataclass(repr=False)
+class ReducedModel(Shown):
     """A reduced elastic body ``Mr qr'' + Dr qr' + Kr qr = Br u``, ``y = Cr qr``.
 
     Attributes
@@ -129,7 +142,8 @@ class ReducedModel:
     def summary(self) -> dict:
         """What the body is, as a plain dict (used by ``flexmor info BODY.h5``).
 
-        Keys: ``method``, ``order``, ``order_requested``, ``order_note``, ``inputs``,
+        Keys: ``method``, ``order``, ``order_requested``, ``order_note``, ``converged`` and
+        ``convergence_note`` (:func:`convergence_record`), ``inputs``,
         ``outputs``, ``couplings``, ``masters`` (each coupling's master node: ``name``, ``id``,
         ``kind``, ``xyz``, ``n_slaves``), ``options`` (the method options recorded), ``frequencies_hz``,
         ``damping`` (stored form), ``errors`` (the stored measures, without the curves),
@@ -142,13 +156,31 @@ class ReducedModel:
         except ModelError:
             freqs = None
         return {"method": self.method, "order": self.order, "order_requested": self.info.get("order_requested"),
-                "order_note": self.order_note, "inputs": list(self.input_names),
+                "order_note": self.order_note, **convergence_record(self), "inputs": list(self.input_names),
                 "outputs": list(self.output_names), "couplings": list(self.couplings),
                 "masters": list(self.info.get("masters", [])),
                 "options": dict(self.info.get("options", {})), "frequencies_hz": freqs,
                 "damping": self.damping.to_dict(), "model_name": self.model_name,
                 "errors": {k: v for k, v in self.errors.items() if k not in ("freqs_hz", "rel_error")},
                 "model": dict(self.origin), "units": self.units, "version": self.version}
+
+    def _shown(self) -> tuple[str, list]:
+        rows = [("inputs", names_text(self.input_names)), ("outputs", names_text(self.output_names)),
+                ("damping", describe_damping(self.damping))]
+        try:
+            f = self.frequencies_hz()
+            rows.append(("frequencies [Hz]", " ".join(f"{x:.4g}" for x in f[:6]) + (" ..." if f.size > 6 else "")))
+        except ModelError:
+            pass
+        if self.errors.get("band_error") is not None:
+            rows.append(("band_error", f"{self.errors['band_error']:.3g} over {band_text(self.errors.get('band_hz'))}"))
+        conv = convergence_record(self)
+        if conv["converged"] is False:
+            rows.append(("converged", "no"))
+        if self.order_note:
+            rows.append(("order note", self.order_note))
+        made = f" of {self.model_name!r}" if self.model_name else ""
+        return f"{self.method or 'body'}{made}: order {self.order}", rows
 
     def frequencies_hz(self) -> np.ndarray:
         """Undamped eigenfrequencies in Hz (round-off negatives reported as 0)."""

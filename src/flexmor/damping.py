@@ -20,7 +20,7 @@ import numpy as np
 from .errors import OptionError
 
 __all__ = ["Damping", "NoDamping", "Rayleigh", "BandMatched", "ModalDamping", "GivenDamping", "KINDS",
-           "damping_from_dict", "band_matched", "modal_damping"]
+           "damping_from_dict", "band_matched", "modal_damping", "describe_damping"]
 
 
 @dataclass(frozen=True)
@@ -73,6 +73,7 @@ class Rayleigh(Damping):
     beta: float
 
     def to_dict(self) -> dict:
+        """The stored form: ``{"type": "rayleigh", "alpha": alpha, "beta": beta}`` (a band-matched one too)."""
         return {"type": "rayleigh", "alpha": self.alpha, "beta": self.beta}
 
     def ratios(self, freqs_hz) -> np.ndarray:
@@ -128,6 +129,7 @@ class ModalDamping(BandMatched):
         object.__setattr__(self, "band", tuple(float(b) for b in self.band))
 
     def to_dict(self) -> dict:
+        """The stored form: ``{"type": "modal", "zeta", "band", "alpha", "beta"}`` (the ratio and its realization)."""
         return {"type": "modal", "zeta": self.zeta, "band": list(self.band), "alpha": self.alpha,
                 "beta": self.beta}
 
@@ -172,3 +174,19 @@ def damping_from_dict(record: dict) -> Damping:
         return KINDS[kind](**fields)
     except TypeError:
         raise OptionError(f"damping {record!r} does not match type {kind!r}") from None
+
+
+def describe_damping(damping: Damping) -> str:
+    """The damping in words: ``none``, ``Rayleigh alpha 0 1/s, beta 1e-05 s``, ``modal damping 0.01 ...``,
+    ``damping matrix given with the model``."""
+    if isinstance(damping, ModalDamping):
+        return (f"modal damping {damping.zeta:g} in every mode (sparse realization: Rayleigh matched at "
+                f"{damping.band[0]:g} and {damping.band[1]:g} Hz)")
+    if isinstance(damping, Rayleigh):
+        text = f"Rayleigh alpha {damping.alpha:g} 1/s, beta {damping.beta:g} s"
+        zeta = getattr(damping, "zeta", None)
+        return text + (f" (ratio {zeta:g} at {damping.band[0]:g} and {damping.band[1]:g} Hz)"
+                       if zeta is not None else "")
+    if isinstance(damping, GivenDamping):
+        return "damping matrix given with the model"
+    return "none"

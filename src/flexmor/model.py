@@ -26,7 +26,8 @@ from typing import Any
 import numpy as np
 import scipy.sparse as sp
 
-from .damping import Damping, NoDamping, Rayleigh, damping_from_dict
+from .damping import Damping, NoDamping, Rayleigh, damping_from_dict, describe_damping
+from .display import Shown, names_text
 from .elements import Elements
 from .errors import FlexmorWarning, ModelError
 from .linalg.distributed import is_partitioned
@@ -131,8 +132,8 @@ def _check_square_symmetric(name: str, A: sp.csr_matrix, n: int) -> None:
             )
 
 
-@dataclass
-class FEModel:
+@dataclass(repr=False)
+class FEModel(Shown):
     """A linear finite-element model of one elastic body.
 
     Parameters
@@ -322,6 +323,15 @@ class FEModel:
     def n_nodes(self) -> int:
         """Number of nodes in the node table."""
         return int(self.node_ids.size)
+
+    def _shown(self) -> tuple[str, list]:
+        rows = [("damping", describe_damping(self.damping)), ("units", self.units or "as given"),
+                ("node sets", names_text(self.node_sets)), ("nnz(K)", _nnz(self.K))]
+        if self.B is not None or self.C is not None:
+            rows.append(("ports", f"{len(self.input_names)} inputs, {len(self.output_names)} outputs"))
+        if self.source:
+            rows.append(("source", self.source))
+        return f"{self.name!r}: {self.n_dof} DOF, {self.n_nodes} nodes", rows
 
     def describe_dof(self, i: int) -> str:
         """Human-readable name of equation ``i`` (0-based), e.g. ``'equation 7 (node 3, y)'``."""

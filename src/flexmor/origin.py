@@ -25,7 +25,7 @@ from pathlib import Path
 import numpy as np
 import scipy.sparse as sp
 
-from .damping import Damping, GivenDamping, ModalDamping, NoDamping, Rayleigh
+from .damping import Damping, GivenDamping, ModalDamping, NoDamping, Rayleigh, describe_damping
 from .errors import ModelError, OptionError
 from .linalg.distributed import is_partitioned
 
@@ -181,22 +181,6 @@ def _units_advice(body, model) -> str:
         return f"the body's model was read as given, this one in {ours}: read the model as given (no units)"
     return (f"the body's model was read in {theirs}, this one {'in ' + ours if ours else 'as given'}: give units "
             f"{theirs} with the model")
-
-
-def describe_damping(damping: Damping) -> str:
-    """The damping in words: ``none``, ``Rayleigh alpha 0 1/s, beta 1e-05 s``, ``modal damping 0.01 ...``,
-    ``damping matrix given with the model``."""
-    if isinstance(damping, ModalDamping):
-        return (f"modal damping {damping.zeta:g} in every mode (sparse realization: Rayleigh matched at "
-                f"{damping.band[0]:g} and {damping.band[1]:g} Hz)")
-    if isinstance(damping, Rayleigh):
-        text = f"Rayleigh alpha {damping.alpha:g} 1/s, beta {damping.beta:g} s"
-        zeta = getattr(damping, "zeta", None)
-        return text + (f" (ratio {zeta:g} at {damping.band[0]:g} and {damping.band[1]:g} Hz)"
-                       if zeta is not None else "")
-    if isinstance(damping, GivenDamping):
-        return "damping matrix given with the model"
-    return "none"
 
 
 def same_damping(a: Damping, b: Damping, rtol: float = 1e-9) -> bool:

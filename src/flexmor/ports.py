@@ -120,10 +120,12 @@ class Ports:
 
     @property
     def n_inputs(self) -> int:
+        """Number of inputs (columns of ``B``)."""
         return self.B.shape[1]
 
     @property
     def n_outputs(self) -> int:
+        """Number of outputs (rows of ``C``)."""
         return self.C.shape[0]
 
     def reduced(self, V: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -21,7 +21,8 @@ from __future__ import annotations
 from os import PathLike
 
 from .analysis.compare import ErrorMeasures, FullResponse, check_judgeable
-from .damping import Damping
+from .damping import Damping, describe_damping
+from .display import Shown, band_text, names_text
 from .errors import ModelError, OptionError
 from .linalg.context import SolverContext, as_solver
 from .model import FEModel
@@ -35,7 +36,7 @@ __all__ = ["System"]
 _DAMPING_KEYS = "{'rayleigh': (alpha, beta)}, {'modal_damping': zeta} or {'band_rayleigh': zeta}"
 
 
-class System:
+class System(Shown):
     """A full model with its inputs, outputs, interfaces, band and damping, given once.
 
     Parameters
@@ -60,7 +61,11 @@ class System:
         Solver (backend, statistics) of every factorization.
     **grid
         Options of :class:`~flexmor.analysis.compare.FullResponse` (``n``, ``tol``, ``path``,
-        ``cache`` ...).
+        ``cache`` ...). The full FRF is kept on disk for later studies of the same model, ports,
+        damping and band: in ``$FLEXMOR_CACHE_DIR``, else ``$XDG_CACHE_HOME/flexmor``, else
+        ``~/.cache/flexmor``, at most ``$FLEXMOR_CACHE_MAX_MB`` megabytes (default 2000, the least
+        recently used entries removed first); ``cache=False`` or ``FLEXMOR_CACHE_MAX_MB=0`` turns
+        it off (:mod:`flexmor.analysis.cache`).
 
     Attributes
     ----------
@@ -130,9 +135,12 @@ class System:
         self._full: FullResponse | None = None
         self._origin: dict | None = None
 
-    def __repr__(self) -> str:
-        return (f"System({self.model.name!r}, {self.model.n_dof} DOF, inputs={self.ports.input_names}, "
-                f"outputs={self.ports.output_names}, band={self.band[0]:g}:{self.band[1]:g} Hz)")
+    def _shown(self) -> tuple[str, list]:
+        rows = [("inputs", names_text(self.ports.input_names)), ("outputs", names_text(self.ports.output_names)),
+                ("band", band_text(self.band)), ("damping", describe_damping(self.model.damping))]
+        if self.interfaces:
+            rows.append(("interfaces", names_text(self.interfaces)))
+        return f"{self.model.name!r}: {self.model.n_dof} DOF", rows
 
     @property
     def full(self) -> FullResponse:

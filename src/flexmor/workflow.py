@@ -9,6 +9,7 @@ from pathlib import Path
 
 from .analysis.compare import FullResponse
 from .analysis.frequency import measure_record
+from .body import convergence_record
 from .checks import check_rigid_body_modes, coupling_frequencies, first_elastic_hz
 from .damping import Damping, NoDamping, Rayleigh, band_matched
 from .damping import modal_damping as _modal_damping
@@ -106,7 +107,8 @@ def reduce_and_judge(model, method: str, order, ports, *, band=None,
     """Reduce ``model`` and evaluate the error measures over ``band``.
 
     Returns ``(reduced, result)``; ``result`` is the JSON record of ``flexmor reduce``:
-    ``method, order, order_requested, order_note, seconds, band_hz``, the error measures of
+    ``method, order, order_requested, order_note``, ``converged`` and ``convergence_note`` of an
+    iterative method (:func:`flexmor.body.convergence_record`), ``seconds, band_hz``, the error measures of
     :data:`flexmor.analysis.frequency.MEASURE_KEYS` (``band_error``, ``rms_rel_error_pct``,
     ``hinf_error``, ``max_rel_error`` ...), ``notes``, ``frequencies_hz``, ``timings``.
     ``full`` (a :class:`FullResponse`, or a function returning one, called when it is needed:
@@ -194,6 +196,7 @@ def reduce_and_judge(model, method: str, order, ports, *, band=None,
         "order": red.order,
         "order_requested": red.info.get("order_requested"),
         "order_note": red.order_note,
+        **convergence_record(red),
         "seconds": t["basis"] + t["project"],
         "band_hz": None, **measure_record(None),
         "frequencies_hz": red.frequencies_hz().tolist(),

@@ -95,10 +95,12 @@ class Body:
 
     @property
     def reduced(self) -> bool:
+        """Whether the body is a reduced one (a :class:`~flexmor.body.ReducedModel`)."""
         return isinstance(self.model, ReducedModel)
 
     @property
     def size(self) -> int:
+        """Coordinates the body brings into the assembly: its order, or the DOF of a full body."""
         return self.model.order if self.reduced else self.model.n_dof
 
     def vector(self, spec: str, *, role: str = "input") -> np.ndarray:

@@ -11,6 +11,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..damping import ModalDamping
+from ..display import Shown, band_text
 from ..dynamics.dense_frf import DenseResolvent, dense_applicable
 from ..dynamics.frf import angular_frequency, frf_full, frf_reduced, rel_error
 from ..dynamics.modes import modal_damping_ratios, modes_below
@@ -55,8 +56,8 @@ JUDGED_FULL = "full response"
 SURROGATE_MIN_DOF = 700
 
 
-@dataclass(frozen=True)
-class ErrorMeasures:
+@dataclass(frozen=True, repr=False)
+class ErrorMeasures(Shown):
     """How well a reduced body reproduces the full model's FRF over a band
     (:meth:`FullResponse.evaluate`).
 
@@ -109,6 +110,15 @@ class ErrorMeasures:
     freqs_hz: np.ndarray = field(default=None, repr=False, compare=False)
     rel_error: np.ndarray = field(default=None, repr=False, compare=False)
 
+    def _shown(self) -> tuple[str, list]:
+        where = f"{self.max_rel_error:.3g} at {self.max_rel_error_hz:.4g} Hz" + (
+            " (anti-resonance)" if self.max_rel_error_at_antiresonance else "") + (
+            " (spurious resonance)" if self.max_rel_error_at_spurious_resonance else "")
+        rows = [("rms_rel_error", f"{self.rms_rel_error_pct:.3g} %"), ("hinf_error", f"{self.hinf_error:.3g}"),
+                ("max_rel_error", where), ("judged", self.judged)]
+        rows += [("note", n) for n in self.notes]
+        return f"band_error {self.band_error:.3g} over {band_text(self.band_hz)}", rows
+
     def to_dict(self) -> dict:
         """The JSON record: the :data:`~flexmor.analysis.frequency.MEASURE_KEYS` and ``notes``
         (without the band and the curves, which the records carry elsewhere)."""
@@ -122,7 +132,10 @@ class FullResponse:
     grid (:func:`flexmor.analysis.grid.adaptive_grid`) places points at them and refines
     until the trapezoidal integral of ``||H||_F^2`` is resolved to ``tol``. The result is
     cached on disk (:mod:`flexmor.analysis.cache`) so that later runs on the same model,
-    ports, damping, band and grid parameters cost no sweep.
+    ports, damping, band and grid parameters cost no sweep: one ``.npz`` file per FRF in
+    ``$FLEXMOR_CACHE_DIR``, else ``$XDG_CACHE_HOME/flexmor``, else ``~/.cache/flexmor``, bounded by
+    ``$FLEXMOR_CACHE_MAX_MB`` megabytes (default 2000; the least recently used entries are removed
+    first); ``cache=False`` or ``FLEXMOR_CACHE_MAX_MB=0`` turns it off.
 
     Parameters
     ----------
@@ -151,7 +164,8 @@ class FullResponse:
         into memory, else direct).
     cache : bool or path-like
         Use the disk cache (True: :func:`flexmor.analysis.cache.cache_dir`; a path: that
-        directory; False: neither read nor write).
+        directory; False: neither read nor write), bounded by
+        :func:`flexmor.analysis.cache.max_bytes`.
     progress : callable, optional
         ``progress(iterable, total, desc=None)`` callback (:func:`flexmor.linalg.context.track`)
         shown the sweep, the modal pre-pass, the dense eigendecomposition and the surrogate's
@@ -209,7 +223,7 @@ class FullResponse:
             params["surrogate_tol"] = float(surrogate_tol)
         self.timings = {"prepass": 0.0, "sweep": 0.0, "cache": 0.0}
         directory = None if cache is True else cache
-        key = frf_cache.frf_key(model, ports, params) if cache is not False else None
+        key = frf_cache.frf_key(model, ports, params) if cache is not False and frf_cache.max_bytes() else None
         entry = frf_cache.load(key, (ports.n_outputs, ports.n_inputs), directory) if key else None
         self.timings["cache"] = time.perf_counter() - t0
         self.cache_hit = entry is not None

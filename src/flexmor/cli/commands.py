@@ -10,6 +10,7 @@ from pathlib import Path
 import numpy as np
 
 from .._version import __version__
+from ..body import convergence_record
 from ..errors import OptionError
 from ..jsonutil import jsonable
 from ..linalg.context import step
@@ -24,7 +25,7 @@ from .info import (
     print_mass_properties,
 )
 from .method_flags import method_options
-from .tables import fmt, notes_as_flags, print_error_table, print_mounted
+from .tables import fmt, note_text, notes_as_flags, print_error_table, print_mounted
 
 __all__ = ["cmd_info", "cmd_reduce", "cmd_compare", "cmd_report", "cmd_demo"]
 
@@ -200,6 +201,8 @@ def _asked_damping(args, band):
 
 # -- info --------------------------------------------------------------------------------------
 def cmd_info(args) -> int:
+    """``flexmor info``: a model's sizes, checks and lowest frequencies, a body's summary, the
+    backends or the formats; returns the exit code."""
     from ..checks import MAX_RIGID_BODY_MODES, mechanism_error, stable_lowest_eigenvalues
     from ..linalg import available_backends
     from ..linalg.eigen import eigenmodes, frequencies_hz, is_rigid
@@ -323,6 +326,7 @@ def _selected_names(args) -> list:
 
 # -- reduce ------------------------------------------------------------------------------------
 def cmd_reduce(args) -> int:
+    """``flexmor reduce``: read, prepare the study, reduce and judge, write the body; returns the exit code."""
     from ..io import write_body
     from ..origin import describe_damping
     from ..ports import make_ports
@@ -370,7 +374,9 @@ def cmd_reduce(args) -> int:
     for line in interface_lines(red.info.get("masters", [])):
         print(f"interface {line}")
     if res.get("order_note"):
-        print(f"note: {res['order_note']}")
+        print(f"note: {note_text(res['order_note'])}")
+    if res.get("converged") is False and not res["band_hz"]:  # else the error table says it
+        print(f"NOT CONVERGED: {note_text(res['convergence_note'] or 'the iteration stopped without converging')}")
     if res.get("tol") is not None:
         m = res["tol_measure"]
         print(f"--tol {res['tol']:g} on {m}: order {red.order} chosen, verified {m} {fmt(res[m], '.3g')} "
@@ -444,6 +450,8 @@ def _band_lines(paths, bands, sources) -> list[str]:
 
 
 def cmd_compare(args) -> int:
+    """``flexmor compare``: judge each body against the study of its model, damping and ports; returns
+    the exit code."""
     from ..analysis.mounted import FullMounted
     from ..origin import describe_damping, reference_model
     from ..ports import make_ports
@@ -465,8 +473,8 @@ def cmd_compare(args) -> int:
         t0 = time.perf_counter()
         err = full.evaluate(red)
         t_err = time.perf_counter() - t0
-        row = {"file": str(path), "method": red.method, "order": red.order, "band_hz": list(band),
-               "band_source": source, **err.to_dict(), "damping": ref.damping.to_dict(),
+        row = {"file": str(path), "method": red.method, "order": red.order, **convergence_record(red),
+               "band_hz": list(band), "band_source": source, **err.to_dict(), "damping": ref.damping.to_dict(),
                "reference_damping": describe_damping(ref.damping), "timings": {"error": t_err}}
         t0 = time.perf_counter()  # the body in its joints; the full side once per model (couplings, selections)
         mkey = key[2:4]
@@ -514,6 +522,7 @@ def _grid_options(args) -> dict:
 
 # -- report ------------------------------------------------------------------------------------
 def cmd_report(args) -> int:
+    """``flexmor report``: the HTML report of a model and its bodies; returns the exit code."""
     from ..origin import describe_damping, reference_model, same_damping
     from ..ports import make_ports
     from ..report.contents import build_report
@@ -577,6 +586,7 @@ def cmd_report(args) -> int:
 
 # -- demo --------------------------------------------------------------------------------------
 def cmd_demo(args) -> int:
+    """``flexmor demo``: the main job on the built-in model; returns the exit code."""
     from ..workflow import run_demo
 
     if not args.json:

@@ -11,6 +11,7 @@ __all__ = ["cmd_export"]
 
 
 def cmd_export(args) -> int:
+    """``flexmor export``: write a body in an MBS code's format; returns the exit code."""
     from ..io import export, export_format, read, read_body, unit_formats
     from ..origin import reference_model
     from ..units import to_si

@@ -68,7 +68,10 @@ def info_body(args, emit_json) -> int:
     _row("method", f"{out['method']}, order {out['order']}"
          + (f" ({asked} requested)" if asked not in (None, out["order"]) else ""))
     if out["order_note"]:
-        _row("", out["order_note"])
+        _row("", note_text(out["order_note"]))
+    if out["converged"] is not None:
+        _row("converged", "yes" if out["converged"] else
+             f"NO: {note_text(out['convergence_note'] or 'the iteration stopped without converging')}")
     _row("coordinates", _coordinates_text(out["coordinates"]))
     opts = {k: v for k, v in out["options"].items() if k != "backend"}
     if opts:

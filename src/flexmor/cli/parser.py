@@ -222,6 +222,8 @@ def _add_verbose(p, default=0) -> None:
 
 
 def build_parser() -> argparse.ArgumentParser:
+    """The parser of ``flexmor`` with every subcommand and its flags (the method options' flags
+    generated from the registered options dataclasses)."""
     from ..reduction import ALIASES, METHODS
 
     ap = Parser(prog="flexmor", description="Model order reduction of elastic bodies for EMBS.")

@@ -13,11 +13,12 @@ def fmt(x, spec: str = ".3e") -> str:
 
 
 def note_text(note: str) -> str:
-    """A note of the library (error measures, mounted check) with the parameters it names as flags
+    """A note of the library (error measures, mounted check, methods) with the parameters it names as flags
     (``modal_damping`` -> ``--modal-damping``)."""
     from ..analysis import frequency, mounted
+    from ..reduction import _options
 
-    params = frequency.NOTE_PARAMS + mounted.NOTE_PARAMS
+    params = frequency.NOTE_PARAMS + mounted.NOTE_PARAMS + _options.NOTE_PARAMS
     return name_parameters(note, params, {p: "--" + p.replace("_", "-") for p in params})
 
 
@@ -54,8 +55,9 @@ def print_error_table(rows, label: str = "method", header: str | None = None) ->
     ----------
     rows : list of dict
         One dict per body: ``order``, the error measures (``band_error``, ``rms_rel_error_pct``,
-        ``hinf_error``, ``max_rel_error`` and where it occurs), ``seconds``, ``notes``; a missing
-        value prints as ``-``.
+        ``hinf_error``, ``max_rel_error`` and where it occurs), ``seconds``, ``notes``,
+        ``converged`` and ``convergence_note`` (a row with ``converged`` False gets a line saying
+        so); a missing value prints as ``-``.
     label : str
         The key of the first column (``method``, ``file`` or ``label``).
     header : str, optional
@@ -96,6 +98,10 @@ def _notes(rows, label: str) -> None:
                 grouped.setdefault(n, []).append(name(r))
     for n, names in grouped.items():
         print(f"note: {', '.join(names)}: {note_text(n)}")
+    for r in rows:
+        if r.get("converged") is False:
+            print(f"NOT CONVERGED: {name(r)}: "
+                  f"{note_text(r.get('convergence_note') or 'the iteration stopped without converging')}")
 
 
 def print_mounted(rows, label: str = "method") -> None:

@@ -19,6 +19,7 @@ def add_ui_parser(sub) -> None:
 
 
 def cmd_ui(args) -> int:
+    """``flexmor ui``: serve the web app on 127.0.0.1 until interrupted; returns the exit code."""
     from ..ui import make_server
 
     server, app, url = make_server(args.folder, args.main, args.port)  # jobs run the command line's own main

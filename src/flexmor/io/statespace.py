@@ -76,6 +76,7 @@ class StateSpace:
                           outputs=self._labels(self.output_names, self.C.shape[0]))
 
     def arrays(self) -> dict:
+        """The matrices by name: ``A``, ``B``, ``C``, ``D`` and the descriptor form's ``E``, ``Ae``, ``Be``."""
         return {k: getattr(self, k) for k in ("A", "B", "C", "D", "E", "Ae", "Be")}
 
 

@@ -12,7 +12,11 @@ from __future__ import annotations
 from ..options import option
 
 __all__ = ["SIDES", "RIGID", "VARIANTS", "SOLVES", "points_option", "side_option", "rigid_option",
-           "interface_option", "variant_option", "solves_option", "nodes_option"]
+           "interface_option", "variant_option", "solves_option", "nodes_option", "NOTE_PARAMS"]
+
+#: Method options the notes of the methods name (``order_note``, ``convergence_note``): a caller
+#: with other names for them (the command line's flags) renames these words.
+NOTE_PARAMS = ("cutoff", "solves", "max_iter", "shift_tol")
 
 #: Choices of the ``side`` option: the space of the inputs, of the outputs or of both.
 SIDES = ("input", "output", "both")

@@ -170,6 +170,9 @@ class SecondOrderArnoldi:
         return _gemm(self.Q.view, self._last[: self._last.shape[0] // 2])
 
     def next_block(self):
+        """Extend the basis by the next block of the second-order Krylov sequence (one solve with the
+        point's factorization); returns the new orthonormal columns of ``Q`` (n, b), None once the sequence
+        has deflated."""
         if self.n_solves == 0:
             X0 = self._project(self.F.solve(self._start))
             self.n_solves += 1

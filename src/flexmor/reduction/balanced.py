@@ -69,7 +69,7 @@ def balanced_basis(model, ports, order, band, *, method: str, variant: str = "po
     info = {"variant": variant, "hankel_sv": sigma[:k].tolist(),
             "truncated_sv_sum": float(np.sum(sigma[n_flex:])), "rigid": rigid, "n_rigid_included": int(head.shape[1]),
             "nested": False, **ginfo}
-    note = balance_note(T.shape[1], n_flex, head.shape[1])
+    note = balance_note(T.shape[1], n_flex, head.shape[1], ginfo)
     if note:
         info["order_note"] = note
     return Basis(V, method, info)
@@ -145,7 +145,10 @@ def sobt(model, ports, order, *, variant: str = "position", nodes: int = 4, band
     -------
     Basis
         ``info['hankel_sv']`` the singular values used for truncation (leading ones),
-        ``info['truncated_sv_sum']``, the quadrature description.
+        ``info['truncated_sv_sum']``, what the Gramians cover (``band_hz``: the interval integrated,
+        which ends at the cutoff when the surrogate solves leave out the rest; ``band_requested_hz``;
+        ``cutoff_hz``; ``gramians`` in words; :func:`flexmor.reduction.gramians.coverage`) and an
+        ``order_note`` that says which Gramians limited the order when fewer vectors came out.
 
     References
     ----------

@@ -68,7 +68,7 @@ from ._options import VARIANTS
 from .gramian_quadrature import quadrature_rule
 from .gramian_solves import choose_solves, projected_factors, tail_boundable
 
-__all__ = ["GramianFactors", "quadrature_rule", "gramian_factors", "balance", "balance_note", "compress",
+__all__ = ["GramianFactors", "quadrature_rule", "gramian_factors", "balance", "balance_note", "compress", "coverage",
            "truncation_basis", "UNDAMPED_ZETA"]
 
 log = logging.getLogger(__name__)
@@ -273,6 +273,8 @@ def gramian_factors(model, ports, band=(0.0, math.inf), *, side: str = "both", n
     Returns
     -------
     GramianFactors
+        Its ``info`` says what the Gramians cover (:func:`coverage`): ``band_hz`` the interval
+        integrated, ``band_requested_hz``, ``cutoff_hz`` and ``gramians``.
     """
     solver = as_solver(solver)
     check_choice("side", side, ("input", "both"))
@@ -314,13 +316,30 @@ def gramian_factors(model, ports, band=(0.0, math.inf), *, side: str = "both", n
         stores = [_FactorStore(model.n_dof, limit) for _ in range(2 if one_side == "input" else 3)]
         R, Rv, L = _direct_factors(work, rhs, m, wk, wt, rigid_modes, stores, solver)
     L = R if collocated else L  # C = B^T: the observability Gramian is the controllability one
-    info = {"band_hz": [fmin, fmax], "n_nodes": int(wk.size), "nodes_per_panel": int(nodes), "panels": int(panels),
-            "n_resonances": int(np.sum((f_res >= fmin) & (f_res <= fmax))), "cutoff_hz": float(fcut),
-            "gramian_damping": damping, "rank_R": int(R.shape[1]), "factor_columns_limit": limit,
+    info = {**coverage(fmin, fmax, fcut, tail, sinfo.get("solves", chosen), int(wk.size)),
+            "n_nodes": int(wk.size), "nodes_per_panel": int(nodes), "panels": int(panels),
+            "n_resonances": int(np.sum((f_res >= fmin) & (f_res <= fmax))), "gramian_damping": damping,
+            "rank_R": int(R.shape[1]), "factor_columns_limit": limit,
             "factor_columns_peak": max((st.peak for st in stores), default=0),
             "compressions": sum(st.compressions for st in stores), "solves": sinfo, "collocated": bool(collocated)}
     log.info("Gramian factors: %d quadrature nodes, rank %d", wk.size, R.shape[1])
     return GramianFactors(R, Rv, L, wk / (2 * math.pi), wt, info)
+
+
+def coverage(fmin: float, fmax: float, fcut: float, tail: bool, solves: str, n_nodes: int) -> dict:
+    """What quadrature Gramians cover: ``band_hz`` (the interval integrated), ``band_requested_hz``,
+    ``cutoff_hz`` (the highest frequency whose resonances have quadrature cells of their own; the
+    end of the Gramians when they end there) and ``gramians`` (the same in words)."""
+    top = fcut if tail else fmax
+    cut = float(min(fcut, top))
+    text = f"quadrature over [{fmin:g}, {top:g}] Hz ({n_nodes} nodes, {solves} solves)"
+    if tail:
+        text += (f"; the Gramians end at the cutoff {cut:g} Hz, the part of [{fmin:g}, {fmax:g}] Hz above it is "
+                 "left out (its share of the trace bounded in info['solves']['tail'])")
+    elif cut < top:
+        text += f"; resonances up to {cut:g} Hz resolved by cells of their own, " + (
+            "the rest of the band by one tail cell" if math.isinf(top) else "those above without")
+    return {"band_hz": [fmin, top], "band_requested_hz": [fmin, fmax], "cutoff_hz": cut, "gramians": text}
 
 
 def _direct_factors(work, rhs, m, wk, wt, rigid_modes, stores, solver):
@@ -363,12 +382,31 @@ def balance(R: np.ndarray, L: np.ndarray, M, order: int):
     return R @ (Zt[:r].T / np.sqrt(s[:r])), s
 
 
-def balance_note(kept: int, asked: int, n_rigid: int = 0) -> str | None:
-    """The ``order_note`` of a balanced basis with ``kept`` of ``asked`` balancing vectors (None if all)."""
+def balance_note(kept: int, asked: int, n_rigid: int = 0, gramians: dict | None = None) -> str | None:
+    """The ``order_note`` of a balanced basis with ``kept`` of ``asked`` balancing vectors (None if all).
+
+    ``gramians`` is the record of the Gramians balanced (``band_hz``, ``band_requested_hz``,
+    ``cutoff_hz``, ``gramians``, ``solves``): the note says which Gramians limit the rank. Exact
+    full-band Gramians (no quadrature record) leave round-off only; Gramians that end at a cutoff
+    below the band they were asked for miss what lies above it, so the rank is the cutoff's.
+    """
     if kept >= asked:
         return None
-    return (f"order {kept + n_rigid} instead of {asked + n_rigid}: only {kept} Hankel singular values are above "
-            "1e-14 times the largest; the inputs and outputs see no further states (more would add round-off only)")
+    head = (f"order {kept + n_rigid} instead of {asked + n_rigid}: only {kept} Hankel singular values are above "
+            "1e-14 times the largest")
+    g = gramians or {}
+    if "band_requested_hz" not in g:
+        return head + "; the inputs and outputs see no further states (more would add round-off only)"
+    lo, hi = g["band_hz"]
+    asked_hi = g["band_requested_hz"][1]
+    solves = g.get("solves", {}).get("solves", "quadrature")
+    if hi < asked_hi:
+        return (f"{head} in Gramians that end at {hi:g} Hz (cutoff, solves={solves!r}): that end limits the rank, "
+                f"not necessarily the body, whose Gramians over [{lo:g}, {asked_hi:g}] Hz may see more states; raise "
+                "cutoff, or pass solves='direct' (or solves='dense' on a small model) for Gramians without the cutoff")
+    return (f"{head} in the Gramians over [{lo:g}, {hi:g}] Hz ({g.get('n_nodes')} quadrature nodes, "
+            f"solves={solves!r}): the inputs and outputs see no further states in that band as far as the "
+            "quadrature resolves them (more would add round-off only); a wider band sees more")
 
 
 def truncation_basis(T: np.ndarray, M) -> np.ndarray:

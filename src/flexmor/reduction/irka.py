@@ -31,7 +31,7 @@ from ..rigid import m_project, rigid_body_modes
 from ._registry import register_method
 from .krylov import krylov, merge_blocks, shifted_factorization
 
-__all__ = ["irka", "IrkaOptions", "reduced_poles", "select_shifts"]
+__all__ = ["irka", "IrkaOptions", "convergence_note", "reduced_poles", "select_shifts"]
 
 log = logging.getLogger(__name__)
 
@@ -114,6 +114,15 @@ def tangential_basis(model, B, sigma, dirs, order, solver: SolverContext | None 
     return merge_blocks(blocks, order)
 
 
+def convergence_note(max_iter: int, change: float, shift_tol: float) -> str:
+    """What an iteration that stopped without converging returned, and what to change."""
+    moved = ("one set of points, none to compare it with" if not np.isfinite(change) else
+             f"the points still moved by {change:.2g} relative, shift_tol {shift_tol:g}")
+    return (f"irka did not converge in {max_iter} iterations ({moved}); the body interpolates at the last "
+            "points, which are not the H2-optimal ones: pass a larger max_iter, another start (the band of the "
+            "krylov start basis), or a lower order")
+
+
 @dataclass(frozen=True)
 class IrkaOptions:
     """Options of :func:`irka`."""
@@ -157,8 +166,10 @@ def irka(model, ports, order, *, max_iter: int = 50, shift_tol: float = 1e-4, ba
     -------
     Basis
         ``info``: ``converged`` (bool), ``iterations``, ``shift_change`` (last relative change),
-        ``shifts_rad_s`` (final points). Without convergence a warning is logged and the basis
-        of the last points is returned (it interpolates there and is usable).
+        ``shifts_rad_s`` (final points). Without convergence the basis of the last points is returned
+        (it interpolates there and is usable), ``info['convergence_note']`` says so and what to
+        change (also logged as a warning); ``info['order_note']`` says why fewer vectors than
+        ``order`` came out, if so.
 
     References
     ----------
@@ -203,12 +214,17 @@ def irka(model, ports, order, *, max_iter: int = 50, shift_tol: float = 1e-4, ba
                 params=("rayleigh", "modal_damping")) from None
         old = sigma
     converged = change < shift_tol
-    if not converged:
-        log.warning("irka did not converge in %d iterations (last relative shift change %.2e > %.1e); "
-                    "the basis of the last points is returned", max_iter, change, shift_tol)
     info = {"converged": bool(converged), "iterations": it, "shift_change": change,
             "shift_history": history, "shifts_rad_s": [str(s) for s in (old if old is not None else [])],
             "max_iter": int(max_iter), "shift_tol": float(shift_tol)}
+    if not converged:
+        info["convergence_note"] = convergence_note(int(max_iter), change, shift_tol)
+        log.warning("%s", info["convergence_note"])
+    if V.shape[1] < order:
+        info["order_note"] = (f"order {V.shape[1]} instead of {order}: the tangential directions at the "
+                              f"{'last' if converged else 'last (unconverged)'} points span only {V.shape[1]} "
+                              "independent vectors (a complex point gives a real and an imaginary part; "
+                              "dependent ones are dropped)")
     if phi.shape[1]:
         info.update(rigid="exclude", n_rigid_included=0)
     return Basis(V, "irka", info)

@@ -220,6 +220,8 @@ class App:
 
     # -- reading and selecting (library calls, as the CLI's _read_model) -------------------------
     def model(self, name: str, selections=()):
+        """The model of the file ``name`` in the folder (read once while the file is unchanged; one
+        model held at a time) with the node sets of ``selections``."""
         from ..io import read
         from ..selection import with_selections
 
@@ -232,6 +234,7 @@ class App:
         return with_selections(model, list(selections))
 
     def open(self, req) -> dict:
+        """The answer to opening a model: its summary, its node sets and their sizes, its 3D scene."""
         from ..report.view3d import body_scene
 
         model = self.model(_text(req, "file", required=True), _texts(req, "select"))
@@ -407,6 +410,7 @@ class App:
         return out
 
     def state(self) -> dict:
+        """What the page needs to start: the methods with their options, the default band and the folder's files."""
         from ..options import option_fields
         from ..reduction import methods
         from ..workflow import DEFAULT_BAND

@@ -135,6 +135,7 @@ class Grids:
         return len(self.files) - 1
 
     def add(self, fpath, lineno, gid, cp, x, cd):
+        """Collect one GRID card (id ``gid``, frames ``cp`` and ``cd``, coordinates ``x``) read at ``lineno``."""
         if any(not BLANK <= v < 2**63 for v in (gid, cp, cd)):
             from ...errors import ReadError
             raise ReadError(fpath, f"GRID {gid}: an id, CP or CD beyond the 64-bit integer range (a damaged card?)",
@@ -142,6 +143,7 @@ class Grids:
         self.one.append((gid, cp, *x, cd, lineno, self._file(fpath)))
 
     def add_run(self, fpath, linenos, run):
+        """Add a run of GRID cards parsed as arrays ``(ids, cp, xyz, cd)`` at ``linenos``, after the cards collected."""
         self._flush()
         ids, cp, xyz, cd = run
         self.blocks.append((ids, cp, xyz, cd, linenos, np.full(ids.size, self._file(fpath))))

@@ -44,6 +44,7 @@ class Taylor:
 
     @property
     def order(self) -> int:
+        """Order of the Taylor expansion: 0 (``m0`` only) or 1 (with ``m1``)."""
         return 0 if self.m1 is None else 1
 
     def value(self, q) -> np.ndarray:
@@ -90,6 +91,7 @@ class SIDFile:
 
     @property
     def nq(self) -> int:
+        """Number of elastic coordinates (one name each in ``ielastq``)."""
         return len(self.ielastq)
 
     def frequencies_hz(self) -> np.ndarray:
