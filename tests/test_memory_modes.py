@@ -81,6 +81,33 @@ def test_out_of_core_solves_equal_the_in_core_ones_and_leave_no_files(beam, kind
 
 
 @needs_pardiso
+def test_an_out_of_core_factor_that_solves_inaccurately_is_refined(beam, tmp_path, monkeypatch):
+    """MKL's out-of-core factor once solved with a relative error of 7e-4 (its residual inside the 1e-6 of
+    the factor check): a factor whose backward error is above BACKWARD_TOL has its solves refined in
+    double precision, so that they equal the in-core ones."""
+    from flexmor.linalg.pardiso import PardisoFactorization
+
+    A, positive = _matrices(beam)["real"]
+    B = _rhs(A.shape[0])
+    X0 = factorize(A, solver=SolverContext("pardiso"), positive=positive).solve(B)
+    exact = PardisoFactorization._solve_factor
+
+    def off(self, b):  # solves 1e-5 off (relative): a backward error far above BACKWARD_TOL
+        x = exact(self, b)
+        return x + 1e-5 * np.linalg.norm(x, axis=0) * np.random.default_rng(1).standard_normal(x.shape) / \
+            np.sqrt(x.shape[0])
+
+    monkeypatch.setattr(PardisoFactorization, "_solve_factor", off)
+    monkeypatch.setattr(memory.OutOfCore, "verify", lambda self, A, solve: None)
+    solver = SolverContext("pardiso", factor_memory="ooc", scratch_dir=str(tmp_path))
+    F = factorize(A, solver=solver, positive=positive)
+    assert F.memory.mode == "ooc"
+    X = F.solve(B)
+    assert np.linalg.norm(X - X0) / np.linalg.norm(X0) < 1e-10
+    assert factor_record(solver.stats)["refined_solves"] >= 1
+
+
+@needs_pardiso
 def test_out_of_core_files_are_removed_when_the_factorization_fails(beam, tmp_path, monkeypatch):
     """An in-core share below what MKL needs: error -9 in the numerical phase, and no files left."""
     monkeypatch.setattr(memory, "OOC_MIN_SHARE", 1e-4)

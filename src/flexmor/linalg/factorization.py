@@ -124,9 +124,15 @@ class Factorization:
         self.memory = plan_memory(solver, self.backend, A.shape[0], estimates)
         self.memory_estimate = self.memory.estimate
         if self.memory.mode == "mixed":
-            self._A = A.tocsr().astype(self.dtype, copy=False)
-            self._anorm = norm_bound(self._A)
-            self._tol = solver.refine_tol
+            self._keep_for_refinement(A, solver)
+
+    def _keep_for_refinement(self, A, solver) -> None:
+        """Refine every solve from now on (:func:`flexmor.linalg.memory.refine`), with ``A`` kept in double
+        precision for the residuals: a mixed-precision factor, or another that solves less accurately than
+        a double-precision factor should."""
+        self._A = A.tocsr().astype(self.dtype, copy=False)
+        self._anorm = norm_bound(self._A)
+        self._tol = solver.refine_tol
 
     def _solve(self, b: np.ndarray) -> np.ndarray:
         if self._A is None:

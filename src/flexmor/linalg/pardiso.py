@@ -167,6 +167,13 @@ class PardisoFactorization(Factorization):
             with self._ooc.environment():  # read by MKL in this phase only
                 self._call(22, None, None, 0)
             self._ooc.verify(A, self._solve_factor)
+            if not self._stable(A):
+                # an out-of-core factor whose solves are less accurate than a double-precision factor's (a
+                # backward error above BACKWARD_TOL, seen once as a relative error of 7e-4 against the in-core
+                # solve, far inside verify's bound): its solves are refined in double precision, as a mixed one's
+                log.info("PARDISO out of core: a solve's backward error is above %.0e; solves are refined",
+                         BACKWARD_TOL)
+                self._keep_for_refinement(A, solver)
 
     def _stable(self, A) -> bool:
         """No perturbed pivot, and the normwise backward error ``||A x - b|| / (a ||x|| + ||b||)`` of one
