@@ -346,6 +346,19 @@ def norm_bound(A) -> float:
     return float(np.sqrt(np.max(sums, initial=0.0) * np.max(lines, initial=0.0)))
 
 
+def check_solve(A, solve) -> tuple[float, float]:
+    """One solve with a random right-hand side ``b`` (``solve`` takes (n, 1)): its relative residual
+    ``||A x - b|| / ||b||`` and normwise backward error ``||A x - b|| / (a ||x|| + ||b||)``, with
+    ``a = ||A b|| / ||b||`` at most ``||A||`` (the error over- rather than underestimated, at the cost of
+    two products with ``A`` and no copy of it)."""
+    b = np.random.default_rng(0).standard_normal((A.shape[0], 1))
+    x = solve(b)
+    r = A @ x - b
+    nb = np.linalg.norm(b, axis=0)
+    eta = float(_backward(r, x, nb, float(np.linalg.norm(A @ b) / nb[0]))[0])
+    return float(np.linalg.norm(r) / nb[0]), eta
+
+
 def _backward(r, x, bnorm, anorm):
     """Normwise backward errors ``||r|| / (||A|| ||x|| + ||b||)`` of the columns."""
     denom = anorm * np.linalg.norm(x, axis=0) + bnorm
@@ -466,8 +479,10 @@ class OutOfCore:
                 else:
                     os.environ[k] = v
 
-    def verify(self, A, solve) -> None:
-        """Check the factor by one solve with a random right-hand side (``solve`` takes (n, 1)).
+    def verify(self, A, solve) -> float:
+        """Check the factor by one solve with a random right-hand side (``solve`` takes (n, 1)); the
+        normwise backward error of that solve, ``||A x - b|| / (a ||x|| + ||b||)`` with
+        ``a = ||A b|| / ||b||`` (at most ``||A||``: over- rather than underestimated).
 
         With little memory in core, MKL may return a wrong out-of-core factor without an error
         (seen once, otherwise its error -9), so each one is checked, whatever ``check`` says.
@@ -477,12 +492,12 @@ class OutOfCore:
         SolverError
             The relative residual exceeds 1e-6 (the bound of ``factorize(check=True)``).
         """
-        b = np.random.default_rng(0).standard_normal((A.shape[0], 1))
-        res = float(np.linalg.norm(A @ solve(b) - b) / np.linalg.norm(b))
+        res, eta = check_solve(A, solve)
         if not res <= 1e-6:
             raise SolverError(f"the out-of-core factorization failed its check (relative residual {res:.1e}) with "
                               f"{self.core_mb} MB in core: give it more memory (memory_limit), or the matrix is "
                               "singular", params=("memory_limit",))
+        return eta
 
     def remove(self) -> None:
         """Delete the directory and the factor files in it."""

@@ -21,7 +21,7 @@ import scipy.sparse as sp
 
 from ..errors import OutOfMemoryError, SolverError
 from .factorization import Factorization
-from .memory import OutOfCore, _backward, pardiso_estimates
+from .memory import OutOfCore, check_solve, pardiso_estimates
 from .resources import describe_memory
 
 __all__ = ["BACKWARD_TOL", "PARDISO_ERRORS", "PardisoFactorization", "mkl_pardiso"]
@@ -166,8 +166,7 @@ class PardisoFactorization(Factorization):
         else:
             with self._ooc.environment():  # read by MKL in this phase only
                 self._call(22, None, None, 0)
-            self._ooc.verify(A, self._solve_factor)
-            if not self._stable(A):
+            if self._ooc.verify(A, self._solve_factor) > BACKWARD_TOL or self._iparm[13] > 0:
                 # an out-of-core factor whose solves are less accurate than a double-precision factor's (a
                 # backward error above BACKWARD_TOL, seen once as a relative error of 7e-4 against the in-core
                 # solve, far inside verify's bound): its solves are refined in double precision, as a mixed one's
@@ -176,19 +175,13 @@ class PardisoFactorization(Factorization):
                 self._keep_for_refinement(A, solver)
 
     def _stable(self, A) -> bool:
-        """No perturbed pivot, and the normwise backward error ``||A x - b|| / (a ||x|| + ||b||)`` of one
-        solve with a random right-hand side ``b`` below :data:`BACKWARD_TOL` (a factor in single precision:
-        its unit round-off times 1e3); ``a = ||A b|| / ||b||`` is below ``||A||``, so the error is over-
-        rather than underestimated, at the cost of two products with ``A`` and no copy of it."""
+        """No perturbed pivot, and the backward error of one solve (:func:`~flexmor.linalg.memory.check_solve`)
+        below :data:`BACKWARD_TOL` (a factor in single precision: its unit round-off times 1e3)."""
         if self._iparm[13] > 0:
             return False
-        b = np.random.default_rng(0).standard_normal((self._n, 1))
-        x = self._solve_factor(b)
-        nb = np.linalg.norm(b, axis=0)
-        eta = float(_backward(A @ x - b, x, nb, float(np.linalg.norm(A @ b) / nb[0]))[0])
         mixed = self.memory is not None and self.memory.mode == "mixed"
         tol = 1e3 * float(np.finfo(np.float32).eps) if mixed else BACKWARD_TOL
-        return eta <= tol
+        return check_solve(A, self._solve_factor)[1] <= tol
 
     def _call(self, phase, b, x, nrhs):
         c = self._ctypes
