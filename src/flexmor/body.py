@@ -205,7 +205,7 @@ class ReducedModel(Shown):
         """
         from .dynamics.frf import frf_reduced
 
-        return frf_reduced(self, freqs_hz)
+        return frf_reduced(self, freqs_hz, name="freqs_hz")
 
     def simulate(self, u, *, dt: float, t_end: float, scheme: str = "newmark", rho_inf: float = 0.9, q0=None,
                  v0=None, progress=None):

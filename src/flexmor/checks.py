@@ -1,4 +1,4 @@
-"""Checks of a model before it is reduced: rigid-body modes and mechanisms.
+"""Checks of a model before it is reduced: rigid-body modes and mechanisms; the band of a study.
 
 An elastic body has at most six zero-energy modes (three translations, three rotations of a
 free body). More mean a mechanism: unconnected parts, missing elements, released DOFs. No
@@ -6,20 +6,23 @@ reduced body of a mechanism is useful in a multibody code, and most methods woul
 with a solver message that does not say why or silently return a body with spurious
 zero-frequency modes; :func:`check_rigid_body_modes` refuses it with a :class:`ModelError`
 that names the cause. A free body (1 to 6 rigid-body modes) is legal: it is reported with a
-:class:`FlexmorWarning`, and the methods handle it (shifted expansion points, exclusion of the
-rigid-body modes).
+:class:`~flexmor.errors.FlexmorNote` (``rigid-body-modes``, :func:`flexmor.errors.note`), and the
+methods handle it (shifted expansion points, exclusion of the rigid-body modes).
 """
 
 from __future__ import annotations
 
+import math
 import warnings
 
 import numpy as np
 
-from .errors import FlexmorWarning, ModelError, SolverError
+from .errors import FlexmorWarning, ModelError, SolverError, note
 from .linalg.context import SolverContext, as_solver
+from .linalg.distributed import is_partitioned
 
-__all__ = ["MAX_RIGID_BODY_MODES", "COUPLING_MODES", "check_rigid_body_modes", "first_elastic_hz",
+__all__ = ["MAX_RIGID_BODY_MODES", "COUPLING_MODES", "check_rigid_body_modes", "first_elastic_hz", "check_band",
+           "highest_hz", "looks_like_rad_per_s", "rigid_body_note",
            "lowest_elastic_hz", "coupling_frequencies", "describe_couplings", "mechanism_error", "signed_percent",
            "stable_lowest_eigenvalues", "unstable_error"]
 
@@ -64,9 +67,14 @@ def check_rigid_body_modes(model, *, solver: SolverContext | None = None, sigma:
     if n_zero > MAX_RIGID_BODY_MODES:
         raise mechanism_error(model, n_zero)
     if n_zero:
-        warnings.warn(f"{model.source or model.name}: {n_zero} rigid-body modes (free or partly supported body); "
-                      "methods exclude them or use shifted expansion points", FlexmorWarning, stacklevel=2)
+        rigid_body_note(model, n_zero, stacklevel=2)
     return n_zero
+
+
+def rigid_body_note(model, n_zero: int, *, stacklevel: int = 2) -> None:
+    """The note ``rigid-body-modes`` (:func:`flexmor.errors.note`) of ``model`` with ``n_zero`` rigid-body modes."""
+    note("rigid-body-modes", f"{model.source or model.name}: {n_zero} rigid-body modes (free body): the methods "
+         "exclude them", stacklevel=stacklevel + 1)
 
 
 def stable_lowest_eigenvalues(model, solver: SolverContext, k: int = MAX_RIGID_BODY_MODES + 1, *,
@@ -200,3 +208,84 @@ def describe_couplings(couplings) -> str:
         target, _, kind = str(c).partition("@")
         parts.append(f"{kind.upper()} at {target}" if kind else str(c))
     return ", ".join(parts)
+
+
+#: Models up to this many DOF get their highest eigenfrequency from a dense solve (:func:`highest_hz`).
+DENSE_HIGHEST = 200
+
+
+def highest_hz(model, *, solver: SolverContext | None = None, maxiter: int = 400) -> float | None:
+    """The model's highest eigenfrequency (Hz) of ``K phi = lam M phi``, to about 0.1 %.
+
+    Lanczos for the largest eigenvalue (ARPACK, regular mode with one factorization of ``M``).
+    ``inf`` for a mass matrix that is not positive definite (its pencil has infinite eigenvalues);
+    None for a model held by rows over MPI ranks, or where the iteration does not converge in
+    ``maxiter`` steps.
+    """
+    import scipy.sparse.linalg as sla
+
+    from .linalg import factorize
+
+    if is_partitioned(model.K) or is_partitioned(model.M):
+        return None
+    n = model.n_dof
+    if n <= DENSE_HIGHEST:
+        import scipy.linalg
+
+        try:
+            lam = float(scipy.linalg.eigh(model.K.toarray(), model.M.toarray(), eigvals_only=True)[-1])
+        except (np.linalg.LinAlgError, ValueError):  # M not positive definite
+            return math.inf
+        return math.sqrt(max(lam, 0.0)) / (2 * math.pi)
+    try:
+        F = factorize(model.M, solver=solver, symmetric=True, positive=True, check=False)
+    except SolverError:
+        return math.inf
+    Minv = sla.LinearOperator((n, n), matvec=F.solve, dtype=float)
+    v0 = np.random.default_rng(0).standard_normal(n)
+    try:
+        lam = sla.eigsh(model.K, k=1, M=model.M, Minv=Minv, which="LA", tol=1e-3, maxiter=maxiter, v0=v0,
+                        return_eigenvectors=False)
+    except sla.ArpackNoConvergence:
+        return None
+    except (sla.ArpackError, SolverError, ValueError):
+        return math.inf
+    return math.sqrt(max(float(lam[0]), 0.0)) / (2 * math.pi)
+
+
+def looks_like_rad_per_s(band) -> bool:
+    """Whether ``band`` (Hz) looks like 2π times a band of round numbers (``(62.83, 18850)`` for
+    ``(10, 3000)``): both limits divided by 2π are numbers of at most two significant digits (to
+    0.1 %), while the limits themselves are not."""
+
+    def round_number(x: float) -> bool:
+        digits = x / 10 ** (math.floor(math.log10(x)) - 1)  # two digits before the point: 10 <= digits < 100
+        return abs(digits - round(digits)) <= 1e-3 * digits
+
+    return all(round_number(f / (2 * math.pi)) for f in band) and not all(round_number(f) for f in band)
+
+
+def check_band(model, band, *, name: str = "band", solver: SolverContext | None = None) -> list[str]:
+    """Warn (:class:`FlexmorWarning` naming ``name``) about a band (Hz) that is likely not the one meant:
+    one that looks given in rad/s (:func:`looks_like_rad_per_s`), one whose top lies above the model's
+    highest eigenfrequency (:func:`highest_hz`; computed only when the top lies above ``max K_ii / M_ii``,
+    a lower bound of the largest eigenvalue). Returns the warnings' texts."""
+    fmin, fmax = band
+    where = model.source or model.name
+    texts = []
+    if looks_like_rad_per_s(band):
+        texts.append(f"{where}: {name} {fmin:g}:{fmax:g} Hz is 2 pi times {fmin / (2 * math.pi):.4g}:"
+                     f"{fmax / (2 * math.pi):.4g}: was it given in rad/s? The band is in Hz")
+    top = None
+    if not (is_partitioned(model.K) or is_partitioned(model.M)):  # (held by rows over MPI ranks: not checked)
+        dm, dk = model.M.diagonal(), model.K.diagonal()
+        pos = dm > 0
+        floor = math.sqrt(float(np.max(dk[pos] / dm[pos]))) / (2 * math.pi) if np.any(pos) else math.inf
+        top = highest_hz(model, solver=solver) if fmax > floor else None
+    if top is not None and fmax > top:
+        texts.append(f"{where}: {name} reaches {fmax:g} Hz, above the model's highest eigenfrequency {top:.4g} Hz: "
+                     "the mesh resolves no motion there (an FE model is accurate well below its highest mode); "
+                     "was the band meant in other units?")
+    for text in texts:
+        warnings.warn(FlexmorWarning(text, params=(name,)), stacklevel=3)
+    return texts

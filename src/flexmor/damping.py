@@ -17,7 +17,7 @@ from typing import ClassVar
 
 import numpy as np
 
-from .errors import OptionError
+from .errors import OptionError, real_finite
 
 __all__ = ["Damping", "NoDamping", "Rayleigh", "BandMatched", "ModalDamping", "GivenDamping", "KINDS",
            "damping_from_dict", "band_matched", "modal_damping", "describe_damping"]
@@ -72,6 +72,18 @@ class Rayleigh(Damping):
     alpha: float
     beta: float
 
+    def __post_init__(self):
+        """Refuse a coefficient that is not a real, finite number >= 0 (complex, NaN, Inf, text), naming it."""
+        for name in ("alpha", "beta"):
+            value = real_finite(getattr(self, name), name, "a real, finite number (a Rayleigh coefficient)")
+            if value.ndim:
+                raise OptionError(f"{name} must be one number (a Rayleigh coefficient), got shape {value.shape}",
+                                  params=(name,))
+            object.__setattr__(self, name, float(value))
+        if self.alpha < 0 or self.beta < 0:
+            raise OptionError(f"Rayleigh coefficients must be finite and >= 0, got alpha={self.alpha}, "
+                              f"beta={self.beta}", params=tuple(n for n in ("alpha", "beta") if getattr(self, n) < 0))
+
     def to_dict(self) -> dict:
         """The stored form: ``{"type": "rayleigh", "alpha": alpha, "beta": beta}`` (a band-matched one too)."""
         return {"type": "rayleigh", "alpha": self.alpha, "beta": self.beta}
@@ -102,7 +114,10 @@ class BandMatched(Rayleigh):
 def band_matched(zeta, band, *, name: str = "band_rayleigh") -> BandMatched:
     """The :class:`BandMatched` damping of ratio ``zeta`` (in ``[0, 1)``) at the ends of ``band`` (Hz);
     ``name`` is the parameter an error names."""
-    z = float(zeta)
+    z = real_finite(zeta, name, "a damping ratio (a real number)")
+    if z.ndim:
+        raise OptionError(f"{name} must be one damping ratio, got shape {z.shape}", params=(name,))
+    z = float(z)
     if not 0 <= z < 1:
         raise OptionError(f"{name} must be in [0, 1), got {z}", params=(name,))
     w1, w2 = (2 * math.pi * float(f) for f in band)
@@ -126,6 +141,7 @@ class ModalDamping(BandMatched):
     kind: ClassVar[str] = "modal"
 
     def __post_init__(self):
+        super().__post_init__()
         object.__setattr__(self, "band", tuple(float(b) for b in self.band))
 
     def to_dict(self) -> dict:

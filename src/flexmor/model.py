@@ -19,7 +19,6 @@ from __future__ import annotations
 
 import copy
 import functools
-import warnings
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -29,7 +28,7 @@ import scipy.sparse as sp
 from .damping import Damping, NoDamping, Rayleigh, damping_from_dict, describe_damping
 from .display import Shown, names_text
 from .elements import Elements
-from .errors import FlexmorWarning, ModelError
+from .errors import NOTES, ModelError, note
 from .linalg.distributed import is_partitioned
 from .mesh import Mesh
 
@@ -39,10 +38,8 @@ __all__ = ["FEModel", "DIRECTIONS", "direction_code", "direction_name"]
 DIRECTIONS = {"x": 1, "y": 2, "z": 3, "rx": 4, "ry": 5, "rz": 6}
 _DIR_NAMES = {v: k for k, v in DIRECTIONS.items()}
 
-#: What a singular or indefinite mass matrix allows (appended to its warning).
-SINGULAR_MASS_NOTE = (
-    "every method and the error evaluation still work (they factorize K - sigma M, sigma < 0, or K); "
-    "what needs M^-1 does not (time integration of the full model from a non-zero initial force)")
+#: What a singular or indefinite mass matrix is and allows: the note ``singular-mass`` (:data:`flexmor.errors.NOTES`).
+SINGULAR_MASS_NOTE = NOTES["singular-mass"]
 
 #: Relative tolerance of the symmetry check ``max|A - A^T| <= tol * max|A|``.
 SYMMETRY_RTOL = 1e-8
@@ -173,8 +170,8 @@ class FEModel(Shown):
     singular_mass_ok : bool
         The element formulation legitimately gives a singular or indefinite mass matrix
         (20-node hexahedra with reduced integration or row-sum lumping, e.g. CalculiX
-        C3D20R): non-positive mass diagonals are then reported by a :class:`FlexmorWarning`
-        (see :data:`SINGULAR_MASS_NOTE`) instead of raising ModelError.
+        C3D20R): non-positive mass diagonals are then reported by the note ``singular-mass``
+        (:func:`flexmor.errors.note`, :data:`SINGULAR_MASS_NOTE`) instead of raising ModelError.
     units : str, optional
         The unit system of the file the model was read from (a name of
         :data:`flexmor.units.SYSTEMS`), whose numbers were converted to SI on reading
@@ -237,7 +234,7 @@ class FEModel(Shown):
                    f"first: {self.describe_dof(i)} (M = {dm[i]:.3g})")
             if not self.singular_mass_ok or not np.sum(dm) > 0:
                 raise ModelError(msg)
-            warnings.warn(f"{self.source or self.name}: {msg}; {SINGULAR_MASS_NOTE}", FlexmorWarning, stacklevel=3)
+            note("singular-mass", f"{self.source or self.name}: {msg}; every method still works", stacklevel=3)
         dk = self.K.diagonal()
         if np.any(dk < 0):
             i = int(np.flatnonzero(dk < 0)[0])
@@ -431,7 +428,7 @@ class FEModel(Shown):
     # -- derived models ---------------------------------------------------------------------
     def with_rayleigh(self, alpha: float, beta: float) -> FEModel:
         """Return a copy with Rayleigh damping ``D = alpha M + beta K`` (alpha in 1/s, beta in s)."""
-        return self.with_damping(Rayleigh(float(alpha), float(beta)))
+        return self.with_damping(Rayleigh(alpha, beta))
 
     def with_damping(self, damping: Damping) -> FEModel:
         """Return a copy with the damping matrix of ``damping`` (a :class:`~flexmor.damping.Rayleigh`,

@@ -21,9 +21,10 @@ from __future__ import annotations
 from os import PathLike
 
 from .analysis.compare import ErrorMeasures, FullResponse, check_judgeable
+from .checks import check_band
 from .damping import Damping, describe_damping
 from .display import Shown, band_text, names_text
-from .errors import ModelError, OptionError
+from .errors import ModelError, OptionError, check_keywords_of
 from .linalg.context import SolverContext, as_solver
 from .model import FEModel
 from .options import Band
@@ -61,11 +62,17 @@ class System(Shown):
         Solver (backend, statistics) of every factorization.
     **grid
         Options of :class:`~flexmor.analysis.compare.FullResponse` (``n``, ``tol``, ``path``,
-        ``cache`` ...). The full FRF is kept on disk for later studies of the same model, ports,
-        damping and band: in ``$FLEXMOR_CACHE_DIR``, else ``$XDG_CACHE_HOME/flexmor``, else
-        ``~/.cache/flexmor``, at most ``$FLEXMOR_CACHE_MAX_MB`` megabytes (default 2000, the least
-        recently used entries removed first); ``cache=False`` or ``FLEXMOR_CACHE_MAX_MB=0`` turns
-        it off (:mod:`flexmor.analysis.cache`).
+        ``cache`` ...); any other keyword is refused (:class:`~flexmor.errors.OptionError` naming
+        it and the closest keyword: ``bnad=`` is not ``band=``). The full FRF is kept on disk for
+        later studies of the same model, ports, damping and band: in ``$FLEXMOR_CACHE_DIR``, else
+        ``$XDG_CACHE_HOME/flexmor``, else ``~/.cache/flexmor``, at most ``$FLEXMOR_CACHE_MAX_MB``
+        megabytes (default 2000, the least recently used entries removed first); ``cache=False`` or
+        ``FLEXMOR_CACHE_MAX_MB=0`` turns it off (:mod:`flexmor.analysis.cache`).
+
+    A band given that looks given in rad/s, or whose top lies above the model's highest
+    eigenfrequency, is warned about (:func:`flexmor.checks.check_band`). Method names resolve in any case and by
+    their short names (:func:`flexmor.reduction.method_name`: ``"bt"`` is ``"sobt"``), with the
+    study's band and interfaces.
 
     Attributes
     ----------
@@ -127,9 +134,12 @@ class System(Shown):
         return system
 
     def _setup(self, model, ports, *, as_read, couplings, interfaces, band, solver, grid, selections=()) -> None:
+        check_keywords_of("System", grid, System.__init__, FullResponse.__init__)
         self.model, self.ports, self.as_read = model, ports, as_read
         self.couplings, self.interfaces, self.selections = list(couplings), list(interfaces), list(selections)
         self.band = Band.of(band)
+        if band is not None:  # a band given (the default one is no user's mistake)
+            check_band(model, self.band)
         self.solver = as_solver(solver)
         self._grid = grid
         self._full: FullResponse | None = None
@@ -151,13 +161,14 @@ class System(Shown):
         return self._full
 
     def options(self, method: str, options: dict) -> dict:
-        """The options ``method`` gets: ``options``, plus the study's band (methods with a ``band``
-        option) and interfaces (methods with an ``interface`` option) where not given."""
-        from .reduction import methods
+        """The options ``method`` (any case, or a short name: :func:`flexmor.reduction.method_name`)
+        gets: ``options``, plus the study's band (methods with a ``band`` option) and interfaces
+        (methods with an ``interface`` option) where not given."""
+        from .reduction import method_name, methods
 
+        method = method_name(method)
         options = with_method_band(method, self.band, options)
-        registry = methods()
-        if self.interfaces and method in registry and "interface" in registry[method].options:
+        if self.interfaces and "interface" in methods()[method].options:
             options.setdefault("interface", list(self.interfaces))
         return options
 
@@ -170,8 +181,9 @@ class System(Shown):
         ReducedModel
             Recording the couplings, interfaces and selections it was reduced with.
         """
-        from .reduction import reduce
+        from .reduction import method_name, reduce
 
+        method = method_name(method)
         options = self.options(method, options)
         options.setdefault("solver", self.solver)
         body = reduce(self.model, method, order, self.ports, **options)
@@ -220,32 +232,25 @@ class System(Shown):
     def frf(self, freqs):
         """The full model's FRF at ``freqs`` (Hz) between the ports: shape (n_freq, n_outputs, n_inputs)
         (:func:`flexmor.dynamics.frf.frf_full`)."""
-        import numpy as np
+        from .dynamics.frf import check_freqs, frf_full
 
-        from .dynamics.frf import frf_full
-
-        try:
-            f = np.atleast_1d(np.asarray(freqs, float))
-        except (TypeError, ValueError):
-            raise OptionError(f"freqs must be frequencies in Hz (numbers), got {freqs!r}", params=("freqs",)) from None
-        if f.ndim != 1 or not np.all(np.isfinite(f)) or np.any(f < 0):
-            raise OptionError(f"freqs must be finite frequencies >= 0 in Hz, one list, got {freqs!r}",
-                              params=("freqs",))
-        return frf_full(self.model, self.ports, f, solver=self.solver)
+        return frf_full(self.model, self.ports, check_freqs(freqs, "freqs"), solver=self.solver)
 
     def simulate(self, u, *, dt: float, t_end: float, **options):
         """The full model's time response at the outputs to the input signal ``u``
         (:func:`flexmor.dynamics.time.simulate`; ``scheme``, ``q0`` ... as there)."""
         from .dynamics.time import simulate
 
+        check_keywords_of("System.simulate", options, simulate, drop=("dt", "t_end", "ports"))
         options.setdefault("solver", self.solver)
         return simulate(self.model, u, dt=dt, t_end=t_end, ports=self.ports, **options)
 
     def mounted(self, body, **options) -> dict | None:
         """``body`` held in its joints against the full model held there
         (:func:`flexmor.analysis.mounted.mounted_record`; None for a body without interfaces)."""
-        from .analysis.mounted import mounted_record
+        from .analysis.mounted import mounted_check, mounted_record
 
+        check_keywords_of("System.mounted", options, mounted_record, mounted_check, drop=("ports", "band"))
         self.check(body)
         options.setdefault("solver", self.solver)
         return mounted_record(self.model, body, ports=self.ports, band=self.band, **options)

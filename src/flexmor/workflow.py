@@ -13,13 +13,13 @@ from .body import convergence_record
 from .checks import check_rigid_body_modes, coupling_frequencies, first_elastic_hz
 from .damping import Damping, NoDamping, Rayleigh, band_matched
 from .damping import modal_damping as _modal_damping
-from .errors import OptionError
+from .errors import OptionError, check_keywords, keyword_names
 from .linalg.context import SolverContext, as_solver
 from .linalg.distributed import is_partitioned
 from .linalg.resources import check_basis_memory
 from .options import DEFAULT_BAND, Band, check_order, parse_pair
 from .ports import make_ports
-from .reduction import check_shift, method_name, reduce
+from .reduction import check_shift, method_name, methods, reduce
 from .reduction.free_body import check_body
 
 __all__ = ["coupling_specs", "prepare_model", "body_model", "parse_band", "parse_pair", "apply_damping", "damping_of",
@@ -47,7 +47,12 @@ def damping_of(*, rayleigh=None, modal_damping=None, band_rayleigh=None, band=No
     if len(given) > 1:
         raise OptionError(f"give either {' or '.join(given)}, not both", params=tuple(given))
     if rayleigh is not None:
-        return Rayleigh(*(float(x) for x in rayleigh))
+        try:
+            alpha, beta = rayleigh
+        except (TypeError, ValueError):
+            raise OptionError(f"rayleigh must be a pair (alpha, beta), got {rayleigh!r}",
+                              params=("rayleigh",)) from None
+        return Rayleigh(alpha, beta)  # each a real, finite number >= 0, or refused naming it
     if modal_damping is not None:
         return _modal_damping(modal_damping, Band.of(band))
     if band_rayleigh is not None:
@@ -137,6 +142,9 @@ def reduce_and_judge(model, method: str, order, ports, *, band=None,
     elastic frequencies of both (:func:`flexmor.checks.coupling_frequencies`; the coupled ones
     from the error grid's modal pre-pass when it holds them).
     """
+    method = method_name(method)  # aliases and case resolved once: the band, the checks and the record use it
+    check_keywords(f"reduce_and_judge with method {method!r}", options,
+                   [*methods()[method].keywords, "inertia_loads", *keyword_names(reduce_and_judge)])
     solver = as_solver(solver)
     full_of = full if callable(full) and not isinstance(full, FullResponse) else None
     if full_of is not None:
@@ -150,7 +158,7 @@ def reduce_and_judge(model, method: str, order, ports, *, band=None,
     options = with_method_band(method, method_band, options)
     # a mechanism is refused before any work; the check's factorization serves the method where it
     # factorizes the same matrix first (not kept while a target-error search computes the full FRF)
-    sigma, keep = check_shift(model, method_name(method), options) if tol is None else (None, False)
+    sigma, keep = check_shift(model, method, options) if tol is None else (None, False)
     order = check_order(order)
     if order is not None and not is_partitioned(model.K):  # a basis that cannot fit: refused before any work
         check_basis_memory(model.n_dof, order, solver)
@@ -264,14 +272,12 @@ def _judge_mounted(model, body, ports, result, timings, *, solver=None) -> None:
 
 
 def with_method_band(method: str, band, options: dict) -> dict:
-    """``options`` with ``band`` (Hz) added when ``method`` has a ``band`` option (expansion points,
-    Gramian band) that ``options`` does not give; unchanged for other methods or without ``band``."""
+    """``options`` with ``band`` (Hz) added when ``method`` (any case, or a short name:
+    :func:`flexmor.reduction.method_name`) has a ``band`` option (expansion points, Gramian band)
+    that ``options`` does not give; unchanged for other methods or without ``band``."""
     if band is None or options.get("band") is not None:
         return dict(options)
-    from .reduction import methods
-
-    registry = methods()
-    if method not in registry or "band" not in registry[method].options:
+    if "band" not in methods()[method_name(method)].options:
         return dict(options)
     return {**options, "band": tuple(Band.of(band))}
 

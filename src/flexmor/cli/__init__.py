@@ -28,7 +28,19 @@ import traceback
 import warnings
 
 from .. import io
-from ..errors import ConvergenceError, FlexmorError, FlexmorWarning, ModelError, PortError, ResourceError, SolverError
+from ..errors import (
+    NOTES,
+    QUIET_NOTES_VARIABLE,
+    ConvergenceError,
+    FlexmorError,
+    FlexmorWarning,
+    ModelError,
+    PortError,
+    ResourceError,
+    SolverError,
+    notes_quieted,
+    quiet_notes,
+)
 from ..linalg.distributed import end_failed_run, quiet_other_ranks, several_ranks
 from .parser import build_parser
 
@@ -233,8 +245,13 @@ def _run_command(args) -> int:
     if short is not None:
         print(f"flexmor: error: {short}", file=sys.stderr)
         return 1
+    unknown = sorted(quiet_notes() - set(NOTES))
+    if unknown:
+        print(f"flexmor: warning: {QUIET_NOTES_VARIABLE} names no note {', '.join(map(repr, unknown))}; the notes: "
+              f"{', '.join(NOTES)}", file=sys.stderr)
     try:
-        return args.func(args)
+        with notes_quieted(getattr(args, "quiet_note", None) or ()):
+            return args.func(args)
     except FlexmorError as exc:
         msg = exc.message(getattr(args, "flag_names", None))  # parameters named as this command's flags
         model = getattr(args, "model", None)

@@ -2,20 +2,24 @@
 
 from __future__ import annotations
 
+import contextlib
 import json
 import sys
 import time
+import warnings
 from pathlib import Path
 
 import numpy as np
 
 from .._version import __version__
 from ..body import convergence_record
-from ..errors import OptionError
+from ..errors import FlexmorNote, FlexmorWarning, OptionError, notes_stated
 from ..jsonutil import jsonable
 from ..linalg.context import step
 from ..linalg.distributed import is_partitioned, on_root, row_blocks
 from .info import (
+    basis_record,
+    basis_rows,
     coupling_lines,
     info_backends,
     info_body,
@@ -203,7 +207,7 @@ def _asked_damping(args, band):
 def cmd_info(args) -> int:
     """``flexmor info``: a model's sizes, checks and lowest frequencies, a body's summary, the
     backends or the formats; returns the exit code."""
-    from ..checks import MAX_RIGID_BODY_MODES, mechanism_error, stable_lowest_eigenvalues
+    from ..checks import MAX_RIGID_BODY_MODES, mechanism_error, rigid_body_note, stable_lowest_eigenvalues
     from ..linalg import available_backends
     from ..linalg.eigen import eigenmodes, frequencies_hz, is_rigid
 
@@ -224,7 +228,9 @@ def cmd_info(args) -> int:
         args.modes = 12
     couplings = coupling_specs(args.interface)
     keep = {"uncoupled": None, "unloaded": None}
-    model, t_read, _ = _read_model(args, couplings, keep=keep, check=geometry_check)  # the check: the file's, as read
+    notes: list = []  # the notes of the file (flexmor.errors.NOTES), stated in full below
+    with _noted(notes):
+        model, t_read, _ = _read_model(args, couplings, keep=keep, check=geometry_check)  # the check: as read
     out = model.summary()
     out.update(model.mass_properties())
     out["selections"] = {name: model.node_sets[name].tolist() for name in _selected_names(args)}
@@ -237,6 +243,9 @@ def cmd_info(args) -> int:
         n_zero = int(np.sum(is_rigid(lam, model.K, model.M)))
         if n_zero > MAX_RIGID_BODY_MODES:
             raise mechanism_error(model, n_zero)
+        if n_zero:
+            with _noted(notes):
+                rigid_body_note(model, n_zero)
         lam = lam[:k]
         out["frequencies_hz"] = frequencies_hz(lam).tolist()
         out["n_rigid"] = min(n_zero, k)
@@ -258,6 +267,7 @@ def cmd_info(args) -> int:
         out["couplings"] = couplings
         out["coupling_frequencies"] = coupling_frequencies(keep["uncoupled"], model, couplings,
                                                            n=max(args.modes, COUPLING_MODES), solver=solver)
+    out["notes"] = [{"name": n.name, "text": n.full()} for n in notes]
     out["timings"] = {"read": t_read}
     factor = _factor_note(out, solver)
     if args.json:
@@ -297,9 +307,26 @@ def cmd_info(args) -> int:
             print(line)
     if args.reference:
         _print_reference(args.reference, out["reference"])
+    for n in out["notes"]:
+        print(f"\nnote {n['name']}: {n['text']} (--quiet-note {n['name']} keeps other commands from repeating it)")
     if factor:
         print(factor)
     return 0
+
+
+@contextlib.contextmanager
+def _noted(notes: list):
+    """Within the block the notes issued (:class:`~flexmor.errors.FlexmorNote`, quieted ones too) are added
+    to ``notes``, each once, to be stated in full; other warnings are shown as they are."""
+    with warnings.catch_warnings(record=True) as caught, notes_stated():
+        warnings.simplefilter("default", FlexmorWarning)
+        yield
+    for w in caught:
+        if isinstance(w.message, FlexmorNote):
+            if all(n.full() != w.message.full() for n in notes):
+                notes.append(w.message)
+        else:
+            warnings.showwarning(w.message, w.category, w.filename, w.lineno)
 
 
 def _print_reference(path, ref: dict) -> None:
@@ -373,6 +400,8 @@ def cmd_reduce(args) -> int:
     print(f"{args.method}: order {red.order}, {res['seconds']:.3f} s (basis + projection)")
     for line in interface_lines(red.info.get("masters", [])):
         print(f"interface {line}")
+    for label, text in basis_rows(basis_record(red.info)):
+        print(f"{label}: {text}")
     if res.get("order_note"):
         print(f"note: {note_text(res['order_note'])}")
     if res.get("converged") is False and not res["band_hz"]:  # else the error table says it

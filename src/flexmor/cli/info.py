@@ -9,7 +9,7 @@ from pathlib import Path
 from .tables import note_text
 
 __all__ = ["is_body_file", "info_body", "interface_lines", "info_backends", "info_formats", "print_mass_properties",
-           "coupling_lines"]
+           "coupling_lines", "BASIS_KEYS", "basis_record", "basis_rows"]
 
 
 def is_body_file(path, format: str | None) -> bool:
@@ -41,6 +41,74 @@ def interface_lines(masters) -> list[str]:
             f"[{', '.join(f'{v:.6g}' for v in m['xyz'])}], {m['n_slaves']} slave nodes" for m in masters]
 
 
+#: The entries of a body's record (``info``) that say how its basis was built: expansion points, the band,
+#: cutoff and quadrature of the Gramians, snapshots, iterations, the interface of a CMS basis.
+BASIS_KEYS = ("points_hz", "moments", "intermediate", "gramian", "gramians", "band_hz", "band_requested_hz",
+              "cutoff_hz", "n_nodes", "snapshots", "energy_captured", "iterations", "max_iter", "shift_change",
+              "shift_tol", "n_interface_dofs", "n_internal")
+
+
+def basis_record(info: dict) -> dict:
+    """The entries of :data:`BASIS_KEYS` that ``info`` (a body's record) holds, and ``krylov_points_hz``, the
+    points of a first Krylov step (two-step, svdmor): what ``info BODY`` shows as text and as JSON."""
+    rec = {k: info[k] for k in BASIS_KEYS if info.get(k) is not None}
+    inner = info.get("krylov")
+    if isinstance(inner, dict) and inner.get("points_hz"):
+        rec["krylov_points_hz"] = inner["points_hz"]
+    return rec
+
+
+def _points(points) -> str:
+    """Expansion points ``s / (2 pi)`` as text: ``0, 659.3i, 1652i`` (``i``: on the frequency axis)."""
+    out = []
+    for p in points:
+        c = complex(str(p).replace(" ", ""))
+        re_, im = f"{c.real:.4g}", f"{abs(c.imag):.4g}i"
+        out.append(re_ if c.imag == 0 else im if c.real == 0 else f"{re_}{'-' if c.imag < 0 else '+'}{im}")
+    return ", ".join(out)
+
+
+def basis_rows(rec: dict) -> list[tuple[str, str]]:
+    """``(label, text)`` rows of a :func:`basis_record`, for the text output of ``info`` and ``reduce``."""
+    rows = []
+    if rec.get("points_hz"):
+        moments = rec.get("moments")
+        rows.append(("points", f"{_points(rec['points_hz'])} Hz (s / 2 pi)"
+                     + (f", moments {', '.join(map(str, moments)) if isinstance(moments, list) else moments}"
+                        if moments is not None else "")))
+    if rec.get("krylov_points_hz"):
+        rows.append(("points", f"{_points(rec['krylov_points_hz'])} Hz (s / 2 pi) of the Krylov step"
+                     + (f" to order {rec['intermediate']}" if rec.get("intermediate") else "")))
+    band = rec.get("band_hz")
+    if rec.get("gramians") or rec.get("gramian"):
+        text = str(rec.get("gramians") or f"{rec['gramian']} Gramians")
+        if band:
+            text += f"; band {band[0]:g}-{band[1]:g} Hz"
+        asked = rec.get("band_requested_hz")
+        if asked and list(asked) != list(band or ()):
+            text += f" (asked {asked[0]:g}-{asked[1]:g} Hz)"
+        if rec.get("cutoff_hz") is not None:
+            text += f", cutoff {rec['cutoff_hz']:g} Hz"
+        rows.append(("gramians", text))
+    if rec.get("snapshots"):
+        text = f"{rec['snapshots']}" + (f" over {band[0]:g}-{band[1]:g} Hz" if band else "")
+        if rec.get("n_nodes"):
+            text += f", {rec['n_nodes']} quadrature nodes"
+        if rec.get("energy_captured") is not None:
+            text += f", energy captured {rec['energy_captured']:.6g}"
+        rows.append(("snapshots", text))
+    if rec.get("iterations") is not None:
+        text = f"{rec['iterations']}" + (f" of max_iter {rec['max_iter']}" if rec.get("max_iter") else "")
+        if rec.get("shift_change") is not None:
+            text += f", last change of the points {rec['shift_change']:.2g}" + (
+                f" (shift_tol {rec['shift_tol']:g})" if rec.get("shift_tol") is not None else "")
+        rows.append(("iterations", text))
+    if rec.get("n_interface_dofs") is not None:
+        rows.append(("interface", f"{rec['n_interface_dofs']} DOFs"
+                     + (f" + {rec['n_internal']} internal vectors" if rec.get("n_internal") is not None else "")))
+    return rows
+
+
 def _row(name: str, value, width: int = 12) -> None:
     print(f"{name:<{width}}{value}")
 
@@ -54,7 +122,8 @@ def info_body(args, emit_json) -> int:
     red = read_body(args.model, format=args.format)
     se = red.info.get("format") == _NASTRAN_SE
     out = dict(red.summary(), file=str(args.model), coupling_frequencies=red.info.get("coupling_frequencies"),
-               made_by="nastran" if se else "flexmor", coordinates=_coordinates(red), preload=red.info.get("preload"))
+               made_by="nastran" if se else "flexmor", coordinates=_coordinates(red), preload=red.info.get("preload"),
+               basis=basis_record(red.info))
     if se:
         out["nastran"] = {k: red.info.get(k) for k in ("source", "matrices", "n_boundary", "n_modal",
                                                          "fixed_interface_hz", "kbq_rel")}
@@ -72,6 +141,8 @@ def info_body(args, emit_json) -> int:
     if out["converged"] is not None:
         _row("converged", "yes" if out["converged"] else
              f"NO: {note_text(out['convergence_note'] or 'the iteration stopped without converging')}")
+    for label, text in basis_rows(out["basis"]):
+        _row(label, text)
     _row("coordinates", _coordinates_text(out["coordinates"]))
     opts = {k: v for k, v in out["options"].items() if k != "backend"}
     if opts:

@@ -221,6 +221,15 @@ def _add_verbose(p, default=0) -> None:
                    "also when it is not a terminal (never under --json)")
 
 
+def _add_quiet_note(p) -> None:
+    from ..errors import NOTES, QUIET_NOTES_VARIABLE
+
+    p.add_argument("--quiet-note", action="append", choices=list(NOTES), metavar="NAME",
+                   help="do not repeat the note NAME, a fact of the file that needs no action (repeatable; "
+                   f"{', '.join(NOTES)}; flexmor info states them in full; {QUIET_NOTES_VARIABLE}=NAME,... "
+                   "does the same)")
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The parser of ``flexmor`` with every subcommand and its flags (the method options' flags
     generated from the registered options dataclasses)."""
@@ -358,6 +367,7 @@ def build_parser() -> argparse.ArgumentParser:
     add_ui_parser(sub)
     for p in sub.choices.values():  # each command maps the parameters named by library errors to its flags
         _add_verbose(p, default=argparse.SUPPRESS)  # -v also after the command (adds to one before it)
+        _add_quiet_note(p)
         p.set_defaults(flag_names=flag_names(p))
     return ap
 

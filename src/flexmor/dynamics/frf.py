@@ -19,21 +19,28 @@ from collections.abc import Callable
 import numpy as np
 import scipy.sparse as sp
 
-from ..errors import OptionError
+from ..errors import OptionError, real_finite
 from ..linalg import factorize
 from ..linalg.context import SolverContext, as_solver
 from ..linalg.distributed import PartitionedMatrix, is_partitioned
 from ..linalg.threads import sparse_dense
 
-__all__ = ["ShiftedMatrices", "angular_frequency", "frf_full", "frf_reduced", "rel_error"]
+__all__ = ["ShiftedMatrices", "angular_frequency", "check_freqs", "frf_full", "frf_reduced", "rel_error"]
 
 
-def angular_frequency(freqs) -> np.ndarray:
-    """``2 pi f`` (rad/s) of frequencies ``f`` in Hz, checked to be finite and >= 0, shape (n_freq,)."""
-    f = np.atleast_1d(np.asarray(freqs, dtype=float))
-    if f.ndim != 1 or not np.all(np.isfinite(f)) or np.any(f < 0):
-        raise OptionError("frequencies must be finite and >= 0 Hz")
-    return 2 * np.pi * f
+def check_freqs(freqs, name: str = "freqs") -> np.ndarray:
+    """Frequencies ``f`` in Hz checked to be real, finite and >= 0, shape (n_freq,); an :class:`OptionError`
+    naming ``name`` otherwise (a complex frequency too: the FRF is taken at ``s = i 2 pi f``, ``f`` real)."""
+    f = np.atleast_1d(real_finite(freqs, name, "frequencies in Hz (real numbers)"))
+    if f.ndim != 1 or np.any(f < 0):
+        raise OptionError(f"{name} must be frequencies >= 0 in Hz, one list, got shape {np.shape(freqs)}"
+                          + (f", the value {f.min():g}" if f.size and f.min() < 0 else ""), params=(name,))
+    return f
+
+
+def angular_frequency(freqs, name: str = "freqs") -> np.ndarray:
+    """``2 pi f`` (rad/s) of frequencies ``f`` in Hz (:func:`check_freqs`, naming ``name``), shape (n_freq,)."""
+    return 2 * np.pi * check_freqs(freqs, name)
 
 
 class ShiftedMatrices:
@@ -188,9 +195,10 @@ def _rigid_part(model, B, C):
     return _RigidPart(model, phi, B, C) if phi.shape[1] else None
 
 
-def frf_reduced(body, freqs) -> np.ndarray:
-    """Frequency response of a reduced body (dense, batched), shape (n_freq, n_outputs, n_inputs)."""
-    w = angular_frequency(freqs)
+def frf_reduced(body, freqs, *, name: str = "freqs") -> np.ndarray:
+    """Frequency response of a reduced body (dense, batched), shape (n_freq, n_outputs, n_inputs);
+    ``name`` is the parameter an error about ``freqs`` names."""
+    w = angular_frequency(freqs, name)
     A = body.K[None, :, :] - (w ** 2)[:, None, None] * body.M[None, :, :]
     A = A.astype(complex)
     if body.D is not None:

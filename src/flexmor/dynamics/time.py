@@ -51,7 +51,7 @@ import numpy as np
 import scipy.linalg as sla
 import scipy.sparse as sp
 
-from ..errors import OptionError, check_choice
+from ..errors import OptionError, check_choice, real_finite
 from ..linalg import factorize
 from ..linalg.context import SolverContext, as_solver
 from ..linalg.distributed import is_partitioned
@@ -189,10 +189,12 @@ def scheme_parameters(scheme: str = "newmark", rho_inf: float = 0.9) -> dict:
 def _signal(u, t: np.ndarray, m: int) -> tuple[np.ndarray, bool]:
     """Sample ``u`` on ``t``: returns ``(U, each)``, U (n_t, k); ``each`` for one channel per input."""
     try:
-        U = np.asarray(u(t) if callable(u) else u, dtype=float)
-    except (TypeError, ValueError):
-        raise OptionError(f"the input signal u must be numbers (one value, samples on the time grid) or a "
-                          f"function of the time array, got {u!r}"[:300], params=("u",)) from None
+        values = u(t) if callable(u) else u
+    except (TypeError, ValueError) as exc:
+        raise OptionError(f"the input signal u, a function of the time array, failed on it: {exc}"[:300],
+                          params=("u",)) from None
+    U = real_finite(values, "u", "real, finite numbers (one value, samples on the time grid) or a function of "
+                    "the time array returning them")
     if U.ndim == 0:
         U = np.full(t.size, float(U))
     if U.shape[0] != t.size:

@@ -17,7 +17,7 @@ import warnings
 import numpy as np
 import scipy.sparse as sp
 
-from ..errors import FlexmorWarning
+from ..errors import FlexmorWarning, note
 
 __all__ = ["QUADRATIC_TYPES", "check_mass", "check_mass_directions", "direction_blocks", "direction_mismatches"]
 
@@ -27,8 +27,8 @@ QUADRATIC_TYPES = ("C3D20", "C3D15", "C3D10", "S8", "CPS8", "CPE8", "CAX8")
 
 
 def check_mass(model, where, *, max_dof: int = 500_000, iterations: int = 12) -> float | None:
-    """Warn (FlexmorWarning) when the mass matrix is singular or indefinite; return an estimate of
-    ``lambda_min/lambda_max`` (0 when it is not positive definite).
+    """Note (``singular-mass``, :func:`flexmor.errors.note`) a mass matrix that is singular or indefinite;
+    return an estimate of ``lambda_min/lambda_max`` (0 when it is not positive definite).
 
     One factorization of ``M`` as positive definite (pardiso: Cholesky) and two inverse iterations
     (``iterations`` with another backend) estimate its smallest eigenvalue: a factorization that
@@ -38,8 +38,6 @@ def check_mass(model, where, *, max_dof: int = 500_000, iterations: int = 12) ->
     and a block of one direction, a third of the equations, factorizes at a small part of the cost.
     Skipped (None) where a block has more than ``max_dof`` equations (a solid's mass: 1.5 M equations).
     """
-    from ..model import SINGULAR_MASS_NOTE
-
     M = model.M
     if M.shape[0] > 3 * max_dof:
         return None
@@ -57,7 +55,7 @@ def check_mass(model, where, *, max_dof: int = 500_000, iterations: int = 12) ->
         kind = "indefinite (a negative eigenvalue)" if ratio < -1e-12 else \
             "singular (smallest eigenvalue below 1e-12 of the largest)"
     if kind is not None:
-        warnings.warn(f"{where}: the mass matrix is {kind}; {SINGULAR_MASS_NOTE}", FlexmorWarning, stacklevel=3)
+        note("singular-mass", f"{where}: the mass matrix is {kind}; every method still works", stacklevel=3)
     return ratio
 
 

@@ -29,7 +29,7 @@ from dataclasses import dataclass
 from os import PathLike
 from pathlib import Path
 
-from ..errors import FlexmorWarning, OptionError, ReadError, did_you_mean
+from ..errors import FlexmorWarning, OptionError, ReadError, check_keywords_of, did_you_mean
 from ..units import to_si, unit_system
 from ._geometry import check_cells, check_stiffness_geometry
 from ._mass import check_mass_directions
@@ -293,6 +293,7 @@ def read(path, format: str | None = None, *, units: str | None = None, **options
     fmt.check_gzip(path)
     if units is not None:
         unit_system(units)  # an unknown name before the file is read
+    check_keywords_of(f"read ({fmt.name})", options, fmt.function, also=("format", "units"))
     model = fmt.function(path, **options)
     check_minors(model)
     check_mass_directions(model)
@@ -330,6 +331,7 @@ def read_body(path, format: str | None = None, **options):
     fmt = _choose_reader(BODY_FORMATS, path, format)
     _checked(path)
     fmt.check_gzip(path)
+    check_keywords_of(f"read_body ({fmt.name})", options, fmt.function, also=("format",))
     return fmt.function(path, **options)
 
 
@@ -418,6 +420,8 @@ def export(body, path, format: str | None = None, *, model=None, units: str | No
     if isinstance(model, (str, PathLike)):  # the FE model's file, as add_to_exudyn takes it
         model = read(model)
     name = export_format(path, format)
+    check_keywords_of(f"export ({name})", options, EXPORT_FORMATS.by_name(name).function, drop=("model", "units"),
+                      also=("format", "model", "units"))
     if units is not None:
         system = unit_system(units)
         if name in unit_formats():

@@ -450,7 +450,7 @@ def add_marker(mbs, body: dict, model, target, *, kind: str | None = None) -> in
     """
     import exudyn.itemInterface as eii
 
-    from ..errors import check_choice
+    from ..errors import check_choice, did_you_mean
 
     model = body.get("model") if model is None else model
     itf = _interface(body, target)
@@ -467,9 +467,17 @@ def add_marker(mbs, body: dict, model, target, *, kind: str | None = None) -> in
             ids = model.node_sets[target.upper()]
         elif str(target).strip().lstrip("-").isdigit():
             ids = [int(target)]
+        elif model is None:
+            raise ModelError(f"target={target!r} is not a node id nor a coupling of the body "
+                             f"({', '.join(body.get('interfaces', {})) or 'none'}), and its node sets are unknown: "
+                             "no model was given and none was recorded by add_to_exudyn; pass the FE model as read "
+                             f"(add_marker(mbs, body, model, {target!r}), model = flexmor.read(path))",
+                             params=("model", "target"))
         else:
-            raise ModelError(f"target={target!r} is neither a node id, nor a node set of the model, nor a coupling "
-                             f"of the body ({', '.join(body.get('interfaces', {})) or 'none'})", params=("target",))
+            sets = ", ".join(sorted(model.node_sets)) or "none"
+            raise ModelError(f"target={target!r} is neither a node id, nor a node set of the model "
+                             f"({did_you_mean(str(target), model.node_sets)}sets: {sets}), nor a coupling of the "
+                             f"body ({', '.join(body.get('interfaces', {})) or 'none'})", params=("target",))
         missing = [int(k) for k in ids if int(k) not in body["node_index"]]
         if missing:
             raise ModelError(f"target={target!r}: node(s) {missing[:5]} are not mesh nodes of the Exudyn body "

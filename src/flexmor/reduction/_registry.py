@@ -4,6 +4,26 @@ Each method module registers its function here when it is imported; :mod:`flexmo
 imports every built-in method module, so :data:`METHODS` is complete once the package is
 imported. The method modules import this module, never the package, so the package can import
 them without a cycle.
+
+Method names resolve in one place, :func:`method_name`: any case, and the short names of
+:data:`ALIASES` (``bt`` is ``sobt``, ``cb`` is ``craig-bampton`` ...), give the one registered
+name that every later step (the study's band, interfaces, records) uses.
+
+An order a method cannot reach is treated by one rule, applied by every registered method (the
+function :func:`register_method` returns) and by :func:`flexmor.reduction.reduce`:
+
+* an order above the model's number of DOF is refused before any work (:class:`OptionError`
+  naming ``order``): no basis has more independent columns than the model has equations;
+* an order up to the number of DOF that the method cannot reach (fewer independent directions
+  than asked: snapshots, Hankel singular values above round-off, internal vectors, tangential
+  directions) gives the body of the reachable order, never an error; its ``order_note`` says
+  ``order r instead of R:`` and the reason (:data:`UNREACHED_NOTE` where the method gives none);
+* an order that contradicts the method's own definition is an option error naming ``order`` and
+  the option concerned: guyan's order is the number of interface DOFs, craig-bampton and the
+  cms methods need at least the interface DOFs, two-step at most its ``intermediate`` order.
+
+A multiple eigenvalue cut by the order is kept whole (modal, craig-bampton): one more column
+than asked, with the reason in ``order_note``.
 """
 
 from __future__ import annotations
@@ -14,9 +34,11 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 from ..errors import OptionError, did_you_mean
-from ..options import option_fields
+from ..errors import check_keywords as check_names
+from ..options import check_order, option_fields
 
-__all__ = ["Method", "METHODS", "ALIASES", "register_method", "check_keywords", "methods", "method_name"]
+__all__ = ["Method", "METHODS", "ALIASES", "UNREACHED_NOTE", "register_method", "check_keywords", "methods",
+           "method_name", "check_reachable", "order_note"]
 
 
 @dataclass(frozen=True)
@@ -61,11 +83,9 @@ METHODS: dict[str, Method] = {}
 
 
 def check_keywords(method: str, given, allowed) -> None:
-    """An :class:`OptionError` naming the keywords of ``given`` that are not in ``allowed`` (all listed)."""
-    unknown = [k for k in given if k not in allowed]
-    if unknown:
-        raise OptionError(f"method {method!r} does not take option(s) {', '.join(unknown)}; "
-                          f"it takes: {', '.join(allowed)}", params=tuple(unknown) + tuple(allowed))
+    """An :class:`OptionError` naming the keywords of ``given`` that are not in ``allowed``, each with the
+    closest allowed name (:func:`flexmor.options.check_keywords`), all allowed ones listed."""
+    check_names(f"method {method!r}", given, allowed, what="option(s) ")
 
 
 def register_method(name: str, description: str, *, options: type, survives_coupling: bool = True,
@@ -73,7 +93,8 @@ def register_method(name: str, description: str, *, options: type, survives_coup
     """Decorator registering a basis function under ``name`` with its options dataclass ``options``.
 
     The function returned raises :class:`OptionError` (not ``TypeError``) for keywords the
-    method does not take, listing those it takes.
+    method does not take, listing those it takes, and refuses an order above the model's number
+    of DOF (:func:`check_reachable`: the order rule of this module).
     """
 
     def deco(fn):
@@ -82,12 +103,38 @@ def register_method(name: str, description: str, *, options: type, survives_coup
         @functools.wraps(fn)
         def method(model, ports, order=None, **kwargs):
             check_keywords(name, kwargs, allowed)
-            return fn(model, ports, order, **kwargs)
+            return fn(model, ports, check_reachable(model, order), **kwargs)
 
         METHODS[name] = Method(name, method, description, survives_coupling, options, uses_inputs)
         return method
 
     return deco
+
+
+def check_reachable(model, order):
+    """``order`` (:func:`flexmor.options.check_order`), refused when above the number of DOF of ``model``.
+
+    Raises
+    ------
+    OptionError
+        Naming ``order``: not a positive integer, or more than the model's DOF.
+    """
+    order = check_order(order)
+    if order is not None and order > model.n_dof:
+        raise OptionError(f"order {order} exceeds the number of DOF {model.n_dof} of the model: no basis has more "
+                          "independent columns than the model has equations", params=("order",))
+    return order
+
+
+#: The reason recorded when a method returns fewer columns than asked and says nothing itself.
+UNREACHED_NOTE = "{method} found only {order} independent directions for it"
+
+
+def order_note(method: str, order: int, requested: int, reason: str | None = None) -> str:
+    """The ``order_note`` of a body of ``order`` columns asked for ``requested``: ``order r instead of R:``
+    and ``reason`` (:data:`UNREACHED_NOTE` when None)."""
+    why = reason or UNREACHED_NOTE.format(method=method, order=order)
+    return f"order {order} instead of {requested}: {why}"
 
 
 def methods() -> dict[str, Method]:

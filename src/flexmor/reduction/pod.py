@@ -15,13 +15,16 @@ from ..linalg.threads import sparse_dense
 from ..options import Band, band_option, option
 from ..rigid import m_project
 from ._options import nodes_option, rigid_option, side_option, solves_option
-from ._registry import register_method
+from ._registry import order_note, register_method
 from .free_body import rigid_head
 from .gramians import compress, gramian_factors
 
 __all__ = ["pod", "PodOptions", "pod_modes", "SNAPSHOTS"]
 
 log = logging.getLogger(__name__)
+
+#: Snapshot directions whose singular value lies below this share of the largest are round-off (:func:`pod_modes`).
+SIGMA_RTOL = 1e-13
 
 SNAPSHOTS = ("frequency", "time", "both")
 
@@ -47,14 +50,12 @@ def pod_modes(S: np.ndarray, M, order: int | None = None, energy: float | None =
     Lq = np.linalg.cholesky(Q.T @ sparse_dense(M, Q))  # no squaring of singular values (accurate to eps)
     U, sig, _ = np.linalg.svd(Lq.T @ T, full_matrices=False)
     lam = sig ** 2
-    pos = sig > 1e-13 * sig[0] if sig.size and sig[0] > 0 else np.zeros(sig.size, bool)
+    pos = sig > SIGMA_RTOL * sig[0] if sig.size and sig[0] > 0 else np.zeros(sig.size, bool)
     r = int(pos.sum())
     if energy is not None:
         frac = np.cumsum(lam[pos]) / lam[pos].sum()
         r = min(r, int(np.searchsorted(frac, energy * (1 - 1e-12)) + 1))
     if order is not None:
-        if order > r:
-            log.warning("pod: only %d independent snapshot directions for order %d", r, order)
         r = min(r, order)
     return Q @ np.linalg.solve(Lq.T, U[:, :r]), lam
 
@@ -179,6 +180,19 @@ def pod(model, ports, order, *, band=None, energy: float | None = None, snapshot
     V, lam = pod_modes(np.hstack(parts), model.M, None if order is None else order - head.shape[1], energy)
     info.update(pod_energy=lam[: max(40, 2 * V.shape[1])].tolist(),
                 energy_captured=float(lam[: V.shape[1]].sum() / lam[lam > 0].sum()), nested=True)
+    if order is not None and V.shape[1] + head.shape[1] < order:
+        info["order_note"] = order_note("pod", V.shape[1] + head.shape[1], order, _pod_reason(lam, V.shape[1], energy))
     if phi.shape[1]:
         info.update(rigid=rigid, n_rigid_included=int(head.shape[1]))
     return Basis(np.hstack([head, V]) if head.shape[1] else V, "pod", info)
+
+
+def _pod_reason(lam, r: int, energy: float | None) -> str:
+    """Why :func:`pod` kept ``r`` modes, fewer than asked: the ``energy`` share reached, or the snapshots'
+    independent directions (POD eigenvalues above round-off, :func:`pod_modes`) all taken."""
+    n_independent = int(np.sum(lam > SIGMA_RTOL ** 2 * lam[0])) if lam.size and lam[0] > 0 else 0
+    if energy is not None and r < n_independent:
+        return f"{float(energy):g} of the snapshot energy is reached with {r} POD modes (energy)"
+    return (f"the snapshots span only {n_independent} independent directions (singular values above "
+            f"{SIGMA_RTOL:g} of the largest); more columns would add round-off only; a wider band, side both or "
+            "snapshots both gives more")
