@@ -237,7 +237,7 @@ def main(argv=None) -> int:
               f"solves {o['ref_solves_s']:.2f} s = {o['ref_s']:.2f} s; ratio {o['ratio']:.2f}; "
               f"projection {o['krylov_project_s']:.2f} s; 3 points {o['krylov_3points_basis_s']:.2f} s")
         d = o["default"]
-        print(f"default point(s) {d['points_hz']} (estimate {d['points_check']['single_point']['estimate']:.1e}): "
+        print(f"default point(s) {d['points_hz']} (estimate {d['points_check']['estimate']:.1e}): "
               f"basis + projection {d['reduce_s']:.2f} s ({d['basis_s']:.2f} + {d['project_s']:.2f}); its {d['factorizations']} factorization(s) {d['factorize_s']:.2f} s + "
               f"{d['block_solves']} block solves {d['solve_s']:.2f} s: ratio {d['ratio_own']:.2f}; "
               f"bare factorization + {d['block_solves']} solves {d['bare_s']:.2f} s: ratio {d['ratio_bare']:.2f} "

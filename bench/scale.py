@@ -10,12 +10,12 @@ tip face, ``TIP_CENTER:x/y/z`` at its centre node):
 * ``modal`` (default order 40),
 * ``craig-bampton`` with the tip face tied to one 6-DOF master by an RBE2 (``TIP@rbe2``; the
   coupling transformation is timed separately) and ``order - 6`` fixed-interface modes,
-* ``krylov`` (default order 200; the default expansion point: one real point at the band's
-  geometric mean, checked by the estimated band error, three points when the check fails;
+* ``krylov`` (default order 200; the default expansion points: 0 Hz, then points on the frequency
+  axis where the body's residual is largest, one factorization each and one for the estimate;
   ``--band``, default 1-5000 Hz: about 15 resonances of the 1 m steel cantilever),
 * ``two-step`` (``krylov`` to 200, then balanced truncation to 40 with the band's Gramians),
 * ``krylov-1pt`` (not in the default list): ``krylov`` with that one real point given
-  explicitly, i.e. one factorization and all moments there, without the check.
+  explicitly, i.e. one factorization and all moments there (the default before the greedy points).
 
 For every method the solver layer's own counters (``SolverContext.stats``)
 give the number and time of its factorizations and of its block solves. ``ratio`` is the
@@ -137,7 +137,7 @@ def run_case(size: int, methods: list[str], order: int, order_krylov: int, band:
             "couple_s": t_couple, "factorizations": d["count"], "factor_s": d["seconds"], "solves": d["solves"],
             "solve_columns": d["solve_columns"], "solve_s": d["solve_seconds"], "solver_s": solver,
             "ratio": wall / solver if solver > 0 else None, "peak_mb": _status("VmHWM"),
-            "factor": factor_record(ctx.stats)}
+            "factor": factor_record(ctx.stats), "n_points": len(red.info.get("points_hz") or [])}
         del red, body
     return out
 

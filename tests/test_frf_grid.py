@@ -9,8 +9,8 @@ import scipy.linalg as sla
 from flexmor.analysis import cache as frf_cache
 from flexmor.analysis.compare import FullResponse
 from flexmor.analysis.frequency import band_error
-from flexmor.analysis.grid import adaptive_grid, initial_grid, quadrature_weights
 from flexmor.dynamics.frf import frf_full, frf_reduced
+from flexmor.dynamics.grid import adaptive_grid, initial_grid, quadrature_weights
 from flexmor.linalg import SolverContext
 from flexmor.models import cantilever
 from flexmor.ports import make_ports

@@ -55,8 +55,12 @@ def test_irka_cantilever_three_inputs(cant3, r):
     ri = reduce(model, "irka", r, ports)
     assert ri.info["converged"], ri.info["shift_history"]
     assert ri.order == r
+    # H2-optimal interpolation is a local optimum: below Krylov at one real point (the earlier default: 0.17 and
+    # 0.017 at r = 6, 12), and near Krylov's greedy points (0.13 and 8.0e-3; irka 0.12 and 9.4e-3)
+    one = reduce(model, "krylov", r, ports, points=str(np.sqrt(1000.0)))
     rk = reduce(model, "krylov", r, ports)
-    assert h2_error(model, ports, ri) <= h2_error(model, ports, rk)
+    e = h2_error(model, ports, ri)
+    assert e <= h2_error(model, ports, one) and e <= 1.5 * h2_error(model, ports, rk)
 
 
 def test_irka_reports_nonconvergence(cant3, caplog):

@@ -1,15 +1,19 @@
-"""Krylov's default expansion point: one factorization, checked by an estimate of its band error."""
+"""Krylov's default expansion points: greedy where the body's error is largest, and an estimate that holds."""
 
 from __future__ import annotations
 
+import numpy as np
 import pytest
 
+import flexmor
 from flexmor.analysis.compare import FullResponse
 from flexmor.errors import OptionError
 from flexmor.linalg import SolverContext
+from flexmor.models import plate_structure
 from flexmor.ports import make_ports
-from flexmor.reduction.krylov import default_points, krylov
-from flexmor.workflow import reduce_and_judge
+from flexmor.reduction import reduce
+from flexmor.reduction.greedy_points import ResidualIndicator, greedy_basis
+from flexmor.reduction.krylov import krylov
 
 BAND = (10.0, 1000.0)
 
@@ -21,66 +25,63 @@ def beam(clamped):
     return model, ports, FullResponse(model, ports, BAND, cache=False)
 
 
-def _three_points():
-    return ",".join(str(p.real) for p in default_points(BAND))
-
-
-def test_one_point_when_its_estimate_passes(beam):
-    model, ports, full = beam
+def test_static_point_first_then_points_on_the_axis(beam):
+    model, ports, _ = beam
     solver = SolverContext()
-    basis = krylov(model, ports, 8, band=BAND, solver=solver)
-    check = basis.info["points_check"]
-    assert solver.stats.count == 1 and check["n_points"] == 1 and len(basis.info["points_hz"]) == 1
-    _, res = reduce_and_judge(model, "krylov", 8, ports, full=full, band=BAND)
-    _, res3 = reduce_and_judge(model, "krylov", 8, ports, full=full, band=BAND, points=_three_points())
-    # measured: estimate 6.0e-7 (order 8 against its leading 6 columns), band_error 1.9e-12; the three
-    # points of the earlier default give 2.0e-10 at three factorizations
-    assert res["band_error"] <= check["single_point"]["estimate"] <= check["tol"]
-    assert res["band_error"] < res3["band_error"]
+    basis = krylov(model, ports, 12, band=BAND, solver=solver)
+    pts = [complex(p) for p in basis.info["points_hz"]]
+    assert pts[0] == 0 and all(p.real == 0 and BAND[0] <= p.imag <= BAND[1] for p in pts[1:]), pts
+    assert solver.stats.count == len(pts) + 1  # one factorization per point, one for the estimate
+    body = flexmor.project(model, basis, ports)
+    G = ports.C @ np.linalg.solve(model.K.toarray(), ports.B.toarray())  # the static compliance is matched
+    Gr = body.C @ np.linalg.solve(body.K, body.B)
+    assert np.linalg.norm(G - Gr) <= 1e-9 * np.linalg.norm(G)
 
 
-def test_more_points_when_the_estimate_fails(beam):
-    model, ports, full = beam
-    solver = SolverContext()
-    basis = krylov(model, ports, 4, band=BAND, solver=solver)
-    check = basis.info["points_check"]
-    assert check["single_point"]["estimate"] > check["tol"] and check["n_points"] == 3
-    assert solver.stats.count == 3  # the single point's blocks are reused: two more factorizations
-    _, res = reduce_and_judge(model, "krylov", 4, ports, full=full, band=BAND)
-    _, res3 = reduce_and_judge(model, "krylov", 4, ports, full=full, band=BAND, points=_three_points())
-    # the same three points as the earlier default ([10, 100, 1000] Hz): the same body (1.5e-3)
-    assert res["band_error"] == pytest.approx(res3["band_error"], rel=1e-6)
+def test_the_basis_is_nested(beam):
+    """The order stops the greedy sequence and changes nothing before: the target-error search relies on it."""
+    model, ports, _ = beam
+    V8 = krylov(model, ports, 8, band=BAND).V
+    V12 = krylov(model, ports, 12, band=BAND).V
+    assert np.abs(V12[:, :8] - V8).max() <= 1e-10
 
 
-@pytest.mark.slow
-def test_estimate_bounds_the_error_and_decreases(beam):
-    model, ports, full = beam
-    est, err = [], []
-    for r in (6, 8, 10):
-        basis = krylov(model, ports, r, band=BAND, points_tol=1.0)  # no fallback: the single point
-        _, res = reduce_and_judge(model, "krylov", r, ports, full=full, band=BAND, points_tol=1.0)
-        est.append(basis.info["points_check"]["single_point"]["estimate"])
-        err.append(res["band_error"])
-    assert est[0] > est[1] > est[2] and err[0] > err[1] > err[2]
-    assert all(e <= s for e, s in zip(err, est)), (err, est)
+def test_the_indicator_is_the_residual_formed_in_full(beam):
+    """The Gram form of ``||F - A(w) V x(w)||`` equals the residual of the same states formed with the full
+    matrices, up to its stated rounding (the states themselves: one small solve, the indicator's)."""
+    model, ports, _ = beam
+    V = krylov(model, ports, 10, band=BAND).V
+    F = ports.B.toarray()
+    F = F / np.linalg.norm(F, axis=0)
+    ind = ResidualIndicator(model, F, BAND)
+    ind.extend(V[:, :0], V[:, :4])
+    ind.extend(V[:, :4], V[:, 4:])  # built in two steps: the cross terms of the Gram matrix
+    f = np.array([20.0, 333.0, 900.0])
+    got = ind(f)
+    for k, fk in enumerate(f):
+        w = 2 * np.pi * fk
+        A = (model.K - w * w * model.M + 1j * w * model.D).tocsc()
+        x = ind._states(np.array([w]))[0]
+        exact = np.linalg.norm(F - A @ (V @ x)) / np.linalg.norm(F)
+        W = np.hstack([model.K @ V, model.M @ V, model.D @ V])
+        c = np.abs(np.vstack([x, -w * w * x, 1j * w * x]))
+        terms = np.sum(c * (np.abs(W.T @ W) @ c)) + 2 * np.sum(np.abs(W.T @ F) * c) + np.sum(F ** 2)
+        assert abs(got[k] ** 2 - exact ** 2) <= 3 * V.shape[1] * np.finfo(float).eps * terms / np.sum(F ** 2)
 
 
-def test_explicit_points_are_not_checked_and_bad_tol(beam):
+def test_options_and_errors(beam):
     model, ports, _ = beam
     basis = krylov(model, ports, 8, points="50,500")
     assert "points_check" not in basis.info and len(basis.info["points_hz"]) == 2
-    with pytest.raises(OptionError, match="points_tol"):
-        krylov(model, ports, 8, points_tol=0.0)
+    with pytest.raises(OptionError, match="order"):
+        krylov(model, ports, None)
+    one = krylov(model, ports, 12, band=BAND, moments=2)
+    assert set(one.info["moments"]) == {2}
 
 
 def test_the_checks_projection_is_the_bodys(beam):
-    """The check's reduced matrices serve project(); a copy of V or another model is projected anew."""
-    import dataclasses
-
-    import numpy as np
-
+    """The greedy's reduced matrices serve project(): equal to a fresh projection."""
     from flexmor.basis import Basis
-    from flexmor.damping import ModalDamping
     from flexmor.projection import project
 
     model, ports, _ = beam
@@ -90,13 +91,69 @@ def test_the_checks_projection_is_the_bodys(beam):
     red = project(model, basis, ports)
     for a, b in ((red.M, fresh.M), (red.K, fresh.K), (red.D, fresh.D)):
         assert np.abs(a - b).max() <= 1e-12 * np.abs(b).max()
-    assert red.M is basis.reduced.M  # shared, not recomputed
-    stiffer = dataclasses.replace(model, K=model.K * 2.0)  # the same V on another model: its own products
-    assert np.allclose(project(stiffer, basis, ports).K, 2.0 * fresh.K, rtol=1e-12, atol=0)
-    undamped = dataclasses.replace(model, D=None)
-    assert project(undamped, basis, ports).D is None
-    modal = model.with_damping(ModalDamping(1.5e-4, 5e-7, zeta=0.02, band=BAND))
-    mb = krylov(modal, ports, 8, band=BAND)  # modal damping: the body's own modes, from the shared Mr, Kr
-    assert mb.reduced is not None
-    got, want = project(modal, mb, ports).D, project(modal, Basis(mb.V.copy(), "krylov"), ports).D
-    assert np.abs(got - want).max() <= 1e-10 * np.abs(want).max()
+
+
+def _corner(model) -> str:
+    return f"{int(model.node_ids[np.argmin(np.linalg.norm(model.xyz - [0.25, 0.25, 0.02], axis=1))])}:z"
+
+
+@pytest.fixture(scope="module")
+def corner_clamped():
+    """The corner case: the plate structure clamped, one port at its top corner (z), 1 % modal damping."""
+    m = plate_structure(20)
+    return flexmor.System(m, inputs=[_corner(m)], band=(1.0, 2000.0), damping={"modal_damping": 0.01}, cache=False)
+
+
+@pytest.fixture(scope="module")
+def corner_free():
+    """The free structure held by the RBE2 of its hole (six directions) plus the corner's z."""
+    m = plate_structure(20, lower="free")
+    return flexmor.System(m, inputs=[f"HOLE@rbe2:{d}" for d in ("x", "y", "z", "rx", "ry", "rz")] + [_corner(m)],
+                          interfaces=["HOLE@rbe2"], band=(1.0, 2000.0), damping={"modal_damping": 0.01},
+                          cache=False)
+
+
+@pytest.mark.parametrize("case, order", [("corner_clamped", 20), ("corner_free", 45)])
+def test_default_points_are_as_good_as_fw_sobt_and_the_estimate_holds(case, order, request):
+    """On the case the default points failed (a 33,735-DOF C3D10 plate structure: the earlier default gave 4.2e-2
+    clamped and 5.6e-2 free, 140-200x above its own estimate), here the built-in plate structure at 6,300 DOF
+    with the same ports, band, damping and orders (measured: krylov 7.4e-6 and 1.46e-6, fw-sobt 7.4e-6 and
+    1.42e-6, the earlier default's single real point 1.3 and 2.6e-2): default krylov is within 3x of fw-sobt at
+    the same order, and its estimate within 3x of the verified band_error."""
+    S = request.getfixturevalue(case)
+    body = S.reduce("krylov", order)
+    err = S.judge(body).band_error
+    ref = S.judge(S.reduce("fw-sobt", order)).band_error
+    est = body.info["points_check"]["estimate"]
+    assert err <= 3 * ref, (err, ref)
+    assert err / 3 <= est <= 3 * err, (est, err)
+    old = S.judge(S.reduce("krylov", order, points=str(np.sqrt(2000.0)))).band_error
+    assert err < old / 10  # the earlier default's single real point
+
+
+def test_the_pointwise_figure_of_the_estimate_is_the_full_models(corner_clamped):
+    """At the frequency of the estimate's check the enriched body interpolates the full model: the body's
+    pointwise error there equals its error against a direct solve."""
+    from flexmor.dynamics.frf import frf_full, frf_reduced, rel_error
+
+    S = corner_clamped
+    model = S.model.with_rayleigh(0.0, 1e-6)  # a damping the sparse solve holds exactly
+    body = reduce(model, "krylov", 10, S.ports, band=S.band)
+    check = body.info["points_check"]
+    f = np.array([check["check_hz"]])
+    true = rel_error(frf_full(model, S.ports, f), frf_reduced(body, f))[0]
+    assert check["pointwise_at_check"] == pytest.approx(true, rel=1e-6)
+
+
+def test_greedy_basis_stops_on_its_tolerance(beam):
+    """With ``tol`` the sequence stops at the first body whose predecessor is within ``tol`` of it; the body
+    returned (with the latest point) is then at least as good by the judge."""
+    model, ports, full = beam
+    from flexmor.reduction.free_body import rigid_head
+
+    phi, head = rigid_head(model, ports.B.toarray(), "exclude")
+    V, info, _ = greedy_basis(model, ports, None, BAND, side="input", solver=SolverContext(), phi=phi, head=head,
+                              moments=1, estimate=False, tol=1e-8, max_points=40)
+    assert info["estimates"][-1] < 1e-8 <= min(info["estimates"][:-1], default=1.0)
+    body = flexmor.project(model, V, ports)
+    assert full.evaluate(body).band_error <= 1e-8

@@ -30,7 +30,7 @@ def free_plate():
     return couple(plate_structure(8, lower="mass"), ["HOLE@rbe2"]).model
 
 
-@pytest.mark.parametrize("method, order", [("krylov", 12), ("modal", 8)])
+@pytest.mark.parametrize("method, order", [("modal", 8)])
 def test_check_and_method_share_one_factorization(method, order):
     model = cantilever(4)  # 3,000 DOF: above the dense limit, the check factorizes
     ports = make_ports(model, ["TIP:y", "TIP:z"])
@@ -55,9 +55,11 @@ def test_check_and_method_share_one_factorization(method, order):
     np.testing.assert_allclose(bodies[0].frequencies_hz(), bodies[1].frequencies_hz(), rtol=1e-10)
 
 
-def test_damped_krylov_does_not_keep_the_check_factorization():
+def test_krylov_does_not_keep_the_check_factorization():
+    """Krylov's first point is 0 Hz (complex points follow): nothing to share with the check's shift."""
+    for model in (cantilever(4), cantilever(4).with_rayleigh(2.0, 1e-6)):
+        assert check_shift(model, "krylov", {"band": (10.0, 3000.0)}) == (None, False)
     model = cantilever(4).with_rayleigh(2.0, 1e-6)
-    assert check_shift(model, "krylov", {"band": (10.0, 3000.0)}) == (None, False)
     assert check_shift(model, "craig-bampton", {}) == (None, False)
 
 

@@ -14,6 +14,7 @@ from ..damping import ModalDamping
 from ..display import Shown, band_text
 from ..dynamics.dense_frf import DenseResolvent, dense_applicable
 from ..dynamics.frf import angular_frequency, frf_full, frf_reduced, rel_error
+from ..dynamics.grid import DEFAULT_TOL, adaptive_grid, initial_grid
 from ..dynamics.modes import modal_damping_ratios, modes_below
 from ..dynamics.surrogate import DEFAULT_SURROGATE_TOL, MODES_MARGIN
 from ..errors import ModelError, OptionError, PortError
@@ -25,8 +26,9 @@ from ..origin import check_origin, describe_damping, fingerprint, same_damping
 from ..reduction.free_body import split_elastic, with_elastic_part
 from . import cache as frf_cache
 from .frequency import MEASURE_KEYS, error_measures, error_notes
-from .grid import DEFAULT_TOL, adaptive_grid, initial_grid
+from .judge import JUDGE_CHECKS, built_from_surrogate, judge_check, judge_notes
 from .resonances import spurious_resonances
+from .subspaces import Span, body_label, same_subspace, subspace_note
 
 __all__ = ["FullResponse", "ErrorMeasures", "check_judgeable", "PATHS", "JUDGED_ELASTIC", "JUDGED_RIGID", "JUDGED_FULL"]
 
@@ -54,6 +56,10 @@ JUDGED_FULL = "full response"
 #: 1.4 s against 0.24 s at 1,440 DOF and 13.4 s against 0.67 s at 3,000 DOF (both agree to the
 #: surrogate's tolerance, 1e-6 pointwise).
 SURROGATE_MIN_DOF = 700
+
+#: Bases of the bodies evaluated that a :class:`FullResponse` keeps for the shared-subspace test (bytes; the
+#: oldest dropped beyond): thirteen bodies of order 45 of a 35,000-DOF model take 160 MB.
+SPANS_KEPT_BYTES = 512 * 2 ** 20
 
 
 @dataclass(frozen=True, repr=False)
@@ -86,6 +92,15 @@ class ErrorMeasures(Shown):
     judged : str
         Which response the body was judged against (:data:`JUDGED_FULL`, :data:`JUDGED_RIGID`,
         :data:`JUDGED_ELASTIC`: the elastic part for a free body without rigid-body modes).
+    judge_check : dict or None
+        Against a surrogate reference (``path='surrogate'``): the body checked by direct solves of the
+        full model at its worst frequencies (:func:`flexmor.analysis.judge.judge_check`: the pointwise
+        errors against both, ``band_error_surrogate`` and ``band_error_checked``, ``agree``,
+        ``corrected``, ``resolved`` and ``floor``, ``new_solves`` and ``seconds`` of this body); None
+        against a direct or dense reference.
+    same_subspace_as : list of str
+        Bodies judged before against this reference whose bases span the same subspace as this one's
+        (``method r=order``, :func:`flexmor.analysis.subspaces.same_subspace`).
     band_hz : (float, float)
         The band judged over (Hz).
     notes : tuple of str
@@ -105,6 +120,8 @@ class ErrorMeasures(Shown):
     max_rel_error_at_spurious_resonance: bool
     spurious_resonances_hz: list
     judged: str
+    judge_check: dict | None
+    same_subspace_as: list
     band_hz: tuple
     notes: tuple = ()
     freqs_hz: np.ndarray = field(default=None, repr=False, compare=False)
@@ -116,6 +133,11 @@ class ErrorMeasures(Shown):
             " (spurious resonance)" if self.max_rel_error_at_spurious_resonance else "")
         rows = [("rms_rel_error", f"{self.rms_rel_error_pct:.3g} %"), ("hinf_error", f"{self.hinf_error:.3g}"),
                 ("max_rel_error", where), ("judged", self.judged)]
+        check = self.judge_check
+        if check:
+            rows.append(("direct check", f"{check['n_checks']} frequencies: " + (
+                "agrees with the surrogate's figure" if check["agree"] else
+                f"corrected (against the surrogate alone {check['band_error_surrogate']:.3g})")))
         rows += [("note", n) for n in self.notes]
         return f"band_error {self.band_error:.3g} over {band_text(self.band_hz)}", rows
 
@@ -129,7 +151,7 @@ class FullResponse:
     """The full model's FRF over a band, computed once and reused for every reduced body.
 
     A modal pre-pass finds the resonances in the band and their modal damping; the adaptive
-    grid (:func:`flexmor.analysis.grid.adaptive_grid`) places points at them and refines
+    grid (:func:`flexmor.dynamics.grid.adaptive_grid`) places points at them and refines
     until the trapezoidal integral of ``||H||_F^2`` is resolved to ``tol``. The result is
     cached on disk (:mod:`flexmor.analysis.cache`) so that later runs on the same model,
     ports, damping, band and grid parameters cost no sweep: one ``.npz`` file per FRF in
@@ -162,6 +184,11 @@ class FullResponse:
         :class:`flexmor.dynamics.surrogate.Surrogate`; ``auto``: iterative where the pre-pass counted
         its modes and the damping is proportional, or where a complex factorization would not fit
         into memory, else direct).
+    judge_checks : int
+        With the surrogate: the frequencies per body where :meth:`evaluate` solves the full model
+        directly (:mod:`flexmor.analysis.judge`; more where the check disagrees). 0 checks only the
+        bodies built from a surrogate, which are always checked at
+        :data:`~flexmor.analysis.judge.JUDGE_CHECKS` frequencies at least.
     cache : bool or path-like
         Use the disk cache (True: :func:`flexmor.analysis.cache.cache_dir`; a path: that
         directory; False: neither read nor write), bounded by
@@ -192,11 +219,15 @@ class FullResponse:
         Sparse factorizations spent (0 on a cache hit).
     surrogate : Surrogate or None
         The verified surrogate when it was built here.
+    judge : dict
+        The judge's direct solves of the full model (surrogate path): ``direct_solves`` (one complex
+        factorization each, shared by the bodies), ``seconds``, ``bodies_checked``.
     """
 
     def __init__(self, model, ports, band, *, n: int = 50, tol: float = DEFAULT_TOL, max_points: int = 3000,
                  solver: SolverContext | None = None, path: str = "auto", surrogate_tol: float = DEFAULT_SURROGATE_TOL,
-                 cache=True, progress: Callable | None = None, check_solver: str = "auto"):
+                 cache=True, progress: Callable | None = None, check_solver: str = "auto",
+                 judge_checks: int = JUDGE_CHECKS):
         t0 = time.perf_counter()
         solver = as_solver(solver)
         progress = solver.progress if progress is None else progress
@@ -218,9 +249,17 @@ class FullResponse:
         self.path = path
         given = ports
         ports = with_elastic_part(model, ports)  # a free body: the elastic part of H too, computed directly
+        self.judge_checks = int(judge_checks)
+        self.judge = {"direct_solves": 0, "seconds": 0.0, "bodies_checked": 0}
+        self._solved: dict[int, np.ndarray] = {}  # the judge's direct solutions at grid points
+        self._direct: Callable | None = None  # freqs -> the full FRF by direct solves (surrogate path)
+        self._direct_of = (model, ports, solver) if path == "surrogate" else None
+        self._spans: list = []  # the spans of the bodies evaluated (subspaces.Span), oldest first
         params = {"band": self.band, "n": int(n), "tol": float(tol), "max_points": int(max_points), "path": path}
         if path == "surrogate":
             params["surrogate_tol"] = float(surrogate_tol)
+        elif path == "direct" and isinstance(model.damping, ModalDamping):
+            params["modal_modes_margin"] = MODES_MARGIN  # the modes whose ratio is exact: as the surrogate's
         self.timings = {"prepass": 0.0, "sweep": 0.0, "cache": 0.0}
         directory = None if cache is True else cache
         key = frf_cache.frf_key(model, ports, params) if cache is not False and frf_cache.max_bytes() else None
@@ -253,6 +292,7 @@ class FullResponse:
         self.damping = model.damping
         self.input_names, self.output_names = list(given.input_names), list(given.output_names)
         self.model_label = str(model.source or model.name)
+        self._given = given
 
     def _compute(self, model, ports, *, n, tol, max_points, solver, progress, surrogate_tol, check_solver):
         t0 = time.perf_counter()
@@ -264,7 +304,11 @@ class FullResponse:
             phi = dense.phi[:, f_all <= fmax]
             f_all = f_all[f_all <= fmax]
         else:
-            f_modes = fmax * (MODES_MARGIN if self.path == "surrogate" else 1.0)
+            # the surrogate's modes reach above the band, and modal damping is exact in the modes found: the
+            # direct path finds as many, so that both define the model alike (its direct checks compare like
+            # with like); a mode just above the band shapes the response at its end
+            margin = self.path == "surrogate" or isinstance(model.damping, ModalDamping)
+            f_modes = fmax * (MODES_MARGIN if margin else 1.0)
             with step(progress, f"modes below {f_modes:.4g} Hz ({model.n_dof} DOF)"):
                 pre = modes_below(model, f_modes, solver, keep_edge=self.path == "surrogate")
                 f_all, phi = pre.f, pre.phi
@@ -276,6 +320,8 @@ class FullResponse:
         t1 = time.perf_counter()
         if self.path == "surrogate":
             from ..dynamics.surrogate import Surrogate
+
+            self._direct = self._direct_frf(model, ports, solver, (f_all, phi))
 
             cand = initial_grid(fmin, fmax, n=400, resonances=self.resonances, zeta=self.zeta)
             sur = Surrogate(model, ports, self.band, phi=phi, factorization=pre.factorization, sigma=pre.sigma,
@@ -336,6 +382,8 @@ class FullResponse:
         if "surrogate" in self.grid:
             out["surrogate"] = {k: v for k, v in self.grid["surrogate"].items() if k != "checks"}
         out.update(seconds=self.seconds, n_factorizations=self.n_factorizations, timings=dict(self.timings))
+        if self.path == "surrogate":
+            out["judge"] = dict(self.judge)
         return out
 
     def evaluate(self, body) -> ErrorMeasures:
@@ -356,18 +404,35 @@ class FullResponse:
         ``C (I - Φ Φᵀ M)``, :func:`~flexmor.reduction.free_body.with_elastic_part`: exact
         for proportional damping, and computed directly rather than as ``H`` minus the rigid-body
         response, which at low frequencies exceeds it by orders of magnitude).
+
+        Against the surrogate (``path='surrogate'``) the body is checked by direct solves of the full model
+        at the frequencies where its error integrand is largest (:func:`flexmor.analysis.judge.judge_check`,
+        ``judge_check``; the solves are kept for the next bodies): where the two figures differ by more than
+        10 %, the measures are those with the direct solutions in place of the surrogate's, and a figure the
+        surrogate does not resolve is flagged with its bound (``floor``, a note). ``same_subspace_as`` names
+        the bodies evaluated before whose bases span the same subspace (a note says so).
         """
         self.check_judgeable(body)
         Hr = frf_reduced(body, self.freqs)
         H, judged = self.reference(body)
+        check = self._judge_check(body, H, Hr)
+        if check is not None and check[0]["corrected"]:
+            H = check[1]  # the full model's solutions where they were computed
         out = error_measures(self.freqs, H, Hr, resonances=self.resonances)
         out["judged"] = judged
+        out["judge_check"] = None if check is None else check[0]
+        shared = self._same_subspace(body)
+        out["same_subspace_as"] = shared
         sr = spurious_resonances(body, self.freqs, H, self.resonances, self.zeta, band=self.band,
                                  max_rel_error_hz=out["max_rel_error_hz"], max_rel_error=out["max_rel_error"])
         note = sr.pop("note")
         unseen = sr.pop("unseen_note", None)
         out.update(sr)
         notes = error_notes(out, damped=body.D is not None) + ([note] if note else []) + ([unseen] if unseen else [])
+        if check is not None:
+            notes += judge_notes(check[0], out["band_error"])
+        if shared:
+            notes.append(subspace_note([*shared, body_label(body)]))
         built = (body.info or {}).get("band")
         if built and not np.allclose(built, self.band, rtol=1e-9, atol=0.0):
             notes.append(f"{body.method or 'the body'} was built for {built[0]:g}-{built[1]:g} Hz, "
@@ -386,11 +451,85 @@ class FullResponse:
         """``(H, judged)``: the full FRF that ``body`` is judged against and its description,
         :data:`JUDGED_ELASTIC` (:attr:`H_elastic`, for a free body whose basis excludes the
         rigid-body modes) or :attr:`H` (:data:`JUDGED_RIGID` on a free model, else :data:`JUDGED_FULL`)."""
-        if self.H_elastic is None:
-            return self.H, JUDGED_FULL
-        if body.info.get("n_rigid_excluded"):
-            return self.H_elastic, JUDGED_ELASTIC
-        return self.H, JUDGED_RIGID
+        return _pick(self.H, self.H_elastic, body)
+
+    def _direct_frf(self, model, ports, solver, modes=None) -> Callable:
+        """``freqs -> H`` of the full model at ``ports`` by direct solves (:func:`~flexmor.dynamics.frf.frf_full`),
+        the model as the surrogate path defines it: modal damping with its ratio exact in the pre-pass's
+        ``modes = (f, phi)`` up to :data:`~flexmor.dynamics.surrogate.MODES_MARGIN` ``fmax`` (computed here
+        when None, e.g. after a cache hit), the same correction as the surrogate's."""
+        def solve(freqs):
+            with blas_threads(1):
+                return frf_full(model, ports, freqs, solver=solver)
+
+        if not isinstance(model.damping, ModalDamping):
+            return solve
+        if modes is None:
+            pre = modes_below(model, self.band[1] * MODES_MARGIN, solver)
+            modes = (pre.f, pre.phi)
+        return _modal_correction(solve, model.damping, modes[0], modes[1], ports)
+
+    def _direct_at(self, idx, body) -> np.ndarray:
+        """The full model's FRF at the grid points ``idx`` by direct solves, the block ``body`` is judged on;
+        solved once for all bodies (:attr:`judge`)."""
+        new = [i for i in idx if i not in self._solved]
+        if new:
+            t0 = time.perf_counter()
+            if self._direct is None:
+                self._direct = self._direct_frf(*self._direct_of)
+            solver = self._direct_of[2]
+            with step(solver.progress, f"direct check at {len(new)} frequencies ({self._direct_of[0].n_dof} DOF)"):
+                H = self._direct(self.freqs[new])
+            self._solved.update(zip(new, H))
+            self.judge["direct_solves"] += len(new)
+            self.judge["seconds"] += time.perf_counter() - t0
+        whole, elastic = split_elastic(np.stack([self._solved[i] for i in idx]), self._given)
+        return _pick(whole, elastic, body)[0]
+
+    def _judge_check(self, body, H, Hr):
+        """``(record, H_checked)`` of :func:`flexmor.analysis.judge.judge_check` against a surrogate
+        reference, with this body's ``new_solves`` and ``seconds``; None for a direct or dense reference, or
+        with ``judge_checks=0`` for a body not built from a surrogate."""
+        if self.path != "surrogate":
+            return None
+        built = built_from_surrogate(body.info)
+        n = max(self.judge_checks, JUDGE_CHECKS) if built else self.judge_checks
+        if n <= 0:
+            return None
+        sur = self.grid.get("surrogate") or {}
+        extra = []
+        worst = (sur.get("final_check") or {}).get("freq_hz")
+        if worst is not None:
+            k = int(np.argmin(np.abs(self.freqs - worst)))
+            if abs(self.freqs[k] / worst - 1) <= 1e-9:
+                extra.append(k)
+        tol = max(float(sur.get("tol", 0.0)), float(sur.get("max_check_error", 0.0)))
+        t0, n0 = time.perf_counter(), self.judge["direct_solves"]
+        record, Hc = judge_check(self.freqs, H, Hr, lambda idx: self._direct_at(idx, body), tol=tol, n_checks=n,
+                                 extra=extra, solved=list(self._solved), built=built)
+        record.update(new_solves=self.judge["direct_solves"] - n0, seconds=time.perf_counter() - t0)
+        self.judge["bodies_checked"] += 1
+        return record, Hc
+
+    def _same_subspace(self, body) -> list:
+        """Labels of the bodies evaluated before whose bases span the subspace of ``body``
+        (:func:`flexmor.analysis.subspaces.same_subspace`; bodies of the same method and order are not
+        compared); the span of ``body`` is kept for the next, the oldest dropped beyond
+        :data:`SPANS_KEPT_BYTES` (the bases are held, not copied)."""
+        span = Span.of(body)
+        out = [sp.label for sp in self._spans if sp.label != span.label and same_subspace(sp, span) is not None]
+        self._spans = [sp for sp in self._spans if sp.V is not span.V] + ([span] if span.V is not None else [])
+        while len(self._spans) > 1 and sum(sp.V.nbytes for sp in self._spans) > SPANS_KEPT_BYTES:
+            self._spans.pop(0)
+        return list(dict.fromkeys(out))
+
+def _pick(H, H_elastic, body):
+    """``(H, judged)`` of :meth:`FullResponse.reference` from the whole response ``H`` and its elastic part."""
+    if H_elastic is None:
+        return H, JUDGED_FULL
+    if body.info.get("n_rigid_excluded"):
+        return H_elastic, JUDGED_ELASTIC
+    return H, JUDGED_RIGID
 
 
 def check_judgeable(body, *, origin: dict, damping, inputs, outputs, label: str = "this model") -> None:

@@ -26,12 +26,13 @@ from __future__ import annotations
 import numpy as np
 
 from ..dynamics.frf import rel_error
+from ..dynamics.grid import ANTIRESONANCE_FACTOR as _ANTIRESONANCE_FACTOR
+from ..dynamics.grid import band_error, trapezoid_weights
 from ..errors import OptionError
-from .grid import ANTIRESONANCE_FACTOR as _ANTIRESONANCE_FACTOR
 
-__all__ = ["rel_error", "band_error", "max_rel_error", "hinf_error", "band_grid", "error_measures", "MEASURES",
-           "TOL_MEASURES", "MEASURE_KEYS", "measure_record", "at_antiresonance", "resonance_share", "error_notes",
-           "ANTIRESONANCE_FACTOR", "NOTE_PARAMS"]
+__all__ = ["rel_error", "band_error", "trapezoid_weights", "max_rel_error", "hinf_error", "band_grid", "error_measures",
+           "MEASURES", "TOL_MEASURES", "MEASURE_KEYS", "measure_record", "at_antiresonance", "resonance_share",
+           "error_notes", "ANTIRESONANCE_FACTOR", "NOTE_PARAMS"]
 
 #: One line per error measure, in the order of the tables.
 MEASURES = {
@@ -48,50 +49,21 @@ NOTE_PARAMS = ("rayleigh", "modal_damping")
 TOL_MEASURES = tuple(MEASURES)
 #: The fields of a body's judgement in every JSON record and error table, in order: those of
 #: :func:`error_measures`, then those of :meth:`flexmor.analysis.compare.FullResponse.evaluate`
-#: (``judged``: the reference, full response or its elastic part; the spurious resonances).
+#: (``judged``: the reference, full response or its elastic part; the spurious resonances;
+#: ``judge_check``: the direct check of a surrogate reference, :mod:`flexmor.analysis.judge`;
+#: ``same_subspace_as``: bodies judged before that span the same subspace).
 MEASURE_KEYS = ("band_error", "band_rms_error", "rms_rel_error_pct", "hinf_error", "max_rel_error",
                 "max_rel_error_hz", "max_rel_error_at_antiresonance", "resonance_share",
-                "max_rel_error_at_spurious_resonance", "spurious_resonances_hz", "judged")
+                "max_rel_error_at_spurious_resonance", "spurious_resonances_hz", "judged", "judge_check",
+                "same_subspace_as")
 #: ``||H||_F`` at an anti-resonance is at most the band median divided by this factor (defined with the grid,
-#: which resolves the anti-resonances: :data:`flexmor.analysis.grid.ANTIRESONANCE_FACTOR`).
+#: which resolves the anti-resonances: :data:`flexmor.dynamics.grid.ANTIRESONANCE_FACTOR`).
 ANTIRESONANCE_FACTOR = _ANTIRESONANCE_FACTOR
 #: Relative frequency window (±) in which an anti-resonance is a local minimum of ``||H||_F``.
 ANTIRESONANCE_WINDOW = 0.05
 #: Share of the band_error within ±1 % of the resonances above which an undamped body's
 #: error is said to be dominated by them.
 RESONANCE_DOMINATED = 0.5
-
-
-def band_error(freqs, H, Hr) -> float:
-    """``∫ ||H - Hr||_F^2 df / ∫ ||H||_F^2 df`` on the grid ``freqs``.
-
-    Both integrals use the piecewise-parabolic rule of
-    :func:`flexmor.analysis.grid.quadrature_weights` (third order on smooth integrands, exact
-    for the trapezoidal limit of two points), unless its error integral differs from the
-    trapezoidal rule's by more than a factor 2 (an unresolved, noisy error curve, where
-    the parabolic rule's negative weights on graded grids are not safe): then both integrals
-    use the trapezoidal rule. A single frequency gives the pointwise ratio.
-    """
-    from .grid import quadrature_weights
-
-    f = np.asarray(freqs, float)
-    e2 = np.sum(np.abs(H - Hr) ** 2, axis=(1, 2))
-    h2 = np.sum(np.abs(H) ** 2, axis=(1, 2))
-    if f.size < 2:
-        return float(e2[0] / h2[0]) if h2.size and h2[0] > 0 else float("nan")
-    w = quadrature_weights(f)
-    d = np.diff(f) / 2
-    wt = np.zeros_like(f)  # trapezoidal rule: positive weights
-    wt[:-1] += d
-    wt[1:] += d
-    den, num = w @ h2, w @ e2
-    num_t = wt @ e2
-    if not (den > 0 and 0.5 * num_t <= num <= 2.0 * num_t):
-        # the parabolic rule on a graded grid has negative weights; where the error is not a
-        # resolved smooth curve (e.g. round-off noise of a nearly exact body) it can then be far
-        # off, even below max_rel_error^2: the positive trapezoidal rule is used instead
-        den, num = wt @ h2, num_t
-    return float(num / den) if den > 0 else float("nan")
 
 
 def max_rel_error(H, Hr) -> float:
@@ -134,10 +106,7 @@ def resonance_share(freqs, H, Hr, resonances, width: float = 0.01) -> float | No
     if res.size == 0 or f.size < 2:
         return None
     e2 = np.sum(np.abs(H - Hr) ** 2, axis=(1, 2))
-    w = np.zeros_like(f)
-    d = np.diff(f) / 2
-    w[:-1] += d
-    w[1:] += d
+    w = trapezoid_weights(f)
     total = float(w @ e2)
     if not total > 0:
         return None

@@ -11,10 +11,10 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..dynamics.grid import adaptive_grid
 from ..errors import OptionError
 from ..modal import keep_modes, modal_form, response_shares
 from .frequency import MEASURES, error_measures
-from .grid import adaptive_grid
 
 __all__ = ["trim", "REFERENCE_FULL", "REFERENCE_BODY"]
 

@@ -57,22 +57,26 @@ def print_error_table(rows, label: str = "method", header: str | None = None) ->
         One dict per body: ``order``, the error measures (``band_error``, ``rms_rel_error_pct``,
         ``hinf_error``, ``max_rel_error`` and where it occurs), ``seconds``, ``notes``,
         ``converged`` and ``convergence_note`` (a row with ``converged`` False gets a line saying
-        so); a missing value prints as ``-``.
+        so), ``judge_check`` (against a surrogate reference: a band_error it does not resolve prints as
+        ``<FLOOR``, and a line tells the direct check) and ``same_subspace_as``; a missing value prints as ``-``.
     label : str
         The key of the first column (``method``, ``file`` or ``label``).
     header : str, optional
         The title of the first column; default ``label``.
     """
+    from ..analysis.judge import band_error_text
+
     w = max([16] + [len(str(r.get(label, ""))) + 2 for r in rows])
     print(f"{header or label:<{w}}{'order':>6}{'band_error':>12}{'rms %':>9}{'hinf_error':>12}{'max_rel_error':>15}"
           f"{'at':>14}{'seconds':>9}")
     for r in rows:
         rms = r.get("rms_rel_error_pct")
-        print(f"{str(r.get(label, '')):<{w}}{r['order']:>6}{fmt(r.get('band_error'), '.2e'):>12}"
+        print(f"{str(r.get(label, '')):<{w}}{r['order']:>6}{band_error_text(r):>12}"
               f"{'-' if rms is None else format(rms, '.3g'):>9}{fmt(r.get('hinf_error'), '.2e'):>12}"
               f"{fmt(r.get('max_rel_error'), '.2e'):>15}{_where(r):>14}{fmt(r.get('seconds'), '.3f'):>9}")
     _notes(rows, label)
     _judged(rows, label)
+    _checked(rows, label)
     if any(r.get("band_error") is not None for r in rows):
         print("band_error = ∫|H-Hr|²/∫|H|² over the band; rms % = 100 sqrt(band_error); hinf_error = max|H-Hr| / "
               "max|H|; max_rel_error = max |H-Hr|/|H| (AR: at an anti-resonance, where |H| is small; SR: at a spurious "
@@ -82,6 +86,7 @@ def print_error_table(rows, label: str = "method", header: str | None = None) ->
 def _notes(rows, label: str) -> None:
     """The notes of the rows: the anti-resonances in one line, the others (undamped resonances) once each."""
     from ..analysis.frequency import ANTIRESONANCE_FACTOR
+    from ..analysis.subspaces import SUBSPACE_MARK, subspace_note
 
     def name(r):
         return f"{r['method']} r={r['order']}" if label == "method" else str(r.get(label))
@@ -94,8 +99,10 @@ def _notes(rows, label: str) -> None:
     grouped: dict = {}
     for r in rows:
         for n in r.get("notes") or ():
-            if not n.startswith("max_rel_error"):
+            if not n.startswith("max_rel_error") and SUBSPACE_MARK not in n:
                 grouped.setdefault(n, []).append(name(r))
+    for group in _subspace_groups(rows):
+        print(f"note: {subspace_note(group)}")
     for n, names in grouped.items():
         print(f"note: {', '.join(names)}: {note_text(n)}")
     for r in rows:
@@ -124,6 +131,44 @@ def print_mounted(rows, label: str = "method") -> None:
         print("".join(f"{v:<{n}}" for v, n in zip(x, w)) + f"{x[4]:>11}{x[5]:>14}")
     print("freq error = max |f_red/f_full - 1| of the lowest elastic modes in the band; static error = max relative "
           "error of the clamped deflection under gravity x y z and the inputs (at the outputs and over the field)")
+
+
+def _subspace_groups(rows) -> list[list[str]]:
+    """The ``method r=order`` of the rows that span one subspace (``same_subspace_as``), grouped."""
+    groups: list[list[str]] = []
+    for r in rows:
+        shared = list(r.get("same_subspace_as") or ())
+        if not shared:
+            continue
+        members = [*shared, f"{r['method']} r={r['order']}"]
+        hit = [g for g in groups if set(g) & set(members)]
+        for g in hit:
+            groups.remove(g)
+        groups.append(list(dict.fromkeys([m for g in hit for m in g] + members)))
+    return groups
+
+
+def _checked(rows, label: str) -> None:
+    """The line of the direct check of bodies judged against a surrogate (``judge_check``), if any."""
+    checked = [r for r in rows if r.get("judge_check")]
+    if not checked:
+        return
+    from ..analysis.judge import AGREEMENT
+
+    def name(r):
+        return f"{r['method']} r={r['order']}" if label == "method" else str(r.get(label))
+
+    n = sum(r["judge_check"]["n_checks"] for r in checked)
+    new = sum(r["judge_check"].get("new_solves", 0) for r in checked)
+    off = [name(r) for r in checked if r["judge_check"]["corrected"]]
+    floor = [name(r) for r in checked if not r["judge_check"]["resolved"]]
+    text = (f"direct check: the reference is a verified surrogate; each body was checked at its worst frequencies "
+            f"by solves of the full model ({n} checks, {new} solves): ")
+    text += (f"corrected where they differ by more than {100 * AGREEMENT:.0f} %: {', '.join(off)}" if off
+             else f"all agree within {100 * AGREEMENT:.0f} %")
+    if floor:
+        text += f"; below the surrogate's resolution (<: an upper bound): {', '.join(floor)}"
+    print(text)
 
 
 def _judged(rows, label: str) -> None:

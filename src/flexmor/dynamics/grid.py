@@ -20,7 +20,7 @@ import numpy as np
 from ..errors import OptionError
 
 __all__ = ["initial_grid", "quadrature_weights", "trapezoid_simpson_gap", "adaptive_grid", "DEFAULT_TOL",
-           "PEAK_OFFSETS"]
+           "PEAK_OFFSETS", "band_error", "trapezoid_weights"]
 
 log = logging.getLogger(__name__)
 
@@ -312,3 +312,41 @@ def adaptive_grid(evaluate: Callable, fmin: float, fmax: float, *, n: int = 50, 
                       "undamped resonance; no refinement (∫||H||² has poles at undamped resonances)"),
     }
     return f, H, info
+
+
+def band_error(freqs, H, Hr) -> float:
+    """``∫ ||H - Hr||_F^2 df / ∫ ||H||_F^2 df`` on the grid ``freqs``.
+
+    Both integrals use the piecewise-parabolic rule of
+    :func:`quadrature_weights` (third order on smooth integrands, exact
+    for the trapezoidal limit of two points), unless its error integral differs from the
+    trapezoidal rule's by more than a factor 2 (an unresolved, noisy error curve, where
+    the parabolic rule's negative weights on graded grids are not safe): then both integrals
+    use the trapezoidal rule. A single frequency gives the pointwise ratio.
+    """
+    f = np.asarray(freqs, float)
+    e2 = np.sum(np.abs(H - Hr) ** 2, axis=(1, 2))
+    h2 = np.sum(np.abs(H) ** 2, axis=(1, 2))
+    if f.size < 2:
+        return float(e2[0] / h2[0]) if h2.size and h2[0] > 0 else float("nan")
+    w = quadrature_weights(f)
+    wt = trapezoid_weights(f)  # positive weights
+    den, num = w @ h2, w @ e2
+    num_t = wt @ e2
+    if not (den > 0 and 0.5 * num_t <= num <= 2.0 * num_t):
+        # the parabolic rule on a graded grid has negative weights; where the error is not a
+        # resolved smooth curve (e.g. round-off noise of a nearly exact body) it can then be far
+        # off, even below max_rel_error^2: the positive trapezoidal rule is used instead
+        den, num = wt @ h2, num_t
+    return float(num / den) if den > 0 else float("nan")
+
+
+def trapezoid_weights(freqs) -> np.ndarray:
+    """Weights ``w`` of the trapezoidal rule ``∫ g df ≈ w @ g`` on the sorted grid ``freqs`` (positive; zero for a
+    single point)."""
+    f = np.asarray(freqs, float)
+    w = np.zeros_like(f)
+    d = np.diff(f) / 2
+    w[:-1] += d
+    w[1:] += d
+    return w

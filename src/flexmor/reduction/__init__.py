@@ -23,7 +23,7 @@ from ..linalg.context import as_solver
 from ..linalg.distributed import is_partitioned
 from ..linalg.resources import check_basis_memory
 from ..linalg.threads import blas_threads
-from ..options import Band, check_option_types, check_order
+from ..options import Band, check_option_types
 from ..ports import Ports
 from ..projection import project
 from ..rigid import exclude_rigid, frame_participation
@@ -40,15 +40,25 @@ from . import (  # noqa: F401  (each method module registers its methods in METH
     svdmor,
     two_step,
 )
-from ._registry import ALIASES, METHODS, Method, check_keywords, method_name, methods, register_method
+from ._registry import (
+    ALIASES,
+    METHODS,
+    Method,
+    check_keywords,
+    check_reachable,
+    method_name,
+    methods,
+    order_note,
+    register_method,
+)
 from .free_body import with_inertia_loads
-
-__all__ = ["register_method", "METHODS", "ALIASES", "methods", "method_name", "reduce", "Method", "check_keywords",
-           "check_shift"]
 
 #: How far (factor) the shift of a method's first factorization may lie from
 #: :func:`flexmor.linalg.eigen.default_shift` for the rigid-body check to run at it.
 SHARED_SHIFT_RANGE = 1e4
+
+__all__ = ["register_method", "METHODS", "ALIASES", "methods", "method_name", "reduce", "Method", "check_keywords",
+           "check_shift", "check_reachable"]
 
 
 def reduce(model, method: str, order: int | None, ports, *, inertia_loads: str = "auto",
@@ -61,9 +71,12 @@ def reduce(model, method: str, order: int | None, ports, *, inertia_loads: str =
     ----------
     model : FEModel
     method : str
-        A name in :data:`METHODS` (``modal``, ``guyan``, ``craig-bampton`` ...).
+        A name in :data:`METHODS` (``modal``, ``guyan``, ``craig-bampton`` ...), in any case, or a
+        short name of :data:`ALIASES` (:func:`method_name`).
     order : int or None
-        Reduced dimension r (for ``guyan`` the interface size; may be None).
+        Reduced dimension r (for ``guyan`` the interface size; may be None). An order above the
+        model's number of DOF is refused; one the method cannot reach gives the reachable order
+        with the reason in ``order_note`` (the order rule of :mod:`flexmor.reduction._registry`).
     ports : Ports
         Inputs and outputs of the reduced body.
     inertia_loads : {'auto', 'on', 'off'}
@@ -96,10 +109,10 @@ def reduce(model, method: str, order: int | None, ports, *, inertia_loads: str =
     if not isinstance(ports, Ports):
         raise PortError(f"ports must be a Ports (flexmor.make_ports(model, inputs, outputs), e.g. inputs "
                         f"['TIP:y']), got {type(ports).__name__}", params=("ports",))
-    check_keywords(method, options, m.keywords)
+    check_keywords(method, options, [*m.keywords, "inertia_loads"])
     opts = {k: v for k, v in options.items() if v is not None}
     check_option_types(m.options_class, opts)
-    order = check_order(order)
+    order = check_reachable(model, order)  # the order rule: see flexmor.reduction._registry
     if order is not None and not is_partitioned(model.K):  # a basis that cannot fit: refused before any work
         check_basis_memory(model.n_dof, order, as_solver(options.get("solver")))
     t0 = time.perf_counter()
@@ -117,7 +130,7 @@ def reduce(model, method: str, order: int | None, ports, *, inertia_loads: str =
         P, mass = frame_participation(model, red.V)
         red.info["frame_participation"], red.info["frame_mass"] = P.tolist(), mass.tolist()
     if order is not None and red.order != order and not red.order_note:
-        red.order_note = f"order {red.order} instead of {order}: {method} returned a basis of that size"
+        red.order_note = order_note(method, red.order, order)
     red.info["timings"] = {"basis": t1 - t0, "project": t2 - t1}
     return red
 
@@ -142,22 +155,23 @@ def _recorded(opts: dict) -> dict:
 def check_shift(model, method: str, options: dict) -> tuple[float | None, bool]:
     """``(sigma, keep)`` for :func:`flexmor.checks.check_rigid_body_modes` before ``method`` reduces
     ``model`` with ``options``: the shift of the method's first factorization where it is ``K - sigma M``
-    (``modal`` at its ``sigma``; ``krylov`` at its default point of an undamped model,
-    :func:`flexmor.reduction.krylov.default_points`: ``sigma = -s0^2``), kept for the method, so that
-    check and method share one factorization; else ``(None, False)``: the default shift, not kept. A
-    point further than :data:`SHARED_SHIFT_RANGE` from the default shift is not shared (the check's
-    Lanczos would converge slowly there)."""
+    (``modal`` at its ``sigma``, ``krylov`` at a first point given real and positive, ``sigma = -(2 pi p)^2``),
+    kept for the method, so that check and method share one factorization; else ``(None, False)``: the
+    default shift, not kept. A point further than :data:`SHARED_SHIFT_RANGE` from the default shift is not
+    shared (the check's Lanczos would converge slowly there)."""
     from ..linalg.eigen import DENSE_LIMIT, default_shift
-    from .krylov import default_points
 
     if model.n_dof <= DENSE_LIMIT or is_partitioned(model.K):
         return None, False
     if method == "modal":
         sigma = options.get("sigma")
         return (default_shift(model.K, model.M) if sigma is None else float(sigma)), True
-    if method == "krylov" and not options.get("points") and model.D is None:
-        sigma = -(2 * math.pi * default_points(options.get("band"), 1)[0].real) ** 2
+    if method == "krylov" and options.get("points") is not None and model.D is None:  # its first point, real
+        from .krylov import parse_points
+
+        p = complex(parse_points(options["points"])[0])
         ref = abs(default_shift(model.K, model.M))
-        if ref / SHARED_SHIFT_RANGE <= -sigma <= ref * SHARED_SHIFT_RANGE:
+        sigma = -(2 * math.pi * p.real) ** 2
+        if p.imag == 0 and p.real > 0 and ref / SHARED_SHIFT_RANGE <= -sigma <= ref * SHARED_SHIFT_RANGE:
             return sigma, True
     return None, False

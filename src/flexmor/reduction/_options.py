@@ -24,8 +24,8 @@ SIDES = ("input", "output", "both")
 RIGID = ("include", "exclude")
 
 
-def points_option(what: str = "expansion points", default: str = "krylov's (one real point at the band's geometric "
-                  "mean, checked by points_tol)"):
+def points_option(what: str = "expansion points", default: str = "krylov's (0 Hz, then points on the frequency axis "
+                  "where the body's residual is largest)"):
     """The ``points`` option of the Krylov-based methods: text or numbers in Hz
     (:func:`flexmor.reduction.krylov.parse_points`)."""
     return option(None, f"{what} in Hz, s = 2 pi p: 0, 300j (frequency axis), -5 (real); default {default}",

@@ -10,14 +10,22 @@ deflation, one factorization of ``A0`` serving every block.
 from __future__ import annotations
 
 import logging
+import math
 
 import numpy as np
 import scipy.linalg as sla
 
-from ..basis import Columns, rank_revealing_qr
+from ..basis import Columns, extend_orthonormal, rank_revealing_qr
+from ..errors import SolverError, check_choice
+from ..linalg import factorize
+from ..linalg.context import SolverContext, as_solver
+from ..linalg.eigen import default_shift
+from ..linalg.factorize import factorize_shifted
 from ..linalg.threads import blas_threads, dense_threads, sparse_dense
+from ..rigid import m_project
+from ._options import SIDES
 
-__all__ = ["SecondOrderArnoldi", "DEFLATION_TOL"]
+__all__ = ["SecondOrderArnoldi", "DEFLATION_TOL", "start_block", "shifted_factorization", "blocks_at_points"]
 
 log = logging.getLogger(__name__)
 
@@ -210,3 +218,105 @@ def _gemm(Q: np.ndarray, h: np.ndarray, *, conj: bool = False, into: np.ndarray 
         if into is not None:
             return gemm(-1.0, Q, h, 1.0, into, overwrite_c=True)
         return gemm(1.0, Q, h, trans_a=(2 if np.iscomplexobj(Q) else 1) if conj else 0)
+
+
+def start_block(ports, side: str) -> np.ndarray:
+    """Dense starting block: ``B`` (input), ``C^T`` (output) or ``[B, C^T]`` (both)."""
+    check_choice("side", side, SIDES)
+    blocks = []
+    if side in ("input", "both"):
+        blocks.append(ports.B.toarray())
+    if side in ("output", "both"):
+        blocks.append(ports.C.T.toarray())
+    return np.hstack(blocks)
+
+
+def shifted_factorization(model, s: complex, solver: SolverContext | None = None):
+    """Factorize ``s^2 M + s D + K`` once; returns ``(F, s)``.
+
+    For ``s = 0`` on a free-free body (singular ``K``) the point is moved to the real
+    ``s0 = sqrt(-default_shift(K, M))``, i.e. the matrix ``K - lambda0 M`` with the negative
+    eigen-shift ``lambda0`` of :func:`flexmor.linalg.eigen.default_shift`; a warning is logged
+    and the point actually used is returned.
+    """
+    solver = as_solver(solver)
+    s = complex(s)
+    real = s.imag == 0
+    if real and s.real > 0 and model.D is None:  # K + s^2 M: shared with the rigid-body check at this shift
+        return factorize_shifted(model.K, model.M, -s.real ** 2, solver=solver), s
+    A = (s.real ** 2) * model.M + model.K if real else (s * s) * model.M + model.K
+    if model.D is not None and s != 0:
+        A = A + (s.real if real else s) * model.D
+    try:
+        return factorize(A.tocsr(), solver=solver, symmetric=True, positive=real and s.real >= 0), s
+    except SolverError as exc:
+        if s != 0:
+            if not real and abs(s.real) <= 1e-12 * abs(s):  # a point on the frequency axis
+                raise SolverError(f"s^2 M + s D + K is singular at the expansion point {abs(s) / (2 * math.pi):.8g} "
+                                  f"Hz{'' if model.D is not None else ' of the undamped body'}: it lies at an "
+                                  "eigenfrequency; move the point off it (or give the body damping)",
+                                  params=("points",)) from exc
+            raise
+    s0 = math.sqrt(-default_shift(model.K, model.M))
+    log.warning("K is singular (free body?): expansion point 0 moved to the real point s = %.4g rad/s", s0)
+    return shifted_factorization(model, complex(s0), solver)
+
+
+def blocks_at_points(model, ports, points, n_moments: int, *, side: str = "input", solver: SolverContext | None = None,
+                     rigid_modes=None):
+    """Krylov blocks for every point, ``n_moments`` per point, one factorization at a time.
+
+    Returns ``(blocks, used)``: ``blocks[p]`` the list of real, orthonormal blocks of point
+    ``p`` (a complex point's block split into real and imaginary parts; together
+    ``n_moments`` blocks' worth of independent columns unless the space is exhausted; the
+    blocks of one point are orthonormal to each other), ``used`` the points (rad/s)
+    actually used. With ``rigid_modes`` (M-orthonormal, of a free body) every new vector is
+    made M-orthogonal to them: the blocks span moments of the flexible part of ``H`` (exact
+    for proportional damping), without rigid-body round-off from nearly singular shifts.
+    """
+    solver = as_solver(solver)
+    start = start_block(ports, side)
+    proj = None
+    if rigid_modes is not None and rigid_modes.shape[1]:
+
+        def proj(X):
+            return m_project(model, rigid_modes, X)
+
+    blocks, used = [], []
+    for p in points:
+        with blas_threads(1):  # tall-skinny products between solves (see flexmor.linalg.threads)
+            out, s = _point_blocks(model, start, p, n_moments, solver, proj)
+        blocks.append(out)
+        used.append(s)
+    return blocks, used
+
+
+def _point_blocks(model, start, p, n_moments: int, solver: SolverContext, proj, factorization=None):
+    """The orthonormal blocks of one point (see :func:`blocks_at_points`) and its ``s``; ``factorization``
+    ``(F, s)``: the point's, made already.
+
+    A real point's blocks are views of its Arnoldi basis (no copy); a complex point's come
+    from the real and imaginary parts of the upper halves of its orthonormal Arnoldi blocks,
+    orthonormalized (a direction counts when its real or imaginary part is new).
+    """
+    F, s = factorization if factorization is not None else shifted_factorization(model, 2 * np.pi * complex(p),
+                                                                                   solver)
+    # the point's share: n_moments blocks of independent directions; vanishing moments
+    # (matched for free) and deflated directions do not count, so no second pass is needed
+    b = start.shape[1]
+    share = n_moments * b * (1 if s.imag == 0 else 2)
+    seq = SecondOrderArnoldi(model, F, s, start, project=proj, capacity=share + b)
+    T = seq.Q if s.imag == 0 else Columns(model.n_dof, capacity=share + 2 * b)
+    out, empty = [], 0
+    while T.k < share and empty < 3:
+        Vb = seq.next_block()
+        if Vb is None:
+            break
+        if s.imag != 0:
+            top = seq.last_top()
+            Vb = extend_orthonormal(T.view, np.hstack([top.real, top.imag]), tol=DEFLATION_TOL)
+            T.append(Vb)
+        empty = empty + 1 if Vb.shape[1] == 0 else 0
+        if Vb.shape[1]:
+            out.append(T.view[:, T.k - Vb.shape[1]:])
+    return out, s

@@ -28,22 +28,18 @@ import numpy as np
 import scipy.linalg as sla
 
 from ..basis import Basis, Columns, extend_orthonormal
-from ..errors import OptionError, SolverError, check_choice
-from ..linalg import factorize
+from ..errors import OptionError, check_choice
 from ..linalg.context import SolverContext, as_solver
-from ..linalg.eigen import default_shift
-from ..linalg.factorize import factorize_shifted
 from ..linalg.threads import blas_threads
 from ..options import Band, band_option, option
-from ..projection import reduced_matrices
-from ..rigid import m_project
 from ._options import RIGID, SIDES, points_option, rigid_option, side_option
 from ._registry import register_method
-from .arnoldi import DEFLATION_TOL, SecondOrderArnoldi
+from .arnoldi import DEFLATION_TOL, blocks_at_points, shifted_factorization, start_block
 from .free_body import rigid_head
-from .krylov_check import POINTS_TOL, nested_estimate
+from .greedy_points import greedy_basis
 
-__all__ = ["krylov", "KrylovOptions", "parse_points", "default_points", "start_block"]
+__all__ = ["krylov", "KrylovOptions", "parse_points", "default_points", "start_block", "blocks_at_points",
+           "shifted_factorization"]
 
 log = logging.getLogger(__name__)
 
@@ -80,106 +76,6 @@ def default_points(band, n: int = 3) -> np.ndarray:
     if n == 1:
         return np.array([np.sqrt(fmin * fmax) + 0j])
     return np.geomspace(max(fmin, fmax / 100), fmax, n).astype(complex)
-
-
-def start_block(ports, side: str) -> np.ndarray:
-    """Dense starting block: ``B`` (input), ``C^T`` (output) or ``[B, C^T]`` (both)."""
-    check_choice("side", side, SIDES)
-    blocks = []
-    if side in ("input", "both"):
-        blocks.append(ports.B.toarray())
-    if side in ("output", "both"):
-        blocks.append(ports.C.T.toarray())
-    return np.hstack(blocks)
-
-
-def shifted_factorization(model, s: complex, solver: SolverContext | None = None):
-    """Factorize ``s^2 M + s D + K`` once; returns ``(F, s)``.
-
-    For ``s = 0`` on a free-free body (singular ``K``) the point is moved to the real
-    ``s0 = sqrt(-default_shift(K, M))``, i.e. the matrix ``K - lambda0 M`` with the negative
-    eigen-shift ``lambda0`` of :func:`flexmor.linalg.eigen.default_shift`; a warning is logged
-    and the point actually used is returned.
-    """
-    solver = as_solver(solver)
-    s = complex(s)
-    real = s.imag == 0
-    if real and s.real > 0 and model.D is None:  # K + s^2 M: shared with the rigid-body check at this shift
-        return factorize_shifted(model.K, model.M, -s.real ** 2, solver=solver), s
-    A = (s.real ** 2) * model.M + model.K if real else (s * s) * model.M + model.K
-    if model.D is not None and s != 0:
-        A = A + (s.real if real else s) * model.D
-    try:
-        return factorize(A.tocsr(), solver=solver, symmetric=True, positive=real and s.real >= 0), s
-    except SolverError as exc:
-        if s != 0:
-            if not real and abs(s.real) <= 1e-12 * abs(s):  # a point on the frequency axis
-                raise SolverError(f"s^2 M + s D + K is singular at the expansion point {abs(s) / (2 * math.pi):.8g} "
-                                  f"Hz{'' if model.D is not None else ' of the undamped body'}: it lies at an "
-                                  "eigenfrequency; move the point off it (or give the body damping)",
-                                  params=("points",)) from exc
-            raise
-    s0 = math.sqrt(-default_shift(model.K, model.M))
-    log.warning("K is singular (free body?): expansion point 0 moved to the real point s = %.4g rad/s", s0)
-    return shifted_factorization(model, complex(s0), solver)
-
-
-def blocks_at_points(model, ports, points, n_moments: int, *, side: str = "input", solver: SolverContext | None = None,
-                     rigid_modes=None):
-    """Krylov blocks for every point, ``n_moments`` per point, one factorization at a time.
-
-    Returns ``(blocks, used)``: ``blocks[p]`` the list of real, orthonormal blocks of point
-    ``p`` (a complex point's block split into real and imaginary parts; together
-    ``n_moments`` blocks' worth of independent columns unless the space is exhausted; the
-    blocks of one point are orthonormal to each other), ``used`` the points (rad/s)
-    actually used. With ``rigid_modes`` (M-orthonormal, of a free body) every new vector is
-    made M-orthogonal to them: the blocks span moments of the flexible part of ``H`` (exact
-    for proportional damping), without rigid-body round-off from nearly singular shifts.
-    """
-    solver = as_solver(solver)
-    start = start_block(ports, side)
-    proj = None
-    if rigid_modes is not None and rigid_modes.shape[1]:
-
-        def proj(X):
-            return m_project(model, rigid_modes, X)
-
-    blocks, used = [], []
-    for p in points:
-        with blas_threads(1):  # tall-skinny products between solves (see flexmor.linalg.threads)
-            out, s = _point_blocks(model, start, p, n_moments, solver, proj)
-        blocks.append(out)
-        used.append(s)
-    return blocks, used
-
-
-def _point_blocks(model, start, p, n_moments: int, solver: SolverContext, proj):
-    """The orthonormal blocks of one point (see :func:`blocks_at_points`) and its ``s``.
-
-    A real point's blocks are views of its Arnoldi basis (no copy); a complex point's come
-    from the real and imaginary parts of the upper halves of its orthonormal Arnoldi blocks,
-    orthonormalized (a direction counts when its real or imaginary part is new).
-    """
-    F, s = shifted_factorization(model, 2 * np.pi * complex(p), solver)
-    # the point's share: n_moments blocks of independent directions; vanishing moments
-    # (matched for free) and deflated directions do not count, so no second pass is needed
-    b = start.shape[1]
-    share = n_moments * b * (1 if s.imag == 0 else 2)
-    seq = SecondOrderArnoldi(model, F, s, start, project=proj, capacity=share + b)
-    T = seq.Q if s.imag == 0 else Columns(model.n_dof, capacity=share + 2 * b)
-    out, empty = [], 0
-    while T.k < share and empty < 3:
-        Vb = seq.next_block()
-        if Vb is None:
-            break
-        if s.imag != 0:
-            top = seq.last_top()
-            Vb = extend_orthonormal(T.view, np.hstack([top.real, top.imag]), tol=DEFLATION_TOL)
-            T.append(Vb)
-        empty = empty + 1 if Vb.shape[1] == 0 else 0
-        if Vb.shape[1]:
-            out.append(T.view[:, T.k - Vb.shape[1]:])
-    return out, s
 
 
 def merge_blocks(blocks, order: int | None = None, *, orthonormal: bool = False, head=None) -> np.ndarray:
@@ -278,14 +174,15 @@ class KrylovOptions:
     side: str = side_option()
     band: Band | None = band_option("the default expansion points")
     rigid: str = rigid_option()
-    points_tol: float = option(POINTS_TOL, "largest estimated band error of the default single point; above it "
-                               "the band's outer default points are added", parse=float)
+    directions: str = option("all", "default points: blocks of every port at each point (all: interpolation in "
+                             "every port direction, kept when the body is coupled at its ports) or only of the "
+                             "load combinations the body misses there (missed: more points per order)",
+                             choices=("all", "missed"))
 
 
 @register_method("krylov", "second-order block Krylov moment matching at expansion points", options=KrylovOptions)
 def krylov(model, ports, order, *, points=None, moments: int | None = None, side: str = "input",
-           band=None, rigid: str = "exclude", points_tol: float = POINTS_TOL,
-           solver: SolverContext | None = None) -> Basis:
+           band=None, rigid: str = "exclude", directions: str = "all", solver: SolverContext | None = None) -> Basis:
     """Second-order block Krylov (moment matching) basis at one or several expansion points.
 
     Parameters
@@ -300,13 +197,12 @@ def krylov(model, ports, order, *, points=None, moments: int | None = None, side
         Expansion points in Hz, ``s = 2 pi p`` (see :func:`parse_points`): ``"0"`` is the
         classic static point, ``"300j"`` interpolates at 300 Hz on the frequency axis (complex
         solve; contributes real and imaginary parts), real positive points are cheap and
-        safe for free bodies. Default: one real point at the geometric mean of ``band`` (one
-        factorization), checked by the estimated band error of
-        :func:`flexmor.reduction.krylov_check.nested_estimate`; when the estimate exceeds
-        ``points_tol`` (and ``order`` is given), the basis is rebuilt at three real points
-        (the single point and the outer two of :func:`default_points`; the single point's blocks
-        are reused, so two more factorizations). ``info['points_check']``
-        reports the estimate(s).
+        safe for free bodies. Default (``order`` needed): chosen greedily by
+        :func:`flexmor.reduction.greedy_points.greedy_basis`: the static point 0 Hz (a free body:
+        a small real shift), then points on the frequency axis where the residual of the full
+        equations left by the body is largest over the band, until the order is reached; one more
+        factorization gives ``info['points_check']``, the estimated band error
+        (:func:`flexmor.reduction.greedy_points.difference_estimate`).
     moments : int, optional
         Moments (blocks) per point; default as many as ``order`` needs. A point delivers
         ``moments`` blocks' worth of independent columns: moments that vanish (odd moments
@@ -315,8 +211,6 @@ def krylov(model, ports, order, *, points=None, moments: int | None = None, side
         Krylov space of ``B`` (input), of ``C^T`` (output) or of both.
     band : (float, float), optional
         Band (Hz) for the default points; default :data:`flexmor.options.DEFAULT_BAND`.
-    points_tol : float
-        Largest estimated band error of the default single point (see ``points``).
     rigid : {'exclude', 'include'}
         Free bodies (rigid-body modes found from the geometry, :func:`flexmor.rigid.rigid_body_modes`):
         the Krylov vectors are kept M-orthogonal to the rigid-body modes (moments of the
@@ -330,6 +224,9 @@ def krylov(model, ports, order, *, points=None, moments: int | None = None, side
         and all moments of ``H`` are matched (an FFRF export refuses such a body unless asked to
         remove them, ``remove_rigid``). A point 0 on a free body (singular ``K``) is moved to a
         small real shift.
+    directions : {'all', 'missed'}
+        Default points: the Krylov blocks of every port at each point, or only of the load combinations
+        the body misses there (:func:`flexmor.reduction.greedy_points.greedy_basis`).
     solver : SolverContext, optional
         Solver (backend, statistics) of :func:`flexmor.linalg.factorize` (one factorization per point).
 
@@ -338,8 +235,8 @@ def krylov(model, ports, order, *, points=None, moments: int | None = None, side
     Basis
         ``info``: ``points_hz`` (as given), ``points_rad_s`` (used), ``moments``, ``side``,
         ``n_rigid_excluded``, ``nested`` (its leading columns are the basis of lower order),
-        ``points_check`` (default points: the estimates and the choice). ``reduced``: the
-        projected matrices the check made (default points), for :func:`flexmor.projection.project`.
+        ``points_check`` (default points: the estimate), ``rho_max`` (default points: the largest
+        residual before each point on the axis).
 
     References
     ----------
@@ -355,39 +252,35 @@ def krylov(model, ports, order, *, points=None, moments: int | None = None, side
     solver = as_solver(solver)
     check_choice("side", side, SIDES)
     check_choice("rigid", rigid, RIGID)
+    check_choice("directions", directions, ("all", "missed"))
     band = Band.of(band)
-    pts = parse_points(points) if points is not None else default_points(band, 1)
     if order is None and moments is None:
         raise OptionError("krylov needs order or moments", params=("order", "moments"))
+    if order is None and points is None:
+        raise OptionError("krylov needs order for its default points (with moments alone, give points)",
+                          params=("order", "points"))
     if moments is not None and (int(moments) != moments or moments < 1):
         raise OptionError(f"moments must be a positive integer, got {moments}", params=("moments",))
     if order is not None and order > model.n_dof:
         raise OptionError(f"order {order} exceeds the number of DOF {model.n_dof}", params=("order",))
-    if not float(points_tol) > 0:
-        raise OptionError(f"points_tol must be positive, got {points_tol}", params=("points_tol",))
     b = start_block(ports, side).shape[1]
     phi, excited = rigid_head(model, start_block(ports, side), rigid)  # the rigid motion the ports excite, first
-    cache = {}
-    V, k, used = _basis_at(model, ports, pts, order, moments, b, excited, side, solver, phi, cache)
-    check = reduced = None
-    if points is None and order is not None:
-        reduced = reduced_matrices(model, V)  # the check's projection, handed on to project()
-        check = {"tol": float(points_tol), "single_point": nested_estimate(model, ports, V, b, band, reduced=reduced)}
-        if check["single_point"]["estimate"] > float(points_tol):  # the outer two of the three default points,
-            pts = np.sort_complex(np.concatenate([pts, default_points(band)[[0, 2]]]))  # lowest first, as before
-            log.info("krylov: estimated band error %.1e of one point > %.1e: %d points",
-                     check["single_point"]["estimate"], points_tol, pts.size)
-            V, k, used = _basis_at(model, ports, pts, order, moments, b, excited, side, solver, phi, cache)
-            reduced = None
-        check["n_points"] = int(pts.size)
+    extra, reduced = {}, None
+    if points is None:
+        V, extra, reduced = greedy_basis(model, ports, int(order), band, side=side, solver=solver, phi=phi,
+                                         head=excited, moments=moments, directions=directions)
+        used, k = extra.pop("points_rad_s"), extra.pop("moments")
+        pts = np.array([complex(p) for p in extra.pop("points_hz")])
+    else:
+        pts = parse_points(points)
+        V, k, used = _basis_at(model, ports, pts, order, moments, b, excited, side, solver, phi, {})
     n_rb = int(phi.shape[1]) if rigid == "exclude" else 0
     if order is not None and V.shape[1] < order:
         log.warning("krylov: only %d independent directions for order %d (deflation)", V.shape[1], order)
     info = {"points_hz": [str(p) for p in pts], "points_rad_s": [str(s) for s in used], "moments": k,
             "side": side, "rigid": rigid, "n_rigid": int(phi.shape[1]), "n_rigid_excluded": n_rb,
             "n_rigid_included": int(excited.shape[1]), "nested": True}
-    if check is not None:
-        info["points_check"] = check
+    info.update(extra)
     return Basis(V, "krylov", info, reduced=reduced)
 
 

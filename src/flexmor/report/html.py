@@ -66,8 +66,10 @@ def _summary_table(rows) -> str:
     says them already (``craig-bampton r=17``), so that the table fits the page."""
     said = all(str(r.get("label")) == f"{r.get('method')} r={r.get('order')}" for r in rows)
     cols = [c for c in COLUMNS if not (said and c[0] in ("method", "order"))]
-    return _table([c[1] for c in cols], [[fmt(r.get(k), s) for k, _, s in cols] for r in rows],
-                  [k for k, c in enumerate(cols) if c[2] == "s"])
+    from ..analysis.judge import band_error_text
+
+    cells = [[band_error_text(r, s) if k == "band_error" else fmt(r.get(k), s) for k, _, s in cols] for r in rows]
+    return _table([c[1] for c in cols], cells, [k for k, c in enumerate(cols) if c[2] == "s"])
 
 
 def _units_words(units) -> str:

@@ -1,0 +1,179 @@
+#!/usr/bin/env python
+"""Krylov's default expansion points against fixed choices and the other methods, and its estimate.
+
+For each case (model, ports, band, damping, order) every body is judged by the same full FRF
+(:class:`flexmor.System`), and the table gives its order, band_error, the seconds of its basis and
+projection, and for ``krylov`` (default points) its own estimate (``points_check``) and the ratio
+estimate / band_error. The rows:
+
+* ``krylov``: the default points (the static point, then points on the frequency axis where the body's
+  residual is largest: :mod:`flexmor.reduction.greedy_points`); ``krylov missed``: the same with
+  ``directions='missed'`` (only the load combinations the body misses at each point);
+* ``krylov 1 real``, ``krylov 3 real``: the earlier defaults, one real point at the band's geometric mean,
+  and the three real points of :func:`flexmor.reduction.krylov.default_points`;
+* ``krylov 0,f/2 j,f j``: the fixed choice that did well on the C3D10 structure (0, the band's middle and
+  its top on the frequency axis);
+* ``fw-sobt``, ``irka``, ``craig-bampton`` (where the case has an interface), ``adaptive``.
+
+Cases: the plate structure (``flexmor.models.plate_structure``) clamped with one port at a top corner (z)
+and free with its hole's RBE2 (six directions) plus the corner; the plate structure with the hole's six
+ports, clamped and free; the cantilever with the tip's RBE2 (y) and undamped with two tip ports; the
+CalculiX beams of ``tests/data/calculix``.
+
+Usage::
+
+    .venv/bin/python bench/krylov_points.py                 # n = 20 (6-7k DOF), all cases
+    .venv/bin/python bench/krylov_points.py --n 40 --cases corner-clamped,corner-free
+    .venv/bin/python bench/krylov_points.py --json /tmp/kp.json
+
+Writes a Markdown table per case to stdout.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import pathlib
+import sys
+import time
+
+import numpy as np
+
+ROOT = pathlib.Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(ROOT / "src"))
+
+SIX = ("x", "y", "z", "rx", "ry", "rz")
+
+
+def _corner(model) -> int:
+    return int(model.node_ids[np.argmin(np.linalg.norm(model.xyz - [0.25, 0.25, 0.02], axis=1))])
+
+
+def _plate(n, lower):
+    from flexmor.models import plate_structure
+
+    return plate_structure(n, lower=lower)
+
+
+def cases(n: int) -> dict:
+    """``key: (build() -> (model, inputs, interfaces), band, damping, order, text)``."""
+    from flexmor.io import read
+    from flexmor.models import cantilever
+
+    ccx = ROOT / "tests" / "data" / "calculix"
+
+    def corner(lower, hole):
+        def build():
+            m = _plate(n, lower)
+            return m, ([f"HOLE@rbe2:{d}" for d in SIX] if hole else []) + [f"{_corner(m)}:z"], (
+                ["HOLE@rbe2"] if hole else [])
+        return build
+
+    def hole(lower):
+        def build():
+            return _plate(n, lower), [f"HOLE@rbe2:{d}" for d in SIX], ["HOLE@rbe2"]
+        return build
+
+    modal, rayleigh = {"modal_damping": 0.01}, {"band_rayleigh": 0.01}
+    return {
+        "corner-clamped": (corner("clamped", False), (1.0, 2000.0), modal, 20,
+                           f"plate_structure({n}) clamped, top corner z, modal damping 1 %"),
+        "corner-free": (corner("free", True), (1.0, 2000.0), modal, 45,
+                        f"plate_structure({n}, lower='free'), HOLE@rbe2 x..rz + corner z, modal damping 1 %"),
+        "hole-clamped": (hole("clamped"), (1.0, 2000.0), rayleigh, 30,
+                         f"plate_structure({n}) clamped, HOLE@rbe2 x..rz, Rayleigh 1 % at the band ends"),
+        "hole-free": (hole("free"), (1.0, 2000.0), rayleigh, 30,
+                      f"plate_structure({n}, lower='free'), HOLE@rbe2 x..rz, Rayleigh 1 %"),
+        "cantilever": (lambda: (cantilever(4), ["TIP@rbe2:y"], ["TIP@rbe2"]), (10.0, 3000.0), rayleigh, 10,
+                       "cantilever(4), TIP@rbe2:y, Rayleigh 1 %"),
+        "cantilever-undamped": (lambda: (cantilever(4), ["TIP:y", "TIP:z"], []), (10.0, 3000.0), None, 12,
+                                "cantilever(4), TIP:y and TIP:z, undamped"),
+        "ccx-clamped": (lambda: (read(ccx / "beam8_clamped_mat.sti"), ["TIP@rbe2:y"], ["TIP@rbe2"]),
+                        (10.0, 5000.0), rayleigh, 10, "CalculiX beam8 clamped, TIP@rbe2:y, Rayleigh 1 %"),
+        "ccx-free": (lambda: (read(ccx / "beam8_free_mat.sti"), [f"FIX@rbe2:{d}" for d in SIX], ["FIX@rbe2"]),
+                     (10.0, 5000.0), rayleigh, 24, "CalculiX beam8 free, FIX@rbe2 x..rz, Rayleigh 1 %"),
+    }
+
+
+def rows(band, interfaces) -> list[tuple[str, str, dict]]:
+    from flexmor.reduction.krylov import default_points
+
+    f1, f2 = band
+    three = ",".join(f"{p.real:.6g}" for p in default_points(band))
+    out = [("krylov", "krylov", {}), ("krylov missed", "krylov", {"directions": "missed"}), ("krylov 1 real", "krylov", {"points": f"{np.sqrt(f1 * f2):.6g}"}),
+           ("krylov 3 real", "krylov", {"points": three}),
+           ("krylov 0,f/2 j,f j", "krylov", {"points": f"0,{f2 / 2:.6g}j,{f2:.6g}j"}),
+           ("fw-sobt", "fw-sobt", {}), ("irka", "irka", {}), ("adaptive", "adaptive", {})]
+    if interfaces:
+        out.append(("craig-bampton", "craig-bampton", {"interface": interfaces}))
+    return out
+
+
+def run_case(key, spec, log=print, only=None) -> dict:
+    import flexmor
+
+    build, band, damping, order, text = spec
+    model, inputs, interfaces = build()
+    S = flexmor.System(model, inputs=inputs, interfaces=interfaces, band=band, damping=damping, cache=False)
+    t0 = time.perf_counter()
+    path = S.full.grid.get("path")
+    out = {"key": key, "what": text, "n_dof": int(S.model.n_dof), "order": order, "full_path": path,
+           "full_seconds": time.perf_counter() - t0, "rows": {}}
+    for label, method, opts in rows(band, interfaces):
+        if only is not None and label not in only:
+            continue
+        try:
+            t = time.perf_counter()
+            body = S.reduce(method, order, **opts)
+            sec = time.perf_counter() - t
+            e = S.judge(body).band_error
+            row = {"order": int(body.order), "band_error": float(e), "seconds": sec}
+            check = body.info.get("points_check")
+            if check and label.startswith("krylov") and "points" not in opts:
+                row["estimate"] = float(check["estimate"])
+                row["n_points"] = len(body.info["points_hz"])
+        except Exception as exc:  # noqa: BLE001 - a method that cannot run says why in its row
+            row = {"error": f"{type(exc).__name__}: {str(exc).splitlines()[0]}"}
+        out["rows"][label] = row
+        log(f"{key:>20} {label:>20} " + (row["error"] if "error" in row else
+            f"r={row['order']:3d} band {row['band_error']:.2e} {row['seconds']:.2f} s"
+            + (f" est {row['estimate']:.2e} ({row['n_points']} points)" if "estimate" in row else "")),
+            file=sys.stderr)
+    return out
+
+
+def table(res: dict) -> str:
+    lines = [f"### {res['key']}: {res['what']}, {res['n_dof']} DOF, order {res['order']} (full FRF: "
+             f"{res['full_path']})", "", "| body | order | band_error | estimate | estimate / band_error | seconds |",
+             "|---|---|---|---|---|---|"]
+    for label, row in res["rows"].items():
+        if "error" in row:
+            lines.append(f"| {label} | - | {row['error']} | | | |")
+            continue
+        est = row.get("estimate")
+        ratio = f"{est / row['band_error']:.2f}" if est is not None and row["band_error"] > 0 else ""
+        lines.append(f"| {label} | {row['order']} | {row['band_error']:.2e} | "
+                     f"{'' if est is None else f'{est:.2e}'} | {ratio} | {row['seconds']:.2f} |")
+    return "\n".join(lines) + "\n"
+
+
+def main(argv=None) -> int:
+    p = argparse.ArgumentParser(description=__doc__.split("\n")[1])
+    p.add_argument("--n", type=int, default=20, help="plate structure size parameter (20: ~6.5k DOF, 40: ~18k)")
+    p.add_argument("--cases", default=None, help="comma-separated keys (default all)")
+    p.add_argument("--json", default=None, help="write the records here")
+    p.add_argument("--rows", default=None, help="comma-separated row labels (default all)")
+    a = p.parse_args(argv)
+    all_cases = cases(a.n)
+    keys = a.cases.split(",") if a.cases else list(all_cases)
+    only = a.rows.split(",") if a.rows else None
+    results = [run_case(k, all_cases[k], only=only) for k in keys]
+    for r in results:
+        print(table(r))
+    if a.json:
+        pathlib.Path(a.json).write_text(json.dumps(results, indent=1))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
