@@ -49,11 +49,14 @@ def test_adaptive_estimate_costs_no_full_sweep(cant):
     assert res["band_error"] * 10 <= e_mod
 
 
-def test_adaptive_stops_on_its_estimate(cant):
+@pytest.mark.parametrize("tol", [1e-4, 1e-8])
+def test_adaptive_stops_on_its_estimate_and_not_above_it(cant, tol):
+    """The estimate before the latest point is below the tolerance; the body returned (with the latest point)
+    is verified below it (measured: estimates 0.85, 1.3e-3, 3.5e-6, 2e-19; the bodies 6e-18)."""
     model, ports, full = cant
-    red = reduce(model, "adaptive", None, ports, band=BAND, estimate_tol=1e-8)
-    assert red.info["estimates"][-1] < 1e-8
-    assert full.evaluate(red).band_error < 1e-6
+    red = reduce(model, "adaptive", None, ports, band=BAND, estimate_tol=tol)
+    assert red.info["estimates"][-1] < tol <= min(red.info["estimates"][:-1])
+    assert full.evaluate(red).band_error <= tol
 
 
 def test_cli_tol_reports_order_and_verified_error(capsys, tmp_path):

@@ -16,7 +16,7 @@ the same modes.
 1. the static point ``s = 0`` (a free body: a small real shift): the body's static response is exact;
 2. repeatedly, the point ``s = i 2 pi f*`` on the frequency axis where ``rho`` is largest on a
    candidate grid (log-spaced over the band, plus the current body's resonances in it), with
-   :func:`moments_at` moments, until the order is reached. With ``directions='missed'`` only the
+   :func:`moments_at` moments, until the order is reached. By default (``directions='missed'``) only the
    combinations of the loads that the body misses at ``f*`` start the point's Krylov sequence: the singular
    values of the body's error ``X - V x`` there, ``X = A^{-1} F`` (near a resonance one or two of ``b``;
    tangential interpolation, :func:`_tangential_blocks`). Each point costs one sparse factorization
@@ -224,7 +224,7 @@ def _candidates(indicator: ResidualIndicator, band, chosen_hz, n: int = N_CANDID
 
 def greedy_basis(model, ports, order: int | None, band, *, side: str, solver, phi, head, moments: int | None = None,
                  estimate: bool = True, tol: float | None = None, max_points: int | None = None, label: str = "krylov",
-                 n_candidates: int = N_CANDIDATES, directions: str = "all"):
+                 n_candidates: int = N_CANDIDATES, directions: str = "missed"):
     """The greedy Krylov basis (see the module docstring): of order ``order``, or until the estimated band
     error of the body before the latest point falls below ``tol``.
 
@@ -255,12 +255,11 @@ def greedy_basis(model, ports, order: int | None, band, *, side: str, solver, ph
         The method named in progress and log lines.
     n_candidates : int
         Log-spaced candidate frequencies in the band.
-    directions : {'all', 'missed'}
-        At a point on the axis, the Krylov blocks of every load (block moment matching: the body
-        interpolates the full transfer function in every port direction, which survives coupling the
-        body to other parts at its ports), or only of the load combinations the body misses there
-        (:func:`_tangential_blocks`: more points for the order on bodies of many ports, interpolation
-        along those directions only).
+    directions : {'missed', 'all'}
+        At a point on the axis, only the Krylov blocks of the load combinations the body misses there
+        (:func:`_tangential_blocks`: more points for the order on bodies of many ports, interpolation along
+        those directions), or of every load (block moment matching: the body interpolates the full transfer
+        function in every port direction, which survives coupling the body to other parts at its ports).
 
     Returns
     -------

@@ -174,15 +174,16 @@ class KrylovOptions:
     side: str = side_option()
     band: Band | None = band_option("the default expansion points")
     rigid: str = rigid_option()
-    directions: str = option("all", "default points: blocks of every port at each point (all: interpolation in "
-                             "every port direction, kept when the body is coupled at its ports) or only of the "
-                             "load combinations the body misses there (missed: more points per order)",
+    directions: str = option("missed", "default points: at each point on the axis the blocks of the load "
+                             "combinations the body misses there (missed: more points per order on bodies of many "
+                             "ports, interpolation along those directions) or of every port (all: interpolation "
+                             "in every port direction, kept when the body is coupled at its ports)",
                              choices=("all", "missed"))
 
 
 @register_method("krylov", "second-order block Krylov moment matching at expansion points", options=KrylovOptions)
 def krylov(model, ports, order, *, points=None, moments: int | None = None, side: str = "input",
-           band=None, rigid: str = "exclude", directions: str = "all", solver: SolverContext | None = None) -> Basis:
+           band=None, rigid: str = "exclude", directions: str = "missed", solver: SolverContext | None = None) -> Basis:
     """Second-order block Krylov (moment matching) basis at one or several expansion points.
 
     Parameters
@@ -224,9 +225,10 @@ def krylov(model, ports, order, *, points=None, moments: int | None = None, side
         and all moments of ``H`` are matched (an FFRF export refuses such a body unless asked to
         remove them, ``remove_rigid``). A point 0 on a free body (singular ``K``) is moved to a
         small real shift.
-    directions : {'all', 'missed'}
-        Default points: the Krylov blocks of every port at each point, or only of the load combinations
-        the body misses there (:func:`flexmor.reduction.greedy_points.greedy_basis`).
+    directions : {'missed', 'all'}
+        Default points: at each point on the axis only the Krylov blocks of the load combinations the body
+        misses there (default), or of every port (interpolation in every port direction, which carries over
+        when the body is coupled at its ports; :func:`flexmor.reduction.greedy_points.greedy_basis`).
     solver : SolverContext, optional
         Solver (backend, statistics) of :func:`flexmor.linalg.factorize` (one factorization per point).
 
