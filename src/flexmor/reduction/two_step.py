@@ -19,7 +19,7 @@ from ._options import VARIANTS, points_option, rigid_option, variant_option
 from ._registry import register_method
 from .dense_gramians import dense_gramians, psd_factor
 from .gramians import UNDAMPED_ZETA, balance, balance_note
-from .krylov import krylov
+from .krylov import default_points, krylov
 
 __all__ = ["two_step", "TwoStepOptions", "GRAMIANS"]
 
@@ -36,7 +36,7 @@ class TwoStepOptions:
     band: Band | None = band_option("the Krylov points and the frequency-limited Gramians")
     gramian: str = option("band", "frequency-limited (band) or full-band Gramians", choices=GRAMIANS)
     variant: str = variant_option()
-    points: str | None = points_option("Krylov expansion points of the first step")
+    points: str | None = points_option("Krylov expansion points of the first step", "three real points over the band")
     rigid: str = rigid_option()
 
 
@@ -69,7 +69,8 @@ def two_step(model, ports, order, *, intermediate: int = 120, band=None, gramian
     variant : {'position', 'velocity'}
         Controllability Gramian of positions or velocities (see :func:`flexmor.reduction.balanced.sobt`).
     points : str, optional
-        Krylov expansion points (Hz), see :func:`flexmor.reduction.krylov.parse_points`.
+        Krylov expansion points (Hz), see :func:`flexmor.reduction.krylov.parse_points`; default the
+        three real points of :func:`flexmor.reduction.krylov.default_points`.
     rigid : {'exclude', 'include'}
         Rigid-body modes of a free body (see :func:`flexmor.reduction.krylov.krylov`); the
         included ones are kept in front of the balanced vectors (they have no finite Gramian).
@@ -103,6 +104,8 @@ def two_step(model, ports, order, *, intermediate: int = 120, band=None, gramian
                           params=("intermediate", "order"))
     band = Band.of(band)
     # the intermediate basis without rigid round-off, so that the intermediate body has no spurious modes
+    if points is None:  # the three real points over the band: the intermediate order needs no choice of points
+        points = default_points(band)
     K1 = exclude_rigid(model, krylov(model, ports, r1, points=points, side="both", band=band, rigid=rigid,
                                      solver=solver))
     red = project(model, K1, ports)
