@@ -203,12 +203,12 @@ def test_system_reduce_and_judge_computes_the_full_frf_once_and_after_the_reduct
     body, rec = s.reduce_and_judge("modal", 6, judge=False)
     assert made == [] and rec["band_error"] is None and "full_frf" not in rec["timings"]
     assert body.info["band"] is None and rec["order"] == 6
-    _, first = s.reduce_and_judge("krylov", 8)
-    _, second = s.reduce_and_judge("krylov", 12)
+    _, first = s.reduce_and_judge("krylov", 3)  # measured 9.0e-5 and 1.1e-6: above round-off
+    _, second = s.reduce_and_judge("krylov", 4)
     assert made == [1] and second["timings"]["full_frf"] < 0.1 * first["timings"]["full_frf"]
     assert second["band_error"] < first["band_error"] < 1e-3
     prepared = flexmor.System.prepared(s.model, s.ports, band=BAND, cache=False)
-    assert prepared.judge(s.reduce("krylov", 8)).band_error == pytest.approx(first["band_error"], rel=1e-9)
+    assert prepared.judge(s.reduce("krylov", 3)).band_error == pytest.approx(first["band_error"], rel=1e-9)
 
 
 def test_wrong_arguments_of_the_python_api_are_named(beam, clamped, free, tmp_path):
