@@ -42,10 +42,10 @@ def interface_lines(masters) -> list[str]:
 
 
 #: The entries of a body's record (``info``) that say how its basis was built: expansion points, the band,
-#: cutoff and quadrature of the Gramians, snapshots, iterations, the interface of a CMS basis.
-BASIS_KEYS = ("points_hz", "moments", "intermediate", "gramian", "gramians", "band_hz", "band_requested_hz",
-              "cutoff_hz", "n_nodes", "snapshots", "energy_captured", "iterations", "max_iter", "shift_change",
-              "shift_tol", "n_interface_dofs", "n_internal")
+#: cutoff and quadrature of the Gramians, snapshots, iterations, the interface of a CMS basis, Krylov's estimate.
+BASIS_KEYS = ("points_hz", "moments", "points_check", "intermediate", "gramian", "gramians", "band_hz",
+              "band_requested_hz", "cutoff_hz", "n_nodes", "snapshots", "energy_captured", "iterations", "max_iter",
+              "shift_change", "shift_tol", "n_interface_dofs", "n_internal")
 
 
 def basis_record(info: dict) -> dict:
@@ -76,6 +76,14 @@ def basis_rows(rec: dict) -> list[tuple[str, str]]:
         rows.append(("points", f"{_points(rec['points_hz'])} Hz (s / 2 pi)"
                      + (f", moments {', '.join(map(str, moments)) if isinstance(moments, list) else moments}"
                         if moments is not None else "")))
+    check = rec.get("points_check")
+    if isinstance(check, dict) and check.get("estimate") is not None:
+        text = f"band_error {check['estimate']:.3g} (against the body enriched by the full solution"
+        if check.get("check_hz") is not None:
+            text += f" at {check['check_hz']:.4g} Hz"
+            if check.get("pointwise_at_check") is not None:
+                text += f", its relative error there {check['pointwise_at_check']:.3g}"
+        rows.append(("estimate", text + "; the judge's figure is verified)"))
     if rec.get("krylov_points_hz"):
         rows.append(("points", f"{_points(rec['krylov_points_hz'])} Hz (s / 2 pi) of the Krylov step"
                      + (f" to order {rec['intermediate']}" if rec.get("intermediate") else "")))
