@@ -25,7 +25,8 @@ from ..linalg.context import SolverContext, as_solver
 from ..linalg.distributed import PartitionedMatrix, is_partitioned
 from ..linalg.threads import sparse_dense
 
-__all__ = ["ShiftedMatrices", "angular_frequency", "check_freqs", "frf_full", "frf_reduced", "rel_error"]
+__all__ = ["ShiftedMatrices", "angular_frequency", "check_freqs", "frf_full", "frf_reduced", "frf_matrices",
+           "rel_error"]
 
 
 def check_freqs(freqs, name: str = "freqs") -> np.ndarray:
@@ -198,13 +199,18 @@ def _rigid_part(model, B, C):
 def frf_reduced(body, freqs, *, name: str = "freqs") -> np.ndarray:
     """Frequency response of a reduced body (dense, batched), shape (n_freq, n_outputs, n_inputs);
     ``name`` is the parameter an error about ``freqs`` names."""
-    w = angular_frequency(freqs, name)
-    A = body.K[None, :, :] - (w ** 2)[:, None, None] * body.M[None, :, :]
-    A = A.astype(complex)
-    if body.D is not None:
-        A = A + (1j * w)[:, None, None] * body.D[None, :, :]
-    X = np.linalg.solve(A, np.broadcast_to(body.B.astype(complex), (w.size, *body.B.shape)))
-    return np.einsum("pr,frm->fpm", body.C, X)
+    return frf_matrices(body.K, body.M, body.D, body.B, body.C, angular_frequency(freqs, name))
+
+
+def frf_matrices(K, M, D, B, C, w) -> np.ndarray:
+    """``C (K - w^2 M + i w D)^{-1} B`` of small dense matrices at the angular frequencies ``w`` (rad/s), batched;
+    ``D`` may be None. Shape (n_freq, n_outputs, n_inputs)."""
+    w = np.asarray(w, dtype=float)
+    A = (K[None, :, :] - (w ** 2)[:, None, None] * M[None, :, :]).astype(complex)
+    if D is not None:
+        A = A + (1j * w)[:, None, None] * D[None, :, :]
+    X = np.linalg.solve(A, np.broadcast_to(np.asarray(B).astype(complex), (w.size, *np.shape(B))))
+    return np.einsum("pr,frm->fpm", C, X)
 
 
 def rel_error(H, Hr) -> np.ndarray:

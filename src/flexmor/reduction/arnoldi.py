@@ -25,7 +25,8 @@ from ..linalg.threads import blas_threads, dense_threads, sparse_dense
 from ..rigid import m_project
 from ._options import SIDES
 
-__all__ = ["SecondOrderArnoldi", "DEFLATION_TOL", "start_block", "shifted_factorization", "blocks_at_points"]
+__all__ = ["SecondOrderArnoldi", "DEFLATION_TOL", "start_block", "shifted_factorization", "blocks_at_points",
+           "rigid_projector"]
 
 log = logging.getLogger(__name__)
 
@@ -262,6 +263,13 @@ def shifted_factorization(model, s: complex, solver: SolverContext | None = None
     return shifted_factorization(model, complex(s0), solver)
 
 
+def rigid_projector(model, phi):
+    """``X -> (I - Φ Φᵀ M) X`` for the rigid-body modes ``phi`` (M-orthonormal), or None when there are none."""
+    if phi is None or not phi.shape[1]:
+        return None
+    return lambda X: m_project(model, phi, X)
+
+
 def blocks_at_points(model, ports, points, n_moments: int, *, side: str = "input", solver: SolverContext | None = None,
                      rigid_modes=None):
     """Krylov blocks for every point, ``n_moments`` per point, one factorization at a time.
@@ -276,12 +284,7 @@ def blocks_at_points(model, ports, points, n_moments: int, *, side: str = "input
     """
     solver = as_solver(solver)
     start = start_block(ports, side)
-    proj = None
-    if rigid_modes is not None and rigid_modes.shape[1]:
-
-        def proj(X):
-            return m_project(model, rigid_modes, X)
-
+    proj = rigid_projector(model, rigid_modes)
     blocks, used = [], []
     for p in points:
         with blas_threads(1):  # tall-skinny products between solves (see flexmor.linalg.threads)

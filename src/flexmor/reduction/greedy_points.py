@@ -54,6 +54,7 @@ import scipy.linalg as sla
 from ..basis import extend_orthonormal
 from ..damping import ModalDamping, band_matched
 from ..dynamics.dense_frf import dense_applicable
+from ..dynamics.frf import frf_matrices
 from ..dynamics.grid import adaptive_grid, band_error
 from ..dynamics.surrogate import MODES_MARGIN
 from ..linalg.context import step
@@ -61,7 +62,7 @@ from ..linalg.eigen import default_shift
 from ..linalg.threads import sparse_dense
 from ..projection import ReducedMatrices
 from ..rigid import elastic_loads, m_project
-from .arnoldi import DEFLATION_TOL, _point_blocks, blocks_at_points, shifted_factorization, start_block
+from .arnoldi import DEFLATION_TOL, _point_blocks, blocks_at_points, rigid_projector, shifted_factorization, start_block
 from .gramians import UNDAMPED_ZETA
 
 __all__ = ["ResidualIndicator", "greedy_basis", "difference_estimate", "moments_at", "N_CANDIDATES",
@@ -342,12 +343,7 @@ def _tangential_blocks(model, loads, V, indicator, p, m, solver, phi):
     interpolation along them). A body of many ports near a resonance misses one or two directions, not all
     ``b``: the order then buys more points. Returns ``(blocks, [s], directions)``."""
     F, s = shifted_factorization(model, 2 * np.pi * complex(p), solver)
-    proj = None
-    if phi.shape[1]:
-
-        def proj(X):
-            return m_project(model, phi, X)
-
+    proj = rigid_projector(model, phi)
     X = F.solve(loads.astype(complex))
     X = proj(X) if proj is not None else X
     if V.shape[1]:
@@ -375,12 +371,6 @@ def _new_columns(model, phi, V, blocks) -> np.ndarray:
     for _ in range(2 if phi.shape[1] else 0):
         X = m_project(model, phi, X)
     return extend_orthonormal(V, X, tol=DEFLATION_TOL)
-
-
-def _reduced_frf(Kr, Mr, Dr, Br, Cr, w):
-    A = Kr[None] - (w ** 2)[:, None, None] * Mr[None] + (1j * w)[:, None, None] * Dr[None]
-    X = np.linalg.solve(A, np.broadcast_to(Br + 0j, (w.size, *Br.shape)))
-    return np.einsum("pk,fkm->fpm", Cr, X)
 
 
 def nested_difference(model, ports, V, indicator: ResidualIndicator, r: int, band, at=None) -> dict:
@@ -420,10 +410,10 @@ def nested_difference(model, ports, V, indicator: ResidualIndicator, r: int, ban
     inband = (f_res >= band[0]) & (f_res <= band[1])
 
     def larger(freqs):
-        return _reduced_frf(Kr, Mr, Dr, Br, Cr, 2 * np.pi * np.asarray(freqs, dtype=float))
+        return frf_matrices(Kr, Mr, Dr, Br, Cr, 2 * np.pi * np.asarray(freqs, dtype=float))
 
     def smaller(freqs):
-        return _reduced_frf(Kr[:r, :r], Mr[:r, :r], Dr_body, Br[:r], Cr[:, :r], 2 * np.pi * np.asarray(freqs, float))
+        return frf_matrices(Kr[:r, :r], Mr[:r, :r], Dr_body, Br[:r], Cr[:, :r], 2 * np.pi * np.asarray(freqs, float))
 
     with np.errstate(all="ignore"):
         grid, He, _ = adaptive_grid(larger, band[0], band[1], resonances=f_res[inband], zeta=zeta[inband],
