@@ -22,20 +22,33 @@ from os import PathLike
 
 from .analysis.compare import ErrorMeasures, FullResponse, check_judgeable
 from .checks import check_band
-from .damping import Damping, describe_damping
+from .damping import describe_damping
 from .display import Shown, band_text, names_text
 from .errors import ModelError, OptionError, check_keywords_of
 from .linalg.context import SolverContext, as_solver
+from .linalg.distributed import is_partitioned
 from .model import FEModel
 from .options import Band
 from .ports import make_ports
-from .workflow import coupling_specs, damping_of, prepare_model, record_setup, reduce_and_judge, with_method_band
+from .prepare import prepare
+from .workflow import coupling_specs, record_setup, reduce_and_judge, with_method_band
 
 __all__ = ["System"]
 
-#: The dict forms of ``damping`` (the keywords of :func:`flexmor.workflow.damping_of`).
-_DAMPING_KEYS = "{'rayleigh': (alpha, beta)}, {'modal_damping': zeta} or {'band_rayleigh': zeta}"
+#: Keywords of :meth:`System.reduce_and_judge` that judge the body rather than build it.
+_JUDGE_KEYWORDS = ("tol", "tol_measure", "mounted", "judge", "inertia_loads")
 
+
+def _plain(value):
+    """A method option's value as a study file holds it: complex numbers (and lists with them) as the
+    text the option reads (``0,1000j``)."""
+    if isinstance(value, complex):
+        return repr(value).strip("()")
+    if isinstance(value, list | tuple) and any(isinstance(v, complex) for v in value):
+        return ",".join(repr(v).strip("()") if isinstance(v, complex) else repr(v) for v in value)
+    if isinstance(value, tuple):
+        return list(value)
+    return value
 
 class System(Shown):
     """A full model with its inputs, outputs, interfaces, band and damping, given once.
@@ -58,8 +71,15 @@ class System(Shown):
         A :class:`flexmor.damping.Damping` (e.g. ``Rayleigh(0.0, 1e-6)``), or the keywords of
         :func:`flexmor.workflow.damping_of` (``{"modal_damping": 0.02}``, matched over ``band``).
         Default: the model's own damping (none for most files).
+    format, mesh, units, select, preload, material
+        How the file becomes the model (:func:`flexmor.prepare.prepare`, the step ``flexmor reduce``
+        takes with ``--format``, ``--mesh``, ``--units``, ``--select``, ``--preload`` and ``--material``):
+        the file's format, a mesh file of its nodes and elements, the unit system of its numbers (the
+        model is converted to SI), ``NAME=KIND:NUMBERS`` node selections, preload SPECs and the
+        material ``(E, nu[, rho])`` of the preload's stresses.
     solver : SolverContext, optional
-        Solver (backend, statistics) of every factorization.
+        Solver (backend, statistics) of every factorization; with the ``petsc`` backend under
+        ``mpirun`` rank 0 reads and prepares the model.
     **grid
         Options of :class:`~flexmor.analysis.compare.FullResponse` (``n``, ``tol``, ``path``,
         ``cache`` ...); any other keyword is refused (:class:`~flexmor.errors.OptionError` naming
@@ -85,15 +105,25 @@ class System(Shown):
     couplings : list of str
         The coupling SPECs applied (:func:`flexmor.workflow.coupling_specs`).
     interfaces : list of str
+    selections : list of str
+        The ``select`` texts.
+    preparation : dict
+        The preparation options given (``format`` ... ``material``), as a study file records them.
+    prepared_as : Prepared or None
+        What the preparation made (:class:`flexmor.prepare.Prepared`: the model without its preload,
+        the nodes ``nearest`` selections chose, the time); None for :meth:`prepared`.
+    material : tuple or None
+        The ``material`` given (also the material of :func:`flexmor.stress.body_stresses`).
+    recipe : dict or None
+        Of a system made by :meth:`from_study`: the study file's ``reduce`` section (``method``,
+        ``order``, ``options`` ...) with its ``judge`` and ``output`` sections; None otherwise.
     """
 
     def __init__(self, model, *, inputs=(), outputs=(), interfaces=(), band=None, damping=None,
+                 format: str | None = None, mesh=None, units=None, select=(), preload=(), material=None,
                  solver: SolverContext | None = None, **grid):
-        if isinstance(model, (str, PathLike)):
-            from .io import read
-
-            model = read(model)
-        if not isinstance(model, FEModel):
+        check_keywords_of("System", grid, System.__init__, FullResponse.__init__)
+        if not isinstance(model, str | PathLike | FEModel):
             raise ModelError(f"System needs an FE model or the path of its file, got {type(model).__name__}",
                              params=("model",))
         if isinstance(interfaces, (str, bytes)):
@@ -101,20 +131,19 @@ class System(Shown):
                               f"{interfaces!r}", params=("interfaces",))
         interfaces = [str(s) for s in interfaces]
         couplings = coupling_specs(interfaces, [*inputs, *outputs])
-        coupled = prepare_model(model, couplings)
-        if damping is not None and not isinstance(damping, Damping):
-            if not isinstance(damping, dict):
-                raise OptionError(f"damping must be a flexmor.damping object (Rayleigh(alpha, beta), ...) or a dict "
-                                  f"{_DAMPING_KEYS}, got {type(damping).__name__} {damping!r}", params=("damping",))
-            unknown = sorted(set(damping) - {"rayleigh", "modal_damping", "band_rayleigh"})
-            if unknown:
-                raise OptionError(f"damping {damping!r}: unknown key(s) {', '.join(map(repr, unknown))}; give "
-                                  f"{_DAMPING_KEYS}", params=("damping",))
-            damping = damping_of(**{"band": Band.of(band), **damping})
-        if damping is not None:
-            coupled = coupled.with_damping(damping)
-        self._setup(coupled, make_ports(coupled, inputs, outputs), as_read=model, couplings=couplings,
-                    interfaces=interfaces, band=band, solver=solver, grid=grid)
+        solver = as_solver(solver)
+        done = prepare(model, format=format, mesh=mesh, units=units, select=select, preload=preload,
+                       material=material, couplings=couplings, damping=damping, band=band, solver=solver,
+                       progress=solver.progress)
+        self._setup(done.model, make_ports(done.model, inputs, outputs), as_read=done.as_read, couplings=couplings,
+                    interfaces=interfaces, band=band, solver=solver, grid=grid, selections=select)
+        self.prepared_as, self.material = done, material
+        self._given = {"model": model if isinstance(model, str | PathLike) else None, "inputs": list(inputs),
+                       "outputs": list(outputs), "interfaces": interfaces, "band": band, "damping": damping}
+        self.recipe: dict | None = None
+        self.preparation = {k: v for k, v in (("format", format), ("mesh", mesh), ("units", units),
+                                              ("select", list(select)), ("preload", list(preload)),
+                                              ("material", material)) if v not in (None, [])}
 
     @classmethod
     def prepared(cls, model, ports, *, as_read=None, couplings=(), interfaces=(), selections=(), band=None,
@@ -128,6 +157,8 @@ class System(Shown):
         like ``couplings`` and ``interfaces``); the rest as for :class:`System`.
         """
         system = cls.__new__(cls)
+        system.prepared_as, system.material, system.preparation = None, None, {}
+        system._given, system.recipe = {"model": None}, None
         system._setup(model, ports, as_read=as_read, couplings=[str(s) for s in couplings],
                       interfaces=[str(s) for s in interfaces], band=band, solver=solver, grid=grid,
                       selections=[str(s) for s in selections])
@@ -172,9 +203,10 @@ class System(Shown):
             options.setdefault("interface", list(self.interfaces))
         return options
 
-    def reduce(self, method: str, order: int | None = None, **options):
+    def reduce(self, method: str | None = None, order: int | None = None, **options):
         """Reduce the model with ``method`` (:func:`flexmor.reduction.reduce`) for the study's
-        band, ports and interfaces (:meth:`options`).
+        band, ports and interfaces (:meth:`options`). Without ``method``: the method, order and
+        options of the study file the system was made from (:meth:`from_study`).
 
         Returns
         -------
@@ -183,14 +215,17 @@ class System(Shown):
         """
         from .reduction import method_name, reduce
 
+        method, order, options = self._recipe(method, order, options)
+        given = dict(options)
         method = method_name(method)
         options = self.options(method, options)
         options.setdefault("solver", self.solver)
         body = reduce(self.model, method, order, self.ports, **options)
-        self._record(body)
+        self._record(body, method, order, given)
         return body
 
-    def reduce_and_judge(self, method: str, order: int | None = None, *, judge: bool = True, **options):
+    def reduce_and_judge(self, method: str | None = None, order: int | None = None, *, judge: bool = True,
+                         **options):
         """:func:`flexmor.workflow.reduce_and_judge` on this study: ``(body, record)``, the record
         of ``flexmor reduce --json``.
 
@@ -198,19 +233,117 @@ class System(Shown):
         ``record["timings"]["full_frf"]`` is the time spent on it in this call. ``judge=False``
         reduces without the error evaluation (the record's measures are None). ``options`` are the
         method's and those of :func:`~flexmor.workflow.reduce_and_judge` (``tol``, ``tol_measure``,
-        ``mounted``).
+        ``mounted``). Without ``method``: those of the study file (:meth:`from_study`).
         """
+        method, order, options = self._recipe(method, order, options)
+        given = {k: v for k, v in options.items() if k not in _JUDGE_KEYWORDS}
         options = self.options(method, options)
         method_band = options.pop("band", None)  # the method's band (the study's unless given)
         body, record = reduce_and_judge(self.model, method, order, self.ports, method_band=method_band,
                                         full=(lambda: self.full) if judge else None, solver=self.solver,
                                         uncoupled=self.as_read if self.couplings else None,
                                         couplings=self.couplings, **options)
-        self._record(body)
+        self._record(body, method, order, given)
         return body, record
 
-    def _record(self, body) -> None:
+    def _recipe(self, method, order, options):
+        """``(method, order, options)``: as given, or the study file's when no method is given."""
+        if method is not None:
+            return method, order, options
+        if self.recipe is None:
+            raise OptionError("reduce needs a method (only a system made from a study file has one of its own)",
+                              params=("method",))
+        return self.recipe["method"], order or self.recipe.get("order"), {**self.recipe.get("options", {}), **options}
+
+    def _record(self, body, method, order, options) -> None:
         record_setup(body, couplings=self.couplings, interfaces=self.interfaces, selections=self.selections)
+        try:
+            body.info["study"] = self.study(method, order, options)
+        except OptionError:  # a model given read, or damping of no file form: no study to record
+            body.info["study"] = None
+
+    def study(self, method: str, order: int | None = None, options: dict | None = None, **extra) -> dict:
+        """The study file's content (:mod:`flexmor.studyfile`) of reducing this system with ``method``,
+        ``order`` and ``options``; ``extra`` adds sections (``judge``, ``output``) and keys of
+        ``reduce``. Paths are as given (:meth:`save_study` writes them relative to the file).
+
+        Raises
+        ------
+        OptionError
+            For a system made from a model already read (no file to record), or damping given as an
+            object other than Rayleigh damping.
+        """
+        from .damping import NoDamping, Rayleigh
+        from .reduction import method_name
+        from .studyfile import file_sha256, study_fingerprint
+
+        given = self._given
+        if given["model"] is None:
+            raise OptionError("a study file records the model's file: make the System from its path", params=("model",))
+        damping = given["damping"]
+        if isinstance(damping, Rayleigh):
+            damping = {"rayleigh": [damping.alpha, damping.beta]}
+        elif isinstance(damping, NoDamping):
+            damping = None
+        elif damping is not None and not isinstance(damping, dict):
+            raise OptionError(f"a study file records damping as {{'rayleigh': (alpha, beta)}}, {{'modal_damping': "
+                              f"zeta}} or {{'band_rayleigh': zeta}}, not {type(damping).__name__}", params=("damping",))
+        model = {"file": str(given["model"]), "sha256": file_sha256(given["model"]), **self.preparation}
+        if "mesh" in model:
+            model["mesh"], model["mesh_sha256"] = str(model["mesh"]), file_sha256(model["mesh"])
+        if "material" in model:
+            model["material"] = [float(v) for v in model["material"]]
+        if not is_partitioned(self.model.K):
+            model["fingerprint"] = study_fingerprint(self.model)
+        band = None if given["band"] is None else [float(v) for v in Band.of(given["band"])]
+        reduce = {"method": method_name(method), **({"order": int(order)} if order is not None else {}),
+                  **{k: v for k, v in extra.pop("reduce", {}).items() if v is not None},
+                  "options": {k: _plain(v) for k, v in (options or {}).items() if v is not None and k != "solver"}}
+        ports = {k: list(given[k]) for k in ("inputs", "outputs", "interfaces") if given[k]}
+        return {k: v for k, v in {"band": band, "model": model, "ports": ports,
+                                  "damping": {k: (list(v) if k == "rayleigh" else v) for k, v in damping.items()}
+                                  if damping else None, "reduce": reduce, **extra}.items() if v}
+
+    def save_study(self, path, method: str, order: int | None = None, options: dict | None = None, **extra) -> None:
+        """Write the study file of :meth:`study` to ``path``, its paths relative to the file's folder."""
+        from pathlib import Path
+
+        from .studyfile import relative_to, write_study
+
+        study = self.study(method, order, options, **extra)
+        folder = Path(path).resolve().parent
+        for section, key in (("model", "file"), ("model", "mesh"), ("output", "body")):
+            if key in study.get(section, {}):
+                study[section][key] = relative_to(study[section][key], folder)
+        write_study(path, study)
+
+    @classmethod
+    def from_study(cls, path, *, solver: SolverContext | None = None, **grid) -> System:
+        """The system of the study file ``path`` (:mod:`flexmor.studyfile`): its model prepared as the
+        file says and checked against the study's fingerprint; :meth:`reduce` without a method then
+        reduces with the study's method, order and options (:attr:`recipe`). ``grid`` adds to the
+        file's judgement options (``n``, ``tol``, ``path``, ``cache``, ``progress``)."""
+        from .studyfile import check_fingerprint, read_study
+
+        study = read_study(path)
+        model = dict(study["model"])
+        keywords = {k: model[k] for k in ("format", "mesh", "units", "select", "preload") if k in model}
+        if "material" in model:
+            keywords["material"] = tuple(model["material"])
+        ports = study.get("ports", {})
+        damping = study.get("damping")
+        if damping and "rayleigh" in damping:
+            damping = {**damping, "rayleigh": tuple(damping["rayleigh"])}
+        judge = study.get("judge", {})
+        grid = {**{k: judge[j] for j, k in (("n_freq", "n"), ("grid_tol", "tol"), ("full_frf", "path"),
+                                            ("cache", "cache")) if j in judge}, **grid}
+        system = cls(model["file"], inputs=ports.get("inputs", ()), outputs=ports.get("outputs", ()),
+                     interfaces=ports.get("interfaces", ()), band=study.get("band"), damping=damping or None,
+                     solver=solver, **keywords, **grid)
+        if not is_partitioned(system.model.K):
+            check_fingerprint(study, system.model, path)
+        system.recipe = dict(study["reduce"], judge=judge, output=study.get("output", {}))
+        return system
 
     def check(self, body) -> None:
         """Refuse ``body`` when it was not reduced from this model, with this damping and these

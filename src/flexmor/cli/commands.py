@@ -15,7 +15,6 @@ from .._version import __version__
 from ..body import convergence_record
 from ..errors import FlexmorNote, FlexmorWarning, OptionError, notes_stated
 from ..jsonutil import jsonable
-from ..linalg.context import step
 from ..linalg.distributed import is_partitioned, on_root, row_blocks
 from .info import (
     basis_record,
@@ -31,7 +30,7 @@ from .info import (
 from .method_flags import method_options
 from .tables import fmt, note_text, notes_as_flags, print_error_table, print_mounted
 
-__all__ = ["cmd_info", "cmd_reduce", "cmd_compare", "cmd_report", "cmd_demo"]
+__all__ = ["cmd_info", "cmd_reduce", "cmd_run", "cmd_compare", "cmd_report", "cmd_demo"]
 
 
 def _emit_json(obj) -> None:
@@ -127,52 +126,27 @@ def _factor_note(out: dict, solver) -> str:
     return f"factor: {describe_factor(solver.stats)}" if solver.stats.mixed or solver.stats.ooc else ""
 
 
-def _read_model(args, couplings=(), *, damped=True, keep=None, check=None):
-    """The model of ``args.model`` (selections and ``couplings`` applied), the read time and the
-    band; with ``damped`` the damping flags applied, else they are left to the caller
-    (:func:`_asked_damping`). ``keep`` (a dict given) gets the entries it names: ``"uncoupled"`` the
-    model before the couplings, ``"unloaded"`` the model without ``--preload`` (couplings applied; None
-    without a preload); and ``keep["check"] = check(model)`` of the model as read (selections applied),
-    computed where the file is read. Under mpirun with ``--backend petsc`` rank 0 reads and ``keep`` is
-    the same on every rank, its models held by rows too (:func:`flexmor.models.distributed.read_on_root`)."""
-    from ..io import read
+def _preparation(args) -> dict:
+    """The preparation keywords (:data:`flexmor.prepare.PREPARATION`, those of :class:`flexmor.System`) that
+    ``--format``, ``--mesh``, ``--units``, ``--select``, ``--preload`` and ``--material`` give."""
+    return {"format": getattr(args, "format", None), "mesh": getattr(args, "mesh", None),
+            "units": getattr(args, "units", None), "select": list(getattr(args, "select", None) or ()),
+            "preload": list(getattr(args, "preload", None) or ()), "material": getattr(args, "material", None)}
+
+
+def _read_model(args, couplings=(), *, damped=True, check=None, solver=None):
+    """:func:`flexmor.prepare.prepare` of ``args.model`` with the flags of :func:`_preparation`,
+    ``couplings`` and (with ``damped``) the damping flags, and the band of ``--band`` (None when not
+    given); the nodes that ``nearest`` selections chose are printed."""
     from ..options import Band
-    from ..units import to_si
-    from ..workflow import prepare_model
+    from ..prepare import prepare
 
-    def load():
-        model = to_si(_with_mesh(read(args.model, format=args.format), args), getattr(args, "units", None))
-        if getattr(args, "select", None):
-            from ..selection import nearest_report, with_selections
-
-            model = with_selections(model, args.select)
-            _print_nearest(nearest_report(model, args.select))
-        if keep is not None and check is not None:
-            keep["check"] = check(model)
-        unloaded = model
-        if getattr(args, "preload", None):  # K about the preloaded equilibrium
-            from ..preload import with_preload
-
-            model = with_preload(model, args.preload, material=getattr(args, "material", None))
-        if keep is not None and "uncoupled" in keep:
-            keep["uncoupled"] = model
-        if keep is not None and "unloaded" in keep and getattr(args, "preload", None):
-            keep["unloaded"] = prepare_model(unloaded, couplings)
-        return prepare_model(model, couplings)
-
-    t0 = time.perf_counter()
-    if getattr(args, "backend", None) == "petsc":  # under mpirun: rank 0 reads, each rank gets its rows
-        from ..models.distributed import read_on_root
-
-        model = read_on_root(load, keep)
-    else:
-        with step(_progress(args), f"read {args.model}"):
-            model = load()
-    t_read = time.perf_counter() - t0
     band = Band.parse(args.band) if getattr(args, "band", None) else None
-    if damped:
-        model = model.with_damping(_asked_damping(args, band))
-    return model, t_read, band
+    done = prepare(args.model, **_preparation(args), couplings=couplings,
+                   damping=_asked_damping(args) if damped else None, band=band, check=check,
+                   solver=solver if solver is not None else _solver(args), progress=_progress(args))
+    _print_nearest(done.nearest)
+    return done, band
 
 
 def _print_nearest(report) -> None:
@@ -184,23 +158,16 @@ def _print_nearest(report) -> None:
                  if r["outside"] else ""), file=sys.stderr)
 
 
-def _with_mesh(model, args):
-    """``model`` with the nodes and elements of ``--mesh FILE`` (when given)."""
-    if not getattr(args, "mesh", None):
-        return model
-    from ..io.meshio_mesh import with_mesh
-
-    return with_mesh(model, args.mesh)
-
-
-def _asked_damping(args, band):
-    """The damping of ``--rayleigh`` / ``--modal-damping`` / ``--band-rayleigh`` (NoDamping when none is given)."""
+def _asked_damping(args) -> dict | None:
+    """The damping flags as the ``damping`` keyword of :class:`flexmor.System`
+    (:func:`flexmor.prepare.as_damping`): ``{"rayleigh": (alpha, beta)}``, ``{"modal_damping": zeta}``,
+    ``{"band_rayleigh": zeta}`` (more than one key is refused there, naming them), or None."""
     from ..options import parse_pair
-    from ..workflow import damping_of
 
-    rayleigh = parse_pair(args.rayleigh, "rayleigh") if getattr(args, "rayleigh", None) else None
-    return damping_of(rayleigh=rayleigh, modal_damping=getattr(args, "modal_damping", None),
-                      band_rayleigh=getattr(args, "band_rayleigh", None), band=band)
+    given = {"rayleigh": parse_pair(args.rayleigh, "rayleigh") if getattr(args, "rayleigh", None) else None,
+             "modal_damping": getattr(args, "modal_damping", None),
+             "band_rayleigh": getattr(args, "band_rayleigh", None)}
+    return {k: v for k, v in given.items() if v is not None} or None
 
 
 # -- info --------------------------------------------------------------------------------------
@@ -227,16 +194,16 @@ def cmd_info(args) -> int:
     if args.modes < 0:  # --modes without N
         args.modes = 12
     couplings = coupling_specs(args.interface)
-    keep = {"uncoupled": None, "unloaded": None}
     notes: list = []  # the notes of the file (flexmor.errors.NOTES), stated in full below
+    solver = _solver(args)
     with _noted(notes):
-        model, t_read, _ = _read_model(args, couplings, keep=keep, check=geometry_check)  # the check: as read
+        done, _ = _read_model(args, couplings, check=geometry_check, solver=solver)  # the check: as read
+    model = done.model
     out = model.summary()
     out.update(model.mass_properties())
     out["selections"] = {name: model.node_sets[name].tolist() for name in _selected_names(args)}
     out["backends"] = available_backends()
-    out["geometry_check"] = keep["check"]
-    solver = _solver(args)
+    out["geometry_check"] = done.check
     if args.modes:
         k = min(args.modes, model.n_dof)
         lam = stable_lowest_eigenvalues(model, solver, k)  # a buckled preload is refused, not rigid-body modes
@@ -252,7 +219,7 @@ def cmd_info(args) -> int:
     if model.preload:  # the frequencies of the model as read beside the preloaded ones
         out["preload"] = dict(model.preload)
         if args.modes:
-            free = keep["unloaded"]
+            free = done.unloaded
             out["preload"]["frequencies_unloaded_hz"] = frequencies_hz(eigenmodes(free.K, free.M, k,
                                                                                    solver=solver)[0]).tolist()
     if args.reference:
@@ -265,10 +232,10 @@ def cmd_info(args) -> int:
         from ..checks import COUPLING_MODES, coupling_frequencies
 
         out["couplings"] = couplings
-        out["coupling_frequencies"] = coupling_frequencies(keep["uncoupled"], model, couplings,
+        out["coupling_frequencies"] = coupling_frequencies(done.as_read, model, couplings,
                                                            n=max(args.modes, COUPLING_MODES), solver=solver)
     out["notes"] = [{"name": n.name, "text": n.full()} for n in notes]
-    out["timings"] = {"read": t_read}
+    out["timings"] = {"read": done.seconds}
     factor = _factor_note(out, solver)
     if args.json:
         _emit_json(out)
@@ -354,11 +321,7 @@ def _selected_names(args) -> list:
 # -- reduce ------------------------------------------------------------------------------------
 def cmd_reduce(args) -> int:
     """``flexmor reduce``: read, prepare the study, reduce and judge, write the body; returns the exit code."""
-    from ..io import write_body
-    from ..origin import describe_damping
-    from ..ports import make_ports
     from ..study import System
-    from ..workflow import coupling_specs
 
     options = method_options(args, args.method)  # before any work: flags the method does not take
     if args.tol is not None and args.no_error:
@@ -368,31 +331,69 @@ def cmd_reduce(args) -> int:
     if args.output_file:
         _check_new(args.output_file, args)
         _body_suffix(args.output_file)
-    couplings = coupling_specs(args.interface, args.input + args.output)
-    keep = {"uncoupled": None}
-    model, t_read, given_band = _read_model(args, couplings, keep=keep)
+    if args.save_study:
+        _check_new(args.save_study, args)
+    solver = _solver(args)
+    system = System(args.model, inputs=args.input, outputs=args.output, interfaces=args.interface,
+                    band=args.band or None, damping=_asked_damping(args),
+                    **_preparation(args), solver=solver, **_grid_options(args))
+    _print_nearest(system.prepared_as.nearest)
+    return _reduce_system(args, system, options, solver)
+
+
+def cmd_run(args) -> int:
+    """``flexmor run STUDY``: reduce as the study file says (:meth:`flexmor.System.from_study`), then as
+    ``flexmor reduce`` (the same judgement, output and record); returns the exit code."""
+    from ..study import System
+
+    solver = _solver(args)
+    system = System.from_study(args.study, solver=solver, progress=_progress(args, "full FRF"))
+    recipe, judge = system.recipe, system.recipe["judge"]
+    args.method, args.order = recipe["method"], recipe.get("order")
+    args.no_error, args.no_mounted = not judge.get("error", True), not judge.get("mounted", True)
+    args.tol, args.tol_measure = judge.get("tol"), judge.get("tol_measure", "band_error")
+    args.inertia_loads = recipe.get("inertia_loads", "auto")
+    args.stress, args.stress_nodes = recipe.get("stress", False), recipe.get("stress_nodes", "surface")
+    args.output_file = args.output_file or recipe["output"].get("body")
+    args.save_study = None
+    if args.output_file:
+        _check_new(args.output_file, args)
+    return _reduce_system(args, system, dict(recipe.get("options", {})), solver)
+
+
+def _reduce_system(args, system, options: dict, solver) -> int:
+    """Reduce and judge ``system`` as ``args`` say (method, order, judgement, output), write the body (and
+    with ``--save-study`` the study) and print the record; the rest of :func:`cmd_reduce` and :func:`cmd_run`."""
+    from ..io import write_body
+    from ..origin import describe_damping
+
+    model, couplings = system.model, system.couplings
     if args.stress and is_partitioned(model.K):  # refused before the reduction, not after it
         raise OptionError("--stress needs the model on one process (not with --backend petsc under mpirun)")
-    solver = _solver(args)
-    system = System.prepared(model, make_ports(model, args.input, args.output),
-                             as_read=keep["uncoupled"],
-                             couplings=couplings, interfaces=args.interface, selections=args.select,
-                             band=given_band, solver=solver, **_grid_options(args))
     red, res = system.reduce_and_judge(args.method, args.order, judge=not args.no_error, tol=args.tol,
                                        tol_measure=args.tol_measure, inertia_loads=args.inertia_loads,
                                        mounted=not args.no_mounted, **options)
-    res["timings"]["read"] = t_read
+    res["timings"]["read"] = system.prepared_as.seconds
     if is_partitioned(model.K):  # under mpirun with --backend petsc: the rows of K held by each rank
         res["partition"] = row_blocks(model.K)
     if args.stress:
-        _stress_modes(red, keep["uncoupled"], args, res)
+        _stress_modes(red, system.as_read, system.material, args, res)
     if couplings:
         res["couplings"] = list(couplings)
-    if args.select:
-        res["selections"] = list(args.select)
+    if system.selections:
+        res["selections"] = list(system.selections)
     path = _check_new(args.output_file or f"{model.name}_{args.method}_{red.order}.h5", args)
     on_root(write_body, red, path)  # under MPI: written once, by rank 0
     res["file"] = str(path)
+    if args.save_study:
+        on_root(system.save_study, args.save_study, args.method, args.order, options,
+                reduce={"inertia_loads": args.inertia_loads, "stress": args.stress or None,
+                        "stress_nodes": args.stress_nodes if args.stress else None},
+                judge={"error": not args.no_error, "mounted": not args.no_mounted, "tol": args.tol,
+                       "tol_measure": args.tol_measure, "n_freq": args.n_freq, "grid_tol": args.grid_tol,
+                       "full_frf": args.full_frf, "cache": not args.no_cache},
+                output={"body": str(path)})
+        res["study"] = str(args.save_study)
     factor = _factor_note(res, solver)
     if args.json:
         _emit_json(res)
@@ -421,19 +422,19 @@ def cmd_reduce(args) -> int:
     print("reduced frequencies [Hz]: " + " ".join(f"{f:.4g}" for f in fr[:12]) + (" ..." if len(fr) > 12 else ""))
     if factor:
         print(factor)
-    print(f"written {path}")
+    print(f"written {path}" + (f" and the study {args.save_study}" if args.save_study else ""))
     return 0
 
 
-def _stress_modes(red, model, args, res) -> None:
-    """Store the stress modes of ``red`` (``--stress``) at ``--stress-nodes``, with ``--material``."""
+def _stress_modes(red, model, material, args, res) -> None:
+    """Store the stress modes of ``red`` (``--stress``) at ``--stress-nodes``, with ``material``."""
     from ..stress import body_stresses
 
     t0 = time.perf_counter()
-    out = body_stresses(model, red, material=args.material, nodes=args.stress_nodes)
+    out = body_stresses(model, red, material=material, nodes=args.stress_nodes)
     red.stress_nodes, red.stress_modes = out.node_ids, out.values
     red.info["stress"] = {"nodes": args.stress_nodes, "n_nodes": int(out.node_ids.size),
-                          "material": list(args.material) if args.material else "deck"}
+                          "material": list(material) if material else "deck"}
     res["stress"] = dict(red.info["stress"], seconds=time.perf_counter() - t0)
 
 
@@ -445,8 +446,10 @@ def _model_and_bodies(args):
     with the preload they record. A body's band is
     ``--band``, else the band it was reduced for (or judged over when it was made), else
     DEFAULT_BAND."""
+    from ..damping import NoDamping
     from ..io import read_body
     from ..options import Band
+    from ..prepare import as_damping
     from ..workflow import DEFAULT_BAND
 
     bodies = [read_body(p) for p in args.reduced]
@@ -458,7 +461,8 @@ def _model_and_bodies(args):
     if not getattr(args, "preload", None) and len(preloads) == 1 and () not in preloads:
         args.preload = list(preloads.pop())  # the model stiffened by the preload its bodies record
         args.preload_from_bodies = True
-    model, t_read, band = _read_model(args, damped=False)
+    done, band = _read_model(args, damped=False)
+    model, t_read = done.model, done.seconds
     if band is not None:
         bands, sources = [band] * len(bodies), ["as given by --band"] * len(bodies)
     else:
@@ -467,7 +471,8 @@ def _model_and_bodies(args):
         sources = ["the band the body was reduced for" if b else "the default band (the body records none; "
                    "give --band)" for b in own]
     common = bands[0] if len({tuple(b) for b in bands}) == 1 else None
-    return model, t_read, bands, sources, bodies, _asked_damping(args, band or common or DEFAULT_BAND)
+    return model, t_read, bands, sources, bodies, as_damping(_asked_damping(args) or NoDamping(),
+                                                             band or common or DEFAULT_BAND)
 
 
 def _band_lines(paths, bands, sources) -> list[str]:

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from ..errors import OptionError
 from ..linalg.distributed import on_root
-from .commands import _check_new, _emit_json, _with_mesh
+from .commands import _check_new, _emit_json, _progress
 from .tables import fmt
 
 __all__ = ["cmd_export"]
@@ -12,9 +12,9 @@ __all__ = ["cmd_export"]
 
 def cmd_export(args) -> int:
     """``flexmor export``: write a body in an MBS code's format; returns the exit code."""
-    from ..io import export, export_format, read, read_body, unit_formats
+    from ..io import export, export_format, read_body, unit_formats
     from ..origin import reference_model
-    from ..units import to_si
+    from ..prepare import prepare
 
     _check_new(args.output_file, args)
     red = read_body(args.reduced)
@@ -25,15 +25,13 @@ def cmd_export(args) -> int:
         raise OptionError(f"--export-units {args.export_units}: {name} files are written in SI only; other unit "
                           f"systems: {', '.join(unit_formats())}")
     units = args.units or red.units  # the --model file in the unit system the body records, unless given
-    model = to_si(_with_mesh(read(args.model, format=args.model_format), args), units) if args.model else None
+    recorded = red.info.get("preload")
+    preload = recorded.get("specs", []) if isinstance(recorded, dict) else []  # the body's preload, again
+    model = prepare(args.model, format=args.model_format, mesh=args.mesh, units=units, preload=preload,
+                    progress=_progress(args)).model if args.model else None
     out = {"file": str(args.output_file), "format": name, "order": red.order, "method": red.method,
            "units": args.export_units or ("SI" if red.units is not None else None)}
     body, ref = red, None
-    recorded = red.info.get("preload")
-    if model is not None and isinstance(recorded, dict) and model.preload is None:  # the body's preload, again
-        from ..preload import with_preload
-
-        model = with_preload(model, recorded.get("specs", []))
     if model is not None:  # the body's own model (refused otherwise); the exporters apply its couplings
         ref = reference_model(model, red, args.reduced)
         if args.remove_rigid:

@@ -20,7 +20,7 @@ from ..io import EXPORT_FORMATS
 from ..linalg.memory import FACTOR_MEMORY
 from ..options import DEFAULT_BAND, option_fields
 from ..tolerance import tol_methods
-from .commands import cmd_compare, cmd_demo, cmd_info, cmd_reduce, cmd_report
+from .commands import cmd_compare, cmd_demo, cmd_info, cmd_reduce, cmd_report, cmd_run
 from .export import cmd_export
 from .method_flags import COMMON, all_options, flag
 from .ui import add_ui_parser
@@ -302,8 +302,21 @@ def build_parser() -> argparse.ArgumentParser:
                         "and materials of the FE deck (or --material)")
     p.add_argument("--stress-nodes", default="surface", metavar="SET|surface|all",
                    help="where --stress stores the stress: the outer surface (default), every node, or a node set")
+    p.add_argument("--save-study", metavar="FILE", help="also write the study (model file and its checksum, every "
+                   "preparation flag, ports, band, damping, method, order, options; .toml) that flexmor run FILE "
+                   "reproduces")
     _add_method_options(p)
     p.set_defaults(func=cmd_reduce)
+
+    p = sub.add_parser("run", help="reduce as a study file says (flexmor reduce --save-study) and write the body")
+    p.add_argument("study", help="study file (.toml)")
+    p.add_argument("-o", "--output-file", metavar="FILE", help="reduced body file (.h5; default the study's)")
+    p.add_argument("--force", action="store_true", help="overwrite an existing output file")
+    p.add_argument("--backend", default="auto", help="sparse solver: auto, pardiso, cholmod, scipy, petsc")
+    p.add_argument("--factor-memory", choices=FACTOR_MEMORY, default="auto", help="as for reduce")
+    p.add_argument("--memory-limit", type=memory_size, metavar="SIZE", help="as for reduce")
+    p.add_argument("--json", action="store_true", help="print one JSON object on stdout")
+    p.set_defaults(func=cmd_run)
 
     p = sub.add_parser("compare", help="error measures of reduced bodies against the full model")
     _add_model_args(p)
