@@ -208,10 +208,18 @@ def static_point(model, phi, band) -> complex:
     return complex(min(max(float(band[0]), 1e-2 * f0), f0))
 
 
-def _candidates(indicator: ResidualIndicator, band, chosen_hz, n: int = N_CANDIDATES) -> tuple[np.ndarray, np.ndarray]:
-    """``(freqs, rho)``: the candidate grid (log-spaced plus the body's resonances in the band) and ``rho``
-    there, chosen points (and their neighbourhood of :data:`EXCLUDE_REL`) set to -1."""
-    fmin, fmax = band
+def _candidates(indicator: ResidualIndicator, band, chosen_hz, n: int = N_CANDIDATES,
+                low: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
+    """``(freqs, rho)``: the candidate grid (log-spaced plus the body's resonances in the band, none below
+    ``low`` Hz) and ``rho`` there, chosen points (and their neighbourhood of :data:`EXCLUDE_REL`) set to -1.
+
+    A free body's ``low`` is its static point (:func:`static_point`): below it ``K - omega^2 M`` is nearer
+    singular than the static point's ``K + s^2 M`` (its rigid-body eigenvalues ``-omega^2``), which is as
+    close to the rigid-body modes as the solver's check is known to hold, and the elastic response there is
+    the quasi-static one the static point's moments give."""
+    fmin, fmax = max(float(band[0]), low), float(band[1])
+    if fmin >= fmax:
+        return np.array([fmax]), np.array([-1.0])
     f_res = indicator.resonances()
     f = np.unique(np.concatenate([np.geomspace(fmin, fmax, int(n)), f_res[(f_res > fmin) & (f_res < fmax)]]))
     with np.errstate(all="ignore"):
@@ -285,6 +293,7 @@ def greedy_basis(model, ports, order: int | None, band, *, side: str, solver, ph
     indicator.extend(np.zeros((model.n_dof, 0)), V)
     limit = model.n_dof if order is None else int(order)
     points, used, per_point, rho_max, estimates, empty = [static_point(model, phi, band)], [], [], [], [], 0
+    low = abs(points[0])  # a free body: no point on the axis below its static point (_candidates)
     cut = False
     n_directions: list[int] = []
     while V.shape[1] < limit and (max_points is None or len(used) < max_points) and empty < 3:
@@ -314,7 +323,7 @@ def greedy_basis(model, ports, order: int | None, band, *, side: str, solver, ph
                 break
         if V.shape[1] >= limit:
             break
-        f, rho = _candidates(indicator, band, [abs(complex(q).imag) for q in points], n_candidates)
+        f, rho = _candidates(indicator, band, [abs(complex(q).imag) for q in points], n_candidates, low=low)
         k = int(np.argmax(rho))
         if rho[k] < 0:  # nothing left to choose
             log.warning("%s: no further expansion point in the band at order %d", label, V.shape[1])
@@ -331,7 +340,7 @@ def greedy_basis(model, ports, order: int | None, band, *, side: str, solver, ph
                               (V, model.M, model.K, model.D))
     if estimate:
         info["points_check"] = difference_estimate(model, ports, V, indicator, band, side=side, solver=solver,
-                                                   phi=phi, chosen=[abs(complex(q).imag) for q in points])
+                                                   phi=phi, chosen=[abs(complex(q).imag) for q in points], low=low)
     return V, info, reduced
 
 
@@ -426,7 +435,8 @@ def nested_difference(model, ports, V, indicator: ResidualIndicator, r: int, ban
     return out
 
 
-def difference_estimate(model, ports, V, indicator: ResidualIndicator, band, *, side, solver, phi, chosen) -> dict:
+def difference_estimate(model, ports, V, indicator: ResidualIndicator, band, *, side, solver, phi, chosen,
+                        low: float = 0.0) -> dict:
     """The estimated band error of the body of ``V``: against the body enriched by the full model's
     solution where the residual of ``V``'s body is largest (see the module docstring); ``indicator`` is
     extended by the new columns.
@@ -437,7 +447,7 @@ def difference_estimate(model, ports, V, indicator: ResidualIndicator, band, *, 
         ``estimate`` (:func:`nested_difference`), ``check_hz`` (where the full model was solved),
         ``pointwise_at_check`` (the body's true relative error there), ``indicator_at_check``, ``n_freq``.
     """
-    f, rho = _candidates(indicator, band, chosen)
+    f, rho = _candidates(indicator, band, chosen, low=low)
     k = int(np.argmax(rho))
     out = {"estimate": float("nan"), "check_hz": float(f[k]), "indicator_at_check": float(rho[k])}
     if rho[k] < 0:
