@@ -70,6 +70,9 @@ def test_python_saves_a_study_the_command_line_runs(capsys, folder):
     system.save_study(folder / "py.toml", "craig-bampton", 60, {"interface": ["END"]}, judge={"error": False})
     run_json(capsys, "run", folder / "py.toml", "-o", folder / "c.h5")
     _same(body, read_body(folder / "c.h5"))
+    code, text, _ = run(capsys, "info", folder / "c.h5")  # the body names its study
+    assert code == 0 and "beam8_clamped_mat.sti (SHA-256 " in text and "select END=box:0.9,0,0,1,1,1" in text
+    assert 'file = "beam8_clamped_mat.sti"' in (folder / "py.toml").read_text()
 
 
 def _saved(capsys, folder):

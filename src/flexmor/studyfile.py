@@ -244,11 +244,15 @@ def _unknown(path, key: str, known: list) -> OptionError:
 
 
 def relative_to(path, folder) -> str:
-    """``path`` relative to ``folder`` where it can be (else absolute), with forward slashes."""
+    """``path`` relative to ``folder`` when the two share a folder below the file system's root (a study
+    moved with its model keeps finding it), else absolute; with forward slashes."""
     import os
 
-    target = Path(path).resolve()
+    target, base = Path(path).resolve(), Path(folder).resolve()
     try:
-        return Path(os.path.relpath(target, Path(folder).resolve())).as_posix()
+        common = Path(os.path.commonpath([target, base]))
     except ValueError:  # another drive
         return target.as_posix()
+    if common == Path(common.anchor):
+        return target.as_posix()
+    return Path(os.path.relpath(target, base)).as_posix()

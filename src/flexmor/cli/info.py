@@ -121,6 +121,16 @@ def _row(name: str, value, width: int = 12) -> None:
     print(f"{name:<{width}}{value}")
 
 
+def _study_text(study: dict) -> str:
+    """One line on the study a body records: its model file, checksum and preparation."""
+    model = study.get("model", {})
+    prep = [f"{k} {', '.join(map(str, v)) if isinstance(v, list) else v}" for k, v in model.items()
+            if k in ("format", "mesh", "units", "select", "preload", "material")]
+    return (f"from {model.get('file')} (SHA-256 {str(model.get('sha256'))[:12]}...)" + (f"; {'; '.join(prep)}" if prep
+                                                                                         else "")
+            + " (info --json: the whole study)")
+
+
 def info_body(args, emit_json) -> int:
     """Print (or emit as JSON) the summary of the body ``args.model``."""
     from ..damping import damping_from_dict
@@ -131,7 +141,7 @@ def info_body(args, emit_json) -> int:
     se = red.info.get("format") == _NASTRAN_SE
     out = dict(red.summary(), file=str(args.model), coupling_frequencies=red.info.get("coupling_frequencies"),
                made_by="nastran" if se else "flexmor", coordinates=_coordinates(red), preload=red.info.get("preload"),
-               basis=basis_record(red.info))
+               basis=basis_record(red.info), study=red.info.get("study"))
     if se:
         out["nastran"] = {k: red.info.get(k) for k in ("source", "matrices", "n_boundary", "n_modal",
                                                          "fixed_interface_hz", "kbq_rel")}
@@ -169,6 +179,8 @@ def info_body(args, emit_json) -> int:
         _row("preload", f"{', '.join(map(str, preload['specs']))}: its K holds their geometric stiffness (judge, "
                         "compare and export it with the same --preload)")
     _row("units", _units_line(out["units"], "the body is in SI; export --export-units writes other systems"))
+    if out["study"]:
+        _row("study", _study_text(out["study"]))
     fr = out["frequencies_hz"]
     if fr is not None:
         _row("freqs [Hz]", " ".join(f"{f:.5g}" for f in fr[:16]) + (" ..." if len(fr) > 16 else ""))
