@@ -288,13 +288,16 @@ class System(Shown):
         elif damping is not None and not isinstance(damping, dict):
             raise OptionError(f"a study file records damping as {{'rayleigh': (alpha, beta)}}, {{'modal_damping': "
                               f"zeta}} or {{'band_rayleigh': zeta}}, not {type(damping).__name__}", params=("damping",))
-        model = {"file": str(given["model"]), "sha256": file_sha256(given["model"]), **self.preparation}
-        if "mesh" in model:
-            model["mesh"], model["mesh_sha256"] = str(model["mesh"]), file_sha256(model["mesh"])
-        if "material" in model:
-            model["material"] = [float(v) for v in model["material"]]
-        if not is_partitioned(self.model.K):
-            model["fingerprint"] = study_fingerprint(self.model)
+        if given.get("study_model") is None:  # once per system: the checksums read the files, hash K and M
+            model = {"file": str(given["model"]), "sha256": file_sha256(given["model"]), **self.preparation}
+            if "mesh" in model:
+                model["mesh"], model["mesh_sha256"] = str(model["mesh"]), file_sha256(model["mesh"])
+            if "material" in model:
+                model["material"] = [float(v) for v in model["material"]]
+            if not is_partitioned(self.model.K):
+                model["fingerprint"] = study_fingerprint(self.model)
+            given["study_model"] = model
+        model = {k: (dict(v) if isinstance(v, dict) else v) for k, v in given["study_model"].items()}
         band = None if given["band"] is None else [float(v) for v in Band.of(given["band"])]
         reduce = {"method": method_name(method), **({"order": int(order)} if order is not None else {}),
                   **{k: v for k, v in extra.pop("reduce", {}).items() if v is not None},
@@ -377,6 +380,21 @@ class System(Shown):
         check_keywords_of("System.simulate", options, simulate, drop=("dt", "t_end", "ports"))
         options.setdefault("solver", self.solver)
         return simulate(self.model, u, dt=dt, t_end=t_end, ports=self.ports, **options)
+
+    def static(self, body, **options) -> dict | None:
+        """``body``'s static error against the full model's static deflection under its inputs and the frame's
+        six accelerations, supported as it is or (a free body) held clamped at its first interface
+        (:func:`flexmor.analysis.mounted.static_record`; ``options`` as there: ``full``, ``mounted``,
+        ``band_rms_error``)."""
+        from .analysis.mounted import mounted_record, static_record
+
+        check_keywords_of("System.static", options, static_record, drop=("ports",))
+        self.check(body)
+        options.setdefault("solver", self.solver)
+        if "mounted" not in options:
+            options["mounted"] = mounted_record(self.model, body, ports=self.ports, band=self.band,
+                                                solver=options["solver"], full=options.get("full"))
+        return static_record(self.model, body, ports=self.ports, **options)
 
     def mounted(self, body, **options) -> dict | None:
         """``body`` held in its joints against the full model held there

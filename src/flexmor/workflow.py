@@ -136,7 +136,9 @@ def reduce_and_judge(model, method: str, order, ports, *, band=None,
     ``result["warnings"]`` lists them. With ``mounted`` (and the error evaluation), a body with
     interfaces (coupling masters, Craig-Bampton interface sets) is also judged as held in its
     joints (:func:`flexmor.analysis.mounted.mounted_record`): ``result["mounted"]`` and
-    ``reduced.errors["mounted"]``, its note (if any) among the ``notes``, ``timings["mounted"]``.
+    ``reduced.errors["mounted"]``, its note (if any) among the ``notes``, ``timings["mounted"]``; and every
+    body its static error (:func:`flexmor.analysis.mounted.static_record`: ``result["static"]``,
+    ``reduced.errors["static"]``, its note, ``timings["static"]``).
     With ``uncoupled`` (the model before its ``couplings`` were
     applied), ``result["coupling_frequencies"]`` (also in the body's ``info``) compares the lowest
     elastic frequencies of both (:func:`flexmor.checks.coupling_frequencies`; the coupled ones
@@ -255,20 +257,24 @@ def record_setup(body, *, couplings=(), interfaces=(), selections=()) -> None:
 
 
 def _judge_mounted(model, body, ports, result, timings, *, solver=None) -> None:
-    """The body held in its joints (:func:`flexmor.analysis.mounted.mounted_record`) into ``result``,
-    ``red.errors`` and their notes."""
-    from .analysis.mounted import mounted_record
+    """The body held in its joints (:func:`flexmor.analysis.mounted.mounted_record`) and its static error
+    (:func:`flexmor.analysis.mounted.static_record`) into ``result``, ``red.errors`` and their notes."""
+    from .analysis.mounted import mounted_record, static_record
 
     t0 = time.perf_counter()
-    rec = mounted_record(model, body, ports=ports, band=result["band_hz"], band_rms_error=result["band_rms_error"],
-                         solver=solver)
-    timings["mounted"] = time.perf_counter() - t0
-    if rec is None:
-        return
-    result["mounted"] = body.errors["mounted"] = rec
-    if rec["note"]:
-        result["notes"].append(rec["note"])
-        body.errors["notes"].append(rec["note"])
+    mounted = mounted_record(model, body, ports=ports, band=result["band_hz"], band_rms_error=result["band_rms_error"],
+                             solver=solver)
+    t1 = time.perf_counter()
+    static = static_record(model, body, ports=ports, mounted=mounted, band_rms_error=result["band_rms_error"],
+                           solver=solver)
+    timings["mounted"], timings["static"] = t1 - t0, time.perf_counter() - t1
+    for key, rec in (("mounted", mounted), ("static", static)):
+        if rec is None:
+            continue
+        result[key] = body.errors[key] = rec
+        if rec["note"]:
+            result["notes"].append(rec["note"])
+            body.errors["notes"].append(rec["note"])
 
 
 def with_method_band(method: str, band, options: dict) -> dict:

@@ -28,7 +28,7 @@ from .info import (
     print_mass_properties,
 )
 from .method_flags import method_options
-from .tables import fmt, note_text, notes_as_flags, print_error_table, print_mounted
+from .tables import fmt, note_text, notes_as_flags, print_error_table, print_mounted, print_static
 
 __all__ = ["cmd_info", "cmd_reduce", "cmd_run", "cmd_compare", "cmd_report", "cmd_demo"]
 
@@ -416,6 +416,7 @@ def _reduce_system(args, system, options: dict, solver) -> int:
               f"{describe_damping(model.damping)}:")
         print_error_table([res])
         print_mounted([res])
+        print_static([res])
     for line in coupling_lines(res.get("coupling_frequencies")):
         print(f"coupling: {line}")
     fr = res["frequencies_hz"]
@@ -515,9 +516,12 @@ def cmd_compare(args) -> int:
         if mkey not in mounts:
             mounts[mkey] = FullMounted(ref, solver=solver)
         row["mounted"] = system.mounted(red, full=mounts[mkey], band_rms_error=row["band_rms_error"])
+        row["static"] = system.static(red, full=mounts[mkey], mounted=row["mounted"],
+                                      band_rms_error=row["band_rms_error"])
         row["timings"]["mounted"] = time.perf_counter() - t0
-        if row["mounted"] and row["mounted"]["note"]:
-            row["notes"].append(row["mounted"]["note"])
+        for rec in (row["mounted"], row["static"]):
+            if rec and rec["note"]:
+                row["notes"].append(rec["note"])
         rows.append(row)
     fulls = {k: s.full for k, s in systems.items()}
     if args.json:
@@ -532,6 +536,7 @@ def cmd_compare(args) -> int:
         return 0
     print_error_table(rows, label="file")
     print_mounted(rows, label="file")
+    print_static(rows, label="file")
     damp = sorted({r["reference_damping"] for r in rows})
     from ..checks import describe_couplings
 

@@ -6,7 +6,7 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-from .tables import note_text
+from .tables import fmt, note_text
 
 __all__ = ["is_body_file", "info_body", "interface_lines", "info_backends", "info_formats", "print_mass_properties",
            "coupling_lines", "BASIS_KEYS", "basis_record", "basis_rows"]
@@ -207,6 +207,7 @@ def info_body(args, emit_json) -> int:
     else:
         _row("errors", "not evaluated")
     _mounted_rows(err.get("mounted"))
+    _static_rows(err.get("static"))
     m = out["model"]
     if m:
         _row("model", f"{m.get('name')} ({m.get('source') or 'no file'}): {m['n_dof']:,} DOF, {m['n_nodes']:,} nodes")
@@ -320,6 +321,16 @@ def _mounted_rows(rec) -> None:
                 + ": full " + " ".join(f"{f:.4g}" for f in c["frequencies_full_hz"][:4]) + " Hz, freq error "
                 + ("-" if fe is None else f"{fe:.2e}") + ("" if se is None else f", static error {se:.2e}"))
         _row("mounted" if k == 0 else "", text)
+    if rec.get("note"):
+        _row("", f"note: {note_text(rec['note'])}")
+
+
+def _static_rows(rec) -> None:
+    """The body's static error (``errors["static"]``, :func:`flexmor.analysis.mounted.static_record`): one row."""
+    if not rec:
+        return
+    _row("static", f"{rec['as']}: error at the inputs {fmt(rec['static_error'], '.2e')}, largest over the inputs "
+         f"and the frame's six accelerations {fmt(rec['max_static_error'], '.2e')}")
     if rec.get("note"):
         _row("", f"note: {note_text(rec['note'])}")
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from ..errors import name_parameters
 
-__all__ = ["fmt", "note_text", "notes_as_flags", "print_error_table", "print_mounted"]
+__all__ = ["fmt", "note_text", "notes_as_flags", "print_error_table", "print_mounted", "print_static"]
 
 
 def fmt(x, spec: str = ".3e") -> str:
@@ -130,7 +130,29 @@ def print_mounted(rows, label: str = "method") -> None:
     for x in [head + ("freq error", "static error")] + lines:
         print("".join(f"{v:<{n}}" for v, n in zip(x, w)) + f"{x[4]:>11}{x[5]:>14}")
     print("freq error = max |f_red/f_full - 1| of the lowest elastic modes in the band; static error = max relative "
-          "error of the clamped deflection under gravity x y z and the inputs (at the outputs and over the field)")
+          "error of the clamped deflection under the frame's six accelerations and the inputs (at the outputs and "
+          "over the field)")
+
+
+def print_static(rows, label: str = "method") -> None:
+    """Print the bodies' static errors (``row["static"]``, :func:`flexmor.analysis.mounted.static_record`), if
+    any: per body how it is held, the error at its outputs under its inputs and the largest error over the
+    inputs and the frame's six accelerations."""
+    lines = []
+    for r in rows:
+        rec = r.get("static")
+        if rec:
+            name = f"{r['method']} r={r['order']}" if label == "method" else str(r.get(label))
+            lines.append((name, rec["as"], fmt(rec["static_error"], ".2e"), fmt(rec["max_static_error"], ".2e")))
+    if not lines:
+        return
+    head = ("body", "held", "at inputs", "largest")
+    w = [max(len(h), *(len(x[i]) for x in lines)) + 2 for i, h in enumerate(head)]
+    print("static: the body's static deflection against the full model's, held the same way")
+    for x in [head] + lines:
+        print("".join(f"{v:<{n}}" for v, n in zip(x, w)).rstrip())
+    print("at inputs = max over the inputs of ||C (u_red - u)|| / ||C u||; largest = max relative error at the outputs "
+          "and over the field under the inputs and the frame's six accelerations (gravity x y z, angular rx ry rz)")
 
 
 def _subspace_groups(rows) -> list[list[str]]:

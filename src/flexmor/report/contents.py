@@ -206,15 +206,19 @@ def _frequency_section(rep: Report, model, ports, full, bodies, labels, seconds)
 
 def _mounted_records(rep: Report, model, ports, bodies, labels, solver) -> None:
     """``row["mounted"]``: each body held in its joints against the full model held the same way
-    (:func:`flexmor.analysis.mounted.mounted_record`), the full side computed once for all bodies."""
-    from ..analysis.mounted import FullMounted, mounted_record
+    (:func:`flexmor.analysis.mounted.mounted_record`), and ``row["static"]``, its static error
+    (:func:`flexmor.analysis.mounted.static_record`); the full side computed once for all bodies."""
+    from ..analysis.mounted import FullMounted, mounted_record, static_record
 
     held = FullMounted(model, solver=solver)
     for lb, row, red in zip(labels, rep.rows, bodies):
         row["mounted"] = mounted_record(model, red, ports=ports, full=held, band=rep.band,
                                         band_rms_error=row["band_rms_error"])
-        if row["mounted"] and row["mounted"]["note"]:
-            rep.notes.append(f"{lb}: {row['mounted']['note']}")
+        row["static"] = static_record(model, red, ports=ports, full=held, mounted=row["mounted"],
+                                      band_rms_error=row["band_rms_error"])
+        for rec in (row["mounted"], row["static"]):
+            if rec and rec["note"]:
+                rep.notes.append(f"{lb}: {rec['note']}")
 
 
 def _h2_errors(rep: Report, model, ports, bodies, h2_max_dof: int) -> None:

@@ -111,6 +111,7 @@ def render_html(rep: Report) -> str:
 
         out.append(render_section(rep.scene))
     out += _mounted_section(rep.rows)
+    out += _static_section(rep.rows)
     out += ['<h2 id="frf">Transfer functions |H|</h2>', _img(rep.figures["frf"], "|H| full vs reduced"),
             '<h2 id="rel-error">rel_error(f)</h2>', _img(rep.figures["rel_error"], "rel_error per method")]
     if "singular_values" in rep.figures:
@@ -158,8 +159,27 @@ def _mounted_section(rows) -> list:
             "<p class=note>Each interface clamped (its six master DOFs held) and pinned (three translations held), "
             "the reduced body (its floating frame and elastic coordinates under the same constraint) against the full "
             "model supported the same way: the lowest elastic eigenfrequencies, and the relative error of the clamped "
-            "static deflection under gravity in x, y, z and under each input (at the outputs and the largest "
-            "displacement error over the body).</p>"]
+            "static deflection under the frame's six accelerations and under each input (at the outputs and the "
+            "largest displacement error over the body).</p>"]
+
+
+def _static_section(rows) -> list:
+    """The section "Static response" (rows with a ``static`` record), or nothing."""
+    def by_load(x):
+        return f"{x['load']} {fmt(x['output_error'] if x['output_error'] is not None else x['field_error'], '.1e')}"
+
+    table = [[r["label"], rec["as"], fmt(rec["static_error"], ".2e"), fmt(rec["max_static_error"], ".2e"),
+              ", ".join(by_load(x) for x in rec["loads"])] for r in rows for rec in [r.get("static")] if rec]
+    if not table:
+        return []
+    return ['<h2 id="static">Static response</h2>',
+            _table(["body", "held", "error at the inputs", "largest", "by load (at the outputs, else the field)"],
+                   table, (0, 1, 4)),
+            "<p class=note>The body's static deflection against the full model's, supported as it is (a free body: "
+            "clamped at its first interface): under each input (the error at the outputs) and under the frame's six "
+            "accelerations, gravity in x, y, z and unit angular accelerations (at the outputs and the largest "
+            "displacement error over the body). The band error hides it at the band's low end; an MBS model under "
+            "gravity or a slow load sags by it.</p>"]
 
 
 def _coupling_section(rep: Report) -> list:
