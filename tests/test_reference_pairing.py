@@ -120,3 +120,19 @@ def test_the_right_reference_stays_as_good(capsys, support):
     n_rigid = 6 if support == "free" else 0
     assert ref["model_modes"] == list(range(1, 21)) and ref["notes"] == []
     assert ref["rel_diff"][:n_rigid] == [None] * n_rigid and max(ref["rel_diff"][n_rigid:]) < 5e-7
+
+
+def test_a_reference_of_the_model_as_read_is_compared_with_it_when_couplings_are_given(capsys):
+    """CalculiX's frequencies of the free beam, with ``--interface FIX@rbe2``: compared with the model as read
+    (the RBE2 stiffens the coupled model by up to 6.4e-4, which was reported as "another model or support"),
+    and the line says which model and how far the other is."""
+    code, out, err = run(capsys, "info", CCX / "beam8_free_mat.sti", "--interface", "FIX@rbe2",
+                         "--reference", CCX / "beam8_free_freq.dat", "--json")
+    ref = json.loads(out)["reference"]
+    assert code == 0 and "warning" not in err and ref["notes"] == []
+    assert ref["compared_with"] == "the model as read, before its couplings"
+    assert max(d for d in ref["rel_diff"] if d is not None) < 5e-7
+    assert ref["others"]["the model with RBE2 at FIX"] > 1e-4
+    code, out, _ = run(capsys, "info", CCX / "beam8_free_mat.sti", "--interface", "FIX@rbe2",
+                       "--reference", CCX / "beam8_free_freq.dat")
+    assert "compared with the model as read, before its couplings (with the model with RBE2 at FIX: largest" in out

@@ -95,3 +95,16 @@ def test_a_static_record_of_a_model_spread_over_ranks_or_without_basis_is_none(p
     body = plate.reduce("krylov", 6)
     body.V = None
     assert static_record(plate.model, body) is None
+
+
+def test_unit_loads_at_the_interface_master_are_exact_for_craig_bampton():
+    """A supported beam with its tip coupled (TIP@rbe2): the static loads include the master's six unit loads,
+    which Craig-Bampton's constraint modes carry exactly (Guyan's static condensation), while the frame's
+    accelerations, distributed over the body, are approximated by its fixed-interface modes."""
+    system = flexmor.System(CLAMPED, inputs=["TIP@rbe2:y"], interfaces=["TIP@rbe2"])
+    body = system.reduce("craig-bampton", 12)
+    rec = system.static(body)
+    by_load = {x["load"]: x for x in rec["loads"]}
+    assert [f"TIP@RBE2:{d}" for d in ("x", "y", "z", "rx", "ry", "rz")] == [n for n in by_load if n.startswith("TIP@")]
+    assert max(by_load[f"TIP@RBE2:{d}"]["field_error"] for d in ("x", "y", "z", "rx", "ry", "rz")) < 1e-9
+    assert by_load["gravity:x"]["field_error"] > 1e-4 and rec["static_error"] < 1e-9

@@ -258,6 +258,17 @@ def test_reduce_stores_stress_modes_and_exports_them(tmp_path, capsys):
                                atol=1e-6 * np.abs(mode1.values).max())
     assert np.isnan(s1[~on]).all() and (~on).sum() == 9 and grid_mode.shape == (model.n_dof,)
     np.testing.assert_allclose(grid.point_data["mises_1"][on], von_mises(s1[on]), rtol=1e-12)
+    # ... and the fields of the body's coordinates q (its basis vectors), which the h5/SID/Exudyn files use:
+    # stress_basis_j are the body's stress modes, mode_k = sum_j basis_j eigenvectors[j, k]
+    E = np.asarray(grid.field_data["eigenvectors"]).reshape(8, 8)
+    pos = {int(n): i for i, n in enumerate(body.stress_nodes)}
+    for j in (0, 5):
+        sb = grid.point_data[f"stress_basis_{j + 1}"]
+        np.testing.assert_allclose(sb[on], body.stress_modes[j][[pos[int(n)] for n in ids[on]]], rtol=1e-12,
+                                   atol=1e-12 * np.abs(body.stress_modes).max())
+    basis = np.stack([grid.point_data[f"basis_{j + 1}"] for j in range(8)], axis=-1)
+    np.testing.assert_allclose(basis @ E[:, 2], grid.point_data["mode_3"], rtol=1e-9,
+                               atol=1e-9 * np.abs(grid.point_data["mode_3"]).max())
 
     # the .mat file
     import scipy.io

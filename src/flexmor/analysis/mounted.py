@@ -85,6 +85,8 @@ RANK_TOL = 1e-10
 #: unit angular acceleration about x, y, z.
 ACCELERATIONS = ("gravity:x", "gravity:y", "gravity:z", "angular:rx", "angular:ry", "angular:rz")
 
+_DIRECTIONS = ("x", "y", "z", "rx", "ry", "rz")
+
 #: The support of a model without rigid-body motion, held as it is (:func:`static_record`).
 AS_SUPPORTED = "supported"
 
@@ -324,10 +326,18 @@ class MountedCheck:
 
 def _static_cases(model, body, full, support, X, T, Kt, ports):
     """The static errors of the clamped ``support`` (or of the supported model as it is): the frame's six
-    accelerations (:data:`ACCELERATIONS`) and the body's inputs."""
+    accelerations (:data:`ACCELERATIONS`), unit loads at the master of every other interface (one per master
+    DOF, named ``INTERFACE:DIR``) and the body's inputs."""
     R = rigid_motions(model)
     loads = [(name, model.M @ R[:, i]) for i, name in enumerate(ACCELERATIONS) if np.any(R[:, i])]
     held = np.asarray(support.eqs, dtype=np.int64)
+    for other in supports(model, body, held=("clamped",)):  # unit loads at every other interface's master
+        if other.node is None or other.interface == support.interface:
+            continue
+        for eq in other.eqs:
+            f = np.zeros(model.n_dof)
+            f[eq] = 1.0
+            loads.append((f"{other.interface}:{_DIRECTIONS[int(model.dofs[eq, 1]) - 1]}", f))
     if ports is not None:
         B = ports.B.toarray()
         for j, name in enumerate(ports.input_names):
@@ -466,8 +476,9 @@ def mounted_record(model, body, *, band_rms_error: float | None = None, **option
 
 def static_record(model, body, *, ports=None, full: FullMounted | None = None, mounted: dict | None = None,
                   band_rms_error: float | None = None, solver: SolverContext | None = None) -> dict | None:
-    """The body's static error: its static deflection against the full model's under each of its inputs and
-    the frame's six accelerations (:data:`ACCELERATIONS`), for a supported model as it is, for a free body
+    """The body's static error: its static deflection against the full model's under each of its inputs,
+    the frame's six accelerations (:data:`ACCELERATIONS`) and unit loads at its (other) interfaces' masters,
+    for a supported model as it is, for a free body
     held clamped at its first interface (the ``mounted`` record's case; a free body without interfaces has
     no static deflection: None).
 

@@ -222,11 +222,15 @@ def cmd_info(args) -> int:
             free = done.unloaded
             out["preload"]["frequencies_unloaded_hz"] = frequencies_hz(eigenmodes(free.K, free.M, k,
                                                                                    solver=solver)[0]).tolist()
-    if args.reference:
-        from ..io.reference import compare_reference, read_reference
+    if args.reference:  # the model the reference was computed for: as read, or with the couplings given
+        from ..checks import describe_couplings
+        from ..io.reference import compare_reference_with, read_reference
 
         ref = read_reference(args.reference)
-        out["reference"] = dict(compare_reference(model, ref, solver=solver), file=str(args.reference),
+        candidates = {"the model as read": model} if not couplings else {
+            f"the model with {describe_couplings(couplings)}": model,
+            "the model as read, before its couplings": done.as_read}
+        out["reference"] = dict(compare_reference_with(candidates, ref, solver=solver), file=str(args.reference),
                                 described=ref.describe())
     if couplings:
         from ..checks import COUPLING_MODES, coupling_frequencies
@@ -300,7 +304,10 @@ def _print_reference(path, ref: dict) -> None:
     """The table of ``info --reference``: each reference frequency against the model's, and the MAC when
     the file holds mode shapes (an .frd); the kind of file and, without shapes, why there is no MAC."""
     shapes = ref["shapes"]
-    print(f"\nreference {path}: {ref['described']}" + ("" if shapes else "; frequencies only, no mode shapes: "
+    print(f"\nreference {path}: {ref['described']}"
+          + (f"; compared with {ref['compared_with']}" if ref.get("compared_with") else "")
+          + "".join(f" (with {k}: largest difference {fmt(v, '.2e')})" for k, v in ref.get("others", {}).items())
+          + ("" if shapes else "; frequencies only, no mode shapes: "
                                                                        "no MAC column"))
     print(" mode   reference [Hz]       model [Hz]   rel. diff" + ("   MAC" if shapes else ""))
     macs = ref["mac"] if shapes else [None] * len(ref["frequencies_hz"])

@@ -1,7 +1,8 @@
 """flexmor's own reduced-body file (HDF5): :func:`write_body`, read by :func:`flexmor.io.read_body`.
 
 Layout: datasets ``M K B C`` (and ``D``, ``V``, ``node_ids``, ``xyz``, ``dofs``, ``stress_nodes``,
-``stress_modes`` when present),
+``stress_modes`` when present; ``V`` and ``stress_modes`` per basis vector, i.e. per coordinate ``q`` of the
+body, not per eigenmode as the ``.vtu``'s ``mode_k`` / ``stress_k``: :mod:`flexmor.io.vtu`),
 ``errors/freqs_hz`` and ``errors/rel_error`` when evaluated; attributes ``format``
 (= ``flexmor-reduced``), ``version``, ``method``, ``model_name`` and JSON strings ``info``,
 ``damping``, ``errors``, ``input_names``, ``output_names``, ``origin`` (the fingerprint of

@@ -32,7 +32,7 @@ from ..linalg.context import SolverContext
 from ._open import suffix
 from ._text import read_text
 
-__all__ = ["KINDS", "Reference", "compare_frequencies", "compare_reference", "read_reference"]
+__all__ = ["compare_reference_with", "KINDS", "Reference", "compare_frequencies", "compare_reference", "read_reference"]
 
 #: The kinds of reference file, as the messages name them.
 KINDS = {"frd": "CalculiX .frd (frequencies and mode shapes)",
@@ -224,3 +224,25 @@ def compare_reference(model, ref: Reference, *, solver: SolverContext | None = N
     else:
         out = compare_frequencies(model, ref.frequencies_hz, solver=solver)
     return dict(out, kind=ref.kind, shapes=ref.has_shapes)
+
+
+def compare_reference_with(models: dict, ref: Reference, *, solver: SolverContext | None = None) -> dict:
+    """:func:`compare_reference` against the model of ``models`` (label -> FEModel, e.g. the coupled model and
+    the model as read before its couplings) that the reference fits: the fewest notes (rigid-body modes,
+    unpaired modes, a large difference), then the smallest largest relative difference of the elastic pairs.
+    Only that comparison's notes are issued; ``compared_with`` is its label, ``others`` the largest
+    difference of each other model."""
+    import warnings
+
+    tried = []
+    for label, model in models.items():
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            out = compare_reference(model, ref, solver=solver)
+        diffs = [abs(d) for d in out["rel_diff"] if d is not None]
+        tried.append(((len(out["notes"]), max(diffs) if diffs else np.inf), label, out, caught))
+    score, label, out, caught = min(tried, key=lambda t: t[0])
+    for w in caught:
+        warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
+    others = {lb: (None if not np.isfinite(sc[1]) else float(sc[1])) for sc, lb, _, _ in tried if lb != label}
+    return dict(out, compared_with=label, others=others)

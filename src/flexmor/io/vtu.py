@@ -9,6 +9,13 @@ equation, e.g. a clamped node) and the frequencies in Hz as field data ``frequen
 with stress modes (``reduce --stress``, :func:`flexmor.stress.body_stresses`) adds each mode's
 nodal stress ``stress_k`` (xx yy zz xy yz zx, CalculiX's order) and its von Mises stress
 ``mises_k`` (NaN at nodes where the body stores no stress).
+
+Those fields belong to the body's eigenmodes (mass-normalised, sign chosen so that the largest
+displacement is positive). The coordinates ``q`` of the body files (h5, SID, Exudyn, MAT, FMU) and of a
+simulation belong to its basis vectors: the file also holds ``basis_j`` (the displacement of ``q_j = 1``),
+``stress_basis_j`` / ``mises_basis_j`` (its stress, the body's ``stress_modes``) and the field data
+``eigenvectors`` (r x r, row j, column k) with ``mode_k = sum_j basis_j eigenvectors[j, k]``; a state ``q``
+from the MBS code is displayed by ``sum_j q_j basis_j`` (and its stress by ``sum_j q_j stress_basis_j``).
 In ParaView: *Warp By Vector* with a ``mode_k`` array animates mode k. Written through
 meshio (the optional extra ``flexmor[mesh]``), atomically.
 """
@@ -168,6 +175,14 @@ def write_vtu(body, path, *, model=None) -> None:
     nodal = nodal_modes(shapes, geometry)
     point_data = {f"mode_{k + 1}": np.ascontiguousarray(nodal[:, :, k]) for k in range(nodal.shape[2])}
     point_data.update(_stress_data(body, phi, np.asarray(geometry.node_ids)))
+    # the body's own coordinates q (those of the h5, SID, Exudyn, MAT and FMU files): basis_j = V e_j, and
+    # mode_k = sum_j basis_j eigenvectors[j, k-1]
+    r = np.shape(body.V)[1]
+    basis = nodal_modes(np.asarray(body.V, dtype=float), geometry)
+    point_data.update({f"basis_{j + 1}": np.ascontiguousarray(basis[:, :, j]) for j in range(r)})
+    point_data.update({k.replace("stress_", "stress_basis_").replace("mises_", "mises_basis_"): v
+                       for k, v in _stress_data(body, np.eye(r), np.asarray(geometry.node_ids)).items()})
+    fields = {"frequencies_hz": freqs, "eigenvectors": phi}
     grid = mesh.to_meshio(geometry.node_ids, xyz, point_data=point_data, field_data={"frequencies_hz": freqs},
                           vtk=True)
     if masters:
@@ -176,7 +191,7 @@ def write_vtu(body, path, *, model=None) -> None:
 
     def write(tmp):
         meshio.write(tmp, grid, file_format="vtu")
-        _add_field_data(tmp, {"frequencies_hz": freqs})
+        _add_field_data(tmp, fields)
 
     atomic_write(path, write)
 
@@ -187,9 +202,12 @@ def _add_field_data(path, arrays: dict) -> None:
     grid = tree.getroot().find("UnstructuredGrid")
     field = ElementTree.Element("FieldData")
     for name, values in arrays.items():
-        values = np.asarray(values, dtype=np.float64).ravel()
+        values = np.asarray(values, dtype=np.float64)
+        n_comp = values.shape[1] if values.ndim == 2 else 1  # a matrix: one tuple per row
+        values = values.ravel()
         array = ElementTree.SubElement(field, "DataArray", type="Float64", Name=name,
-                                       NumberOfTuples=str(values.size), format="ascii")
+                                       NumberOfTuples=str(values.size // n_comp), format="ascii",
+                                       **({"NumberOfComponents": str(n_comp)} if n_comp > 1 else {}))
         array.text = " ".join(repr(float(v)) for v in values)
     grid.insert(0, field)
     tree.write(path, xml_declaration=True, encoding="utf-8")
