@@ -15,6 +15,7 @@ import pytest
 import scipy.sparse.linalg as spla
 from helpers import FREE
 
+import flexmor
 from flexmor.analysis.mounted import FullMounted, mounted_check, mounted_note, supports
 from flexmor.cli import main
 from flexmor.couplings import couple
@@ -213,3 +214,36 @@ def test_reduce_json_info_and_compare_carry_the_record(capsys, tmp_path):
     rows = json.loads(capsys.readouterr().out)["results"]
     assert [r["mounted"]["max_static_error"] for r in rows] == pytest.approx(
         [rec["max_static_error"], off["mounted"]["max_static_error"]], rel=1e-9)
+
+
+def test_the_held_modes_cover_the_band_and_carry_their_damping_ratios(plate):
+    """Issue: the check looked at six held modes whatever the band. Held clamped at the hole's master, the full
+    model's elastic modes up to the band's top (2000 Hz) are all paired, their number that of an independent
+    dense eigen solve; with stiffness-proportional damping (D = beta K, which holds the frame's rigid motion
+    undamped as the MBS code does) a Craig-Bampton body that reproduces the held modes has their damping
+    ratios too; with modal damping the full model's held ratios are left out and the record says why."""
+    import scipy.linalg as sla
+
+    from flexmor.analysis.mounted import mounted_record
+
+    model, six, _, _ = plate
+    sup = next(s for s in supports(model, held=("clamped",)))
+    free = np.setdiff1d(np.arange(model.n_dof), sup.eqs)
+    lam = sla.eigh(model.K[free][:, free].toarray(), model.M[free][:, free].toarray(), eigvals_only=True)
+    f_dense = np.sqrt(np.clip(lam, 0, None)) / (2 * np.pi)
+    n_band = int(np.sum((f_dense > 1.0) & (f_dense <= BAND[1])))
+    stiff = model.with_damping(flexmor.damping.Rayleigh(0.0, 2e-6))
+    body = reduce(stiff, "craig-bampton", 60, six, interface=["HOLE@rbe2"])
+    rec = mounted_record(stiff, body, ports=six, band=BAND, held=("clamped",))
+    case = rec["cases"][0]
+    assert n_band > 6 and len(case["frequencies_full_hz"]) == n_band
+    np.testing.assert_allclose(case["frequencies_full_hz"], f_dense[f_dense > 1.0][:n_band], rtol=1e-8)
+    assert case["max_frequency_error"] < 1e-6
+    np.testing.assert_allclose(case["damping_reduced"], case["damping_full"], rtol=1e-5)
+    w = 2 * np.pi * np.asarray(case["frequencies_full_hz"])
+    np.testing.assert_allclose(case["damping_full"], 2e-6 * w / 2, rtol=1e-8)  # beta K: zeta = beta w / 2
+    modal = mounted_record(model, reduce(model, "craig-bampton", 60, six, interface=["HOLE@rbe2"]), ports=six,
+                           band=BAND, held=("clamped",))
+    assert modal["cases"][0]["damping_full"] is None and len(modal["cases"][0]["damping_reduced"]) == n_band
+    assert "modal damping 0.01 is the ratio of each mode of the model as given (free: its free-free modes)" in \
+        modal["damping_note"]

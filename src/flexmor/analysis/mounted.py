@@ -53,6 +53,7 @@ import numpy as np
 import scipy.linalg as sla
 
 from ..couplings import coupling_masters
+from ..damping import ModalDamping
 from ..errors import FlexmorError, ModelError, OptionError, check_choice
 from ..linalg import factorize
 from ..linalg.context import SolverContext, as_solver
@@ -154,10 +155,6 @@ def supports(model, body=None, *, interfaces=None, held=("clamped", "pinned")) -
     return out
 
 
-def _elastic(lam, threshold, k):
-    return np.sort(lam[lam >= threshold])[:k]
-
-
 @dataclass
 class _FullCase:
     """A support case of the full model: free equations, rigid motions left, elastic eigenvalues,
@@ -168,6 +165,7 @@ class _FullCase:
     lam: np.ndarray
     F: object = None
     static: dict = field(default_factory=dict)
+    zeta: list | None = None
 
 
 class FullMounted:
@@ -188,10 +186,11 @@ class FullMounted:
         Sparse factorizations spent so far (one per support case).
     """
 
-    def __init__(self, model, *, modes: int = 6, solver: SolverContext | None = None):
+    def __init__(self, model, *, modes: int = 6, fmax: float | None = None, solver: SolverContext | None = None):
         if int(modes) != modes or modes < 1:
             raise OptionError(f"modes must be a positive integer, got {modes!r}", params=("modes",))
         self.model, self.modes, self.solver = model, int(modes), as_solver(solver)
+        self.fmax = None if fmax is None else float(fmax)
         self.phi = rigid_body_modes(model)
         self.threshold = rigid_body_threshold(model.K, model.M)
         self._cases: dict = {}
@@ -221,14 +220,31 @@ class FullMounted:
         left = self.phi.shape[1] - rank
         k = min(self.modes + left, free.size)
         c0 = self.solver.stats.count
-        F = None
-        if left == 0:
-            F = factorize(Kf, solver=self.solver, positive=True)
-            lam, _ = eigenmodes(Kf, Mf, k, sigma=0.0, factorization=F, solver=self.solver)
-        else:
-            lam, _ = eigenmodes(Kf, Mf, k, solver=self.solver)
+        F = factorize(Kf, solver=self.solver, positive=True) if left == 0 else None
+        while True:  # the held modes up to fmax (at least ``modes``): more until one lies above it
+            if F is not None:
+                lam, X = eigenmodes(Kf, Mf, k, sigma=0.0, factorization=F, solver=self.solver)
+            else:
+                lam, X = eigenmodes(Kf, Mf, k, solver=self.solver)
+            elastic = lam >= self.threshold
+            if (self.fmax is None or k >= free.size
+                    or (elastic.any() and frequencies_hz(np.max(lam[elastic])) > self.fmax)):
+                break
+            k = min(2 * k, free.size)
         self.n_factorizations += self.solver.stats.count - c0
-        case = _FullCase(free, left, _elastic(lam, self.threshold, self.modes), F)
+        order = np.argsort(lam)
+        lam, X = lam[order], X[:, order]
+        keep = np.flatnonzero(lam >= self.threshold)
+        f_el = frequencies_hz(lam[keep])
+        n = self.modes if self.fmax is None else max(self.modes, int(np.sum(f_el <= self.fmax)))
+        keep = keep[:n]
+        zeta = None
+        if m.D is not None and not isinstance(m.damping, ModalDamping):  # x^T D x / (2 w x^T M x) of each mode
+            Df = m.D[free][:, free]
+            Xk = X[:, keep]
+            w = np.sqrt(lam[keep])
+            zeta = (np.einsum("ij,ij->j", Xk, Df @ Xk) / (2 * w * np.einsum("ij,ij->j", Xk, Mf @ Xk))).tolist()
+        case = _FullCase(free, left, lam[keep], F, zeta=zeta)
         log.info("%s %s at %s: full model %s Hz", m.name, support.held, support.interface,
                  np.array2string(frequencies_hz(case.lam), precision=5))
         self._cases[key] = case
@@ -285,6 +301,8 @@ class MountedCase:
     frequencies_reduced_hz: list
     rel_error: list
     static: list
+    damping_full: list | None = None
+    damping_reduced: list | None = None
 
     def max_frequency_error(self, fmax: float | None = None) -> float | None:
         """Largest |relative frequency error| (of the modes up to ``fmax`` Hz when given)."""
@@ -302,6 +320,7 @@ class MountedCase:
         return {"interface": self.interface, "node": self.node, "held": self.held, "n_held": self.n_held,
                 "frequencies_full_hz": self.frequencies_full_hz, "frequencies_reduced_hz": self.frequencies_reduced_hz,
                 "rel_error": self.rel_error, "max_frequency_error": self.max_frequency_error(fmax),
+                "damping_full": self.damping_full, "damping_reduced": self.damping_reduced,
                 "static": self.static, "max_static_error": self.max_static_error()}
 
 
@@ -407,7 +426,8 @@ def mounted_check(model, body, *, ports=None, full: FullMounted | None = None, m
     if is_partitioned(model.K):  # rows spread over MPI ranks: the held matrices need the whole model
         log.info("mounted check skipped: the model's rows are spread over MPI ranks")
         return MountedCheck([], modes if full is None else full.modes, band)
-    full = FullMounted(model, modes=modes, solver=solver) if full is None else full
+    full = FullMounted(model, modes=modes, fmax=None if band is None else band[1], solver=solver) if full is None \
+        else full
     check = MountedCheck([], full.modes, band)
     if not cases_:
         return check
@@ -424,13 +444,23 @@ def mounted_check(model, body, *, ports=None, full: FullMounted | None = None, m
     for sup in cases_:
         fc = full.case(sup)
         X, T, Kt = _mounted_body(model, body, sup.eqs, full.phi)
-        lam_r = _elastic(sla.eigh(Kt, eigvals_only=True), full.threshold, full.modes)
+        lam_all, Y = sla.eigh(Kt)
+        el = np.flatnonzero(lam_all >= full.threshold)[:max(len(fc.lam), full.modes)]
+        lam_r = lam_all[el]
         f_full = frequencies_hz(fc.lam).tolist()
         f_red = frequencies_hz(lam_r).tolist()
+        zeta_r = None
+        if body.D is not None:  # the MBS code damps the elastic coordinates q only: D_a = diag(0, Dr)
+            k = X.shape[1] - np.shape(body.V)[1]
+            Da = np.zeros((X.shape[1], X.shape[1]))
+            Da[k:, k:] = body.D
+            Yk = Y[:, el]
+            zeta_r = (np.einsum("ij,ij->j", Yk, (T.T @ Da @ T) @ Yk) / (2 * np.sqrt(lam_r))).tolist()
         rel = [f_red[i] / f_full[i] - 1.0 if i < len(f_red) and f_full[i] > 0 else None
                for i in range(len(f_full))]
         static = _static_cases(model, body, full, sup, X, T, Kt, ports) if fc.F is not None else []
-        check.cases.append(MountedCase(sup.interface, sup.node, sup.held, len(sup.eqs), f_full, f_red, rel, static))
+        check.cases.append(MountedCase(sup.interface, sup.node, sup.held, len(sup.eqs), f_full, f_red, rel, static,
+                                       fc.zeta, zeta_r))
     return check
 
 
@@ -471,7 +501,26 @@ def mounted_record(model, body, *, band_rms_error: float | None = None, **option
         return None
     rec = check.to_dict()
     rec["note"] = mounted_note(rec, band_rms_error)
+    rec["damping_note"] = damping_note(model, body)
     return rec
+
+
+def damping_note(model, body) -> str | None:
+    """What the damping ratios of the held modes (``damping_full``, ``damping_reduced``) mean for ``model``'s
+    damping, or None without damping."""
+    if model.D is None and body.D is None:
+        return None
+    free = rigid_body_modes(model).shape[1] > 0
+    text = ("damping ratios of the held modes: the body's from its damping of the elastic coordinates q (the MBS "
+            "code's; the frame's motion undamped)" + (", so held modes that move the frame are damped less than "
+                                                       "the body's own modes" if free else ""))
+    if isinstance(model.damping, ModalDamping):
+        return (text + f"; modal damping {model.damping.zeta:g} is the ratio of each mode of the model as given"
+                + (" (free: its free-free modes)" if free else "") + ", the body has it exactly in its own modes; "
+                "held, the modes are other combinations and their ratios those listed. The full model's held ratios "
+                "are not given: its sparse damping matrix is the Rayleigh damping matched at the band's ends, lower "
+                "in between (give --rayleigh for a like-for-like comparison)")
+    return text + "; the full model's from its damping matrix D held the same way (x^T D x / 2 w)"
 
 
 def static_record(model, body, *, ports=None, full: FullMounted | None = None, mounted: dict | None = None,

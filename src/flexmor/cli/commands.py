@@ -519,9 +519,9 @@ def cmd_compare(args) -> int:
                "band_hz": list(band), "band_source": source, **err.to_dict(), "damping": ref.damping.to_dict(),
                "reference_damping": describe_damping(ref.damping), "timings": {"error": t_err}}
         t0 = time.perf_counter()  # the body in its joints; the full side once per model (couplings, selections)
-        mkey = key[2:4]
+        mkey = (*key[2:5], band[1])  # held modes up to the band's top, their damping ratios with the damping
         if mkey not in mounts:
-            mounts[mkey] = FullMounted(ref, solver=solver)
+            mounts[mkey] = FullMounted(ref, fmax=band[1], solver=solver)
         row["mounted"] = system.mounted(red, full=mounts[mkey], band_rms_error=row["band_rms_error"])
         row["static"] = system.static(red, full=mounts[mkey], mounted=row["mounted"],
                                       band_rms_error=row["band_rms_error"])

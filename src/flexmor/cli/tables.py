@@ -129,9 +129,12 @@ def print_mounted(rows, label: str = "method") -> None:
     print("mounted: the body held at its interfaces against the full model held the same way")
     for x in [head + ("freq error", "static error")] + lines:
         print("".join(f"{v:<{n}}" for v, n in zip(x, w)) + f"{x[4]:>11}{x[5]:>14}")
-    print("freq error = max |f_red/f_full - 1| of the lowest elastic modes in the band; static error = max relative "
-          "error of the clamped deflection under the frame's six accelerations and the inputs (at the outputs and "
-          "over the field)")
+    print("freq error = max |f_red/f_full - 1| of the held elastic modes up to the band's top, paired in order; "
+          "static error = max relative error of the clamped deflection under the frame's six accelerations and the "
+          "inputs (at the outputs and over the field)")
+    for text in dict.fromkeys((r.get("mounted") or {}).get("damping_note") for r in rows):
+        if text:
+            print(f"note: {text}")
 
 
 def print_static(rows, label: str = "method") -> None:

@@ -210,7 +210,7 @@ def _mounted_records(rep: Report, model, ports, bodies, labels, solver) -> None:
     (:func:`flexmor.analysis.mounted.static_record`); the full side computed once for all bodies."""
     from ..analysis.mounted import FullMounted, mounted_record, static_record
 
-    held = FullMounted(model, solver=solver)
+    held = FullMounted(model, fmax=rep.band[1], solver=solver)
     for lb, row, red in zip(labels, rep.rows, bodies):
         row["mounted"] = mounted_record(model, red, ports=ports, full=held, band=rep.band,
                                         band_rms_error=row["band_rms_error"])

@@ -146,21 +146,26 @@ def _mounted_section(rows) -> list:
     table = []
     for r in rows:
         for c in (r.get("mounted") or {}).get("cases", ()):
+            zf, zr = c.get("damping_full"), c.get("damping_reduced")
             table.append([r["label"], c["interface"], c["held"],
                           " ".join(fmt(f, ".4g") for f in c["frequencies_full_hz"]),
                           " ".join(fmt(f, ".4g") for f in c["frequencies_reduced_hz"]),
-                          fmt(c["max_frequency_error"], ".2e"), fmt(c["max_static_error"], ".2e")])
+                          fmt(c["max_frequency_error"], ".2e"), fmt(c["max_static_error"], ".2e"),
+                          " / ".join(" ".join(fmt(z, ".2g") for z in zs[:3]) if zs else "-" for zs in (zf, zr))])
     if not table:
         return []
+    notes = [f"<p class=note>{html.escape(n)}</p>" for n in dict.fromkeys((r.get("mounted") or {}).get("damping_note")
+                                                                          for r in rows) if n]
     return ['<h2 id="mounted">The body in its joints</h2>',
             _table(["body", "interface", "held", "full model held [Hz]", "body held [Hz]", "max Δf/f (band)",
-                    "static error"],
-                   table, (0, 1, 2, 3, 4)),
+                    "static error", "ζ of the first 3: full / body"],
+                   table, (0, 1, 2, 3, 4, 7)),
             "<p class=note>Each interface clamped (its six master DOFs held) and pinned (three translations held), "
             "the reduced body (its floating frame and elastic coordinates under the same constraint) against the full "
             "model supported the same way: the lowest elastic eigenfrequencies, and the relative error of the clamped "
             "static deflection under the frame's six accelerations and under each input (at the outputs and the "
-            "largest displacement error over the body).</p>"]
+            "largest displacement error over the body). The held modes up to the band's top, paired in order (a mode "
+            "the body misses shifts the pairs above it).</p>", *notes]
 
 
 def _static_section(rows) -> list:
