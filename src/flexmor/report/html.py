@@ -162,7 +162,7 @@ def _mounted_section(rows) -> list:
                    table, (0, 1, 2, 3, 4, 7)),
             "<p class=note>Each interface clamped (its six master DOFs held) and pinned (three translations held), "
             "the reduced body (its floating frame and elastic coordinates under the same constraint) against the full "
-            "model supported the same way: the lowest elastic eigenfrequencies, and the relative error of the clamped "
+            "model supported the same way: the held elastic eigenfrequencies, and the relative error of the clamped "
             "static deflection under the frame's six accelerations and under each input (at the outputs and the "
             "largest displacement error over the body). The held modes up to the band's top, paired in order (a mode "
             "the body misses shifts the pairs above it).</p>", *notes]
