@@ -89,9 +89,14 @@ def test_effective_masses_of_a_clamped_body_grow_with_its_modes(beam):
 
 def test_trim_by_frequency_and_its_error_against_the_full_model(beam):
     body = beam.reduce("modal", 20)
-    trimmed, rec = trim(body, band=BAND, max_frequency=5000.0, full=beam.full)
+    trimmed, rec = trim(body, band=BAND, max_frequency=5000.0, full=beam.full, static=False)  # the modes alone
     kept = body.frequencies_hz() <= 5000.0
     assert rec["reference"] == REFERENCE_FULL and rec["order"] == kept.sum() == trimmed.order
+    assert rec["static_vectors"] == 0
+    # by default with the static response of the modes left out: no worse, and as many modes
+    with_static, srec = trim(body, band=BAND, max_frequency=5000.0, full=beam.full)
+    assert srec["modes_kept"] == rec["modes_kept"] and srec["order"] == kept.sum() + srec["static_vectors"]
+    assert srec["band_error"] <= rec["band_error"]
     assert rec["modes_kept"] == (np.flatnonzero(kept) + 1).tolist()
     assert rec["band_error"] == pytest.approx(beam.judge(trimmed).band_error, rel=1e-12)
     assert rec["band_error"] > beam.judge(body).band_error
@@ -106,12 +111,12 @@ def test_select_modes_by_response_keeps_fewer_modes_than_by_frequency():
     s = flexmor.System(CLAMPED, inputs=["TIP:y"], band=BAND, damping=Rayleigh(0.0, 1e-6), cache=False)
     body = s.reduce("modal", 20)
     tol = 1e-4
-    trimmed, rec = trim(body, band=BAND, tol=tol, full=s.full)
+    trimmed, rec = trim(body, band=BAND, tol=tol, full=s.full, static=False)
     assert rec["tol_reached"] and rec["band_error"] <= tol and trimmed.order < 20
     assert s.judge(trimmed).band_error == pytest.approx(rec["band_error"], rel=1e-12)
     lowest = keep_modes(modal_form(body), np.arange(trimmed.order))  # as many modes, the lowest ones
     assert s.judge(lowest).band_error > tol
-    _, missed = trim(body, band=BAND, tol=1e-30, full=s.full)
+    _, missed = trim(body, band=BAND, tol=1e-30, full=s.full, static=False)
     assert not missed["tol_reached"] and missed["order"] == 20
 
 
@@ -125,7 +130,8 @@ def test_export_modal_form_and_trimmed_bodies(capsys, tmp_path):
     rec = run_json(capsys, "export", tmp_path / "m.h5", "-o", tmp_path / "t.ss.npz", "--max-frequency", "6000",
                    "--model", CLAMPED)
     mf = rec["modal_form"]
-    assert mf["reference"] == REFERENCE_FULL and mf["max_frequency_hz"] <= 6000 and mf["order"] < 20
+    assert mf["reference"] == REFERENCE_FULL and mf["max_frequency_hz"] <= 6000 and len(mf["modes_kept"]) < 20
+    assert mf["order"] == len(mf["modes_kept"]) + mf["static_vectors"]
     ss = np.load(tmp_path / "t.ss.npz")
     assert ss["A"].shape == (2 * mf["order"], 2 * mf["order"])
     code, out, _ = run(capsys, "export", tmp_path / "m.h5", "-o", tmp_path / "s.mat", "--select-modes", "auto",
@@ -156,7 +162,7 @@ def test_sid_export_of_a_free_body_in_modal_form(capsys, tmp_path):
     run_json(capsys, "reduce", FREE, "--method", "krylov", "--order", "12", "--input", "TIP:y", "--input",
              "FIX@rbe2:all", "--band", "10:3000", "--rayleigh", "0:1e-6", "-o", tmp_path / "k.h5")
     rec = run_json(capsys, "export", tmp_path / "k.h5", "-o", tmp_path / "k.SID_FEM", "--modal-form",
-                   "--max-frequency", "4000", "--model", FREE)
+                   "--max-frequency", "4000", "--model", FREE, "--no-static-vectors")
     sid = read_sid(tmp_path / "k.SID_FEM")
     assert sid.nq == rec["modal_form"]["order"] < 12
     np.testing.assert_allclose(sid.frequencies_hz(), rec["modal_form"]["frequencies_hz"], rtol=1e-6)
@@ -177,7 +183,7 @@ def test_trim_of_an_undamped_body_without_the_full_model():
     assert rec["reference"] == REFERENCE_BODY and rec["order"] == 12 and rec["band_error"] < 1e-12
     np.testing.assert_allclose(trimmed.frequencies_hz(), body.frequencies_hz(), rtol=1e-9)
     trimmed, rec = trim(body, band=(1.0, 1000.0), max_frequency=600.0)
-    assert rec["order"] == int(np.sum(body.frequencies_hz() <= 600.0)) < 12
+    assert len(rec["modes_kept"]) == int(np.sum(body.frequencies_hz() <= 600.0)) < 12
 
 
 def test_a_trimmed_body_says_what_it_is(capsys, tmp_path):
@@ -189,8 +195,9 @@ def test_a_trimmed_body_says_what_it_is(capsys, tmp_path):
                    "3000", "-o", tmp_path / "m.h5")
     rec = out["modal_form"]
     body = flexmor.io.read_body(tmp_path / "m.h5")
-    assert body.order == rec["order"] < 20
-    assert body.order_note == f"modal form: {rec['order']} of the 20 elastic modes of the body reduced (up to " \
-                              f"{rec['max_frequency_hz']:.4g} Hz)"
+    assert body.order == rec["order"] == len(rec["modes_kept"]) + rec["static_vectors"] and rec["static_vectors"] > 0
+    assert body.order_note == f"modal form: {len(rec['modes_kept'])} of the 20 elastic modes of the body reduced " \
+                              f"(up to {rec['max_frequency_hz']:.4g} Hz) and {rec['static_vectors']} static vectors " \
+                              "(the static response of the modes left out)"
     assert body.errors["band_error"] == pytest.approx(rec["band_error"], rel=1e-12)
     assert body.errors["judged"] == REFERENCE_FULL and body.errors["band_hz"] == [10.0, 3000.0]

@@ -28,7 +28,12 @@ from .body import ReducedModel
 from .errors import ModelError, OptionError
 from .linalg.eigen import is_rigid
 
-__all__ = ["modal_form", "mode_table", "keep_modes", "response_shares", "MODE_TABLE_DAMPING"]
+__all__ = ["modal_form", "mode_table", "keep_modes", "keep_modes_static", "static_loads", "response_shares",
+           "MODE_TABLE_DAMPING", "STATIC_RANK_TOL"]
+
+#: Relative singular value below which a static response the dropped modes carry adds no vector
+#: (:func:`keep_modes_static`).
+STATIC_RANK_TOL = 1e-10
 
 #: Damping ratio the response shares of an undamped body are computed with (its resonances
 #: would make every share infinite).
@@ -94,6 +99,63 @@ def keep_modes(body: ReducedModel, keep) -> ReducedModel:
     return _replace(body, M=body.M[sub], K=body.K[sub], D=None if body.D is None else body.D[sub],
                     B=body.B[idx], C=body.C[:, idx], V=None if body.V is None else body.V[:, idx], info=info,
                     stress_modes=None if body.stress_modes is None else body.stress_modes[idx])
+
+
+def static_loads(body: ReducedModel) -> tuple[np.ndarray, list[str]]:
+    """``(F, names)``: the loads in ``body``'s coordinates whose static response a trimmed body keeps: its
+    inputs (``B``), the frame's six accelerations (``info["frame_participation"]``, ``V^T M R``) and unit
+    loads at each coupling master's equations (rows of ``V`` at the master, ``info["masters"]``)."""
+    cols, names = [np.asarray(body.B, float)], [f"input:{n}" for n in body.input_names]
+    P = body.info.get("frame_participation")
+    if P is not None:
+        cols.append(np.asarray(P, float))
+        names += ["gravity:x", "gravity:y", "gravity:z", "angular:rx", "angular:ry", "angular:rz"]
+    if body.V is not None and body.dofs is not None:
+        dofs = np.asarray(body.dofs)
+        for m in body.info.get("masters", []):
+            rows = np.flatnonzero(dofs[:, 0] == int(m["id"]))
+            cols.append(np.asarray(body.V, float)[rows].T)
+            names += [f"{m['name']}:{'x y z rx ry rz'.split()[int(d) - 1]}" for d in dofs[rows, 1]]
+    return np.hstack(cols), names
+
+
+def keep_modes_static(body: ReducedModel, keep, loads=None) -> tuple[ReducedModel, int]:
+    """The modal-form ``body`` with the modes ``keep`` and the static response the dropped modes carry
+    under ``loads`` (default :func:`static_loads`): ``(trimmed, p)``, ``p`` static vectors added.
+
+    In modal coordinates (``M = I``, ``K = Lambda``) the dropped modes ``D`` carry the static response
+    ``Lambda_D^-1 F_D``; its range (SVD, singular values above :data:`STATIC_RANK_TOL` of the largest)
+    is added as ``p`` vectors, M- and K-orthogonal to the modes kept and to each other (the residual
+    pseudo-modes, above the kept frequencies). The trimmed body's static response to every load of
+    ``loads`` is then that of ``body``: a body trimmed to its modes up to a frequency still sags like the
+    body (and so like the full model, where the body did), where the kept modes alone miss the residual
+    flexibility of the dropped ones (Craig-Chang, MacNeal).
+    """
+    trimmed = keep_modes(body, keep)
+    idx = np.asarray(trimmed.info["modal_form"]["modes_kept"], int) - 1
+    drop = np.setdiff1d(np.arange(body.order), idx)
+    F = static_loads(body)[0] if loads is None else np.asarray(loads, float)
+    lam = np.diag(body.K)
+    if drop.size == 0 or F.shape[1] == 0:
+        return trimmed, 0
+    U, sv, _ = np.linalg.svd(F[drop] / lam[drop, None], full_matrices=False)
+    p = int(np.sum(sv > STATIC_RANK_TOL * sv[0])) if sv.size and sv[0] > 0 else 0
+    if p == 0:
+        return trimmed, 0
+    W = U[:, :p]
+    mu, Z = np.linalg.eigh(W.T @ (lam[drop, None] * W))
+    W = W @ Z
+    T = np.zeros((body.order, idx.size + p))
+    T[idx, np.arange(idx.size)] = 1.0
+    T[np.ix_(drop, np.arange(idx.size, idx.size + p))] = W
+    info = dict(trimmed.info)
+    info["modal_form"] = dict(info["modal_form"], static_vectors=p)
+    if info.get("frame_participation") is not None:
+        info["frame_participation"] = (T.T @ np.asarray(body.info["frame_participation"], float)).tolist()
+    D = None if body.D is None else _sym(T.T @ body.D @ T)
+    S = None if body.stress_modes is None else np.einsum("ij,ikl->jkl", T, body.stress_modes)
+    return _replace(body, M=np.eye(T.shape[1]), K=np.diag(np.concatenate([lam[idx], mu])), D=D, B=T.T @ body.B,
+                    C=body.C @ T, V=None if body.V is None else body.V @ T, info=info, stress_modes=S), p
 
 
 def response_shares(body: ReducedModel, band) -> np.ndarray:

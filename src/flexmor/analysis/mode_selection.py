@@ -13,7 +13,7 @@ import numpy as np
 
 from ..dynamics.grid import adaptive_grid
 from ..errors import OptionError
-from ..modal import keep_modes, modal_form, response_shares
+from ..modal import keep_modes, keep_modes_static, modal_form, response_shares
 from .frequency import MEASURES, error_measures
 
 __all__ = ["trim", "REFERENCE_FULL", "REFERENCE_BODY"]
@@ -42,7 +42,7 @@ class _BodyReference:
 
 
 def trim(body, *, band, max_frequency: float | None = None, tol: float | None = None,
-         measure: str = "band_error", full=None):
+         measure: str = "band_error", full=None, static: bool = True):
     """``(trimmed, record)``: ``body`` in modal form with the modes ``max_frequency`` (Hz) or
     ``tol`` keep (all its elastic modes when neither is given), and the record of what was kept
     and of the error of ``trimmed``.
@@ -64,6 +64,10 @@ def trim(body, *, band, max_frequency: float | None = None, tol: float | None = 
     full : FullResponse, optional
         The full model's FRF over ``band``: the error is the body's against the full model
         (judged as :meth:`FullResponse.evaluate` judges it); else against ``body`` itself.
+    static : bool
+        Where modes are dropped, add the static response they carry under the body's inputs, the frame's
+        six accelerations and unit loads at its coupling masters (:func:`flexmor.modal.keep_modes_static`):
+        the trimmed body sags like the body. False keeps the modes alone.
 
     Returns
     -------
@@ -104,13 +108,23 @@ def trim(body, *, band, max_frequency: float | None = None, tol: float | None = 
         record.update(tol=float(tol), tol_measure=measure, tol_reached=reached)
     else:
         keep = np.arange(modal.order)
-    trimmed = modal if keep.size == modal.order else keep_modes(modal, keep)
+    n_static = 0
+    if keep.size == modal.order:
+        trimmed = modal
+    elif static:
+        trimmed, n_static = keep_modes_static(modal, keep)
+    else:
+        trimmed = keep_modes(modal, keep)
     err = measures(trimmed)
     record.update(order=trimmed.order, modes_kept=(keep + 1).tolist(), frequencies_hz=f[keep].tolist(),
-                  max_frequency_hz=float(f[keep].max()), **err)
+                  max_frequency_hz=float(f[keep].max()), static_vectors=n_static, **err)
+    if tol is not None:  # verified on the body written (with its static vectors)
+        record["tol_reached"] = bool(err[measure] <= float(tol))
     # the body written says what it is: its order and its error, as judged here (info, compare)
-    trimmed.order_note = (f"modal form: {trimmed.order} of the {modal.order} elastic modes of the body reduced"
-                          + (f" (up to {record['max_frequency_hz']:.4g} Hz)" if trimmed.order < modal.order else ""))
+    trimmed.order_note = (f"modal form: {keep.size} of the {modal.order} elastic modes of the body reduced"
+                          + (f" (up to {record['max_frequency_hz']:.4g} Hz)" if keep.size < modal.order else "")
+                          + (f" and {n_static} static vectors (the static response of the modes left out)"
+                             if n_static else ""))
     trimmed.errors = dict({k: v for k, v in err.items() if k != "notes"}, band_hz=[float(b) for b in band],
                           judged=reference, notes=list(err.get("notes") or []))
     return trimmed, record

@@ -52,11 +52,20 @@ def cmd_export(args) -> int:
           + (f" in {args.export_units}" if args.export_units else ""))
     if "modal_form" in out:
         r = out["modal_form"]
-        kept = (f"{r['order']} of its {r['order_before']} elastic modes (up to {r['max_frequency_hz']:.4g} Hz)"
-                if r["order"] < r["order_before"] else f"all {r['order']} elastic modes")
+        n_kept = len(r["modes_kept"])
+        kept = (f"{n_kept} of its {r['order_before']} elastic modes (up to {r['max_frequency_hz']:.4g} Hz)"
+                + (f" and {r['static_vectors']} static vectors (the static response of the modes left out)"
+                   if r.get("static_vectors") else "") if n_kept < r["order_before"]
+                else f"all {r['order']} elastic modes")
         print(f"modal form: {kept}; the body written has band_error {fmt(r['band_error'], '.3g')} "
               f"(rms {fmt(r['rms_rel_error_pct'], '.3g')} %, hinf_error {fmt(r['hinf_error'], '.3g')}) over "
               f"{r['band_hz'][0]:g}-{r['band_hz'][1]:g} Hz against {r['reference']}")
+        for c in ((r.get("mounted") or {}).get("cases") or ()):
+            print(f"mounted: the body written {c['held']} at {c['interface']}: freq error "
+                  f"{fmt(c['max_frequency_error'], '.2e')}, static error {fmt(c['max_static_error'], '.2e')}")
+        if r.get("static"):
+            print(f"static: the body written ({r['static']['as']}): error at the inputs "
+                  f"{fmt(r['static']['static_error'], '.2e')}, largest {fmt(r['static']['max_static_error'], '.2e')}")
         if r.get("tol") is not None:
             m = r["tol_measure"]
             print(f"--tol {r['tol']:g} on {m}: " + ("met" if r["tol_reached"] else
@@ -86,11 +95,19 @@ def _modal(args, body, ref):
     if args.select_modes and args.max_frequency is not None:
         raise OptionError("give --max-frequency or --select-modes, not both")
     band = Band.of(args.band or body.info.get("band") or (body.errors or {}).get("band_hz") or DEFAULT_BAND)
-    full = None
+    full = ports = None
     if ref is not None:
-        full = FullResponse(ref, make_ports(ref, body.input_names, body.output_names), band, solver=SolverContext())
-    return trim(body, band=band, max_frequency=args.max_frequency, tol=args.tol, measure=args.tol_measure,
-                full=full)
+        ports = make_ports(ref, body.input_names, body.output_names)
+        full = FullResponse(ref, ports, band, solver=SolverContext())
+    trimmed, record = trim(body, band=band, max_frequency=args.max_frequency, tol=args.tol, measure=args.tol_measure,
+                           full=full, static=not args.no_static_vectors)
+    if ref is not None and trimmed is not body:  # the body written, held in its joints and statically (as reduce)
+        from ..analysis.mounted import mounted_record, static_record
+
+        rms = record.get("band_rms_error")
+        record["mounted"] = mounted_record(ref, trimmed, ports=ports, band=band, band_rms_error=rms)
+        record["static"] = static_record(ref, trimmed, ports=ports, mounted=record["mounted"], band_rms_error=rms)
+    return trimmed, record
 
 
 def _without_rigid(ref, red):

@@ -364,7 +364,11 @@ def build_parser() -> argparse.ArgumentParser:
                    "(clamped) model, whose mass properties miss the supported nodes (for a frame that does not move)")
     p.add_argument("--modal-form", action="store_true", help="write the body in its own modes (diagonal M and K; "
                    "rigid-body modes of a free body left out) and state the band error of the body written")
-    p.add_argument("--max-frequency", type=float, metavar="HZ", help="modal form with the modes up to HZ only")
+    p.add_argument("--max-frequency", type=float, metavar="HZ", help="modal form with the modes up to HZ only (and "
+                   "the static response of the modes left out: see --no-static-vectors)")
+    p.add_argument("--no-static-vectors", action="store_true", help="with --max-frequency or --select-modes: the "
+                   "modes kept alone, without the static vectors that keep the static response of the modes left "
+                   "out (under the inputs, the frame's accelerations and the interface loads)")
     p.add_argument("--select-modes", choices=["auto"], help="modal form with the fewest modes whose verified "
                    "error (--tol-measure, over --band) meets --tol, chosen by the response they carry")
     p.add_argument("--tol", type=float, help="the error --select-modes auto must meet")
