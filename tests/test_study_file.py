@@ -56,7 +56,8 @@ def test_a_saved_study_reproduces_the_body_from_the_command_line_and_from_python
     assert system.recipe["method"] == "krylov" and system.preparation["preload"] == ["TIP:x=5e5"]
     py = system.reduce()
     _same(body, py)
-    assert py.info["study"]["reduce"] == {"method": "krylov", "order": 6, "options": {"points": "0,1000j"}}
+    assert py.info["study"]["reduce"] == {"method": "krylov", "order": 6, "inertia_loads": "auto",
+                                          "options": {"points": "0,1000j"}}
     assert body.info["study"]["model"]["sha256"] == py.info["study"]["model"]["sha256"]
     # the record too (the judgement of the Python path)
     _, record = system.reduce_and_judge()

@@ -36,7 +36,10 @@ from .workflow import coupling_specs, record_setup, reduce_and_judge, with_metho
 __all__ = ["System"]
 
 #: Keywords of :meth:`System.reduce_and_judge` that judge the body rather than build it.
-_JUDGE_KEYWORDS = ("tol", "tol_measure", "mounted", "judge", "inertia_loads")
+_JUDGE_KEYWORDS = ("tol", "tol_measure", "mounted", "judge")
+
+#: Keywords of every method's basis (:func:`flexmor.reduction.reduce`), kept in a study file's ``[reduce]``.
+_BASIS_KEYWORDS = ("inertia_loads", "residual_vectors")
 
 
 def _plain(value):
@@ -253,7 +256,9 @@ class System(Shown):
         if self.recipe is None:
             raise OptionError("reduce needs a method (only a system made from a study file has one of its own)",
                               params=("method",))
-        return self.recipe["method"], order or self.recipe.get("order"), {**self.recipe.get("options", {}), **options}
+        basis_keys = {k: self.recipe[k] for k in _BASIS_KEYWORDS if k in self.recipe}
+        return (self.recipe["method"], order or self.recipe.get("order"),
+                {**basis_keys, **self.recipe.get("options", {}), **options})
 
     def _record(self, body, method, order, options) -> None:
         record_setup(body, couplings=self.couplings, interfaces=self.interfaces, selections=self.selections)
@@ -299,9 +304,10 @@ class System(Shown):
             given["study_model"] = model
         model = {k: (dict(v) if isinstance(v, dict) else v) for k, v in given["study_model"].items()}
         band = None if given["band"] is None else [float(v) for v in Band.of(given["band"])]
+        opts = {k: _plain(v) for k, v in (options or {}).items() if v is not None and k != "solver"}
         reduce = {"method": method_name(method), **({"order": int(order)} if order is not None else {}),
-                  **{k: v for k, v in extra.pop("reduce", {}).items() if v is not None},
-                  "options": {k: _plain(v) for k, v in (options or {}).items() if v is not None and k != "solver"}}
+                  **{k: opts.pop(k) for k in _BASIS_KEYWORDS if k in opts},
+                  **{k: v for k, v in extra.pop("reduce", {}).items() if v is not None}, "options": opts}
         ports = {k: list(given[k]) for k in ("inputs", "outputs", "interfaces") if given[k]}
         return {k: v for k, v in {"band": band, "model": model, "ports": ports,
                                   "damping": {k: (list(v) if k == "rayleigh" else v) for k, v in damping.items()}

@@ -146,7 +146,7 @@ def reduce_and_judge(model, method: str, order, ports, *, band=None,
     """
     method = method_name(method)  # aliases and case resolved once: the band, the checks and the record use it
     check_keywords(f"reduce_and_judge with method {method!r}", options,
-                   [*methods()[method].keywords, "inertia_loads", *keyword_names(reduce_and_judge)])
+                   [*methods()[method].keywords, "inertia_loads", "residual_vectors", *keyword_names(reduce_and_judge)])
     solver = as_solver(solver)
     full_of = full if callable(full) and not isinstance(full, FullResponse) else None
     if full_of is not None:

@@ -360,6 +360,7 @@ def cmd_run(args) -> int:
     args.no_error, args.no_mounted = not judge.get("error", True), not judge.get("mounted", True)
     args.tol, args.tol_measure = judge.get("tol"), judge.get("tol_measure", "band_error")
     args.inertia_loads = recipe.get("inertia_loads", "auto")
+    args.residual_vectors = recipe.get("residual_vectors", False)
     args.stress, args.stress_nodes = recipe.get("stress", False), recipe.get("stress_nodes", "surface")
     args.output_file = args.output_file or recipe["output"].get("body")
     args.save_study = None
@@ -379,6 +380,7 @@ def _reduce_system(args, system, options: dict, solver) -> int:
         raise OptionError("--stress needs the model on one process (not with --backend petsc under mpirun)")
     red, res = system.reduce_and_judge(args.method, args.order, judge=not args.no_error, tol=args.tol,
                                        tol_measure=args.tol_measure, inertia_loads=args.inertia_loads,
+                                       residual_vectors=args.residual_vectors,
                                        mounted=not args.no_mounted, **options)
     res["timings"]["read"] = system.prepared_as.seconds
     if is_partitioned(model.K):  # under mpirun with --backend petsc: the rows of K held by each rank
@@ -394,7 +396,8 @@ def _reduce_system(args, system, options: dict, solver) -> int:
     res["file"] = str(path)
     if args.save_study:
         on_root(system.save_study, args.save_study, args.method, args.order, options,
-                reduce={"inertia_loads": args.inertia_loads, "stress": args.stress or None,
+                reduce={"inertia_loads": args.inertia_loads, "residual_vectors": args.residual_vectors or None,
+                        "stress": args.stress or None,
                         "stress_nodes": args.stress_nodes if args.stress else None},
                 judge={"error": not args.no_error, "mounted": not args.no_mounted, "tol": args.tol,
                        "tol_measure": args.tol_measure, "n_freq": args.n_freq, "grid_tol": args.grid_tol,

@@ -296,6 +296,10 @@ def build_parser() -> argparse.ArgumentParser:
                    "master (--interface SET@rbe2) so that the mounted body sags like the full model (nothing for a "
                    "free body without one); use on for a supported body whose support moves (M R). "
                    "Methods whose basis ignores the inputs (modal, guyan, craig-bampton) are not affected")
+    p.add_argument("--residual-vectors", action="store_true",
+                   help="append the static responses to the inputs, the frame's six accelerations and the coupling "
+                   "masters' unit loads to the method's basis (counted in --order): the body's static response is "
+                   "exact (every method; flexmor.reduction.residual)")
     p.add_argument("--stress", action="store_true",
                    help="store the body's stress modes: the nodal stress (xx yy zz xy yz zx, extrapolated and "
                         "averaged as CalculiX does) of every basis vector at --stress-nodes; needs the elements "

@@ -62,7 +62,7 @@ __all__ = ["register_method", "METHODS", "ALIASES", "methods", "method_name", "r
 
 
 def reduce(model, method: str, order: int | None, ports, *, inertia_loads: str = "auto",
-           **options) -> ReducedModel:
+           residual_vectors: bool = False, **options) -> ReducedModel:
     """Reduce ``model`` with the registered ``method`` and project it.
 
     Every argument may be given by keyword: ``reduce(model=m, method="krylov", order=8, ports=p)``.
@@ -86,6 +86,11 @@ def reduce(model, method: str, order: int | None, ports, *, inertia_loads: str =
         default ``auto``) the same accelerations of the body held at each master, so that the
         mounted body sags like the full model. The reduced body keeps ``ports``. No effect on
         methods whose basis does not use the inputs (modal, guyan, craig-bampton).
+    residual_vectors : bool
+        Append the static responses to the inputs, the frame's accelerations and the coupling masters'
+        unit loads (:mod:`flexmor.reduction.residual`), counted in ``order``: the method builds
+        ``order - p`` vectors (``p`` the rank of those responses). ``info["residual_vectors"]`` counts
+        the vectors added (fewer where the method's basis holds some already).
     **options
         Method options (the fields of the method's ``options_class``, e.g. ``interface``) and
         ``solver``; any other keyword raises OptionError listing the allowed ones. Options
@@ -109,7 +114,7 @@ def reduce(model, method: str, order: int | None, ports, *, inertia_loads: str =
     if not isinstance(ports, Ports):
         raise PortError(f"ports must be a Ports (flexmor.make_ports(model, inputs, outputs), e.g. inputs "
                         f"['TIP:y']), got {type(ports).__name__}", params=("ports",))
-    check_keywords(method, options, [*m.keywords, "inertia_loads"])
+    check_keywords(method, options, [*m.keywords, "inertia_loads", "residual_vectors"])
     opts = {k: v for k, v in options.items() if v is not None}
     check_option_types(m.options_class, opts)
     order = check_reachable(model, order)  # the order rule: see flexmor.reduction._registry
@@ -118,7 +123,14 @@ def reduce(model, method: str, order: int | None, ports, *, inertia_loads: str =
     t0 = time.perf_counter()
     with blas_threads(1):  # tall-skinny and small dense products (see flexmor.linalg.threads)
         basis_ports, inertia = with_inertia_loads(model, ports, inertia_loads if m.uses_inputs else "off")
-        basis = exclude_rigid(model, m.function(model, basis_ports, order, **opts))
+        if residual_vectors:
+            from .residual import residual_order, static_responses, with_residual_vectors
+
+            X, p = static_responses(model, ports, band=Band.of(opts.get("band")), solver=options.get("solver"))
+            basis = exclude_rigid(model, m.function(model, basis_ports, residual_order(order, p, method), **opts))
+            basis = with_residual_vectors(model, basis, X)
+        else:
+            basis = exclude_rigid(model, m.function(model, basis_ports, order, **opts))
         t1 = time.perf_counter()
         red = project(model, basis, ports)
         t2 = time.perf_counter()
@@ -129,6 +141,10 @@ def reduce(model, method: str, order: int | None, ports, *, inertia_loads: str =
     if model.n_nodes and model.dofs is not None and not is_partitioned(model.M):  # effective masses (mode table)
         P, mass = frame_participation(model, red.V)
         red.info["frame_participation"], red.info["frame_mass"] = P.tolist(), mass.tolist()
+    if residual_vectors and order is not None and red.order < order:
+        red.order_note = (f"{method} built {red.order - red.info['residual_vectors']} vectors and "
+                          f"{red.info['residual_vectors']} residual vectors were added: order {red.order} instead of "
+                          f"{order}, the basis held {order - red.order} of the static responses already")
     if order is not None and red.order != order and not red.order_note:
         red.order_note = order_note(method, red.order, order)
     red.info["timings"] = {"basis": t1 - t0, "project": t2 - t1}
