@@ -26,6 +26,8 @@ CASES = {
     "modal": (6, {}),
     "guyan": (None, {"interface": ["TIP_CENTER"]}),
     "craig-bampton": (9, {"interface": ["TIP_CENTER"]}),
+    "craig-chang": (9, {"interface": ["TIP_CENTER"]}),
+    "herting": (9, {"interface": ["TIP_CENTER"]}),
     "krylov": (6, {"band": BAND}),
     "irka": (4, {"band": BAND, "max_iter": 3}),
     "adaptive": (6, {"band": BAND, "max_points": 3, "n_candidates": 50}),

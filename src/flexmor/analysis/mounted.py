@@ -276,9 +276,12 @@ def _mounted_body(model, body, eqs, phi):
         Ma[:k, :k] = np.eye(k)
         Ma[:k, k:] = phi.T @ sparse_dense(model.M, V)
         Ma[k:, :k] = Ma[:k, k:].T
-    _, s, Wt = np.linalg.svd(X[list(eqs)], full_matrices=True)
+    # the columns scaled to unit mass first: the null space does not depend on the scale of the basis
+    # vectors, the rank decision does (a residual flexibility vector of 1e-10 m/N next to a unit mode)
+    d = 1.0 / np.sqrt(np.clip(np.diag(Ma), np.finfo(float).tiny, None))
+    _, s, Wt = np.linalg.svd(X[list(eqs)] * d, full_matrices=True)
     rank = int(np.sum(s > RANK_TOL * s[0])) if s.size and s[0] > 0 else 0
-    Z = Wt[rank:].T
+    Z = d[:, None] * Wt[rank:].T
     Mz = Z.T @ Ma @ Z
     w, U = np.linalg.eigh(0.5 * (Mz + Mz.T))
     keep = w > RANK_TOL * w[-1] if w.size else np.zeros(0, bool)

@@ -32,6 +32,7 @@ from . import (  # noqa: F401  (each method module registers its methods in METH
     balanced,  # sobt, fw-sobt; gramians.py holds the Gramians
     cms,
     craig_bampton,
+    free_interface,  # craig-chang, herting
     guyan,
     irka,
     krylov,
