@@ -43,17 +43,26 @@ def _direct(system, body):
     return inputs, field
 
 
+def _same(got, direct):
+    """The same relative error to 1e-6, or both at round-off (below 1e-9: the rounding of the solves decides
+    their digits)."""
+    if direct < 1e-9:
+        assert got < 1e-9
+    else:
+        assert got == pytest.approx(direct, rel=1e-6)
+
+
 @pytest.mark.parametrize("method, order", [("sobt", 20), ("krylov", 20), ("modal", 20)])
 def test_the_static_error_of_a_supported_body_is_the_direct_one(plate, method, order):
     body, record = plate.reduce_and_judge(method, order)
     rec = record["static"]
     assert rec is body.errors["static"] and rec["as"] == "supported"
     inputs, field = _direct(plate, body)
-    assert rec["static_error"] == pytest.approx(inputs, rel=1e-6, abs=1e-12)
+    _same(rec["static_error"], inputs)
     by_load = {x["load"]: x for x in rec["loads"]}
     assert [n for n in by_load if not n.startswith("input:")] == list(ACCELERATIONS)
     for name, e in zip(ACCELERATIONS, field):
-        assert by_load[name]["field_error"] == pytest.approx(e, rel=1e-6, abs=1e-12)
+        _same(by_load[name]["field_error"], e)
     noted = [n for n in record["notes"] if n.startswith("static response")]
     if method == "krylov":  # its first point is 0 Hz: the static response to the inputs is exact
         assert rec["static_error"] < 1e-9 and not noted
