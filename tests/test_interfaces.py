@@ -170,6 +170,18 @@ def test_mounted_by_its_interface_it_sags_like_the_clamped_beam(beam, tmp_path):
     np.testing.assert_allclose(D, red.D, rtol=1e-12, atol=1e-12 * np.abs(red.D).max())
 
 
+@pytest.mark.parametrize("method", ["craig-chang", "herting"])
+def test_a_free_interface_body_mounts_by_its_interface(beam, method):
+    """Craig-Chang and Herting 16 (free-interface modes and the master's residual flexibility) held at FIX@rbe2
+    in Exudyn under gravity sag like Craig-Bampton 16, which sags like the full model (4.5e-10)."""
+    free, _, c, bodies = beam
+    mc = apply_damping(c.model, modal_damping=0.01, band=(10.0, 3000.0))
+    red = reduce(mc, method, 16, make_ports(mc, ["TIP:y"]), interface=[SPEC])
+    red.couplings = [SPEC]
+    z, _, _ = _mounted_tip_z(red, free)
+    assert z == pytest.approx(_mounted_tip_z(bodies["craig-bampton"], free)[0], rel=1e-6)
+
+
 @pytest.mark.parametrize("method", ["craig-bampton", "krylov"])
 def test_a_body_trimmed_by_frequency_still_sags_like_the_body(beam, method):
     """Issue: Craig-Bampton 16 and Krylov 16 trimmed by --max-frequency 20000 (14-15 of their modes) sagged
