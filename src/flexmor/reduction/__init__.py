@@ -90,8 +90,8 @@ def reduce(model, method: str, order: int | None, ports, *, inertia_loads: str =
     residual_vectors : bool
         Append the static responses to the inputs, the frame's accelerations and the coupling masters'
         unit loads (:mod:`flexmor.reduction.residual`), counted in ``order``: the method builds
-        ``order - p`` vectors (``p`` the rank of those responses). ``info["residual_vectors"]`` counts
-        the vectors added (fewer where the method's basis holds some already).
+        ``order - p`` vectors (``p`` the rank of those responses; built once more with a larger share
+        where its basis holds some of them already). ``info["residual_vectors"]`` counts the vectors added.
     **options
         Method options (the fields of the method's ``options_class``, e.g. ``interface``) and
         ``solver``; any other keyword raises OptionError listing the allowed ones. Options
@@ -130,6 +130,12 @@ def reduce(model, method: str, order: int | None, ports, *, inertia_loads: str =
             X, p = static_responses(model, ports, band=Band.of(opts.get("band")), solver=options.get("solver"))
             basis = exclude_rigid(model, m.function(model, basis_ports, residual_order(order, p, method), **opts))
             basis = with_residual_vectors(model, basis, X)
+            added = basis.info["residual_vectors"]
+            if order is not None and added < p and basis.order < order:  # the method's basis held some of them:
+                # it gets their share of the order back (fewer may be new then, never more: order is not exceeded)
+                basis = exclude_rigid(model, m.function(model, basis_ports, residual_order(order, added, method),
+                                                        **opts))
+                basis = with_residual_vectors(model, basis, X)
         else:
             basis = exclude_rigid(model, m.function(model, basis_ports, order, **opts))
         t1 = time.perf_counter()

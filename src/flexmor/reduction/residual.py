@@ -10,11 +10,13 @@ within 1e-6 over the band can sag 1 % wrong. ``reduce(..., residual_vectors=True
 * unit loads at each coupling master's equations (a supported body),
 
 made M-orthogonal to the method's basis and M- and K-orthogonal to each other (their pseudo-modes lie
-above the band), counted in the order: the method builds ``order - p`` vectors (``p`` the number of
-loads), the residual vectors fill the rest (fewer where loads are dependent). A free body's static
-response is the inertia-relief one: its loads made self-equilibrated (``(I - M Φ Φᵀ) F``), solved with
-``K + s0² M`` (``s0`` the free body's static point, :func:`flexmor.reduction.greedy_points.static_point`)
-and refined until the rigid-body content is removed (``(s0²/λ1)^k``).
+above the band), counted in the order: the method builds ``order - p`` vectors (``p`` the rank of the
+static responses), the residual vectors fill the rest; where the method's basis holds some of them already
+(krylov's 0 Hz point holds the inputs'), the method is built once more with their share of the order.
+A free body's static response is the inertia-relief one: its loads made self-equilibrated
+(``(I - M Φ Φᵀ) F``), solved with ``K + s0² M`` (``s0`` the free body's static point,
+:func:`flexmor.reduction.greedy_points.static_point`) and refined until the rigid-body content is
+removed (``(s0²/λ1)^k``).
 
 This is modal truncation augmentation (Dickens, Nakagawa, Wittbrodt 1997) and the static completion of
 Craig-Chang's residual flexibility, for every method.
