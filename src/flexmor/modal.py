@@ -27,6 +27,8 @@ import scipy.linalg as sla
 from .body import ReducedModel
 from .errors import ModelError, OptionError
 from .linalg.eigen import is_rigid
+from .model import direction_name
+from .rigid import ACCELERATIONS
 
 __all__ = ["modal_form", "mode_table", "keep_modes", "keep_modes_static", "static_loads", "response_shares",
            "MODE_TABLE_DAMPING", "STATIC_RANK_TOL"]
@@ -109,13 +111,13 @@ def static_loads(body: ReducedModel) -> tuple[np.ndarray, list[str]]:
     P = body.info.get("frame_participation")
     if P is not None:
         cols.append(np.asarray(P, float))
-        names += ["gravity:x", "gravity:y", "gravity:z", "angular:rx", "angular:ry", "angular:rz"]
+        names += list(ACCELERATIONS)
     if body.V is not None and body.dofs is not None:
         dofs = np.asarray(body.dofs)
         for m in body.info.get("masters", []):
             rows = np.flatnonzero(dofs[:, 0] == int(m["id"]))
             cols.append(np.asarray(body.V, float)[rows].T)
-            names += [f"{m['name']}:{'x y z rx ry rz'.split()[int(d) - 1]}" for d in dofs[rows, 1]]
+            names += [f"{m['name']}:{direction_name(d)}" for d in dofs[rows, 1]]
     return np.hstack(cols), names
 
 

@@ -43,10 +43,15 @@ from .linalg.threads import sparse_dense
 from .ports import make_ports
 from .projection import project
 
-__all__ = ["rigid_motions", "frame_participation", "rigid_body_modes", "m_project", "elastic_loads", "exclude_rigid",
-           "elastic_body", "rigid_content", "rigid_residual", "RIGID_DEFLATION_TOL", "POLISH_TOL", "RIGID_CONTENT_TOL"]
+__all__ = ["ACCELERATIONS", "rigid_motions", "frame_participation", "rigid_body_modes", "m_project", "elastic_loads",
+           "exclude_rigid", "elastic_body", "rigid_content", "rigid_residual", "RIGID_DEFLATION_TOL", "POLISH_TOL",
+           "RIGID_CONTENT_TOL"]
 
 log = logging.getLogger(__name__)
+
+#: Names of the frame's six accelerations as static loads ``M R`` (the columns of :func:`rigid_motions`):
+#: gravity (a unit translational acceleration) in x, y, z and a unit angular acceleration about x, y, z.
+ACCELERATIONS = ("gravity:x", "gravity:y", "gravity:z", "angular:rx", "angular:ry", "angular:rz")
 
 #: Relative norm below which a column made M-orthogonal to the rigid modes counts as rigid (dropped).
 RIGID_DEFLATION_TOL = 1e-8

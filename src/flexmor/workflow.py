@@ -259,14 +259,15 @@ def record_setup(body, *, couplings=(), interfaces=(), selections=()) -> None:
 def _judge_mounted(model, body, ports, result, timings, *, solver=None) -> None:
     """The body held in its joints (:func:`flexmor.analysis.mounted.mounted_record`) and its static error
     (:func:`flexmor.analysis.mounted.static_record`) into ``result``, ``red.errors`` and their notes."""
-    from .analysis.mounted import mounted_record, static_record
+    from .analysis.mounted import FullMounted, mounted_record, static_record
 
     t0 = time.perf_counter()
-    mounted = mounted_record(model, body, ports=ports, band=result["band_hz"], band_rms_error=result["band_rms_error"],
-                             solver=solver)
+    band, rms = result["band_hz"], result["band_rms_error"]
+    # the full side of both checks (rigid-body modes once); none for rows spread over MPI ranks (both skip)
+    full = None if is_partitioned(model.K) else FullMounted(model, fmax=band[1], solver=solver)
+    mounted = mounted_record(model, body, ports=ports, band=band, band_rms_error=rms, full=full)
     t1 = time.perf_counter()
-    static = static_record(model, body, ports=ports, mounted=mounted, band_rms_error=result["band_rms_error"],
-                           solver=solver)
+    static = static_record(model, body, ports=ports, mounted=mounted, band_rms_error=rms, full=full)
     timings["mounted"], timings["static"] = t1 - t0, time.perf_counter() - t1
     for key, rec in (("mounted", mounted), ("static", static)):
         if rec is None:

@@ -60,7 +60,8 @@ from ..linalg.context import SolverContext, as_solver
 from ..linalg.distributed import is_partitioned
 from ..linalg.eigen import eigenmodes, frequencies_hz, rigid_body_threshold
 from ..linalg.threads import sparse_dense
-from ..rigid import rigid_body_modes, rigid_motions
+from ..model import direction_name
+from ..rigid import ACCELERATIONS, rigid_body_modes, rigid_motions
 
 __all__ = ["HELD", "ACCELERATIONS", "Support", "supports", "FullMounted", "MountedCase", "MountedCheck",
            "mounted_check", "mounted_note", "mounted_record", "static_record", "static_note", "NOTE_FACTOR",
@@ -80,13 +81,6 @@ NOTE_PARAMS = ("inertia_loads",)
 #: Relative singular value (of the constraint rows) and eigenvalue (of the mounted mass) below which
 #: a direction counts as absent.
 RANK_TOL = 1e-10
-
-#: The frame's six accelerations as static loads ``M R`` (``R``: :func:`flexmor.rigid.rigid_motions`, the
-#: rotations about the model's mean position): gravity (a unit translational acceleration) in x, y, z and a
-#: unit angular acceleration about x, y, z.
-ACCELERATIONS = ("gravity:x", "gravity:y", "gravity:z", "angular:rx", "angular:ry", "angular:rz")
-
-_DIRECTIONS = ("x", "y", "z", "rx", "ry", "rz")
 
 #: The support of a model without rigid-body motion, held as it is (:func:`static_record`).
 AS_SUPPORTED = "supported"
@@ -359,7 +353,7 @@ def _static_cases(model, body, full, support, X, T, Kt, ports):
         for eq in other.eqs:
             f = np.zeros(model.n_dof)
             f[eq] = 1.0
-            loads.append((f"{other.interface}:{_DIRECTIONS[int(model.dofs[eq, 1]) - 1]}", f))
+            loads.append((f"{other.interface}:{direction_name(model.dofs[eq, 1])}", f))
     if ports is not None:
         B = ports.B.toarray()
         for j, name in enumerate(ports.input_names):

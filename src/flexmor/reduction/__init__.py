@@ -127,7 +127,7 @@ def reduce(model, method: str, order: int | None, ports, *, inertia_loads: str =
         if residual_vectors:
             from .residual import residual_order, static_responses, with_residual_vectors
 
-            X, p = static_responses(model, ports, band=Band.of(opts.get("band")), solver=options.get("solver"))
+            X, p = static_responses(model, ports, solver=options.get("solver"))
             basis = exclude_rigid(model, m.function(model, basis_ports, residual_order(order, p, method), **opts))
             basis = with_residual_vectors(model, basis, X)
             added = basis.info["residual_vectors"]

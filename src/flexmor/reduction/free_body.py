@@ -33,8 +33,8 @@ from ..linalg.eigen import rigid_body_threshold
 from ..linalg.threads import sparse_dense
 from ..rigid import RIGID_DEFLATION_TOL, elastic_loads, m_project, rigid_body_modes, rigid_motions
 
-__all__ = ["interface_loads", "rigid_head", "inertia_relief_modes", "elastic_ports", "with_elastic_part",
-           "split_elastic", "with_inertia_loads",
+__all__ = ["interface_loads", "rigid_head", "inertia_relief_modes", "inertia_relief", "elastic_ports",
+           "with_elastic_part", "split_elastic", "with_inertia_loads",
            "INERTIA_LOAD_NAMES", "check_body", "spurious_modes_hz"]
 
 log = logging.getLogger(__name__)
@@ -79,16 +79,24 @@ def inertia_relief_modes(model, dofs, *, phi=None, solver=None, held=None) -> np
     until the relative change is below :data:`RELIEF_TOL` (a few steps). One factorization, a few
     solves per column.
     """
-    from ..linalg import factorize
-    from ..linalg.eigen import default_shift
-
     phi = rigid_body_modes(model) if phi is None else phi
     dofs = np.asarray(dofs, dtype=np.int64)
     if held is not None:
         return _relief_held(model, dofs, phi, *held)
     E = np.zeros((model.n_dof, dofs.size))
     E[dofs, np.arange(dofs.size)] = 1.0
-    f = elastic_loads(model, phi, E)
+    return inertia_relief(model, E, phi=phi, solver=solver)
+
+
+def inertia_relief(model, F, *, phi=None, solver=None) -> np.ndarray:
+    """Static elastic responses of a free body to the loads ``F`` (n_dof, k), balanced by the inertia of its
+    rigid motion: ``x = K⁺ (I - M Φ Φᵀ) F``, ``Φᵀ M x = 0``, from ``K - σ M`` with refinement (see
+    :func:`inertia_relief_modes`)."""
+    from ..linalg import factorize
+    from ..linalg.eigen import default_shift
+
+    phi = rigid_body_modes(model) if phi is None else phi
+    f = elastic_loads(model, phi, np.asarray(F, dtype=float))
     sigma = default_shift(model.K, model.M)
     F = factorize((model.K - sigma * model.M).tocsr(), solver=solver, positive=True)
 

@@ -36,12 +36,12 @@ from ..basis import Basis
 from ..errors import ModelError, OptionError
 from ..linalg.context import SolverContext, as_solver
 from ..linalg.eigen import eigenmodes, frequencies_hz, rigid_body_threshold
-from ..options import DEFAULT_BAND, option
+from ..options import option
 from ..ports import interface_dofs
 from ..rigid import rigid_body_modes
 from ._options import interface_option
 from ._registry import register_method
-from .residual import _static
+from .residual import static_solve
 
 __all__ = ["craig_chang", "herting", "free_interface_basis"]
 
@@ -91,7 +91,7 @@ def free_interface_basis(model, order, interface, max_frequency, solver: SolverC
     X = X / np.sqrt(np.einsum("ij,ij->j", X, model.M @ X))
     F = np.zeros((model.n_dof, b.size))
     F[b, np.arange(b.size)] = 1.0
-    G = _static(model, F, phi, DEFAULT_BAND, solver)
+    G = static_solve(model, F, phi, solver)
     G_r = G - X @ ((X.T @ F) / lam[:, None])
     return X, G_r, b, frequencies_hz(lam).tolist()
 

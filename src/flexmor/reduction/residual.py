@@ -13,10 +13,8 @@ made M-orthogonal to the method's basis and M- and K-orthogonal to each other (t
 above the band), counted in the order: the method builds ``order - p`` vectors (``p`` the rank of the
 static responses), the residual vectors fill the rest; where the method's basis holds some of them already
 (krylov's 0 Hz point holds the inputs'), the method is built once more with their share of the order.
-A free body's static response is the inertia-relief one: its loads made self-equilibrated
-(``(I - M Φ Φᵀ) F``), solved with ``K + s0² M`` (``s0`` the free body's static point,
-:func:`flexmor.reduction.greedy_points.static_point`) and refined until the rigid-body content is
-removed (``(s0²/λ1)^k``).
+A free body's static response is the inertia-relief one (its loads made self-equilibrated,
+``(I - M Φ Φᵀ) F``; :func:`flexmor.reduction.free_body.inertia_relief`).
 
 This is modal truncation augmentation (Dickens, Nakagawa, Wittbrodt 1997) and the static completion of
 Craig-Chang's residual flexibility, for every method.
@@ -31,16 +29,13 @@ from ..errors import OptionError
 from ..linalg import factorize
 from ..linalg.context import SolverContext, as_solver
 from ..linalg.threads import sparse_dense
-from ..rigid import elastic_loads, m_project, rigid_body_modes
+from ..rigid import rigid_body_modes
 
-__all__ = ["residual_loads", "static_responses", "with_residual_vectors", "residual_order", "RESIDUAL_TOL",
-           "REFINE_STEPS"]
+__all__ = ["residual_loads", "static_solve", "static_responses", "with_residual_vectors", "residual_order",
+           "RESIDUAL_TOL"]
 
 #: Relative size (in the M-norm, after removing the basis) below which a residual vector adds nothing.
 RESIDUAL_TOL = 1e-8
-
-#: Refinement steps of a free body's inertia-relief solve with ``K + s0² M``.
-REFINE_STEPS = 3
 
 
 def residual_loads(model, ports) -> np.ndarray:
@@ -61,25 +56,20 @@ def residual_loads(model, ports) -> np.ndarray:
     return np.hstack(F)
 
 
-def _static(model, F, phi, band, solver: SolverContext) -> np.ndarray:
-    """``K^-1 F`` of a supported model; a free one's inertia-relief response (see the module docstring)."""
+def static_solve(model, F, phi, solver: SolverContext) -> np.ndarray:
+    """``K^-1 F`` of a supported model; a free one's inertia-relief response
+    (:func:`flexmor.reduction.free_body.inertia_relief`)."""
     if not phi.shape[1]:
         return factorize(model.K.tocsr(), solver=solver, positive=True).solve(F)
-    from .greedy_points import static_point
+    from .free_body import inertia_relief
 
-    s0 = 2 * np.pi * abs(static_point(model, phi, band))
-    Fe = elastic_loads(model, phi, F)
-    Fact = factorize((model.K + s0 ** 2 * model.M).tocsr(), solver=solver, positive=True)
-    X = m_project(model, phi, Fact.solve(Fe))
-    for _ in range(REFINE_STEPS):  # K x = Fe on the elastic subspace: the shift's error shrinks by s0²/λ1 a step
-        X = m_project(model, phi, X + Fact.solve(Fe - sparse_dense(model.K, X)))
-    return X
+    return inertia_relief(model, F, phi=phi, solver=solver)
 
 
-def static_responses(model, ports, *, band, solver: SolverContext | None = None) -> tuple[np.ndarray, int]:
+def static_responses(model, ports, *, solver: SolverContext | None = None) -> tuple[np.ndarray, int]:
     """``(X, p)``: the static responses to :func:`residual_loads` (see the module docstring) and their
     numerical rank ``p`` (the residual vectors they can give at most)."""
-    X = _static(model, residual_loads(model, ports), rigid_body_modes(model), band, as_solver(solver))
+    X = static_solve(model, residual_loads(model, ports), rigid_body_modes(model), as_solver(solver))
     s = np.linalg.svd(X, compute_uv=False) if X.size else np.zeros(0)
     return X, int(np.sum(s > RESIDUAL_TOL * s[0])) if s.size and s[0] > 0 else 0
 
