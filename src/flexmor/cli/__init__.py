@@ -101,6 +101,18 @@ class _Run:
                 pass
 
 
+#: The run of the process's main thread (the one whose SIGTERM handler is installed), or None.
+_current: _Run | None = None
+
+
+def raise_if_terminated() -> None:
+    """Raise the termination of this process's run when SIGTERM has been seen but its exception was lost
+    (raised in a destructor): a loop that would otherwise never end (the ``ui`` server's) calls this
+    between its rounds."""
+    if _current is not None and _current.terminated and threading.get_ident() == _current.thread:
+        raise _Terminated
+
+
 def _block_sigterm():
     """Block SIGTERM (the previous mask, or None where masks are not available)."""
     try:
@@ -194,10 +206,11 @@ def main(argv=None) -> int:
     warnings.simplefilter("default", FlexmorWarning)
     warnings.formatwarning = functools.partial(_format_warning, names=getattr(args, "flag_names", None))
     quiet_other_ranks()  # mpirun -n P: only rank 0 prints
-    run, previous, hook, code = _Run(), None, sys.unraisablehook, None
+    global _current
+    run, previous, hook, code, outer = _Run(), None, sys.unraisablehook, None, _current
     try:
         previous = signal.signal(signal.SIGTERM, run.on_sigterm)
-        io.atomic.commit_guard, sys.unraisablehook = run.guard, run.unraisable(hook)
+        io.atomic.commit_guard, sys.unraisablehook, _current = run.guard, run.unraisable(hook), run
     except ValueError:  # not the main thread: leave signal handling alone
         pass
     blocked = None
@@ -221,7 +234,7 @@ def main(argv=None) -> int:
     finally:
         if previous is not None:
             signal.signal(signal.SIGTERM, previous)
-            io.atomic.commit_guard, sys.unraisablehook = None, hook
+            io.atomic.commit_guard, sys.unraisablehook, _current = None, hook, outer
         # the process's own command line: the run's outcome is decided above (143 and no file, or its
         # code and its files), so SIGTERM stays blocked while the interpreter ends; at the end of
         # finalization Python restores the default action, which would kill a finished run

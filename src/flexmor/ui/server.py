@@ -662,8 +662,9 @@ class _Server(ThreadingHTTPServer):
     daemon_threads = True
     block_on_close = False
 
-    def __init__(self, address, handler, max_connections: int, timeout: float):
+    def __init__(self, address, handler, max_connections: int, timeout: float, poll=None):
         super().__init__(address, handler)
+        self.poll = poll  # called between polls; what it raises ends serve_forever
         self.slots = threading.BoundedSemaphore(max_connections)
         self.request_timeout = timeout
         self.arriving: dict = {}  # socket -> deadline of its request (None: late, its reading ended)
@@ -689,6 +690,8 @@ class _Server(ThreadingHTTPServer):
         for sock in late:
             with contextlib.suppress(OSError):
                 sock.shutdown(socket.SHUT_RD)  # the handler's read returns at once
+        if self.poll is not None:
+            self.poll()
 
     def process_request(self, request, client_address):
         if not self.slots.acquire(blocking=False):
@@ -722,14 +725,16 @@ class _Server(ThreadingHTTPServer):
 
 
 def make_server(folder, main, port: int = 0, host: str = "127.0.0.1", *, timeout: float = TIMEOUT,
-                max_connections: int = MAX_CONNECTIONS):
+                max_connections: int = MAX_CONNECTIONS, poll=None):
     """The HTTP server of the app on ``host:port`` (0: a free port) running commands with the command
     line's ``main``; returns ``(server, app, url)``.
 
     Each connection is served in its own thread; a request must arrive whole within ``timeout``
-    seconds, and at most ``max_connections`` are served at once.
+    seconds, and at most ``max_connections`` are served at once. ``poll`` (no arguments) is called
+    by ``serve_forever`` about every half second; an exception it raises ends the serving.
     """
     app = App(folder, main)
-    server = _Server((host, int(port)), _handler(app, float(timeout)), int(max_connections), float(timeout))
+    server = _Server((host, int(port)), _handler(app, float(timeout)), int(max_connections), float(timeout),
+                     poll)
     url = f"http://{host}:{server.server_address[1]}/?token={app.token}"
     return server, app, url
