@@ -193,7 +193,8 @@ def main(argv=None) -> int:
     decided: a signal that arrives while the interpreter shuts down no longer changes it.
     """
     parser = build_parser()
-    parser.set_defaults(main=main)  # handed to the ui subcommand, whose jobs run this command line
+    # handed to the ui subcommand, whose jobs run this command line and whose serving ends on SIGTERM
+    parser.set_defaults(main=main, check_terminated=raise_if_terminated)
     args = parser.parse_args(argv)
     level = [logging.WARNING, logging.INFO, logging.DEBUG][min(args.verbose, 2)]
     _configure_logging(level)

@@ -21,10 +21,9 @@ def add_ui_parser(sub) -> None:
 def cmd_ui(args) -> int:
     """``flexmor ui``: serve the web app on 127.0.0.1 until interrupted; returns the exit code."""
     from ..ui import make_server
-    from . import raise_if_terminated
 
     # jobs run the command line's own main; a SIGTERM whose exception was lost still ends the serving
-    server, app, url = make_server(args.folder, args.main, args.port, poll=raise_if_terminated)
+    server, app, url = make_server(args.folder, args.main, args.port, poll=args.check_terminated)
     print(f"flexmor ui: serving {app.ws.root} at {url}  (Ctrl-C stops)", flush=True)
     if not args.no_browser:
         webbrowser.open(url)
