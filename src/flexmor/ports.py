@@ -61,6 +61,9 @@ class Ports:
     C: sp.csr_matrix
     input_names: list
     output_names: list
+    #: ``(m, p)``: a body built for these ports is judged on their leading ``m`` inputs and ``p`` outputs only
+    #: (the user's ports, the rest added for the basis, e.g. the frame's inertia loads); None: on all of them.
+    judged: tuple | None = None
 
     def __post_init__(self):
         self.B, self.C = _port_matrix(self.B, "B"), _port_matrix(self.C, "C")

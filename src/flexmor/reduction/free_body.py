@@ -274,7 +274,8 @@ def with_inertia_loads(model, ports, mode: str = "off"):
     scale = np.mean(sp.linalg.norm(ports.B, axis=0)) if ports.n_inputs else 1.0
     L = sp.csr_matrix(L * (scale / np.linalg.norm(L, axis=0)))
     aug = Ports(B=sp.hstack([ports.B, L]).tocsr(), C=sp.vstack([ports.C, L.T]).tocsr(),
-                input_names=list(ports.input_names) + names, output_names=list(ports.output_names) + names)
+                input_names=list(ports.input_names) + names, output_names=list(ports.output_names) + names,
+                judged=(ports.n_inputs, ports.n_outputs))
     record["n_inertia_loads"] = int(L.shape[1])
     if held:
         record["inertia_interfaces"] = held

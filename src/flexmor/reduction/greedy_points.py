@@ -391,7 +391,8 @@ def nested_difference(model, ports, V, indicator: ResidualIndicator, r: int, ban
     damping: the ratio in its modes up to :data:`~flexmor.dynamics.surrogate.MODES_MARGIN` times the band's
     top, the Rayleigh realization above, on a model small enough for the judge's dense path the ratio in
     every mode; an undamped model undamped, on a grid that is not refined), so
-    that the figure is comparable with the judge's.
+    that the figure is comparable with the judge's: at the ports it judges (``ports.judged``; not at the
+    inertia loads added for the basis).
 
     Returns
     -------
@@ -403,6 +404,8 @@ def nested_difference(model, ports, V, indicator: ResidualIndicator, r: int, ban
     if model.D is None:  # undamped, as the judge takes it (its grid then is not refined)
         Dr = np.zeros_like(Kr)
     Br, Cr = ports.reduced(V)
+    if ports.judged is not None:  # the judge's ports: not the inputs added for the basis (inertia loads)
+        Br, Cr = Br[:, :ports.judged[0]], Cr[:ports.judged[1]]
     lam, psi = sla.eigh(Kr, Mr)
     wn = np.sqrt(np.clip(lam, 0, None))
     f_res = wn / (2 * np.pi)
