@@ -310,6 +310,20 @@ def test_a_supported_symmetric_bar_carries_the_bending_its_ports_do_not_see(symm
     assert sag["gravity:z"]["field_error"] < 1e-6 and sag["gravity:y"]["output_error"] < 1e-6
 
 
+def test_a_supported_body_built_for_its_ports_alone_is_told_of_the_frame_accelerations(symmetric_bar):
+    """Built for its y port alone (the default on a supported body) the bar cannot stretch: its deflection under
+    the frame's x acceleration is all wrong (measured 100 %), and the record's note says so and what adds them;
+    with the inertia loads the note is gone."""
+    ports = make_ports(symmetric_bar, ["TIP:y"])
+    _, alone = reduce_and_judge(symmetric_bar, "krylov", 10, ports, band=(1.0, 2000.0), cache=False)
+    assert alone["static"]["frame_error"] > 0.1
+    assert any(n.startswith("frame accelerations:") and "--inertia-loads on" in n for n in alone["notes"])
+    _, loaded = reduce_and_judge(symmetric_bar, "krylov", 20, ports, band=(1.0, 2000.0), cache=False,
+                                 inertia_loads="on")
+    assert loaded["static"]["frame_error"] < 1e-6
+    assert not any(n.startswith("frame accelerations:") for n in loaded["notes"])
+
+
 def test_inertia_loads_have_no_elastic_part_on_a_free_body(free):
     """M R lies in M span(rigid modes): a uniform acceleration only moves a free body rigidly."""
     model = free.with_rayleigh(0.0, 1e-6)

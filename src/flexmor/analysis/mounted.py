@@ -562,21 +562,35 @@ def static_record(model, body, *, ports=None, full: FullMounted | None = None, m
         loads = _static_cases(model, body, full, sup, V, np.eye(V.shape[1]), 0.5 * (body.K + body.K.T), ports)
     inputs = [x["output_error"] for x in loads if x["load"].startswith("input:") and x["output_error"] is not None]
     every = [v for x in loads for v in (x["output_error"], x["field_error"]) if v is not None]
+    frame = [x["field_error"] for x in loads if x["load"] in ACCELERATIONS and x["field_error"] is not None]
     rec = {"as": held, "loads": loads, "static_error": max(inputs) if inputs else None,
-           "max_static_error": max(every) if every else None}
-    rec["note"] = static_note(rec, band_rms_error)
+           "max_static_error": max(every) if every else None,
+           "frame_error": max(frame) if frame and held == AS_SUPPORTED else None}
+    rec["note"] = static_note(rec, band_rms_error, inertia_loads=(body.info.get("inertia_loads"),
+                                                                  body.info.get("n_inertia_loads")))
     return rec
 
 
-def static_note(rec: dict, band_rms_error: float | None) -> str | None:
+def static_note(rec: dict, band_rms_error: float | None, *, inertia_loads: tuple = (None, None)) -> str | None:
     """A one-line note when the body's static error at its inputs (``rec``: :func:`static_record`) exceeds
-    ``NOTE_FLOOR`` (1e-3) or ``NOTE_FACTOR`` (10) times its band RMS error, else None."""
+    ``NOTE_FLOOR`` (1e-3) or ``NOTE_FACTOR`` (10) times its band RMS error; else, for a supported body built
+    without the frame's inertia loads (``inertia_loads``: the body's ``inertia_loads`` mode and
+    ``n_inertia_loads``, 0), when its deflection under one of the frame's accelerations (``frame_error``)
+    is off by more than ``NOTE_FLOOR``; else None."""
     e = rec.get("static_error")
-    if e is None:
+    frame = rec.get("frame_error")
+    if e is None and frame is None:
         return None
     limits = [NOTE_FLOOR] + ([NOTE_FACTOR * band_rms_error] if band_rms_error is not None else [])
-    if e <= min(limits):
-        return None
+    if e is None or e <= min(limits):
+        mode, n = inertia_loads
+        if frame is None or frame <= NOTE_FLOOR or n != 0:
+            return None
+        how = ("it was built for its ports alone: --inertia-loads on adds the six to the inputs the basis is built "
+               "for (they share the order), " if mode == "auto" else "its basis is not built for them: ")
+        return (f"frame accelerations: the supported body deflects {100 * frame:.3g} % off the full model under "
+                f"one of the frame's unit accelerations (gravity, its support's motion; see the static table); {how}"
+                "--residual-vectors adds their static responses")
     told = "" if band_rms_error is None else f" (its band RMS error is {100 * band_rms_error:.3g} %)"
     return (f"static response: the body ({rec['as']}) is off by {100 * e:.3g} % at its outputs under its inputs"
             f"{told}: slow loads and the frame's accelerations load it wrongly; a method with the static response "

@@ -382,7 +382,8 @@ def _new_columns(model, phi, V, blocks) -> np.ndarray:
     return extend_orthonormal(V, X, tol=DEFLATION_TOL)
 
 
-def nested_difference(model, ports, V, indicator: ResidualIndicator, r: int, band, at=None) -> dict:
+def nested_difference(model, ports, V, indicator: ResidualIndicator, r: int, band, at=None, *,
+                      judged: bool = False) -> dict:
     """Band error of the body of the leading ``r`` columns of ``V`` against the body of all of ``V`` (the
     reduced matrices of :class:`ResidualIndicator`, extended to ``V``), on the judge's grid and rule
     (:func:`flexmor.dynamics.grid.adaptive_grid` refined on the larger body,
@@ -391,8 +392,10 @@ def nested_difference(model, ports, V, indicator: ResidualIndicator, r: int, ban
     damping: the ratio in its modes up to :data:`~flexmor.dynamics.surrogate.MODES_MARGIN` times the band's
     top, the Rayleigh realization above, on a model small enough for the judge's dense path the ratio in
     every mode; an undamped model undamped, on a grid that is not refined), so
-    that the figure is comparable with the judge's: at the ports it judges (``ports.judged``; not at the
-    inertia loads added for the basis).
+    that the figure is comparable with the judge's. With ``judged`` only at the ports the judge looks at
+    (``ports.judged``: not at the inputs added for the basis, the frame's inertia loads), the estimate of a
+    body's error; without, at every input and output, which a stopping test needs (a point that served the
+    inertia loads changes the ports' response little though they are not converged).
 
     Returns
     -------
@@ -404,7 +407,7 @@ def nested_difference(model, ports, V, indicator: ResidualIndicator, r: int, ban
     if model.D is None:  # undamped, as the judge takes it (its grid then is not refined)
         Dr = np.zeros_like(Kr)
     Br, Cr = ports.reduced(V)
-    if ports.judged is not None:  # the judge's ports: not the inputs added for the basis (inertia loads)
+    if judged and ports.judged is not None:  # the judge's ports: not the inputs added for the basis
         Br, Cr = Br[:, :ports.judged[0]], Cr[:ports.judged[1]]
     lam, psi = sla.eigh(Kr, Mr)
     wn = np.sqrt(np.clip(lam, 0, None))
@@ -460,5 +463,6 @@ def difference_estimate(model, ports, V, indicator: ResidualIndicator, band, *, 
                                      rigid_modes=phi)
     E = _new_columns(model, phi, V, blocks[0])
     indicator.extend(V, E)
-    out.update(nested_difference(model, ports, np.hstack([V, E]), indicator, V.shape[1], band, at=float(f[k])))
+    out.update(nested_difference(model, ports, np.hstack([V, E]), indicator, V.shape[1], band, at=float(f[k]),
+                                 judged=True))
     return out
