@@ -164,7 +164,10 @@ def test_demo_writes_bodies_and_plot(capsys, tmp_path):
     out = run_json(capsys, "demo", "--out", str(tmp_path), "--n", "2", "--json")
     res = out["results"]
     assert [r["method"] for r in res] == ["modal"] * 3 + ["craig-bampton"] * 2 + ["krylov", "fw-sobt"]
-    assert res[6]["band_error"] < res[1]["band_error"]  # balanced truncation beats modal at r = 8
+    # balanced truncation and krylov beat modal at r = 16 (their bases built for the ports and the frame's six
+    # inertia loads: krylov's deflection under them exact)
+    assert res[6]["band_error"] < res[2]["band_error"] and res[5]["band_error"] < res[2]["band_error"]
+    assert res[5]["static"]["max_static_error"] < 1e-9
     modal = [r["band_error"] for r in res[:3]]
     assert modal[0] > modal[1] > modal[2]
     assert res[4]["band_error"] < res[3]["band_error"]

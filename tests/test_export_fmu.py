@@ -40,7 +40,9 @@ def bodies():
     out = {}
     for kind, clamped in (("clamped", True), ("free", False)):
         model = cantilever(2, clamped=clamped).with_rayleigh(0.0, 1e-6)
-        out[kind] = reduce(model, "krylov", 8, make_ports(model, INPUTS))
+        # for the ports alone: the clamped body's highest mode at 3.7 kHz (built for the frame's inertia loads too,
+        # order 8 stops at 1.5 kHz), which the co-simulation step test steps over
+        out[kind] = reduce(model, "krylov", 8, make_ports(model, INPUTS), inertia_loads="off")
     assert out["free"].info["rigid"] == "exclude" and out["free"].frequencies_hz()[0] > 500
     return out
 

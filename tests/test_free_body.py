@@ -283,9 +283,9 @@ def test_inertia_loads_make_a_supported_body_see_its_frame_acceleration(clamped,
 def test_a_supported_symmetric_bar_carries_the_bending_its_ports_do_not_see(symmetric_bar):
     """A clamped bar of square section, its one port at the tip in y: by symmetry the ports do not see
     its z-bending (the same frequencies as the y-bending). Its support accelerating along z bends it in z.
-    With the inertia loads (``on``; ``auto`` leaves a supported body's ports alone and says so) the body's tip
-    z response to that acceleration follows the full model's over the band and converges with the order; its
-    static record holds gravity z."""
+    With the default (the inertia loads on a supported body too) the body's tip z response to that acceleration
+    follows the full model's over the band and converges with the order; its static record holds gravity z;
+    ``off`` builds for the port alone."""
     from flexmor.rigid import rigid_motions
 
     model = symmetric_bar
@@ -297,31 +297,38 @@ def test_a_supported_symmetric_bar_carries_the_bending_its_ports_do_not_see(symm
     full = np.array([Cz @ sp.linalg.spsolve((model.K + x * model.D + x * x * model.M).tocsc(), F) for x in s])
     errors = []
     for order in (10, 20, 30):
-        body = reduce(model, "krylov", order, ports, band=(1.0, 2000.0), inertia_loads="on")
-        assert body.info["n_inertia_loads"] == 6
+        body = reduce(model, "krylov", order, ports, band=(1.0, 2000.0))
+        assert body.info["inertia_loads"] == "auto" and body.info["n_inertia_loads"] == 6
         assert body.input_names == ["TIP:y"]  # the body keeps the user's ports
         zr, fr = body.V.T @ Cz, body.V.T @ F
         red = np.array([zr @ np.linalg.solve(body.K + x * body.D + x * x * body.M, fr) for x in s])
         errors.append(np.max(np.abs(red - full)) / np.max(np.abs(full)))
     assert errors[1] < 1e-5 and errors[2] < errors[1] < errors[0]
-    assert "inertia_loads_note" in reduce(model, "krylov", 10, ports, band=(1.0, 2000.0)).info
-    _, rec = reduce_and_judge(model, "krylov", 20, ports, band=(1.0, 2000.0), cache=False, inertia_loads="on")
+    assert reduce(model, "krylov", 10, ports, band=(1.0, 2000.0), inertia_loads="off").info["n_inertia_loads"] == 0
+    _, rec = reduce_and_judge(model, "krylov", 20, ports, band=(1.0, 2000.0), cache=False)
     sag = {row["load"]: row for row in rec["static"]["loads"]}
     assert sag["gravity:z"]["field_error"] < 1e-6 and sag["gravity:y"]["output_error"] < 1e-6
 
 
 def test_a_supported_body_built_for_its_ports_alone_is_told_of_the_frame_accelerations(symmetric_bar):
-    """Built for its y port alone (the default on a supported body) the bar cannot stretch: its deflection under
-    the frame's x acceleration is all wrong (measured 100 %), and the record's note says so and what adds them;
-    with the inertia loads the note is gone."""
+    """Built for its y port alone (``inertia_loads='off'``) the bar cannot stretch: its deflection under the
+    frame's x acceleration is all wrong (measured 100 %), and the record's note says so and what adds them;
+    with the inertia loads (the default) the note is gone. A method whose basis ignores the inputs is told of
+    the residual vectors only."""
     ports = make_ports(symmetric_bar, ["TIP:y"])
-    _, alone = reduce_and_judge(symmetric_bar, "krylov", 10, ports, band=(1.0, 2000.0), cache=False)
+    _, alone = reduce_and_judge(symmetric_bar, "krylov", 10, ports, band=(1.0, 2000.0), cache=False,
+                                inertia_loads="off")
     assert alone["static"]["frame_error"] > 0.1
     assert any(n.startswith("frame accelerations:") and "--inertia-loads on" in n for n in alone["notes"])
-    _, loaded = reduce_and_judge(symmetric_bar, "krylov", 20, ports, band=(1.0, 2000.0), cache=False,
-                                 inertia_loads="on")
+    _, loaded = reduce_and_judge(symmetric_bar, "krylov", 20, ports, band=(1.0, 2000.0), cache=False)
     assert loaded["static"]["frame_error"] < 1e-6
     assert not any(n.startswith("frame accelerations:") for n in loaded["notes"])
+    from flexmor.analysis.mounted import static_note
+
+    modal = reduce(symmetric_bar, "modal", 6, ports)
+    assert modal.info["inertia_loads"] is None and modal.info["n_inertia_loads"] == 0
+    note = static_note({"static_error": None, "frame_error": 0.5}, None, inertia_loads=(None, 0))
+    assert note.startswith("frame accelerations:") and "--residual-vectors" in note and "--inertia-loads" not in note
 
 
 def test_inertia_loads_have_no_elastic_part_on_a_free_body(free):

@@ -113,22 +113,25 @@ def corner_free():
                           cache=False)
 
 
-@pytest.mark.parametrize("case, order", [("corner_clamped", 20), ("corner_free", 45)])
-def test_default_points_are_as_good_as_fw_sobt_and_the_estimate_holds(case, order, request):
+@pytest.mark.parametrize("case, order, inertia", [("corner_clamped", 20, "off"), ("corner_clamped", 40, "auto"),
+                                                  ("corner_free", 45, "auto")])
+def test_default_points_are_as_good_as_fw_sobt_and_the_estimate_holds(case, order, inertia, request):
     """On the case the default points failed (a 33,735-DOF C3D10 plate structure: the earlier default gave 4.2e-2
     clamped and 5.6e-2 free, 140-200x above its own estimate), here the built-in plate structure at 6,300 DOF
     with the same ports, band, damping and orders (measured: krylov 7.4e-6 and 1.46e-6, fw-sobt 7.4e-6 and
     1.42e-6, the earlier default's single real point 1.3 and 2.6e-2): default krylov is within 3x of fw-sobt at
-    the same order, and its estimate within 3x of the verified band_error."""
+    the same order, and its estimate within 3x of the verified band_error. The issue's clamped case at order 20
+    is for the port alone; with the frame's six inertia loads as inputs too (the default) the clamped body
+    needs order 40 (at 20 every method is poor at the port: krylov 0.47, fw-sobt 0.23)."""
     S = request.getfixturevalue(case)
-    body = S.reduce("krylov", order)
+    body = S.reduce("krylov", order, inertia_loads=inertia)
     err = S.judge(body).band_error
-    ref = S.judge(S.reduce("fw-sobt", order)).band_error
+    ref = S.judge(S.reduce("fw-sobt", order, inertia_loads=inertia)).band_error
     est = body.info["points_check"]["estimate"]
     assert err <= 3 * ref, (err, ref)
     assert err / 3 <= est <= 3 * err, (est, err)
-    old = S.judge(S.reduce("krylov", order, points=str(np.sqrt(2000.0)))).band_error
-    assert err < old / 10  # the earlier default's single real point
+    old = S.judge(S.reduce("krylov", order, points=str(np.sqrt(2000.0)), inertia_loads=inertia)).band_error
+    assert err < old / 10, (err, old)  # the earlier default's single real point
 
 
 def test_the_estimate_is_at_the_judged_ports_when_inertia_loads_share_the_basis(corner_clamped):

@@ -54,7 +54,7 @@ def _same(got, direct):
 
 @pytest.mark.parametrize("method, order", [("sobt", 20), ("krylov", 20), ("modal", 20)])
 def test_the_static_error_of_a_supported_body_is_the_direct_one(plate, method, order):
-    body, record = plate.reduce_and_judge(method, order)
+    body, record = plate.reduce_and_judge(method, order, inertia_loads="off")  # the issue's bodies: for the ports
     rec = record["static"]
     assert rec is body.errors["static"] and rec["as"] == "supported"
     inputs, field = _direct(plate, body)
@@ -136,7 +136,7 @@ def test_residual_vectors_make_the_static_response_exact_for_every_method(plate,
 def test_a_basis_that_holds_some_static_responses_keeps_its_order(plate):
     """krylov's first point is 0 Hz: its basis holds the inputs' static responses, so only the frame's six
     accelerations are new; the method gets the other three columns back and the body has the order asked."""
-    body = plate.reduce("krylov", 20, residual_vectors=True)
+    body = plate.reduce("krylov", 20, residual_vectors=True, inertia_loads="off")
     assert body.order == 20 and body.info["residual_vectors"] == 6 and not body.order_note
     assert plate.static(body)["max_static_error"] < 1e-8
 

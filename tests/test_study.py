@@ -26,7 +26,7 @@ def beam():
 
 
 def test_system_reduces_for_its_band_and_judges(beam):
-    body = beam.reduce("krylov", 8)
+    body = beam.reduce("krylov", 16)  # the port and the frame's six inertia loads (measured 6.0e-8)
     assert body.info["band"] == list(BAND) and body.info["options"]["band"] == list(BAND)
     err = beam.judge(body)
     assert isinstance(err, flexmor.ErrorMeasures) and err.band_hz == BAND
@@ -34,7 +34,7 @@ def test_system_reduces_for_its_band_and_judges(beam):
     # the same as the library steps it is made of
     model = flexmor.read(CCX / "beam8_clamped_mat.sti").with_rayleigh(0.0, 1e-6)
     ports = flexmor.make_ports(model, ["TIP:y"])
-    same = flexmor.reduce(model, "krylov", 8, ports, band=BAND)
+    same = flexmor.reduce(model, "krylov", 16, ports, band=BAND)
     assert np.allclose(same.K, body.K) and flexmor.FullResponse(model, ports, BAND).evaluate(same).band_error == \
         pytest.approx(err.band_error, rel=1e-6)
 
@@ -203,12 +203,13 @@ def test_system_reduce_and_judge_computes_the_full_frf_once_and_after_the_reduct
     body, rec = s.reduce_and_judge("modal", 6, judge=False)
     assert made == [] and rec["band_error"] is None and "full_frf" not in rec["timings"]
     assert body.info["band"] is None and rec["order"] == 6
-    _, first = s.reduce_and_judge("krylov", 3)  # measured 9.0e-5 and 1.1e-6: above round-off
-    _, second = s.reduce_and_judge("krylov", 4)
+    port = {"inertia_loads": "off"}  # orders 3 and 4 for the port alone: measured 9.0e-5 and 1.1e-6
+    _, first = s.reduce_and_judge("krylov", 3, **port)
+    _, second = s.reduce_and_judge("krylov", 4, **port)
     assert made == [1] and second["timings"]["full_frf"] < 0.1 * first["timings"]["full_frf"]
     assert second["band_error"] < first["band_error"] < 1e-3
     prepared = flexmor.System.prepared(s.model, s.ports, band=BAND, cache=False)
-    assert prepared.judge(s.reduce("krylov", 3)).band_error == pytest.approx(first["band_error"], rel=1e-9)
+    assert prepared.judge(s.reduce("krylov", 3, **port)).band_error == pytest.approx(first["band_error"], rel=1e-9)
 
 
 def test_wrong_arguments_of_the_python_api_are_named(beam, clamped, free, tmp_path):

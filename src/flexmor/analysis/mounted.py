@@ -587,7 +587,7 @@ def static_note(rec: dict, band_rms_error: float | None, *, inertia_loads: tuple
         if frame is None or frame <= NOTE_FLOOR or n != 0:
             return None
         how = ("it was built for its ports alone: --inertia-loads on adds the six to the inputs the basis is built "
-               "for (they share the order), " if mode == "auto" else "its basis is not built for them: ")
+               "for (they share the order), " if mode in ("auto", "off") else "its basis is not built for them: ")
         return (f"frame accelerations: the supported body deflects {100 * frame:.3g} % off the full model under "
                 f"one of the frame's unit accelerations (gravity, its support's motion; see the static table); {how}"
                 "--residual-vectors adds their static responses")

@@ -292,10 +292,11 @@ def build_parser() -> argparse.ArgumentParser:
                         + "; ".join(f"{k}: {v}" for k, v in MEASURES.items()).replace("%", "%%"))
     p.add_argument("--inertia-loads", choices=["auto", "on", "off"], default="auto",
                    help="add the frame's inertia loads (6 unit accelerations, gravity among them) to the inputs "
-                   "the basis is built for; auto: on for a free body, where they load the body held at each coupling "
-                   "master (--interface SET@rbe2) so that the mounted body sags like the full model (nothing for a "
-                   "free body without one); use on for a supported body whose support moves (M R). "
-                   "Methods whose basis ignores the inputs (modal, guyan, craig-bampton) are not affected")
+                   "the basis is built for, sharing the order with the ports; auto (the default) and on: M R on a "
+                   "supported body (gravity and its support's motion load it in directions its ports may not see); on "
+                   "a free body the accelerations of the body held at each coupling master (--interface SET@rbe2), so "
+                   "that the mounted body sags like the full model (nothing for a free body without one); off: the "
+                   "ports only. Methods whose basis ignores the inputs (modal, guyan, craig-bampton) are not affected")
     p.add_argument("--residual-vectors", action="store_true",
                    help="append the static responses to the inputs, the frame's six accelerations and the coupling "
                    "masters' unit loads to the method's basis (counted in --order): the body's static response is "

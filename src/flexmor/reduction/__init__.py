@@ -82,10 +82,12 @@ def reduce(model, method: str, order: int | None, ports, *, inertia_loads: str =
         Inputs and outputs of the reduced body.
     inertia_loads : {'auto', 'on', 'off'}
         Add the frame's inertia loads (six unit accelerations, gravity among them) to the inputs
-        the basis is built for (:func:`flexmor.reduction.free_body.with_inertia_loads`): ``M R``
-        on a supported body (``on``), and on a free body with interface masters (``on`` and the
-        default ``auto``) the same accelerations of the body held at each master, so that the
-        mounted body sags like the full model. The reduced body keeps ``ports``. No effect on
+        the basis is built for (:func:`flexmor.reduction.free_body.with_inertia_loads`; ``auto``, the
+        default, and ``on``): ``M R`` on a supported body (gravity and the support's motion load it in
+        directions its ports may not see), and on a free body with interface masters the same
+        accelerations of the body held at each master, so that the mounted body sags like the full
+        model. They share the order with the ports (``off``: the ports only). The reduced body keeps
+        ``ports``. No effect on
         methods whose basis does not use the inputs (modal, guyan, craig-bampton).
     residual_vectors : bool
         Append the static responses to the inputs, the frame's accelerations and the coupling masters'
@@ -142,6 +144,8 @@ def reduce(model, method: str, order: int | None, ports, *, inertia_loads: str =
         red = project(model, basis, ports)
         t2 = time.perf_counter()
     red.info.update(inertia)
+    if not m.uses_inputs:  # the basis ignores the inputs: no inertia loads could be asked for
+        red.info["inertia_loads"] = None
     red.info.setdefault("order_requested", order)
     red.info.setdefault("options", _recorded(opts))
     red.info["band"] = list(Band.of(opts.get("band"))) if "band" in m.options else None

@@ -215,8 +215,10 @@ def with_inertia_loads(model, ports, mode: str = "off"):
     accelerations of the body held at each coupling master (:func:`interface_loads`; not for a
     master whose six directions the inputs hold) to the inputs and, transposed, to the outputs,
     each column scaled to the mean norm of the port inputs (so that Gramian methods weigh them
-    like a port); ``'auto'`` is ``on`` for a free body and records a note for a supported one,
-    ``'off'`` never adds them. The reduced body keeps the user's ports. On a free body ``M R``
+    like a port); ``'auto'`` (the default) is ``on`` for free and supported bodies alike (a supported
+    body's support is its frame: gravity and the support's motion load it with ``-M R a``, in
+    directions its ports may not see, e.g. the z-bending of a bar loaded in y), ``'off'`` never adds
+    them. The reduced body keeps the user's ports. On a free body ``M R``
     lies in ``M span(Φ)`` (a uniform acceleration moves it rigidly); held in its joint it sags,
     and with the master's columns the mounted body sags like the full model
     (:mod:`flexmor.analysis.mounted` measures it).
@@ -239,10 +241,6 @@ def with_inertia_loads(model, ports, mode: str = "off"):
     if mode == "off":
         return ports, record
     phi = rigid_body_modes(model)
-    if mode == "auto" and not phi.shape[1]:
-        record["inertia_loads_note"] = ("supported body: not reduced for the inertia loads of a moving support; "
-                                        "use inertia_loads='on' if its support accelerates")
-        return ports, record
     R = rigid_motions(model)
     keep = np.linalg.norm(R, axis=0) > 0
     L = model.M @ R[:, keep]
