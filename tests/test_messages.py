@@ -180,3 +180,23 @@ def test_reduce_prints_the_points_of_its_json(capsys, tmp_path):
     (line,) = [ln for ln in out.splitlines() if ln.startswith("points: ")]
     for p in rec["info"]["points_hz"][1:]:
         assert f"{complex(p).imag:.4g}i" in line
+
+
+def test_reduce_and_info_say_what_the_basis_was_built_for(capsys, tmp_path):
+    """A supported body's krylov basis is built for its port and the frame's six inertia loads by default: the text
+    of ``reduce`` and ``info`` says so (with how to build for the ports alone); with ``off`` the row is absent; a
+    free body names the coupling master it is held at."""
+    from helpers import CLAMPED
+
+    base = ["reduce", CLAMPED, "--method", "krylov", "--order", "12", "--input", "TIP:y", "--band", "10:3000",
+            "--rayleigh", "0:1e-6", "--no-error"]
+    code, out, _ = run(capsys, *base, "-o", tmp_path / "k.h5")
+    assert code == 0 and "the ports and 6 inertia loads: the frame's unit accelerations M R" in out
+    code, out, _ = run(capsys, "info", tmp_path / "k.h5")
+    assert _row(out, "built for").startswith("the ports and 6 inertia loads") and "--inertia-loads" in out
+    assert run_json(capsys, "info", tmp_path / "k.h5", "--json")["basis"]["n_inertia_loads"] == 6
+    code, out, _ = run(capsys, *base, "--inertia-loads", "off", "-o", tmp_path / "k0.h5")
+    assert code == 0 and "built for" not in out
+    code, out, _ = run(capsys, "reduce", FREE, "--method", "krylov", "--order", "16", "--interface", "FIX@rbe2",
+                       "--input", "TIP:y", "--no-error", "-o", tmp_path / "f.h5")
+    assert code == 0 and "the frame's accelerations of the body held at FIX@RBE2" in out

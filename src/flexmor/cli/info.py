@@ -45,7 +45,7 @@ def interface_lines(masters) -> list[str]:
 #: cutoff and quadrature of the Gramians, snapshots, iterations, the interface of a CMS basis, Krylov's estimate.
 BASIS_KEYS = ("points_hz", "moments", "points_check", "intermediate", "gramian", "gramians", "band_hz",
               "band_requested_hz", "cutoff_hz", "n_nodes", "snapshots", "energy_captured", "iterations", "max_iter",
-              "shift_change", "shift_tol", "n_interface_dofs", "n_internal")
+              "shift_change", "shift_tol", "n_interface_dofs", "n_internal", "n_inertia_loads", "inertia_interfaces")
 
 
 def basis_record(info: dict) -> dict:
@@ -71,6 +71,11 @@ def _points(points) -> str:
 def basis_rows(rec: dict) -> list[tuple[str, str]]:
     """``(label, text)`` rows of a :func:`basis_record`, for the text output of ``info`` and ``reduce``."""
     rows = []
+    if rec.get("n_inertia_loads"):  # inputs the basis was built for beside the ports
+        held = rec.get("inertia_interfaces")
+        rows.append(("built for", f"the ports and {rec['n_inertia_loads']} inertia loads: "
+                     + (f"the frame's accelerations of the body held at {', '.join(held)}" if held else
+                        "the frame's unit accelerations M R") + " (--inertia-loads; off: the ports alone)"))
     if rec.get("points_hz"):
         moments = rec.get("moments")
         rows.append(("points", f"{_points(rec['points_hz'])} Hz (s / 2 pi)"
