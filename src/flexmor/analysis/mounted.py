@@ -574,9 +574,9 @@ def static_record(model, body, *, ports=None, full: FullMounted | None = None, m
 def static_note(rec: dict, band_rms_error: float | None, *, inertia_loads: tuple = (None, None)) -> str | None:
     """A one-line note when the body's static error at its inputs (``rec``: :func:`static_record`) exceeds
     ``NOTE_FLOOR`` (1e-3) or ``NOTE_FACTOR`` (10) times its band RMS error; else, for a supported body built
-    without the frame's inertia loads (``inertia_loads``: the body's ``inertia_loads`` mode and
-    ``n_inertia_loads``, 0), when its deflection under one of the frame's accelerations (``frame_error``)
-    is off by more than ``NOTE_FLOOR``; else None."""
+    without the frame's inertia loads (``inertia_loads``: the body's ``inertia_loads`` mode, None for a method
+    whose basis ignores the inputs, and ``n_inertia_loads``, 0), when its deflection under one of the frame's
+    accelerations (``frame_error``) is off by more than ``NOTE_FLOOR``; else None."""
     e = rec.get("static_error")
     frame = rec.get("frame_error")
     if e is None and frame is None:
@@ -587,7 +587,7 @@ def static_note(rec: dict, band_rms_error: float | None, *, inertia_loads: tuple
         if frame is None or frame <= NOTE_FLOOR or n != 0:
             return None
         how = ("it was built for its ports alone: --inertia-loads on adds the six to the inputs the basis is built "
-               "for (they share the order), " if mode in ("auto", "off") else "its basis is not built for them: ")
+               "for (they share the order), " if mode is not None else "its basis is not built for them: ")
         return (f"frame accelerations: the supported body deflects {100 * frame:.3g} % off the full model under "
                 f"one of the frame's unit accelerations (gravity, its support's motion; see the static table); {how}"
                 "--residual-vectors adds their static responses")
