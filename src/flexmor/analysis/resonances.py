@@ -125,10 +125,12 @@ def spurious_resonances(body, freqs, H, resonances, zeta=None, *, band=None, max
     if unseen.size:  # modes the ports hardly see: no error at the ports, but another load (the frame's) would
         shown = "; ".join(f"{f:.4g} Hz" for f in unseen[:4]) + (" ..." if unseen.size > 4 else "")
         what, it = ("modes", "them") if unseen.size > 1 else ("a mode", "it")
+        built = int((getattr(body, "info", None) or {}).get("n_inertia_loads") or 0) > 0
+        advice = ("raise the order (the basis is built for the frame's inertia loads already) or add the other "
+                  "joints' loads as inputs" if built else "raise the order or add those loads as inputs")
         out["unseen_note"] = (f"the body has {what} at {shown} in the band with no full mode within "
                               f"{100 * SPURIOUS_REL:g} % ({what} the basis approximates poorly): its ports hardly see "
-                              f"{it}, loads elsewhere (the frame's inertia, other joints) would; raise the order or "
-                              "add those loads as inputs")
+                              f"{it}, loads elsewhere (the frame's inertia, other joints) would; {advice}")
     if not bad.size:
         return out
     out["spurious_resonances_hz"] = bad.tolist()
