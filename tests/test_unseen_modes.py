@@ -1,7 +1,9 @@
 import numpy as np
+
 from flexmor.analysis.resonances import spurious_resonances
 from flexmor.body import ReducedModel
 from flexmor.dynamics.frf import frf_matrices
+
 
 def test_a_mode_the_ports_do_not_see_is_told_with_advice_for_what_the_basis_was_built_for():
     """A body with a mode at 300 Hz its port does not load (B's second row 0) and no full mode there: the note
