@@ -174,6 +174,31 @@ def test_reduce_projects_the_preloaded_stiffness(capsys, tmp_path, clamped):
         (tmp_path / "pre.SID_FEM").read_text().splitlines()[0]
 
 
+def test_a_body_preloaded_with_a_given_material_is_exported_and_judged_with_it(capsys, tmp_path, clamped):
+    """``--material`` replaces the deck's material of the preload's stresses: the body records it, and export
+    and compare apply the recorded preload with it (export refused the body before: its own model file gave
+    "a different stiffness matrix K"); a model preloaded with the deck's materials is refused naming
+    --material."""
+    body, model = tmp_path / "mat.h5", DATA / "beam8_clamped_mat.sti"
+    run_json(capsys, "reduce", model, "--method", "modal", "--order", "4", "--input", "TIP:y", "--preload",
+             "TIP:x=5e5", "--material", "1e11,0.3,7800", "--no-error", "-o", body)
+    red = read_body(body)
+    K = preload_stiffness(clamped, "TIP:x=5e5", material=(1e11, 0.3, 7800)).K
+    assert np.allclose(red.K, red.V.T @ (K @ red.V), rtol=1e-9, atol=1e-9 * np.abs(red.K).max())
+    deck = red.V.T @ (preload_stiffness(clamped, "TIP:x=5e5").K @ red.V)
+    assert not np.allclose(red.K, deck, rtol=1e-6, atol=0)  # another material is another stiffness
+    assert red.info["preload"]["material"]["rho"] == 7800.0
+    code, _, err = run(capsys, "export", body, "--model", model, "-o", tmp_path / "mat.mat")
+    assert code == 0, err
+    recorded = run_json(capsys, "compare", model, body)
+    given = run_json(capsys, "compare", model, body, "--preload", "TIP:x=5e5", "--material", "1e11,0.3,7800")
+    assert recorded["results"][0]["band_error"] == pytest.approx(given["results"][0]["band_error"], rel=1e-12)
+    code, _, err = run(capsys, "compare", model, body, "--preload", "TIP:x=5e5")
+    assert code != 0 and "a material given in place of the deck's" in err and "--material" in err
+    code, text, _ = run(capsys, "info", body)
+    assert "TIP:x=5e5 with a material in place of the deck's" in text
+
+
 def test_command_line_refusals_name_the_flag(capsys):
     code, _, err = run(capsys, "info", DATA / "beam8_free_mat.sti", "--preload", "spin:0,0,10", "--modes", "2")
     assert code != 0 and "--preload 'spin:0,0,10' needs a supported model" in err

@@ -162,8 +162,16 @@ def _preload_advice(body, model) -> str:
     def specs(record):
         return ", ".join(map(str, (record or {}).get("specs", []))) or None
 
-    theirs, ours = specs((getattr(body, "info", None) or {}).get("preload")), specs(getattr(model, "preload", None))
+    body_rec, model_rec = (getattr(body, "info", None) or {}).get("preload"), getattr(model, "preload", None)
+    theirs, ours = specs(body_rec), specs(model_rec)
     if theirs == ours:
+        mine, yours = ((r or {}).get("material") if isinstance(r, dict) else None for r in (body_rec, model_rec))
+        if theirs and mine != yours:
+            return (f"the body's preload {theirs} was stressed with "
+                    + ("a material given in place of the deck's" if mine else "the deck's materials")
+                    + ", this model's with " + ("another material" if yours and mine else "a material given"
+                                                if yours else "the deck's materials")
+                    + ": give the body's --material (or none) with the model")
         return ""
     return (f"the body was reduced with {'the preload ' + theirs if theirs else 'no preload'} (its K holds the "
             f"geometric stiffness), this model has {'the preload ' + ours if ours else 'none'}: give the body's "

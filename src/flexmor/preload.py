@@ -42,8 +42,8 @@ import scipy.sparse as sp
 from .errors import ModelError
 from .stress import integration_points
 
-__all__ = ["Preload", "Preloaded", "geometric_stiffness", "parse_preload", "preload_load",
-           "preload_stiffness", "spin_softening", "with_preload"]
+__all__ = ["Preload", "Preloaded", "geometric_stiffness", "material_record", "parse_preload", "preload_load",
+           "preload_stiffness", "recorded_material", "spin_softening", "with_preload"]
 
 
 @dataclass(frozen=True)
@@ -86,6 +86,8 @@ class Preloaded:
         The static load.
     specs : list of str
         The preload SPECs.
+    material : dict or None
+        The material of the stresses when it was given in place of the deck's (:func:`material_record`).
     """
 
     K: sp.csr_matrix
@@ -94,11 +96,39 @@ class Preloaded:
     u: np.ndarray
     load: np.ndarray
     specs: list
+    material: dict | None = None
 
     def record(self) -> dict:
-        """A JSON-ready description: the SPECs, the largest displacement and the norms of the load."""
-        return {"specs": list(self.specs), "max_displacement": float(np.abs(self.u).max(initial=0.0)),
-                "load_norm": float(np.linalg.norm(self.load)), "spin_softening": self.softening is not None}
+        """A JSON-ready description: the SPECs, the largest displacement, the norms of the load and the material
+        given in place of the deck's (``material``, only when one was: the same preload with the deck's materials
+        is another stiffness)."""
+        out = {"specs": list(self.specs), "max_displacement": float(np.abs(self.u).max(initial=0.0)),
+               "load_norm": float(np.linalg.norm(self.load)), "spin_softening": self.softening is not None}
+        if self.material is not None:
+            out["material"] = self.material
+        return out
+
+
+def material_record(material) -> dict:
+    """``material`` (a :class:`~flexmor.elements.Material` or ``(E, nu[, rho])``) as JSON: its elasticity matrix
+    ``D`` (6 x 6, Voigt order) and density ``rho`` (None when not given)."""
+    from .stress import _as_material
+
+    m = _as_material(material)
+    return {"D": np.asarray(m.D).tolist(), "rho": None if m.rho is None else float(m.rho)}
+
+
+def recorded_material(record):
+    """The material of a preload record (:meth:`Preloaded.record`) given in place of the deck's, or None."""
+    from .elements import Material
+
+    rec = (record or {}).get("material") if isinstance(record, dict) else None
+    if not rec:
+        return None
+    try:
+        return Material("material", np.asarray(rec["D"], dtype=np.float64), rec.get("rho"))
+    except (KeyError, TypeError, ValueError) as exc:
+        raise ModelError(f"the body's preload record has a malformed material ({exc})", params=("material",)) from None
 
 
 _NUMBER = r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eEdD][-+]?\d+)?"
@@ -342,7 +372,8 @@ def preload_stiffness(model, spec, *, material=None, solver=None) -> Preloaded:
         K = K + soft
     K = sp.csr_matrix(K)
     K = (K + K.T) * 0.5
-    return Preloaded(sp.csr_matrix(K), KG, soft, u, F, specs)
+    return Preloaded(sp.csr_matrix(K), KG, soft, u, F, specs,
+                     None if material is None else material_record(material))
 
 
 def with_preload(model, spec, *, material=None, solver=None):

@@ -460,6 +460,7 @@ def _model_and_bodies(args):
     from ..damping import NoDamping
     from ..io import read_body
     from ..options import Band
+    from ..preload import recorded_material
     from ..prepare import as_damping
     from ..workflow import DEFAULT_BAND
 
@@ -472,6 +473,9 @@ def _model_and_bodies(args):
     if not getattr(args, "preload", None) and len(preloads) == 1 and () not in preloads:
         args.preload = list(preloads.pop())  # the model stiffened by the preload its bodies record
         args.preload_from_bodies = True
+        materials = {repr(b.info["preload"].get("material")) for b in bodies}
+        if getattr(args, "material", None) is None and len(materials) == 1:  # and stressed with their material
+            args.material = recorded_material(bodies[0].info["preload"])
     done, band = _read_model(args, damped=False)
     model, t_read = done.model, done.seconds
     if band is not None:

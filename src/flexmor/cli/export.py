@@ -14,6 +14,7 @@ def cmd_export(args) -> int:
     """``flexmor export``: write a body in an MBS code's format; returns the exit code."""
     from ..io import export, export_format, read_body, unit_formats
     from ..origin import reference_model
+    from ..preload import recorded_material
     from ..prepare import prepare
 
     _check_new(args.output_file, args)
@@ -28,7 +29,7 @@ def cmd_export(args) -> int:
     recorded = red.info.get("preload")
     preload = recorded.get("specs", []) if isinstance(recorded, dict) else []  # the body's preload, again
     model = prepare(args.model, format=args.model_format, mesh=args.mesh, units=units, preload=preload,
-                    progress=_progress(args)).model if args.model else None
+                    material=recorded_material(recorded), progress=_progress(args)).model if args.model else None
     out = {"file": str(args.output_file), "format": name, "order": red.order, "method": red.method,
            "units": args.export_units or ("SI" if red.units is not None else None)}
     body, ref = red, None

@@ -181,8 +181,11 @@ def info_body(args, emit_json) -> int:
     _row("damping", describe_damping(damping_from_dict(out["damping"])))
     preload = red.info.get("preload")
     if isinstance(preload, dict) and preload.get("specs"):
-        _row("preload", f"{', '.join(map(str, preload['specs']))}: its K holds their geometric stiffness (judge, "
-                        "compare and export it with the same --preload)")
+        given = " and --material" if preload.get("material") else ""
+        _row("preload", f"{', '.join(map(str, preload['specs']))}"
+                        + (" with a material in place of the deck's" if given else "")
+                        + f": its K holds their geometric stiffness (judge and compare it with the same --preload"
+                        f"{given}; export --model applies them itself)")
     _row("units", _units_line(out["units"], "the body is in SI; export --export-units writes other systems"))
     if out["study"]:
         _row("study", _study_text(out["study"]))
