@@ -169,8 +169,9 @@ def _preload_advice(body, model) -> str:
         if theirs and mine != yours:
             return (f"the body's preload {theirs} was stressed with "
                     + ("a material given in place of the deck's" if mine else "the deck's materials")
-                    + ", this model's with " + ("another material" if yours and mine else "a material given"
-                                                if yours else "the deck's materials")
+                    + ", this model's with " + ("another material" if yours and mine else
+                                                "a material given in place of the deck's" if yours
+                                                else "the deck's materials")
                     + ": give the body's --material (or none) with the model")
         return ""
     return (f"the body was reduced with {'the preload ' + theirs if theirs else 'no preload'} (its K holds the "

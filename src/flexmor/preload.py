@@ -118,8 +118,9 @@ def material_record(material) -> dict:
     return {"D": np.asarray(m.D).tolist(), "rho": None if m.rho is None else float(m.rho)}
 
 
-def recorded_material(record):
-    """The material of a preload record (:meth:`Preloaded.record`) given in place of the deck's, or None."""
+def recorded_material(record, source=None):
+    """The material of a preload record (:meth:`Preloaded.record`) given in place of the deck's, or None;
+    ``source`` (the body's file) names a malformed record in the error."""
     from .elements import Material
 
     rec = (record or {}).get("material") if isinstance(record, dict) else None
@@ -127,8 +128,9 @@ def recorded_material(record):
         return None
     try:
         return Material("material", np.asarray(rec["D"], dtype=np.float64), rec.get("rho"))
-    except (KeyError, TypeError, ValueError) as exc:
-        raise ModelError(f"the body's preload record has a malformed material ({exc})", params=("material",)) from None
+    except (KeyError, TypeError, ValueError, ModelError) as exc:
+        raise ModelError(f"{source or 'the body'}: its preload record has a malformed material ({exc})",
+                         params=("material",)) from None
 
 
 _NUMBER = r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eEdD][-+]?\d+)?"

@@ -475,7 +475,7 @@ def _model_and_bodies(args):
         args.preload_from_bodies = True
         materials = {repr(b.info["preload"].get("material")) for b in bodies}
         if getattr(args, "material", None) is None and len(materials) == 1:  # and stressed with their material
-            args.material = recorded_material(bodies[0].info["preload"])
+            args.material = recorded_material(bodies[0].info["preload"], args.reduced[0])
     done, band = _read_model(args, damped=False)
     model, t_read = done.model, done.seconds
     if band is not None:

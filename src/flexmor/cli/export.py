@@ -28,8 +28,9 @@ def cmd_export(args) -> int:
     units = args.units or red.units  # the --model file in the unit system the body records, unless given
     recorded = red.info.get("preload")
     preload = recorded.get("specs", []) if isinstance(recorded, dict) else []  # the body's preload, again
+    material = recorded_material(recorded, args.reduced)  # and the material its stresses were computed with
     model = prepare(args.model, format=args.model_format, mesh=args.mesh, units=units, preload=preload,
-                    material=recorded_material(recorded), progress=_progress(args)).model if args.model else None
+                    material=material, progress=_progress(args)).model if args.model else None
     out = {"file": str(args.output_file), "format": name, "order": red.order, "method": red.method,
            "units": args.export_units or ("SI" if red.units is not None else None)}
     body, ref = red, None

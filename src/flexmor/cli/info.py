@@ -83,11 +83,12 @@ def basis_rows(rec: dict) -> list[tuple[str, str]]:
                         if moments is not None else "")))
     check = rec.get("points_check")
     if isinstance(check, dict) and check.get("estimate") is not None:
+        more = (check.get("checks_hz") or [])[1:]
         text = f"band_error {check['estimate']:.3g} (against the body enriched by the full solution"
         if check.get("check_hz") is not None:
-            text += f" at {check['check_hz']:.4g} Hz"
+            text += f"s at {check['check_hz']:.4g} and {more[0]:.4g} Hz" if more else f" at {check['check_hz']:.4g} Hz"
             if check.get("pointwise_at_check") is not None:
-                text += f", its relative error there {check['pointwise_at_check']:.3g}"
+                text += f", its relative error at {check['check_hz']:.4g} Hz {check['pointwise_at_check']:.3g}"
         rows.append(("estimate", text + "; the judge's figure is verified)"))
     if rec.get("krylov_points_hz"):
         rows.append(("points", f"{_points(rec['krylov_points_hz'])} Hz (s / 2 pi) of the Krylov step"
