@@ -112,9 +112,9 @@ class Preloaded:
 def material_record(material) -> dict:
     """``material`` (a :class:`~flexmor.elements.Material` or ``(E, nu[, rho])``) as JSON: its elasticity matrix
     ``D`` (6 x 6, Voigt order) and density ``rho`` (None when not given)."""
-    from .stress import _as_material
+    from .stress import as_material
 
-    m = _as_material(material)
+    m = as_material(material)
     return {"D": np.asarray(m.D).tolist(), "rho": None if m.rho is None else float(m.rho)}
 
 

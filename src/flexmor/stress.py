@@ -32,9 +32,9 @@ import numpy as np
 from .elements import Elements, Material
 from .errors import ModelError
 
-__all__ = ["INTEGRATION_WEIGHTS", "SOLID_TYPES", "ElementField", "NodalField", "PointChunk", "body_stresses",
-           "element_strains", "element_stresses", "integration_points", "nodal_strains", "nodal_stresses",
-           "stress_node_ids", "von_mises"]
+__all__ = ["INTEGRATION_WEIGHTS", "SOLID_TYPES", "ElementField", "NodalField", "PointChunk", "as_material",
+           "body_stresses", "element_strains", "element_stresses", "integration_points", "nodal_strains",
+           "nodal_stresses", "stress_node_ids", "von_mises"]
 
 #: Element types without stiffness of their own, left out of stress recovery (and of the nodal means).
 IGNORED_TYPES = ("MASS", "ROTARYI")
@@ -297,7 +297,9 @@ def _source(model) -> str:
     return (el.source if el is not None and el.source else "") or model.source or model.name
 
 
-def _as_material(material) -> Material:
+def as_material(material) -> Material:
+    """``material`` as a :class:`~flexmor.elements.Material` with an elasticity matrix: a Material, or
+    ``(E, nu[, rho])`` (isotropic); a :class:`~flexmor.errors.ModelError` naming ``material`` otherwise."""
     if isinstance(material, Material):
         if material.D is None:
             raise ModelError(f"{material.name!r}: {material.unsupported or 'no elasticity matrix'}",
@@ -321,7 +323,7 @@ def _blocks(model, material) -> tuple[list, Elements]:
         raise ModelError(f"{src}: the model has no elements to recover stresses from (read the FE deck with its "
                          "*ELEMENT / CHEXA ... definitions)")
     if material is not None:
-        el = el.with_material(_as_material(material))
+        el = el.with_material(as_material(material))
     blocks = []
     for b in el.blocks:
         if b.type in IGNORED_TYPES or not b.ids.size:
