@@ -155,6 +155,8 @@ def test_the_estimate_holds_where_the_body_misses_a_cluster_away_from_its_larges
     assert err > 1e-9  # above the judge's round-off: the ratio means something
     assert err / 3 <= check["estimate"] <= 3 * err, (check, err)
     assert len(check["checks_hz"]) == 2
+    # the pointwise figure only where the full model was solved on the axis (an undamped one: beside it)
+    assert ("pointwise_at_check" in check) == (damping is not None)
 
 
 def test_the_estimate_is_at_the_judged_ports_when_inertia_loads_share_the_basis(corner_clamped):

@@ -460,7 +460,9 @@ def difference_estimate(model, ports, V, indicator: ResidualIndicator, band, *, 
     -------
     dict
         ``estimate`` (:func:`nested_difference`), ``check_hz`` (where the residual is largest),
-        ``pointwise_at_check`` (the body's true relative error there), ``indicator_at_check``, ``checks_hz``
+        ``pointwise_at_check`` (a damped model: the body's true relative error there; not given for an undamped
+        one, whose full model is solved beside the axis, :func:`point_of`, and whose body may resonate at
+        ``check_hz``), ``indicator_at_check``, ``checks_hz``
         (every frequency where the full model was solved), ``n_freq``.
     """
     f, rho = _candidates(indicator, band, chosen, low=low)
@@ -476,6 +478,7 @@ def difference_estimate(model, ports, V, indicator: ResidualIndicator, band, *, 
                                      rigid_modes=phi)
     E = _new_columns(model, phi, V, [b for point in blocks for b in point])
     indicator.extend(V, E)
-    out.update(nested_difference(model, ports, np.hstack([V, E]), indicator, V.shape[1], band, at=float(f[k]),
-                                 judged=True))
+    on_axis = model.D is not None  # an undamped model is solved beside the axis (point_of): no exact figure at f[k]
+    out.update(nested_difference(model, ports, np.hstack([V, E]), indicator, V.shape[1], band,
+                                 at=float(f[k]) if on_axis else None, judged=True))
     return out
