@@ -11,7 +11,7 @@ tip face, ``TIP_CENTER:x/y/z`` at its centre node):
 * ``craig-bampton`` with the tip face tied to one 6-DOF master by an RBE2 (``TIP@rbe2``; the
   coupling transformation is timed separately) and ``order - 6`` fixed-interface modes,
 * ``krylov`` (default order 200; the default expansion points: 0 Hz, then points on the frequency
-  axis where the body's residual is largest, one factorization each and one for the estimate;
+  axis where the body's residual is largest, one factorization each and two for the estimate;
   ``--band``, default 1-5000 Hz: about 15 resonances of the 1 m steel cantilever),
 * ``two-step`` (``krylov`` to 200, then balanced truncation to 40 with the band's Gramians),
 * ``krylov-1pt`` (not in the default list): ``krylov`` with that one real point given

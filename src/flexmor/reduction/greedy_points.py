@@ -263,7 +263,7 @@ def greedy_basis(model, ports, order: int | None, band, *, side: str, solver, ph
     moments : int, optional
         Moments of every point (default :func:`moments_at`).
     estimate : bool
-        Add the estimate of the final body's band error (:func:`difference_estimate`, one more factorization).
+        Add the estimate of the final body's band error (:func:`difference_estimate`, two more factorizations).
     tol : float, optional
         Stop when the band error of the body before the latest point, against the body with it (nested:
         small matrices only, :func:`nested_difference`), is below ``tol``; the body with it is returned.
