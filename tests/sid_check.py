@@ -19,6 +19,7 @@ import numpy as np
 
 _NODE = re.compile(r"^\s*new node\s*=\s*(\d+)\s*$")
 _M0 = re.compile(r"^\s*m0\(\s*(\d+)\s*,\s*(\d+)\s*\)\s*=\s*(\S+)\s*$")
+_M1 = re.compile(r"^\s*m1\(\s*(\d+)\s*,\s*(\d+)\s*,\s*(\d+)\s*\)\s*=\s*(\S+)\s*$")
 _INT = re.compile(r"^\s*(order|nrow|ncol|nq|nqn|structure)\s*=\s*(-?\d+)\s*$")
 MATRICES = ("origin", "phi", "psi", "AP")
 
@@ -72,13 +73,66 @@ def frame_nodes(path) -> dict[int, dict[str, np.ndarray]]:
                 node[f"{block}_structure"] = np.array(dims.get("structure", -1))
                 block = None
                 continue
-            if block is None:
-                continue
-            m = _INT.match(line)
-            if m:
-                dims[m.group(1)] = int(m.group(2))
-                continue
-            m = _M0.match(line)
-            if m:
-                entries.append((int(m.group(1)), int(m.group(2)), fortran_float(m.group(3))))
+            if block is not None:
+                _entry(line, dims, entries)
     return nodes
+
+
+def _entry(line: str, dims: dict, e0: list, e1: list | None = None) -> None:
+    """One line inside a Taylor block: a header integer into ``dims``, an ``m0`` entry into ``e0``, an ``m1``
+    entry into ``e1``."""
+    m = _INT.match(line)
+    if m:
+        dims[m.group(1)] = int(m.group(2))
+        return
+    m = _M0.match(line)
+    if m:
+        e0.append((int(m.group(1)), int(m.group(2)), fortran_float(m.group(3))))
+        return
+    m = _M1.match(line)
+    if m and e1 is not None:
+        e1.append((int(m.group(1)), int(m.group(2)), int(m.group(3)), fortran_float(m.group(4))))
+
+BODY = ("mdCM", "J", "Ct", "Cr", "Me", "Gr", "Ge", "Oe", "ksigma", "Ke", "De")
+
+
+def taylor_objects(path) -> dict:
+    """Every Taylor matrix of the file with its first-order term: ``{name: (m0, m1)}`` for the body objects
+    and ``{(node id, name): (m0, m1)}`` for the frame nodes' ``phi`` and ``psi``; ``m0`` (nrow, ncol), ``m1``
+    (nrow, ncol, nq) indexed ``[row, col, q]``, zero where nothing is written. The entries ``m1(i, k, j)``
+    are read in the order of the sample files of the format (row, modal coordinate, column): the matrix at
+    the modal coordinates ``q`` is ``m0 + Σ_k m1[:, :, k] q_k``. Symmetric matrices (structure 2) are
+    mirrored."""
+    out: dict = {}
+    node = block = None
+    dims: dict[str, int] = {}
+    e0: list = []
+    e1: list = []
+    with open(path) as f:
+        for line in f:
+            word = line.strip()
+            m = _NODE.match(line)
+            if m:
+                node = int(m.group(1))
+                continue
+            if word == "end frame":
+                node = None
+                continue
+            if block is None and (word in BODY or (node is not None and word in ("phi", "psi"))):
+                block, dims, e0, e1 = word, {}, [], []
+                continue
+            if block is not None and word == f"end {block}":
+                m0 = np.zeros((dims["nrow"], dims["ncol"]))
+                for i, j, v in e0:
+                    m0[i - 1, j - 1] = v
+                if dims.get("structure") == 2:
+                    m0 = np.triu(m0) + np.triu(m0, 1).T
+                m1 = np.zeros((dims["nrow"], dims["ncol"], max(dims.get("nq", 0), 1)))
+                for i, k, j, v in e1:
+                    m1[i - 1, j - 1, k - 1] = v
+                out[block if node is None else (node, block)] = (m0, m1)
+                block = None
+                continue
+            if block is not None:
+                _entry(line, dims, e0, e1)
+    return out

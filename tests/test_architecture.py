@@ -41,11 +41,13 @@ LAYERS = [
     ["flexmor.analysis"],  # judging reduced bodies, assemblies, the body held in its joints
     ["flexmor.reduction"],  # methods -> Basis, METHODS registry, reduce()
     ["flexmor.dynamics", "flexmor.io"],  # FRF, modes, time integration; formats, exporters, invariants
-    ["flexmor.rigid", "flexmor.expansion", "flexmor.modal", "flexmor.stress", "flexmor.preload"],  # rigid motion,
-    # elastic body; expansion; modal form; element stresses and strains; geometric stiffness of preloads
+    ["flexmor.rigid", "flexmor.expansion", "flexmor.modal", "flexmor.stress", "flexmor.preload",
+     "flexmor.stiffening"],  # rigid motion, elastic body; expansion; modal form; element stresses and strains;
+    # geometric stiffness of preloads and of unit loads
     ["flexmor.projection", "flexmor.body", "flexmor.checks", "flexmor.models"],  # projection; the body; checks; models
     ["flexmor.origin", "flexmor.ports", "flexmor.selection", "flexmor.couplings", "flexmor.basis",
-     "flexmor.options"],  # model fingerprint, ports, node sets, RBE2/RBE3, bases, option values
+     "flexmor.options", "flexmor.support"],  # model fingerprint, ports, node sets, RBE2/RBE3, bases, option
+    # values, how interfaces are held
     ["flexmor.model", "flexmor.damping", "flexmor.mesh", "flexmor.units", "flexmor.elements"],  # the FE model,
     # damping values, mesh surface, unit systems, elements and materials
     ["flexmor.linalg"],  # solver layer

@@ -59,6 +59,8 @@ class MasterNode:
         Node ids of the coupled set.
     rows : ndarray, shape (6, r)
         The master's x, y, z, rx, ry, rz in the body's coordinates (rows of ``V``).
+    eqs : tuple of int
+        Its six equations in the coupled model (x y z rx ry rz).
     """
 
     id: int
@@ -67,6 +69,7 @@ class MasterNode:
     xyz: np.ndarray
     slaves: np.ndarray
     rows: np.ndarray
+    eqs: tuple = ()
 
     def matches(self, target) -> bool:
         """Whether ``target`` (a coupling SPEC such as ``HOLE@rbe2``, the set name or the node id) names it."""
@@ -91,12 +94,16 @@ class ExpandedBody:
         The basis at the model's equations (``T V``; the body's ``V`` without couplings).
     masters : list of MasterNode
         One per coupling, in the body's order.
+    coupled : Coupled or None
+        The body's couplings on the model (:func:`flexmor.couplings.couple`: the coupled model the body
+        was reduced on and ``T``); None for a body without couplings.
     """
 
     body: object
     model: object
     V: np.ndarray
     masters: list = field(default_factory=list)
+    coupled: object = None
 
     @property
     def node_ids(self) -> np.ndarray:
@@ -173,10 +180,10 @@ def expand_body(model, body, path="the body", *, elastic: bool = True, remove_ri
         name = name.strip().upper()
         slaves = ref.node_sets[name] if name in ref.node_sets else np.array([int(name)], dtype=np.int64)
         idx = [eq[(mid, d)] for d in range(1, 7)]
-        masters.append(MasterNode(mid, key, kind, c.model.node_xyz([mid])[0].copy(), slaves, V[idx].copy()))
+        masters.append(MasterNode(mid, key, kind, c.model.node_xyz([mid])[0].copy(), slaves, V[idx].copy(), tuple(idx)))
     Vx = np.asarray(c.T @ V)
     log.info("%s: basis expanded through %s to %d equations", body.method, ", ".join(couplings), ref.n_dof)
-    return ExpandedBody(body, ref, Vx, masters)
+    return ExpandedBody(body, ref, Vx, masters, c)
 
 
 def _elastic(model, body, remove_rigid):

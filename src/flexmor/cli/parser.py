@@ -383,6 +383,8 @@ def build_parser() -> argparse.ArgumentParser:
                    "the body was reduced for)")
     p.add_argument("--m1-order", choices=["row-q-col", "row-col-q"], default="row-q-col",
                    help="index order of SID m1(i,j,k) entries (default row-q-col, as PY_SID/EMBS)")
+    p.add_argument("--no-stiffening", action="store_true", help="SID without the load stiffening (the geometric "
+                   "stiffness of unit frame accelerations, spin and node forces in the m1 of Ct Cr Oe phi psi)")
     p.add_argument("--json", action="store_true", help="print one JSON object on stdout")
     p.set_defaults(func=cmd_export)
 

@@ -71,6 +71,11 @@ class FrameNode:
         Position in the body frame.
     phi, psi : ndarray (3, r)
         Translational and rotational mode shapes at the node.
+    load : tuple or None
+        ``(space, eqs, W)``: the node's x y z rx ry rz are ``W @ u[eqs]`` (``W`` (6, len(eqs))) of the
+        displacement ``u`` of the model as read (``space`` ``"read"``) or of the coupled model the body
+        was reduced on (``"coupled"``, a coupling master); a force ``F`` (6,) there loads ``eqs`` with
+        ``W.T @ F``.
     """
 
     id: int
@@ -78,6 +83,7 @@ class FrameNode:
     origin: np.ndarray
     phi: np.ndarray
     psi: np.ndarray
+    load: tuple | None = None
 
 
 @dataclass
@@ -335,7 +341,8 @@ def frame_nodes(model, V, specs=None, body=None, *, masters=()) -> list[FrameNod
         master = next((m for m in masters if m.matches(name)), None)
         if master is not None:
             out.append(FrameNode(master.id, master.name, np.array(master.xyz, float), master.rows[:3].copy(),
-                                 master.rows[3:].copy()))  # its one name, however the spec spells it
+                                 master.rows[3:].copy(),  # its one name, however the spec spells it
+                                 ("coupled", np.asarray(master.eqs, dtype=np.int64), np.eye(6))))
             continue
         target = parse_coupling(name)[0] if "@" in name else name
         if target.upper() in model.node_sets:
@@ -347,12 +354,13 @@ def frame_nodes(model, V, specs=None, body=None, *, masters=()) -> list[FrameNod
             raise PortError(f"SID frame node {name!r} is neither a node id nor a node set (sets: {known})")
         if ids.size == 1 and "@" not in name:
             i = index[int(ids[0])]
+            own = np.concatenate([trans[i], rot[i]])
             out.append(FrameNode(int(ids[0]), name, model.xyz[i].copy(), _gather(V, trans[i:i + 1])[0],
-                                 _gather(V, rot[i:i + 1])[0]))
+                                 _gather(V, rot[i:i + 1])[0], ("read", own[own >= 0], np.eye(6)[:, own >= 0])))
             continue
         centroid = model.node_xyz(ids).mean(axis=0)
         eqs, W = rbe3_matrix(model, ids, centroid)
-        out.append(FrameNode(next_id, name, centroid, W[:3] @ V[eqs], W[3:] @ V[eqs]))
+        out.append(FrameNode(next_id, name, centroid, W[:3] @ V[eqs], W[3:] @ V[eqs], ("read", np.asarray(eqs), W)))
         log.info("SID frame node %d: RBE3 master of %s (%d nodes) at %s", next_id, name, ids.size, centroid)
         next_id += 1
     return out

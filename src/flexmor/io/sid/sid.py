@@ -104,7 +104,8 @@ def _skew(v):
     return np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
 
 
-def sid_from_reduced(body, model, *, nodes=None, remove_rigid: bool = False, units: str = "SI") -> SIDFile:
+def sid_from_reduced(body, model, *, nodes=None, remove_rigid: bool = False, units: str = "SI",
+                     stiffening: bool = True) -> SIDFile:
     """Build the SID contents of a reduced body.
 
     Parameters
@@ -126,6 +127,12 @@ def sid_from_reduced(body, model, *, nodes=None, remove_rigid: bool = False, uni
         The unit system written (:data:`flexmor.units.SYSTEMS`); the header states it. Other
         than SI only for a body whose model was read with its unit system named
         (``body.units``).
+    stiffening : bool
+        Write the load stiffening (:func:`flexmor.stiffening.load_stiffening`): the geometric stiffness of
+        unit frame accelerations in the ``m1`` of ``Ct`` and ``Cr``, of the centrifugal products in ``Oe``
+        (added to its mass terms, the spin softening), of unit forces and moments at each frame node in the
+        ``m1`` of its ``phi`` and ``psi`` (as a generalized force ``phi(q)ᵀ F``: minus the stiffness). A
+        model without solid elements, or a free body without interface, gets none; the header says why.
 
     Returns
     -------
@@ -165,15 +172,26 @@ def sid_from_reduced(body, model, *, nodes=None, remove_rigid: bool = False, uni
 
     J1 = np.stack([jv(inv.J1[a]) for a in range(r)], axis=1)[:, None, :]
     De = inv.De if inv.De is not None else np.zeros((r, r))
+    stiff, stiff_said = None, "no load stiffening"
+    if stiffening:
+        stiff, stiff_said = _stiffening(xb, fn, body)
+    if stiff is not None:  # [node][d, a, b]: phi(q)^T F is a generalized force, minus the stiffness of F
+        for nd, sn in zip(fn, sid_nodes):
+            G = stiff.nodes[int(nd.id)]
+            sn.phi = _taylor(nd.phi, -G[:3], r)
+            sn.psi = _taylor(nd.psi, -G[3:], r)
+    Ct1 = None if stiff is None else stiff.acceleration.transpose(1, 0, 2)
+    Cr1 = inv.Cr1.transpose(0, 2, 1) + (0 if stiff is None else stiff.angular.transpose(1, 0, 2))
+    Oe1 = inv.Oe1.transpose(0, 2, 1) + (0 if stiff is None else stiff.centrifugal.transpose(1, 0, 2))
     objects = {
         "mdCM": _taylor(inv.mdCM0[:, None], inv.mdCM1[:, None, :], r),
         "J": _taylor(jv(inv.J0)[:, None], J1, r),
-        "Ct": _taylor(inv.Ct, nq=r),
-        "Cr": _taylor(inv.Cr0, inv.Cr1.transpose(0, 2, 1), r),
+        "Ct": _taylor(inv.Ct, Ct1, nq=r),
+        "Cr": _taylor(inv.Cr0, Cr1, r),
         "Me": _taylor(inv.Me, nq=r, sym=True),
         "Gr": _taylor(inv.Gr, nq=r),
         "Ge": _taylor(inv.Ge, nq=r),
-        "Oe": _taylor(inv.Oe0, inv.Oe1.transpose(0, 2, 1), r),
+        "Oe": _taylor(inv.Oe0, Oe1, r),
         "ksigma": _taylor(np.zeros((r, 1)), nq=r),
         "Ke": _taylor(inv.Ke, nq=r, sym=True),
         "De": _taylor(De, nq=r, sym=True),
@@ -191,11 +209,26 @@ def sid_from_reduced(body, model, *, nodes=None, remove_rigid: bool = False, uni
     header = (f"{len(fn):5d}{r:4d}    :No. nodes, No. modes:File created using flexmor {__version__}! "
               f"units {said}; method {body.method}, model {model.name}; consistent mass; "
               + (f"Ke with the geometric stiffness of preload {' '.join(body.info['preload'].get('specs', []))}; "
-                 if isinstance(body.info.get("preload"), dict) else "no geometric stiffness; ")
+                 if isinstance(body.info.get("preload"), dict) else "no geometric stiffness in Ke; ")
+              + stiff_said + "; "
               + "frame nodes: " + ", ".join(f"{n.id}={n.name}" for n in fn))
     sid = SIDFile(mass=inv.mass, ielastq=names, nodes=sid_nodes, objects=objects, header=header)
     return sid if system.is_si else sid_in_units(sid, system)
 
+
+
+def _stiffening(xb, fn, body):
+    """``(LoadStiffening or None, what the header says)``."""
+    from ...errors import FlexmorError
+    from ...preload import recorded_material
+    from ...stiffening import load_stiffening
+
+    try:
+        st = load_stiffening(xb, fn, material=recorded_material(body.info.get("preload")))
+    except FlexmorError as exc:
+        log.info("SID without load stiffening: %s", exc)
+        return None, "no load stiffening (" + str(exc).split(";")[0].strip() + ")"
+    return st, f"load stiffening in the m1 of Ct Cr Oe phi psi (stresses {st.support})"
 
 
 # -- writing -----------------------------------------------------------------------------------
@@ -256,7 +289,8 @@ def sid_text(sid: SIDFile, *, m1_order: str = "row-q-col") -> str:
 
 
 def write_sid(body, path, *, model=None, nodes=None, m1_order: str = "row-q-col",
-              allow_clamped: bool = False, remove_rigid: bool = False, units: str = "SI") -> None:
+              allow_clamped: bool = False, remove_rigid: bool = False, units: str = "SI",
+              stiffening: bool = True) -> None:
     """Write a reduced body as a ``.SID_FEM`` file, atomically.
 
     Parameters
@@ -278,6 +312,8 @@ def write_sid(body, path, *, model=None, nodes=None, m1_order: str = "row-q-col"
         See :func:`sid_from_reduced`.
     units : str
         The unit system written (see :func:`sid_from_reduced`; ignored for a SIDFile).
+    stiffening : bool
+        Write the load stiffening (see :func:`sid_from_reduced`).
 
     Raises
     ------
@@ -296,7 +332,8 @@ def write_sid(body, path, *, model=None, nodes=None, m1_order: str = "row-q-col"
         from ..invariants import check_free_model
 
         check_free_model(model, allow_clamped=allow_clamped)
-        sid = sid_from_reduced(body, model, nodes=nodes, remove_rigid=remove_rigid, units=units)
+        sid = sid_from_reduced(body, model, nodes=nodes, remove_rigid=remove_rigid, units=units,
+                               stiffening=stiffening)
     text = sid_text(sid, m1_order=m1_order)
     atomic_write(path, lambda tmp: Path(tmp).write_text(text))
 
