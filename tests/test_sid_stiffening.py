@@ -110,3 +110,22 @@ def test_without_stiffening_the_file_says_so(clamped_sid, tmp_path):
     write_sid(body, tmp_path / "n.SID_FEM", model=model, allow_clamped=True, stiffening=False)
     obj = sid_check.taylor_objects(tmp_path / "n.SID_FEM")
     assert not np.any(obj["Ct"][1]) and "no load stiffening" in sid_check.header(tmp_path / "n.SID_FEM")[2]
+
+
+def test_the_ansys_c3d20r_beam_spins_as_its_preload(tmp_path):
+    """The Ansys 20-node hexahedron beam (a real FE export, supported): the file's spin stiffness about two
+    axes equals the preload's."""
+    pytest.importorskip("ansys.mapdl.reader")
+    import flexmor
+    from flexmor.io.sid import write_sid
+
+    data = Path(__file__).parent / "data" / "ansys"
+    with pytest.warns(Warning):  # the .full file has no checksum
+        model = flexmor.io.read(data / "ansys_file.full", coordinates=data / "ansys_HexBeam.cdb")
+    body = flexmor.reduce(model, "krylov", 8, flexmor.make_ports(model, ["NCOMP2:y"]))
+    write_sid(body, tmp_path / "a.SID_FEM", model=model, allow_clamped=True, nodes=["NCOMP2"])
+    obj = sid_check.taylor_objects(tmp_path / "a.SID_FEM")
+    for w in ([0.0, 100.0, 0.0], [40.0, 0.0, 20.0]):
+        ref = body.V.T @ (preload_stiffness(model, "spin:{},{},{}".format(*w)).K @ body.V)
+        assert _close(ref, obj["Ke"][0]) > 1e-3
+        assert _close(obj["Ke"][0] + np.einsum("akb,k->ab", obj["Oe"][1], _products(w)), ref) < 1e-6
