@@ -42,8 +42,8 @@ LAYERS = [
     ["flexmor.reduction"],  # methods -> Basis, METHODS registry, reduce()
     ["flexmor.dynamics", "flexmor.io"],  # FRF, modes, time integration; formats, exporters, invariants
     ["flexmor.rigid", "flexmor.expansion", "flexmor.modal", "flexmor.stress", "flexmor.preload",
-     "flexmor.stiffening"],  # rigid motion, elastic body; expansion; modal form; element stresses and strains;
-    # geometric stiffness of preloads and of unit loads
+     "flexmor.stiffening", "flexmor.spin"],  # rigid motion, elastic body; expansion; modal form; element stresses
+    # and strains; geometric stiffness of preloads and of unit loads; spinning bodies
     ["flexmor.projection", "flexmor.body", "flexmor.checks", "flexmor.models"],  # projection; the body; checks; models
     ["flexmor.origin", "flexmor.ports", "flexmor.selection", "flexmor.couplings", "flexmor.basis",
      "flexmor.options", "flexmor.support"],  # model fingerprint, ports, node sets, RBE2/RBE3, bases, option

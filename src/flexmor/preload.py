@@ -43,7 +43,7 @@ from .errors import ModelError
 from .stress import integration_points
 
 __all__ = ["Preload", "Preloaded", "geometric_stiffness", "material_record", "parse_preload", "preload_load",
-           "preload_stiffness", "recorded_material", "spin_softening", "with_preload"]
+           "preload_stiffness", "recorded_material", "spin_operator", "spin_softening", "with_preload"]
 
 
 @dataclass(frozen=True)
@@ -171,7 +171,7 @@ def parse_preload(spec: str) -> Preload:
     return Preload("force", text, target.strip(), np.array([float(value.strip().replace("d", "e").replace("D", "e"))]))
 
 
-def _spin_operator(model, w: np.ndarray) -> tuple[sp.csr_matrix, np.ndarray]:
+def spin_operator(model, w: np.ndarray) -> tuple[sp.csr_matrix, np.ndarray]:
     """``P`` (n_dof, n_dof): the skew matrix of ``w`` on the translations of each node, and ``P x``."""
     W = np.array([[0.0, -w[2], w[1]], [w[2], 0.0, -w[0]], [-w[1], w[0], 0.0]])
     n = model.n_dof
@@ -201,7 +201,7 @@ def _spin_operator(model, w: np.ndarray) -> tuple[sp.csr_matrix, np.ndarray]:
 
 def spin_softening(model, w) -> sp.csr_matrix:
     """The spin softening ``-P^T M P`` of angular velocity ``w`` (rad/s) on the model's translations."""
-    P, _ = _spin_operator(model, np.asarray(w, dtype=np.float64))
+    P, _ = spin_operator(model, np.asarray(w, dtype=np.float64))
     return sp.csr_matrix(-(P.T @ model.M @ P))
 
 
@@ -239,7 +239,7 @@ def preload_load(model, spec) -> tuple[np.ndarray, list]:
             g[d <= 3] = p.value[d[d <= 3] - 1]
             F += model.M @ g
         else:
-            P, v = _spin_operator(model, p.value)
+            P, v = spin_operator(model, p.value)
             F += P.T @ (model.M @ v)
     return F, preloads
 

@@ -31,6 +31,7 @@ from .model import FEModel
 from .options import Band
 from .ports import make_ports
 from .prepare import prepare
+from .reduction import BASIS_KEYWORDS
 from .workflow import coupling_specs, record_setup, reduce_and_judge, with_method_band
 
 __all__ = ["System"]
@@ -39,7 +40,7 @@ __all__ = ["System"]
 _JUDGE_KEYWORDS = ("tol", "tol_measure", "mounted", "judge")
 
 #: Keywords of every method's basis (:func:`flexmor.reduction.reduce`), kept in a study file's ``[reduce]``.
-_BASIS_KEYWORDS = ("inertia_loads", "residual_vectors")
+_BASIS_KEYWORDS = BASIS_KEYWORDS
 
 
 def _plain(value):

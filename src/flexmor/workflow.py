@@ -19,7 +19,7 @@ from .linalg.distributed import is_partitioned
 from .linalg.resources import check_basis_memory
 from .options import DEFAULT_BAND, Band, check_order, parse_pair
 from .ports import make_ports
-from .reduction import check_shift, method_name, methods, reduce
+from .reduction import BASIS_KEYWORDS, check_shift, method_name, methods, reduce
 from .reduction.free_body import check_body
 
 __all__ = ["coupling_specs", "prepare_model", "body_model", "parse_band", "parse_pair", "apply_damping", "damping_of",
@@ -146,7 +146,7 @@ def reduce_and_judge(model, method: str, order, ports, *, band=None,
     """
     method = method_name(method)  # aliases and case resolved once: the band, the checks and the record use it
     check_keywords(f"reduce_and_judge with method {method!r}", options,
-                   [*methods()[method].keywords, "inertia_loads", "residual_vectors", *keyword_names(reduce_and_judge)])
+                   [*methods()[method].keywords, *BASIS_KEYWORDS, *keyword_names(reduce_and_judge)])
     solver = as_solver(solver)
     full_of = full if callable(full) and not isinstance(full, FullResponse) else None
     if full_of is not None:

@@ -25,6 +25,7 @@ from .info import (
     info_formats,
     interface_lines,
     is_body_file,
+    print_campbell,
     print_mass_properties,
 )
 from .method_flags import method_options
@@ -171,6 +172,21 @@ def _asked_damping(args) -> dict | None:
 
 
 # -- info --------------------------------------------------------------------------------------
+def _model_campbell(model, args, solver) -> dict:
+    """The Campbell record of the model (``info MODEL --campbell AXIS:W0:W1[:N]``): its ``--modes`` lowest (6
+    without) over N speeds."""
+    from ..spin import campbell, parse_axis_speeds, spin_operators
+
+    if not args.campbell:
+        raise OptionError("--campbell of a model needs AXIS:W0:W1[:N] (e.g. z:0:500: 11 speeds from 0 to 500 rad/s "
+                          "about z)", params=("campbell",))
+    sr, n = parse_axis_speeds(args.campbell)
+    ops = spin_operators(model, sr.axis, material=args.material, solver=solver)
+    k = args.modes if args.modes > 0 else 6
+    c = campbell(model.M, model.K, ops.K2, ops.G1, sr.speeds(n), k, D=model.D, solver=solver)
+    return dict(c.record(), spec=sr.spec, axis=sr.axis.tolist())
+
+
 def cmd_info(args) -> int:
     """``flexmor info``: a model's sizes, checks and lowest frequencies, a body's summary, the
     backends or the formats; returns the exit code."""
@@ -238,6 +254,8 @@ def cmd_info(args) -> int:
         out["couplings"] = couplings
         out["coupling_frequencies"] = coupling_frequencies(done.as_read, model, couplings,
                                                            n=max(args.modes, COUPLING_MODES), solver=solver)
+    if args.campbell is not None:
+        out["campbell"] = _model_campbell(model, args, solver)
     out["notes"] = [{"name": n.name, "text": n.full()} for n in notes]
     out["timings"] = {"read": done.seconds}
     factor = _factor_note(out, solver)
@@ -278,6 +296,9 @@ def cmd_info(args) -> int:
             print(line)
     if args.reference:
         _print_reference(args.reference, out["reference"])
+    if out.get("campbell"):
+        print()
+        print_campbell(out["campbell"])
     for n in out["notes"]:
         print(f"\nnote {n['name']}: {n['text']} (--quiet-note {n['name']} keeps other commands from repeating it)")
     if factor:
@@ -331,6 +352,8 @@ def cmd_reduce(args) -> int:
     from ..study import System
 
     options = method_options(args, args.method)  # before any work: flags the method does not take
+    if args.spin_range:
+        options["spin_range"] = args.spin_range
     if args.tol is not None and args.no_error:
         raise OptionError("--tol needs the error evaluation over a band (drop --no-error)")
     if args.tol is None and args.tol_measure != "band_error":
@@ -366,7 +389,10 @@ def cmd_run(args) -> int:
     args.save_study = None
     if args.output_file:
         _check_new(args.output_file, args)
-    return _reduce_system(args, system, dict(recipe.get("options", {})), solver)
+    options = dict(recipe.get("options", {}))
+    if recipe.get("spin_range"):
+        options["spin_range"] = recipe["spin_range"]
+    return _reduce_system(args, system, options, solver)
 
 
 def _reduce_system(args, system, options: dict, solver) -> int:
@@ -397,6 +423,7 @@ def _reduce_system(args, system, options: dict, solver) -> int:
     if args.save_study:
         on_root(system.save_study, args.save_study, args.method, args.order, options,
                 reduce={"inertia_loads": args.inertia_loads, "residual_vectors": args.residual_vectors or None,
+                        "spin_range": getattr(args, "spin_range", None),
                         "stress": args.stress or None,
                         "stress_nodes": args.stress_nodes if args.stress else None},
                 judge={"error": not args.no_error, "mounted": not args.no_mounted, "tol": args.tol,
@@ -404,6 +431,9 @@ def _reduce_system(args, system, options: dict, solver) -> int:
                        "full_frf": args.full_frf, "cache": not args.no_cache},
                 output={"body": str(path)})
         res["study"] = str(args.save_study)
+    spin = red.info.get("spin")
+    if spin:  # the speed range and its check, without the matrices
+        res["spin"] = {k: v for k, v in spin.items() if k not in ("K2", "G1")}
     factor = _factor_note(res, solver)
     if args.json:
         _emit_json(res)
@@ -431,6 +461,11 @@ def _reduce_system(args, system, options: dict, solver) -> int:
         print(f"coupling: {line}")
     fr = res["frequencies_hz"]
     print("reduced frequencies [Hz]: " + " ".join(f"{f:.4g}" for f in fr[:12]) + (" ..." if len(fr) > 12 else ""))
+    if spin:
+        c = spin["check"]
+        print(f"spin {spin['spec']} rad/s: the lowest {len(c['full_hz'][0])} frequencies (without Coriolis) within "
+              f"{c['max_rel_error']:.2e} of the full model's at {', '.join(f'{w:g}' for w in c['speeds'])} rad/s; "
+              "flexmor info BODY --campbell for the Campbell diagram")
     if factor:
         print(factor)
     print(f"written {path}" + (f" and the study {args.save_study}" if args.save_study else ""))

@@ -153,6 +153,8 @@ def info_body(args, emit_json) -> int:
                                                          "fixed_interface_hz", "kbq_rel")}
     if getattr(args, "modes", 0):
         out["modes"] = _mode_table(red, args.modes)
+    if getattr(args, "campbell", None) is not None:
+        out["campbell"] = body_campbell(red, args.campbell)
     if args.json:
         emit_json(out)
         return 0
@@ -230,8 +232,16 @@ def info_body(args, emit_json) -> int:
                       "FE model (a full model given to compare or report is not checked against it)")
     else:
         _row("model", f"{out['model_name'] or '?'} (no fingerprint: written by an older flexmor)")
+    spin = red.info.get("spin")
+    if spin:
+        c = spin["check"]
+        _row("spin", f"{spin['spec']} rad/s: K + w^2 K2 and the Coriolis matrix w G1; the lowest "
+                     f"{len(c['full_hz'][0])} frequencies within {c['max_rel_error']:.2e} of the full model's at "
+                     f"{', '.join(f'{w:g}' for w in c['speeds'])} rad/s")
     if out.get("modes"):
         _print_mode_table(out["modes"])
+    if out.get("campbell"):
+        print_campbell(out["campbell"])
     return 0
 
 
@@ -433,3 +443,49 @@ def coupling_lines(rec) -> list[str]:
     lines += [f"{i:4d}  {a:13.6g}  {b:12.6g}  {signed_percent(c, 3)} %"
               for i, (a, b, c) in enumerate(zip(rec["uncoupled_hz"], rec["coupled_hz"], ch), 1)]
     return lines
+
+
+def body_campbell(red, value) -> dict:
+    """The Campbell record of a body reduced with ``--spin-range`` (``value``: ``AXIS:W0:W1[:N]`` about its axis,
+    or empty: over its own range)."""
+    import numpy as np
+
+    from ..errors import OptionError
+    from ..spin import campbell, parse_axis_speeds, parse_spin_range
+
+    spin = red.info.get("spin")
+    if not spin:
+        raise OptionError("--campbell needs a body reduced with --spin-range (it carries the spin's stiffness and "
+                          "Coriolis matrices), or the model", params=("campbell",))
+    if value:
+        sr, n = parse_axis_speeds(value)
+        if not np.allclose(sr.axis, spin["axis"], atol=1e-12):
+            raise OptionError(f"--campbell {value}: the body was reduced for spin about {spin['axis']}, not "
+                              f"{sr.axis.tolist()}", params=("campbell",))
+    else:
+        sr, n = parse_spin_range(spin["spec"]), 11
+    k = max(1, min(6, red.order // 2))
+    c = campbell(red.M, red.K, np.asarray(spin["K2"]), np.asarray(spin["G1"]), sr.speeds(n), k, D=red.D)
+    out = c.record()
+    out.update(spec=sr.spec, axis=sr.axis.tolist())
+    if not (sr.w0 >= spin["range"][0] - 1e-12 and sr.w1 <= spin["range"][1] + 1e-12):
+        out["note"] = (f"speeds beyond the range the body was built and checked for ({spin['range'][0]:g} to "
+                       f"{spin['range'][1]:g} rad/s)")
+    return out
+
+
+def print_campbell(rec: dict) -> None:
+    """The Campbell table: one row per speed, each mode's frequency (Hz) and whirl (FW forward, BW backward in
+    the turning frame), then the critical speeds."""
+    print(f"Campbell diagram, spin {rec['spec']} (rad/s; frequencies in Hz in the frame turning with the body; "
+          "FW/BW: forward/backward whirl there)")
+    k = len(rec["frequencies_hz"][0])
+    print("  speed  " + "".join(f"{'mode ' + str(j + 1):>16}" for j in range(k)))
+    for w, f, lab in zip(rec["speeds"], rec["frequencies_hz"], rec["labels"]):
+        print(f"{w:7.4g}  " + "".join(f"{fmt(x, '.6g'):>12} {s:>3}" for x, s in zip(f, lab)))
+    crit = rec["critical"]
+    if crit:
+        print("critical speeds (a frequency equal to a multiple of the speed): " + "; ".join(
+            f"mode {c['mode']} x{c['multiple']} at {c['speed']:.5g} rad/s ({c['frequency_hz']:.5g} Hz)" for c in crit))
+    if rec.get("note"):
+        print(f"note: {rec['note']}")

@@ -262,6 +262,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--interface", action="append", default=[], metavar="SPEC",
                    help="couple SET@rbe2 / SET@rbe3 as reduce does: the model shown is the coupled one, and its "
                         "lowest elastic frequencies are compared with those of the FE model as read")
+    p.add_argument("--campbell", nargs="?", const="", default=None, metavar="AXIS:W0:W1[:N]",
+                   help="Campbell diagram: the damped frequencies over N speeds (default 11) from W0 to W1 rad/s "
+                        "about AXIS, with the centrifugal stiffening, spin softening and Coriolis forces, each mode's "
+                        "whirl (FW/BW in the turning frame) and the critical speeds; a model: its --modes lowest (6 "
+                        "without); a body reduced with --spin-range: without a value, over its range")
     for action in p._actions:  # MODEL is optional with --backends and --formats
         if action.dest == "model":
             action.nargs, action.required = "?", False
@@ -310,6 +315,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--save-study", metavar="FILE", help="also write the study (model file and its checksum, every "
                    "preparation flag, ports, band, damping, method, order, options; .toml) that flexmor run FILE "
                    "reproduces")
+    p.add_argument("--spin-range", metavar="AXIS:W0:W1", help="one body for every speed from W0 to W1 rad/s about "
+                   "AXIS (x, y, z or AX,AY,AZ, through the origin): the method's basis at three speeds, merged to "
+                   "--order; the body carries K(w) = K + w^2 K2 (centrifugal stiffening and spin softening) and the "
+                   "Coriolis matrix w G1, checked against the full model at five speeds; needs a supported model and "
+                   "its elements")
     _add_method_options(p)
     p.set_defaults(func=cmd_reduce)
 

@@ -17,8 +17,11 @@ from __future__ import annotations
 import math
 import time
 
+import numpy as np
+
+from ..basis import Basis
 from ..body import ReducedModel
-from ..errors import PortError
+from ..errors import OptionError, PortError, SolverError
 from ..linalg.context import as_solver
 from ..linalg.distributed import is_partitioned
 from ..linalg.resources import check_basis_memory
@@ -53,6 +56,9 @@ from ._registry import (
     register_method,
 )
 from .free_body import with_inertia_loads
+
+#: The keywords of :func:`reduce` beside the method's options: what the basis is built for.
+BASIS_KEYWORDS = ("inertia_loads", "residual_vectors", "spin_range")
 
 #: How far (factor) the shift of a method's first factorization may lie from
 #: :func:`flexmor.linalg.eigen.default_shift` for the rigid-body check to run at it.
@@ -117,7 +123,11 @@ def reduce(model, method: str, order: int | None, ports, *, inertia_loads: str =
     if not isinstance(ports, Ports):
         raise PortError(f"ports must be a Ports (flexmor.make_ports(model, inputs, outputs), e.g. inputs "
                         f"['TIP:y']), got {type(ports).__name__}", params=("ports",))
-    check_keywords(method, options, [*m.keywords, "inertia_loads", "residual_vectors"])
+    check_keywords(method, options, [*m.keywords, *BASIS_KEYWORDS])
+    spin = options.pop("spin_range", None)
+    if spin is not None and residual_vectors:
+        raise OptionError("spin_range builds one basis over the speeds; residual_vectors are not added to it",
+                          params=("spin_range", "residual_vectors"))
     opts = {k: v for k, v in options.items() if v is not None}
     check_option_types(m.options_class, opts)
     order = check_reachable(model, order)  # the order rule: see flexmor.reduction._registry
@@ -138,12 +148,16 @@ def reduce(model, method: str, order: int | None, ports, *, inertia_loads: str =
                 basis = exclude_rigid(model, m.function(model, basis_ports, residual_order(order, added, method),
                                                         **opts))
                 basis = with_residual_vectors(model, basis, X)
+        elif spin is not None:
+            basis, spin_ops, spin_range = _over_speeds(model, m, basis_ports, order, opts, spin)
         else:
             basis = exclude_rigid(model, m.function(model, basis_ports, order, **opts))
         t1 = time.perf_counter()
         red = project(model, basis, ports)
         t2 = time.perf_counter()
     red.info.update(inertia)
+    if spin is not None:
+        red.info["spin"] = _spin_record(model, red, spin_ops, spin_range, opts.get("solver"))
     if not m.uses_inputs:  # the basis ignores the inputs: no inertia loads could be asked for
         red.info["inertia_loads"] = None
     red.info.setdefault("order_requested", order)
@@ -152,6 +166,12 @@ def reduce(model, method: str, order: int | None, ports, *, inertia_loads: str =
     if model.n_nodes and model.dofs is not None and not is_partitioned(model.M):  # effective masses (mode table)
         P, mass = frame_participation(model, red.V)
         red.info["frame_participation"], red.info["frame_mass"] = P.tolist(), mass.tolist()
+    if spin is not None and red.order != order:
+        b = basis.info
+        red.order_note = (f"order {red.order}: the union of the {method} bases of orders "
+                          f"{', '.join(map(str, b['spin_build_orders']))} at "
+                          f"{', '.join(f'{w:g}' for w in b['spin_build_speeds'])} rad/s (--spin-range; --order is "
+                          "the order at each speed)")
     if residual_vectors and order is not None and red.order < order:
         red.order_note = (f"{method} built {red.order - red.info['residual_vectors']} vectors and "
                           f"{red.info['residual_vectors']} residual vectors were added: order {red.order} instead of "
@@ -160,6 +180,43 @@ def reduce(model, method: str, order: int | None, ports, *, inertia_loads: str =
         red.order_note = order_note(method, red.order, order)
     red.info["timings"] = {"basis": t1 - t0, "project": t2 - t1}
     return red
+
+
+def _over_speeds(model, m, ports, order, opts, spec):
+    """One basis for a speed range (:mod:`flexmor.spin`): the method's basis on the spinning model at each of
+    :data:`~flexmor.spin.BUILD_SPEEDS` speeds, merged and compressed to ``order``."""
+    import dataclasses
+
+    from ..spin import BUILD_SPEEDS, merged_basis, parse_spin_range, spin_operators
+
+    sr = parse_spin_range(spec)
+    ops = spin_operators(model, sr.axis, solver=opts.get("solver"))
+    bases = []
+    for w in sr.speeds(BUILD_SPEEDS):
+        spun = dataclasses.replace(model, K=ops.stiffness(model.K, w))
+        try:
+            bases.append(m.function(spun, ports, order, **opts))
+        except SolverError as exc:
+            raise OptionError(f"spin range {sr.spec}: at {w:g} rad/s the spinning stiffness K + w^2 K2 is singular or "
+                              f"indefinite (a speed above the first frequency of a mode the spin softens, in the "
+                              f"turning frame; {exc})", params=("spin_range",)) from None
+    V = merged_basis(model, [b.V for b in bases])
+    info = dict(bases[0].info)
+    info["spin_build_speeds"] = sr.speeds(BUILD_SPEEDS).tolist()
+    info["spin_build_orders"] = [b.order for b in bases]
+    return Basis(V, bases[0].method, info), ops, sr
+
+
+def _spin_record(model, red, ops, sr, solver) -> dict:
+    """The body's spin record: the range, ``K2`` and ``G1`` and the check against the full model at
+    :data:`~flexmor.spin.CHECK_SPEEDS` speeds."""
+    from ..spin import CHECK_SPEEDS, reduced_spin, spin_check
+
+    rec = {**sr.record(), **reduced_spin(model, np.asarray(red.V), ops)}
+    modes = max(1, min(6, red.order // 2))
+    rec["check"] = spin_check(model, red.M, red.K, np.asarray(rec["K2"]), ops, sr.speeds(CHECK_SPEEDS), modes,
+                              solver=solver)
+    return rec
 
 
 def _recorded(opts: dict) -> dict:

@@ -24,6 +24,11 @@ Variables (MATLAB names; all present, empty where not available):
                                 :mod:`flexmor.io.invariants`); otherwise ``[]``
 ``units``           char        the unit system of the numbers, e.g. ``mm-t-s (length
                                 mm, mass t, time s, ...)``
+``spin``            struct      a body reduced over a speed range (``reduce --spin-range``,
+                                :mod:`flexmor.spin`): ``axis`` (3 x 1), ``range`` (rad/s),
+                                ``K2`` and ``G1`` (r x r): at the speed w the body's stiffness
+                                is ``Kr + w^2 K2`` and its gyroscopic matrix ``w G1`` (in the
+                                frame turning with it); otherwise ``[]``
 ==================  ==========  ====================================================
 
 Units: SI by default; ``units="mm-t-s"`` (a system of :data:`flexmor.units.SYSTEMS`) writes
@@ -52,7 +57,7 @@ __all__ = ["MAT_DIMENSIONS", "MAT_FIELDS", "write_mat"]
 
 #: Variables every exported ``.mat`` file holds.
 MAT_FIELDS = ("Mr", "Kr", "Dr", "Br", "Cr", "V", "node_ids", "xyz", "dofs", "frequencies_hz", "input_names",
-              "output_names", "method", "model_name", "version", "stress_nodes", "stress_modes", "inv", "units")
+              "output_names", "method", "model_name", "version", "stress_nodes", "stress_modes", "inv", "units", "spin")
 
 #: The dimension ``(length, mass, time)`` exponents of the variables of one dimension (``Br``, ``Cr`` and
 #: ``V`` have one per input, output and equation); the fields of ``inv`` as their SID objects.
@@ -60,7 +65,8 @@ MAT_DIMENSIONS = {"Mr": (2, 1, 0), "Kr": (2, 1, -2), "Dr": (2, 1, -1), "xyz": (1
                   "inv": {k: SID_DIMENSIONS[v] for k, v in (
                       ("mass", "mass"), ("mdCM", "mdCM"), ("mdCM1", "mdCM"), ("J", "J"), ("J1", "J"), ("Ct", "Ct"),
                       ("Cr", "Cr"), ("Cr1", "Cr"), ("Gr", "Gr"), ("Ge", "Ge"), ("Oe", "Oe"), ("Oe1", "Oe"),
-                      ("Me", "Me"), ("Ke", "Ke"), ("origin", "origin"), ("phi", "phi"), ("psi", "psi"))}}
+                      ("Me", "Me"), ("Ke", "Ke"), ("origin", "origin"), ("phi", "phi"), ("psi", "psi"))},
+                  "spin": {"K2": (2, 1, 0), "G1": (2, 1, 0)}}
 
 
 def _cell(names):
@@ -97,7 +103,13 @@ def mat_variables(body, model=None, *, nodes=None, units: str = "SI") -> dict:
         "stress_nodes": _empty(body.stress_nodes, (0,)).reshape(-1, 1).astype(float),
         "stress_modes": _empty(body.stress_modes, (r, 0, 6)),
         "inv": np.zeros((0, 0)),
+        "spin": np.zeros((0, 0)),
     }
+    spin = body.info.get("spin") if isinstance(body.info, dict) else None
+    if spin:
+        out["spin"] = {"axis": np.asarray(spin["axis"], dtype=float).reshape(3, 1),
+                       "range": np.asarray(spin["range"], dtype=float).reshape(2, 1),
+                       "K2": np.asarray(spin["K2"], dtype=float), "G1": np.asarray(spin["G1"], dtype=float)}
     if model is not None and body.V is not None:
         from ..invariants import compute_invariants, frame_nodes
 
@@ -142,9 +154,10 @@ def _in_units(out: dict, body, system) -> dict:
         out["V"] = np.asarray(out["V"]) / dof_lengths(out["dofs"].astype(np.int64), system)[:, None]
     if np.size(out["stress_modes"]):  # stress per reduced coordinate (the coordinates keep their scale, as V shows)
         out["stress_modes"] = np.asarray(out["stress_modes"]) / system.stress
-    if isinstance(out["inv"], dict):
-        dims = MAT_DIMENSIONS["inv"]
-        out["inv"] = {k: system.from_si(v, *dims[k]) if k in dims else v for k, v in out["inv"].items()}
+    for name in ("inv", "spin"):
+        if isinstance(out[name], dict):
+            dims = MAT_DIMENSIONS[name]
+            out[name] = {k: system.from_si(v, *dims[k]) if k in dims else v for k, v in out[name].items()}
     return out
 
 

@@ -1,0 +1,142 @@
+"""Spinning bodies (:mod:`flexmor.spin`): one body over a speed range (``reduce --spin-range``) against the full
+model at five speeds, and Campbell diagrams (``info --campbell``) of model and body, on the CalculiX C3D8
+cantilever of ``tests/data/calculix`` (1 x 0.1 x 0.1 m steel, clamped at x = 0). Against CalculiX's own
+complex frequencies: ``tests/test_preload_ccx.py``."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+import scipy.linalg as sla
+from helpers import run
+
+from flexmor.io import read, read_body
+from flexmor.linalg.eigen import eigenmodes, frequencies_hz
+from flexmor.preload import preload_stiffness
+from flexmor.spin import campbell, parse_spin_range, spin_operators
+
+DATA = Path(__file__).parent / "data" / "calculix"
+MODEL = DATA / "beam8_clamped_mat.sti"
+
+
+@pytest.fixture(scope="module")
+def model():
+    return read(MODEL)
+
+
+@pytest.fixture(scope="module")
+def body(tmp_path_factory):
+    from flexmor.cli import main
+
+    path = tmp_path_factory.mktemp("spin") / "s.h5"
+    assert main([str(a) for a in ("reduce", MODEL, "--method", "krylov", "--order", "12", "--input", "TIP:y",
+                                  "--input", "TIP:z", "--spin-range", "x:0:400", "--no-error", "-o", path)]) == 0
+    return read_body(path), path
+
+
+def test_the_body_spins_as_the_full_model_at_five_speeds(model, body):
+    """K_r(w) = V^T (K + K_G(w) - P^T M P) V at any speed (linear in w^2), and the lowest four frequencies
+    within 1e-4 of the full model's at five speeds (its record says the same)."""
+    red, _ = body
+    spin = red.info["spin"]
+    K2 = np.asarray(spin["K2"])
+    for w in np.linspace(0.0, 400.0, 5):
+        Kw = preload_stiffness(model, f"spin:{w},0,0").K if w else model.K
+        ref = red.V.T @ (Kw @ red.V)
+        assert np.abs(red.K + w * w * K2 - ref).max() <= 1e-9 * np.abs(ref).max()
+        full = frequencies_hz(np.sort(eigenmodes(Kw, model.M, 4)[0]))
+        mine = frequencies_hz(sla.eigh(red.K + w * w * K2, red.M, eigvals_only=True)[:4])
+        assert np.abs(mine / full - 1).max() < 1e-4, (w, mine, full)
+    assert spin["check"]["speeds"] == [0.0, 100.0, 200.0, 300.0, 400.0]
+    assert spin["check"]["max_rel_error"] < 1e-3
+    assert red.order > 12 and "union" in red.order_note  # the bases of three speeds
+
+
+def test_campbell_of_a_beam_spinning_about_its_axis(model, body):
+    """In the turning frame Coriolis splits each bending pair by twice the speed (slender beam: f0 -+ w / 2 pi):
+    the forward branch falls, the backward one rises; the first forward branch meets the speed at w = pi f0.
+    Body and full model agree to 1e-4."""
+    red, _ = body
+    ops = spin_operators(model, [1.0, 0.0, 0.0])
+    speeds = np.linspace(0.0, 400.0, 5)
+    full = campbell(model.M, model.K, ops.K2, ops.G1, speeds, 4)
+    spin = red.info["spin"]
+    mine = campbell(red.M, red.K, np.asarray(spin["K2"]), np.asarray(spin["G1"]), speeds, 4)
+    assert np.abs(mine.frequencies_hz / full.frequencies_hz - 1).max() < 1e-4
+    f0 = full.frequencies_hz[0, 0]
+    split = full.frequencies_hz[-1, 1] - full.frequencies_hz[-1, 0]
+    assert split == pytest.approx(2 * 400.0 / (2 * np.pi), rel=0.01)
+    assert list(full.labels()[-1]) == ["FW", "BW", "FW", "BW"] == list(mine.labels()[-1])
+    (first,) = [c for c in full.critical if c["mode"] == 1 and c["multiple"] == 1]
+    assert first["speed"] == pytest.approx(np.pi * f0, rel=0.01)
+
+
+def test_the_command_line_prints_both_diagrams(capsys, body):
+    _, path = body
+    code, out, err = run(capsys, "info", MODEL, "--campbell", "x:0:400:5", "--modes", "4")
+    assert code == 0, err
+    assert "Campbell diagram, spin x:0:400" in out and "critical speeds" in out and "FW" in out
+    code, out, err = run(capsys, "info", path, "--campbell", "--json")
+    assert code == 0, err
+    rec = json.loads(out)["campbell"]
+    assert rec["speeds"][0] == 0.0 and rec["speeds"][-1] == 400.0 and len(rec["speeds"]) == 11
+    code, out, _ = run(capsys, "info", path)
+    assert "spin        x:0:400 rad/s" in out
+
+
+@pytest.mark.parametrize("argv, words", [
+    (("info", MODEL, "--campbell"), "--campbell of a model needs AXIS:W0:W1"),
+    (("info", MODEL, "--campbell", "q:0:10"), "the axis and the speeds must be numbers"),
+    (("info", MODEL, "--campbell", "z:10:0"), "0 <= W0 < W1"),
+    (("reduce", MODEL, "--method", "krylov", "--order", "8", "--input", "TIP:y", "--spin-range", "x:0:3000",
+      "--no-error"), "not positive definite|singular or indefinite"),
+])
+def test_bad_spin_ranges_are_refused_naming_the_flag(capsys, tmp_path, argv, words):
+    code, _, err = run(capsys, *argv, *(("-o", tmp_path / "b.h5") if argv[0] == "reduce" else ()))
+    assert code != 0
+    import re
+
+    assert re.search(words, err), err
+
+
+def test_a_body_without_spin_has_no_campbell_diagram(capsys, tmp_path):
+    path = tmp_path / "b.h5"
+    code, _, err = run(capsys, "reduce", MODEL, "--method", "modal", "--order", "4", "--input", "TIP:y", "--no-error",
+                       "-o", path)
+    assert code == 0, err
+    code, _, err = run(capsys, "info", path, "--campbell")
+    assert code != 0 and "--spin-range" in err
+
+
+def test_parse_spin_range():
+    sr = parse_spin_range("1,1,0:0:10")
+    assert np.allclose(sr.axis, [2 ** -0.5, 2 ** -0.5, 0]) and (sr.w0, sr.w1) == (0.0, 10.0)
+
+
+def test_the_study_file_keeps_the_spin_range(capsys, tmp_path):
+    first, study, again = tmp_path / "a.h5", tmp_path / "s.toml", tmp_path / "b.h5"
+    code, _, err = run(capsys, "reduce", MODEL, "--method", "krylov", "--order", "8", "--input", "TIP:y",
+                       "--spin-range", "x:0:300", "--no-error", "-o", first, "--save-study", study)
+    assert code == 0, err
+    assert 'spin_range = "x:0:300"' in study.read_text()
+    code, _, err = run(capsys, "run", study, "-o", again)
+    assert code == 0, err
+    a, b = read_body(first), read_body(again)
+    assert b.info["spin"]["spec"] == "x:0:300" and np.array_equal(a.K, b.K)
+
+
+def test_the_mat_file_carries_the_spin(body, tmp_path):
+    import scipy.io
+
+    red, path = body
+    from flexmor.cli import main
+
+    assert main(["export", str(path), "-o", str(tmp_path / "s.mat")]) == 0
+    data = scipy.io.loadmat(tmp_path / "s.mat", squeeze_me=True, struct_as_record=False)
+    spin = data["spin"]
+    assert np.allclose(spin.axis, [1, 0, 0]) and np.allclose(spin.range, [0, 400])
+    assert np.array_equal(spin.K2, np.asarray(red.info["spin"]["K2"]))
+    assert np.allclose(spin.G1, -spin.G1.T) and np.abs(spin.G1).max() > 0
