@@ -122,7 +122,7 @@ def spin_operators(model, axis, *, material=None, solver=None) -> SpinOperators:
     ModelError
         A free model, no elements or materials (as :func:`flexmor.preload.preload_stiffness`).
     """
-    from .preload import spin_operator, preload_stiffness
+    from .preload import preload_stiffness, spin_operator
 
     a = np.asarray(axis, dtype=float)
     pre = preload_stiffness(model, "spin:" + ",".join(repr(float(v)) for v in a), material=material, solver=solver)
