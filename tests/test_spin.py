@@ -140,3 +140,15 @@ def test_the_mat_file_carries_the_spin(body, tmp_path):
     assert np.allclose(spin.axis, [1, 0, 0]) and np.allclose(spin.range, [0, 400])
     assert np.array_equal(spin.K2, np.asarray(red.info["spin"]["K2"]))
     assert np.allclose(spin.G1, -spin.G1.T) and np.abs(spin.G1).max() > 0
+
+
+def test_the_report_draws_the_campbell_diagram_of_full_model_and_body(capsys, body, tmp_path):
+    _, path = body
+    code, _, err = run(capsys, "report", MODEL, path, "-o", tmp_path / "r.html")
+    assert code == 0, err
+    html = (tmp_path / "r.html").read_text()
+    assert 'id="campbell"' in html and "Campbell diagram" in html and "FW" in html
+    import re
+
+    worst = re.search(r"Largest relative difference to the full model: [^:]+: ([0-9.e+-]+?)\.? Critical", html)
+    assert float(worst.group(1)) < 1e-2

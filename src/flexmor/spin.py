@@ -157,8 +157,11 @@ class Campbell:
     critical: list = field(default_factory=list)
 
     def labels(self) -> np.ndarray:
-        """``FW``, ``BW`` or ``-`` per entry of :attr:`whirl`."""
-        return np.where(self.whirl > WHIRL_TOL, "FW", np.where(self.whirl < -WHIRL_TOL, "BW", "-"))
+        """``FW``, ``BW`` or ``-`` per entry of :attr:`whirl` (``-`` at rest: a whirl needs a spin, and the
+        modes of a pair that the spin splits are any combination of the two there)."""
+        lab = np.where(self.whirl > WHIRL_TOL, "FW", np.where(self.whirl < -WHIRL_TOL, "BW", "-"))
+        lab[self.speeds == 0] = "-"
+        return lab
 
     def record(self) -> dict:
         """JSON values."""

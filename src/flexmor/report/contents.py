@@ -58,6 +58,9 @@ class Report:
     #: (name -> displacement), ``reference_of`` / ``time_reference_of`` (body label -> name) and
     #: ``time_error`` (label -> the error curve, whose peak is the row's ``time_max_error``).
     plot_data: dict = field(default_factory=dict)
+    #: Bodies reduced over a speed range (:mod:`flexmor.spin`): ``spec``, ``speeds`` and the Campbell records
+    #: of the full model (``full``) and of each such body (``bodies``, by label); empty without one.
+    campbell: dict = field(default_factory=dict)
 
 
 def _numbers_units(model) -> str | None:
@@ -168,6 +171,7 @@ def build_report(model, ports, bodies, *, band, labels=None, seconds=None, full=
     _singular_values_figure(rep, bodies, labels)
     modes = full_modes(model, n_modes, solver=solver)
     _modal_section(rep, model, bodies, labels, modes)
+    _campbell_section(rep, model, bodies, labels, solver)
     f_lo = float(modes[0][0]) if modes[0].size else band[0]
     _time_section(rep, model, ports, bodies, labels, ref_of, f_lo=f_lo, signal=signal, dt=dt, t_end=t_end,
                   max_steps=max_steps, scheme=scheme, rho_inf=rho_inf, solver=solver, progress=time_progress)
@@ -276,6 +280,35 @@ def _modal_section(rep: Report, model, bodies, labels, modes) -> None:
             continue
         rep.modal["bodies"][lb] = modal_check(model, red, full=modes)
     rep.figures["mac"] = plots.mac_png({lb: c["mac"] for lb, c in rep.modal["bodies"].items()})
+
+
+def _campbell_section(rep: Report, model, bodies, labels, solver) -> None:
+    """``rep.campbell`` and its figure for the bodies reduced over a speed range (those about the first one's
+    axis and range): the full model's and each body's Campbell diagram over 11 speeds."""
+    from ..spin import campbell, parse_spin_range, spin_operators
+
+    spun = [(lb, r) for lb, r in zip(labels, bodies) if isinstance(r.info.get("spin"), dict)]
+    if not spun:
+        return
+    spec = spun[0][1].info["spin"]["spec"]
+    sr = parse_spin_range(spec)
+    same = [(lb, r) for lb, r in spun if r.info["spin"]["spec"] == spec]
+    if len(same) < len(spun):
+        rep.notes.append(f"the Campbell diagram is drawn for spin {spec}; bodies reduced for other speed ranges "
+                         "are left out of it")
+    k = max(1, min(6, min(r.order for _, r in same) // 2))
+    speeds = sr.speeds(11)
+    ops = spin_operators(model, sr.axis, solver=solver)
+    full = campbell(model.M, model.K, ops.K2, ops.G1, speeds, k, D=model.D, solver=solver)
+    mine = {lb: campbell(r.M, r.K, np.asarray(r.info["spin"]["K2"]), np.asarray(r.info["spin"]["G1"]), speeds, k,
+                         D=r.D) for lb, r in same}
+    rep.campbell = {"spec": spec, "speeds": speeds.tolist(), "full": full.record(),
+                    "bodies": {lb: c.record() for lb, c in mine.items()},
+                    "max_rel_error": {lb: float(np.nanmax(np.abs(c.frequencies_hz / full.frequencies_hz - 1)))
+                                      for lb, c in mine.items()}}
+    rep.figures["campbell"] = plots.campbell_png(speeds, full.frequencies_hz,
+                                                 {lb: c.frequencies_hz for lb, c in mine.items()},
+                                                 reference=rep.reference)
 
 
 def _time_section(rep: Report, model, ports, bodies, labels, ref_of, *, f_lo: float, signal, dt, t_end,

@@ -134,6 +134,25 @@ def render_html(rep: Report) -> str:
         out.append("<p class=note>Each full mode is paired with the reduced mode of largest MAC (reduced modes "
                    "expanded with V); modes of repeated eigenfrequencies are aligned within their eigenspace.</p>")
         out.append(_img(rep.figures["mac"], "MAC matrices"))
+    if rep.campbell:
+        c = rep.campbell
+        out.append(f'<h2 id="campbell">Campbell diagram: spin {e(c["spec"])} rad/s</h2>')
+        header = ["speed [rad/s]", f"{rep.reference} [Hz]"] + [f"{lb} [Hz]" for lb in c["bodies"]]
+        rows = []
+        for i, w in enumerate(c["speeds"]):
+            cells = [" ".join(f"{f:.5g}{'' if s == '-' else ' ' + s}" for f, s in
+                              zip(c["full"]["frequencies_hz"][i], c["full"]["labels"][i]))]
+            cells += [" ".join(f"{f:.5g}" for f in b["frequencies_hz"][i]) for b in c["bodies"].values()]
+            rows.append([f"{w:.4g}", *cells])
+        out.append(_table(header, rows, ()))
+        worst = "; ".join(f"{e(lb)}: {v:.2e}" for lb, v in c["max_rel_error"].items())
+        out.append("<p class=note>Damped frequencies in the frame turning with the body, with centrifugal "
+                   "stiffening, spin softening and Coriolis forces; FW/BW: forward/backward whirl there. Largest "
+                   f"relative difference to the {e(rep.reference)}: {worst}. Critical speeds (a frequency equal to "
+                   "a multiple of the speed): " + (", ".join(
+                       f"mode {x['mode']} x{x['multiple']} at {x['speed']:.4g} rad/s" for x in c["full"]["critical"])
+                       or "none in the range") + ".</p>")
+        out.append(_img(rep.figures["campbell"], "Campbell diagram"))
     t = rep.time
     out += ['<h2 id="time">Time responses</h2>',
             (f"<p>{e(t['signal'])}; {e(t['scheme'])}, dt = {t['dt']:.3g} s, {t['n_steps']} steps to "

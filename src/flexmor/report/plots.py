@@ -259,6 +259,34 @@ def singular_values_png(values: dict) -> bytes:
     return figure_png(fig)
 
 
+def campbell_png(speeds, full, bodies: dict, *, reference: str = "full model", multiples=(1, 2)) -> bytes:
+    """Campbell diagram: the full model's frequencies (Hz) over the speeds (rad/s) as lines, each body's as
+    markers, and the lines of ``k`` times the speed."""
+    import numpy as np
+
+    fig = _figure(figsize=(7, 4.5))
+    ax = fig.subplots()
+    fig.subplots_adjust(left=0.11, right=0.97, bottom=0.12, top=0.96)
+    w = np.asarray(speeds, float)
+    F = np.asarray(full, float)
+    for j in range(F.shape[1]):
+        ax.plot(w, F[:, j], "-", color="k", lw=1.2, label=reference if j == 0 else None)
+    marks = "os^vD<>"
+    for i, (label, G) in enumerate(bodies.items()):
+        G = np.asarray(G, float)
+        for j in range(G.shape[1]):
+            ax.plot(w, G[:, j], marks[i % len(marks)], ms=4, mfc="none", color=f"C{i}", label=label if j == 0 else None)
+    top = np.nanmax(F) * 1.05 if F.size else 1.0
+    for k in multiples:
+        ax.plot(w, k * w / (2 * np.pi), ":", color="0.5", lw=1, label=f"{k} x speed")
+    ax.set_ylim(0, top)
+    ax.set_xlabel("speed [rad/s]")
+    ax.set_ylabel("frequency [Hz] (turning frame)")
+    ax.grid(True, alpha=0.3)
+    ax.legend(fontsize=8)
+    return figure_png(fig)
+
+
 def mac_png(macs: dict) -> bytes:
     """MAC matrices (full modes x reduced modes) as heat maps, one panel per body."""
     n = max(1, len(macs))
