@@ -18,7 +18,11 @@ the C source is in ``sources/`` too, for other platforms. ``modelDescription.xml
   0, settable before initialization), their derivatives ``der(q[i])``, ``der(qd[i])``, and as
   their nominal values the peak of each under a unit step on any input, the scale an
   integrator's absolute tolerance needs (the states are small numbers in SI units);
-* the model structure with the sparsity of ``A``, ``B``, ``C`` as dependencies.
+* the model structure with the sparsity of ``A``, ``B``, ``C`` as dependencies;
+* for a body reduced over a speed range (``reduce --spin-range``, :mod:`flexmor.spin`) the last input
+  ``omega`` (``rad/s``): ``A(w) = A + w A1 + w^2 A2`` with the body's ``K + w^2 K2`` and Coriolis matrix
+  ``w G1`` (in the frame turning with it); the co-simulation step's exponential is computed again when
+  the speed changes.
 
 The units declared are SI (N, m, rad, s): the numbers of the body are taken as SI, as the other
 exports write them.
@@ -152,7 +156,7 @@ class FMUVariables:
         state derivative, ``derivative`` (the 1-based index of its state).
     """
 
-    def __init__(self, input_names, output_names, r: int):
+    def __init__(self, input_names, output_names, r: int, spin: str | None = None):
         taken: set = set()
 
         def unique(name):
@@ -175,6 +179,12 @@ class FMUVariables:
             d = _direction(spec)
             rows.append(dict(name=name, causality="input", unit=None if d is None else ("N.m" if d > 3 else "N"),
                              description=f"{'moment' if d and d > 3 else 'force'} at the input port {spec}"))
+        if spin is not None:  # the last input: the speed of a body over a speed range
+            self.inputs.append(unique("omega"))
+            rows.append(dict(name=self.inputs[-1], causality="input", unit="rad/s",
+                             description=f"angular velocity about the spin axis of the body ({spin} rad/s): its "
+                                         "stiffness K + w^2 K2 and Coriolis matrix w G1"))
+            m += 1
         for spec, name in zip(outs, self.displacements):
             d = _direction(spec)
             rows.append(dict(name=name, causality="output", unit=None if d is None else ("rad" if d > 3 else "m"),
@@ -198,7 +208,32 @@ def fmu_variables(body) -> FMUVariables:
     (``F1 F2 ...`` and ``u_y1 ...`` for a body without one name per input and output)."""
     m, p = np.shape(body.B)[1], np.shape(body.C)[0]
     ins, outs = list(body.input_names or []), list(body.output_names or [])
-    return FMUVariables(ins if len(ins) == m else [""] * m, outs if len(outs) == p else [""] * p, body.order)
+    spin = body.info.get("spin") if isinstance(body.info, dict) else None
+    return FMUVariables(ins if len(ins) == m else [""] * m, outs if len(outs) == p else [""] * p, body.order,
+                        spin=spin["spec"] if spin else None)
+
+
+def _spin_state_space(body):
+    """``(ss, A1, A2)``: the body's state space with the speed as its last input (a zero column of ``B`` and
+    ``D``) and the coefficients of ``A(w) = A + w A1 + w^2 A2`` (None, None for a body without spin)."""
+    import dataclasses
+
+    ss = state_space(body)
+    spin = body.info.get("spin") if isinstance(body.info, dict) else None
+    if not spin:
+        return ss, None, None
+    r = body.order
+    M = np.asarray(body.M, float)
+    K2, G1 = np.asarray(spin["K2"], float), np.asarray(spin["G1"], float)
+    if ss.A.shape[0] != 2 * r:
+        raise ModelError("a body over a speed range needs its second-order state space [q; q'] for its FMU")
+    lu = sla.cho_factor(0.5 * (M + M.T))
+    A1, A2 = np.zeros_like(ss.A), np.zeros_like(ss.A)
+    A1[r:, r:] = -sla.cho_solve(lu, G1)
+    A2[r:, :r] = -sla.cho_solve(lu, K2)
+    ss = dataclasses.replace(ss, B=np.hstack([ss.B, np.zeros((ss.B.shape[0], 1))]),
+                             D=np.hstack([ss.D, np.zeros((ss.D.shape[0], 1))]))
+    return ss, A1, A2
 
 
 def _nominals(body) -> np.ndarray:
@@ -252,17 +287,21 @@ def fmu_source(body, guid: str) -> str:
     str
         C99 without other headers than the C library's: the FMI 2.0 declarations it needs are in it.
     """
-    ss = state_space(body)
+    ss, A1, A2 = _spin_state_space(body)
     n, m, p = ss.A.shape[0], ss.B.shape[1], ss.C.shape[0]
     head = [f"/* FMI 2.0 model exchange and co-simulation of the reduced body {body.model_name or ''} "
             f"({body.method or 'body'}, order {body.order}), written by flexmor {__version__}.",
             "   x' = A x + B u, y = C x + D u (displacements), v = C x' (velocities); x = [q; q']. */",
             "#include <math.h>", "#include <stddef.h>", "#include <string.h>", "",
             f"#define NX {n}", f"#define NU {m}", f"#define NY {p}", f'#define GUID "{guid}"', ""]
+    if A1 is not None:
+        head += [f"#define SPIN_U {m - 1}", ""]
     arrays = (_c_array("A", ss.A, "NX * NX") + _c_array("B", ss.B, "NX * (NU > 0 ? NU : 1)")
               + _c_array("C", ss.C, "(NY > 0 ? NY : 1) * NX")
               + _c_array("D", ss.D, "(NY > 0 ? NY : 1) * (NU > 0 ? NU : 1)")
               + _c_array("NOMINAL", _nominals(body), "NX"))
+    if A1 is not None:
+        arrays += _c_array("A1", A1, "NX * NX") + _c_array("A2", A2, "NX * NX")
     return "\n".join(head) + arrays + "\n" + _RUNTIME.read_text()
 
 
@@ -286,7 +325,7 @@ def model_description(body, identifier: str, guid: str, *, sources=()) -> str:
     sources : sequence of str
         The files of ``sources/``, listed for both interfaces.
     """
-    ss = state_space(body)
+    ss, A1, A2 = _spin_state_space(body)
     var = fmu_variables(body)
     m, p = ss.B.shape[1], ss.C.shape[0]
     vrs = {row["name"]: k for k, row in enumerate(var.rows)}
@@ -331,6 +370,9 @@ def model_description(body, identifier: str, guid: str, *, sources=()) -> str:
     lines.append("  </ModelVariables>")
     # dependencies: indices (1-based) of the inputs and the states each unknown depends on
     pA, pB, pC, pD = _pattern(ss.A), _pattern(ss.B), _pattern(ss.C), _pattern(ss.D)
+    if A1 is not None:  # A(w): the speed acts where A1 or A2 does, on the states they couple
+        pA = pA | _pattern(A1) | _pattern(A2)
+        pB[:, -1] = (_pattern(A1) | _pattern(A2)).any(axis=1)
     pCA, pCB = (pC.astype(int) @ pA.astype(int)) > 0, (pC.astype(int) @ pB.astype(int)) > 0
 
     def deps(on_inputs, on_states):
@@ -425,8 +467,8 @@ def write_fmu(body, path, *, model=None) -> None:
     stem = path.name[:-4] if path.name.lower().endswith(".fmu") else path.stem
     identifier = _identifier(stem, "body")
     source_hash = hashlib.sha256()
-    ss = state_space(body)
-    for X in (ss.A, ss.B, ss.C, ss.D):
+    ss, A1, A2 = _spin_state_space(body)
+    for X in (ss.A, ss.B, ss.C, ss.D, *(() if A1 is None else (A1, A2))):
         source_hash.update(np.ascontiguousarray(X, float).tobytes())
     source_hash.update("\x00".join(map(str, [identifier, *body.input_names, *body.output_names])).encode())
     guid = "{" + str(uuid.uuid5(uuid.NAMESPACE_URL, "flexmor:" + source_hash.hexdigest())) + "}"

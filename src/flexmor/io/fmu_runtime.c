@@ -75,6 +75,7 @@ typedef struct {
     int loggingOn;
     Snapshot s;
     double h;      /* the step of phi and gam, 0 before the first step */
+    double w;      /* the speed of phi and gam (a body over a speed range) */
     double *phi;   /* NX x NX: expm(A h) */
     double *gam;   /* NX x NU: int_0^h expm(A t) dt B */
     double *work;  /* 5 NA x NA + NA */
@@ -85,11 +86,21 @@ static void logError(Model *m, const char *message) {
         m->logger(m->environment, m->name, fmi2Error, "logStatusError", "%s", message);
 }
 
+#ifdef SPIN_U
+/* a body over a speed range: A(w) = A + w A1 + w^2 A2, w the input SPIN_U (rad/s) */
+static double a_at(const Model *m, int k) {
+    double w = m->s.u[SPIN_U];
+    return A[k] + w * A1[k] + w * w * A2[k];
+}
+#else
+#define a_at(m, k) A[k]
+#endif
+
 static void derivatives(const Model *m, double *dx) {
     int i, j;
     for (i = 0; i < NX; i++) {
         double s = 0.0;
-        for (j = 0; j < NX; j++) s += A[i * NX + j] * m->s.x[j];
+        for (j = 0; j < NX; j++) s += a_at(m, i * NX + j) * m->s.x[j];
         for (j = 0; j < NU; j++) s += B[i * NU + j] * m->s.u[j];
         dx[i] = s;
     }
@@ -226,7 +237,7 @@ static int discretize(Model *m, double h) {
     int i, j;
     for (i = 0; i < NA * NA; i++) a[i] = 0.0;
     for (i = 0; i < NX; i++) {
-        for (j = 0; j < NX; j++) a[i * NA + j] = A[i * NX + j] * h;
+        for (j = 0; j < NX; j++) a[i * NA + j] = a_at(m, i * NX + j) * h;
         for (j = 0; j < NU; j++) a[i * NA + NX + j] = B[i * NU + j] * h;
     }
     if (expm(NA, a, m->work) != 0) return -1;
@@ -235,6 +246,9 @@ static int discretize(Model *m, double h) {
         for (j = 0; j < NU; j++) m->gam[i * NU + j] = a[i * NA + NX + j];
     }
     m->h = h;
+#ifdef SPIN_U
+    m->w = m->s.u[SPIN_U];
+#endif
     return 0;
 }
 
@@ -569,7 +583,12 @@ FMI2_EXPORT fmi2Status fmi2DoStep(fmi2Component c, fmi2Real currentCommunication
         return fmi2Error;
     }
     if (communicationStepSize > 0.0) {
-        if (communicationStepSize != m->h && discretize(m, communicationStepSize) != 0) {
+#ifdef SPIN_U
+        int moved = m->s.u[SPIN_U] != m->w; /* another speed: another exponential */
+#else
+        int moved = 0;
+#endif
+        if ((communicationStepSize != m->h || moved) && discretize(m, communicationStepSize) != 0) {
             m->h = 0.0;
             logError(m, "fmi2DoStep: the matrix exponential of the step failed");
             return fmi2Error;
