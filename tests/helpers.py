@@ -94,3 +94,18 @@ def geometric_rigid_modes(model, about=None) -> np.ndarray:
         R[d == j, j] = 1.0
         R[:, 3 + j] = np.cross(np.eye(3)[j], xyz)[np.arange(n), d]  # u = e_j x r at each equation's node
     return R
+
+
+def solve_exudyn(mbs, sensor, end_time: float, steps: int):
+    """Assemble ``mbs``, integrate it quietly to ``end_time`` in ``steps`` steps (Exudyn's default implicit
+    scheme, no solution file, the sensor stored every step) and return the stored data of ``sensor``."""
+    import exudyn as exu
+
+    mbs.Assemble()
+    s = exu.SimulationSettings()
+    s.timeIntegration.endTime, s.timeIntegration.numberOfSteps = end_time, steps
+    s.timeIntegration.verboseMode = 0
+    s.solution.file.write = False
+    s.solution.sensors.writePeriod = end_time / steps
+    mbs.SolveDynamic(s)
+    return mbs.GetSensorStoredData(sensor)

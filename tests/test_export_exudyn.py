@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from helpers import solve_exudyn
 
 from flexmor.basis import Basis
 from flexmor.io.exudyn import add_marker, add_to_exudyn, exudyn_data, write_exudyn
@@ -137,13 +138,7 @@ def test_full_body_falls_freely_and_refuses_rotational_dofs(free):
     sensor = mbs.AddSensor(exu.itemInterface.SensorMarker(markerNumber=add_marker(mbs, body, free, "TIP"),
                                                           storeInternal=True,
                                                           outputVariableType=exu.OutputVariableType.Position))
-    mbs.Assemble()
-    s = exu.SimulationSettings()
-    s.timeIntegration.endTime, s.timeIntegration.numberOfSteps = 0.1, 20
-    s.timeIntegration.verboseMode = 0
-    s.solution.file.write = False
-    mbs.SolveDynamic(s)
-    data = mbs.GetSensorStoredData(sensor)
+    data = solve_exudyn(mbs, sensor, 0.1, 20)
     np.testing.assert_allclose(data[-1, 2] - data[0, 2], -9.81 * 0.1**2 / 2, rtol=1e-6)
     np.testing.assert_allclose(data[-1, [1, 3]], data[0, [1, 3]], atol=1e-9)
     coupled = couple(free, ["TIP@rbe2"]).model

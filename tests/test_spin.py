@@ -11,7 +11,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import scipy.linalg as sla
-from helpers import run
+from helpers import run, solve_exudyn
 
 from flexmor.io import read, read_body
 from flexmor.linalg.eigen import eigenmodes, frequencies_hz
@@ -207,3 +207,48 @@ def test_the_fmu_takes_the_speed_as_an_input(body, tmp_path):
                              str(tmp_path / "spin.so"), str(tmp_path / "spin.c"), "-lm"],
                             capture_output=True, text=True)
     assert run_cc.returncode == 0, run_cc.stderr  # warning-free with the speed as well
+
+
+def test_exudyn_spins_the_body_with_its_stiffening(model):
+    """The body over 0-400 rad/s in Exudyn, its frame turning freely about z at 150 rad/s (a GenericJoint to the
+    ground frees that rotation only), started from its centrifugal equilibrium plus a flapwise (z) deflection of
+    the tip: the flapwise frequency of the time response (zero crossings of the tip's z) is the full model's
+    under ``--preload spin:0,0,150`` (103.4 Hz) with the user function :func:`spin_stiffening_force` that
+    :func:`add_to_exudyn` sets, and the unstressed one (100.0 Hz: Exudyn's floating frame has no stress
+    stiffening of its own) without it."""
+    exu = pytest.importorskip("exudyn")
+    from exudyn.utilities import GenericJoint, MarkerBodyRigid, MarkerNodeRigid, ObjectGround, SensorNode
+
+    import flexmor
+    from flexmor.io.exudyn import add_to_exudyn
+    from flexmor.preload import preload_load
+
+    red = flexmor.reduce(model, "krylov", 12, flexmor.make_ports(model, ["TIP:z", "TIP:y"]), spin_range="z:0:400")
+    w = 150.0
+    K2 = np.asarray(red.info["spin"]["K2"])
+    qc = np.linalg.solve(red.K + w * w * K2, red.V.T @ preload_load(model, f"spin:0,0,{w}")[0])
+
+    def flapwise_hz(stiffened: bool) -> float:
+        mbs = exu.SystemContainer().AddSystem()
+        res = add_to_exudyn(mbs, red, model, angular_velocity=(0.0, 0.0, w))
+        assert res["spin_stiffening"]
+        if not stiffened:
+            mbs.SetObjectParameter(res["oFFRFreducedOrder"], "forceUserFunction", 0)
+        ground = mbs.AddMarker(MarkerBodyRigid(bodyNumber=mbs.AddObject(ObjectGround()), localPosition=[0, 0, 0]))
+        frame = mbs.AddMarker(MarkerNodeRigid(nodeNumber=res["nRigidBody"]))
+        mbs.AddObject(GenericJoint(markerNumbers=[ground, frame], constrainedAxes=[1, 1, 1, 1, 1, 0]))
+        q0 = qc + 1e4 * np.linalg.solve(red.K, red.B[:, 0])
+        mbs.SetNodeParameter(res["nGenericODE2"], "initialCoordinates", q0.tolist())
+        sensor = mbs.AddSensor(SensorNode(nodeNumber=res["nGenericODE2"], storeInternal=True,
+                                          outputVariableType=exu.OutputVariableType.Coordinates))
+        data = solve_exudyn(mbs, sensor, 0.05, 2000)
+        t, z = data[:, 0], data[:, 1:] @ red.C[0]
+        i = np.flatnonzero(np.sign(z[:-1]) * np.sign(z[1:]) < 0)
+        crossings = t[i] - z[i] * (t[i + 1] - t[i]) / (z[i + 1] - z[i])
+        return (crossings.size - 1) / 2 / (crossings[-1] - crossings[0])
+
+    pre = frequencies_hz(np.sort(eigenmodes(preload_stiffness(model, f"spin:0,0,{w}").K, model.M, 2)[0]))
+    rest = frequencies_hz(np.sort(eigenmodes(model.K, model.M, 2)[0]))
+    assert flapwise_hz(True) == pytest.approx(pre[1], rel=2e-3)  # the z mode: the stiffer of the pair
+    assert flapwise_hz(False) == pytest.approx(rest[1], rel=2e-3)
+    assert pre[1] > 1.03 * rest[1]

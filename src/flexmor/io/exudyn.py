@@ -40,7 +40,7 @@ from ._registry import EXPORT_FORMATS
 from .atomic import atomic_write
 
 __all__ = ["NODE_TYPES", "EXTRA_KEYS", "add_full_to_exudyn", "add_marker", "add_npz_to_exudyn", "add_to_exudyn",
-           "exudyn_data", "write_exudyn"]
+           "exudyn_data", "spin_stiffening_force", "write_exudyn"]
 
 log = logging.getLogger(__name__)
 
@@ -134,7 +134,8 @@ def exudyn_data(body, model, *, node_type: str = NODE_TYPES[0], remove_rigid: bo
     rot_dofs = 4 if node_type.endswith("EulerParameters") else 3
     index = {int(k): i for i, k in enumerate(xb.node_ids)}
     slaves = [np.array([index[int(k)] for k in m.slaves], dtype=np.int64) for m in xb.masters]
-    return {
+    spin = _spin_data(body, model, V)
+    return {**spin,
         "modeBasis": Psi, "trigList": _trig_list(body.triangles, model),
         "postProcessingModes": _stress_modes(body, xb.node_ids),
         "massMatrixReduced": np.asarray(body.M, float), "stiffnessMatrixReduced": np.asarray(body.K, float),
@@ -150,6 +151,56 @@ def exudyn_data(body, model, *, node_type: str = NODE_TYPES[0], remove_rigid: bo
         "interfaceSlaveNodes": np.concatenate(slaves) if slaves else np.zeros(0, np.int64),
         "interfaceSlaveOffsets": np.cumsum([0] + [s.size for s in slaves]).astype(np.int64),
     }
+
+
+def _spin_data(body, model, V) -> dict:
+    """The spin data of a body reduced over a speed range (``{}`` without): ``spinAxis``, ``spinRange`` and
+    ``spinStiffening``, the geometric stiffness of the unit speed's centrifugal stresses alone (the body's ``K2``
+    without the spin softening, which Exudyn's floating frame computes from the mass, as it does the Coriolis
+    forces): :func:`spin_stiffening_force` applies ``w_a^2 spinStiffening``."""
+    from ..linalg.threads import sparse_dense
+    from ..preload import spin_softening
+
+    spin = body.info.get("spin") if isinstance(body.info, dict) else None
+    if not spin:
+        return {}
+    axis = np.asarray(spin["axis"], float)
+    S = V.T @ sparse_dense(spin_softening(model, axis), V)
+    KG = np.asarray(spin["K2"], float) - 0.5 * (S + S.T)
+    return {"spinAxis": axis, "spinRange": np.asarray(spin["range"], float), "spinStiffening": KG}
+
+
+def spin_stiffening_force(mbs, node: int, data: dict):
+    """The ``forceUserFunction`` of an ``ObjectFFRFreducedOrder`` body reduced over a speed range: the
+    geometric stiffening of its centrifugal stresses, ``-(w . a)^2 KG q`` on its modal coordinates ``q``
+    (``w`` the angular velocity of its frame node ``node`` in body coordinates, ``a`` ``data["spinAxis"]``,
+    ``KG`` ``data["spinStiffening"]``), zero on the frame's coordinates. Exudyn's floating frame supplies the
+    centrifugal and Coriolis forces and the spin softening from the mass; this supplies what Exudyn does not
+    model, the stiffening of the stresses. Set it with::
+
+        mbs.SetObjectParameter(res["oFFRFreducedOrder"], "forceUserFunction",
+                               spin_stiffening_force(mbs, res["nRigidBody"], np.load(path)))
+
+    (:func:`add_to_exudyn` and :func:`add_npz_to_exudyn` do so for such a body.)
+    """
+    import exudyn as exu
+
+    axis = np.asarray(data["spinAxis"], float)
+    KG = np.asarray(data["spinStiffening"], float)
+    r = KG.shape[0]
+
+    def force(mbs_, t, itemNumber, q, q_t):
+        # the speed at the start of the time step: within a step the force is linear in q (a Newton iteration
+        # that also followed the speed's change in the step would need the force's derivative by the frame's
+        # velocity, which the solver does not take from a user function); O(h) in a speed that varies
+        w = np.asarray(mbs_.GetNodeOutput(node, exu.OutputVariableType.AngularVelocityLocal,
+                                          configuration=exu.ConfigurationType.StartOfStep), float)
+        q = np.asarray(q, float)
+        out = np.zeros(q.size)
+        out[q.size - r:] = -(float(w @ axis) ** 2) * (KG @ q[q.size - r:])
+        return out.tolist()
+
+    return force
 
 
 #: Exudyn's stress components (xx yy zz yz xz xy) from flexmor's (xx yy zz xy yz zx).
@@ -231,7 +282,7 @@ def write_exudyn(body, path, *, model=None, node_type: str = NODE_TYPES[0], allo
 
 #: Keys of :func:`exudyn_data` that Exudyn's ``ObjectFFRFreducedOrderInterface`` does not read.
 EXTRA_KEYS = ("nodeIds", "dampingMatrixReduced", "interfaceNames", "interfaceMasterNodes", "interfaceSlaveNodes",
-              "interfaceSlaveOffsets")
+              "interfaceSlaveOffsets", "spinAxis", "spinRange", "spinStiffening")
 
 
 def _add(mbs, data: dict, *, position, velocity, rotation, angular_velocity, gravity, rayleigh, name, color):
@@ -251,6 +302,10 @@ def _add(mbs, data: dict, *, position, velocity, rotation, angular_velocity, gra
     D = np.asarray(data["dampingMatrixReduced"], float)
     if not any(rayleigh) and np.any(D):  # the body's own damping (e.g. modal: its ratio in every mode)
         mbs.SetObjectParameter(res["oFFRFreducedOrder"], "dampingMatrixReduced", D)
+    if "spinStiffening" in data:  # a body over a speed range: the stiffening Exudyn does not model
+        mbs.SetObjectParameter(res["oFFRFreducedOrder"], "forceUserFunction",
+                               spin_stiffening_force(mbs, res["nRigidBody"], data))
+        res["spin_stiffening"] = True
     res["cms"] = cms
     res["node_index"] = {int(k): i for i, k in enumerate(np.asarray(data["nodeIds"]))}
     off = np.asarray(data["interfaceSlaveOffsets"])
