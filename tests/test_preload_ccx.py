@@ -193,3 +193,36 @@ def test_spinning_disc_body_over_a_speed_range_against_calculix(tmp_path):
         if w == 1200.0:
             f0 = frequencies_hz(np.sort(eigenmodes(model.K, model.M, 8)[0]))
             assert full[0] > 1.05 * f0[0]  # the spin stiffens the disc
+
+
+def test_the_free_c3d20_beams_sid_stiffens_as_its_preload(tmp_path):
+    """The free C3D20R beam's Craig-Bampton body (interface FIX): its SID's load stiffening, read back by the plain
+    reader of ``tests/sid_check.py``, gives the stiffness of a spin about z equal to the projection of the model
+    held at FIX under ``spin:`` (geometric stiffness and spin softening) to 1e-6."""
+    import sid_check
+
+    from flexmor.cli import main
+    from flexmor.expansion import expand_body
+    from flexmor.io import read_body
+    from flexmor.linalg import factorize
+    from flexmor.preload import geometric_stiffness, preload_load, spin_softening
+
+    text, _ = _deck("C3D20R", "beam", ["*STEP", "*FREQUENCY, SOLVER=MATRIXSTORAGE", "*END STEP"])
+    text = text.replace("*BOUNDARY\nFIX, 1, 3\n", "")  # free
+    path = _run(tmp_path, "free", text).with_suffix(".sti")
+    model = read(path)
+    body, sid = tmp_path / "cb.h5", tmp_path / "cb.SID_FEM"
+    assert main([str(a) for a in ("reduce", path, "--method", "craig-bampton", "--order", "40", "--interface",
+                                  "FIX@rbe2", "--input", "TIP:y", "--no-error", "-o", body)]) == 0
+    assert main([str(a) for a in ("export", body, "--model", path, "-o", sid)]) == 0
+    obj = sid_check.taylor_objects(sid)
+    V = expand_body(model, read_body(body)).V
+    free = np.flatnonzero(~np.isin(model.dofs[:, 0], model.node_sets["FIX"]))
+    solve = factorize(model.K[free][:, free].tocsr()).solve
+    w = np.array([0.0, 0.0, 400.0])
+    u = np.zeros(model.n_dof)
+    u[free] = solve(preload_load(model, "spin:0,0,400")[0][free])
+    ref = V.T @ ((model.K + geometric_stiffness(model, u) + spin_softening(model, w)) @ V)
+    mine = obj["Ke"][0] + 400.0 ** 2 * obj["Oe"][1][:, 2, :]
+    assert np.abs(ref - obj["Ke"][0]).max() > 1e-4 * np.abs(ref).max()
+    assert np.abs(mine - ref).max() < 1e-6 * np.abs(ref).max()
