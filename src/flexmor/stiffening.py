@@ -128,7 +128,7 @@ def load_stiffening(xb, nodes=(), *, material=None, solver=None, progress=None) 
     solver : SolverContext, optional
         Backend of the factorization.
     progress : callable, optional
-        ``progress(done, total)`` after each load.
+        The progress callback of :func:`flexmor.linalg.context.track` (one step per unit load's stresses).
 
     Returns
     -------
@@ -141,6 +141,7 @@ def load_stiffening(xb, nodes=(), *, material=None, solver=None, progress=None) 
         (:mod:`flexmor.stress`).
     """
     from .linalg import factorize
+    from .linalg.context import track
     from .preload import geometric_stiffness
     from .stress import integration_points
 
@@ -168,13 +169,11 @@ def load_stiffening(xb, nodes=(), *, material=None, solver=None, progress=None) 
     U[free] = np.asarray(factorize(Kf, solver=solver, positive=True).solve(B[free])).reshape(free.size, -1)
     U = np.asarray(T @ U)
     out = np.zeros((B.shape[1], r, r))
-    for k in range(B.shape[1]):
+    for k in track(progress, range(B.shape[1]), B.shape[1], "load stiffening"):
         if np.any(U[:, k]):
             KG = geometric_stiffness(model, U[:, k], material=material)
             G = V.T @ (KG @ V)
             out[k] = 0.5 * (G + G.T)
-        if progress is not None:
-            progress(k + 1, B.shape[1])
     log.info("load stiffening of %d unit loads, %s", B.shape[1], held)
     per_node = {int(nd.id): out[12 + 6 * i:18 + 6 * i] for i, nd in enumerate(nodes)}
     return LoadStiffening(held, out[:3], out[3:6], out[6:12], per_node)

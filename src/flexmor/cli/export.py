@@ -45,6 +45,7 @@ def cmd_export(args) -> int:
     if name == "sid":
         opts["m1_order"] = args.m1_order
         opts["stiffening"] = not args.no_stiffening
+        opts["progress"] = _progress(args)
     if args.allow_clamped and name in ("sid", "exudyn"):  # the writers of a floating frame
         opts["allow_clamped"] = True
     on_root(export, body, args.output_file, name, model=model, units=args.export_units, **opts)  # under MPI: rank 0

@@ -105,7 +105,7 @@ def _skew(v):
 
 
 def sid_from_reduced(body, model, *, nodes=None, remove_rigid: bool = False, units: str = "SI",
-                     stiffening: bool = True) -> SIDFile:
+                     stiffening: bool = True, progress=None) -> SIDFile:
     """Build the SID contents of a reduced body.
 
     Parameters
@@ -133,6 +133,8 @@ def sid_from_reduced(body, model, *, nodes=None, remove_rigid: bool = False, uni
         (added to its mass terms, the spin softening), of unit forces and moments at each frame node in the
         ``m1`` of its ``phi`` and ``psi`` (as a generalized force ``phi(q)ᵀ F``: minus the stiffness). A
         model without solid elements, or a free body without interface, gets none; the header says why.
+    progress : callable, optional
+        Progress of the load stiffening (:func:`flexmor.linalg.context.track`).
 
     Returns
     -------
@@ -174,7 +176,7 @@ def sid_from_reduced(body, model, *, nodes=None, remove_rigid: bool = False, uni
     De = inv.De if inv.De is not None else np.zeros((r, r))
     stiff, stiff_said = None, "no load stiffening"
     if stiffening:
-        stiff, stiff_said = _stiffening(xb, fn, body)
+        stiff, stiff_said = _stiffening(xb, fn, body, progress)
     if stiff is not None:  # [node][d, a, b]: phi(q)^T F is a generalized force, minus the stiffness of F
         for nd, sn in zip(fn, sid_nodes):
             G = stiff.nodes[int(nd.id)]
@@ -217,14 +219,14 @@ def sid_from_reduced(body, model, *, nodes=None, remove_rigid: bool = False, uni
 
 
 
-def _stiffening(xb, fn, body):
+def _stiffening(xb, fn, body, progress=None):
     """``(LoadStiffening or None, what the header says)``."""
     from ...errors import FlexmorError
     from ...preload import recorded_material
     from ...stiffening import load_stiffening
 
     try:
-        st = load_stiffening(xb, fn, material=recorded_material(body.info.get("preload")))
+        st = load_stiffening(xb, fn, material=recorded_material(body.info.get("preload")), progress=progress)
     except FlexmorError as exc:
         log.info("SID without load stiffening: %s", exc)
         return None, "no load stiffening (" + str(exc).split(";")[0].strip() + ")"
@@ -290,7 +292,7 @@ def sid_text(sid: SIDFile, *, m1_order: str = "row-q-col") -> str:
 
 def write_sid(body, path, *, model=None, nodes=None, m1_order: str = "row-q-col",
               allow_clamped: bool = False, remove_rigid: bool = False, units: str = "SI",
-              stiffening: bool = True) -> None:
+              stiffening: bool = True, progress=None) -> None:
     """Write a reduced body as a ``.SID_FEM`` file, atomically.
 
     Parameters
@@ -314,6 +316,8 @@ def write_sid(body, path, *, model=None, nodes=None, m1_order: str = "row-q-col"
         The unit system written (see :func:`sid_from_reduced`; ignored for a SIDFile).
     stiffening : bool
         Write the load stiffening (see :func:`sid_from_reduced`).
+    progress : callable, optional
+        Its progress (:func:`flexmor.linalg.context.track`).
 
     Raises
     ------
@@ -333,7 +337,7 @@ def write_sid(body, path, *, model=None, nodes=None, m1_order: str = "row-q-col"
 
         check_free_model(model, allow_clamped=allow_clamped)
         sid = sid_from_reduced(body, model, nodes=nodes, remove_rigid=remove_rigid, units=units,
-                               stiffening=stiffening)
+                               stiffening=stiffening, progress=progress)
     text = sid_text(sid, m1_order=m1_order)
     atomic_write(path, lambda tmp: Path(tmp).write_text(text))
 
