@@ -179,7 +179,7 @@ def spin_stiffening_force(mbs, node: int, data: dict):
     model, the stiffening of the stresses. Set it with::
 
         mbs.SetObjectParameter(res["oFFRFreducedOrder"], "forceUserFunction",
-                               spin_stiffening_force(mbs, res["nRigidBody"], np.load(path)))
+                               spin_stiffening_force(mbs, res["nRigidBody"], np.load(path, allow_pickle=False)))
 
     (:func:`add_to_exudyn` and :func:`add_npz_to_exudyn` do so for such a body.)
     """
