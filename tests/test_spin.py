@@ -93,6 +93,9 @@ def test_the_command_line_prints_both_diagrams(capsys, body):
     (("info", MODEL, "--campbell", "z:10:0"), "0 <= W0 < W1"),
     (("reduce", MODEL, "--method", "krylov", "--order", "8", "--input", "TIP:y", "--spin-range", "x:0:3000",
       "--no-error"), "not positive definite|singular or indefinite"),
+    (("info", DATA / "beam8_free_mat.sti", "--campbell", "z:0:100"), "moves freely: constrain it"),
+    (("reduce", DATA / "beam8_free_mat.sti", "--method", "krylov", "--order", "8", "--input", "TIP:y",
+      "--spin-range", "z:0:100", "--no-error"), "moves freely: constrain it"),
 ])
 def test_bad_spin_ranges_are_refused_naming_the_flag(capsys, tmp_path, argv, words):
     code, _, err = run(capsys, *argv, *(("-o", tmp_path / "b.h5") if argv[0] == "reduce" else ()))

@@ -114,16 +114,22 @@ class SpinOperators:
         return (K + (w * w) * self.K2).tocsr()
 
 
-def spin_operators(model, axis, *, material=None, solver=None) -> SpinOperators:
+def spin_operators(model, axis, *, material=None, solver=None, param: str = "spin_range") -> SpinOperators:
     """The spin operators of a supported ``model`` (with solid elements) about the unit ``axis``.
 
     Raises
     ------
     ModelError
-        A free model, no elements or materials (as :func:`flexmor.preload.preload_stiffness`).
+        A free model (naming ``param``, the option that asked for the spin), no elements or materials (as
+        :func:`flexmor.preload.preload_stiffness`).
     """
     from .preload import preload_stiffness, spin_operator
+    from .rigid import rigid_body_modes
 
+    if rigid_body_modes(model).shape[1]:
+        raise ModelError(f"{model.source or model.name}: a spinning body is held at its hub or bearings, but this "
+                         "model moves freely: constrain it (a *BOUNDARY at the hub) for --spin-range or --campbell",
+                         params=(param,))
     a = np.asarray(axis, dtype=float)
     pre = preload_stiffness(model, "spin:" + ",".join(repr(float(v)) for v in a), material=material, solver=solver)
     P, _ = spin_operator(model, a)

@@ -181,7 +181,7 @@ def _model_campbell(model, args, solver) -> dict:
         raise OptionError("--campbell of a model needs AXIS:W0:W1[:N] (e.g. z:0:500: 11 speeds from 0 to 500 rad/s "
                           "about z)", params=("campbell",))
     sr, n = parse_axis_speeds(args.campbell)
-    ops = spin_operators(model, sr.axis, material=args.material, solver=solver)
+    ops = spin_operators(model, sr.axis, material=args.material, solver=solver, param="campbell")
     k = args.modes if args.modes > 0 else 6
     c = campbell(model.M, model.K, ops.K2, ops.G1, sr.speeds(n), k, D=model.D, solver=solver)
     return dict(c.record(), spec=sr.spec, axis=sr.axis.tolist())
