@@ -94,6 +94,7 @@ def test_the_command_line_prints_both_diagrams(capsys, body):
     (("reduce", MODEL, "--method", "krylov", "--order", "8", "--input", "TIP:y", "--spin-range", "x:0:3000",
       "--no-error"), "not positive definite|singular or indefinite"),
     (("info", DATA / "beam8_free_mat.sti", "--campbell", "z:0:100"), "moves freely: constrain it"),
+    (("info", MODEL, "--campbell", "x:0:3000:3"), "a mode that grows"),
     (("reduce", DATA / "beam8_free_mat.sti", "--method", "krylov", "--order", "8", "--input", "TIP:y",
       "--spin-range", "z:0:100", "--no-error"), "moves freely: constrain it"),
 ])

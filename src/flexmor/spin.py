@@ -39,8 +39,8 @@ import scipy.sparse.linalg as spla
 
 from .errors import FlexmorError, ModelError, OptionError
 
-__all__ = ["Campbell", "SpinOperators", "SpinRange", "campbell", "critical_speeds", "merged_basis", "parse_axis_speeds",
-           "parse_spin_range", "spin_check", "spin_operators"]
+__all__ = ["Campbell", "SpinOperators", "SpinRange", "campbell", "check_stable", "critical_speeds", "merged_basis",
+           "parse_axis_speeds", "parse_spin_range", "spin_check", "spin_operators"]
 
 log = logging.getLogger(__name__)
 
@@ -137,6 +137,24 @@ def spin_operators(model, axis, *, material=None, solver=None, param: str = "spi
     return SpinOperators(a, sp.csr_matrix(pre.K_G + pre.softening), G1)
 
 
+def check_stable(model, ops: SpinOperators, w: float, *, solver=None, param: str = "spin_range") -> None:
+    """Refuse a speed at which the spinning stiffness ``K + w^2 K2`` has a negative eigenvalue (a mode the spin
+    softens below zero in the turning frame), whatever the solver backend (an LU factorization does not tell
+    an indefinite matrix): the lowest eigenvalues of ``(K + w^2 K2, M)``."""
+    import dataclasses
+
+    from .checks import stable_lowest_eigenvalues
+    from .linalg.context import as_solver
+
+    try:
+        stable_lowest_eigenvalues(dataclasses.replace(model, K=ops.stiffness(model.K, w), preload=None),
+                                  as_solver(solver), 1)
+    except ModelError:
+        raise ModelError(f"{model.source or model.name}: at {w:g} rad/s the spinning stiffness K + w^2 K2 is not "
+                         "positive definite (a speed above the first frequency of a mode the spin softens, in the "
+                         "turning frame): give a lower speed", params=(param,)) from None
+
+
 @dataclass
 class Campbell:
     """Eigenvalues over speeds.
@@ -228,10 +246,10 @@ def campbell(M, K, K2, G1, speeds, k: int, *, D=None, P1M=None, solver=None) -> 
         C = w * G1 if D is None else D + w * G1
         if sparse:
             try:
-                fac = factorize(sp.csr_matrix(Kw), solver=solver, positive=True)
-            except FlexmorError as exc:  # a factorization refused: not positive definite
-                raise ModelError(f"at {w:g} rad/s the spinning stiffness K + w^2 K2 is not positive definite ({exc})",
-                                 params=("spin_range",)) from None
+                fac = factorize(sp.csr_matrix(Kw), solver=solver, symmetric=True)  # spin may stabilize it
+            except FlexmorError as exc:  # a singular stiffness at that speed
+                raise ModelError(f"at {w:g} rad/s the spinning stiffness K + w^2 K2 is singular ({exc})",
+                                 params=("campbell",)) from None
             Cs = sp.csr_matrix(C)
 
             def op(x, fac=fac, Cs=Cs):
@@ -244,11 +262,12 @@ def campbell(M, K, K2, G1, speeds, k: int, *, D=None, P1M=None, solver=None) -> 
             lam, U = 1.0 / mu, X[:n]
         else:
             A, B = _first_order_dense(np.asarray(M), np.asarray(Kw), np.asarray(C))
-            if np.linalg.eigvalsh(0.5 * (Kw + Kw.T)).min() <= 0:
-                raise ModelError(f"at {w:g} rad/s the spinning stiffness K + w^2 K2 is not positive definite",
-                                 params=("spin_range",))
             lam, X = sla.eig(A, B)
             U = X[:n]
+        if np.any(lam.real > 1e-6 * np.abs(lam).max(initial=0.0)):  # a mode that grows: K + w^2 K2 indefinite
+            raise ModelError(f"at {w:g} rad/s the spinning body has a mode that grows (its stiffness K + w^2 K2 is "
+                             "indefinite there and the Coriolis forces do not stabilize it): give a lower speed",
+                             params=("campbell",))
         lam, U = _pairs(lam, U, k)
         j = lam.size
         F[i, :j] = lam.imag / (2 * np.pi)

@@ -187,10 +187,11 @@ def _over_speeds(model, m, ports, order, opts, spec):
     :data:`~flexmor.spin.BUILD_SPEEDS` speeds, merged and compressed to ``order``."""
     import dataclasses
 
-    from ..spin import BUILD_SPEEDS, merged_basis, parse_spin_range, spin_operators
+    from ..spin import BUILD_SPEEDS, check_stable, merged_basis, parse_spin_range, spin_operators
 
     sr = parse_spin_range(spec)
     ops = spin_operators(model, sr.axis, solver=opts.get("solver"))
+    check_stable(model, ops, sr.w1, solver=opts.get("solver"))  # before any build
     bases = []
     for w in sr.speeds(BUILD_SPEEDS)[::-1]:  # the fastest first: a speed beyond the range's limit fails at once
         spun = dataclasses.replace(model, K=ops.stiffness(model.K, w))
