@@ -232,7 +232,8 @@ def campbell(M, K, K2, G1, speeds, k: int, *, D=None, P1M=None, solver=None) -> 
     Raises
     ------
     ModelError
-        ``K + ω² K_2`` not positive definite at a speed (the body buckles or flies apart there).
+        A speed with a mode that grows (``K + ω² K_2`` indefinite and not stabilized by the Coriolis forces), or
+        with a singular ``K + ω² K_2``.
     """
     from .linalg import factorize
 
