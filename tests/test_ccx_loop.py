@@ -13,10 +13,11 @@ are read (constraints on their nodes are refused, see :mod:`flexmor.io.calculix.
 from __future__ import annotations
 
 import json
+import logging
 
 import numpy as np
 import pytest
-from ccx_models import CCX, dat_displacement, dat_frequencies, dat_mass, deck, run
+from ccx_models import CCX, NU, E, Mesh, dat_displacement, dat_frequencies, dat_mass, deck, run, solid_elements
 
 from flexmor.io import read
 from flexmor.linalg import eigenmodes
@@ -32,12 +33,22 @@ def _freqs(model, k):
     return np.sqrt(np.clip(lam, 0, None)) / (2 * np.pi)
 
 
+#: The mesh of the 6 x 2 x 2 bar (the shell's 6 x 2, the beam's 6): cell type, nodes and count.
+CELLS = {"C3D8": ("hexahedron", 8, 24), "C3D20R": ("hexahedron20", 20, 24), "C3D10": ("tetra10", 10, 144),
+         "S8R": ("quad8", 8, 12), "B32R": ("line3", 3, 6)}
+
+
 @pytest.mark.parametrize("etype", SOLIDS + ["S8R", "B32R"])
-def test_free_frequencies_and_mass(tmp_path, etype):
+def test_free_frequencies_and_mass(tmp_path, etype, caplog):
     text, _ = deck(etype, clamped=False)
     sti = run(tmp_path, "free", text)
-    with pytest.warns(Warning) if etype in ("C3D20R", "C3D10", "S8R", "B32R") else _nothing():
+    with pytest.warns(Warning, match="the mass matrix is singular") if etype != "C3D8" else _nothing():
         model = read(sti)
+    assert "left out of the mesh" not in caplog.text
+    ((cell, nodes),) = [(b.type, b.nodes) for b in model.mesh.blocks]
+    assert (cell, *nodes.shape[::-1]) == CELLS[etype]  # every element of the deck, whole
+    (block,) = model.elements.blocks
+    assert block.type == etype and block.ids.tolist() == list(range(1, CELLS[etype][2] + 1))
     ref = dat_frequencies(sti.with_suffix(".dat"))
     np.testing.assert_allclose(_freqs(model, 10)[6:], ref[6:10], rtol=1e-6)
     assert ref[6] > 1e3 * ref[5]  # 6 rigid modes, then the elastic ones
@@ -68,6 +79,30 @@ def test_clamped_frequencies_and_static_response(tmp_path, etype, capsys):
     u = red.C @ np.linalg.solve(red.K, red.B)[:, 0]
     ref = dat_displacement(sti.with_suffix(".dat"), node)
     np.testing.assert_allclose(u, ref, rtol=1e-6, atol=1e-6 * abs(ref[2]))
+
+
+def test_quadratic_hexahedra_on_full_lines_have_their_nodes_and_stresses(tmp_path, caplog):
+    """The C3D20R deck holds each element as a full line (its number and 15 nodes) and the 5 nodes left on the
+    next line, without a comma (CalculiX reads it so): the elements have their 20 nodes, and a linear
+    displacement field gives its exact stress in each."""
+    from test_stress import _GRAD, _linear_field, _voigt
+
+    from flexmor.elements import Material
+    from flexmor.stress import element_stresses
+
+    text, _ = deck("C3D20R", (2, 1, 1), clamped=False, modes=1)
+    lines = text.splitlines()
+    first = lines[lines.index("*ELEMENT, TYPE=C3D20R, ELSET=EALL") + 1:][:2]
+    assert [len(t.split(",")) for t in first] == [16, 5] and not first[0].endswith(",")
+    with pytest.warns(Warning, match="the mass matrix is singular"):
+        model = read(run(tmp_path, "job", text))
+    assert not [r for r in caplog.records if r.levelno >= logging.WARNING], caplog.text
+    (block,) = model.elements.blocks
+    assert block.type == "C3D20R" and block.ids.tolist() == [1, 2]
+    assert block.nodes.tolist() == solid_elements(Mesh(2, 1, 1), "C3D20R")
+    (field,) = element_stresses(model, _linear_field(model))
+    exact = Material.isotropic(E, NU).D @ _voigt(_GRAD)
+    np.testing.assert_allclose(field.values, np.broadcast_to(exact, field.values.shape), rtol=1e-9)
 
 
 def test_clamped_shell_refused(tmp_path):

@@ -6,7 +6,7 @@ skipped. ``*INCLUDE, INPUT=file`` inserts another file (relative to the folder o
 includes it), nested at most :data:`MAX_INCLUDE_DEPTH` levels. :func:`walk` reads a deck as
 :class:`Keyword` and :class:`Data` items, includes inlined, each naming its file and line; the
 readers interpret the keywords they know. Data lines continued on the next line (an element
-whose line ends in a comma) are the reader's to join.
+whose line ends in a comma or is full, :func:`element_continues`) are the reader's to join.
 """
 
 from __future__ import annotations
@@ -19,10 +19,14 @@ from ..errors import ReadError
 from ._open import is_gzip, open_binary
 from ._text import FOREIGN, read_text, split_lines
 
-__all__ = ["MAX_INCLUDE_DEPTH", "Data", "Keyword", "check_last_lines", "include_path", "keyword_options", "walk"]
+__all__ = ["ELEMENT_LINE_ENTRIES", "MAX_INCLUDE_DEPTH", "Data", "Keyword", "check_last_lines", "element_continues",
+           "include_path", "keyword_options", "walk"]
 
 #: Deepest nesting of ``*INCLUDE`` files.
 MAX_INCLUDE_DEPTH = 10
+
+#: The most entries a data line of ``*ELEMENT`` holds (the element number and 15 nodes, then 16 nodes a line).
+ELEMENT_LINE_ENTRIES = 16
 
 
 @dataclass(frozen=True)
@@ -79,6 +83,22 @@ def keyword_options(card: str) -> tuple[str, dict]:
             key, _, val = p.partition("=")
             opts[key.strip().upper()] = val.strip().strip('"')
     return " ".join(parts[0].upper().split()), opts
+
+
+def element_continues(line: str, entries: int, have: int, nodes: int | None) -> bool:
+    """Whether an element continues on the data line after ``line``, the last of its ``*ELEMENT`` lines so far.
+
+    ``entries`` counts the numbers on ``line``, ``have`` those of the element so far (its number and
+    nodes, ``line``'s included), ``nodes`` is the node count of the element type (None: not known).
+    An element continues while it has fewer nodes than its type, on a line that ends in a comma or
+    is full (:data:`ELEMENT_LINE_ENTRIES`: a C3D20 is written as 16 entries and its last 5 nodes on
+    the next line, with or without the comma, and CalculiX reads both); so a full line of a C3D15
+    (its number and 15 nodes) ends it. Of a type of unknown node count, a line ending in a comma
+    continues.
+    """
+    if nodes is None:
+        return line.endswith(",")
+    return have < 1 + nodes and (line.endswith(",") or entries >= ELEMENT_LINE_ENTRIES)
 
 
 def include_path(path: Path, opts: dict, depth: int, lineno: int) -> Path:

@@ -23,7 +23,7 @@ import numpy as np
 
 from ..mesh import NODES_PER_CELL, CellBlock, Mesh
 
-__all__ = ["abaqus_cell", "nastran_cell", "ansys_cell", "to_vtk", "build_mesh", "mesh_of_elements"]
+__all__ = ["abaqus_cell", "abaqus_nodes", "nastran_cell", "ansys_cell", "to_vtk", "build_mesh", "mesh_of_elements"]
 
 log = logging.getLogger(__name__)
 
@@ -58,6 +58,12 @@ def abaqus_cell(etype: str) -> str | None:
     if family in ("C3D", "DC3D", "SC"):
         return _SOLID.get(int(digits[:2]) if digits[:2] in ("10", "13", "15", "20", "27") else int(digits[:1]))
     return _SURFACE.get(int(digits[:1]))
+
+
+def abaqus_nodes(etype: str) -> int | None:
+    """The node count of a CalculiX/Abaqus element type of :func:`abaqus_cell` (``C3D20R`` -> 20), or None."""
+    cell_type = abaqus_cell(etype)
+    return None if cell_type is None else NODES_PER_CELL[cell_type]
 
 
 _NASTRAN = {"CHEXA": {8: "hexahedron", 20: "hexahedron20"}, "CTETRA": {4: "tetra", 10: "tetra10"},

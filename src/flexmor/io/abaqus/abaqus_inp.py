@@ -35,7 +35,8 @@ from pathlib import Path
 import numpy as np
 
 from ...errors import ReadError
-from .._abaqus_syntax import Data, Keyword, check_last_lines, walk
+from .._abaqus_syntax import Data, Keyword, check_last_lines, element_continues, walk
+from .._cells import abaqus_nodes
 
 __all__ = ["AbaqusDeck", "read_deck"]
 
@@ -154,7 +155,8 @@ class _Parser:
         self.end = None  # (file, line) of the deck's last line
 
     def parse(self, path: Path):
-        st = {"block": None, "opts": {}, "part": None, "inst": None, "mat": None, "elem": None, "cont": []}
+        st = {"block": None, "opts": {}, "part": None, "inst": None, "mat": None, "elem": None, "cont": [],
+              "nodes": None}
         for item in walk(path):
             self.last[item.path] = item
             if isinstance(item, Keyword):
@@ -266,6 +268,7 @@ class _Parser:
         elif kw == "ELEMENT":
             if not opts.get("TYPE"):
                 raise ReadError(path, "*ELEMENT without TYPE=", lineno)
+            st["nodes"] = abaqus_nodes(opts["TYPE"])  # None: continued by commas only
         elif kw == "MATERIAL":
             st["mat"] = self.materials.setdefault(opts.get("NAME", "").upper(), {})
         elif kw in ("SOLID SECTION", "SHELL SECTION"):
@@ -308,7 +311,7 @@ class _Parser:
         elif kw == "ELEMENT":
             ints = _ints(path, lineno, s, "*ELEMENT")
             cont = st["cont"]
-            if cont:  # continuation of the previous element (line ended with a comma)
+            if cont:  # continuation of the previous element (its line ended with a comma or was full)
                 cont[2].extend(ints)
             else:
                 if len(ints) < 2:
@@ -317,7 +320,7 @@ class _Parser:
                 self._target(st).elements.append(cont)
                 if opts.get("ELSET"):
                     self._target(st).elsets.setdefault(opts["ELSET"].upper(), []).append(ints[0])
-            st["cont"] = cont if s.endswith(",") else []
+            st["cont"] = cont if element_continues(s, len(ints), 1 + len(cont[2]), st["nodes"]) else []
         elif kw in ("NSET", "ELSET"):
             self._set_line(path, lineno, s, st, kw)
         elif kw == "DENSITY" and st["mat"] is not None:

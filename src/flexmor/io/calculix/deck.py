@@ -15,7 +15,7 @@ import numpy as np
 from ...errors import ReadError
 from ...mesh import NODES_PER_CELL
 from .._abaqus_materials import DeckElements
-from .._abaqus_syntax import Keyword, check_last_lines, walk
+from .._abaqus_syntax import ELEMENT_LINE_ENTRIES, Keyword, check_last_lines, element_continues, walk
 from .._cells import abaqus_cell
 
 __all__ = ["read_inp"]
@@ -182,7 +182,9 @@ def _node_line(path, lineno, s):
 
 
 def _element_block(path, data, linenos, etype, cells):
-    """The cells of consecutive ``*ELEMENT`` data lines (an element may continue on lines ending in a comma).
+    """The cells of consecutive ``*ELEMENT`` data lines (an element continues on the next line after a
+    line that ends in a comma or is full, while it has fewer nodes than its type:
+    :func:`flexmor.io._abaqus_syntax.element_continues`).
 
     Returns the rows ``(element number, nodes ...)``, None for a block left out of the mesh.
     """
@@ -191,17 +193,39 @@ def _element_block(path, data, linenos, etype, cells):
         log.info("%s: element type %s is not kept in the mesh", path, etype or "(none)")
         return None
     nn = NODES_PER_CELL[cell_type]
-    n_el = sum(1 for t in data if not t.endswith(","))
-    text = "\n".join(data)
-    try:
-        a = np.fromstring(text.replace(",", " "), dtype=np.int64, sep=" ")
-    except ValueError:
-        a = None
-    if a is None or a.size != n_el * (1 + nn) or (data and data[-1].endswith(",")):
+    a = _element_rows(data, 1 + nn)
+    if a is None:
         a = _element_lines(path, data, linenos, etype, nn)
     if a is not None:
         a = a.reshape(-1, 1 + nn)
         cells.append((cell_type, a[:, 1:]))
+    return a
+
+
+def _element_rows(data, width):
+    """All numbers of the element lines ``data`` at once, as :func:`_element_lines` joins them into elements
+    of ``width`` numbers each; None when a field between commas is not one integer (or is 0), or the
+    lines do not hold whole elements that way (the line-by-line parse then names the defect).
+
+    A line of ``c`` commas holds ``c + 1`` numbers, ``c`` when it ends in a comma: every line must lie
+    within one element, and a line that leaves its element short must continue it (end in a comma or
+    be full).
+    """
+    if not data:
+        return None
+    try:  # comma-separated: a blank field reads as 0, an empty one or two numbers in a field fail
+        a = np.fromstring("\n".join(data).replace(",\n", "\n").replace("\n", ","), dtype=np.int64, sep=",")
+    except ValueError:
+        return None
+    comma = np.array([t.endswith(",") for t in data])
+    counts = np.array([t.count(",") for t in data], dtype=np.int64) + ~comma
+    if counts.sum() != a.size or a.size % width or not counts.all() or not a.all():
+        return None
+    ends = np.cumsum(counts)
+    if np.any((ends - counts) // width != (ends - 1) // width):  # a line runs into the next element
+        return None
+    if np.any((ends % width != 0) & ~comma & (counts < ELEMENT_LINE_ENTRIES)):  # an element ends short
+        return None
     return a
 
 
@@ -220,7 +244,7 @@ def _element_lines(path, data, linenos, etype, nn):
         if not cur:
             start = lineno
         cur.extend(vals)
-        if t.endswith(",") and lineno != linenos[-1]:
+        if element_continues(t, len(vals), len(cur), nn) and lineno != linenos[-1]:
             continue
         if len(cur) != 1 + nn:
             log.warning("%s:%d: element %s of type %s has %d nodes, expected %d; its *ELEMENT block is left out "
