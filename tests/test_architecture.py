@@ -35,8 +35,9 @@ LAYERS = [
     ["flexmor"],  # the public namespace (the root __init__)
     ["flexmor.__main__", "flexmor.cli"],  # the command line: alone prints and exits
     ["flexmor.ui"],  # web app (runs cli's main, handed in)
-    ["flexmor.workflow", "flexmor.study", "flexmor.prepare", "flexmor.studyfile", "flexmor.tolerance"],  # jobs:
-    # reduce and judge, study, its preparation, study files, target-error mode
+    ["flexmor.workflow", "flexmor.study", "flexmor.prepare", "flexmor.studyfile", "flexmor.tolerance",
+     "flexmor.moving"],  # jobs:
+    # reduce and judge, study, its preparation, study files, target-error mode, moving loads
     ["flexmor.report"],  # plots, HTML report, 3D view
     ["flexmor.analysis"],  # judging reduced bodies, assemblies, the body held in its joints
     ["flexmor.reduction"],  # methods -> Basis, METHODS registry, reduce()

@@ -18,6 +18,7 @@ damping (:func:`~flexmor.workflow.damping_of`), ports (:func:`~flexmor.ports.mak
 
 from __future__ import annotations
 
+import time
 from os import PathLike
 
 from .analysis.compare import ErrorMeasures, FullResponse, check_judgeable
@@ -25,7 +26,7 @@ from .checks import check_band
 from .damping import describe_damping
 from .display import Shown, band_text, names_text
 from .errors import ModelError, OptionError, check_keywords_of
-from .linalg.context import SolverContext, as_solver
+from .linalg.context import SolverContext, as_solver, step
 from .linalg.distributed import is_partitioned
 from .model import FEModel
 from .options import Band
@@ -54,6 +55,20 @@ def _plain(value):
         return list(value)
     return value
 
+def _moving(model, ports, specs, tol, band, solver) -> list:
+    """``[(MovingLoad, Compression)]`` of the moving load SPECs on ``model`` (:mod:`flexmor.moving`)."""
+    from .moving import DEFAULT_TOL, compress, moving_path
+
+    out = []
+    for spec in specs:
+        path = moving_path(model, spec)
+        with step(solver.progress, f"moving load {spec}: {path.nodes.size} path nodes compressed"):
+            comp = compress(model, path, Band.of(band), tol=DEFAULT_TOL if tol is None else tol,
+                            outputs=None if ports is None else ports.C, solver=solver)
+        out.append((path, comp))
+    return out
+
+
 class System(Shown):
     """A full model with its inputs, outputs, interfaces, band and damping, given once.
 
@@ -81,6 +96,12 @@ class System(Shown):
         the file's format, a mesh file of its nodes and elements, the unit system of its numbers (the
         model is converted to SI), ``NAME=KIND:NUMBERS`` node selections, preload SPECs and the
         material ``(E, nu[, rho])`` of the preload's stresses.
+    moving_loads : sequence of str
+        Moving loads ``SET:DIR`` or ``SET:DIR@AXIS`` (:mod:`flexmor.moving`): a force moving over the node set's
+        path. Its inputs, compressed to the directions whose singular values exceed ``moving_load_tol`` (default
+        :data:`flexmor.moving.DEFAULT_TOL`), join the ports (``SET:DIR~1`` ...; the ports alone when no inputs are
+        given); the bodies keep the path's reduced loads and are judged over its positions
+        (:meth:`reduce_and_judge`, :meth:`crossing`).
     solver : SolverContext, optional
         Solver (backend, statistics) of every factorization; with the ``petsc`` backend under
         ``mpirun`` rank 0 reads and prepares the model.
@@ -118,6 +139,10 @@ class System(Shown):
         the nodes ``nearest`` selections chose, the time); None for :meth:`prepared`.
     material : tuple or None
         The ``material`` given (also the material of :func:`flexmor.stress.body_stresses`).
+    moving : list of (MovingLoad, Compression)
+        The moving loads' paths and compressions (:mod:`flexmor.moving`).
+    n_user_ports : (int, int)
+        The inputs and outputs given (the ports before the moving loads' compressed ones).
     recipe : dict or None
         Of a system made by :meth:`from_study`: the study file's ``reduce`` section (``method``,
         ``order``, ``options`` ...) with its ``judge`` and ``output`` sections; None otherwise.
@@ -125,7 +150,7 @@ class System(Shown):
 
     def __init__(self, model, *, inputs=(), outputs=(), interfaces=(), band=None, damping=None,
                  format: str | None = None, mesh=None, units=None, select=(), preload=(), material=None,
-                 solver: SolverContext | None = None, **grid):
+                 moving_loads=(), moving_load_tol: float | None = None, solver: SolverContext | None = None, **grid):
         check_keywords_of("System", grid, System.__init__, FullResponse.__init__)
         if not isinstance(model, str | PathLike | FEModel):
             raise ModelError(f"System needs an FE model or the path of its file, got {type(model).__name__}",
@@ -139,11 +164,21 @@ class System(Shown):
         done = prepare(model, format=format, mesh=mesh, units=units, select=select, preload=preload,
                        material=material, couplings=couplings, damping=damping, band=band, solver=solver,
                        progress=solver.progress)
-        self._setup(done.model, make_ports(done.model, inputs, outputs), as_read=done.as_read, couplings=couplings,
-                    interfaces=interfaces, band=band, solver=solver, grid=grid, selections=select)
+        if isinstance(moving_loads, (str, bytes)):
+            raise OptionError(f"moving_loads must be a list of SPECs, e.g. [{moving_loads!r}]",
+                              params=("moving_loads",))
+        moving_loads = [str(s) for s in moving_loads]
+        if moving_loads and outputs and not inputs:
+            raise OptionError("outputs need inputs: give inputs too, or the moving loads alone (their outputs are the "
+                              "deflections under the load)", params=("outputs",))
+        ports = make_ports(done.model, inputs, outputs) if inputs or not moving_loads else None
+        moving = _moving(done.model, ports, moving_loads, moving_load_tol, band, solver)
+        self._setup(done.model, ports, as_read=done.as_read, couplings=couplings, interfaces=interfaces, band=band,
+                    solver=solver, grid=grid, selections=select, moving=moving)
         self.prepared_as, self.material = done, material
         self._given = {"model": model if isinstance(model, str | PathLike) else None, "inputs": list(inputs),
-                       "outputs": list(outputs), "interfaces": interfaces, "band": band, "damping": damping}
+                       "outputs": list(outputs), "interfaces": interfaces, "band": band, "damping": damping,
+                       "moving_loads": moving_loads, "moving_load_tol": moving_load_tol}
         self.recipe: dict | None = None
         self.preparation = {k: v for k, v in (("format", format), ("mesh", mesh), ("units", units),
                                               ("select", list(select)), ("preload", list(preload)),
@@ -168,9 +203,17 @@ class System(Shown):
                       selections=[str(s) for s in selections])
         return system
 
-    def _setup(self, model, ports, *, as_read, couplings, interfaces, band, solver, grid, selections=()) -> None:
+    def _setup(self, model, ports, *, as_read, couplings, interfaces, band, solver, grid, selections=(),
+               moving=()) -> None:
         check_keywords_of("System", grid, System.__init__, FullResponse.__init__)
+        from .moving import with_moving_loads
+
+        self.moving = list(moving)
+        self.n_user_ports = (0, 0) if ports is None else (ports.n_inputs, ports.n_outputs)
+        if self.moving:
+            ports = with_moving_loads(model, ports, *zip(*self.moving))
         self.model, self.ports, self.as_read = model, ports, as_read
+        self._path_full: dict = {}
         self.couplings, self.interfaces, self.selections = list(couplings), list(interfaces), list(selections)
         self.band = Band.of(band)
         if band is not None:  # a band given (the default one is no user's mistake)
@@ -185,6 +228,9 @@ class System(Shown):
                 ("band", band_text(self.band)), ("damping", describe_damping(self.model.damping))]
         if self.interfaces:
             rows.append(("interfaces", names_text(self.interfaces)))
+        for path, comp in self.moving:
+            rows.append(("moving load", f"{path.name}: {path.nodes.size} nodes over {path.length:.4g} m, "
+                                        f"{comp.k} compressed loads"))
         return f"{self.model.name!r}: {self.model.n_dof} DOF", rows
 
     @property
@@ -222,7 +268,7 @@ class System(Shown):
         method, order, options = self._recipe(method, order, options)
         given = dict(options)
         method = method_name(method)
-        options = self.options(method, options)
+        options = self._moving_options(method, self.options(method, options))
         options.setdefault("solver", self.solver)
         body = reduce(self.model, method, order, self.ports, **options)
         self._record(body, method, order, given)
@@ -241,14 +287,52 @@ class System(Shown):
         """
         method, order, options = self._recipe(method, order, options)
         given = {k: v for k, v in options.items() if k not in _JUDGE_KEYWORDS}
-        options = self.options(method, options)
+        options = self._moving_options(method, self.options(method, options))
         method_band = options.pop("band", None)  # the method's band (the study's unless given)
         body, record = reduce_and_judge(self.model, method, order, self.ports, method_band=method_band,
                                         full=(lambda: self.full) if judge else None, solver=self.solver,
                                         uncoupled=self.as_read if self.couplings else None,
                                         couplings=self.couplings, **options)
         self._record(body, method, order, given)
+        if self.moving and judge:
+            t0 = time.perf_counter()
+            recs = [self.judge_path(body, k) for k in range(len(self.moving))]
+            body.errors["moving_loads"] = recs
+            record["moving_loads"] = [{k: v for k, v in r.items() if k != "positions"} for r in recs]
+            record["timings"]["moving_loads"] = time.perf_counter() - t0
         return body, record
+
+    def _moving_options(self, method: str, options: dict) -> dict:
+        """``options`` with residual vectors for a method whose basis ignores the inputs, when there are moving
+        loads: it gets the static responses of their compressed loads (not one constraint mode per path node)."""
+        from .reduction import methods
+
+        if self.moving and not methods()[method].uses_inputs and "residual_vectors" not in options:
+            options = {**options, "residual_vectors": True}
+        return options
+
+    def judge_path(self, body, k: int = 0) -> dict:
+        """``body``'s band error over the positions of the ``k``-th moving load (:func:`flexmor.moving.judge_path`,
+        at the study's outputs and under the load; the full model's path FRF computed once per path)."""
+        from .moving import judge_path
+
+        self.check(body)
+        path = self.moving[k][0]
+        n_in, n_out = self.n_user_ports
+        rec, self._path_full[k] = judge_path(self.model, body, path, k=k,
+                                             outputs=self.ports.C[:n_out] if n_out else None,
+                                             output_names=self.ports.output_names[:n_out], band=self.band,
+                                             full=self._path_full.get(k), solver=self.solver, **self._grid)
+        return rec
+
+    def crossing(self, body, speed: float, *, force: float = 1.0, k: int = 0, **options) -> dict:
+        """A force crossing the ``k``-th moving load's path at ``speed`` (m/s), body against full model
+        (:func:`flexmor.moving.crossing`; ``dt``, ``steps``, ``scheme`` as there)."""
+        from .moving import crossing
+
+        self.check(body)
+        options.setdefault("solver", self.solver)
+        return crossing(self.model, body, self.moving[k][0], speed=speed, force=force, k=k, **options)
 
     def _recipe(self, method, order, options):
         """``(method, order, options)``: as given, or the study file's when no method is given."""
@@ -262,7 +346,11 @@ class System(Shown):
                 {**basis_keys, **self.recipe.get("options", {}), **options})
 
     def _record(self, body, method, order, options) -> None:
+        from .moving import path_record
+
         record_setup(body, couplings=self.couplings, interfaces=self.interfaces, selections=self.selections)
+        if self.moving:
+            body.info["moving_loads"] = [path_record(body, path, comp) for path, comp in self.moving]
         try:
             body.info["study"] = self.study(method, order, options)
         except OptionError:  # a model given read, or damping of no file form: no study to record
@@ -309,7 +397,9 @@ class System(Shown):
         reduce = {"method": method_name(method), **({"order": int(order)} if order is not None else {}),
                   **{k: opts.pop(k) for k in _BASIS_KEYWORDS if k in opts},
                   **{k: v for k, v in extra.pop("reduce", {}).items() if v is not None}, "options": opts}
-        ports = {k: list(given[k]) for k in ("inputs", "outputs", "interfaces") if given[k]}
+        ports = {k: list(given[k]) for k in ("inputs", "outputs", "interfaces", "moving_loads") if given.get(k)}
+        if given.get("moving_loads") and given.get("moving_load_tol") is not None:
+            ports["moving_load_tol"] = float(given["moving_load_tol"])
         return {k: v for k, v in {"band": band, "model": model, "ports": ports,
                                   "damping": {k: (list(v) if k == "rayleigh" else v) for k, v in damping.items()}
                                   if damping else None, "reduce": reduce, **extra}.items() if v}
@@ -348,7 +438,8 @@ class System(Shown):
         grid = {**{k: judge[j] for j, k in (("n_freq", "n"), ("grid_tol", "tol"), ("full_frf", "path"),
                                             ("cache", "cache")) if j in judge}, **grid}
         system = cls(model["file"], inputs=ports.get("inputs", ()), outputs=ports.get("outputs", ()),
-                     interfaces=ports.get("interfaces", ()), band=study.get("band"), damping=damping or None,
+                     interfaces=ports.get("interfaces", ()), moving_loads=ports.get("moving_loads", ()),
+                     moving_load_tol=ports.get("moving_load_tol"), band=study.get("band"), damping=damping or None,
                      solver=solver, **keywords, **grid)
         if not is_partitioned(system.model.K):
             check_fingerprint(study, system.model, path)

@@ -17,17 +17,31 @@ from ._options import points_option, rigid_option, side_option
 from ._registry import register_method
 from .krylov import default_points, krylov, parse_points, shifted_factorization
 
-__all__ = ["svdmor", "SvdmorOptions", "port_directions"]
+__all__ = ["svdmor", "SvdmorOptions", "port_directions", "sampled_transfer", "real_parts"]
 
 log = logging.getLogger(__name__)
+
+
+def sampled_transfer(model, ports, points, *, solver: SolverContext | None = None) -> tuple[list, list]:
+    """``H(s_k) = C (s_k^2 M + s_k D + K)^{-1} B`` at the points ``s_k = 2 pi p_k`` (``points`` in Hz, complex; one
+    factorization each, :func:`flexmor.reduction.krylov.shifted_factorization`): ``([H(s_1), ...], used)``, the
+    points actually used in rad/s (0 on a free body moves to a real point)."""
+    solver = as_solver(solver)
+    B, C = ports.B.toarray(), ports.C
+    H, used = [], []
+    for p in points:
+        F, s = shifted_factorization(model, 2 * np.pi * complex(p), solver)
+        H.append(C @ F.solve(B))
+        used.append(s)
+        del F
+    return H, used
 
 
 def port_directions(model, ports, points, *, solver: SolverContext | None = None):
     """Input and output directions from sampled transfer matrices ``H(s_k)``.
 
-    ``H(s_k) = C (s_k^2 M + s_k D + K)^{-1} B`` at the points ``s_k`` (one factorization each,
-    :func:`flexmor.reduction.krylov.shifted_factorization`); the right singular vectors of
-    ``[H(s_1); H(s_2); ...]`` (real and imaginary parts) are the input directions, the left
+    ``H(s_k) = C (s_k^2 M + s_k D + K)^{-1} B`` at the points ``s_k`` (:func:`sampled_transfer`); the right
+    singular vectors of ``[H(s_1); H(s_2); ...]`` (real and imaginary parts) are the input directions, the left
     singular vectors of ``[H(s_1), H(s_2), ...]`` the output directions.
 
     Returns
@@ -40,18 +54,16 @@ def port_directions(model, ports, points, *, solver: SolverContext | None = None
     used : list of complex
         Points actually used (rad/s).
     """
-    solver = as_solver(solver)
-    B, C = ports.B.toarray(), ports.C
-    H, used = [], []
-    for p in points:
-        F, s = shifted_factorization(model, 2 * np.pi * complex(p), solver)
-        Hk = C @ F.solve(B)
-        H += [Hk.real, Hk.imag] if np.iscomplexobj(Hk) and np.any(Hk.imag) else [np.real(Hk)]
-        used.append(s)
-        del F
+    Hs, used = sampled_transfer(model, ports, points, solver=solver)
+    H = [part for Hk in Hs for part in real_parts(Hk)]
     _, s_in, Wt = np.linalg.svd(np.vstack(H), full_matrices=False)
     U, s_out, _ = np.linalg.svd(np.hstack(H), full_matrices=False)
     return Wt.T, s_in, U, s_out, used
+
+
+def real_parts(X) -> list:
+    """``[Re X, Im X]`` of a complex ``X`` with an imaginary part, else ``[Re X]``."""
+    return [X.real, X.imag] if np.iscomplexobj(X) and np.any(X.imag) else [np.real(X)]
 
 
 @dataclass(frozen=True)
