@@ -42,9 +42,11 @@ import scipy.sparse as sp
 
 from .errors import OptionError, PortError, did_you_mean
 from .model import DIRECTIONS, FEModel, direction_code, direction_name
+from .ports import path_matrix, with_path_loads
 
 __all__ = ["MovingLoad", "parse_moving_load", "moving_path", "hat_weights", "Compression", "compress",
-           "with_moving_loads", "path_record", "judge_path", "crossing", "DEFAULT_TOL", "SAMPLE_POINTS"]
+           "with_moving_loads", "path_record", "judge_path", "judge_paths", "moving_key", "crossing", "DEFAULT_TOL",
+           "SAMPLE_POINTS"]
 
 log = logging.getLogger(__name__)
 
@@ -175,17 +177,10 @@ def moving_path(model: FEModel, spec) -> MovingLoad:
                         f"point{' along ' + 'xyz'[axis] if axis is not None else ''}; a path visits each point once "
                         "(order it by another coordinate, or give a set of one line of nodes)", params=("moving_load",))
     s = np.concatenate([[0.0], np.cumsum(step)])
-    rows, cols = [], []
-    for j, k in enumerate(nodes):
-        try:
-            rows.append(model.dof_index(int(k), d))
-            cols.append(j)
-        except KeyError:
-            continue
-    if not rows:
+    B = path_matrix(model, nodes, d)
+    if B.nnz == 0:
         raise PortError(f"moving load {spec!r}: no node of {set_name!r} has a free equation in direction "
                         f"{direction_name(d)} (constrained?)", params=("moving_load",))
-    B = sp.csc_matrix((np.ones(len(rows)), (rows, cols)), shape=(model.n_dof, nodes.size))
     return MovingLoad(str(spec).strip(), set_name, d, nodes, s, ordering, B)
 
 
@@ -250,9 +245,10 @@ class Compression:
         return self.W.shape[1]
 
     def record(self) -> dict:
-        """As JSON values: ``directions``, ``tol``, ``singular_values``, ``first_dropped`` (relative), the points."""
+        """As JSON values: ``directions``, ``tol``, ``W``, ``singular_values``, ``first_dropped`` (relative), the
+        points."""
         sv = self.singular_values
-        return {"directions": self.k, "tol": self.tol, "singular_values": [float(v) for v in sv],
+        return {"directions": self.k, "tol": self.tol, "W": self.W.tolist(), "singular_values": [float(v) for v in sv],
                 "first_dropped": float(sv[self.k] / sv[0]) if self.k < sv.size else None,
                 "points_hz": [[float(p.real), float(p.imag)] for p in self.points_hz], "seconds": self.seconds}
 
@@ -303,21 +299,9 @@ def compress(model, path: MovingLoad, band, *, tol: float = DEFAULT_TOL, outputs
 
 def with_moving_loads(model, ports, paths, compressions):
     """``ports`` with each path's compressed loads ``B_path W`` appended as inputs and their collocated
-    deflections ``W^T B_path^T`` as outputs (named ``SET:DIR~1`` ...), or those alone when ``ports`` is None."""
-    from .ports import Ports
-
-    B = [] if ports is None else [ports.B]
-    C = [] if ports is None else [ports.C]
-    ins = [] if ports is None else list(ports.input_names)
-    outs = [] if ports is None else list(ports.output_names)
-    for path, comp in zip(paths, compressions):
-        Bc = sp.csr_matrix(path.B @ comp.W)
-        names = [f"{path.name}~{j + 1}" for j in range(comp.k)]
-        B.append(Bc)
-        C.append(Bc.T.tocsr())
-        ins += names
-        outs += names
-    return Ports(B=sp.hstack(B).tocsr(), C=sp.vstack(C).tocsr(), input_names=ins, output_names=outs)
+    deflections ``W^T B_path^T`` as outputs (named ``SET:DIR~1`` ...), or those alone when ``ports`` is None
+    (:func:`flexmor.ports.with_path_loads`)."""
+    return with_path_loads(ports, [(p.name, p.B, c.W) for p, c in zip(paths, compressions)])
 
 
 def path_record(body, path: MovingLoad, comp: Compression | None) -> dict:
@@ -426,6 +410,37 @@ def judge_path(model, body, load: MovingLoad, *, k: int = 0, outputs=None, outpu
     return rec, full
 
 
+def judge_paths(model, body, band, *, fulls: dict | None = None, solver=None, **grid) -> list[dict]:
+    """:func:`judge_path` of each of ``body``'s moving loads on ``model`` (the paths laid out again from their
+    SPECs, the study's outputs from the body's output SPECs), without the positions' lists. ``fulls`` keeps the
+    full path FRFs between calls (keyed by the path and the outputs), e.g. for several bodies."""
+    from .ports import body_ports
+
+    fulls = {} if fulls is None else fulls
+    out = []
+    ports = None
+    for k, rec in enumerate(body.info.get("moving_loads") or []):
+        path = moving_path(model, rec["spec"])
+        if ports is None:
+            ports = body_ports(model, body)
+        n_out = sum("~" not in n for n in body.output_names)
+        key = (rec["spec"], tuple(body.output_names[:n_out]), tuple(band))
+        r, fulls[key] = judge_path(model, body, path, k=k, outputs=ports.C[:n_out] if n_out else None,
+                                   output_names=body.output_names[:n_out], band=band, full=fulls.get(key),
+                                   solver=solver, **grid)
+        out.append(r)
+    return out
+
+
+def moving_key(body) -> tuple:
+    """What tells the moving loads of two bodies apart (their SPECs and compressed directions): bodies with equal
+    keys and port names share their ports."""
+    import hashlib
+
+    return tuple((r["spec"], hashlib.sha256(np.asarray(r["compression"]["W"], float).tobytes()).hexdigest())
+                 for r in body.info.get("moving_loads") or ())
+
+
 def _json_list(x) -> list:
     return [None if np.isnan(v) else float(v) for v in x]
 
@@ -436,10 +451,10 @@ def crossing(model, body, path: MovingLoad, *, speed: float, force: float = 1.0,
     its first node to its last, integrated for the full model (sparse, one factorization) and the body
     (:func:`flexmor.dynamics.time.simulate`, the same scheme and step).
 
-    Returns a dict: ``speed``, ``force``, ``duration``, ``dt``, ``steps``, the deflection under the load's
-    ``time_mean_error`` (``mean_t |y - yr| / mean_t |y|``) and ``time_max_error`` (``max_t |y - yr| / max_t |y|``),
-    ``peak_deflection`` of the full model, ``seconds_full``, ``seconds_body`` and ``speedup``; and the
-    curves ``t``, ``under_load`` and ``under_load_body`` (for plots).
+    Returns a dict: ``path`` (its name), ``speed``, ``force``, ``duration``, ``dt``, ``steps``, the deflection
+    under the load's ``time_mean_error`` (``mean_t |y - yr| / mean_t |y|``) and ``time_max_error``
+    (``max_t |y - yr| / max_t |y|``), ``peak_deflection`` of the full model, ``seconds_full``, ``seconds_body``
+    and ``speedup``; and the curves ``t``, ``under_load`` and ``under_load_body`` (for plots).
     """
     from .dynamics.time import simulate
     from .ports import Ports
@@ -466,7 +481,8 @@ def crossing(model, body, path: MovingLoad, *, speed: float, force: float = 1.0,
     y = np.einsum("tn,tn->t", Wt, full.output()[:, :, 0])
     yr = np.einsum("tn,tn->t", Wt, red.output()[:, :, 0])
     e = np.abs(y - yr)
-    return {"speed": speed, "force": force, "duration": duration, "dt": dt, "steps": int(full.t.size - 1),
+    return {"path": path.name, "speed": speed, "force": force, "duration": duration, "dt": dt,
+            "steps": int(full.t.size - 1),
             "time_mean_error": float(e.mean() / max(np.abs(y).mean(), 1e-300)),
             "time_max_error": float(e.max() / max(np.abs(y).max(), 1e-300)),
             "peak_deflection": float(np.abs(y).max()), "seconds_full": t1 - t0, "seconds_body": t2 - t1,

@@ -38,7 +38,8 @@ import scipy.sparse as sp
 from .errors import PortError, did_you_mean
 from .model import DIRECTIONS, FEModel, direction_code
 
-__all__ = ["Ports", "make_ports", "interface_dofs", "parse_spec", "expand_specs"]
+__all__ = ["Ports", "make_ports", "interface_dofs", "parse_spec", "expand_specs", "path_matrix", "body_ports",
+           "with_path_loads"]
 
 
 @dataclass
@@ -312,6 +313,53 @@ def make_ports(model: FEModel, inputs=(), outputs=()) -> Ports:
     else:
         raise PortError("no output ports: outputs must name at least one NODE:DIR or SET:DIR", params=("outputs",))
     return Ports(B=sp.csr_matrix(B), C=sp.csr_matrix(C), input_names=list(in_names), output_names=list(out_names))
+
+
+def path_matrix(model: FEModel, nodes, direction: int) -> sp.csc_matrix:
+    """Unit forces in ``direction`` at each of ``nodes``: shape (n_dof, len(nodes)), a zero column where the
+    direction is not an equation (held) at that node (the input matrix of a moving load's path,
+    :mod:`flexmor.moving`)."""
+    rows, cols = [], []
+    for j, k in enumerate(nodes):
+        try:
+            rows.append(model.dof_index(int(k), direction))
+            cols.append(j)
+        except KeyError:
+            continue
+    return sp.csc_matrix((np.ones(len(rows)), (rows, cols)), shape=(model.n_dof, len(nodes)))
+
+
+def with_path_loads(ports: Ports | None, paths) -> Ports:
+    """``ports`` (None: none) with, for each ``(name, B_path, W)`` of ``paths``, the compressed loads
+    ``B_path W`` appended as inputs and their collocated deflections as outputs, named ``NAME~1`` ... (the
+    compressed inputs of a moving load, :mod:`flexmor.moving`)."""
+    B = [] if ports is None else [ports.B]
+    C = [] if ports is None else [ports.C]
+    ins = [] if ports is None else list(ports.input_names)
+    outs = [] if ports is None else list(ports.output_names)
+    for name, B_path, W in paths:
+        Bc = sp.csr_matrix(B_path @ np.asarray(W, float))
+        names = [f"{name}~{j + 1}" for j in range(Bc.shape[1])]
+        B.append(Bc)
+        C.append(Bc.T.tocsr())
+        ins += names
+        outs += names
+    return Ports(B=sp.hstack(B).tocsr(), C=sp.vstack(C).tocsr(), input_names=ins, output_names=outs)
+
+
+def body_ports(model: FEModel, body) -> Ports:
+    """The ports ``body`` was reduced with, on ``model``: its input and output SPECs (:func:`make_ports`), and the
+    compressed loads of its moving loads (``SET:DIR~j``, from ``body.info['moving_loads']``: the path's nodes,
+    direction and directions ``W``; :mod:`flexmor.moving`)."""
+    moving = body.info.get("moving_loads") or []
+    if not moving:
+        return make_ports(model, body.input_names, body.output_names)
+    ins = [n for n in body.input_names if "~" not in n]
+    outs = [n for n in body.output_names if "~" not in n]
+    user = make_ports(model, ins, outs) if ins else None
+    return with_path_loads(user, [(f"{r['set']}:{r['direction']}",
+                                   path_matrix(model, r["nodes"], direction_code(r["direction"])),
+                                   r["compression"]["W"]) for r in moving])
 
 
 def interface_dofs(model: FEModel, specs) -> np.ndarray:

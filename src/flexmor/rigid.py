@@ -40,7 +40,7 @@ import scipy.linalg as sla
 from .basis import Basis
 from .errors import FlexmorError, FlexmorWarning, ModelError
 from .linalg.threads import sparse_dense
-from .ports import make_ports
+from .ports import body_ports
 from .projection import project
 
 __all__ = ["ACCELERATIONS", "rigid_motions", "frame_participation", "rigid_body_modes", "m_project", "elastic_loads",
@@ -272,7 +272,7 @@ def elastic_body(model, body, *, remove_rigid: bool = False):
     if body.V is None or phi.shape[1] == 0 or rigid_content(model, body.V) >= RIGID_CONTENT_TOL:
         return body
     try:
-        ports = make_ports(model, body.input_names, body.output_names)
+        ports = body_ports(model, body)
     except FlexmorError as exc:
         raise ModelError(f"the {body.method} body holds rigid-body motion, which the floating frame carries; "
                          f"removing it needs the body's ports on the model: {exc}") from None

@@ -307,7 +307,7 @@ class System(Shown):
         loads: it gets the static responses of their compressed loads (not one constraint mode per path node)."""
         from .reduction import methods
 
-        if self.moving and not methods()[method].uses_inputs and "residual_vectors" not in options:
+        if self.moving and not methods()[method].uses_inputs:
             options = {**options, "residual_vectors": True}
         return options
 

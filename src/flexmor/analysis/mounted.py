@@ -365,10 +365,10 @@ def mounted_check(model, body, *, ports=None, full: FullMounted | None = None, m
         raise ModelError(f"the {body.method} body has no basis at the {model.n_dof} equations of {model.name}: "
                          "its mounted behaviour cannot be checked")
     if ports is None:
-        from ..ports import make_ports
+        from ..ports import body_ports
 
         try:
-            ports = make_ports(model, body.input_names, body.output_names)
+            ports = body_ports(model, body)
         except FlexmorError as exc:
             log.info("mounted check without the body's ports: %s", exc)
     for sup in cases_:
@@ -483,10 +483,10 @@ def static_record(model, body, *, ports=None, full: FullMounted | None = None, m
         held, loads = f"clamped at {case['interface']}", case["static"]
     else:
         if ports is None:
-            from ..ports import make_ports
+            from ..ports import body_ports
 
             try:
-                ports = make_ports(model, body.input_names, body.output_names)
+                ports = body_ports(model, body)
             except FlexmorError as exc:
                 log.info("static check without the body's ports: %s", exc)
         V = np.asarray(body.V, dtype=float)

@@ -29,7 +29,7 @@ from .info import (
     print_mass_properties,
 )
 from .method_flags import method_options
-from .tables import fmt, note_text, notes_as_flags, print_error_table, print_mounted, print_static
+from .tables import fmt, note_text, notes_as_flags, print_error_table, print_mounted, print_moving, print_static
 
 __all__ = ["cmd_info", "cmd_reduce", "cmd_run", "cmd_compare", "cmd_report", "cmd_demo"]
 
@@ -364,7 +364,12 @@ def cmd_reduce(args) -> int:
     if args.save_study:
         _check_new(args.save_study, args)
     solver = _solver(args)
+    if args.crossing and not args.moving_load:
+        raise OptionError("--crossing needs a --moving-load (the path the force crosses)", params=("crossing",))
+    if args.crossing and args.no_error:
+        raise OptionError("--crossing compares the body with the full model: drop --no-error", params=("crossing",))
     system = System(args.model, inputs=args.input, outputs=args.output, interfaces=args.interface,
+                    moving_loads=args.moving_load, moving_load_tol=args.moving_load_tol,
                     band=args.band or None, damping=_asked_damping(args),
                     **_preparation(args), solver=solver, **_grid_options(args))
     _print_nearest(system.prepared_as.nearest)
@@ -409,6 +414,13 @@ def _reduce_system(args, system, options: dict, solver) -> int:
                                        residual_vectors=args.residual_vectors,
                                        mounted=not args.no_mounted, **options)
     res["timings"]["read"] = system.prepared_as.seconds
+    if getattr(args, "crossing", None):
+        t0 = time.perf_counter()
+        curves = [system.crossing(red, v, force=args.crossing_force, k=k) for k in range(len(system.moving))
+                  for v in args.crossing]
+        red.errors["crossings"] = curves
+        res["crossings"] = [{k: v for k, v in c.items() if not isinstance(v, list)} for c in curves]
+        res["timings"]["crossings"] = time.perf_counter() - t0
     if is_partitioned(model.K):  # under mpirun with --backend petsc: the rows of K held by each rank
         res["partition"] = row_blocks(model.K)
     if args.stress:
@@ -443,6 +455,11 @@ def _reduce_system(args, system, options: dict, solver) -> int:
         print(f"interface {line}")
     for label, text in basis_rows(basis_record(red.info)):
         print(f"{label}: {text}")
+    for m in red.info.get("moving_loads") or ():
+        c = m["compression"]
+        print(f"moving load {m['spec']}: {len(m['nodes'])} path nodes over {m['length']:.4g} m ({m['ordering']}), "
+              f"{c['directions']} compressed loads (singular values above {c['tol']:g} of the largest"
+              + (f"; the next {c['first_dropped']:.2e})" if c["first_dropped"] is not None else ")"))
     if res.get("order_note"):
         print(f"note: {note_text(res['order_note'])}")
     if res.get("converged") is False and not res["band_hz"]:  # else the error table says it
@@ -457,6 +474,7 @@ def _reduce_system(args, system, options: dict, solver) -> int:
         print_error_table([res])
         print_mounted([res])
         print_static([res])
+        print_moving([res])
     for line in coupling_lines(res.get("coupling_frequencies")):
         print(f"coupling: {line}")
     fr = res["frequencies_hz"]
@@ -537,20 +555,21 @@ def cmd_compare(args) -> int:
     """``flexmor compare``: judge each body against the study of its model, damping and ports; returns
     the exit code."""
     from ..analysis.mounted import FullMounted
+    from ..moving import judge_paths, moving_key
     from ..origin import describe_damping, reference_model
-    from ..ports import make_ports
+    from ..ports import body_ports
     from ..study import System
 
     model, t_read, bands, sources, reds, asked = _model_and_bodies(args)
     solver = _solver(args)
-    systems, mounts, rows = {}, {}, []
+    systems, mounts, rows, path_fulls = {}, {}, [], {}
     for path, red, band, source in zip(args.reduced, reds, bands, sources):
         couplings = tuple(red.couplings)
         ref = reference_model(model, red, path, damping=asked)
         key = (tuple(red.input_names), tuple(red.output_names), couplings, tuple(red.selections),
-               str(ref.damping.to_dict()), tuple(band))
+               str(ref.damping.to_dict()), tuple(band), moving_key(red))
         if key not in systems:
-            systems[key] = System.prepared(ref, make_ports(ref, *key[:2]), couplings=couplings, band=band,
+            systems[key] = System.prepared(ref, body_ports(ref, red), couplings=couplings, band=band,
                                            solver=solver, **_grid_options(args))
         system = systems[key]  # reference_model checked the body against the model; ports and damping are its own
         full = system.full  # once per model, damping, ports and band (not in the error's time)
@@ -571,6 +590,12 @@ def cmd_compare(args) -> int:
         for rec in (row["mounted"], row["static"]):
             if rec and rec["note"]:
                 row["notes"].append(rec["note"])
+        if red.info.get("moving_loads"):  # judged over the path (the full path FRF once per model and path)
+            t0 = time.perf_counter()
+            row["moving_loads"] = [{k: v for k, v in r.items() if k != "positions"} for r in
+                                   judge_paths(ref, red, band, fulls=path_fulls, solver=solver,
+                                               **_grid_options(args))]
+            row["timings"]["moving_loads"] = time.perf_counter() - t0
         rows.append(row)
     fulls = {k: s.full for k, s in systems.items()}
     if args.json:
@@ -586,6 +611,7 @@ def cmd_compare(args) -> int:
     print_error_table(rows, label="file")
     print_mounted(rows, label="file")
     print_static(rows, label="file")
+    print_moving(rows, label="file")
     damp = sorted({r["reference_damping"] for r in rows})
     from ..checks import describe_couplings
 
@@ -611,8 +637,9 @@ def _grid_options(args) -> dict:
 # -- report ------------------------------------------------------------------------------------
 def cmd_report(args) -> int:
     """``flexmor report``: the HTML report of a model and its bodies; returns the exit code."""
+    from ..moving import moving_key
     from ..origin import describe_damping, reference_model, same_damping
-    from ..ports import make_ports
+    from ..ports import body_ports
     from ..report.contents import build_report
     from ..report.html import write_report
     from ..study import System
@@ -626,7 +653,7 @@ def cmd_report(args) -> int:
                        + ", ".join(f"{p}: {b[0]:g}-{b[1]:g} Hz" for p, b in zip(args.reduced, bands)) + ")")
 
     def key_of(r):
-        return (list(r.input_names), list(r.output_names), list(r.couplings), list(r.selections))
+        return (list(r.input_names), list(r.output_names), list(r.couplings), list(r.selections), moving_key(r))
 
     key = key_of(reds[0])
     other = [str(p) for p, r in zip(args.reduced, reds) if key_of(r) != key]
@@ -642,7 +669,7 @@ def cmd_report(args) -> int:
     as_read = model
     model = [reference_model(model, r, p, damping=asked) for p, r in zip(args.reduced, reds)][0]
     solver = _solver(args)
-    system = System.prepared(model, make_ports(model, *key[:2]), couplings=key[2], band=band, solver=solver,
+    system = System.prepared(model, body_ports(model, reds[0]), couplings=key[2], band=band, solver=solver,
                              **_grid_options(args))  # the bodies: checked by reference_model, same ports and damping
     ports, full = system.ports, system.full
     coupling = reds[0].info.get("coupling_frequencies")

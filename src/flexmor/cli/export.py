@@ -90,7 +90,7 @@ def _modal(args, body, ref):
     from ..analysis.mode_selection import trim
     from ..linalg.context import SolverContext
     from ..options import DEFAULT_BAND, Band
-    from ..ports import make_ports
+    from ..ports import body_ports
 
     if args.select_modes and args.tol is None:
         raise OptionError("--select-modes auto needs --tol (the error the modes kept must meet)")
@@ -101,7 +101,7 @@ def _modal(args, body, ref):
     band = Band.of(args.band or body.info.get("band") or (body.errors or {}).get("band_hz") or DEFAULT_BAND)
     full = ports = None
     if ref is not None:
-        ports = make_ports(ref, body.input_names, body.output_names)
+        ports = body_ports(ref, body)
         full = FullResponse(ref, ports, band, solver=SolverContext())
     trimmed, record = trim(body, band=band, max_frequency=args.max_frequency, tol=args.tol, measure=args.tol_measure,
                            full=full, static=not args.no_static_vectors)
@@ -121,12 +121,12 @@ def _without_rigid(ref, red):
     from ..analysis.compare import FullResponse
     from ..linalg.context import SolverContext
     from ..options import DEFAULT_BAND, Band
-    from ..ports import make_ports
+    from ..ports import body_ports
     from ..rigid import elastic_body
 
     body = elastic_body(ref, red, remove_rigid=True)
     if "rigid_removed_at_export" not in body.info:
         return red, {}
     band = Band.of(red.errors.get("band_hz") or DEFAULT_BAND)
-    full = FullResponse(ref, make_ports(ref, red.input_names, red.output_names), band, solver=SolverContext())
+    full = FullResponse(ref, body_ports(ref, red), band, solver=SolverContext())
     return body, {"order_exported": body.order, "band_hz": list(band), **full.evaluate(body).to_dict()}

@@ -320,6 +320,19 @@ def build_parser() -> argparse.ArgumentParser:
                    "--order; the body carries K(w) = K + w^2 K2 (centrifugal stiffening and spin softening) and the "
                    "Coriolis matrix w G1, checked against the full model at five speeds; needs a supported model and "
                    "its elements")
+    p.add_argument("--moving-load", action="append", default=[], metavar="SET:DIR[@AXIS]",
+                   help="a force in DIR (x, y, z) moving over the nodes of SET (ordered along AXIS, else as a "
+                   "nearest-neighbour chain), interpolated linearly between them: its inputs are compressed over the "
+                   "band (--moving-load-tol) and join the ports; the body keeps every path node's reduced load and is "
+                   "judged over the path's positions (flexmor.moving)")
+    p.add_argument("--moving-load-tol", type=float, metavar="TOL",
+                   help="relative singular value below which a compressed direction of the moving load's inputs is "
+                   "dropped (default 3e-3)")
+    p.add_argument("--crossing", action="append", default=[], type=float, metavar="SPEED",
+                   help="with --moving-load: a force crossing the path at SPEED (m/s), body against the full model in "
+                   "time (the deflection under the load; repeat for more speeds)")
+    p.add_argument("--crossing-force", type=float, default=1.0, metavar="N",
+                   help="the crossing force in N (default 1)")
     _add_method_options(p)
     p.set_defaults(func=cmd_reduce)
 

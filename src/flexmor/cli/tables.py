@@ -4,7 +4,8 @@ from __future__ import annotations
 
 from ..errors import name_parameters
 
-__all__ = ["fmt", "note_text", "notes_as_flags", "print_error_table", "print_mounted", "print_static"]
+__all__ = ["fmt", "note_text", "notes_as_flags", "print_error_table", "print_mounted", "print_moving",
+           "print_static"]
 
 
 def fmt(x, spec: str = ".3e") -> str:
@@ -156,6 +157,39 @@ def print_static(rows, label: str = "method") -> None:
         print("".join(f"{v:<{n}}" for v, n in zip(x, w)).rstrip())
     print("at inputs = max over the inputs of ||C (u_red - u)|| / ||C u||; largest = max relative error at the outputs "
           "and over the field under the inputs and the frame's six accelerations (gravity x y z, angular rx ry rz)")
+
+
+def print_moving(rows, label: str = "method") -> None:
+    """Print the bodies' errors over their moving loads' paths (``row["moving_loads"]``,
+    :func:`flexmor.moving.judge_path`) and their crossings (``row["crossings"]``, :func:`flexmor.moving.crossing`),
+    if any."""
+    lines, cross = [], []
+    for r in rows:
+        name = f"{r['method']} r={r['order']}" if label == "method" else str(r.get(label))
+        for rec in r.get("moving_loads") or ():
+            lines.append((name, rec["path"], str(rec["n_positions"]), fmt(rec["path_max_band_error"], ".2e"),
+                          f"{rec['worst_s']:.4g} (node {rec['worst_node']})", fmt(rec["path_mean_band_error"], ".2e"),
+                          fmt(rec["under_load_max"], ".2e")))
+        for c in r.get("crossings") or ():
+            cross.append((name, c["path"], f"{c['speed']:g}", f"{c['force']:g}", fmt(c["time_mean_error"], ".2e"),
+                          fmt(c["time_max_error"], ".2e"), f"{c['peak_deflection']:.4g}",
+                          f"{c['seconds_full']:.3g} / {c['seconds_body']:.3g}"))
+    if lines:
+        _print_table(("body", "moving load", "positions", "path max", "worst at s [m]", "mean", "under load max"),
+                     lines, "moving load: band error of a unit force at each position along the path (nodes, "
+                     "midpoints and the worst segments refined), at the outputs and under the load")
+    if cross:
+        _print_table(("body", "moving load", "speed [m/s]", "force [N]", "mean err", "max err", "peak [m]",
+                      "full / body [s]"), cross,
+                     "crossing: deflection under a force crossing the path, body against the full model "
+                     "(Newmark, the same steps)")
+
+
+def _print_table(head, lines, title: str) -> None:
+    w = [max(len(h), *(len(x[i]) for x in lines)) + 2 for i, h in enumerate(head)]
+    print(title)
+    for x in [head, *lines]:
+        print("".join(f"{v:<{n}}" for v, n in zip(x, w)).rstrip())
 
 
 def _subspace_groups(rows) -> list[list[str]]:

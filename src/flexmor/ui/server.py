@@ -283,7 +283,7 @@ class App:
 
         from ..io import read_body
         from ..options import Band
-        from ..ports import make_ports
+        from ..ports import body_ports
         from ..report import plots
         from ..report.view3d import modes_scene
         from ..workflow import body_model
@@ -297,7 +297,7 @@ class App:
             raise _busy()
         try:
             model = body_model(self.model(file), red)
-            ports = make_ports(model, red.input_names, red.output_names)
+            ports = body_ports(model, red)
             label = Path(body).stem
             scene, modal = modes_scene(model, ports, [red], [label], band=Band.of((red.errors or {}).get("band_hz")),
                                        n_modes=int(n_modes))
