@@ -163,19 +163,26 @@ def moving_path(model: FEModel, spec) -> MovingLoad:
         raise PortError(f"moving load {spec!r}: set {set_name!r} has {nodes.size} node(s); a path needs two or more",
                         params=("moving_load",))
     xyz = model.node_xyz(nodes)
+    scale = max(float(np.ptp(xyz, axis=0).max()), 1e-300)
     if axis is not None:
         order = np.argsort(xyz[:, axis], kind="stable")
         ordering = f"by {'xyz'[axis]}"
+        tie = np.flatnonzero(np.diff(xyz[order, axis]) <= 1e-9 * scale)
+        if tie.size:
+            a, b = nodes[order][tie[0]], nodes[order][tie[0] + 1]
+            raise PortError(f"moving load {spec!r}: path nodes {int(a)} and {int(b)} share {'xyz'[axis]} = "
+                            f"{xyz[order][tie[0], axis]:.6g}, so ordering by {'xyz'[axis]} is ambiguous: give a set of "
+                            "one line of nodes, or leave out @AXIS for a nearest-neighbour chain",
+                            params=("moving_load",))
     else:
         order, start = _chain(xyz)
         ordering = f"nearest-neighbour chain from node {int(nodes[start])} (the end of the set's principal axis)"
     nodes, xyz = nodes[order], xyz[order]
     step = np.linalg.norm(np.diff(xyz, axis=0), axis=1)
-    if np.any(step <= 1e-12 * max(float(np.ptp(xyz, axis=0).max()), 1e-300)):
+    if np.any(step <= 1e-12 * scale):
         k = int(np.argmin(step))
         raise PortError(f"moving load {spec!r}: path nodes {int(nodes[k])} and {int(nodes[k + 1])} lie at the same "
-                        f"point{' along ' + 'xyz'[axis] if axis is not None else ''}; a path visits each point once "
-                        "(order it by another coordinate, or give a set of one line of nodes)", params=("moving_load",))
+                        "point; a path visits each point once", params=("moving_load",))
     s = np.concatenate([[0.0], np.cumsum(step)])
     B = path_matrix(model, nodes, d)
     if B.nnz == 0:
