@@ -202,6 +202,12 @@ def test_the_command_line_reduces_judges_compares_and_saves_the_study(capsys, tm
     code, out, err = run(capsys, "compare", BEAM, body, "--no-cache")
     assert code == 0, err
     assert "moving load" in out and "path max" in out
+    code, out, err = run(capsys, "report", BEAM, body, "-o", tmp_path / "r.html", "--no-cache")
+    assert code == 0, err
+    page = (tmp_path / "r.html").read_text()
+    assert '<h2 id="moving">Moving loads</h2>' in page
+    assert page.count('alt="band error along the path"') == 1 and "1 N crossing" not in page  # figures as images
+    assert "40" in page.split('id="moving"')[1].split("</table>")[1]  # the recorded speeds are crossed again
     again = run_json(capsys, "run", tmp_path / "s.toml", "-o", tmp_path / "k2.h5")
     assert again["moving_loads"][0]["path_max_band_error"] == pytest.approx(m["path_max_band_error"], rel=1e-9)
     code, out, err = run(capsys, "reduce", BEAM, "--method", "krylov", "--order", "30", "--input", "TIP:y",

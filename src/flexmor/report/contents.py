@@ -61,6 +61,10 @@ class Report:
     #: Bodies reduced over a speed range (:mod:`flexmor.spin`): ``spec``, ``speeds`` and the Campbell records
     #: of the full model (``full``) and of each such body (``bodies``, by label); empty without one.
     campbell: dict = field(default_factory=dict)
+    #: Bodies reduced with moving loads (:mod:`flexmor.moving`): ``paths`` (label -> the records of
+    #: :func:`~flexmor.moving.judge_path`, positions included) and ``crossings`` (label -> the crossings of
+    #: :func:`~flexmor.moving.crossing`); empty without one.
+    moving: dict = field(default_factory=dict)
 
 
 def _numbers_units(model) -> str | None:
@@ -173,6 +177,7 @@ def build_report(model, ports, bodies, *, band, labels=None, seconds=None, full=
     _modal_section(rep, model, bodies, labels, modes)
     _campbell_section(rep, model, bodies, labels, solver)
     f_lo = float(modes[0][0]) if modes[0].size else band[0]
+    _moving_section(rep, model, bodies, labels, band=band, f_lo=f_lo, solver=solver)
     _time_section(rep, model, ports, bodies, labels, ref_of, f_lo=f_lo, signal=signal, dt=dt, t_end=t_end,
                   max_steps=max_steps, scheme=scheme, rho_inf=rho_inf, solver=solver, progress=time_progress)
     nodes = _body_figure(rep, model, ports, bodies)
@@ -309,6 +314,31 @@ def _campbell_section(rep: Report, model, bodies, labels, solver) -> None:
     rep.figures["campbell"] = plots.campbell_png(speeds, full.frequencies_hz,
                                                  {lb: c.frequencies_hz for lb, c in mine.items()},
                                                  reference=rep.reference)
+
+
+def _moving_section(rep: Report, model, bodies, labels, *, band, f_lo: float, solver) -> None:
+    """``rep.moving`` and its figures for the bodies reduced with moving loads: each judged over its paths
+    (the full path FRF once per path) and crossed at the speeds recorded with it (``reduce --crossing``), else at
+    the speed whose crossing lasts ten periods of the lowest mode."""
+    from ..moving import crossing, judge_paths, moving_path
+
+    moving = [(lb, r) for lb, r in zip(labels, bodies) if r.info.get("moving_loads")]
+    if not moving:
+        return
+    fulls: dict = {}
+    paths, crossings = {}, {}
+    for lb, r in moving:
+        paths[lb] = judge_paths(model, r, band, fulls=fulls, solver=solver)
+        recorded = r.errors.get("crossings") or []
+        crossings[lb] = []
+        for k, rec in enumerate(r.info["moving_loads"]):
+            path = moving_path(model, rec["spec"])
+            asked = [(c["speed"], c["force"]) for c in recorded if c.get("path") == path.name] or \
+                [(path.length * f_lo / 10.0, 1.0)]
+            crossings[lb] += [crossing(model, r, path, speed=v, force=f, k=k, solver=solver) for v, f in asked]
+    rep.moving = {"paths": paths, "crossings": crossings}
+    rep.figures["moving_path"] = plots.path_error_png(paths)
+    rep.figures["moving_crossing"] = plots.crossing_png(crossings, reference=rep.reference)
 
 
 def _time_section(rep: Report, model, ports, bodies, labels, ref_of, *, f_lo: float, signal, dt, t_end,

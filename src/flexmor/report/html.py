@@ -112,6 +112,7 @@ def render_html(rep: Report) -> str:
         out.append(render_section(rep.scene))
     out += _mounted_section(rep.rows)
     out += _static_section(rep.rows)
+    out += _moving_section(rep)
     out += ['<h2 id="frf">Transfer functions |H|</h2>', _img(rep.figures["frf"], "|H| full vs reduced"),
             '<h2 id="rel-error">rel_error(f)</h2>', _img(rep.figures["rel_error"], "rel_error per method")]
     if "singular_values" in rep.figures:
@@ -204,6 +205,33 @@ def _static_section(rows) -> list:
             "accelerations, gravity in x, y, z and unit angular accelerations (at the outputs and the largest "
             "displacement error over the body). The band error hides it at the band's low end; an MBS model under "
             "gravity or a slow load sags by it.</p>"]
+
+
+def _moving_section(rep: Report) -> list:
+    """The section "Moving loads" (bodies reduced with one), or nothing."""
+    if not rep.moving:
+        return []
+    paths = [[lb, r["path"], r["n_positions"], fmt(r["path_max_band_error"], ".2e"),
+              f"{r['worst_s']:.4g} (node {r['worst_node']})", fmt(r["path_mean_band_error"], ".2e"),
+              fmt(r["under_load_max"], ".2e")] for lb, recs in rep.moving["paths"].items() for r in recs]
+    cross = [[lb, c["path"], f"{c['speed']:g}", f"{c['force']:g}", fmt(c["time_mean_error"], ".2e"),
+              fmt(c["time_max_error"], ".2e"), f"{c['peak_deflection']:.4g}",
+              f"{c['seconds_full']:.3g} / {c['seconds_body']:.3g}"] for lb, cs in rep.moving["crossings"].items()
+             for c in cs]
+    return ['<h2 id="moving">Moving loads</h2>',
+            _table(["body", "path", "positions", "path max band_error", "worst at s [m]", "mean", "under the load"],
+                   paths, (0, 1, 4)),
+            "<p class=note>A unit force at each position s along the path (every node and midpoint, the worst "
+            "segments refined; linear between the path's nodes): the band error of the response at the outputs and "
+            "under the load. Positions where the full model does not move (a held node) are left out.</p>",
+            _img(rep.figures["moving_path"], "band error along the path"),
+            _table(["body", "path", "speed [m/s]", "force [N]", "mean error", "max error", "peak deflection [m]",
+                    "time full / body [s]"], cross, (0, 1)),
+            "<p class=note>The deflection under a force crossing the path from its first node to its last, body "
+            f"against the {html.escape(rep.reference)} (Newmark, the same steps): "
+            "mean<sub>t</sub>|y&minus;&ycirc;| / mean<sub>t</sub>|y| and max<sub>t</sub>|y&minus;&ycirc;| / "
+            "max<sub>t</sub>|y|.</p>",
+            _img(rep.figures["moving_crossing"], "deflection under a crossing force")]
 
 
 def _coupling_section(rep: Report) -> list:

@@ -287,6 +287,53 @@ def campbell_png(speeds, full, bodies: dict, *, reference: str = "full model", m
     return figure_png(fig)
 
 
+def path_error_png(paths: dict) -> bytes:
+    """Band error against the position along each moving load's path (:func:`flexmor.moving.judge_path`), one
+    line per body and path, the worst position marked."""
+    import numpy as np
+
+    fig = _figure(figsize=(7, 3.8))
+    ax = fig.subplots()
+    fig.subplots_adjust(left=0.11, right=0.97, bottom=0.14, top=0.95)
+    for i, (label, recs) in enumerate(paths.items()):
+        for rec in recs:
+            s = np.asarray(rec["positions"]["s"], float)
+            e = np.asarray([np.nan if v is None else v for v in rec["positions"]["band_error"]], float)
+            ax.semilogy(s, np.maximum(e, 1e-300), "-", color=f"C{i}", lw=1.2, label=f"{label}: {rec['path']}")
+            ax.semilogy([rec["worst_s"]], [rec["path_max_band_error"]], "o", color=f"C{i}", mfc="none")
+    ax.set_xlabel("position along the path s [m]")
+    ax.set_ylabel("band_error of a unit force at s")
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=8)
+    return figure_png(fig)
+
+
+def crossing_png(crossings: dict, *, reference: str = "full model") -> bytes:
+    """The deflection under a force crossing the path over time: the full model (lines) and each body (dashed),
+    one panel per speed of the first body's crossings (:func:`flexmor.moving.crossing`)."""
+    import numpy as np
+
+    first = next(iter(crossings.values()))
+    n = max(1, len(first))
+    fig = _figure(figsize=(7, 2.6 * n))
+    axes = fig.subplots(n, 1, squeeze=False)[:, 0]
+    fig.subplots_adjust(left=0.12, right=0.97, bottom=0.5 / (2.6 * n), top=1 - 0.3 / (2.6 * n), hspace=0.55)
+    for j, ax in enumerate(axes):
+        c0 = first[j]
+        ax.plot(np.asarray(c0["t"]), np.asarray(c0["under_load"]), "-", color="k", lw=1.2, label=reference)
+        for i, (label, cs) in enumerate(crossings.items()):
+            match = [c for c in cs if c["speed"] == c0["speed"] and c["path"] == c0["path"]]
+            for c in match[:1]:
+                ax.plot(np.asarray(c["t"]), np.asarray(c["under_load_body"]), "--", color=f"C{i}", lw=1.1,
+                        label=f"{label} (max error {c['time_max_error']:.1e})")
+        ax.set_title(f"{c0['path']}: {c0['force']:g} N crossing at {c0['speed']:g} m/s", fontsize=9)
+        ax.set_xlabel("time [s]")
+        ax.set_ylabel("deflection under the load [m]", fontsize=8)
+        ax.grid(True, alpha=0.3)
+        ax.legend(fontsize=7)
+    return figure_png(fig)
+
+
 def mac_png(macs: dict) -> bytes:
     """MAC matrices (full modes x reduced modes) as heat maps, one panel per body."""
     n = max(1, len(macs))
