@@ -7,6 +7,7 @@ import importlib.util
 import json
 import re
 import sys
+from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
@@ -109,3 +110,25 @@ def solve_exudyn(mbs, sensor, end_time: float, steps: int):
     s.solution.sensors.writePeriod = end_time / steps
     mbs.SolveDynamic(s)
     return mbs.GetSensorStoredData(sensor)
+
+
+@contextmanager
+def fmu_instance(path, kind: str = "cs"):
+    """An initialized fmpy instance of the FMU at ``path`` (``kind`` ``"cs"`` co-simulation, ``"me"`` model
+    exchange) and its value references by name; terminated and freed on leaving."""
+    from fmpy import extract, read_model_description
+    from fmpy.fmi2 import FMU2Model, FMU2Slave
+
+    md = read_model_description(str(path))
+    cls, interface = (FMU2Slave, md.coSimulation) if kind == "cs" else (FMU2Model, md.modelExchange)
+    inst = cls(guid=md.guid, unzipDirectory=extract(str(path)), modelIdentifier=interface.modelIdentifier,
+               instanceName="body")
+    inst.instantiate()
+    try:
+        inst.setupExperiment(startTime=0.0)
+        inst.enterInitializationMode()
+        inst.exitInitializationMode()
+        yield inst, {v.name: v.valueReference for v in md.modelVariables}
+        inst.terminate()
+    finally:
+        inst.freeInstance()

@@ -11,6 +11,7 @@ import zipfile
 import numpy as np
 import pytest
 import scipy.linalg as sla
+from helpers import fmu_instance
 from scipy.integrate import solve_ivp
 
 from flexmor.body import ReducedModel
@@ -154,19 +155,7 @@ def test_cosimulation_step_is_exact_for_steps_longer_than_the_highest_period(fmu
 
 def test_fmu_state_is_saved_and_restored(fmus):
     pytest.importorskip("fmpy")
-    from fmpy import extract, read_model_description
-    from fmpy.fmi2 import FMU2Slave
-
-    path = str(fmus["clamped"])
-    md = read_model_description(path)
-    vr = {v.name: v.valueReference for v in md.modelVariables}
-    fmu = FMU2Slave(guid=md.guid, unzipDirectory=extract(path), modelIdentifier=md.coSimulation.modelIdentifier,
-                    instanceName="body")
-    fmu.instantiate()
-    try:
-        fmu.setupExperiment(startTime=0.0)
-        fmu.enterInitializationMode()
-        fmu.exitInitializationMode()
+    with fmu_instance(fmus["clamped"]) as (fmu, vr):
         fmu.setReal([vr["TIP_y"]], [1.0])
         fmu.doStep(0.0, 1e-3)
         state = fmu.getFMUState()
@@ -176,9 +165,6 @@ def test_fmu_state_is_saved_and_restored(fmus):
         fmu.doStep(1e-3, 1e-3)
         assert fmu.getReal([vr["u_TIP_y"], vr["v_TIP_y"]]) == first and first[0] > 0
         fmu.freeFMUState(state)
-        fmu.terminate()
-    finally:
-        fmu.freeInstance()
 
 
 def test_generated_c_is_warning_free(fmus, tmp_path):

@@ -22,7 +22,15 @@ the C source is in ``sources/`` too, for other platforms. ``modelDescription.xml
 * for a body reduced over a speed range (``reduce --spin-range``, :mod:`flexmor.spin`) the last input
   ``omega`` (``rad/s``): ``A(w) = A + w A1 + w^2 A2`` with the body's ``K + w^2 K2`` and Coriolis matrix
   ``w G1`` (in the frame turning with it); the co-simulation step's exponential is computed again when
-  the speed changes.
+  the speed changes;
+* for a body reduced with moving loads (``reduce --moving-load SET:DIR``, :mod:`flexmor.moving`) two more inputs
+  per path, after those, ``F_<SET>`` (``N``, the force in the load's direction) and ``s_<SET>`` (``m``, the load's
+  position: arc length along the path from its first node), and one more output per path, after the
+  velocities, ``w_<SET>`` (``m``), the deflection under the load ``w(s)ᵀ B_pathᵀ q``. The load's generalized
+  force ``B_path w(s) F`` (``B_path`` the body's ``V^T B_path``, ``w(s)`` the linear interpolation between the
+  two path nodes of the segment ``s`` lies on, found by bisection of the nodes' arc lengths; no force off the
+  path) joins the body's input each step. The compressed inputs the body was reduced with (``SET:DIR~1`` ...)
+  stay inputs and outputs of their own.
 
 The units declared are SI (N, m, rad, s): the numbers of the body are taken as SI, as the other
 exports write them.
@@ -37,9 +45,11 @@ matrix). So ``doStep`` has neither a step-size nor a stability limit whatever th
 mode (modes at tens of kHz do not shrink the step), and it is exact up to round-off for inputs
 held over the step: it agrees with SciPy's ``expm`` to about 1e-11 of the peak response even
 for a step as long as 70 periods of the highest mode. A master whose inputs vary within a
-step sees the usual error of sampled inputs. The cost is ``O((n+m)³)`` once per step size and
-``O(n (n+m))`` per step. For model exchange the importer's integrator solves the same
-equations; the states' nominal values scale its absolute tolerance.
+step sees the usual error of sampled inputs. A moving load's force and position held over a step
+give a constant generalized force, so its step is exact too (a load moving at a speed ``c`` is taken where
+it stood at the step's start, up to ``c h`` behind). The cost is ``O((n+m)³)`` once per step
+size (``n + m + r`` with moving loads) and ``O(n (n+m))`` per step. For model exchange the importer's
+integrator solves the same equations; the states' nominal values scale its absolute tolerance.
 
 References
 ----------
@@ -151,12 +161,14 @@ class FMUVariables:
         The variable names of the input forces and of the output displacements and velocities.
     states : list of str
         ``q[1] ... q[r], qd[1] ... qd[r]``.
+    loads, positions, under_load : list of str
+        Per moving load: the names of its force and position inputs and of its deflection output.
     rows : list of dict
         One per variable: ``name``, ``causality``, ``description``, ``unit`` (or None) and, for a
         state derivative, ``derivative`` (the 1-based index of its state).
     """
 
-    def __init__(self, input_names, output_names, r: int, spin: str | None = None):
+    def __init__(self, input_names, output_names, r: int, spin: str | None = None, moving=()):
         taken: set = set()
 
         def unique(name):
@@ -185,6 +197,18 @@ class FMUVariables:
                              description=f"angular velocity about the spin axis of the body ({spin} rad/s): its "
                                          "stiffness K + w^2 K2 and Coriolis matrix w G1"))
             m += 1
+        self.loads, self.positions, self.under_load = [], [], []
+        for load in moving:  # per moving load: its force and position, after the other inputs
+            what = f"the moving load {load['spec']} (direction {load['direction']})"
+            self.loads.append(unique(_identifier(f"F_{load['set']}", "F_load")))
+            self.positions.append(unique(_identifier(f"s_{load['set']}", "s_load")))
+            self.inputs += [self.loads[-1], self.positions[-1]]
+            rows.append(dict(name=self.loads[-1], causality="input", unit="N",
+                             description=f"force of {what} at {self.positions[-1]}"))
+            rows.append(dict(name=self.positions[-1], causality="input", unit="m",
+                             description=f"position of {what}: arc length along its path from node "
+                                         f"{load['first']} (0 to {load['length']:.6g} m; no force off the path)"))
+            m += 2
         for spec, name in zip(outs, self.displacements):
             d = _direction(spec)
             rows.append(dict(name=name, causality="output", unit=None if d is None else ("rad" if d > 3 else "m"),
@@ -193,10 +217,15 @@ class FMUVariables:
             d = _direction(spec)
             rows.append(dict(name=name, causality="output", unit=None if d is None else ("rad/s" if d > 3 else "m/s"),
                              description=f"velocity at the output port {spec}"))
+        for load in moving:  # per moving load: the deflection under it, after the velocities
+            self.under_load.append(unique(_identifier(f"w_{load['set']}", "w_load")))
+            rows.append(dict(name=self.under_load[-1], causality="output", unit="m",
+                             description=f"deflection under the moving load {load['spec']} (direction "
+                                         f"{load['direction']}) at its position"))
         for i, name in enumerate(self.states):
             what = "generalized coordinate" if i < r else f"rate of the generalized coordinate q[{i - r + 1}]"
             rows.append(dict(name=name, causality="local", unit=None, description=what))
-        first = m + 2 * p  # 0-based position of q[1]
+        first = m + 2 * p + len(self.under_load)  # 0-based position of q[1]
         for i, name in enumerate(self.states):
             rows.append(dict(name=f"der({name})", causality="local", unit=None, derivative=first + i + 1,
                              description=f"time derivative of {name}"))
@@ -210,34 +239,63 @@ def fmu_variables(body) -> FMUVariables:
     ins, outs = list(body.input_names or []), list(body.output_names or [])
     spin = body.info.get("spin") if isinstance(body.info, dict) else None
     return FMUVariables(ins if len(ins) == m else [""] * m, outs if len(outs) == p else [""] * p, body.order,
-                        spin=spin["spec"] if spin else None)
+                        spin=spin["spec"] if spin else None, moving=_moving_loads(body))
+
+
+def _moving_loads(body) -> list[dict]:
+    """The body's moving loads (``body.info['moving_loads']``, :func:`flexmor.moving.path_record`): per path
+    ``spec``, ``set``, ``direction``, ``first`` (its first node), ``length``, ``s`` (N,) and ``B`` (r, N)."""
+    records = body.info.get("moving_loads") if isinstance(body.info, dict) else None
+    out = []
+    for rec in records or ():
+        s, B = np.asarray(rec["s"], float), np.asarray(rec["B_path"], float)
+        if s.ndim != 1 or s.size < 2 or B.shape != (body.order, s.size) or not np.all(np.diff(s) > 0):
+            raise ModelError(f"the moving load {rec.get('spec')!r} of the body has no path of 2 or more nodes at "
+                             f"increasing arc lengths with one reduced input each (B_path {B.shape}, "
+                             f"{s.size} arc lengths, order {body.order}); no FMU")
+        out.append(dict(spec=str(rec["spec"]), set=str(rec["set"]), direction=str(rec["direction"]),
+                        first=int(rec["nodes"][0]), length=float(s[-1]), s=s, B=B))
+    return out
 
 
 def _spin_state_space(body):
-    """``(ss, A1, A2)``: the body's state space with the speed as its last input (a zero column of ``B`` and
-    ``D``) and the coefficients of ``A(w) = A + w A1 + w^2 A2`` (None, None for a body without spin)."""
+    """``(ss, A1, A2)``: the body's state space with the speed as an input after the ports' (a zero column of
+    ``B`` and ``D``) and the coefficients of ``A(w) = A + w A1 + w^2 A2`` (None, None for a body without spin);
+    then each moving load's force and position (two zero columns each: their generalized force, which is not
+    linear in them, is added by the FMU itself, :func:`_path_input`)."""
     import dataclasses
 
     ss = state_space(body)
     spin = body.info.get("spin") if isinstance(body.info, dict) else None
+    r = body.order
+    extra = (1 if spin else 0) + 2 * len(_moving_loads(body))
+    if extra and ss.A.shape[0] != 2 * r:
+        raise ModelError("a body over a speed range or with a moving load needs its second-order state space "
+                         "[q; q'] for its FMU")
+    if extra:
+        ss = dataclasses.replace(ss, B=np.hstack([ss.B, np.zeros((ss.B.shape[0], extra))]),
+                                 D=np.hstack([ss.D, np.zeros((ss.D.shape[0], extra))]))
     if not spin:
         return ss, None, None
-    r = body.order
     M = np.asarray(body.M, float)
     K2, G1 = np.asarray(spin["K2"], float), np.asarray(spin["G1"], float)
-    if ss.A.shape[0] != 2 * r:
-        raise ModelError("a body over a speed range needs its second-order state space [q; q'] for its FMU")
     lu = sla.cho_factor(0.5 * (M + M.T))
     A1, A2 = np.zeros_like(ss.A), np.zeros_like(ss.A)
     A1[r:, r:] = -sla.cho_solve(lu, G1)
     A2[r:, :r] = -sla.cho_solve(lu, K2)
-    ss = dataclasses.replace(ss, B=np.hstack([ss.B, np.zeros((ss.B.shape[0], 1))]),
-                             D=np.hstack([ss.D, np.zeros((ss.D.shape[0], 1))]))
     return ss, A1, A2
 
 
+def _path_input(body) -> np.ndarray:
+    """``G = [0; M^-1]`` (2r, r): the state-space input of a generalized force (a moving load's ``B_path w F``)."""
+    M = np.asarray(body.M, float)
+    r = M.shape[0]
+    return np.vstack([np.zeros((r, r)), sla.cho_solve(sla.cho_factor(0.5 * (M + M.T)), np.eye(r))])
+
+
 def _nominals(body) -> np.ndarray:
-    """The scale of each state ``[q; q']``: its peak under a unit step on any one input.
+    """The scale of each state ``[q; q']``: its peak under a unit step on any one input (a unit force at a
+    moving load's path node among them).
 
     Per mode of ``(Kr, Mr)`` (mass-normalized shapes ``φ``, ``b = φᵀ Br``): ``2 |b| / ω²`` and
     ``|b| / ω`` for an elastic mode (the undamped step response), ``|b| / 2`` and ``|b|`` after
@@ -245,6 +303,7 @@ def _nominals(body) -> np.ndarray:
     takes the smallest scale of the others.
     """
     M, K, B = np.asarray(body.M, float), np.asarray(body.K, float), np.asarray(body.B, float)
+    B = np.hstack([B, *(load["B"] for load in _moving_loads(body))])
     r = M.shape[0]
     if B.shape[1] == 0:
         return np.ones(2 * r)
@@ -288,20 +347,32 @@ def fmu_source(body, guid: str) -> str:
         C99 without other headers than the C library's: the FMI 2.0 declarations it needs are in it.
     """
     ss, A1, A2 = _spin_state_space(body)
+    loads = _moving_loads(body)
     n, m, p = ss.A.shape[0], ss.B.shape[1], ss.C.shape[0]
+    ports = np.shape(body.B)[1]
     head = [f"/* FMI 2.0 model exchange and co-simulation of the reduced body {body.model_name or ''} "
             f"({body.method or 'body'}, order {body.order}), written by flexmor {__version__}.",
             "   x' = A x + B u, y = C x + D u (displacements), v = C x' (velocities); x = [q; q']. */",
             "#include <math.h>", "#include <stddef.h>", "#include <string.h>", "",
             f"#define NX {n}", f"#define NU {m}", f"#define NY {p}", f'#define GUID "{guid}"', ""]
     if A1 is not None:
-        head += [f"#define SPIN_U {m - 1}", ""]
+        head += [f"#define SPIN_U {ports}", ""]
+    if loads:  # path k: force input MOVING_U + 2 k, position MOVING_U + 2 k + 1; nodes PATH_AT[k] ... of PATH_S
+        head += [f"#define MOVING {len(loads)}", f"#define MOVING_U {ports + (A1 is not None)}",
+                 f"#define NG {body.order}", f"#define NPATH {sum(load['s'].size for load in loads)}", ""]
     arrays = (_c_array("A", ss.A, "NX * NX") + _c_array("B", ss.B, "NX * (NU > 0 ? NU : 1)")
               + _c_array("C", ss.C, "(NY > 0 ? NY : 1) * NX")
               + _c_array("D", ss.D, "(NY > 0 ? NY : 1) * (NU > 0 ? NU : 1)")
               + _c_array("NOMINAL", _nominals(body), "NX"))
     if A1 is not None:
         arrays += _c_array("A1", A1, "NX * NX") + _c_array("A2", A2, "NX * NX")
+    if loads:  # PATH_B: per path node (in path order) its column of the body's V^T B_path
+        at = np.cumsum([0] + [load["s"].size for load in loads])
+        arrays += (f"static const int PATH_N[MOVING] = {{{', '.join(str(load['s'].size) for load in loads)}}};\n"
+                   f"static const int PATH_AT[MOVING] = {{{', '.join(str(int(k)) for k in at[:-1])}}};\n"
+                   + _c_array("PATH_S", np.concatenate([load["s"] for load in loads]), "NPATH")
+                   + _c_array("PATH_B", np.hstack([load["B"] for load in loads]).T, "NPATH * NG")
+                   + _c_array("G", _path_input(body), "NX * NG"))
     return "\n".join(head) + arrays + "\n" + _RUNTIME.read_text()
 
 
@@ -327,9 +398,10 @@ def model_description(body, identifier: str, guid: str, *, sources=()) -> str:
     """
     ss, A1, A2 = _spin_state_space(body)
     var = fmu_variables(body)
+    loads = _moving_loads(body)
     m, p = ss.B.shape[1], ss.C.shape[0]
     vrs = {row["name"]: k for k, row in enumerate(var.rows)}
-    first_state = m + 2 * p
+    first_state = m + 2 * p + len(loads)
     nominal = _nominals(body)
     lines = ['<?xml version="1.0" encoding="UTF-8"?>',
              f'<fmiModelDescription fmiVersion="2.0" modelName={quoteattr(body.model_name or identifier)} '
@@ -372,14 +444,21 @@ def model_description(body, identifier: str, guid: str, *, sources=()) -> str:
     pA, pB, pC, pD = _pattern(ss.A), _pattern(ss.B), _pattern(ss.C), _pattern(ss.D)
     if A1 is not None:  # A(w): the speed acts where A1 or A2 does, on the states they couple
         pA = pA | _pattern(A1) | _pattern(A2)
-        pB[:, -1] = (_pattern(A1) | _pattern(A2)).any(axis=1)
-    pCA, pCB = (pC.astype(int) @ pA.astype(int)) > 0, (pC.astype(int) @ pB.astype(int)) > 0
+        pB[:, np.shape(body.B)[1]] = (_pattern(A1) | _pattern(A2)).any(axis=1)
 
     def deps(on_inputs, on_states):
         return " ".join(map(str, _deps(on_inputs, 0) + _deps(on_states, first_state)))
 
+    under = []  # per moving load: the deflection under it depends on its position and the q it reads
+    G = _pattern(_path_input(body)) if loads else None
+    for k, load in enumerate(loads):
+        at = vrs[var.loads[k]]  # its force; at + 1 its position
+        pB[:, at] = pB[:, at + 1] = (G.astype(int) @ _pattern(load["B"]).astype(int)).any(axis=1)
+        on_q = np.concatenate([_pattern(load["B"]).any(axis=1), np.zeros(body.order, bool)])
+        under.append((vrs[var.under_load[k]] + 1, deps(np.arange(m) == at + 1, on_q)))
+    pCA, pCB = (pC.astype(int) @ pA.astype(int)) > 0, (pC.astype(int) @ pB.astype(int)) > 0
     outputs = [(m + k + 1, deps(pD[k], pC[k])) for k in range(p)]
-    outputs += [(m + p + k + 1, deps(pCB[k], pCA[k])) for k in range(p)]
+    outputs += [(m + p + k + 1, deps(pCB[k], pCA[k])) for k in range(p)] + under
     derivs = [(vrs[f"der({s})"] + 1, deps(pB[i], pA[i])) for i, s in enumerate(var.states)]
     lines.append("  <ModelStructure>")
     for tag, items in (("Outputs", outputs), ("Derivatives", derivs), ("InitialUnknowns", outputs + derivs)):
@@ -393,8 +472,10 @@ def model_description(body, identifier: str, guid: str, *, sources=()) -> str:
 
 
 def _describe(body) -> str:
+    moving = ("; a moving load's force and position in, the deflection under it out" if _moving_loads(body)
+              else "")
     return (f"reduced elastic body {body.model_name or ''} ({body.method or 'body'}, order {body.order}): "
-            "port forces in, port displacements and velocities out").replace("  ", " ")
+            f"port forces in, port displacements and velocities out{moving}").replace("  ", " ")
 
 
 def _default_experiment(body) -> str:
@@ -468,9 +549,11 @@ def write_fmu(body, path, *, model=None) -> None:
     identifier = _identifier(stem, "body")
     source_hash = hashlib.sha256()
     ss, A1, A2 = _spin_state_space(body)
-    for X in (ss.A, ss.B, ss.C, ss.D, *(() if A1 is None else (A1, A2))):
+    paths = [X for load in _moving_loads(body) for X in (load["s"], load["B"])]
+    for X in (ss.A, ss.B, ss.C, ss.D, *(() if A1 is None else (A1, A2)), *paths):
         source_hash.update(np.ascontiguousarray(X, float).tobytes())
-    source_hash.update("\x00".join(map(str, [identifier, *body.input_names, *body.output_names])).encode())
+    names = [identifier, *body.input_names, *body.output_names, *(load["spec"] for load in _moving_loads(body))]
+    source_hash.update("\x00".join(map(str, names)).encode())
     guid = "{" + str(uuid.uuid5(uuid.NAMESPACE_URL, "flexmor:" + source_hash.hexdigest())) + "}"
     source = fmu_source(body, guid)
     xml = model_description(body, identifier, guid, sources=[f"{identifier}.c"])

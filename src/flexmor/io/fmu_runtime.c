@@ -1,5 +1,10 @@
 /* The FMI 2.0 functions of a flexmor body (model exchange and co-simulation), appended to the
-   generated constants NX NU NY GUID and the arrays A B C D NOMINAL (row-major). */
+   generated constants NX NU NY GUID and the arrays A B C D NOMINAL (row-major); for a body over a
+   speed range SPIN_U and A1 A2; for a body with moving loads MOVING (paths), MOVING_U (the first
+   force input: path k's force MOVING_U + 2 k, its position MOVING_U + 2 k + 1), NG (the generalized
+   coordinates), NPATH, PATH_N PATH_AT (nodes per path, offset of its first), PATH_S (node arc
+   lengths), PATH_B (NPATH x NG: per node the reduced input of a unit force) and G (NX x NG: the
+   state-space input of a generalized force). */
 
 /* ---- FMI 2.0 declarations (fmi2TypesPlatform.h, fmi2FunctionTypes.h) ---- */
 typedef void *fmi2Component;
@@ -47,13 +52,20 @@ typedef struct {
 #define FMI2_EXPORT
 #endif
 
-/* ---- value references: inputs, displacements, velocities, states, state derivatives ---- */
+/* ---- value references: inputs, displacements, velocities, deflections under the moving loads, states,
+   state derivatives ---- */
+#ifndef MOVING
+#define MOVING 0
+#define NG 0
+#endif
 #define VR_Y NU
 #define VR_V (NU + NY)
-#define VR_X (NU + 2 * NY)
+#define VR_L (NU + 2 * NY)
+#define VR_X (VR_L + MOVING)
 #define VR_DX (VR_X + NX)
 #define N_VR (VR_DX + NX)
-#define NA (NX + NU) /* the augmented matrix [[A, B], [0, 0]] of the co-simulation step */
+#define NW (NU + NG) /* the step's inputs: u and the moving loads' generalized force */
+#define NA (NX + NW) /* the augmented matrix [[A, B, G], [0, 0, 0]] of the co-simulation step */
 #define NU1 (NU > 0 ? NU : 1)
 
 enum { INSTANTIATED, INITIALIZATION, RUNNING, TERMINATED, FAILED };
@@ -77,7 +89,7 @@ typedef struct {
     double h;      /* the step of phi and gam, 0 before the first step */
     double w;      /* the speed of phi and gam (a body over a speed range) */
     double *phi;   /* NX x NX: expm(A h) */
-    double *gam;   /* NX x NU: int_0^h expm(A t) dt B */
+    double *gam;   /* NX x NW: int_0^h expm(A t) dt [B, G] */
     double *work;  /* 5 NA x NA + NA */
 } Model;
 
@@ -96,12 +108,68 @@ static double a_at(const Model *m, int k) {
 #define a_at(m, k) A[k]
 #endif
 
+#if MOVING > 0
+/* the segment [PATH_S[j], PATH_S[j + 1]] of path k that the position s lies on (bisection) and the share t of
+   its node j + 1 (1 - t of node j); -1 for a position off the path (or not a number) */
+static int segment(int k, double s, double *t) {
+    const double *p = PATH_S + PATH_AT[k];
+    int lo = 0, hi = PATH_N[k] - 1;
+    if (!(s >= p[0] && s <= p[hi])) return -1;
+    while (hi - lo > 1) {
+        int mid = lo + (hi - lo) / 2;
+        if (p[mid] <= s) lo = mid;
+        else hi = mid;
+    }
+    *t = (s - p[lo]) / (p[lo + 1] - p[lo]);
+    return lo;
+}
+
+/* b := B_path w(s) of path k at its position input: NG entries, 0 off the path; returns 0 there, else 1 */
+static int path_column(const Model *m, int k, double *b) {
+    double t = 0.0;
+    int i, j = segment(k, m->s.u[MOVING_U + 2 * k + 1], &t);
+    const double *lo;
+    if (j < 0) return 0;
+    lo = PATH_B + (size_t)(PATH_AT[k] + j) * NG;
+    for (i = 0; i < NG; i++) b[i] = (1.0 - t) * lo[i] + t * lo[NG + i];
+    return 1;
+}
+
+/* g := the generalized force of the moving loads, sum over the paths of B_path w(s) F */
+static void path_forces(const Model *m, double *g) {
+    double b[NG];
+    int i, k;
+    for (i = 0; i < NG; i++) g[i] = 0.0;
+    for (k = 0; k < MOVING; k++) {
+        double f = m->s.u[MOVING_U + 2 * k];
+        if (path_column(m, k, b))
+            for (i = 0; i < NG; i++) g[i] += f * b[i];
+    }
+}
+
+/* the deflection under the load of path k: w(s)^T B_path^T q (q the first NG states) */
+static double under_load(const Model *m, int k) {
+    double b[NG], y = 0.0;
+    int i;
+    if (!path_column(m, k, b)) return 0.0;
+    for (i = 0; i < NG; i++) y += b[i] * m->s.x[i];
+    return y;
+}
+#endif
+
 static void derivatives(const Model *m, double *dx) {
     int i, j;
+#if MOVING > 0
+    double g[NG];
+    path_forces(m, g);
+#endif
     for (i = 0; i < NX; i++) {
         double s = 0.0;
         for (j = 0; j < NX; j++) s += a_at(m, i * NX + j) * m->s.x[j];
         for (j = 0; j < NU; j++) s += B[i * NU + j] * m->s.u[j];
+#if MOVING > 0
+        for (j = 0; j < NG; j++) s += G[i * NG + j] * g[j];
+#endif
         dx[i] = s;
     }
 }
@@ -231,7 +299,7 @@ static int expm(int n, double *a, double *w) {
     return 0;
 }
 
-/* phi, gam of the step h: expm([[A, B], [0, 0]] h) = [[phi, gam], [0, I]] */
+/* phi, gam of the step h: expm([[A, B, G], [0, 0, 0]] h) = [[phi, gam], [0, I]] */
 static int discretize(Model *m, double h) {
     double *a = m->work + 5 * NA * NA + NA;
     int i, j;
@@ -239,11 +307,14 @@ static int discretize(Model *m, double h) {
     for (i = 0; i < NX; i++) {
         for (j = 0; j < NX; j++) a[i * NA + j] = a_at(m, i * NX + j) * h;
         for (j = 0; j < NU; j++) a[i * NA + NX + j] = B[i * NU + j] * h;
+#if MOVING > 0
+        for (j = 0; j < NG; j++) a[i * NA + NX + NU + j] = G[i * NG + j] * h;
+#endif
     }
     if (expm(NA, a, m->work) != 0) return -1;
     for (i = 0; i < NX; i++) {
         for (j = 0; j < NX; j++) m->phi[i * NX + j] = a[i * NA + j];
-        for (j = 0; j < NU; j++) m->gam[i * NU + j] = a[i * NA + NX + j];
+        for (j = 0; j < NW; j++) m->gam[i * NW + j] = a[i * NA + NX + j];
     }
     m->h = h;
 #ifdef SPIN_U
@@ -296,7 +367,7 @@ FMI2_EXPORT fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuT
     if (m->name != NULL) strcpy(m->name, instanceName);
     if (fmuType == fmi2CoSimulation) {
         m->phi = (double *)allocate(m, NX * NX, sizeof(double));
-        m->gam = (double *)allocate(m, NX * NU, sizeof(double));
+        m->gam = (double *)allocate(m, NX * NW, sizeof(double));
         m->work = (double *)allocate(m, 6 * NA * NA + NA, sizeof(double));
         if (m->phi == NULL || m->gam == NULL || m->work == NULL) {
             fmi2FreeInstance(m);
@@ -359,12 +430,15 @@ FMI2_EXPORT fmi2Status fmi2GetReal(fmi2Component c, const fmi2ValueReference vr[
     if (m == NULL || (nvr > 0 && (vr == NULL || value == NULL))) return fmi2Error;
     for (k = 0; k < nvr; k++) {
         long r = (long)vr[k];
-        if ((r >= VR_V && r < VR_X) || (r >= VR_DX && r < N_VR)) {
+        if ((r >= VR_V && r < VR_L) || (r >= VR_DX && r < N_VR)) {
             if (!have_dx) { derivatives(m, dx); have_dx = 1; }
         }
         if (r < VR_Y) value[k] = m->s.u[r];
         else if (r < VR_V) value[k] = displacement(m, (int)(r - VR_Y));
-        else if (r < VR_X) value[k] = velocity((int)(r - VR_V), dx);
+        else if (r < VR_L) value[k] = velocity((int)(r - VR_V), dx);
+#if MOVING > 0
+        else if (r < VR_X) value[k] = under_load(m, (int)(r - VR_L));
+#endif
         else if (r < VR_DX) value[k] = m->s.x[r - VR_X];
         else if (r < N_VR) value[k] = dx[r - VR_DX];
         else {
@@ -572,6 +646,9 @@ FMI2_EXPORT fmi2Status fmi2DoStep(fmi2Component c, fmi2Real currentCommunication
     Model *m = (Model *)c;
     double xn[NX];
     int i, j;
+#if MOVING > 0
+    double g[NG];
+#endif
     (void)noSetFMUStatePriorToCurrentPoint;
     if (m == NULL) return fmi2Error;
     if (m->type != fmi2CoSimulation || m->s.mode != RUNNING) {
@@ -593,10 +670,16 @@ FMI2_EXPORT fmi2Status fmi2DoStep(fmi2Component c, fmi2Real currentCommunication
             logError(m, "fmi2DoStep: the matrix exponential of the step failed");
             return fmi2Error;
         }
+#if MOVING > 0
+        path_forces(m, g); /* the loads' force and position held over the step: a constant generalized force */
+#endif
         for (i = 0; i < NX; i++) {
             double s = 0.0;
             for (j = 0; j < NX; j++) s += m->phi[i * NX + j] * m->s.x[j];
-            for (j = 0; j < NU; j++) s += m->gam[i * NU + j] * m->s.u[j];
+            for (j = 0; j < NU; j++) s += m->gam[i * NW + j] * m->s.u[j];
+#if MOVING > 0
+            for (j = 0; j < NG; j++) s += m->gam[i * NW + NU + j] * g[j];
+#endif
             xn[i] = s;
         }
         memcpy(m->s.x, xn, NX * sizeof(double));

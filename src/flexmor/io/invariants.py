@@ -44,6 +44,7 @@ R. Schwertassek, O. Wallrapp, *Dynamik flexibler Mehrkörpersysteme*, Vieweg, 19
 from __future__ import annotations
 
 import logging
+import re
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -51,8 +52,8 @@ import numpy as np
 from ..errors import ModelError, PortError
 from ..rigid import rigid_body_modes, rigid_motions
 
-__all__ = ["FrameNode", "Invariants", "compute_invariants", "frame_nodes", "node_triples", "check_free_model",
-           "rigid_fields"]
+__all__ = ["FrameNode", "Invariants", "compute_invariants", "frame_nodes", "node_frames", "node_triples",
+           "check_free_model", "rigid_fields"]
 
 log = logging.getLogger(__name__)
 
@@ -288,6 +289,8 @@ def _spec_targets(body) -> list[str]:
     elif isinstance(iface, str):
         specs.append(iface)
     for s in specs:
+        if re.search(r":[A-Za-z]+~\d+$", str(s).strip()):  # a moving load's compressed input: no point of the body
+            continue
         t = str(s).rsplit(":", 1)[0] if ":" in str(s) else str(s)
         t = t.strip()
         if t and t.upper() not in [x.upper() for x in out]:
@@ -353,16 +356,30 @@ def frame_nodes(model, V, specs=None, body=None, *, masters=()) -> list[FrameNod
             known = ", ".join(sorted(model.node_sets) + [m.name for m in masters]) or "none"
             raise PortError(f"SID frame node {name!r} is neither a node id nor a node set (sets: {known})")
         if ids.size == 1 and "@" not in name:
-            i = index[int(ids[0])]
-            own = np.concatenate([trans[i], rot[i]])
-            out.append(FrameNode(int(ids[0]), name, model.xyz[i].copy(), _gather(V, trans[i:i + 1])[0],
-                                 _gather(V, rot[i:i + 1])[0], ("read", own[own >= 0], np.eye(6)[:, own >= 0])))
+            out += node_frames(model, V, ids, [name], triples=(trans, rot))
             continue
         centroid = model.node_xyz(ids).mean(axis=0)
         eqs, W = rbe3_matrix(model, ids, centroid)
         out.append(FrameNode(next_id, name, centroid, W[:3] @ V[eqs], W[3:] @ V[eqs], ("read", np.asarray(eqs), W)))
         log.info("SID frame node %d: RBE3 master of %s (%d nodes) at %s", next_id, name, ids.size, centroid)
         next_id += 1
+    return out
+
+
+def node_frames(model, V, ids, names, *, triples=None) -> list[FrameNode]:
+    """Frame nodes of single nodes ``ids`` (named ``names``) of ``model``: each at its position, its
+    translations as ``phi`` and its rotational DOFs as ``psi`` (zero where the model has none).
+    ``triples``: :func:`node_triples` of the model when known."""
+    trans, rot = node_triples(model) if triples is None else triples
+    index = {int(k): i for i, k in enumerate(model.node_ids)}
+    out = []
+    for k, name in zip(ids, names):
+        if int(k) not in index:
+            raise PortError(f"SID frame node {name!r}: node {int(k)} is not a node of the model")
+        i = index[int(k)]
+        own = np.concatenate([trans[i], rot[i]])
+        out.append(FrameNode(int(k), str(name), model.xyz[i].copy(), _gather(V, trans[i:i + 1])[0],
+                             _gather(V, rot[i:i + 1])[0], ("read", own[own >= 0], np.eye(6)[:, own >= 0])))
     return out
 
 

@@ -21,6 +21,11 @@ columns per mode; ``Oe`` columns ``ωx² ωy² ωz² ωxωy ωyωz ωxωz``. Num
 significant digits and a Fortran ``D`` exponent, so a write → read round trip is exact;
 ``D``, ``d``, ``E`` exponents are all read.
 
+Moving loads
+    A body reduced with moving loads (:mod:`flexmor.moving`) has every node of each path as a frame node,
+    after the others, in path order (a contiguous block per path, named ``SET#NODE``; the header says which
+    indices), so that a multibody code applies the moving force itself by interpolating between them.
+
 Units
     SI by default; ``units="mm-t-s"`` (any system of :data:`flexmor.units.SYSTEMS`) writes each
     object in that system (:data:`SID_DIMENSIONS`: the mass in t, ``J`` in t mm^2, ``Ke`` in
@@ -119,7 +124,8 @@ def sid_from_reduced(body, model, *, nodes=None, remove_rigid: bool = False, uni
         translations (``phi``) and rotations (``psi``).
     nodes : sequence of str, optional
         Frame nodes (node ids, node sets, coupling masters); default the body's port and
-        interface nodes and every coupling master.
+        interface nodes and every coupling master. A body with moving loads (:mod:`flexmor.moving`)
+        gets every node of their paths after these, in path order (the header says which).
     remove_rigid : bool
         Allow the basis of a body that holds rigid-body motion to be made mass-orthogonal to
         it (another body than the one judged); refused by default.
@@ -155,6 +161,7 @@ def sid_from_reduced(body, model, *, nodes=None, remove_rigid: bool = False, uni
     xb = expand_body(model, body, remove_rigid=remove_rigid)  # the floating frame carries the rigid motion
     body, model, V = xb.body, xb.model, xb.V
     fn = frame_nodes(model, V, nodes, body, masters=xb.masters)
+    fn, path_said = _path_nodes(model, V, body, fn)
     inv = compute_invariants(model, V, K=body.K, D=body.D, nodes=fn)
     r = V.shape[1]
     stressed = {} if body.stress_modes is None or body.stress_nodes is None else \
@@ -213,10 +220,37 @@ def sid_from_reduced(body, model, *, nodes=None, remove_rigid: bool = False, uni
               + (f"Ke with the geometric stiffness of preload {' '.join(body.info['preload'].get('specs', []))}; "
                  if isinstance(body.info.get("preload"), dict) else "no geometric stiffness in Ke; ")
               + stiff_said + "; "
+              + "".join(f"{s}; " for s in path_said)
               + "frame nodes: " + ", ".join(f"{n.id}={n.name}" for n in fn))
     sid = SIDFile(mass=inv.mass, ielastq=names, nodes=sid_nodes, objects=objects, header=header)
     return sid if system.is_si else sid_in_units(sid, system)
 
+
+def _path_nodes(model, V, body, fn):
+    """``(frame nodes, what the header says of the paths)``: ``fn`` and after it every node of the body's moving
+    loads' paths (:mod:`flexmor.moving`), a contiguous block per path in path order, at the node's position with
+    its translations as ``phi`` and its rotations as ``psi`` (zero without rotational DOFs), so that a multibody
+    code applies the moving force itself, interpolating between them. A single-node frame node of ``fn`` on a
+    path leaves ``fn`` (the path holds it); loads over the same nodes share their block."""
+    from ..invariants import node_frames
+
+    loads = body.info.get("moving_loads") if isinstance(body.info, dict) else None
+    if not loads:
+        return fn, []
+    on_path = {int(k) for rec in loads for k in rec["nodes"]}
+    out = [nd for nd in fn if nd.id not in on_path or nd.load is None or nd.load[0] != "read"]
+    blocks: dict = {}
+    said = []
+    for rec in loads:
+        ids = tuple(int(k) for k in rec["nodes"])
+        if ids not in blocks:
+            first = len(out) + 1
+            out += node_frames(model, V, ids, [f"{rec['set']}#{k}" for k in ids])
+            blocks[ids] = (first, len(out))
+        a, b = blocks[ids]
+        said.append(f"moving load {rec['spec']}: frame nodes {a} to {b} (1-based) are the nodes {ids[0]} to "
+                    f"{ids[-1]} of its path, set {rec['set']}, in path order")
+    return out, said
 
 
 def _stiffening(xb, fn, body, progress=None):
@@ -304,7 +338,7 @@ def write_sid(body, path, *, model=None, nodes=None, m1_order: str = "row-q-col"
         its mass matrix and node coordinates (see :func:`sid_from_reduced`).
     nodes : sequence of str, optional
         Frame nodes (node ids, node sets, coupling masters); default the body's port/interface
-        nodes and its coupling masters.
+        nodes and its coupling masters; a moving load's path nodes follow (see :func:`sid_from_reduced`).
     m1_order : {'row-q-col', 'row-col-q'}
         Index order of the ``m1(i, j, k)`` entries.
     allow_clamped : bool
