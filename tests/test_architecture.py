@@ -35,11 +35,11 @@ LAYERS = [
     ["flexmor"],  # the public namespace (the root __init__)
     ["flexmor.__main__", "flexmor.cli"],  # the command line: alone prints and exits
     ["flexmor.ui"],  # web app (runs cli's main, handed in)
-    ["flexmor.workflow", "flexmor.study", "flexmor.prepare", "flexmor.studyfile", "flexmor.tolerance",
-     "flexmor.moving"],  # jobs:
-    # reduce and judge, study, its preparation, study files, target-error mode, moving loads
+    ["flexmor.workflow", "flexmor.study", "flexmor.prepare", "flexmor.studyfile", "flexmor.tolerance"],  # jobs:
+    # reduce and judge, study, its preparation, study files, target-error mode
     ["flexmor.report"],  # plots, HTML report, 3D view
-    ["flexmor.analysis"],  # judging reduced bodies, assemblies, the body held in its joints
+    ["flexmor.analysis", "flexmor.moving"],  # judging reduced bodies, assemblies, the body held in its joints;
+    # moving loads: their paths, compressed inputs, the judge over the path and crossings
     ["flexmor.reduction"],  # methods -> Basis, METHODS registry, reduce()
     ["flexmor.dynamics", "flexmor.io"],  # FRF, modes, time integration; formats, exporters, invariants
     ["flexmor.rigid", "flexmor.expansion", "flexmor.modal", "flexmor.stress", "flexmor.preload",
