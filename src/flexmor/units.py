@@ -319,11 +319,12 @@ def to_si(model, units):
 
 def port_kind(spec) -> str | None:
     """``"translation"`` or ``"rotation"`` for a port SPEC ending in a direction (``TIP:y``,
-    ``HOLE@rbe3:rx``), None for a name without one (ports given as matrices)."""
+    ``HOLE@rbe3:rx``, a compressed one ``PATH:z~2``: loads in that direction), None for a name without one
+    (ports given as matrices)."""
     text = str(spec)
     if ":" not in text:
         return None
-    d = text.rsplit(":", 1)[1].strip().lower()
+    d = text.rsplit(":", 1)[1].split("~", 1)[0].strip().lower()
     if d not in DIRECTIONS:
         return None
     return "translation" if DIRECTIONS[d] <= 3 else "rotation"

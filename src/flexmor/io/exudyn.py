@@ -38,6 +38,7 @@ import scipy.sparse as sp
 from ..errors import ModelError, OptionError
 from ._registry import EXPORT_FORMATS
 from .atomic import atomic_write
+from .exudyn_moving import MOVING_KEYS, moving_load_data
 
 __all__ = ["NODE_TYPES", "EXTRA_KEYS", "add_full_to_exudyn", "add_marker", "add_npz_to_exudyn", "add_to_exudyn",
            "exudyn_data", "spin_stiffening_force", "write_exudyn"]
@@ -86,7 +87,8 @@ def exudyn_data(body, model, *, node_type: str = NODE_TYPES[0], remove_rigid: bo
         (mesh nodes, 6 r), components xx yy zz yz xz xy, zero where the body has no stress;
         ``{}`` without), ``interfaceNames``, ``interfaceMasterNodes``
         (mesh node of each master), ``interfaceSlaveNodes`` and ``interfaceSlaveOffsets`` (the
-        mesh nodes of interface ``k`` are ``interfaceSlaveNodes[offsets[k]:offsets[k+1]]``).
+        mesh nodes of interface ``k`` are ``interfaceSlaveNodes[offsets[k]:offsets[k+1]]``); a body reduced
+        with moving loads: their paths (:data:`flexmor.io.exudyn_moving.MOVING_KEYS`).
 
     Raises
     ------
@@ -134,8 +136,7 @@ def exudyn_data(body, model, *, node_type: str = NODE_TYPES[0], remove_rigid: bo
     rot_dofs = 4 if node_type.endswith("EulerParameters") else 3
     index = {int(k): i for i, k in enumerate(xb.node_ids)}
     slaves = [np.array([index[int(k)] for k in m.slaves], dtype=np.int64) for m in xb.masters]
-    spin = _spin_data(body, model, V)
-    return {**spin,
+    return {**_spin_data(body, model, V), **moving_load_data(body, xb.node_ids, Psi, x),
         "modeBasis": Psi, "trigList": _trig_list(body.triangles, model),
         "postProcessingModes": _stress_modes(body, xb.node_ids),
         "massMatrixReduced": np.asarray(body.M, float), "stiffnessMatrixReduced": np.asarray(body.K, float),
@@ -282,7 +283,7 @@ def write_exudyn(body, path, *, model=None, node_type: str = NODE_TYPES[0], allo
 
 #: Keys of :func:`exudyn_data` that Exudyn's ``ObjectFFRFreducedOrderInterface`` does not read.
 EXTRA_KEYS = ("nodeIds", "dampingMatrixReduced", "interfaceNames", "interfaceMasterNodes", "interfaceSlaveNodes",
-              "interfaceSlaveOffsets", "spinAxis", "spinRange", "spinStiffening")
+              "interfaceSlaveOffsets", "spinAxis", "spinRange", "spinStiffening", *MOVING_KEYS)
 
 
 def _add(mbs, data: dict, *, position, velocity, rotation, angular_velocity, gravity, rayleigh, name, color):
@@ -306,6 +307,8 @@ def _add(mbs, data: dict, *, position, velocity, rotation, angular_velocity, gra
         mbs.SetObjectParameter(res["oFFRFreducedOrder"], "forceUserFunction",
                                spin_stiffening_force(mbs, res["nRigidBody"], data))
         res["spin_stiffening"] = True
+    if MOVING_KEYS[0] in data:  # the paths, for flexmor.io.exudyn_moving's load user functions
+        res["moving_loads"] = {k: data[k] for k in MOVING_KEYS}
     res["cms"] = cms
     res["node_index"] = {int(k): i for i, k in enumerate(np.asarray(data["nodeIds"]))}
     off = np.asarray(data["interfaceSlaveOffsets"])
@@ -369,7 +372,8 @@ def add_to_exudyn(mbs, body, model, *, position=(0.0, 0.0, 0.0), velocity=(0.0, 
         ``cms`` (the interface object), ``node_index`` (FE node id -> Exudyn mesh node, coupling
         masters included), ``interfaces`` (coupling name, e.g. ``HOLE@RBE2`` -> ``master``
         and ``slaves`` mesh nodes, ``master_id``, ``xyz``): :func:`add_marker` puts markers on them,
-        and ``model`` (the model as read).
+        ``model`` (the model as read), and ``moving_loads`` for a body with moving loads (the paths that
+        :func:`flexmor.io.exudyn_moving.moving_load_force` moves a force over).
     """
     if isinstance(model, (str, os.PathLike)):  # the model file
         from ._registry import read

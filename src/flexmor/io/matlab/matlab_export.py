@@ -29,13 +29,25 @@ Variables (MATLAB names; all present, empty where not available):
                                 ``K2`` and ``G1`` (r x r): at the speed w the body's stiffness
                                 is ``Kr + w^2 K2`` and its gyroscopic matrix ``w G1`` (in the
                                 frame turning with it); otherwise ``[]``
+``moving_loads``    struct      a body reduced with moving loads (``reduce --moving-load``,
+                    array       :mod:`flexmor.moving`), one element per path: ``spec``
+                    (1 x P)     (``SET:DIR@AXIS``), ``direction`` (``x``, ``y`` or ``z``: the
+                                force's axis in the body's frame), ``nodes`` (N x 1 node ids in
+                                path order), ``s`` (N x 1 arc length of each node from the
+                                first), ``length``, ``B_path`` (r x N: the reduced input of a
+                                unit force at each path node, ``V^T B_path``) and
+                                ``interpolation`` (text). A force ``F`` at ``s0`` enters as
+                                ``B_path * w(s0) * F``, ``w`` the linear interpolation weights
+                                between the two path nodes around ``s0`` (N x 1, zero off the
+                                path); the deflection under it is ``w' * B_path' * qr``;
+                                otherwise ``[]``
 ==================  ==========  ====================================================
 
 Units: SI by default; ``units="mm-t-s"`` (a system of :data:`flexmor.units.SYSTEMS`) writes
 every quantity in that system (:data:`MAT_DIMENSIONS`), the modal coordinates unchanged:
 ``Br`` per input (a force input ``NODE:x`` in mm per unit of ``qr`` and N, a moment input
 unchanged), ``Cr`` per output, ``V`` per equation (mm at translations, rad at rotations).
-``frequencies_hz`` stays in Hz.
+``frequencies_hz`` stays in Hz; ``moving_loads``: ``B_path`` as a force input, ``s`` and ``length`` as lengths.
 
 References
 ----------
@@ -57,7 +69,8 @@ __all__ = ["MAT_DIMENSIONS", "MAT_FIELDS", "write_mat"]
 
 #: Variables every exported ``.mat`` file holds.
 MAT_FIELDS = ("Mr", "Kr", "Dr", "Br", "Cr", "V", "node_ids", "xyz", "dofs", "frequencies_hz", "input_names",
-              "output_names", "method", "model_name", "version", "stress_nodes", "stress_modes", "inv", "units", "spin")
+              "output_names", "method", "model_name", "version", "stress_nodes", "stress_modes", "inv", "units", "spin",
+              "moving_loads")
 
 #: The dimension ``(length, mass, time)`` exponents of the variables of one dimension (``Br``, ``Cr`` and
 #: ``V`` have one per input, output and equation); the fields of ``inv`` as their SID objects.
@@ -110,6 +123,7 @@ def mat_variables(body, model=None, *, nodes=None, units: str = "SI") -> dict:
         out["spin"] = {"axis": np.asarray(spin["axis"], dtype=float).reshape(3, 1),
                        "range": np.asarray(spin["range"], dtype=float).reshape(2, 1),
                        "K2": np.asarray(spin["K2"], dtype=float), "G1": np.asarray(spin["G1"], dtype=float)}
+    out["moving_loads"] = _moving_loads(body)
     if model is not None and body.V is not None:
         from ..invariants import compute_invariants, frame_nodes
 
@@ -129,6 +143,23 @@ def mat_variables(body, model=None, *, nodes=None, units: str = "SI") -> dict:
         }
     out["units"] = system.describe() if body.units is not None or not system.is_si else "as given by the FE file"
     return out if system.is_si else _in_units(out, body, system)
+
+
+#: Fields of each element of the ``moving_loads`` struct array.
+MOVING_FIELDS = ("spec", "direction", "nodes", "s", "length", "B_path", "interpolation")
+
+
+def _moving_loads(body):
+    """The ``moving_loads`` struct array (1, P) of a body reduced with moving loads, else ``[]``."""
+    loads = body.info.get("moving_loads") if isinstance(body.info, dict) else None
+    if not loads:
+        return np.zeros((0, 0))
+    out = np.zeros((1, len(loads)), dtype=[(k, object) for k in MOVING_FIELDS])
+    for j, ml in enumerate(loads):
+        out[0, j] = (str(ml["spec"]), str(ml["direction"]), np.asarray(ml["nodes"], float).reshape(-1, 1),
+                     np.asarray(ml["s"], float).reshape(-1, 1), float(ml["length"]),
+                     np.asarray(ml["B_path"], float).reshape(body.order, -1), str(ml["interpolation"]))
+    return out
 
 
 def _in_units(out: dict, body, system) -> dict:
@@ -154,6 +185,13 @@ def _in_units(out: dict, body, system) -> dict:
         out["V"] = np.asarray(out["V"]) / dof_lengths(out["dofs"].astype(np.int64), system)[:, None]
     if np.size(out["stress_modes"]):  # stress per reduced coordinate (the coordinates keep their scale, as V shows)
         out["stress_modes"] = np.asarray(out["stress_modes"]) / system.stress
+    if np.size(out["moving_loads"]):  # unit forces at the path nodes, positions along it
+        ml = np.array(out["moving_loads"], copy=True)
+        for j in range(ml.shape[1]):
+            ml["B_path"][0, j] = ml["B_path"][0, j] / system.length
+            ml["s"][0, j] = system.from_si(ml["s"][0, j], 1, 0, 0)
+            ml["length"][0, j] = float(system.from_si(ml["length"][0, j], 1, 0, 0))
+        out["moving_loads"] = ml
     for name in ("inv", "spin"):
         if isinstance(out[name], dict):
             dims = MAT_DIMENSIONS[name]
