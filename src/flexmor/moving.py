@@ -41,8 +41,11 @@ import numpy as np
 import scipy.sparse as sp
 
 from .errors import OptionError, PortError, did_you_mean
+from .linalg.context import as_solver
 from .model import DIRECTIONS, FEModel, direction_code, direction_name
 from .ports import path_matrix, with_path_loads
+from .reduction.residual import static_solve
+from .rigid import rigid_body_modes
 
 __all__ = ["MovingLoad", "parse_moving_load", "moving_path", "hat_weights", "Compression", "compress",
            "with_moving_loads", "path_record", "judge_path", "judge_paths", "moving_key", "crossing", "DEFAULT_TOL",
@@ -453,13 +456,19 @@ def _json_list(x) -> list:
 
 
 def crossing(model, body, path: MovingLoad, *, speed: float, force: float = 1.0, k: int = 0, dt: float | None = None,
-             steps: int = 2000, scheme: str = "newmark", solver=None) -> dict:
+             steps: int = 2000, scheme: str = "newmark", start: str = "static", solver=None) -> dict:
     """A force ``force`` (N) crossing the ``k``-th path of ``body`` at ``speed`` (model length unit per s), from
     its first node to its last, integrated for the full model (sparse, one factorization) and the body
     (:func:`flexmor.dynamics.time.simulate`, the same scheme and step).
 
-    Returns a dict: ``path`` (its name), ``speed``, ``force``, ``duration``, ``dt``, ``steps``, the deflection
-    under the load's ``time_mean_error`` (``mean_t |y - yr| / mean_t |y|``) and ``time_max_error``
+    ``start``: ``static`` (default), both at rest in the static deflection under the force standing at the path's
+    first node (the load was there before; one more factorization of ``K``), or ``rest``: undeformed, the force
+    appearing at ``t = 0`` (a step load, whose response above the band no reduced body holds). A free body starts
+    in its inertia-relief deflection (the force accelerates it), and its elastic part is compared: the rigid motion
+    ``phi phi^T M q`` is taken out of the full model's deflection.
+
+    Returns a dict: ``path`` (its name), ``speed``, ``force``, ``start``, ``duration``, ``dt``, ``steps``, the
+    deflection under the load's ``time_mean_error`` (``mean_t |y - yr| / mean_t |y|``) and ``time_max_error``
     (``max_t |y - yr| / max_t |y|``), ``peak_deflection`` of the full model, ``seconds_full``, ``seconds_body``
     and ``speedup``; and the curves ``t``, ``under_load`` and ``under_load_body`` (for plots).
     """
@@ -477,18 +486,35 @@ def crossing(model, body, path: MovingLoad, *, speed: float, force: float = 1.0,
     def u(t):
         return force * path.weights(speed * np.asarray(t))
 
-    ports = Ports(B=path.B.tocsr(), C=path.B.T.tocsr(), input_names=path.node_names, output_names=path.node_names)
-    t0 = time.perf_counter()
-    full = simulate(model, u, dt=dt, t_end=duration, ports=ports, scheme=scheme, solver=solver)
-    t1 = time.perf_counter()
+    if start not in ("static", "rest"):
+        raise OptionError(f"start must be 'static' or 'rest', got {start!r}", params=("start",))
+    phi = rigid_body_modes(model)
+    C = path.B.T.tocsr()
+    if phi.shape[1]:  # a free body: its rigid coordinates phi^T M q too, to take the rigid motion out
+        C = sp.vstack([C, sp.csr_matrix((model.M @ phi).T)]).tocsr()
+    ports = Ports(B=path.B.tocsr(), C=C, input_names=path.node_names,
+                  output_names=[f"y{i}" for i in range(C.shape[0])])
     Bp = reduced_path(body, k)
-    red = simulate((body.M, body.D, body.K, Bp, Bp.T), u, dt=dt, t_end=duration, scheme=scheme)
+    w0 = path.weights([0.0])[0]
+    b0 = path.B @ w0
+    t0 = time.perf_counter()
+    q0 = q0r = None
+    if start == "static" and np.any(b0):  # a free body: its inertia-relief deflection (the load accelerates it)
+        q0 = force * static_solve(model, b0[:, None], phi, as_solver(solver))[:, 0]
+        q0r = force * np.linalg.solve(body.K, Bp @ w0)
+    full = simulate(model, u, dt=dt, t_end=duration, ports=ports, scheme=scheme, q0=q0, solver=solver)
+    t1 = time.perf_counter()
+    red = simulate((body.M, body.D, body.K, Bp, Bp.T), u, dt=dt, t_end=duration, scheme=scheme, q0=q0r)
     t2 = time.perf_counter()
     Wt = path.weights(speed * full.t)
-    y = np.einsum("tn,tn->t", Wt, full.output()[:, :, 0])
+    Y = full.output()[:, :, 0]
+    n = path.nodes.size
+    if phi.shape[1]:  # the elastic part: the path's deflections less those of the rigid motion
+        Y = Y[:, :n] - Y[:, n:] @ np.asarray(path.B.T @ phi).T
+    y = np.einsum("tn,tn->t", Wt, Y)
     yr = np.einsum("tn,tn->t", Wt, red.output()[:, :, 0])
     e = np.abs(y - yr)
-    return {"path": path.name, "speed": speed, "force": force, "duration": duration, "dt": dt,
+    return {"path": path.name, "speed": speed, "force": force, "start": start, "duration": duration, "dt": dt,
             "steps": int(full.t.size - 1),
             "time_mean_error": float(e.mean() / max(np.abs(y).mean(), 1e-300)),
             "time_max_error": float(e.max() / max(np.abs(y).max(), 1e-300)),

@@ -316,17 +316,34 @@ def make_ports(model: FEModel, inputs=(), outputs=()) -> Ports:
 
 
 def path_matrix(model: FEModel, nodes, direction: int) -> sp.csc_matrix:
-    """Unit forces in ``direction`` at each of ``nodes``: shape (n_dof, len(nodes)), a zero column where the
-    direction is not an equation (held) at that node (the input matrix of a moving load's path,
-    :mod:`flexmor.moving`)."""
-    rows, cols = [], []
+    """Unit forces in ``direction`` (a translation) at each of ``nodes``: shape (n_dof, len(nodes)), the input matrix
+    of a moving load's path (:mod:`flexmor.moving`). A node whose direction is not an equation is held (a zero
+    column), unless it is a slave of an RBE2 coupling of the model: its force then acts on the master, as the force
+    and its moment ``r x F`` about the master (:func:`flexmor.couplings.coupling_masters`)."""
+    rows, cols, vals = [], [], []
+    rbe2 = None
     for j, k in enumerate(nodes):
         try:
             rows.append(model.dof_index(int(k), direction))
             cols.append(j)
-        except KeyError:
+            vals.append(1.0)
             continue
-    return sp.csc_matrix((np.ones(len(rows)), (rows, cols)), shape=(model.n_dof, len(nodes)))
+        except KeyError:
+            pass
+        if rbe2 is None:
+            from .couplings import coupling_masters
+
+            rbe2 = {int(n): m for m in coupling_masters(model) if m["kind"] == "rbe2" for n in m["slaves"]}
+        master = rbe2.get(int(k))
+        if master is None:
+            continue
+        e = np.eye(3)[direction - 1]
+        load = np.concatenate([e, np.cross(model.node_xyz([int(k)])[0] - np.asarray(master["xyz"]), e)])
+        for d in np.flatnonzero(load):
+            rows.append(model.dof_index(master["id"], int(d) + 1))
+            cols.append(j)
+            vals.append(float(load[d]))
+    return sp.csc_matrix((vals, (rows, cols)), shape=(model.n_dof, len(nodes)))
 
 
 def with_path_loads(ports: Ports | None, paths) -> Ports:
