@@ -456,7 +456,8 @@ def _json_list(x) -> list:
 
 
 def crossing(model, body, path: MovingLoad, *, speed: float, force: float = 1.0, k: int = 0, dt: float | None = None,
-             steps: int = 2000, scheme: str = "newmark", start: str = "static", solver=None) -> dict:
+             steps: int = 2000, scheme: str = "newmark", start: str = "static", outputs=None, output_names=(),
+             solver=None) -> dict:
     """A force ``force`` (N) crossing the ``k``-th path of ``body`` at ``speed`` (model length unit per s), from
     its first node to its last, integrated for the full model (sparse, one factorization) and the body
     (:func:`flexmor.dynamics.time.simulate`, the same scheme and step).
@@ -465,12 +466,14 @@ def crossing(model, body, path: MovingLoad, *, speed: float, force: float = 1.0,
     first node (the load was there before; one more factorization of ``K``), or ``rest``: undeformed, the force
     appearing at ``t = 0`` (a step load, whose response above the band no reduced body holds). A free body starts
     in its inertia-relief deflection (the force accelerates it), and its elastic part is compared: the rigid motion
-    ``phi phi^T M q`` is taken out of the full model's deflection.
+    ``phi phi^T M q`` is taken out of the full model's deflection. ``outputs`` (sparse (p, n_dof): the study's
+    outputs, the body's first ``p`` rows of ``C``, named ``output_names``) are compared too.
 
     Returns a dict: ``path`` (its name), ``speed``, ``force``, ``start``, ``duration``, ``dt``, ``steps``, the
     deflection under the load's ``time_mean_error`` (``mean_t |y - yr| / mean_t |y|``) and ``time_max_error``
     (``max_t |y - yr| / max_t |y|``), ``peak_deflection`` of the full model, ``seconds_full``, ``seconds_body``
-    and ``speedup``; and the curves ``t``, ``under_load`` and ``under_load_body`` (for plots).
+    and ``speedup``; ``outputs`` (with ``outputs``: their ``names`` and the same two errors over them, Frobenius
+    norms at each time); and the curves ``t``, ``under_load`` and ``under_load_body`` (for plots).
     """
     from .dynamics.time import simulate
     from .ports import Ports
@@ -489,7 +492,8 @@ def crossing(model, body, path: MovingLoad, *, speed: float, force: float = 1.0,
     if start not in ("static", "rest"):
         raise OptionError(f"start must be 'static' or 'rest', got {start!r}", params=("start",))
     phi = rigid_body_modes(model)
-    C = path.B.T.tocsr()
+    p = 0 if outputs is None else outputs.shape[0]
+    C = path.B.T.tocsr() if not p else sp.vstack([path.B.T, sp.csr_matrix(outputs)]).tocsr()
     if phi.shape[1]:  # a free body: its rigid coordinates phi^T M q too, to take the rigid motion out
         C = sp.vstack([C, sp.csr_matrix((model.M @ phi).T)]).tocsr()
     ports = Ports(B=path.B.tocsr(), C=C, input_names=path.node_names,
@@ -504,20 +508,28 @@ def crossing(model, body, path: MovingLoad, *, speed: float, force: float = 1.0,
         q0r = force * np.linalg.solve(body.K, Bp @ w0)
     full = simulate(model, u, dt=dt, t_end=duration, ports=ports, scheme=scheme, q0=q0, solver=solver)
     t1 = time.perf_counter()
-    red = simulate((body.M, body.D, body.K, Bp, Bp.T), u, dt=dt, t_end=duration, scheme=scheme, q0=q0r)
+    Cr = np.vstack([Bp.T, np.asarray(body.C)[:p]])
+    red = simulate((body.M, body.D, body.K, Bp, Cr), u, dt=dt, t_end=duration, scheme=scheme, q0=q0r)
     t2 = time.perf_counter()
     Wt = path.weights(speed * full.t)
     Y = full.output()[:, :, 0]
     n = path.nodes.size
-    if phi.shape[1]:  # the elastic part: the path's deflections less those of the rigid motion
-        Y = Y[:, :n] - Y[:, n:] @ np.asarray(path.B.T @ phi).T
-    y = np.einsum("tn,tn->t", Wt, Y)
-    yr = np.einsum("tn,tn->t", Wt, red.output()[:, :, 0])
+    if phi.shape[1]:  # the elastic part: the path's deflections and outputs less those of the rigid motion
+        Y = Y[:, :n + p] - Y[:, n + p:] @ np.asarray(C[:n + p] @ phi).T
+    Yr = red.output()[:, :, 0]
+    y = np.einsum("tn,tn->t", Wt, Y[:, :n])
+    yr = np.einsum("tn,tn->t", Wt, Yr[:, :n])
+    out = None
+    if p:
+        e_o = np.linalg.norm(Y[:, n:] - Yr[:, n:], axis=1)
+        y_o = np.linalg.norm(Y[:, n:], axis=1)
+        out = {"names": list(output_names)[:p], "time_mean_error": float(e_o.mean() / max(y_o.mean(), 1e-300)),
+               "time_max_error": float(e_o.max() / max(y_o.max(), 1e-300))}
     e = np.abs(y - yr)
     return {"path": path.name, "speed": speed, "force": force, "start": start, "duration": duration, "dt": dt,
             "steps": int(full.t.size - 1),
             "time_mean_error": float(e.mean() / max(np.abs(y).mean(), 1e-300)),
-            "time_max_error": float(e.max() / max(np.abs(y).max(), 1e-300)),
+            "time_max_error": float(e.max() / max(np.abs(y).max(), 1e-300)), "outputs": out,
             "peak_deflection": float(np.abs(y).max()), "seconds_full": t1 - t0, "seconds_body": t2 - t1,
             "speedup": (t1 - t0) / max(t2 - t1, 1e-9),
             "t": full.t.tolist(), "under_load": y.tolist(), "under_load_body": yr.tolist()}

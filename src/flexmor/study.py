@@ -326,12 +326,17 @@ class System(Shown):
         return rec
 
     def crossing(self, body, speed: float, *, force: float = 1.0, k: int = 0, **options) -> dict:
-        """A force crossing the ``k``-th moving load's path at ``speed`` (m/s), body against full model
-        (:func:`flexmor.moving.crossing`; ``dt``, ``steps``, ``scheme`` as there)."""
+        """A force crossing the ``k``-th moving load's path at ``speed`` (m/s), body against full model, under the
+        load and at the study's outputs (:func:`flexmor.moving.crossing`; ``dt``, ``steps``, ``scheme``, ``start``
+        as there)."""
         from .moving import crossing
 
         self.check(body)
         options.setdefault("solver", self.solver)
+        n_out = self.n_user_ports[1]
+        if n_out:
+            options.setdefault("outputs", self.ports.C[:n_out])
+            options.setdefault("output_names", self.ports.output_names[:n_out])
         return crossing(self.model, body, self.moving[k][0], speed=speed, force=force, k=k, **options)
 
     def _recipe(self, method, order, options):
