@@ -258,3 +258,19 @@ def test_every_kind_of_method_builds_for_the_compressed_loads(system, method, op
     assert rec["moving_loads"][0]["path_max_band_error"] < 1e-3, (method, rec["moving_loads"][0])
     if method == "craig-bampton":
         assert body.info["residual_vectors"] >= system.moving[0][1].k - 1
+
+
+def test_a_path_over_an_rbe3_couplings_dependent_dofs_is_refused_naming_them(beam):
+    """An RBE3 coupling eliminates six translations of its set: a force there has no equation in the coupled
+    model (an RBE2 slave passes it to the master; a held node carries none)."""
+    from flexmor.couplings import couple, coupling_masters
+    from flexmor.selection import add_node_set
+
+    coupled = couple(beam, ["TIP@rbe3"]).model
+    master = coupling_masters(coupled)[0]
+    eq = set(map(tuple, coupled.dofs.tolist()))
+    node = next(int(n) for n in master["slaves"] if (int(n), 3) not in eq)  # a node whose z the coupling took
+    other = next(int(n) for n in coupled.node_ids if (int(n), 3) in eq and int(n) not in master["slaves"])
+    m = add_node_set(coupled, "ONTIP", [node, other])
+    with pytest.raises(PortError, match=rf"path node {node} .*TIP@RBE3.*dependent DOF"):
+        moving_path(m, "ONTIP:z")

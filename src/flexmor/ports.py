@@ -36,7 +36,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from .errors import PortError, did_you_mean
-from .model import DIRECTIONS, FEModel, direction_code
+from .model import DIRECTIONS, FEModel, direction_code, direction_name
 
 __all__ = ["Ports", "make_ports", "interface_dofs", "parse_spec", "expand_specs", "path_matrix", "body_ports",
            "with_path_loads"]
@@ -319,7 +319,9 @@ def path_matrix(model: FEModel, nodes, direction: int) -> sp.csc_matrix:
     """Unit forces in ``direction`` (a translation) at each of ``nodes``: shape (n_dof, len(nodes)), the input matrix
     of a moving load's path (:mod:`flexmor.moving`). A node whose direction is not an equation is held (a zero
     column), unless it is a slave of an RBE2 coupling of the model: its force then acts on the master, as the force
-    and its moment ``r x F`` about the master (:func:`flexmor.couplings.coupling_masters`)."""
+    and its moment ``r x F`` about the master (:func:`flexmor.couplings.coupling_masters`). A node whose direction
+    an RBE3 coupling eliminated (one of its dependent DOFs) is refused (:class:`PortError`): the coupled model has
+    no equation for a force there."""
     rows, cols, vals = [], [], []
     rbe2 = None
     for j, k in enumerate(nodes):
@@ -333,9 +335,15 @@ def path_matrix(model: FEModel, nodes, direction: int) -> sp.csc_matrix:
         if rbe2 is None:
             from .couplings import coupling_masters
 
-            rbe2 = {int(n): m for m in coupling_masters(model) if m["kind"] == "rbe2" for n in m["slaves"]}
-        master = rbe2.get(int(k))
+            rbe2 = {(m["kind"], int(n)): m for m in coupling_masters(model) for n in m["slaves"]}
+        master = rbe2.get(("rbe2", int(k)))
         if master is None:
+            rbe3 = rbe2.get(("rbe3", int(k)))
+            if rbe3 is not None:
+                raise PortError(f"path node {int(k)} is a node of the coupling {rbe3['name']} that eliminated its "
+                                f"{direction_name(direction)} (a dependent DOF of the RBE3): the coupled model has "
+                                "no equation for a force there; lay the path off the coupling's nodes, or couple "
+                                "them by RBE2", params=("moving_load",))
             continue
         e = np.eye(3)[direction - 1]
         load = np.concatenate([e, np.cross(model.node_xyz([int(k)])[0] - np.asarray(master["xyz"]), e)])
