@@ -117,8 +117,8 @@ def test_the_judge_sees_each_position_as_a_direct_solve_does(system, krylov):
     the force shared by those nodes, and the body's equals its own solution with V^T b(s) (the interpolation)."""
     body, _ = krylov
     path = system.moving[0][0]
-    system.judge_path(body)
-    full = system._path_full[0]  # the full model's path FRF the judge used
+    system.judge_paths(body)
+    full = next(iter(system._path_full.values()))  # the full model's path FRF the judge used
     s = 0.60625  # a quarter into the segment between the nodes at 0.6 and 0.625 m
     w = path.weights([s])[0]
     assert np.count_nonzero(w) == 2 and w.max() == pytest.approx(0.5 + 0.25)

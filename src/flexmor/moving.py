@@ -307,7 +307,7 @@ def compress(model, path: MovingLoad, band, *, tol: float = DEFAULT_TOL, outputs
     return Compression(W, sv, tol, [complex(u) / (2 * np.pi) for u in used], time.perf_counter() - t0)
 
 
-def with_moving_loads(model, ports, paths, compressions):
+def with_moving_loads(ports, paths, compressions):
     """``ports`` with each path's compressed loads ``B_path W`` appended as inputs and their collocated
     deflections ``W^T B_path^T`` as outputs (named ``SET:DIR~1`` ...), or those alone when ``ports`` is None
     (:func:`flexmor.ports.with_path_loads`)."""
@@ -422,22 +422,22 @@ def judge_path(model, body, load: MovingLoad, *, k: int = 0, outputs=None, outpu
 
 def judge_paths(model, body, band, *, fulls: dict | None = None, solver=None, **grid) -> list[dict]:
     """:func:`judge_path` of each of ``body``'s moving loads on ``model`` (the paths laid out again from their
-    SPECs, the study's outputs from the body's output SPECs), without the positions' lists. ``fulls`` keeps the
-    full path FRFs between calls (keyed by the path and the outputs), e.g. for several bodies."""
+    SPECs, the study's outputs from the body's output SPECs: :func:`flexmor.ports.body_ports`). ``fulls`` keeps the
+    full path FRFs between calls (keyed by the path, the outputs and the band), e.g. for several bodies."""
     from .ports import body_ports
 
+    moving = body.info.get("moving_loads") or []
+    if not moving:
+        return []
     fulls = {} if fulls is None else fulls
+    n_out = sum("~" not in n for n in body.output_names)
+    names = list(body.output_names[:n_out])
+    outputs = body_ports(model, body).C[:n_out] if n_out else None
     out = []
-    ports = None
-    for k, rec in enumerate(body.info.get("moving_loads") or []):
-        path = moving_path(model, rec["spec"])
-        if ports is None:
-            ports = body_ports(model, body)
-        n_out = sum("~" not in n for n in body.output_names)
-        key = (rec["spec"], tuple(body.output_names[:n_out]), tuple(band))
-        r, fulls[key] = judge_path(model, body, path, k=k, outputs=ports.C[:n_out] if n_out else None,
-                                   output_names=body.output_names[:n_out], band=band, full=fulls.get(key),
-                                   solver=solver, **grid)
+    for k, rec in enumerate(moving):
+        key = (rec["spec"], tuple(names), tuple(band))
+        r, fulls[key] = judge_path(model, body, moving_path(model, rec["spec"]), k=k, outputs=outputs,
+                                   output_names=names, band=band, full=fulls.get(key), solver=solver, **grid)
         out.append(r)
     return out
 

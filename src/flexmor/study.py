@@ -211,7 +211,7 @@ class System(Shown):
         self.moving = list(moving)
         self.n_user_ports = (0, 0) if ports is None else (ports.n_inputs, ports.n_outputs)
         if self.moving:
-            ports = with_moving_loads(model, ports, *zip(*self.moving))
+            ports = with_moving_loads(ports, *zip(*self.moving))
         self.model, self.ports, self.as_read = model, ports, as_read
         self._path_full: dict = {}
         self.couplings, self.interfaces, self.selections = list(couplings), list(interfaces), list(selections)
@@ -296,7 +296,7 @@ class System(Shown):
         self._record(body, method, order, given)
         if self.moving and judge:
             t0 = time.perf_counter()
-            recs = [self.judge_path(body, k) for k in range(len(self.moving))]
+            recs = self.judge_paths(body)
             body.errors["moving_loads"] = recs
             record["moving_loads"] = [{k: v for k, v in r.items() if k != "positions"} for r in recs]
             record["timings"]["moving_loads"] = time.perf_counter() - t0
@@ -311,19 +311,13 @@ class System(Shown):
             options = {**options, "residual_vectors": True}
         return options
 
-    def judge_path(self, body, k: int = 0) -> dict:
-        """``body``'s band error over the positions of the ``k``-th moving load (:func:`flexmor.moving.judge_path`,
-        at the study's outputs and under the load; the full model's path FRF computed once per path)."""
-        from .moving import judge_path
+    def judge_paths(self, body) -> list[dict]:
+        """``body``'s band error over the positions of each moving load (:func:`flexmor.moving.judge_paths`, at the
+        study's outputs and under the load; the full model's path FRF computed once per path and kept)."""
+        from .moving import judge_paths
 
         self.check(body)
-        path = self.moving[k][0]
-        n_in, n_out = self.n_user_ports
-        rec, self._path_full[k] = judge_path(self.model, body, path, k=k,
-                                             outputs=self.ports.C[:n_out] if n_out else None,
-                                             output_names=self.ports.output_names[:n_out], band=self.band,
-                                             full=self._path_full.get(k), solver=self.solver, **self._grid)
-        return rec
+        return judge_paths(self.model, body, self.band, fulls=self._path_full, solver=self.solver, **self._grid)
 
     def crossing(self, body, speed: float, *, force: float = 1.0, k: int = 0, **options) -> dict:
         """A force crossing the ``k``-th moving load's path at ``speed`` (m/s), body against full model, under the
