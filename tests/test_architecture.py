@@ -35,8 +35,9 @@ LAYERS = [
     ["flexmor"],  # the public namespace (the root __init__)
     ["flexmor.__main__", "flexmor.cli"],  # the command line: alone prints and exits
     ["flexmor.ui"],  # web app (runs cli's main, handed in)
-    ["flexmor.workflow", "flexmor.study", "flexmor.prepare", "flexmor.studyfile", "flexmor.tolerance"],  # jobs:
-    # reduce and judge, study, its preparation, study files, target-error mode
+    ["flexmor.workflow", "flexmor.study", "flexmor.prepare", "flexmor.studyfile", "flexmor.tolerance",
+     "flexmor.plan"],  # jobs: reduce and judge, study, its preparation, study files, target-error mode, the plan
+    # before the run
     ["flexmor.report"],  # plots, HTML report, 3D view
     ["flexmor.analysis", "flexmor.moving"],  # judging reduced bodies, assemblies, the body held in its joints;
     # moving loads: their paths, compressed inputs, the judge over the path and crossings

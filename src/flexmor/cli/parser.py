@@ -23,6 +23,7 @@ from ..tolerance import tol_methods
 from .commands import cmd_compare, cmd_demo, cmd_info, cmd_reduce, cmd_report, cmd_run
 from .export import cmd_export
 from .method_flags import COMMON, all_options, flag
+from .plan import add_plan_parser
 from .ui import add_ui_parser
 
 __all__ = ["build_parser", "flag_names"]
@@ -411,6 +412,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--json", action="store_true", help="print one JSON object on stdout")
     p.set_defaults(func=cmd_export)
 
+    add_plan_parser(sub, add_model_args=_add_model_args, method_type=_method, methods=METHODS,
+                    add_method_options=_add_method_options)
     add_ui_parser(sub)
     for p in sub.choices.values():  # each command maps the parameters named by library errors to its flags
         _add_verbose(p, default=argparse.SUPPRESS)  # -v also after the command (adds to one before it)

@@ -79,28 +79,7 @@ class PardisoFactorization(Factorization):
 
     def __init__(self, A, solver, *, symmetric=True, positive=False):
         super().__init__(A, solver.stats)
-        import ctypes
-
-        self._fn = mkl_pardiso()
-        self._ctypes = ctypes
-        self._live = False
-        self._ooc = None
-        cplx = np.iscomplexobj(A.data)
-        if cplx:
-            self._mtype = 6 if symmetric else 13
-        else:
-            self._mtype = (2 if positive else -2) if symmetric else 11
-        self.dtype = np.dtype(np.complex128 if cplx else np.float64)
-        U = sp.triu(A, format="csr") if symmetric else sp.csr_matrix(A)
-        U.sum_duplicates()
-        U.sort_indices()
-        if np.any(np.diff(U.indptr) == 0):
-            raise SolverError("matrix has an empty row: it is singular")
-        self._values = np.ascontiguousarray(U.data, dtype=self.dtype)
-        self._ia = np.ascontiguousarray(U.indptr, dtype=np.int32)
-        self._ja = np.ascontiguousarray(U.indices, dtype=np.int32)
-        self._n = U.shape[0]
-        self._pt = np.zeros(64, dtype=np.int64)
+        self._setup(A, symmetric=symmetric, positive=positive)
         plain = symmetric  # ordered by the pattern alone (no weighted matching) first
         try:
             self._factor(A, solver, matching=not plain)
@@ -119,34 +98,53 @@ class PardisoFactorization(Factorization):
         if self._mtype == -2 and self._iparm[13] == 0 and self.memory.mode != "mixed":
             self.inertia = (int(self._iparm[21]), int(self._iparm[22]))
 
+    @classmethod
+    def analysis(cls, A, solver, *, symmetric: bool = True, positive: bool = False) -> np.ndarray:
+        """``iparm`` after PARDISO's analysis phase of ``A`` alone (no numerical factorization; nothing is
+        kept): ``iparm[14:17]`` the peak, permanent and factor memory in KB, ``iparm[17]`` the nonzeros of
+        the factor, ``iparm[18]`` the MFLOPS of its numerical factorization. The ordering is the one a
+        factorization with ``solver`` would compute (and is remembered in its ordering cache)."""
+        self = cls.__new__(cls)
+        Factorization.__init__(self, A, solver.stats)
+        self._setup(A, symmetric=symmetric, positive=positive)
+        try:
+            self._analyse(solver.orderings, matching=not symmetric, flops=True)
+            return self._iparm.copy()
+        finally:
+            self._release()
+
+    def _setup(self, A, *, symmetric: bool, positive: bool) -> None:
+        """The matrix type and the upper triangle (symmetric) or the whole ``A`` in PARDISO's arrays."""
+        import ctypes
+
+        self._fn = mkl_pardiso()
+        self._ctypes = ctypes
+        self._live = False
+        self._ooc: OutOfCore | None = None
+        cplx = np.iscomplexobj(A.data)
+        if cplx:
+            self._mtype = 6 if symmetric else 13
+        else:
+            self._mtype = (2 if positive else -2) if symmetric else 11
+        self.dtype = np.dtype(np.complex128 if cplx else np.float64)
+        U = sp.triu(A, format="csr") if symmetric else sp.csr_matrix(A)
+        U.sum_duplicates()
+        U.sort_indices()
+        if np.any(np.diff(U.indptr) == 0):
+            raise SolverError("matrix has an empty row: it is singular")
+        self._values = np.ascontiguousarray(U.data, dtype=self.dtype)
+        self._ia = np.ascontiguousarray(U.indptr, dtype=np.int32)
+        self._ja = np.ascontiguousarray(U.indices, dtype=np.int32)
+        self._n = U.shape[0]
+        self._pt = np.zeros(64, dtype=np.int64)
+        self._iparm: np.ndarray = np.zeros(64, dtype=np.int32)
+        self._data: np.ndarray = self._values
+
     def _factor(self, A, solver, *, matching: bool) -> None:
         """Analysis (with the ordering of this pattern when known), memory plan and numerical factorization."""
-        orderings = solver.orderings
         cplx = self.dtype.kind == "c"
-        self._data = self._values
-        self._iparm = np.zeros(64, dtype=np.int32)
+        self._analyse(solver.orderings, matching=matching)
         ip = self._iparm
-        ip[0] = 1  # user values below, zeros are MKL defaults
-        ip[1] = 2  # nested dissection (METIS)
-        ip[7] = 0  # iterative refinement (two steps) only after perturbed pivots
-        ip[9] = 13 if self._mtype in (11, 13) else 8  # pivot perturbation 1e-13 / 1e-8
-        ip[10] = ip[12] = 1 if matching else 0  # scaling + weighted matching
-        ip[34] = 1  # zero-based indices
-        # a plain ordering serves every symmetric type of the pattern; with matching MKL computes its own
-        key = orderings.key(self._mtype if matching else 0, self._ia, self._ja)
-        self._perm = None if matching else orderings.get(key)
-        if self._perm is None and not matching:
-            self._perm = orderings.near(key, self._ia)
-            if self._perm is not None:
-                self._perm = self._perm.copy()
-        ip[4] = 2 if self._perm is None else 1  # 2: return METIS' permutation, 1: reuse a stored one
-        if self._perm is None:
-            self._perm = np.zeros(self._n, dtype=np.int32)
-        self.reused_ordering = ip[4] == 1
-        self.matching = matching
-        self._call(11, None, None, 0)  # analysis: ordering, symbolic factorization, memory
-        if not self.reused_ordering and not matching:
-            orderings.remember(key, self._perm, self._ia)
         self._plan(solver, A, pardiso_estimates(ip, A, self._data.size))
         plan = self.memory
         assert plan is not None  # set by _plan
@@ -173,6 +171,37 @@ class PardisoFactorization(Factorization):
                 log.info("PARDISO out of core: a solve's backward error is above %.0e; solves are refined",
                          BACKWARD_TOL)
                 self._keep_for_refinement(A, solver)
+
+    def _analyse(self, orderings, *, matching: bool, flops: bool = False) -> None:
+        """PARDISO's analysis phase (11: ordering, with the one of this pattern when ``orderings`` knows it,
+        and symbolic factorization), its estimates in ``self._iparm``; ``flops`` asks for the MFLOPS of the
+        numerical factorization too (``iparm[18] = -1``: reported in ``iparm[18]``)."""
+        self._data = self._values
+        self._iparm = np.zeros(64, dtype=np.int32)
+        ip = self._iparm
+        ip[0] = 1  # user values below, zeros are MKL defaults
+        ip[1] = 2  # nested dissection (METIS)
+        ip[7] = 0  # iterative refinement (two steps) only after perturbed pivots
+        ip[9] = 13 if self._mtype in (11, 13) else 8  # pivot perturbation 1e-13 / 1e-8
+        ip[10] = ip[12] = 1 if matching else 0  # scaling + weighted matching
+        ip[34] = 1  # zero-based indices
+        if flops:
+            ip[17] = ip[18] = -1  # report the nonzeros of the factor and the MFLOPS of its factorization
+        # a plain ordering serves every symmetric type of the pattern; with matching MKL computes its own
+        key = orderings.key(self._mtype if matching else 0, self._ia, self._ja)
+        self._perm = None if matching else orderings.get(key)
+        if self._perm is None and not matching:
+            self._perm = orderings.near(key, self._ia)
+            if self._perm is not None:
+                self._perm = self._perm.copy()
+        ip[4] = 2 if self._perm is None else 1  # 2: return METIS' permutation, 1: reuse a stored one
+        if self._perm is None:
+            self._perm = np.zeros(self._n, dtype=np.int32)
+        self.reused_ordering = ip[4] == 1
+        self.matching = matching
+        self._call(11, None, None, 0)  # analysis: ordering, symbolic factorization, memory
+        if not self.reused_ordering and not matching:
+            orderings.remember(key, self._perm, self._ia)
 
     def _stable(self, A) -> bool:
         """No perturbed pivot, and the backward error of one solve (:func:`~flexmor.linalg.memory.check_solve`)

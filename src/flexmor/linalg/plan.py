@@ -1,0 +1,332 @@
+"""What a factorization will cost per backend and memory mode, without factorizing: the solver side of the plan.
+
+For the matrix ``A`` of a model (``K - sigma M`` with a negative shift: real, symmetric, positive
+definite, the matrix of the eigen solves and of Krylov's real points) each backend of
+:data:`flexmor.linalg.backends.BACKENDS` that has an estimator in :data:`ESTIMATORS` gives a
+:class:`BackendEstimate`: per memory mode (double, mixed, ooc, :mod:`flexmor.linalg.memory`) the bytes of
+the factorization, the seconds of one factorization and the seconds per solved right-hand side, for the
+real matrix and for a complex one of the same pattern (``K - w^2 M + i w D``).
+
+Memory is the estimate the real run plans its memory mode with: PARDISO's analysis phase
+(:meth:`flexmor.linalg.pardiso.PardisoFactorization.analysis`, :func:`~flexmor.linalg.memory.pardiso_estimates`)
+or the SuperLU heuristic (:func:`~flexmor.linalg.memory.estimate_memory`), so :func:`auto_choice`, which calls
+the functions a factorization calls (:meth:`~flexmor.linalg.context.SolverContext.pick`,
+:func:`~flexmor.linalg.memory.plan_memory`), says what ``auto`` will take.
+
+Time comes from the work of the factorization and a machine rate measured now (:func:`calibrate`): the
+backend factorizes the leading ``CALIBRATION_ROWS`` x ``CALIBRATION_ROWS`` block of ``A`` itself (the same
+elements, numbering and coupling as the model, a fraction of its work) and solves a block of right-hand
+sides with it. The work is PARDISO's own count of floating-point operations (``iparm[18]``) and factor
+nonzeros (``iparm[17]``); for SuperLU, which reports nothing beforehand, the fill of the calibration block is
+measured and scaled to the model by the heuristic's growth law, and the work taken as ``fill^2 / n`` (the
+operations of a factor with ``fill / n`` entries per column). A solve costs a pass over the factor per
+right-hand side. A complex matrix of the same pattern: twice the factor's bytes, the times of
+:data:`COMPLEX_FACTOR`.
+
+A backend contributes its row through one function in :data:`ESTIMATORS`::
+
+    estimate(A, *, positive: bool, rows: int) -> BackendEstimate
+
+``A`` the real matrix (CSR, both triangles), ``positive`` whether it is positive definite, ``rows`` the size
+of the calibration block. It may factorize that block, never ``A``.
+"""
+
+from __future__ import annotations
+
+import importlib
+import time
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from types import MappingProxyType
+
+import numpy as np
+
+from ..errors import OptionError, SolverError
+from .backends import BACKENDS
+from .context import SolverContext
+from .memory import MODE_NAMES, estimate_memory, matrix_bytes, pardiso_estimates, plan_memory
+from .resources import MEMORY_FRACTION
+
+__all__ = ["CALIBRATION_ROWS", "CALIBRATION_COLUMNS", "COMPLEX_FACTOR", "ESTIMATORS", "MIXED_SOLVE_FACTOR",
+           "OOC_FACTOR", "REUSED_ANALYSIS", "ModeEstimate", "BackendEstimate", "estimate_backends", "auto_choice",
+           "calibrate"]
+
+#: Rows of the leading block of ``A`` that a backend factorizes to measure the machine's rate.
+CALIBRATION_ROWS = 8000
+
+#: Right-hand sides of the calibration's block solve.
+CALIBRATION_COLUMNS = 8
+
+#: A solve of the mixed mode costs this many double-precision solves: its refinement took 7-8
+#: single-precision solves and as many products with ``A`` (bench/README.md, ``memory.py``).
+MIXED_SOLVE_FACTOR = 8.0
+
+#: A complex matrix of the same pattern against the real one (factorization, solve): 2.3x and 4x, PARDISO
+#: in one thread at 27,000 DOF (bench/README.md, ``memory.py``: 4.16 s against 1.79 s, 1.74 s against 0.44 s);
+#: four times the operations, at a higher rate in the factorization.
+COMPLEX_FACTOR = (2.3, 4.0)
+
+#: Share of the analysis a factorization pays when the ordering of its pattern is reused: "a quarter to a
+#: half" of METIS' own (:class:`flexmor.linalg.factorization.OrderingCache`).
+REUSED_ANALYSIS = 0.5
+
+#: Out of core against in core (factorization, solve): 1.1-3.4x and 0.9-1.3x with the factor files in
+#: the page cache (bench/README.md, ``memory.py``); a machine that must read them from disk is slower.
+OOC_FACTOR = (2.0, 1.5)
+
+
+@dataclass(frozen=True)
+class ModeEstimate:
+    """The cost of one factorization in one memory mode.
+
+    Attributes
+    ----------
+    bytes : float or None
+        Peak bytes of the factorization and its factor (None: not known).
+    factor_seconds : float or None
+        Seconds of one factorization (analysis included).
+    column_seconds : float or None
+        Seconds per right-hand side solved with the factor.
+    analysis_seconds : float
+        The part of ``factor_seconds`` spent ordering the pattern, of which a later factorization of the
+        same pattern pays :data:`REUSED_ANALYSIS` (its ordering reused).
+    """
+
+    bytes: float | None
+    factor_seconds: float | None
+    column_seconds: float | None
+    analysis_seconds: float = 0.0
+
+
+@dataclass(frozen=True)
+class BackendEstimate:
+    """What factorizing ``A`` would cost with one backend.
+
+    Attributes
+    ----------
+    backend : str
+        Its name in :data:`~flexmor.linalg.backends.BACKENDS`.
+    available : bool
+        It works on this machine.
+    real, complex : dict
+        Memory mode -> :class:`ModeEstimate` for the real matrix and for a complex one of its pattern
+        (empty: no estimate; a mode missing: the backend lacks it).
+    source : str
+        Where the estimates come from (the analysis, a heuristic, the calibration), or why there are none.
+    flops : float or None
+        Floating-point operations of the real factorization.
+    factor_nonzeros : float or None
+        Entries of the real factor.
+    calibration : dict
+        What the calibration measured (rows, seconds, rate).
+    """
+
+    backend: str
+    available: bool
+    real: dict = field(default_factory=dict)
+    complex: dict = field(default_factory=dict)
+    source: str = ""
+    flops: float | None = None
+    factor_nonzeros: float | None = None
+    calibration: dict = field(default_factory=dict)
+
+    def memory_estimates(self, is_complex: bool) -> dict:
+        """``double``/``mixed``/``ooc`` -> bytes (None where the backend lacks the mode), as
+        :func:`~flexmor.linalg.memory.plan_memory` takes them."""
+        modes = self.complex if is_complex else self.real
+        return {m: (modes[m].bytes if m in modes else None) for m in MODE_NAMES}
+
+
+def _modes(double: float, mixed: float, ooc: float | None, factor_s: float, column_s: float,
+           analysis_s: float = 0.0) -> dict:
+    """The :class:`ModeEstimate` of each mode from the double-precision times and each mode's bytes."""
+    out = {"double": ModeEstimate(double, factor_s, column_s, analysis_s),
+           "mixed": ModeEstimate(mixed, factor_s, column_s * MIXED_SOLVE_FACTOR, analysis_s)}
+    if ooc is not None:
+        out["ooc"] = ModeEstimate(ooc, factor_s * OOC_FACTOR[0], column_s * OOC_FACTOR[1], analysis_s)
+    return out
+
+
+def _as_complex(modes: dict, A) -> dict:
+    """The estimates for a complex matrix of ``A``'s pattern: the factor's bytes doubled (its values; the
+    matrix kept beside it too), the times but the analysis' scaled by :data:`COMPLEX_FACTOR`."""
+    extra = float(A.data.nbytes)
+    return {m: ModeEstimate(None if e.bytes is None else 2.0 * e.bytes + extra,
+                            None if e.factor_seconds is None else
+                            e.analysis_seconds + COMPLEX_FACTOR[0] * (e.factor_seconds - e.analysis_seconds),
+                            None if e.column_seconds is None else COMPLEX_FACTOR[1] * e.column_seconds,
+                            e.analysis_seconds)
+            for m, e in modes.items()}
+
+
+def _block(A, rows: int):
+    """The leading ``rows`` x ``rows`` block of ``A`` (CSR)."""
+    m = min(int(rows), A.shape[0])
+    return A[:m][:, :m].tocsr()
+
+
+def _timed_factor(backend: str, B, positive: bool):
+    """``(factorization, seconds)`` of ``B`` by ``backend`` in double precision (the path of a real run)."""
+    from .factorize import factorize
+
+    F = factorize(B, solver=SolverContext(backend=backend, factor_memory="double"), positive=positive, check=False)
+    return F, F.seconds
+
+
+def _column_seconds(F, n: int) -> float:
+    """Seconds per right-hand side of a block solve of :data:`CALIBRATION_COLUMNS` columns with ``F``."""
+    b = np.random.default_rng(0).standard_normal((n, CALIBRATION_COLUMNS))
+    t0 = time.perf_counter()
+    F.solve(b)
+    return (time.perf_counter() - t0) / CALIBRATION_COLUMNS
+
+
+def calibrate(backend: str, A, *, positive: bool, rows: int = CALIBRATION_ROWS) -> dict:
+    """Factorize the leading ``rows`` x ``rows`` block of ``A`` with ``backend`` and solve a block with it,
+    twice each, keeping the shorter times (a machine busy with other work slows one of them).
+
+    Returns ``rows``, ``block`` (the block), ``factorization`` (to read its fill), ``factor_seconds`` and
+    ``column_seconds``.
+    """
+    B = _block(A, rows)
+    F, seconds = _timed_factor(backend, B, positive)
+    again, seconds2 = _timed_factor(backend, B, positive)
+    del again
+    return {"rows": B.shape[0], "block": B, "factorization": F, "factor_seconds": min(seconds, seconds2),
+            "column_seconds": min(_column_seconds(F, B.shape[0]) for _ in range(2))}
+
+
+def _pardiso_estimate(A, *, positive: bool, rows: int) -> BackendEstimate:
+    """PARDISO: memory, operations and factor nonzeros from its analysis of ``A``; the rate from the
+    analysis and factorization of the calibration block."""
+    from .pardiso import PardisoFactorization
+
+    t0 = time.perf_counter()
+    ip = PardisoFactorization.analysis(A, SolverContext(), positive=positive)
+    analysis_s = time.perf_counter() - t0
+    cal = calibrate("pardiso", A, positive=positive, rows=rows)
+    cal_analysis = np.inf
+    for _ in range(2):
+        t0 = time.perf_counter()
+        ipc = PardisoFactorization.analysis(cal["block"], SolverContext(), positive=positive)
+        cal_analysis = min(cal_analysis, time.perf_counter() - t0)
+    flops, fill = 1e6 * float(ip[18]), float(ip[17])
+    cal_flops, cal_fill = 1e6 * max(float(ipc[18]), 1.0), max(float(ipc[17]), 1.0)
+    rate = cal_flops / max(cal["factor_seconds"] - cal_analysis, 1e-6)  # operations per second
+    factor_s = analysis_s + flops / rate
+    column_s = cal["column_seconds"] * fill / cal_fill
+    est = pardiso_estimates(ip, A, (A.nnz + A.shape[0]) // 2)  # the upper triangle PARDISO keeps
+    real = _modes(est["double"], est["mixed"], est["ooc"], factor_s, column_s, analysis_s)
+    return BackendEstimate("pardiso", True, real, _as_complex(real, A), "PARDISO analysis (iparm[14:19]); "
+                           f"rate from factorizing the leading {cal['rows']} rows", flops, fill,
+                           {"rows": cal["rows"], "seconds": cal["factor_seconds"], "flops_per_second": rate,
+                            "analysis_seconds": analysis_s})
+
+
+def _scipy_estimate(A, *, positive: bool, rows: int) -> BackendEstimate:
+    """SuperLU: memory from :func:`~flexmor.linalg.memory.estimate_memory`; the fill of the calibration block
+    measured and scaled to ``A`` by that heuristic, the work ``fill^2 / n``, the rate from the block's
+    factorization."""
+    cal = calibrate("scipy", A, positive=positive, rows=rows)
+    lu = cal["factorization"]._lu
+    cal_fill = float(lu.L.nnz + lu.U.nnz)
+    n, m = A.shape[0], cal["rows"]
+    double, block = float(estimate_memory(A, "scipy") or 0.0), float(estimate_memory(cal["block"], "scipy") or 1.0)
+    fill = cal_fill * double / block
+    rate = (cal_fill ** 2 / m) / max(cal["factor_seconds"], 1e-6)
+    flops = fill ** 2 / n
+    real = _modes(double, double / 2 + matrix_bytes(A), None, flops / rate, cal["column_seconds"] * fill / cal_fill)
+    return BackendEstimate("scipy", True, real, _as_complex(real, A), "SuperLU heuristic (estimate_memory); "
+                           f"fill and rate from factorizing the leading {m} rows", flops, fill,
+                           {"rows": m, "seconds": cal["factor_seconds"], "flops_per_second": rate})
+
+
+def _lazy(module: str, name: str) -> Callable:
+    """The estimator ``name`` of ``flexmor.linalg.<module>``, imported when first called; a backend whose
+    module does not give one yet has no estimate."""
+    def estimate(A, *, positive: bool, rows: int):
+        try:
+            fn = getattr(importlib.import_module(f"{__package__}.{module}"), name)
+        except (ImportError, AttributeError):
+            return None
+        return fn(A, positive=positive, rows=rows)
+    return estimate
+
+
+#: Backend name -> its estimator ``estimate(A, *, positive, rows) -> BackendEstimate`` (module docstring);
+#: a backend of :data:`~flexmor.linalg.backends.BACKENDS` without one gets a row without estimates.
+ESTIMATORS: Mapping[str, Callable] = MappingProxyType({
+    "pardiso": _pardiso_estimate,
+    "scipy": _scipy_estimate,
+    "amg": _lazy("amg", "plan_estimate"),
+})
+
+
+def estimate_backends(A, *, positive: bool = True, rows: int = CALIBRATION_ROWS,
+                      available: tuple | None = None) -> list[BackendEstimate]:
+    """One :class:`BackendEstimate` per backend of :data:`~flexmor.linalg.backends.BACKENDS`, in its order.
+
+    Parameters
+    ----------
+    A : sparse matrix, shape (n, n)
+        The real symmetric matrix (both triangles).
+    positive : bool
+        ``A`` is positive definite.
+    rows : int
+        Rows of the calibration block.
+    available : tuple of str, optional
+        The backends that work here (default: as a new :class:`SolverContext` finds them).
+
+    Returns
+    -------
+    list of BackendEstimate
+        A backend not available here, or without an estimator, has empty estimates and says why in ``source``.
+    """
+    A = A.tocsr()
+    avail = SolverContext().available() if available is None else tuple(available)
+    out = []
+    for name in BACKENDS:
+        if name not in avail:
+            out.append(BackendEstimate(name, False, source="not available here"))
+            continue
+        fn = ESTIMATORS.get(name)
+        est = fn(A, positive=positive, rows=rows) if fn is not None else None
+        out.append(est if est is not None else
+                   BackendEstimate(name, True, source="no estimator for this backend (not estimated)"))
+    return out
+
+
+def auto_choice(solver: SolverContext, estimates: list[BackendEstimate], n: int, *, is_complex: bool,
+                positive: bool) -> dict:
+    """What ``solver`` takes for a matrix of ``n`` equations of this kind: the backend of
+    :meth:`~flexmor.linalg.context.SolverContext.pick` and the memory mode of
+    :func:`~flexmor.linalg.memory.plan_memory` with its estimates.
+
+    Returns
+    -------
+    dict
+        ``backend``, ``mode`` (None when nothing fits), ``reason`` (why this mode, or the refusal the run
+        would end with), ``usable`` (bytes, or None).
+    """
+    try:
+        backend = solver.pick(is_complex=is_complex, positive=positive, symmetric=True)
+    except (OptionError, SolverError) as exc:
+        return {"backend": None, "mode": None, "reason": str(exc), "usable": None}
+    from .factorize import _memory_backend
+
+    try:
+        backend = _memory_backend(backend, solver)
+    except SolverError as exc:
+        return {"backend": backend, "mode": None, "reason": str(exc), "usable": None}
+    if backend not in ("pardiso", "scipy"):  # the backends that plan a memory mode; the others factorize in double
+        return {"backend": backend, "mode": "double", "reason": "the backend has no memory modes", "usable": None}
+    row = next((e for e in estimates if e.backend == backend), None)
+    memory = row.memory_estimates(is_complex) if row is not None else {m: None for m in MODE_NAMES}
+    try:
+        plan = plan_memory(solver, backend, n, memory)
+    except SolverError as exc:
+        usable = solver.memory_available()
+        return {"backend": backend, "mode": None, "reason": str(exc),
+                "usable": None if usable is None else MEMORY_FRACTION * usable}
+    return {"backend": backend, "mode": plan.mode, "reason": plan.reason, "usable": plan.usable}
+
