@@ -5,7 +5,7 @@ PYTHON ?= python3
 VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
-EXTRAS := full,fast,test,ansys,exudyn,mesh
+EXTRAS := full,fast,test,ansys,exudyn,mesh,amg
 MPI_EXTRAS := full,test
 
 .PHONY: demo lint test test-arith test-wheel test-mpi install bench clean lock docs

@@ -289,8 +289,10 @@ class System(Shown):
         given = {k: v for k, v in options.items() if k not in _JUDGE_KEYWORDS}
         options = self._moving_options(method, self.options(method, options))
         method_band = options.pop("band", None)  # the method's band (the study's unless given)
+        iterative = judge and self.solver.backend == "amg"  # no full FRF: the band for the mounted check alone
         body, record = reduce_and_judge(self.model, method, order, self.ports, method_band=method_band,
-                                        full=(lambda: self.full) if judge else None, solver=self.solver,
+                                        full=(lambda: self.full) if judge and not iterative else None,
+                                        band=self.band if iterative else None, solver=self.solver,
                                         uncoupled=self.as_read if self.couplings else None,
                                         couplings=self.couplings, **options)
         self._record(body, method, order, given)

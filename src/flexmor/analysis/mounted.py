@@ -55,6 +55,7 @@ import scipy.linalg as sla
 from ..damping import ModalDamping
 from ..errors import FlexmorError, ModelError, OptionError
 from ..linalg import factorize
+from ..linalg.amg import register_model, register_rows
 from ..linalg.context import SolverContext, as_solver
 from ..linalg.distributed import is_partitioned
 from ..linalg.eigen import eigenmodes, frequencies_hz, rigid_body_threshold
@@ -119,6 +120,7 @@ class FullMounted:
         self.model, self.modes, self.solver = model, int(modes), as_solver(solver)
         self.fmax = None if fmax is None else float(fmax)
         self.phi = rigid_body_modes(model)
+        register_model(self.solver, model)
         self.threshold = rigid_body_threshold(model.K, model.M)
         self._cases: dict = {}
         self.n_factorizations = 0
@@ -138,6 +140,7 @@ class FullMounted:
             self._cases[key] = case
             return case
         free = np.setdiff1d(np.arange(m.n_dof), np.asarray(support.eqs))
+        register_rows(self.solver, m.n_dof, free)  # (the amg backend's near-null space: flexmor.linalg.amg)
         Kf = m.K[free][:, free].tocsr()
         Mf = m.M[free][:, free].tocsr()
         rank = 0

@@ -112,11 +112,12 @@ def _body_suffix(path) -> None:
 def _solver(args):
     """The solver context of one command: ``--backend``, ``--factor-memory``, ``--memory-limit`` (out-of-core
     files beside ``-o FILE``), the progress callback."""
-    from ..linalg.context import SolverContext
+    from ..linalg.context import SOLVE_TOL, SolverContext
 
     out = getattr(args, "output_file", None)
     return SolverContext(backend=args.backend, progress=_progress(args), factor_memory=args.factor_memory,
-                         memory_limit=args.memory_limit, scratch_dir=str(Path(out).resolve().parent) if out else None)
+                         memory_limit=args.memory_limit, scratch_dir=str(Path(out).resolve().parent) if out else None,
+                         solve_tol=getattr(args, "solve_tol", SOLVE_TOL))
 
 
 def _factor_note(out: dict, solver) -> str:
@@ -124,7 +125,8 @@ def _factor_note(out: dict, solver) -> str:
     from ..linalg.memory import describe_factor, factor_record
 
     out["factor"] = factor_record(solver.stats)
-    return f"factor: {describe_factor(solver.stats)}" if solver.stats.mixed or solver.stats.ooc else ""
+    st = solver.stats
+    return f"factor: {describe_factor(st)}" if st.mixed or st.ooc or st.iterative else ""
 
 
 def _preparation(args) -> dict:

@@ -17,6 +17,7 @@ from .._version import __version__
 from ..analysis.frequency import MEASURES, TOL_MEASURES
 from ..errors import did_you_mean
 from ..io import EXPORT_FORMATS
+from ..linalg.context import SOLVE_TOL
 from ..linalg.memory import FACTOR_MEMORY
 from ..options import DEFAULT_BAND, option_fields
 from ..tolerance import tol_methods
@@ -135,7 +136,11 @@ def _add_model_args(p, damping=True):
     p.add_argument("--mesh", metavar="FILE", help=_MESH_HELP)
     p.add_argument("--units", type=_unit_system("--units"), metavar="SYSTEM", help=_UNITS_HELP)
     p.add_argument("--backend", default="auto",
-                   help="sparse solver: auto, pardiso, cholmod, scipy, petsc (MPI: mpirun -n P flexmor ...)")
+                   help="sparse solver: auto, pardiso, cholmod, scipy, petsc (MPI: mpirun -n P flexmor ...), amg "
+                        "(iterative: algebraic multigrid + block CG for real positive definite matrices; no band "
+                        "error, krylov at real points)")
+    p.add_argument("--solve-tol", type=float, default=SOLVE_TOL, metavar="TOL",
+                   help=f"relative residual of every solve of backend amg (default {SOLVE_TOL:g})")
     p.add_argument("--factor-memory", choices=FACTOR_MEMORY, default="auto",
                    help="memory mode of the factorizations: double (in core), mixed (single-precision factor, "
                         "solves refined in double; pardiso, scipy), ooc (out of core, files beside the output or "
@@ -341,7 +346,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("study", help="study file (.toml)")
     p.add_argument("-o", "--output-file", metavar="FILE", help="reduced body file (.h5; default the study's)")
     p.add_argument("--force", action="store_true", help="overwrite an existing output file")
-    p.add_argument("--backend", default="auto", help="sparse solver: auto, pardiso, cholmod, scipy, petsc")
+    p.add_argument("--backend", default="auto", help="sparse solver: auto, pardiso, cholmod, scipy, petsc, amg")
+    p.add_argument("--solve-tol", type=float, default=SOLVE_TOL, metavar="TOL", help="as for reduce")
     p.add_argument("--factor-memory", choices=FACTOR_MEMORY, default="auto", help="as for reduce")
     p.add_argument("--memory-limit", type=memory_size, metavar="SIZE", help="as for reduce")
     p.add_argument("--json", action="store_true", help="print one JSON object on stdout")

@@ -18,10 +18,16 @@ libraries are imported only when a backend is checked or used.
     definite matrices only.
 ``petsc``
     MUMPS through PETSc, distributed over MPI ranks (:mod:`flexmor.linalg.petsc`).
+``amg``
+    Not a factorization: smoothed-aggregation algebraic multigrid (*pyamg*, ``pip install
+    flexmor[amg]``) preconditioning block conjugate gradients, solving real symmetric positive
+    definite matrices to a stated relative residual (:mod:`flexmor.linalg.amg`); memory
+    proportional to the matrix, for models whose factor fits in no memory mode.
 
 ``auto`` (a choice of :class:`flexmor.linalg.context.SolverContext`, not a backend) picks the
-fastest available backend that supports the matrix (cholmod for real positive definite, then
-pardiso for real or complex, then scipy).
+fastest available direct backend that supports the matrix (cholmod for real positive definite, then
+pardiso for real or complex, then scipy); with ``factor_memory="auto"`` it takes ``amg`` for a real
+symmetric matrix none of them can factorize in any memory mode (:func:`flexmor.linalg.factorize.factorize`).
 
 pardiso and scipy choose a memory mode per factorization from their estimate
 (:mod:`flexmor.linalg.memory`): double precision in core, mixed precision (single-precision
@@ -124,6 +130,12 @@ def _pardiso(A, solver, *, symmetric=True, positive=False):
     return PardisoFactorization(A, solver, symmetric=symmetric, positive=positive)
 
 
+def _amg(A, solver, *, symmetric=True, positive=False):
+    from .amg import AmgSolver
+
+    return AmgSolver(A, solver, symmetric=symmetric, positive=positive)
+
+
 def _petsc_ok() -> bool:
     from .petsc import available
 
@@ -155,6 +167,9 @@ class Backend:
         Handles complex matrices.
     positive_only : bool
         Needs a real symmetric positive definite matrix.
+    iterative : bool
+        Solves iteratively to a tolerance instead of factorizing; ``auto`` takes it only when no
+        direct factorization fits.
     """
 
     name: str
@@ -163,6 +178,7 @@ class Backend:
     available: Callable[[], bool]
     complex: bool
     positive_only: bool
+    iterative: bool = False
 
 
 #: The backends, fastest first (the preference order of ``auto``); read-only.
@@ -177,16 +193,20 @@ BACKENDS: Mapping[str, Backend] = MappingProxyType({b.name: b for b in (
     Backend("petsc", "MUMPS through PETSc, distributed over MPI ranks (mpirun -n P ... --backend petsc); "
             "real SPD, symmetric indefinite (inertia) and complex (real 2N form); SLEPc eigenpairs",
             _petsc, _petsc_ok, complex=True, positive_only=False),
+    Backend("amg", "smoothed-aggregation AMG (pyamg) preconditioning block CG, to a relative residual "
+            "(--solve-tol); real symmetric positive definite only; memory proportional to the matrix",
+            _amg, lambda: _has("pyamg"), complex=False, positive_only=True, iterative=True),
 )})
 
 
-def available_backends() -> list[str]:
-    """Names of the backends that work on this machine, fastest first."""
-    return [name for name, b in BACKENDS.items() if b.available()]
+def available_backends(*, iterative: bool = False) -> list[str]:
+    """Names of the sparse direct backends that work on this machine, fastest first (with ``iterative``,
+    the iterative ones too)."""
+    return [name for name, b in BACKENDS.items() if (iterative or not b.iterative) and b.available()]
 
 
 def describe_backends() -> list[dict]:
     """One dict per known backend: ``name``, ``available``, ``complex``, ``positive_only``, ``description``."""
-    avail = set(available_backends())
+    avail = set(available_backends(iterative=True))
     return [{"name": b.name, "available": b.name in avail, "complex": b.complex, "positive_only": b.positive_only,
-             "description": b.description} for b in BACKENDS.values()]
+             "iterative": b.iterative, "description": b.description} for b in BACKENDS.values()]

@@ -35,6 +35,9 @@ from .distributed import MPILayout, layout
 from .factorization import OrderingCache, SolverStats
 from .memory import FACTOR_MEMORY, REFINE_TOL
 
+#: Default relative residual of the iterative solves of the ``amg`` backend (:mod:`flexmor.linalg.amg`).
+SOLVE_TOL = 1e-10
+
 __all__ = ["SolverContext", "track", "step", "EigenPolicy", "DENSE_LIMIT", "LANCZOS_MAX_K",
            "EIGEN_METHODS", "as_solver"]
 
@@ -121,6 +124,9 @@ class SolverContext:
         Backward error to which the mixed mode refines each solve (default 1e-12).
     scratch_dir : str or Path, optional
         Where out-of-core factorizations write their temporary files (None: ``$TMPDIR``).
+    solve_tol : float
+        Relative residual ``||b - A x|| / ||b||`` to which the ``amg`` backend solves every column
+        (default 1e-10; :mod:`flexmor.linalg.amg`).
 
     Attributes
     ----------
@@ -128,6 +134,9 @@ class SolverContext:
         Factorizations and solves done with this context.
     orderings : OrderingCache
         Fill-reducing orderings reused by PARDISO.
+    near_null : dict
+        Matrix size -> :class:`flexmor.linalg.amg.NearNull`: the rigid-body motions of the geometry the
+        ``amg`` backend builds its hierarchy on (:func:`flexmor.linalg.amg.register_model`).
 
     Raises
     ------
@@ -144,8 +153,10 @@ class SolverContext:
     memory_limit: float | None = None
     refine_tol: float = REFINE_TOL
     scratch_dir: str | None = None
+    solve_tol: float = SOLVE_TOL
     stats: SolverStats = field(default_factory=SolverStats, init=False)
     orderings: OrderingCache = field(default_factory=OrderingCache, init=False, repr=False)
+    near_null: dict = field(default_factory=dict, init=False, repr=False)
     _available: tuple | None = field(default=None, init=False, repr=False)
     _memo: dict = field(default_factory=dict, init=False, repr=False)
     _kept: tuple | None = field(default=None, init=False, repr=False)
@@ -162,6 +173,8 @@ class SolverContext:
                               params=("memory_limit",))
         if not 0 < self.refine_tol < 1:
             raise OptionError(f"refine_tol must lie in (0, 1), got {self.refine_tol!r}", params=("refine_tol",))
+        if not 0 < self.solve_tol < 1:
+            raise OptionError(f"solve_tol must lie in (0, 1), got {self.solve_tol!r}", params=("solve_tol",))
 
     def memory_available(self) -> float | None:
         """Bytes of memory the factorizations may count on: ``memory_limit``, else the memory the
@@ -202,7 +215,7 @@ class SolverContext:
             return self.backend
         for name in _auto_candidates(avail):
             b = BACKENDS[name]
-            if (is_complex and not b.complex) or (b.positive_only and not (positive and symmetric)):
+            if b.iterative or (is_complex and not b.complex) or (b.positive_only and not (positive and symmetric)):
                 continue
             return name
         return "scipy"

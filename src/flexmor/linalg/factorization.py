@@ -42,6 +42,12 @@ class SolverStats:
     factor_reason : str
         Why the last factorization in mixed precision or out of core was made so
         (:func:`flexmor.linalg.memory.factor_record` summarizes these counts).
+    iterative, iterative_tol : int, float
+        Matrices solved iteratively instead of factorized (the ``amg`` backend,
+        :mod:`flexmor.linalg.amg`; counted in ``count`` too) and the relative residual asked of their solves.
+    iterations, iterations_max, iterative_residual : int, int, float
+        Block CG iterations of their solves in all and the most of one, and the largest relative
+        residual ``||b - A x|| / ||b||`` of a column they ended with.
     """
 
     count: int = 0
@@ -56,6 +62,11 @@ class SolverStats:
     refine_max_steps: int = 0
     refine_residual: float = 0.0
     factor_reason: str = ""
+    iterative: int = 0
+    iterative_tol: float = 0.0
+    iterations: int = 0
+    iterations_max: int = 0
+    iterative_residual: float = 0.0
 
 
 class Factorization:

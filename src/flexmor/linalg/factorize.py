@@ -17,7 +17,7 @@ import time
 import numpy as np
 import scipy.sparse as sp
 
-from ..errors import SolverError
+from ..errors import OutOfMemoryError, SolverError
 from .backends import BACKENDS
 from .context import SolverContext, as_solver
 from .distributed import is_partitioned
@@ -72,12 +72,20 @@ def factorize(A, *, solver: SolverContext | None = None, symmetric: bool = True,
         name = "petsc"  # which says what to install when it is missing
     else:
         name = solver.pick(is_complex=is_complex, positive=positive, symmetric=symmetric)
-    if is_complex and not BACKENDS[name].complex:
+    if is_complex and not BACKENDS[name].complex and not BACKENDS[name].iterative:
         log.info("backend %s has no complex support; using scipy", name)
         name = "scipy"
     name = _memory_backend(name, solver)
     t0 = time.perf_counter()
-    F = BACKENDS[name].factorize(A, solver, symmetric=symmetric, positive=positive)
+    try:
+        F = BACKENDS[name].factorize(A, solver, symmetric=symmetric, positive=positive)
+    except OutOfMemoryError as exc:
+        if not _iterative_instead(solver, is_complex, symmetric):
+            raise
+        log.info("no direct factorization fits (%s): backend amg instead of %s", exc, name)
+        name = "amg"
+        F = BACKENDS[name].factorize(A, solver, symmetric=symmetric, positive=positive)
+        solver.stats.factor_reason = f"no direct factorization fits: {exc}"
     F.seconds = time.perf_counter() - t0
     stats = solver.stats
     stats.count += 1
@@ -86,7 +94,7 @@ def factorize(A, *, solver: SolverContext | None = None, symmetric: bool = True,
         setattr(stats, F.memory.mode, getattr(stats, F.memory.mode) + 1)
         stats.factor_reason = F.memory.reason
     log.debug("factorized n=%d nnz=%d with %s in %.3f s", A.shape[0], A.nnz, name, F.seconds)
-    if check:
+    if check and not BACKENDS[name].iterative:  # (an iterative solve checks its residual itself)
         rng = np.random.default_rng(0)
         b = rng.standard_normal(A.shape[0])
         x = F.solve(b)
@@ -97,6 +105,13 @@ def factorize(A, *, solver: SolverContext | None = None, symmetric: bool = True,
                 "at an eigenfrequency of the body, or a free-free body without a shift or reference conditions"
             )
     return F
+
+
+def _iterative_instead(solver: SolverContext, is_complex: bool, symmetric: bool) -> bool:
+    """Whether ``auto`` takes the iterative ``amg`` backend for a matrix no direct factorization fits:
+    backend and memory mode ``auto``, a real symmetric matrix, pyamg installed."""
+    return (solver.backend == "auto" and solver.factor_memory == "auto" and not is_complex and symmetric
+            and "amg" in solver.available())
 
 
 #: The backends that have each forced memory mode (:mod:`flexmor.linalg.memory`).

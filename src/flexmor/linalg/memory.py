@@ -52,6 +52,7 @@ from .threads import sparse_dense
 
 __all__ = ["BACKWARD_TARGET", "FACTOR_MEMORY", "MEMORY_FRACTION", "MODE_NAMES", "REFINE_MAX_ITER", "REFINE_RESTART",
            "REFINE_TOL", "MemoryPlan", "OutOfCore", "describe_factor", "estimate_memory", "factor_record",
+           "iterative_record",
            "matrix_bytes", "norm_bound", "pardiso_estimates", "plan_memory", "refine", "refusal"]
 
 log = logging.getLogger(__name__)
@@ -175,17 +176,31 @@ def plan_memory(solver, backend: str, n: int, estimates: dict) -> MemoryPlan:
 def factor_record(stats) -> dict:
     """The memory modes of the factorizations counted in ``stats`` (a :class:`SolverStats`): the
     JSON record ``factor`` with the factorizations per mode, the refinement and the last reason."""
-    return {"double": stats.count - stats.mixed - stats.ooc, "mixed": stats.mixed, "ooc": stats.ooc,
+    return {"double": stats.count - stats.mixed - stats.ooc - stats.iterative, "mixed": stats.mixed, "ooc": stats.ooc,
             "refined_solves": stats.refined_solves, "refine_steps": stats.refine_steps,
             "refine_max_steps": stats.refine_max_steps,
             "refine_residual": stats.refine_residual if stats.refined_solves else None,
-            "reason": stats.factor_reason or None}
+            "reason": stats.factor_reason or None,
+            "iterative": iterative_record(stats) if stats.iterative else None}
+
+
+def iterative_record(stats, since: tuple = (0, 0)) -> dict:
+    """The matrices of ``stats`` solved iteratively (the ``amg`` backend) since the counts ``since`` =
+    ``(stats.iterative, stats.iterations)`` were taken: how many, their block CG iterations (in all, and the
+    most of one solve of the context), the relative residual asked and the largest one reached."""
+    return {"backend": "amg", "matrices": stats.iterative - since[0], "iterations": stats.iterations - since[1],
+            "iterations_max": stats.iterations_max, "solve_tol": stats.iterative_tol,
+            "relative_residual_max": stats.iterative_residual}
 
 
 def describe_factor(stats) -> str:
     """One line on the factorizations of ``stats`` not in double precision in core ("" when all were)."""
     parts = [f"{MODE_NAMES[m]} ({getattr(stats, m)} of {stats.count} factorizations)"
              for m in ("mixed", "ooc") if getattr(stats, m)]
+    if stats.iterative:
+        parts.append(f"amg + block CG for {stats.iterative} of {stats.count} matrices ({stats.iterations} "
+                     f"iterations, at most {stats.iterations_max} per solve; relative residual "
+                     f"{stats.iterative_residual:.0e}, asked {stats.iterative_tol:.0e})")
     if stats.refined_solves:
         parts.append(f"at most {stats.refine_max_steps} refinement steps per solve "
                      f"({stats.refined_solves} solves), residual {stats.refine_residual:.0e}")

@@ -22,8 +22,10 @@ import numpy as np
 from ..basis import Basis
 from ..body import ReducedModel
 from ..errors import OptionError, PortError
+from ..linalg.amg import register_model
 from ..linalg.context import as_solver
 from ..linalg.distributed import is_partitioned
+from ..linalg.memory import iterative_record
 from ..linalg.resources import check_basis_memory
 from ..linalg.threads import blas_threads
 from ..options import Band, check_option_types
@@ -133,6 +135,10 @@ def reduce(model, method: str, order: int | None, ports, *, inertia_loads: str =
     order = check_reachable(model, order)  # the order rule: see flexmor.reduction._registry
     if order is not None and not is_partitioned(model.K):  # a basis that cannot fit: refused before any work
         check_basis_memory(model.n_dof, order, as_solver(options.get("solver")))
+    solver = options.get("solver")
+    if solver is not None:  # the geometry's rigid motions, should the amg backend solve (flexmor.linalg.amg)
+        register_model(solver, model)
+        its0 = (solver.stats.iterative, solver.stats.iterations)
     t0 = time.perf_counter()
     with blas_threads(1):  # tall-skinny and small dense products (see flexmor.linalg.threads)
         basis_ports, inertia = with_inertia_loads(model, ports, inertia_loads if m.uses_inputs else "off")
@@ -156,6 +162,8 @@ def reduce(model, method: str, order: int | None, ports, *, inertia_loads: str =
         red = project(model, basis, ports)
         t2 = time.perf_counter()
     red.info.update(inertia)
+    if solver is not None and solver.stats.iterations > its0[1]:
+        red.info["iterative_solves"] = iterative_record(solver.stats, since=its0)
     if spin is not None:
         red.info["spin"] = _spin_record(model, red, spin_ops, spin_range, opts.get("solver"))
     if not m.uses_inputs:  # the basis ignores the inputs: no inertia loads could be asked for

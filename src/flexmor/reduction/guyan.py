@@ -9,6 +9,7 @@ import numpy as np
 from ..basis import Basis
 from ..errors import OptionError, check_choice
 from ..linalg import factorize
+from ..linalg.amg import register_rows
 from ..linalg.context import SolverContext, as_solver
 from ..options import option
 from ..ports import interface_dofs
@@ -37,6 +38,7 @@ def constraint_modes(model, interface, solver: SolverContext | None = None):
     K = model.K.tocsr()
     Kii = K[i][:, i]
     Kib = K[i][:, b]
+    register_rows(solver, model.n_dof, i)  # (the amg backend's near-null space: flexmor.linalg.amg)
     F = factorize(Kii, solver=solver, symmetric=True, positive=True)
     V = np.zeros((model.n_dof, b.size))
     V[b, np.arange(b.size)] = 1.0
