@@ -227,9 +227,9 @@ def _grid_stage(model, n_freq: int, path: str) -> tuple[list[Stage], str]:
         exact_modal = isinstance(model.damping, ModalDamping) and dense_applicable(model)
         path = ("surrogate" if damped and model.n_dof >= SURROGATE_MIN_DOF and not exact_modal else
                 "dense" if dense_applicable(model) else "direct")
-    if path == "direct":
+    if path == "direct":  # undamped: K - w^2 M, real and indefinite
         return [Stage(f"error grid: {n_freq}+ frequencies (adaptive), K - w^2 M + i w D each", model.n_dof,
-                      damped, n_freq, n_freq, False)], path
+                      damped, n_freq, n_freq, False)], "direct: one factorization per grid frequency (its stage above)"
     if path == "dense":
         return [], "dense: one dense eigendecomposition (8 n^2 bytes), no sparse factorization"
     return [], "surrogate: a modal pre-pass and a few checking factorizations (not estimated)"
