@@ -191,27 +191,36 @@ def main(argv=None) -> int:
         print(json.dumps(run_case(args.case, methods, args.order, args.order_krylov, band, bare=not args.no_bare,
                                   memory=memory)))
         return 0
-    rows = []
+    def command(size: int) -> list[str]:
+        return [sys.executable, str(pathlib.Path(__file__).resolve()), "--case", str(size), "--methods",
+                ",".join(methods), "--order", str(args.order), "--order-krylov", str(args.order_krylov), "--band",
+                args.band, "--factor-memory", args.factor_memory] + \
+            (["--memory-limit", args.memory_limit] if args.memory_limit else []) + (["--no-bare"] if args.no_bare else [])
+
     print(f"{'size':>8} {'n_dof':>8} {'nnz(K)':>10}", flush=True)
-    for size in [int(s) for s in args.sizes.split(",")]:
-        cmd = [sys.executable, str(pathlib.Path(__file__).resolve()), "--case", str(size), "--methods",
-               ",".join(methods), "--order", str(args.order), "--order-krylov", str(args.order_krylov), "--band", args.band,
-               "--factor-memory", args.factor_memory] + (["--memory-limit", args.memory_limit] if args.memory_limit else []) + \
-              (["--no-bare"] if args.no_bare else [])
+    run_cases([int(s) for s in args.sizes.split(",")], command, _row, timeout=args.timeout, out=args.out)
+    return 0
+
+
+def run_cases(sizes: list[int], command, rows, *, timeout: float, out: str) -> list[dict]:
+    """Each size in a fresh process (``command(size)``, which prints one JSON line), its lines of ``rows(size, r)``
+    printed as it ends; all records written to ``out``."""
+    records = []
+    for size in sizes:
         t0 = time.perf_counter()
-        proc = subprocess.run(cmd, capture_output=True, text=True, timeout=args.timeout, check=False)
+        proc = subprocess.run(command(size), capture_output=True, text=True, timeout=timeout, check=False)
         lines = [ln for ln in proc.stdout.splitlines() if ln.startswith("{")]
         if proc.returncode or not lines:
             print(f"{size:>8}  failed: {(proc.stderr.strip().splitlines() or ['?'])[-1]}", flush=True)
             continue
         r = json.loads(lines[-1])
         r["process_s"] = time.perf_counter() - t0
-        rows.append(r)
-        print("\n".join(_row(size, r)), flush=True)
-    out = pathlib.Path(args.out)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    out.write_text(json.dumps(rows, indent=1))
-    return 0
+        records.append(r)
+        print("\n".join(rows(size, r)), flush=True)
+    path = pathlib.Path(out)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(json.dumps(records, indent=1))
+    return records
 
 
 if __name__ == "__main__":

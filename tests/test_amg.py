@@ -9,10 +9,11 @@ from helpers import CLAMPED, run_json
 from flexmor.analysis.compare import FullResponse
 from flexmor.errors import OptionError, SolverError
 from flexmor.linalg import SolverContext, factorize
-from flexmor.linalg.amg import block_cg, register_model
+from flexmor.linalg.amg import block_cg
 from flexmor.linalg.eigen import eigenmodes
 from flexmor.models import cantilever
 from flexmor.ports import make_ports
+from flexmor.rigid import register_near_null
 from flexmor.workflow import reduce_and_judge
 
 pytest.importorskip("pyamg", reason="the amg backend needs pyamg (pip install 'flexmor[amg]')")
@@ -33,7 +34,7 @@ def test_block_cg_reaches_the_stated_residual_and_the_direct_solution(beam):
     rng = np.random.default_rng(1)
     B = rng.standard_normal((beam.n_dof, 6))
     solver = SolverContext(backend="amg", solve_tol=1e-9)
-    register_model(solver, beam)
+    register_near_null(solver, beam)
     F = factorize(beam.K, solver=solver, positive=True)
     X = F.solve(B)
     assert F.backend == "amg" and F.near_null.startswith("6 rigid-body motions")
@@ -53,7 +54,7 @@ def test_the_rigid_motions_of_the_geometry_cut_the_iterations(beam):
     for registered in (True, False):
         solver = SolverContext(backend="amg")
         if registered:
-            register_model(solver, beam)
+            register_near_null(solver, beam)
         factorize(beam.K, solver=solver, positive=True).solve(b)
         counts[registered] = solver.stats.iterations
     assert counts[True] * 4 < counts[False]
@@ -61,7 +62,7 @@ def test_the_rigid_motions_of_the_geometry_cut_the_iterations(beam):
 
 def test_complex_and_indefinite_matrices_are_refused_naming_the_backend(beam):
     solver = SolverContext(backend="amg")
-    register_model(solver, beam)
+    register_near_null(solver, beam)
     w = 2 * np.pi * 500.0
     with pytest.raises(SolverError, match="backend 'amg' solves real symmetric positive definite"):
         factorize((beam.K - w**2 * beam.M + 1j * w * 1e-6 * beam.K).tocsr(), solver=solver)
@@ -130,7 +131,7 @@ def test_a_free_body_is_reduced_with_a_negative_shift():
 
 def test_auto_takes_amg_where_no_factor_fits(beam):
     solver = SolverContext(memory_limit=2e5)  # 200 kB: no direct mode fits
-    register_model(solver, beam)
+    register_near_null(solver, beam)
     F = factorize(beam.K, solver=solver, positive=True)
     assert F.backend == "amg"
     assert solver.stats.factor_reason.startswith("no direct factorization fits")
@@ -153,3 +154,34 @@ def test_the_command_line_reduces_with_amg_and_records_the_solves(capsys, tmp_pa
     assert res["band_error"] is None
     assert res["info"]["iterative_solves"]["solve_tol"] == 1e-9
     assert out["factor"]["iterative"]["matrices"] >= 1
+
+
+def test_the_plan_estimates_the_amg_setup_within_2x_and_auto_takes_it_when_nothing_fits():
+    """flexmor plan's amg row: the hierarchy's memory from a block of the matrix, against the traced peak of
+    setting up the whole matrix's hierarchy; auto's choice where no direct mode fits is amg, as the run's."""
+    import tracemalloc
+
+    from flexmor.linalg.amg import near_null
+    from flexmor.linalg.eigen import default_shift
+    from flexmor.linalg.plan import auto_choice, estimate_backends
+
+    model = cantilever(n=8)  # 19,200 DOF
+    A = (model.K - default_shift(model.K, model.M) * model.M).tocsr()
+    geometry = SolverContext()
+    register_near_null(geometry, model)
+    est = {e.backend: e for e in estimate_backends(A, rows=4000,
+                                                   near_null=near_null(geometry, model.n_dof))}
+    planned = est["amg"].real["double"].bytes
+    solver = SolverContext(backend="amg")
+    register_near_null(solver, model)
+    tracemalloc.start()
+    try:
+        factorize(A, solver=solver, positive=True)
+        measured = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert 0.5 < planned / measured < 2.0
+    short = SolverContext(memory_limit=1e6)
+    choice = auto_choice(short, list(est.values()), model.n_dof, is_complex=False, positive=True)
+    assert choice["backend"] == "amg" and choice["reason"].startswith("no direct factorization fits")
+    assert factorize(A, solver=short, positive=True).backend == "amg"

@@ -99,8 +99,13 @@ def test_auto_choice_is_the_runs(beam):
     assert plan.auto["real"]["mode"] == "double" and solver.stats.mixed == solver.stats.ooc == 0
     assert plan.auto["real"]["backend"] == solver.pick(is_complex=False, positive=True, symmetric=True)
     tight = plan_reduction(model, "krylov", 12, ports, judge=False, points="100",
-                           solver=SolverContext(memory_limit=2**20))
+                           solver=SolverContext(memory_limit=2**20, factor_memory="double"))
     assert tight.auto["real"]["mode"] is None and "1 MB" in tight.auto["real"]["reason"]
+    # memory mode auto: the iterative backend where no direct mode fits, when pyamg is there (as the run)
+    short = SolverContext(memory_limit=2**20)
+    tight = plan_reduction(model, "krylov", 12, ports, judge=False, points="100", solver=short)
+    assert tight.auto["real"]["backend"] == ("amg" if "amg" in short.available() else solver.pick(
+        is_complex=False, positive=True, symmetric=True))
 
 
 def test_a_backend_without_an_estimator_has_a_row_without_estimates(beam, monkeypatch):
@@ -124,7 +129,7 @@ def test_cli_plan_prints_rows_and_auto(capsys):
     rec = json.loads(out)
     assert code == 0 and rec["method"] == "modal" and rec["factorizations"] is not None and rec["rows"]
     code, out, err = run(capsys, "plan", CLAMPED, "--method", "modal", "--order", "5", "--input", "TIP:y",
-                         "--memory-limit", "1K")
+                         "--memory-limit", "1K", "--factor-memory", "double")
     assert code == 0 and "NOTHING FITS" in out
 
 

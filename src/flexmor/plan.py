@@ -29,6 +29,7 @@ from .analysis.compare import SURROGATE_MIN_DOF
 from .checks import MAX_RIGID_BODY_MODES
 from .damping import ModalDamping
 from .dynamics.dense_frf import dense_applicable
+from .linalg.amg import near_null
 from .linalg.context import SolverContext, as_solver
 from .linalg.eigen import DENSE_LIMIT, default_shift
 from .linalg.memory import matrix_bytes
@@ -41,7 +42,7 @@ from .reduction.free_body import with_inertia_loads
 from .reduction.greedy_points import moments_at
 from .reduction.krylov import parse_points
 from .reduction.modal import CLUSTER_MARGIN
-from .rigid import rigid_body_modes
+from .rigid import register_near_null, rigid_body_modes
 
 __all__ = ["ESTIMATED_METHODS", "LANCZOS_COLUMNS_PER_PAIR", "MISSED_DIRECTIONS", "Plan", "Stage", "method_stages",
            "plan_reduction"]
@@ -357,7 +358,10 @@ def plan_reduction(model, method: str, order, ports, *, solver: SolverContext | 
     mats = sum(matrix_bytes(X.tocsr()) for X in (model.K, model.M, model.D, A) if X is not None)
     block = max((s.block for s in stages or ()), default=0)
     vectors = 8.0 * n * (BASIS_COPIES * (order or 0) + block)
-    estimates = estimate_backends(A, positive=True, rows=rows, available=solver.available())
+    geometry = SolverContext()
+    register_near_null(geometry, model)  # the rigid motions, for the amg backend's calibration
+    estimates = estimate_backends(A, positive=True, rows=rows, available=solver.available(),
+                                  near_null=near_null(geometry, n))
     out = Plan({"n_dof": n, "nnz_K": int(model.K.nnz), "damped": model.D is not None}, method,
                None if order is None else int(order), stages, grid,
                memory={"matrices": float(mats), "vectors": float(vectors)})
@@ -368,8 +372,10 @@ def plan_reduction(model, method: str, order, ports, *, solver: SolverContext | 
     out.auto = {"real": auto_choice(solver, estimates, n, is_complex=False, positive=True)}
     if complex_needed:
         out.auto["complex"] = auto_choice(solver, estimates, n, is_complex=True, positive=False)
-    cal = [f"{e.backend}: {e.calibration['rows']} rows in {e.calibration['seconds']:.3f} s, "
-           f"{e.calibration['flops_per_second'] / 1e9:.2f} Gflop/s" for e in estimates if e.calibration]
-    out.calibration = ("factorized a block of the model's matrix per backend (" + "; ".join(cal) + ")") if cal else ""
+    cal = [f"{e.backend}: {e.calibration['rows']} rows in {e.calibration['seconds']:.3f} s, " + (
+           f"{e.calibration['flops_per_second'] / 1e9:.2f} Gflop/s" if "flops_per_second" in e.calibration else
+           f"{e.calibration['iterations']:.0f} CG iterations per solve") for e in estimates if e.calibration]
+    out.calibration = ("factorized (amg: set up and solved) a block of the model's matrix per backend ("
+                       + "; ".join(cal) + ")") if cal else ""
     out.seconds = time.perf_counter() - t0
     return out

@@ -39,6 +39,8 @@ import scipy.linalg as sla
 
 from .basis import Basis
 from .errors import FlexmorError, FlexmorWarning, ModelError
+from .linalg import amg
+from .linalg.amg import NearNull, node_block
 from .linalg.threads import sparse_dense
 from .ports import body_ports
 from .projection import project
@@ -81,6 +83,21 @@ def rigid_motions(model, origin=None) -> np.ndarray:
             R[d == j + 1, 3 + a] = np.cross(e, xyz[d == j + 1])[:, j]
         R[d == a + 4, 3 + a] = 1.0
     return R
+
+
+def register_near_null(solver, model) -> None:
+    """Register the rigid motions of ``model``'s geometry (:func:`rigid_motions`) in ``solver`` as the
+    near-null space of the ``amg`` backend's hierarchies of matrices of the model's size
+    (:mod:`flexmor.linalg.amg`); nothing without geometry. Costs nothing until that backend asks."""
+    if model.dofs is None or not model.n_nodes:
+        return
+
+    def make() -> NearNull | None:
+        R = rigid_motions(model)
+        R = R[:, np.linalg.norm(R, axis=0) > 0]
+        return NearNull(R, node_block(model.dofs)) if R.shape[1] else None
+
+    amg.register_near_null(solver, model.n_dof, make)
 
 
 def frame_participation(model, V) -> tuple[np.ndarray, np.ndarray]:

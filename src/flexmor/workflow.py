@@ -14,7 +14,6 @@ from .checks import check_rigid_body_modes, coupling_frequencies, first_elastic_
 from .damping import Damping, NoDamping, Rayleigh, band_matched
 from .damping import modal_damping as _modal_damping
 from .errors import OptionError, check_keywords, keyword_names
-from .linalg.amg import register_model
 from .linalg.context import SolverContext, as_solver
 from .linalg.distributed import is_partitioned
 from .linalg.resources import check_basis_memory
@@ -22,6 +21,7 @@ from .options import DEFAULT_BAND, Band, check_order, parse_pair
 from .ports import make_ports
 from .reduction import BASIS_KEYWORDS, check_shift, method_name, methods, reduce
 from .reduction.free_body import check_body
+from .rigid import register_near_null
 
 __all__ = ["coupling_specs", "prepare_model", "body_model", "parse_band", "parse_pair", "apply_damping", "damping_of",
            "with_method_band", "reduce_and_judge", "record_setup", "run_demo", "DEFAULT_BAND"]
@@ -149,7 +149,7 @@ def reduce_and_judge(model, method: str, order, ports, *, band=None,
     check_keywords(f"reduce_and_judge with method {method!r}", options,
                    [*methods()[method].keywords, *BASIS_KEYWORDS, *keyword_names(reduce_and_judge)])
     solver = as_solver(solver)
-    register_model(solver, model)  # the geometry's rigid motions, should the amg backend solve
+    register_near_null(solver, model)  # the geometry's rigid motions, should the amg backend solve
     full_of = full if callable(full) and not isinstance(full, FullResponse) else None
     if full_of is not None:
         if band is not None:

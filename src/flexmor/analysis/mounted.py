@@ -55,13 +55,13 @@ import scipy.linalg as sla
 from ..damping import ModalDamping
 from ..errors import FlexmorError, ModelError, OptionError
 from ..linalg import factorize
-from ..linalg.amg import register_model, register_rows
+from ..linalg.amg import register_rows
 from ..linalg.context import SolverContext, as_solver
 from ..linalg.distributed import is_partitioned
 from ..linalg.eigen import eigenmodes, frequencies_hz, rigid_body_threshold
 from ..linalg.threads import sparse_dense
 from ..model import direction_name
-from ..rigid import ACCELERATIONS, rigid_body_modes, rigid_motions
+from ..rigid import ACCELERATIONS, register_near_null, rigid_body_modes, rigid_motions
 from ..support import AS_SUPPORTED, HELD, Support, supports
 
 __all__ = ["HELD", "ACCELERATIONS", "Support", "supports", "FullMounted", "MountedCase", "MountedCheck",
@@ -120,7 +120,7 @@ class FullMounted:
         self.model, self.modes, self.solver = model, int(modes), as_solver(solver)
         self.fmax = None if fmax is None else float(fmax)
         self.phi = rigid_body_modes(model)
-        register_model(self.solver, model)
+        register_near_null(self.solver, model)
         self.threshold = rigid_body_threshold(model.K, model.M)
         self._cases: dict = {}
         self.n_factorizations = 0

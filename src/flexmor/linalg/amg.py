@@ -12,7 +12,7 @@ relative residual ``||b - A x|| / ||b|| <= solve_tol`` of every column
 Near-null space: aggregation-based AMG for elasticity needs the rigid-body motions of the
 geometry (six per body in 3D) as the vectors its coarse spaces must represent; without them the
 coarse spaces carry translations only and CG needs several times the iterations. Whoever knows
-the model registers them with :func:`register_model` (rows of a sub-matrix with
+the model registers them (:func:`flexmor.rigid.register_near_null`; rows of a sub-matrix with
 :func:`register_rows`); a matrix of a size nothing was registered for gets the constant vector
 (logged). They change the iteration count, not the solution.
 
@@ -42,13 +42,12 @@ import numpy as np
 import scipy.sparse as sp
 
 from ..errors import ConvergenceError, SolverError
-from .context import SOLVE_TOL
 from .factorization import Factorization
-from .memory import matrix_bytes, norm_bound
+from .memory import SOLVE_TOL, matrix_bytes, norm_bound
 from .threads import sparse_dense
 
-__all__ = ["SOLVE_TOL", "MAX_ITER", "AmgSolver", "NearNull", "register_model", "register_rows", "near_null", "block_cg",
-           "amg_estimate", "available"]
+__all__ = ["SOLVE_TOL", "MAX_ITER", "AmgSolver", "NearNull", "register_near_null", "register_rows", "node_block",
+           "near_null", "block_cg", "amg_estimate"]
 
 log = logging.getLogger(__name__)
 
@@ -64,13 +63,6 @@ MAX_COARSE = 150
 OPERATOR_COMPLEXITY = 1.6
 
 
-def available() -> bool:
-    """pyamg can be imported."""
-    from .backends import _has
-
-    return _has("pyamg")
-
-
 @dataclass(frozen=True)
 class NearNull:
     """The near-null space of the matrices of one size: the rigid-body motions ``B`` (n, k) and the
@@ -81,21 +73,11 @@ class NearNull:
     block: int = 1
 
 
-def register_model(solver, model) -> None:
-    """Register the rigid motions of ``model``'s geometry (:func:`flexmor.rigid.rigid_motions`) as the
-    near-null space of the matrices of its size in ``solver`` (nothing without geometry). Costs nothing
-    until the ``amg`` backend asks for it."""
-    if model.dofs is None or not model.n_nodes:
-        return
-
-    def make() -> NearNull | None:
-        from ..rigid import rigid_motions
-
-        B = rigid_motions(model)
-        B = B[:, np.linalg.norm(B, axis=0) > 0]
-        return NearNull(B, _node_block(model.dofs)) if B.shape[1] else None
-
-    solver.near_null[model.n_dof] = make
+def register_near_null(solver, n: int, make) -> None:
+    """Register ``make() -> NearNull | None`` as the near-null space of the matrices of ``n`` equations in
+    ``solver`` (called once, when the ``amg`` backend first asks; :func:`flexmor.rigid.register_near_null`
+    registers a model's rigid motions)."""
+    solver.near_null[n] = make
 
 
 def register_rows(solver, n: int, rows: np.ndarray) -> None:
@@ -126,7 +108,7 @@ def near_null(solver, n: int) -> NearNull | None:
     return got
 
 
-def _node_block(dofs: np.ndarray) -> int:
+def node_block(dofs: np.ndarray) -> int:
     """3 or 6 when the equations come node by node with the same directions 1..3 (1..6), else 1."""
     for b in (6, 3):
         if dofs.shape[0] % b == 0:
@@ -191,13 +173,13 @@ class AmgSolver(Factorization):
             log.info("amg: no near-null space registered for %d equations; the constant vector is used", n)
         # scaled so that every column has the norm of the constant: the rotations are lengths (m)
         B = np.asarray(B, float) / np.maximum(np.linalg.norm(B, axis=0), 1e-300) * np.sqrt(n)
-        M = sp.bsr_matrix(A, blocksize=(block, block)) if block > 1 else A
+        M = sp.bsr_matrix(A, blocksize=(block, block)) if block > 1 else A  # (freed with the hierarchy)
         t0 = time.perf_counter()
         self._ml = pyamg.smoothed_aggregation_solver(
             M, B=B, symmetry="symmetric", strength=("symmetric", {"theta": 0.0}), max_coarse=MAX_COARSE,
             keep=False)
         try:
-            self._cycle = BlockCycle(self._ml)
+            self._cycle = BlockCycle(self._ml, A)
         except np.linalg.LinAlgError:
             raise SolverError(INDEFINITE.format(where="its coarsest level has no Cholesky factor"),
                               params=("backend",)) from None
@@ -206,7 +188,6 @@ class AmgSolver(Factorization):
         self.operator_complexity = sum(a.nnz for a in self._cycle.A) / max(A.nnz, 1)
         self.setup_seconds = time.perf_counter() - t0
         self._A = None  # (no refinement: the iteration itself solves to the tolerance)
-        self._matrix = A
         self._anorm = norm_bound(A)
         self._tol = float(solver.solve_tol)
         self.memory_estimate = self.operator_complexity * matrix_bytes(A)
@@ -220,7 +201,7 @@ class AmgSolver(Factorization):
         return self._cycle(R)
 
     def _solve_factor(self, b: np.ndarray) -> np.ndarray:
-        X, its, res = block_cg(self._matrix, b, self._precondition, tol=self._tol, anorm=self._anorm)
+        X, its, res = block_cg(self._cycle.A[0], b, self._precondition, tol=self._tol, anorm=self._anorm)
         st = self.stats
         st.iterations += its
         st.iterations_max = max(st.iterations_max, its)
@@ -242,13 +223,15 @@ class BlockCycle:
     ----------
     ml : pyamg MultilevelSolver
         Its levels' ``A``, ``P`` and ``R``.
+    finest : sparse matrix
+        The finest level's matrix in CSR (the hierarchy's own copy, in node blocks, is not kept).
     """
 
-    def __init__(self, ml):
+    def __init__(self, ml, finest):
         import scipy.linalg as sla
 
         lv = ml.levels
-        self.A = [sp.csr_matrix(level.A) for level in lv]
+        self.A = [finest] + [sp.csr_matrix(level.A) for level in lv[1:]]
         self.P = [sp.csr_matrix(level.P) for level in lv[:-1]]
         self.R = [sp.csr_matrix(level.R) for level in lv[:-1]]
         self.dinv = [1.0 / a.diagonal() for a in self.A[:-1]]

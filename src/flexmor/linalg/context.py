@@ -33,10 +33,7 @@ from . import resources as _resources
 from .backends import BACKENDS
 from .distributed import MPILayout, layout
 from .factorization import OrderingCache, SolverStats
-from .memory import FACTOR_MEMORY, REFINE_TOL
-
-#: Default relative residual of the iterative solves of the ``amg`` backend (:mod:`flexmor.linalg.amg`).
-SOLVE_TOL = 1e-10
+from .memory import FACTOR_MEMORY, REFINE_TOL, SOLVE_TOL
 
 __all__ = ["SolverContext", "track", "step", "EigenPolicy", "DENSE_LIMIT", "LANCZOS_MAX_K",
            "EIGEN_METHODS", "as_solver"]
@@ -136,7 +133,7 @@ class SolverContext:
         Fill-reducing orderings reused by PARDISO.
     near_null : dict
         Matrix size -> :class:`flexmor.linalg.amg.NearNull`: the rigid-body motions of the geometry the
-        ``amg`` backend builds its hierarchy on (:func:`flexmor.linalg.amg.register_model`).
+        ``amg`` backend builds its hierarchy on (:func:`flexmor.rigid.register_near_null`).
 
     Raises
     ------

@@ -51,7 +51,7 @@ from .resources import megabytes as _mb
 from .threads import sparse_dense
 
 __all__ = ["BACKWARD_TARGET", "FACTOR_MEMORY", "MEMORY_FRACTION", "MODE_NAMES", "REFINE_MAX_ITER", "REFINE_RESTART",
-           "REFINE_TOL", "MemoryPlan", "OutOfCore", "describe_factor", "estimate_memory", "factor_record",
+           "REFINE_TOL", "SOLVE_TOL", "MemoryPlan", "OutOfCore", "describe_factor", "estimate_memory", "factor_record",
            "iterative_record",
            "matrix_bytes", "norm_bound", "pardiso_estimates", "plan_memory", "refine", "refusal"]
 
@@ -65,6 +65,9 @@ MODE_NAMES = {"double": "double precision in core", "mixed": "mixed precision", 
 
 #: Default backward error of the refined solves of the mixed mode.
 REFINE_TOL = 1e-12
+
+#: Default relative residual of the iterative solves of the ``amg`` backend (:mod:`flexmor.linalg.amg`).
+SOLVE_TOL = 1e-10
 
 #: Most steps (block solves with the single-precision factor) of one refined solve in the mixed mode.
 REFINE_MAX_ITER = 30

@@ -28,12 +28,12 @@ A backend contributes its row through one function in :data:`ESTIMATORS`::
     estimate(A, *, positive: bool, rows: int) -> BackendEstimate
 
 ``A`` the real matrix (CSR, both triangles), ``positive`` whether it is positive definite, ``rows`` the size
-of the calibration block. It may factorize that block, never ``A``.
+of the calibration block. It may factorize that block, never ``A``. The ``amg`` backend's estimator also takes
+``near_null``, the model's rigid motions, and sets up and solves the block instead of factorizing it.
 """
 
 from __future__ import annotations
 
-import importlib
 import time
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
@@ -41,7 +41,7 @@ from types import MappingProxyType
 
 import numpy as np
 
-from ..errors import OptionError, SolverError
+from ..errors import OptionError, OutOfMemoryError, SolverError
 from .backends import BACKENDS
 from .context import SolverContext
 from .memory import MODE_NAMES, estimate_memory, matrix_bytes, pardiso_estimates, plan_memory
@@ -167,9 +167,13 @@ def _block(A, rows: int):
 
 def _timed_factor(backend: str, B, positive: bool):
     """``(factorization, seconds)`` of ``B`` by ``backend`` in double precision (the path of a real run)."""
+    return _timed_factor_in(SolverContext(backend=backend, factor_memory="double"), B, positive)
+
+
+def _timed_factor_in(solver: SolverContext, B, positive: bool):
     from .factorize import factorize
 
-    F = factorize(B, solver=SolverContext(backend=backend, factor_memory="double"), positive=positive, check=False)
+    F = factorize(B, solver=solver, positive=positive, check=False)
     return F, F.seconds
 
 
@@ -241,16 +245,38 @@ def _scipy_estimate(A, *, positive: bool, rows: int) -> BackendEstimate:
                            {"rows": m, "seconds": cal["factor_seconds"], "flops_per_second": rate})
 
 
-def _lazy(module: str, name: str) -> Callable:
-    """The estimator ``name`` of ``flexmor.linalg.<module>``, imported when first called; a backend whose
-    module does not give one yet has no estimate."""
-    def estimate(A, *, positive: bool, rows: int):
-        try:
-            fn = getattr(importlib.import_module(f"{__package__}.{module}"), name)
-        except (ImportError, AttributeError):
-            return None
-        return fn(A, positive=positive, rows=rows)
-    return estimate
+def _amg_estimate(A, *, positive: bool, rows: int, near_null=None) -> BackendEstimate:
+    """AMG + block CG (:mod:`flexmor.linalg.amg`): the hierarchy of the calibration block set up and
+    :data:`CALIBRATION_COLUMNS` columns solved, on the rows' part of ``near_null`` (the model's rigid
+    motions); the setup's peak memory (traced) per byte of the block's matrix, and its times per entry,
+    scaled to ``A`` (both grow with the entries; the iterations per solve hardly with the size:
+    ``bench/amg.py``)."""
+    import tracemalloc
+
+    from .amg import NearNull, register_near_null
+
+    B = _block(A, rows)
+    ctx = SolverContext(backend="amg")
+    if near_null is not None:
+        part = NearNull(near_null.B[:B.shape[0]], near_null.block if B.shape[0] % near_null.block == 0 else 1)
+        register_near_null(ctx, B.shape[0], lambda: part)
+    tracemalloc.start()
+    try:
+        F, setup_s = _timed_factor_in(ctx, B, positive)
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    column_s = _column_seconds(F, B.shape[0])
+    scale = A.nnz / max(B.nnz, 1)
+    per_byte = peak / max(matrix_bytes(B), 1)
+    real = {"double": ModeEstimate(per_byte * matrix_bytes(A), setup_s * scale, column_s * scale)}
+    its = ctx.stats.iterations / max(ctx.stats.solves, 1)
+    return BackendEstimate("amg", True, real, {}, "hierarchy set up and solved on the leading "
+                           f"{B.shape[0]} rows ({its:.0f} block CG iterations; "
+                           f"{'rigid motions' if near_null is not None else 'no geometry: the constant'} as "
+                           "near-null space), scaled by the entries; real positive definite matrices only",
+                           calibration={"rows": B.shape[0], "seconds": setup_s, "iterations": its,
+                                        "setup_bytes_per_matrix_byte": per_byte})
 
 
 #: Backend name -> its estimator ``estimate(A, *, positive, rows) -> BackendEstimate`` (module docstring);
@@ -258,12 +284,12 @@ def _lazy(module: str, name: str) -> Callable:
 ESTIMATORS: Mapping[str, Callable] = MappingProxyType({
     "pardiso": _pardiso_estimate,
     "scipy": _scipy_estimate,
-    "amg": _lazy("amg", "plan_estimate"),
+    "amg": _amg_estimate,
 })
 
 
 def estimate_backends(A, *, positive: bool = True, rows: int = CALIBRATION_ROWS,
-                      available: tuple | None = None) -> list[BackendEstimate]:
+                      available: tuple | None = None, near_null=None) -> list[BackendEstimate]:
     """One :class:`BackendEstimate` per backend of :data:`~flexmor.linalg.backends.BACKENDS`, in its order.
 
     Parameters
@@ -276,6 +302,8 @@ def estimate_backends(A, *, positive: bool = True, rows: int = CALIBRATION_ROWS,
         Rows of the calibration block.
     available : tuple of str, optional
         The backends that work here (default: as a new :class:`SolverContext` finds them).
+    near_null : flexmor.linalg.amg.NearNull, optional
+        The model's rigid motions, for the ``amg`` backend's estimate.
 
     Returns
     -------
@@ -290,7 +318,8 @@ def estimate_backends(A, *, positive: bool = True, rows: int = CALIBRATION_ROWS,
             out.append(BackendEstimate(name, False, source="not available here"))
             continue
         fn = ESTIMATORS.get(name)
-        est = fn(A, positive=positive, rows=rows) if fn is not None else None
+        extra = {"near_null": near_null} if name == "amg" else {}
+        est = fn(A, positive=positive, rows=rows, **extra) if fn is not None else None
         out.append(est if est is not None else
                    BackendEstimate(name, True, source="no estimator for this backend (not estimated)"))
     return out
@@ -326,7 +355,12 @@ def auto_choice(solver: SolverContext, estimates: list[BackendEstimate], n: int,
         plan = plan_memory(solver, backend, n, memory)
     except SolverError as exc:
         usable = solver.memory_available()
-        return {"backend": backend, "mode": None, "reason": str(exc),
-                "usable": None if usable is None else MEMORY_FRACTION * usable}
+        usable = None if usable is None else MEMORY_FRACTION * usable
+        from .factorize import _iterative_instead
+
+        if isinstance(exc, OutOfMemoryError) and _iterative_instead(solver, is_complex, True):
+            return {"backend": "amg", "mode": "double", "usable": usable,
+                    "reason": f"no direct factorization fits: {exc}; amg (iterative) instead"}
+        return {"backend": backend, "mode": None, "reason": str(exc), "usable": usable}
     return {"backend": backend, "mode": plan.mode, "reason": plan.reason, "usable": plan.usable}
 

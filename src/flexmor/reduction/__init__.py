@@ -22,7 +22,6 @@ import numpy as np
 from ..basis import Basis
 from ..body import ReducedModel
 from ..errors import OptionError, PortError
-from ..linalg.amg import register_model
 from ..linalg.context import as_solver
 from ..linalg.distributed import is_partitioned
 from ..linalg.memory import iterative_record
@@ -31,7 +30,7 @@ from ..linalg.threads import blas_threads
 from ..options import Band, check_option_types
 from ..ports import Ports
 from ..projection import project
-from ..rigid import exclude_rigid, frame_participation
+from ..rigid import exclude_rigid, frame_participation, register_near_null
 from . import (  # noqa: F401  (each method module registers its methods in METHODS)
     adaptive,
     balanced,  # sobt, fw-sobt; gramians.py holds the Gramians
@@ -137,7 +136,7 @@ def reduce(model, method: str, order: int | None, ports, *, inertia_loads: str =
         check_basis_memory(model.n_dof, order, as_solver(options.get("solver")))
     solver = options.get("solver")
     if solver is not None:  # the geometry's rigid motions, should the amg backend solve (flexmor.linalg.amg)
-        register_model(solver, model)
+        register_near_null(solver, model)
         its0 = (solver.stats.iterative, solver.stats.iterations)
     t0 = time.perf_counter()
     with blas_threads(1):  # tall-skinny and small dense products (see flexmor.linalg.threads)

@@ -1,0 +1,159 @@
+#!/usr/bin/env python
+"""The iterative backend at scale: AMG + block CG against the direct solver on the built-in solid.
+
+Each size runs in a fresh process (``--case``): ``cantilever(size_for_dofs(size))`` is built (assembly
+time and memory), then per backend (``amg``; ``pardiso`` too where ``--direct`` names the size) and per
+method, through ``flexmor.reduction.reduce`` with the six inputs of ``bench/scale.py`` (``TIP:x/y/z``
+over the tip face, ``TIP_CENTER:x/y/z`` at its centre node):
+
+* ``krylov`` at the one real point 0 Hz (``--order-krylov``, default 60: ten moments of six columns),
+* ``modal`` (``--order``, default 30; block shift-invert Lanczos, each block solve by block CG).
+
+Per method: wall and CPU time, the AMG setups (``factor_s``) and the solves (``solve_s``), block CG
+iterations in all, per block solve and the most of one, the largest relative residual, and the peak RSS
+while it ran (reset through ``/proc/self/clear_refs`` before each method; the model's matrices included).
+``cycle_s`` is one V-cycle of a block of six columns on the finest matrix, ``spmm_s`` one product of the
+finest matrix with such a block: a cycle reads the level matrices about ``2 * degree + 1`` times on the
+finest level, so ``cycle_s / spmm_s`` says how far the cycle is from the memory-bandwidth bound of its
+sparse products. With ``--direct`` the same bodies are built by PARDISO at that size and compared
+(largest relative difference of the frequencies, subspace angle).
+
+Usage::
+
+    python bench/amg.py --sizes 100000,300000 --direct 100000,300000
+    python bench/amg.py --sizes 3000000 --out bench/results/amg_3m.json
+
+Writes ``bench/results/amg.json``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import json
+import pathlib
+import sys
+import time
+
+HERE = pathlib.Path(__file__).resolve().parent
+sys.path.insert(0, str(HERE))
+
+from scale import INPUTS, _cpu, _reset_peak, _status, run_cases  # noqa: E402
+
+
+def _spmm_and_cycle(F, n: int) -> tuple[float, float]:
+    import numpy as np
+
+    from flexmor.linalg.threads import sparse_dense
+
+    B = np.random.default_rng(0).standard_normal((n, 6))
+    A = F._cycle.A[0]
+    sparse_dense(A, B)
+    t0 = time.perf_counter()
+    for _ in range(3):
+        sparse_dense(A, B)
+    spmm = (time.perf_counter() - t0) / 3
+    t0 = time.perf_counter()
+    F._cycle(B)
+    return spmm, time.perf_counter() - t0
+
+
+def run_case(size: int, order: int, order_krylov: int, direct: bool) -> dict:
+    import numpy as np
+
+    from flexmor.linalg import SolverContext, factorize
+    from flexmor.linalg.eigen import default_shift
+    from flexmor.linalg.memory import factor_record
+    from flexmor.models import cantilever, size_for_dofs
+    from flexmor.ports import make_ports
+    from flexmor.reduction import reduce
+    from flexmor.rigid import register_near_null
+
+    t0 = time.perf_counter()
+    model = cantilever(size_for_dofs(size))
+    out: dict = {"target_dofs": size, "n_dof": model.n_dof, "nnz_K": int(model.K.nnz),
+                 "assembly_s": time.perf_counter() - t0, "model_mb": _status("VmRSS"), "runs": {}}
+    ports = make_ports(model, INPUTS)
+    # one hierarchy of K - sigma M alone: its levels, the cycle against a bare product
+    ctx = SolverContext(backend="amg")
+    register_near_null(ctx, model)
+    _reset_peak()
+    t0 = time.perf_counter()
+    F = factorize((model.K - default_shift(model.K, model.M) * model.M).tocsr(), solver=ctx, positive=True)
+    out["setup_s"], out["setup_peak_mb"] = time.perf_counter() - t0, _status("VmHWM")
+    out["levels"], out["operator_complexity"] = F.levels, F.operator_complexity
+    out["spmm_s"], out["cycle_s"] = _spmm_and_cycle(F, model.n_dof)
+    del F
+    bodies = {}
+    for backend in ("amg", "pardiso") if direct else ("amg",):
+        for method, r, opts in (("krylov", order_krylov, {"points": "0"}), ("modal", order, {})):
+            ctx = SolverContext(backend=backend)
+            _reset_peak()
+            t0, c0 = time.perf_counter(), _cpu()
+            red = reduce(model, method, r, ports, solver=ctx, **opts)
+            wall, cpu = time.perf_counter() - t0, _cpu() - c0
+            d = dataclasses.asdict(ctx.stats)
+            out["runs"][f"{method}/{backend}"] = {
+                "order": red.order, "wall_s": wall, "cpu_s": cpu, "factor_s": d["seconds"], "solves": d["solves"],
+                "solve_columns": d["solve_columns"], "solve_s": d["solve_seconds"], "peak_mb": _status("VmHWM"),
+                "iterations": d["iterations"], "iterations_max": d["iterations_max"],
+                "iterations_per_solve": d["iterations"] / d["solves"] if d["solves"] else None,
+                "relative_residual_max": d["iterative_residual"] or None, "factor": factor_record(ctx.stats),
+                "frequencies_hz": red.frequencies_hz()[:12].tolist()}
+            bodies[(method, backend)] = red
+    if direct:
+        for method in ("krylov", "modal"):
+            a, b = bodies[(method, "amg")], bodies[(method, "pardiso")]
+            fa, fb = a.frequencies_hz(), b.frequencies_hz()
+            k = min(fa.size, fb.size, 20)
+            s = np.linalg.svd(a.V.T @ (model.M @ b.V), compute_uv=False)
+            out["runs"][f"{method}/amg"]["vs_direct"] = {
+                "max_rel_freq_diff_20": float(np.max(np.abs(fa[:k] - fb[:k]) / fb[:k])),
+                "largest_angle_deg": float(np.degrees(np.arccos(np.clip(s.min(), -1, 1))))}
+    return out
+
+
+def _rows(size: int, r: dict) -> list[str]:
+    lines = [f"{size:>8} {r['n_dof']:>8} {r['nnz_K']:>11}  assembly {r['assembly_s']:.1f} s ({r['model_mb']:.0f} MB), "
+             f"AMG setup {r['setup_s']:.1f} s (peak {r['setup_peak_mb']:.0f} MB, {r['levels']} levels, operator "
+             f"complexity {r['operator_complexity']:.2f}), V-cycle of 6 columns {r['cycle_s']:.2f} s = "
+             f"{r['cycle_s'] / r['spmm_s']:.1f} products with K ({r['spmm_s']:.3f} s)"]
+    for name, m in r["runs"].items():
+        its = "" if not m["iterations"] else (f"  CG {m['iterations']:>5} its ({m['iterations_per_solve']:.1f}/solve, "
+                                              f"max {m['iterations_max']}), residual {m['relative_residual_max']:.0e}")
+        vs = m.get("vs_direct")
+        lines.append(f"{'':>8} {name:>15} r={m['order']:<3} wall {m['wall_s']:8.1f} s  cpu {m['cpu_s']:8.1f} s  "
+                     f"setup/factor {m['factor_s']:7.1f} s  {m['solves']:>4} solves ({m['solve_columns']:>4} cols) "
+                     f"{m['solve_s']:7.1f} s  peak {m['peak_mb']:7.0f} MB" + its
+                     + ("" if not vs else f"  vs direct: freq {vs['max_rel_freq_diff_20']:.1e}, angle "
+                        f"{vs['largest_angle_deg']:.1e} deg"))
+    return lines
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--sizes", default="100000,300000")
+    ap.add_argument("--direct", default="", help="sizes at which PARDISO builds the same bodies for comparison")
+    ap.add_argument("--order", type=int, default=30, help="modal order")
+    ap.add_argument("--order-krylov", type=int, default=60, help="krylov order (one real point)")
+    ap.add_argument("--timeout", type=float, default=7200)
+    ap.add_argument("--case", type=int, help=argparse.SUPPRESS)
+    ap.add_argument("--with-direct", action="store_true", help=argparse.SUPPRESS)
+    ap.add_argument("--out", default=str(HERE / "results" / "amg.json"))
+    args = ap.parse_args(argv)
+    if args.case:
+        print(json.dumps(run_case(args.case, args.order, args.order_krylov, args.with_direct)))
+        return 0
+    direct = {int(s) for s in args.direct.split(",") if s.strip()}
+
+    def command(size: int) -> list[str]:
+        return [sys.executable, str(pathlib.Path(__file__).resolve()), "--case", str(size), "--order", str(args.order),
+                "--order-krylov", str(args.order_krylov)] + (["--with-direct"] if size in direct else [])
+
+    print(f"{'size':>8} {'n_dof':>8} {'nnz(K)':>11}", flush=True)
+    run_cases([int(s) for s in args.sizes.split(",")], command, _rows, timeout=args.timeout, out=args.out)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
