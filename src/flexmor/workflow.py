@@ -239,10 +239,9 @@ def reduce_and_judge(model, method: str, order, ports, *, band=None,
     if skipped is not None:  # the mounted and static checks solve real positive definite systems: they run
         result["notes"].append(skipped)
         red.errors = {"notes": [skipped]}
-        if mounted and band_only is not None:
+        if band_only is not None:
             result["band_hz"] = list(Band.of(band_only))
-            _judge_mounted(model, red, ports, result, t, solver=solver)
-    if full is not None and mounted:
+    if mounted and result["band_hz"] is not None:
         _judge_mounted(model, red, ports, result, t, solver=solver)
     f1 = first_elastic_hz(model, solver=solver)
     result["warnings"] = check_body(model, red, f1_hz=f1, band_error=result["band_error"])

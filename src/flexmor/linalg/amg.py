@@ -76,8 +76,9 @@ class NearNull:
 def register_near_null(solver, n: int, make) -> None:
     """Register ``make() -> NearNull | None`` as the near-null space of the matrices of ``n`` equations in
     ``solver`` (called once, when the ``amg`` backend first asks; :func:`flexmor.rigid.register_near_null`
-    registers a model's rigid motions)."""
-    solver.near_null[n] = make
+    registers a model's rigid motions). One registered for ``n`` already is kept (and so is its vectors, once
+    computed): the callers of one computation register the same model again."""
+    solver.near_null.setdefault(n, make)
 
 
 def register_rows(solver, n: int, rows: np.ndarray) -> None:
