@@ -4,9 +4,9 @@
 (:func:`method_stages`: the rigid-body check, the method's factorizations and the right-hand sides it
 solves with each, the error grid) without factorizing the model, and prices them with the estimates of
 :mod:`flexmor.linalg.plan` (memory from PARDISO's analysis or the SuperLU heuristic, time from the
-factorization's operations and a rate measured on a block of the model's own matrix). It says which backend
-and memory mode ``auto`` takes for the method's real matrix and for the error grid's complex one, through
-the functions a real run calls, and when nothing fits.
+factorization's operations and a rate measured on leading blocks of the model's own matrix). It says which
+backend and memory mode ``auto`` takes for the method's real matrix and for the error grid's complex one,
+through the functions a real run calls, and when nothing fits.
 
 The counts follow the methods' code: the rigid-body check (:func:`flexmor.checks.check_rigid_body_modes`:
 one factorization of ``K - sigma M`` and block Lanczos for 7 eigenpairs, shared with ``modal`` and with
@@ -313,6 +313,21 @@ def _row(est: BackendEstimate, mode: str, stages: list[Stage] | None, extra: flo
     return row
 
 
+def _calibration_text(est: BackendEstimate) -> str:
+    """How ``est``'s rate was measured: the rows of its block(s), their seconds and the rate (PARDISO: each
+    block's, and the one taken at the model's operations)."""
+    c = est.calibration
+    blocks = c.get("blocks", [])
+    if len(blocks) > 1:
+        rows = " and ".join(str(b["rows"]) for b in blocks)
+        rates = " and ".join(f"{b['flops_per_second'] / 1e9:.1f}" for b in blocks)
+        return (f"{est.backend}: {rows} rows in {c['seconds']:.3f} s, {rates} Gflop/s, "
+                f"{c['flops_per_second'] / 1e9:.1f} at the model's {est.flops:.2g} operations")
+    return f"{est.backend}: {c['rows']} rows in {c['seconds']:.3f} s, " + (
+        f"{c['flops_per_second'] / 1e9:.2f} Gflop/s" if "flops_per_second" in c else
+        f"{c['iterations']:.0f} CG iterations per solve")
+
+
 def plan_reduction(model, method: str, order, ports, *, solver: SolverContext | None = None,
                    inertia_loads: str = "auto", judge: bool = True, n_freq: int = 50, full_frf: str = "auto",
                    rows: int = CALIBRATION_ROWS, **options) -> Plan:
@@ -335,7 +350,8 @@ def plan_reduction(model, method: str, order, ports, *, solver: SolverContext | 
     full_frf : {'auto', 'direct', 'dense', 'surrogate'}
         The error grid's path.
     rows : int
-        Rows of the block of the model's matrix each backend factorizes to measure its rate.
+        Rows of the leading block of the model's matrix each backend factorizes to measure its rate (PARDISO
+        a second one too, :data:`~flexmor.linalg.plan.CALIBRATION_SCALE` times as large).
     **options
         The method's options.
 
@@ -372,10 +388,8 @@ def plan_reduction(model, method: str, order, ports, *, solver: SolverContext | 
     out.auto = {"real": auto_choice(solver, estimates, n, is_complex=False, positive=True)}
     if complex_needed:
         out.auto["complex"] = auto_choice(solver, estimates, n, is_complex=True, positive=False)
-    cal = [f"{e.backend}: {e.calibration['rows']} rows in {e.calibration['seconds']:.3f} s, " + (
-           f"{e.calibration['flops_per_second'] / 1e9:.2f} Gflop/s" if "flops_per_second" in e.calibration else
-           f"{e.calibration['iterations']:.0f} CG iterations per solve") for e in estimates if e.calibration]
-    out.calibration = ("factorized (amg: set up and solved) a block of the model's matrix per backend ("
+    cal = [_calibration_text(e) for e in estimates if e.calibration]
+    out.calibration = ("factorized (amg: set up and solved) leading blocks of the model's matrix ("
                        + "; ".join(cal) + ")") if cal else ""
     out.seconds = time.perf_counter() - t0
     return out

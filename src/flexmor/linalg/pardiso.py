@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import functools
 import logging
+import time
 
 import numpy as np
 import scipy.sparse as sp
@@ -72,7 +73,8 @@ class PardisoFactorization(Factorization):
     (iparm 11/13, recommended by Intel for saddle-point-like matrices; its ordering depends on the
     values and is not reused); the unsymmetric types always use them. After the analysis, the
     memory mode is chosen from its estimate; the mixed (``iparm[27] = 1``) and out-of-core
-    (``iparm[59] = 2``) modes analyse again with the ordering just computed.
+    (``iparm[59] = 2``) modes analyse again with the ordering just computed. ``numeric_seconds`` is the wall
+    time of the numerical factorization phase alone (22, the analysis not included).
     """
 
     backend = "pardiso"
@@ -159,11 +161,14 @@ class PardisoFactorization(Factorization):
                 self._ooc = OutOfCore(min(plan.usable or np.inf, plan.estimates["double"]),
                                       solver.scratch_dir)
             self._call(11, None, None, 0)
+        t0 = time.perf_counter()
         if self._ooc is None:
             self._call(22, None, None, 0)  # numerical factorization
         else:
             with self._ooc.environment():  # read by MKL in this phase only
                 self._call(22, None, None, 0)
+        self.numeric_seconds = time.perf_counter() - t0
+        if self._ooc is not None:
             if self._ooc.verify(A, self._solve_factor) > BACKWARD_TOL or self._iparm[13] > 0:
                 # an out-of-core factor whose solves are less accurate than a double-precision factor's (a
                 # backward error above BACKWARD_TOL, seen once as a relative error of 7e-4 against the in-core

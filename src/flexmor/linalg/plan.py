@@ -21,7 +21,28 @@ nonzeros (``iparm[17]``); for SuperLU, which reports nothing beforehand, the fil
 measured and scaled to the model by the heuristic's growth law, and the work taken as ``fill^2 / n`` (the
 operations of a factor with ``fill / n`` entries per column). A solve costs a pass over the factor per
 right-hand side. A complex matrix of the same pattern: twice the factor's bytes, the times of
-:data:`COMPLEX_FACTOR`.
+:data:`COMPLEX_FACTOR` (PARDISO: :data:`PARDISO_COMPLEX_FACTOR`).
+
+PARDISO's rate grows with the work of the factorization: its dense fronts grow with the matrix, and MKL's
+dense kernels run faster on larger ones. On the clamped cantilever of 94,500 DOF (one thread), the numerical
+phase of the leading 8,000, 16,000, 32,000 and 64,000 rows and of the whole matrix ran at 11, 16, 23, 32 and
+37 Gflop/s for 9e7, 5.5e8, 3.4e9, 2.1e10 and 5.7e10 operations (rate ~ operations^0.13-0.21 between
+neighbours; the blocks of the 36,300- and 8,820-DOF models lie on the same curve): the rate of the 8,000-row
+block alone puts that factorization at 2.2-2.4x its time. :func:`_pardiso_estimate` therefore factorizes a
+second leading block of :data:`CALIBRATION_SCALE` times the rows (at most a third of ``A``'s: 6% of the
+whole's operations at 94,500 DOF), fits ``rate = c * operations^a`` through the two blocks (``a`` clamped to
+:data:`RATE_EXPONENT`) and takes it at the model's operations, at most the rate of a dense matrix product
+(:func:`dense_rate`), which no factorization's fronts exceed. Each block's rate is its operations over the
+seconds of its numerical phase alone (:attr:`PardisoFactorization.numeric_seconds`): the best of three
+factorizations of the small block (its milliseconds are the most disturbed by other work on the machine, and
+a slow small block steepens the fit, giving too short a time), one of the large block. The analysis of the
+model is timed itself. A solved column costs the larger block's seconds per factor entry times the model's
+factor entries (0.53 ns per entry at 8,000 rows, 0.41 at 32,000, 0.38 for the whole 94,500-DOF model).
+
+SuperLU's rate, with the work taken as ``fill^2 / n``, grows too (6.5 "Gflop/s" on the leading 8,000 rows of
+the 36,300-DOF cantilever, 11 on the whole), but the heuristic scales the block's fill by 14.6x where it grows
+by 20x, so the work is underestimated by about as much: its estimates came out at 0.8-1.3x of the run
+(bench/README.md), and it keeps one block.
 
 A backend contributes its row through one function in :data:`ESTIMATORS`::
 
@@ -47,9 +68,10 @@ from .context import SolverContext
 from .memory import MODE_NAMES, estimate_memory, matrix_bytes, pardiso_estimates, plan_memory
 from .resources import MEMORY_FRACTION
 
-__all__ = ["CALIBRATION_ROWS", "CALIBRATION_COLUMNS", "COMPLEX_FACTOR", "ESTIMATORS", "MIXED_SOLVE_FACTOR",
-           "OOC_FACTOR", "REUSED_ANALYSIS", "ModeEstimate", "BackendEstimate", "estimate_backends", "auto_choice",
-           "calibrate"]
+__all__ = ["CALIBRATION_ROWS", "CALIBRATION_COLUMNS", "CALIBRATION_SCALE", "CALIBRATION_SOLVES", "COMPLEX_FACTOR",
+           "DENSE_ORDER", "ESTIMATORS", "MIXED_SOLVE_FACTOR", "OOC_FACTOR", "PARDISO_COMPLEX_FACTOR", "RATE_EXPONENT",
+           "REUSED_ANALYSIS", "ModeEstimate", "BackendEstimate", "estimate_backends", "auto_choice", "calibrate",
+           "dense_rate"]
 
 #: Rows of the leading block of ``A`` that a backend factorizes to measure the machine's rate.
 CALIBRATION_ROWS = 8000
@@ -57,14 +79,37 @@ CALIBRATION_ROWS = 8000
 #: Right-hand sides of the calibration's block solve.
 CALIBRATION_COLUMNS = 8
 
+#: Block solves the calibration times, keeping the shortest: the first after a factorization took up to 1.6x
+#: the time of the third (PARDISO, 12,100 rows of the 36,300-DOF cantilever: 1.15, 0.92, 0.75 ms per column).
+CALIBRATION_SOLVES = 3
+
+#: PARDISO's second calibration block has this many times the rows of the first, at most a third of the
+#: matrix's (at 94,500 DOF its 31,500 rows: 0.14 s of numerical factorization and 80 MB of factor, against
+#: 1.5 s and 470 MB for the whole matrix).
+CALIBRATION_SCALE = 4
+
+#: Bounds of the exponent ``a`` of PARDISO's rate ``c * operations^a`` fitted through the two calibration
+#: blocks (measured 0.13-0.21 on the cantilever, module docstring): a pair of timings disturbed by other
+#: work on the machine neither makes the rate fall with the work nor extrapolates it steeper than this.
+RATE_EXPONENT = (0.0, 0.25)
+
+#: Order of the square matrices whose product (:func:`dense_rate`) bounds PARDISO's extrapolated rate.
+DENSE_ORDER = 1000
+
 #: A solve of the mixed mode costs this many double-precision solves: its refinement took 7-8
 #: single-precision solves and as many products with ``A`` (bench/README.md, ``memory.py``).
 MIXED_SOLVE_FACTOR = 8.0
 
 #: A complex matrix of the same pattern against the real one (factorization, solve): 2.3x and 4x, PARDISO
-#: in one thread at 27,000 DOF (bench/README.md, ``memory.py``: 4.16 s against 1.79 s, 1.74 s against 0.44 s);
-#: four times the operations, at a higher rate in the factorization.
+#: in one thread at 27,000 DOF (bench/README.md, ``memory.py``: 4.16 s against 1.79 s, 1.74 s against 0.44 s,
+#: whole factorizations); four times the operations, at a higher rate in the factorization.
 COMPLEX_FACTOR = (2.3, 4.0)
+
+#: The same for PARDISO's estimates, whose factorization time is the analysis and a numerical phase: only the
+#: numerical phase is scaled, and that of a complex symmetric matrix (``K - w^2 M + i w D``, LDL^T) took
+#: 3.0-3.2x that of the real positive definite one (Cholesky) on the cantilever, one thread: 0.097 s against
+#: 0.031 at 8,820 DOF, 0.91-1.0 s against 0.31 at 36,300, 4.9 s against 1.5 at 94,500 (``numeric_seconds``).
+PARDISO_COMPLEX_FACTOR = (3.1, COMPLEX_FACTOR[1])
 
 #: Share of the analysis a factorization pays when the ordering of its pattern is reused: "a quarter to a
 #: half" of METIS' own (:class:`flexmor.linalg.factorization.OrderingCache`).
@@ -118,7 +163,8 @@ class BackendEstimate:
     factor_nonzeros : float or None
         Entries of the real factor.
     calibration : dict
-        What the calibration measured (rows, seconds, rate).
+        What the calibration measured (rows, seconds, rate; PARDISO: ``blocks``, each block's rows, operations,
+        seconds and rate, ``exponent`` of the fit through them and ``dense_flops_per_second``, its bound).
     """
 
     backend: str
@@ -147,30 +193,26 @@ def _modes(double: float, mixed: float, ooc: float | None, factor_s: float, colu
     return out
 
 
-def _as_complex(modes: dict, A) -> dict:
+def _as_complex(modes: dict, A, factor: tuple[float, float] = COMPLEX_FACTOR) -> dict:
     """The estimates for a complex matrix of ``A``'s pattern: the factor's bytes doubled (its values; the
-    matrix kept beside it too), the times but the analysis' scaled by :data:`COMPLEX_FACTOR`."""
+    matrix kept beside it too), the times but the analysis' scaled by ``factor`` (factorization, solve)."""
     extra = float(A.data.nbytes)
     return {m: ModeEstimate(None if e.bytes is None else 2.0 * e.bytes + extra,
                             None if e.factor_seconds is None else
-                            e.analysis_seconds + COMPLEX_FACTOR[0] * (e.factor_seconds - e.analysis_seconds),
-                            None if e.column_seconds is None else COMPLEX_FACTOR[1] * e.column_seconds,
+                            e.analysis_seconds + factor[0] * (e.factor_seconds - e.analysis_seconds),
+                            None if e.column_seconds is None else factor[1] * e.column_seconds,
                             e.analysis_seconds)
             for m, e in modes.items()}
 
 
 def _block(A, rows: int):
-    """The leading ``rows`` x ``rows`` block of ``A`` (CSR)."""
+    """The leading ``rows`` x ``rows`` block of ``A`` (CSR; ``A`` itself when it has no more rows)."""
     m = min(int(rows), A.shape[0])
-    return A[:m][:, :m].tocsr()
-
-
-def _timed_factor(backend: str, B, positive: bool):
-    """``(factorization, seconds)`` of ``B`` by ``backend`` in double precision (the path of a real run)."""
-    return _timed_factor_in(SolverContext(backend=backend, factor_memory="double"), B, positive)
+    return A.tocsr() if m == A.shape[0] else A[:m][:, :m].tocsr()
 
 
 def _timed_factor_in(solver: SolverContext, B, positive: bool):
+    """``(factorization, seconds)`` of ``B`` in ``solver`` (the path of a real run)."""
     from .factorize import factorize
 
     F = factorize(B, solver=solver, positive=positive, check=False)
@@ -185,46 +227,99 @@ def _column_seconds(F, n: int) -> float:
     return (time.perf_counter() - t0) / CALIBRATION_COLUMNS
 
 
-def calibrate(backend: str, A, *, positive: bool, rows: int = CALIBRATION_ROWS) -> dict:
-    """Factorize the leading ``rows`` x ``rows`` block of ``A`` with ``backend`` and solve a block with it,
-    twice each, keeping the shorter times (a machine busy with other work slows one of them).
+def calibrate(backend: str, A, *, positive: bool, rows: int = CALIBRATION_ROWS, repeats: int = 2) -> dict:
+    """Factorize the leading ``rows`` x ``rows`` block of ``A`` with ``backend`` ``repeats`` times and solve a
+    block with it :data:`CALIBRATION_SOLVES` times, keeping the shortest times (a machine busy with other work
+    slows one of them).
+    The factorizations are made in one :class:`SolverContext`, so that PARDISO's later ones reuse the
+    ordering of the first, as a run's later factorizations do.
 
-    Returns ``rows``, ``block`` (the block), ``factorization`` (to read its fill), ``factor_seconds`` and
-    ``column_seconds``.
+    Returns ``rows``, ``block`` (the block), ``factorization`` (to read its fill), ``factor_seconds``,
+    ``numeric_seconds`` (PARDISO: of the numerical phase alone, :attr:`PardisoFactorization.numeric_seconds`;
+    else as ``factor_seconds``), ``column_seconds`` and ``solver`` (the context, with its orderings).
     """
     B = _block(A, rows)
-    F, seconds = _timed_factor(backend, B, positive)
-    again, seconds2 = _timed_factor(backend, B, positive)
-    del again
-    return {"rows": B.shape[0], "block": B, "factorization": F, "factor_seconds": min(seconds, seconds2),
-            "column_seconds": min(_column_seconds(F, B.shape[0]) for _ in range(2))}
+    solver = SolverContext(backend=backend, factor_memory="double")
+    runs = [_timed_factor_in(solver, B, positive) for _ in range(max(int(repeats), 1))]
+    F = runs[-1][0]
+    out = {"rows": B.shape[0], "block": B, "factorization": F, "solver": solver,
+           "factor_seconds": min(seconds for _, seconds in runs),
+           "numeric_seconds": min(getattr(G, "numeric_seconds", seconds) for G, seconds in runs),
+           "column_seconds": min(_column_seconds(F, B.shape[0]) for _ in range(CALIBRATION_SOLVES))}
+    del runs
+    return out
+
+
+def dense_rate(order: int = DENSE_ORDER) -> float:
+    """Floating-point operations per second of the product of two dense square matrices of ``order`` (numpy's
+    BLAS, the better of two), the upper bound of a sparse factorization's rate: its work is dense updates of
+    its fronts, at best at the rate of a matrix product (on one core of the machine of bench/README.md numpy's
+    product ran at 60-70 Gflop/s at order 1000, MKL's ``dgemm`` at 77-81, PARDISO's factorization of the
+    94,500-DOF cantilever at 37).
+    """
+    a = np.random.default_rng(0).standard_normal((order, order))
+    best = np.inf
+    for _ in range(2):
+        t0 = time.perf_counter()
+        a @ a
+        best = min(best, time.perf_counter() - t0)
+    return 2.0 * order**3 / max(best, 1e-9)
+
+
+def _rate_at(points: list[tuple[float, float]], flops: float, peak: float) -> tuple[float, float]:
+    """``(rate, a)``: operations per second of a factorization of ``flops`` operations on the line
+    ``rate = c * operations^a`` through the first and last ``(operations, rate)`` of ``points`` (``a`` clamped to
+    :data:`RATE_EXPONENT`, 0 for one point), at most ``peak`` (never below the measured rates)."""
+    (f1, r1), (f2, r2) = points[0], points[-1]
+    a = float(np.clip(np.log(r2 / r1) / np.log(f2 / f1), *RATE_EXPONENT)) if f2 > f1 else 0.0
+    return min(r2 * (flops / f2) ** a, max(peak, r2)), a
+
+
+def _pardiso_block(A, *, positive: bool, rows: int, repeats: int = 2) -> dict:
+    """:func:`calibrate` of PARDISO on the leading ``rows`` rows, with the block's operations and factor entries
+    from its analysis (the ordering of the calibration's factorizations reused) and ``flops_per_second``: the
+    operations over the seconds of the numerical phase."""
+    from .pardiso import PardisoFactorization
+
+    cal = calibrate("pardiso", A, positive=positive, rows=rows, repeats=repeats)
+    ip = PardisoFactorization.analysis(cal["block"], cal["solver"], positive=positive)
+    flops, fill = 1e6 * max(float(ip[18]), 1.0), max(float(ip[17]), 1.0)
+    return {**cal, "flops": flops, "fill": fill, "flops_per_second": flops / max(cal["numeric_seconds"], 1e-6)}
 
 
 def _pardiso_estimate(A, *, positive: bool, rows: int) -> BackendEstimate:
-    """PARDISO: memory, operations and factor nonzeros from its analysis of ``A``; the rate from the
-    analysis and factorization of the calibration block."""
+    """PARDISO: memory, operations and factor nonzeros from its analysis of ``A``; the rate at those operations
+    from the numerical factorization of two leading blocks, ``rows`` and :data:`CALIBRATION_SCALE` times as
+    many rows (at most a third of ``A``'s; one block when that is not more), on ``rate = c * operations^a``
+    through them (:func:`_rate_at`, at most :func:`dense_rate`); a factorization costs the analysis of ``A``
+    (timed here) and its operations at that rate, a solved column the larger block's seconds per factor entry."""
     from .pardiso import PardisoFactorization
 
     t0 = time.perf_counter()
     ip = PardisoFactorization.analysis(A, SolverContext(), positive=positive)
     analysis_s = time.perf_counter() - t0
-    cal = calibrate("pardiso", A, positive=positive, rows=rows)
-    cal_analysis = np.inf
-    for _ in range(2):
-        t0 = time.perf_counter()
-        ipc = PardisoFactorization.analysis(cal["block"], SolverContext(), positive=positive)
-        cal_analysis = min(cal_analysis, time.perf_counter() - t0)
     flops, fill = 1e6 * float(ip[18]), float(ip[17])
-    cal_flops, cal_fill = 1e6 * max(float(ipc[18]), 1.0), max(float(ipc[17]), 1.0)
-    rate = cal_flops / max(cal["factor_seconds"] - cal_analysis, 1e-6)  # operations per second
+    n = A.shape[0]
+    first, second = min(rows, n), min(CALIBRATION_SCALE * rows, n // 3)
+    blocks = [_pardiso_block(A, positive=positive, rows=first, repeats=3)]
+    if second > first:
+        blocks.append(_pardiso_block(A, positive=positive, rows=second, repeats=1))
+    peak = dense_rate()
+    rate, exponent = _rate_at([(b["flops"], b["flops_per_second"]) for b in blocks], flops, peak)
     factor_s = analysis_s + flops / rate
-    column_s = cal["column_seconds"] * fill / cal_fill
+    big = blocks[-1]
+    column_s = big["column_seconds"] * fill / big["fill"]
     est = pardiso_estimates(ip, A, (A.nnz + A.shape[0]) // 2)  # the upper triangle PARDISO keeps
     real = _modes(est["double"], est["mixed"], est["ooc"], factor_s, column_s, analysis_s)
-    return BackendEstimate("pardiso", True, real, _as_complex(real, A), "PARDISO analysis (iparm[14:19]); "
-                           f"rate from factorizing the leading {cal['rows']} rows", flops, fill,
-                           {"rows": cal["rows"], "seconds": cal["factor_seconds"], "flops_per_second": rate,
-                            "analysis_seconds": analysis_s})
+    return BackendEstimate("pardiso", True, real, _as_complex(real, A, PARDISO_COMPLEX_FACTOR),
+                           "PARDISO analysis (iparm[14:19]); rate "
+                           f"from factorizing the leading {' and '.join(str(b['rows']) for b in blocks)} rows",
+                           flops, fill,
+                           {"rows": big["rows"], "seconds": sum(b["factor_seconds"] for b in blocks),
+                            "flops_per_second": rate, "analysis_seconds": analysis_s, "exponent": exponent,
+                            "dense_flops_per_second": peak,
+                            "blocks": [{k: b[k] for k in ("rows", "flops", "numeric_seconds", "flops_per_second")}
+                                       for b in blocks]})
 
 
 def _scipy_estimate(A, *, positive: bool, rows: int) -> BackendEstimate:
