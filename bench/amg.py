@@ -7,7 +7,10 @@ method, through ``flexmor.reduction.reduce`` with the six inputs of ``bench/scal
 over the tip face, ``TIP_CENTER:x/y/z`` at its centre node):
 
 * ``krylov`` at the one real point 0 Hz (``--order-krylov``, default 60: ten moments of six columns),
-* ``modal`` (``--order``, default 30; block shift-invert Lanczos, each block solve by block CG).
+* ``modal`` (``--order``, default 30; LOBPCG with one V-cycle per iterating column and iteration,
+  :mod:`flexmor.linalg.lobpcg`).
+
+``--methods`` picks some of them.
 
 Per method: wall and CPU time, the AMG setups (``factor_s``) and the solves (``solve_s``), block CG
 iterations in all, per block solve and the most of one, the largest relative residual, and the peak RSS
@@ -59,7 +62,8 @@ def _spmm_and_cycle(F, n: int) -> tuple[float, float]:
     return spmm, time.perf_counter() - t0
 
 
-def run_case(size: int, order: int, order_krylov: int, direct: bool, judge: bool = False) -> dict:
+def run_case(size: int, order: int, order_krylov: int, direct: bool, judge: bool = False,
+             methods: tuple = ("krylov", "modal")) -> dict:
     import numpy as np
 
     from flexmor.linalg import SolverContext, factorize
@@ -88,6 +92,8 @@ def run_case(size: int, order: int, order_krylov: int, direct: bool, judge: bool
     bodies = {}
     for backend in ("amg", "pardiso") if direct else ("amg",):
         for method, r, opts in (("krylov", order_krylov, {"points": "0"}), ("modal", order, {})):
+            if method not in methods:
+                continue
             ctx = SolverContext(backend=backend)
             _reset_peak()
             t0, c0 = time.perf_counter(), _cpu()
@@ -98,12 +104,13 @@ def run_case(size: int, order: int, order_krylov: int, direct: bool, judge: bool
                 "order": red.order, "wall_s": wall, "cpu_s": cpu, "factor_s": d["seconds"], "solves": d["solves"],
                 "solve_columns": d["solve_columns"], "solve_s": d["solve_seconds"], "peak_mb": _status("VmHWM"),
                 "iterations": d["iterations"], "iterations_max": d["iterations_max"],
+                "eigen_iterations": d["eigen_iterations"], "eigen_residual": d["eigen_residual"] or None,
                 "iterations_per_solve": d["iterations"] / d["solves"] if d["solves"] else None,
                 "relative_residual_max": d["iterative_residual"] or None, "factor": factor_record(ctx.stats),
                 "frequencies_hz": red.frequencies_hz()[:12].tolist()}
             bodies[(method, backend)] = red
     if direct:
-        for method in ("krylov", "modal"):
+        for method in methods:
             a, b = bodies[(method, "amg")], bodies[(method, "pardiso")]
             fa, fb = a.frequencies_hz(), b.frequencies_hz()
             k = min(fa.size, fb.size, 20)
@@ -118,7 +125,7 @@ def run_case(size: int, order: int, order_krylov: int, direct: bool, judge: bool
             t0 = time.perf_counter()
             full = FullResponse(model, ports, (1.0, 2000.0))
             out["judge"] = {"seconds": time.perf_counter() - t0, "grid": full.summary()}
-            for method in ("krylov", "modal"):
+            for method in methods:
                 for backend in ("amg", "pardiso"):
                     out["runs"][f"{method}/{backend}"]["band_error"] = float(full.evaluate(
                         bodies[(method, backend)]).band_error)
@@ -133,6 +140,8 @@ def _rows(size: int, r: dict) -> list[str]:
     for name, m in r["runs"].items():
         its = "" if not m["iterations"] else (f"  CG {m['iterations']:>5} its ({m['iterations_per_solve']:.1f}/solve, "
                                               f"max {m['iterations_max']}), residual {m['relative_residual_max']:.0e}")
+        if m.get("eigen_iterations"):
+            its += f"  LOBPCG {m['eigen_iterations']} its, residual {m['eigen_residual']:.0e}"
         vs = m.get("vs_direct")
         be = "" if m.get("band_error") is None else f"  band error {m['band_error']:.2e}"
         lines.append(f"{'':>8} {name:>15} r={m['order']:<3} wall {m['wall_s']:8.1f} s  cpu {m['cpu_s']:8.1f} s  "
@@ -155,17 +164,20 @@ def main(argv=None) -> int:
     ap.add_argument("--judge", default="", help="sizes (of --direct) at which both bodies are judged against the "
                     "full model (band error over 1-2000 Hz, the grid's default path)")
     ap.add_argument("--with-judge", action="store_true", help=argparse.SUPPRESS)
+    ap.add_argument("--methods", default="krylov,modal", help="some of krylov,modal")
     ap.add_argument("--out", default=str(HERE / "results" / "amg.json"))
     args = ap.parse_args(argv)
     if args.case:
-        print(json.dumps(run_case(args.case, args.order, args.order_krylov, args.with_direct, args.with_judge)))
+        print(json.dumps(run_case(args.case, args.order, args.order_krylov, args.with_direct, args.with_judge,
+                                  tuple(args.methods.split(",")))))
         return 0
     direct = {int(s) for s in args.direct.split(",") if s.strip()}
     judged = {int(s) for s in args.judge.split(",") if s.strip()}
 
     def command(size: int) -> list[str]:
-        return [sys.executable, str(pathlib.Path(__file__).resolve()), "--case", str(size), "--order", str(args.order),
-                "--order-krylov", str(args.order_krylov)] + (["--with-direct"] if size in direct else []) + \
+        cmd = [sys.executable, str(pathlib.Path(__file__).resolve()), "--case", str(size), "--order", str(args.order),
+               "--order-krylov", str(args.order_krylov), "--methods", args.methods]
+        return cmd + (["--with-direct"] if size in direct else []) + \
             (["--with-judge"] if size in judged and size in direct else [])
 
     print(f"{'size':>8} {'n_dof':>8} {'nnz(K)':>11}", flush=True)

@@ -198,11 +198,17 @@ class AmgSolver(Factorization):
         log.info("amg: %d levels, operator complexity %.2f, near-null space %s, set up in %.2f s",
                  self.levels, self.operator_complexity, self.near_null, self.setup_seconds)
 
-    def _precondition(self, R: np.ndarray) -> np.ndarray:
+    @property
+    def matrix(self):
+        """The matrix the hierarchy was set up for, in CSR (the finest level's)."""
+        return self._cycle.A[0]
+
+    def precondition(self, R: np.ndarray) -> np.ndarray:
+        """One V-cycle applied to the block ``R``: a symmetric positive definite approximation of ``A^-1 R``."""
         return self._cycle(R)
 
     def _solve_factor(self, b: np.ndarray) -> np.ndarray:
-        X, its, res = block_cg(self._cycle.A[0], b, self._precondition, tol=self._tol, anorm=self._anorm)
+        X, its, res = block_cg(self._cycle.A[0], b, self.precondition, tol=self._tol, anorm=self._anorm)
         st = self.stats
         st.iterations += its
         st.iterations_max = max(st.iterations_max, its)
@@ -249,24 +255,40 @@ class BlockCycle:
             return sla.cho_solve(self.coarse, b)
         A = self.A[i]
         x = self._smooth(i, b, None)
-        r = b - sparse_dense(A, x)
+        r = sparse_dense(A, x)
+        np.subtract(b, r, out=r)
         x += sparse_dense(self.P[i], self._cycle(i + 1, sparse_dense(self.R[i], r)))
+        del r
         return self._smooth(i, b, x)
 
     def _smooth(self, i: int, b: np.ndarray, x) -> np.ndarray:
-        """Chebyshev smoothing of ``A x = b`` from ``x`` (None: zero), Saad (2003), algorithm 12.1."""
+        """Chebyshev smoothing of ``A x = b`` from ``x`` (None: zero), Saad (2003), algorithm 12.1; in place
+        where it can (the blocks are as large as the level, each temporary a pass over memory)."""
         A, dinv, hi = self.A[i], self.dinv[i][:, None], self.lmax[i]
         lo = hi / CHEBYSHEV_RATIO
         theta, delta = 0.5 * (hi + lo), 0.5 * (hi - lo)
         sigma = theta / delta
         rho = 1.0 / sigma
-        r = b.copy() if x is None else b - sparse_dense(A, x)
-        d = dinv * r / theta
-        x = d.copy() if x is None else x + d
+        if x is None:
+            r = b  # (not written to: the first update below makes a new residual)
+        else:
+            r = sparse_dense(A, x)
+            np.subtract(b, r, out=r)
+        d = r * (dinv / theta)
+        if x is None:
+            x = d.copy()
+        else:
+            x += d
         for _ in range(CHEBYSHEV_DEGREE - 1):
-            r -= sparse_dense(A, d)
+            Ad = sparse_dense(A, d)
+            if r is b:
+                r = np.subtract(b, Ad, out=Ad)
+            else:
+                r -= Ad
+            del Ad
             rho_new = 1.0 / (2.0 * sigma - rho)
-            d = (rho_new * rho) * d + (2.0 * rho_new / delta) * (dinv * r)
+            d *= rho_new * rho
+            d += r * (dinv * (2.0 * rho_new / delta))
             rho = rho_new
             x += d
         return x

@@ -14,6 +14,7 @@ from .block_eigen import block_lanczos
 from .context import DENSE_LIMIT, EIGEN_METHODS, SolverContext, as_solver
 from .distributed import is_partitioned
 from .factorize import factorize_shifted
+from .lobpcg import lobpcg
 from .threads import sparse_dense
 
 __all__ = ["eigenmodes", "dense_eigenmodes", "default_shift", "rigid_body_threshold", "is_rigid", "frequencies_hz",
@@ -141,6 +142,8 @@ def eigenmodes(K, M, k: int, *, sigma: float | None = None, solver: SolverContex
             from .petsc import slepc_eigenmodes
 
             lam, phi = slepc_eigenmodes(K, M, k, F, sigma, tol=tol)
+        elif F.backend == "amg":  # no factor: one V-cycle per iteration instead of an inner solve per block
+            lam, phi = lobpcg(K, M, k, F.matrix, F.precondition, sigma, tol=tol or 1e-8, stats=F.stats)
         elif method == "lanczos":
             lam, phi = block_lanczos(K, M, k, F, sigma, block=block, tol=tol or 1e-8)
         else:

@@ -48,6 +48,9 @@ class SolverStats:
     iterations, iterations_max, iterative_residual : int, int, float
         Block CG iterations of their solves in all and the most of one, and the largest relative
         residual ``||b - A x|| / ||b||`` of a column they ended with.
+    eigen_iterations, eigen_residual : int, float
+        Iterations of the preconditioned eigensolver (LOBPCG, :mod:`flexmor.linalg.lobpcg`; one V-cycle per
+        iterating column each) and the largest relative residual of an eigenpair it returned.
     """
 
     count: int = 0
@@ -67,6 +70,8 @@ class SolverStats:
     iterations: int = 0
     iterations_max: int = 0
     iterative_residual: float = 0.0
+    eigen_iterations: int = 0
+    eigen_residual: float = 0.0
 
 
 class Factorization:

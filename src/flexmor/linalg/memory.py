@@ -187,13 +187,17 @@ def factor_record(stats) -> dict:
             "iterative": iterative_record(stats) if stats.iterative else None}
 
 
-def iterative_record(stats, since: tuple = (0, 0)) -> dict:
+def iterative_record(stats, since: tuple = (0, 0, 0)) -> dict:
     """The matrices of ``stats`` solved iteratively (the ``amg`` backend) since the counts ``since`` =
-    ``(stats.iterative, stats.iterations)`` were taken: how many, their block CG iterations (in all, and the
-    most of one solve of the context), the relative residual asked and the largest one reached."""
+    ``(stats.iterative, stats.iterations, stats.eigen_iterations)`` were taken: how many, their block CG
+    iterations (in all, and the most of one solve of the context), the relative residual asked and the largest
+    one reached; the iterations of the preconditioned eigensolver (LOBPCG) and its largest relative eigenpair
+    residual (None where it did not run)."""
+    eig = stats.eigen_iterations - (since[2] if len(since) > 2 else 0)
     return {"backend": "amg", "matrices": stats.iterative - since[0], "iterations": stats.iterations - since[1],
             "iterations_max": stats.iterations_max, "solve_tol": stats.iterative_tol,
-            "relative_residual_max": stats.iterative_residual}
+            "relative_residual_max": stats.iterative_residual if stats.iterations else None,
+            "eigen_iterations": eig, "eigen_residual_max": stats.eigen_residual if eig else None}
 
 
 def describe_factor(stats) -> str:
@@ -201,9 +205,13 @@ def describe_factor(stats) -> str:
     parts = [f"{MODE_NAMES[m]} ({getattr(stats, m)} of {stats.count} factorizations)"
              for m in ("mixed", "ooc") if getattr(stats, m)]
     if stats.iterative:
-        parts.append(f"amg + block CG for {stats.iterative} of {stats.count} matrices ({stats.iterations} "
-                     f"iterations, at most {stats.iterations_max} per solve; relative residual "
-                     f"{stats.iterative_residual:.0e}, asked {stats.iterative_tol:.0e})")
+        part = f"amg for {stats.iterative} of {stats.count} matrices"
+        if stats.iterations:
+            part += (f", block CG {stats.iterations} iterations, at most {stats.iterations_max} per solve; relative "
+                     f"residual {stats.iterative_residual:.0e}, asked {stats.iterative_tol:.0e}")
+        if stats.eigen_iterations:
+            part += f", LOBPCG {stats.eigen_iterations} iterations (eigenpair residual {stats.eigen_residual:.0e})"
+        parts.append(part)
     if stats.refined_solves:
         parts.append(f"at most {stats.refine_max_steps} refinement steps per solve "
                      f"({stats.refined_solves} solves), residual {stats.refine_residual:.0e}")

@@ -137,7 +137,7 @@ def reduce(model, method: str, order: int | None, ports, *, inertia_loads: str =
     solver = options.get("solver")
     if solver is not None:  # the geometry's rigid motions, should the amg backend solve (flexmor.linalg.amg)
         register_near_null(solver, model)
-        its0 = (solver.stats.iterative, solver.stats.iterations)
+        its0 = (solver.stats.iterative, solver.stats.iterations, solver.stats.eigen_iterations)
     t0 = time.perf_counter()
     with blas_threads(1):  # tall-skinny and small dense products (see flexmor.linalg.threads)
         basis_ports, inertia = with_inertia_loads(model, ports, inertia_loads if m.uses_inputs else "off")
@@ -161,7 +161,7 @@ def reduce(model, method: str, order: int | None, ports, *, inertia_loads: str =
         red = project(model, basis, ports)
         t2 = time.perf_counter()
     red.info.update(inertia)
-    if solver is not None and solver.stats.iterations > its0[1]:
+    if solver is not None and (solver.stats.iterations, solver.stats.eigen_iterations) > its0[1:]:
         red.info["iterative_solves"] = iterative_record(solver.stats, since=its0)
     if spin is not None:
         red.info["spin"] = _spin_record(model, red, spin_ops, spin_range, opts.get("solver"))
