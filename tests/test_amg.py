@@ -190,3 +190,23 @@ def test_the_plan_estimates_the_amg_setup_within_2x_and_auto_takes_it_when_nothi
     choice = auto_choice(short, list(est.values()), model.n_dof, is_complex=False, positive=True)
     assert choice["backend"] == "amg" and choice["reason"].startswith("no direct factorization fits")
     assert factorize(A, solver=short, positive=True).backend == "amg"
+
+
+def test_the_plan_of_modal_under_amg_counts_lobpcg_within_2x_of_the_run():
+    """flexmor plan's amg row for modal: the setup and the LOBPCG iterations (in solved columns' time), against
+    the run's time of the same reduction (the rigid-body check and modal 30 on 36,300 DOF)."""
+    import time
+
+    from flexmor.plan import plan_reduction
+    from flexmor.reduction import reduce
+
+    model = cantilever(n=10)
+    ports = make_ports(model, ["TIP:y", "TIP:z"])
+    plan = plan_reduction(model, "modal", 30, ports, judge=False, solver=SolverContext(backend="amg"))
+    row = next(r for r in plan.rows if r["backend"] == "amg")
+    solver = SolverContext(backend="amg")
+    t0 = time.perf_counter()
+    reduce(model, "modal", 30, ports, solver=solver)
+    measured = time.perf_counter() - t0
+    assert solver.stats.eigen_iterations > 0 and solver.stats.solves == 0
+    assert 0.5 < row["total_seconds"] / measured < 2.0, (row["total_seconds"], measured)

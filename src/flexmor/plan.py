@@ -32,6 +32,7 @@ from .dynamics.dense_frf import dense_applicable
 from .linalg.amg import near_null
 from .linalg.context import SolverContext, as_solver
 from .linalg.eigen import DENSE_LIMIT, default_shift
+from .linalg.lobpcg import guard_columns
 from .linalg.memory import matrix_bytes
 from .linalg.plan import CALIBRATION_ROWS, REUSED_ANALYSIS, BackendEstimate, auto_choice, estimate_backends
 from .linalg.resources import BASIS_COPIES
@@ -44,12 +45,19 @@ from .reduction.krylov import parse_points
 from .reduction.modal import CLUSTER_MARGIN
 from .rigid import register_near_null, rigid_body_modes
 
-__all__ = ["ESTIMATED_METHODS", "LANCZOS_COLUMNS_PER_PAIR", "MISSED_DIRECTIONS", "Plan", "Stage", "method_stages",
+__all__ = ["ESTIMATED_METHODS", "LANCZOS_COLUMNS_PER_PAIR", "LOBPCG_COLUMNS_PER_COLUMN", "MISSED_DIRECTIONS", "Plan",
+           "Stage", "method_stages",
            "plan_reduction"]
 
 #: Right-hand sides block Lanczos solves per wanted eigenpair (:mod:`flexmor.linalg.block_eigen`), measured on
 #: the cantilever (bench/plan.py: 42 columns for 7 pairs, 66 for 13, 126 for 19; 5-6.6 per pair).
 LANCZOS_COLUMNS_PER_PAIR = 6
+
+#: Cost of the ``amg`` backend's LOBPCG (:mod:`flexmor.linalg.lobpcg`) in block-CG-solved columns per column it
+#: iterates (``k`` pairs plus :func:`~flexmor.linalg.lobpcg.guard_columns`): measured on the cantilever with
+#: modal 30 at 36,300 DOF (the rigid-body check's 13 columns and modal's 45: 6.0 s against 0.1 s per solved
+#: column, 1.0-1.2 per column; the planned time 1.06x the run's with 1.5; not checked above 36,300 DOF).
+LOBPCG_COLUMNS_PER_COLUMN = 1.5
 
 #: Load combinations a default Krylov point on the axis starts from (``directions='missed'``): "near a
 #: resonance one or two" (:func:`flexmor.reduction.greedy_points._tangential_blocks`).
@@ -80,6 +88,9 @@ class Stage:
         an adaptive choice).
     block : int
         Columns of ``n`` it keeps beside the basis (Lanczos basis, Krylov block).
+    iterative_columns : int, optional
+        What the stage costs under the ``amg`` backend in solved columns, where it does not solve columns
+        there: an eigen solve runs LOBPCG instead (:data:`LOBPCG_COLUMNS_PER_COLUMN`).
     """
 
     what: str
@@ -89,6 +100,7 @@ class Stage:
     columns: int
     exact: bool = True
     block: int = 0
+    iterative_columns: int | None = None
 
 
 def _lanczos(solver: SolverContext, n: int, k: int) -> tuple[int, int, str]:
@@ -107,9 +119,9 @@ def _rigid_check(model, solver, shared: bool) -> list[Stage]:
     k = MAX_RIGID_BODY_MODES + 1
     if model.n_dof <= DENSE_LIMIT:
         return []
-    cols, block, _ = _lanczos(solver, model.n_dof, k)
+    cols, block, method = _lanczos(solver, model.n_dof, k)
     return [Stage("rigid-body check: K - sigma M, Lanczos 7 pairs" + (" (factorization kept for the method)"
-                  if shared else ""), model.n_dof, False, 1, 1 + cols, False, block)]
+                  if shared else ""), model.n_dof, False, 1, 1 + cols, False, block, _lobpcg(model.n_dof, k, method))]
 
 
 def _krylov(model, order, ports, options, solver, shared) -> list[Stage]:
@@ -148,7 +160,16 @@ def _krylov(model, order, ports, options, solver, shared) -> list[Stage]:
 
 def _eigen_stage(solver, what: str, n: int, k: int) -> list[Stage]:
     cols, block, method = _lanczos(solver, n, k)
-    return [Stage(f"{what}: {method} {k} pairs", n, False, 0, cols, method == "dense", block)]
+    return [Stage(f"{what}: {method} {k} pairs", n, False, 0, cols, method == "dense", block,
+                  _lobpcg(n, k, method))]
+
+
+def _lobpcg(n: int, k: int, method: str) -> int | None:
+    """The solved columns the ``amg`` backend's LOBPCG for ``k`` pairs costs (None where the eigen solve is
+    dense)."""
+    if method == "dense":
+        return None
+    return math.ceil(LOBPCG_COLUMNS_PER_COLUMN * min(n, k + guard_columns(k)))
 
 
 def _interface(model, options, what: str) -> tuple[int, int]:
@@ -308,9 +329,16 @@ def _row(est: BackendEstimate, mode: str, stages: list[Stage] | None, extra: flo
     count = sum(s.factorizations for s in stages)
     reused = max(count - 1, 0) * next(iter(modes.values())).analysis_seconds * (1 - REUSED_ANALYSIS)
     row["factor_seconds"] = sum(s.factorizations * modes[s.complex].factor_seconds for s in stages) - reused
-    row["solve_seconds"] = sum(s.columns * modes[s.complex].column_seconds for s in stages)
+    row["solve_seconds"] = sum(_columns(s, est) * modes[s.complex].column_seconds for s in stages)
     row["total_seconds"] = row["factor_seconds"] + row["solve_seconds"]
     return row
+
+
+def _columns(stage: Stage, est: BackendEstimate) -> int:
+    """The columns ``stage`` solves with ``est``'s backend (an eigen solve's LOBPCG under ``amg``)."""
+    if est.backend == "amg" and stage.iterative_columns is not None:
+        return stage.iterative_columns
+    return stage.columns
 
 
 def _calibration_text(est: BackendEstimate) -> str:
