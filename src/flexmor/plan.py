@@ -55,7 +55,7 @@ LANCZOS_COLUMNS_PER_PAIR = 6
 
 #: Cost of the ``amg`` backend's LOBPCG (:mod:`flexmor.linalg.lobpcg`) in block-CG-solved columns per column it
 #: iterates (``k`` pairs plus :func:`~flexmor.linalg.lobpcg.guard_columns`): measured on the cantilever with
-#: modal 30 at 36,300 DOF (the rigid-body check's 13 columns and modal's 45: 6.0 s against 0.1 s per solved
+#: modal 30 at 36,300 DOF (the rigid-body check's 13 columns and modal's 48: 6.0 s against 0.1 s per solved
 #: column, 1.0-1.2 per column; the planned time 1.06x the run's with 1.5; not checked above 36,300 DOF).
 LOBPCG_COLUMNS_PER_COLUMN = 1.5
 
