@@ -82,7 +82,8 @@ def eigenmodes(K, M, k: int, *, sigma: float | None = None, solver: SolverContex
         (method, block size, dense limit). With the ``petsc`` backend (or a ``petsc``
         factorization) the eigenpairs come from SLEPc's Krylov-Schur on the distributed
         factorization (:func:`flexmor.linalg.petsc.slepc_eigenmodes`) instead of
-        ``lanczos``/``arpack``.
+        ``lanczos``/``arpack``; with the ``amg`` backend (no factor) from LOBPCG with the AMG
+        V-cycle as preconditioner (:func:`flexmor.linalg.lobpcg.lobpcg`).
     tol : float
         Convergence tolerance: ARPACK's (0 = machine precision) or the relative residual of
         the block Lanczos iteration (0 = its default 1e-8, eigenvalues to ~1e-14 relative).

@@ -219,7 +219,7 @@ def _iterate(K, M, k, A, precondition, sigma, *, tol, guard, max_iter, seed, sta
         if W.shape[1] == 0:
             raise ConvergenceError(f"LOBPCG stalled for {k} modes (no new directions; {int(conv[:k].sum())} "
                                    "converged)", result=(mu[:mk] + sigma, X[:, :mk]))
-        Pa = P[:, [j for j in active if j < P.shape[1]]] if P.shape[1] else P
+        Pa = P[:, active] if P.shape[1] else P  # (P has a column per Ritz vector after the first step)
         del P
         blocks = [X, W] + ([Pa] if Pa.shape[1] else [])
         sizes = [b.shape[1] for b in blocks]
@@ -242,7 +242,7 @@ def _iterate(K, M, k, A, precondition, sigma, *, tol, guard, max_iter, seed, sta
         GM = np.triu(GM) + np.triu(GM, 1).T
         T, _ = _svqb(GM)
         H = T.T @ GA @ T
-        theta, Z = np.linalg.eigh(0.5 * (H + H.T))
+        _, Z = np.linalg.eigh(0.5 * (H + H.T))
         C = T @ Z[:, :m]
         del MX
         with blas_threads(dense_threads(n * offs[-1])):
