@@ -110,9 +110,14 @@ def test_pardiso_time_within_2x_of_the_factorization():
     F = factorize(A, solver=SolverContext(backend="pardiso", factor_memory="double"), positive=True, check=False)
     assert F.seconds / 2 <= row["factor_seconds"] <= 2 * F.seconds
     b = np.random.default_rng(0).standard_normal((n, 8))
-    t0 = time.perf_counter()
-    F.solve(b)
-    column = (time.perf_counter() - t0) / 8
+    # the shortest of three solves, as the plan's calibration keeps: one solve of 15 ms per column can be
+    # slowed 2x by whatever else the machine runs at that moment (and the first pays for the solve's workspace)
+    seconds = []
+    for _ in range(3):
+        t0 = time.perf_counter()
+        F.solve(b)
+        seconds.append(time.perf_counter() - t0)
+    column = min(seconds) / 8
     planned = row["solve_seconds"] / plan.columns
     assert column / 2 <= planned <= 2 * column
 
