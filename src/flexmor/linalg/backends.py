@@ -23,6 +23,11 @@ libraries are imported only when a backend is checked or used.
     flexmor[amg]``) preconditioning block conjugate gradients, solving real symmetric positive
     definite matrices to a stated relative residual (:mod:`flexmor.linalg.amg`); memory
     proportional to the matrix, for models whose factor fits in no memory mode.
+``petsc-gamg``
+    Not a factorization either: PETSc's smoothed-aggregation AMG (GAMG, near-null space of the
+    rigid-body motions) preconditioning CG, distributed over MPI ranks like ``petsc``
+    (``mpirun -n P ... --backend petsc-gamg``); real symmetric positive definite matrices to the
+    same relative residual (:mod:`flexmor.linalg.petsc_gamg`).
 
 ``auto`` (a choice of :class:`flexmor.linalg.context.SolverContext`, not a backend) picks the
 fastest available direct backend that supports the matrix (cholmod for real positive definite, then
@@ -148,6 +153,12 @@ def _petsc(A, solver, *, symmetric=True, positive=False):
     return PetscFactorization(A, solver, symmetric=symmetric, positive=positive)
 
 
+def _petsc_gamg(A, solver, *, symmetric=True, positive=False):
+    from .petsc_gamg import PetscGamg
+
+    return PetscGamg(A, solver, symmetric=symmetric, positive=positive)
+
+
 @dataclass(frozen=True)
 class Backend:
     """One sparse direct solver library.
@@ -196,6 +207,10 @@ BACKENDS: Mapping[str, Backend] = MappingProxyType({b.name: b for b in (
     Backend("amg", "smoothed-aggregation AMG (pyamg) preconditioning block CG, to a relative residual "
             "(--solve-tol); real symmetric positive definite only; memory proportional to the matrix",
             _amg, lambda: _has("pyamg"), complex=False, positive_only=True, iterative=True),
+    Backend("petsc-gamg", "PETSc GAMG (smoothed aggregation, rigid-body near-null space) preconditioning CG, "
+            "distributed over MPI ranks (mpirun -n P ... --backend petsc-gamg), to a relative residual "
+            "(--solve-tol); real symmetric positive definite only; LOBPCG eigenpairs",
+            _petsc_gamg, _petsc_ok, complex=False, positive_only=True, iterative=True),
 )})
 
 

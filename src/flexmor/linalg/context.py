@@ -96,7 +96,7 @@ class SolverContext:
     ----------
     backend : str
         ``auto`` or a name of :data:`~flexmor.linalg.backends.BACKENDS` (``cholmod``,
-        ``pardiso``, ``scipy``, ``petsc``); ``auto`` picks per matrix the fastest available
+        ``pardiso``, ``scipy``, ``petsc``, ``amg``, ``petsc-gamg``); ``auto`` picks per matrix the fastest available
         backend that supports it. The environment variable ``FLEXMOR_AUTO_BACKENDS`` (names
         separated by commas, e.g. ``scipy``) restricts the backends ``auto`` chooses from, so that
         a whole run takes another arithmetic path without changing a call (``scipy`` serves every
@@ -122,8 +122,8 @@ class SolverContext:
     scratch_dir : str or Path, optional
         Where out-of-core factorizations write their temporary files (None: ``$TMPDIR``).
     solve_tol : float
-        Relative residual ``||b - A x|| / ||b||`` to which the ``amg`` backend solves every column
-        (default 1e-10; :mod:`flexmor.linalg.amg`).
+        Relative residual ``||b - A x|| / ||b||`` to which the ``amg`` and ``petsc-gamg`` backends solve
+        every column (default 1e-10; :mod:`flexmor.linalg.amg`, :mod:`flexmor.linalg.petsc_gamg`).
 
     Attributes
     ----------
@@ -204,7 +204,7 @@ class SolverContext:
         avail = self.available()
         if self.backend != "auto":
             if self.backend not in avail:
-                if self.backend == "petsc":
+                if self.backend in DISTRIBUTED:
                     from .petsc import require
 
                     require()  # OptionError naming the install route
@@ -261,6 +261,10 @@ class SolverContext:
     def release(self) -> None:
         """Drop the factorization kept by :meth:`keep` (its memory is free once nothing else holds it)."""
         self._kept = None
+
+
+#: The backends that run under MPI on matrices whose rows are spread over the ranks.
+DISTRIBUTED = ("petsc", "petsc-gamg")
 
 
 #: The environment variable that restricts the backends ``backend="auto"`` chooses from.

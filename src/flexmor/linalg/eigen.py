@@ -83,7 +83,8 @@ def eigenmodes(K, M, k: int, *, sigma: float | None = None, solver: SolverContex
         factorization) the eigenpairs come from SLEPc's Krylov-Schur on the distributed
         factorization (:func:`flexmor.linalg.petsc.slepc_eigenmodes`) instead of
         ``lanczos``/``arpack``; with the ``amg`` backend (no factor) from LOBPCG with the AMG
-        V-cycle as preconditioner (:func:`flexmor.linalg.lobpcg.lobpcg`).
+        V-cycle as preconditioner (:func:`flexmor.linalg.lobpcg.lobpcg`), with ``petsc-gamg`` from
+        the same LOBPCG with PETSc's GAMG V-cycle (:func:`flexmor.linalg.petsc_gamg.gamg_eigenmodes`).
     tol : float
         Convergence tolerance: ARPACK's (0 = machine precision) or the relative residual of
         the block Lanczos iteration (0 = its default 1e-8, eigenvalues to ~1e-14 relative).
@@ -143,6 +144,10 @@ def eigenmodes(K, M, k: int, *, sigma: float | None = None, solver: SolverContex
             from .petsc import slepc_eigenmodes
 
             lam, phi = slepc_eigenmodes(K, M, k, F, sigma, tol=tol)
+        elif F.backend == "petsc-gamg":  # distributed, no factor: LOBPCG with one GAMG V-cycle per column
+            from .petsc_gamg import gamg_eigenmodes
+
+            lam, phi = gamg_eigenmodes(K, M, k, F, sigma, tol=tol or 1e-8)
         elif F.backend == "amg":  # no factor: one V-cycle per iteration instead of an inner solve per block
             lam, phi = lobpcg(K, M, k, F.matrix, F.precondition, sigma, tol=tol or 1e-8, stats=F.stats)
         elif method == "lanczos":

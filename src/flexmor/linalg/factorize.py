@@ -19,7 +19,7 @@ import scipy.sparse as sp
 
 from ..errors import OutOfMemoryError, SolverError
 from .backends import BACKENDS
-from .context import SolverContext, as_solver
+from .context import DISTRIBUTED, SolverContext, as_solver
 from .distributed import is_partitioned
 from .factorization import Factorization
 
@@ -40,7 +40,7 @@ def factorize(A, *, solver: SolverContext | None = None, symmetric: bool = True,
     A : sparse matrix, shape (n, n)
         Real or complex; stored in full (both triangles) when symmetric. A matrix partitioned
         over MPI ranks (:class:`flexmor.linalg.distributed.PartitionedMatrix`) is factorized by
-        the ``petsc`` backend.
+        the ``petsc`` backend (or solved by ``petsc-gamg`` where chosen).
     solver : SolverContext, optional
         The backend choice (``auto``: the fastest available one that supports ``A``), the
         memory mode (``factor_memory``; mixed precision needs pardiso or scipy, out of core
@@ -67,9 +67,10 @@ def factorize(A, *, solver: SolverContext | None = None, symmetric: bool = True,
         raise SolverError(f"cannot factorize a non-square matrix of shape {A.shape}")
     is_complex = np.iscomplexobj(A.data)
     if partitioned:  # rows spread over MPI ranks (flexmor.linalg.distributed)
-        if solver.backend not in ("auto", "petsc"):
-            raise SolverError(f"a matrix partitioned over MPI ranks needs the petsc backend, not {solver.backend!r}")
-        name = "petsc"  # which says what to install when it is missing
+        if solver.backend not in ("auto", *DISTRIBUTED):
+            raise SolverError(f"a matrix partitioned over MPI ranks needs the petsc or petsc-gamg backend, not "
+                              f"{solver.backend!r}")
+        name = "petsc" if solver.backend == "auto" else solver.backend  # (petsc says what to install when missing)
     else:
         name = solver.pick(is_complex=is_complex, positive=positive, symmetric=symmetric)
     if is_complex and not BACKENDS[name].complex and not BACKENDS[name].iterative:

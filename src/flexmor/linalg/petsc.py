@@ -110,15 +110,16 @@ def _local_rows(A, layout: dist.MPILayout):
     return r0, r1, sp.csr_matrix(A[r0:r1])
 
 
-def petsc_matrix(rows: sp.csr_matrix, n: int, *, symmetric: bool, positive: bool):
-    """A PETSc ``MPIAIJ`` matrix from this rank's row block ``rows`` (shape (m, n), global columns)."""
+def petsc_matrix(rows: sp.csr_matrix, n: int, *, symmetric: bool, positive: bool, block: int = 1):
+    """A PETSc ``MPIAIJ`` matrix from this rank's row block ``rows`` (shape (m, n), global columns), of block
+    size ``block`` (``m`` and this rank's first row multiples of it)."""
     PETSc = _petsc()
     rows = sp.csr_matrix(rows)
     rows.sum_duplicates()
     rows.sort_indices()
     itype = np.dtype(PETSc.IntType)
     m = rows.shape[0]
-    A = PETSc.Mat().createAIJ(size=((m, n), (m, n)), comm=PETSc.COMM_WORLD,
+    A = PETSc.Mat().createAIJ(size=((m, n), (m, n)), bsize=block if block > 1 else None, comm=PETSc.COMM_WORLD,
                               csr=(rows.indptr.astype(itype), rows.indices.astype(itype),
                                    rows.data.astype(PETSc.ScalarType)))
     if symmetric:
