@@ -97,8 +97,9 @@ def test_svdmor_many_inputs(clamped):
     ports = make_ports(model, [f"{n}:y" for n in model.node_sets["TIP"]])  # 9 separate inputs/outputs
     full = FullResponse(model, ports, band, cache=False)
     red, res = reduce_and_judge(model, "svdmor", 9, ports, full=full, band=band, **PORTS_ALONE)
-    _, res_k = reduce_and_judge(model, "krylov", 9, ports, full=full, band=band, **PORTS_ALONE)
-    # measured: svdmor 1.1e-9, krylov 1.7 (one block of 9 inputs fills the order)
+    _, res_k = reduce_and_judge(model, "krylov", 9, ports, full=full, band=band, compress="off", **PORTS_ALONE)
+    # measured: svdmor 1.1e-9, the greedy krylov basis 1.7 (one block of 9 inputs fills the order; compressed, the
+    # default, 2.2e-10)
     assert res["band_error"] < 1e-6 and res["band_error"] < 1e-4 * res_k["band_error"]
     assert red.info["directions"] == [2, 2]  # y-bending and torsion of the tip: rank 2
     assert 0 < max(red.info["discarded_input_sv"]) < 1e-3 * red.info["input_sv"][0]

@@ -64,9 +64,15 @@ __all__ = ["Assembly", "Body", "coupling_warning"]
 log = logging.getLogger(__name__)
 
 
-def coupling_warning(method: str) -> str | None:
-    """The warning text for a body reduced by ``method``, or None if its guarantee survives coupling."""
+def coupling_warning(method: str, info: dict | None = None) -> str | None:
+    """The warning text for a body reduced by ``method`` (``info``: its record), or None if its guarantee
+    survives coupling. A krylov body compressed by balanced truncation (``info['compressed']['body']`` other
+    than 'greedy', :mod:`flexmor.reduction.greedy_compress`) keeps no moments."""
     m = methods().get(method)
+    if ((info or {}).get("compressed") or {}).get("body", "greedy") != "greedy":
+        return (f"body reduced with method {method!r} is the balanced truncation of its greedy basis (the default "
+                "points' compression): it keeps no moments, and its error guarantee holds for the uncoupled body "
+                "only; reduce with compress='off' (--compress off) or directions='all' for a body that keeps them")
     if m is None or m.survives_coupling:
         return None
     return (f"body reduced with method {method!r}: its error guarantee holds for the uncoupled body only and "
@@ -174,7 +180,7 @@ class Assembly:
         if name in self.bodies:
             raise OptionError(f"body {name!r} is already in the assembly")
         if isinstance(body, ReducedModel):
-            msg = coupling_warning(body.method)
+            msg = coupling_warning(body.method, body.info)
             if msg:
                 log.info(msg)
                 warnings.warn(msg, FlexmorWarning, stacklevel=2)

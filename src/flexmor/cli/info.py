@@ -43,7 +43,7 @@ def interface_lines(masters) -> list[str]:
 
 #: The entries of a body's record (``info``) that say how its basis was built: expansion points, the band,
 #: cutoff and quadrature of the Gramians, snapshots, iterations, the interface of a CMS basis, Krylov's estimate.
-BASIS_KEYS = ("points_hz", "moments", "points_check", "intermediate", "gramian", "gramians", "band_hz",
+BASIS_KEYS = ("points_hz", "moments", "points_check", "compressed", "intermediate", "gramian", "gramians", "band_hz",
               "band_requested_hz", "cutoff_hz", "n_nodes", "snapshots", "energy_captured", "iterations", "max_iter",
               "shift_change", "shift_tol", "n_interface_dofs", "n_internal", "n_inertia_loads", "inertia_interfaces")
 
@@ -84,12 +84,21 @@ def basis_rows(rec: dict) -> list[tuple[str, str]]:
     check = rec.get("points_check")
     if isinstance(check, dict) and check.get("estimate") is not None:
         more = (check.get("checks_hz") or [])[1:]
-        text = f"band_error {check['estimate']:.3g} (against the body enriched by the full solution"
+        text = f"band_error {check['estimate']:.3g} (against the body " + (
+            f"of the greedy basis of order {check['reference_order']} " if check.get("reference_order") else "")
+        text += "enriched by the full solution"
         if check.get("check_hz") is not None:
             text += f"s at {check['check_hz']:.4g} and {more[0]:.4g} Hz" if more else f" at {check['check_hz']:.4g} Hz"
             if check.get("pointwise_at_check") is not None:
                 text += f", its relative error at {check['check_hz']:.4g} Hz {check['pointwise_at_check']:.3g}"
         rows.append(("estimate", text + "; the judge's figure is verified)"))
+    comp = rec.get("compressed")
+    if isinstance(comp, dict) and comp.get("body"):
+        diffs = comp.get("differences") or {}
+        rows.append(("compressed", ("the balanced truncation" if comp["body"] == "balanced" else "the leading columns")
+                     + f" of the greedy basis of order {comp.get('from_order')} (differences from the reference: "
+                     + ", ".join(f"{k} {v:.3g}" for k, v in diffs.items()) + "; --compress off: the greedy basis of "
+                     "the order)"))
     if rec.get("krylov_points_hz"):
         rows.append(("points", f"{_points(rec['krylov_points_hz'])} Hz (s / 2 pi) of the Krylov step"
                      + (f" to order {rec['intermediate']}" if rec.get("intermediate") else "")))

@@ -187,7 +187,9 @@ class ResidualIndicator:
             coef = [1 + 1j * w * self.reg.beta, -(w ** 2) + 1j * w * self.reg.alpha]
         c = np.stack([a[:, None, None] * X for a in coef], axis=1)  # (f, q, r, b)
         lin = np.real(np.einsum("qkm,fqkm->f", self.P, c))
-        quad = np.real(np.einsum("fqkm,qkpl,fplm->f", c.conj(), self.G, c))
+        f, q, r, b = c.shape  # G c as one product (the three-operand einsum would loop over all four indices)
+        Gc = (self.G.reshape(q * r, q * r) @ c.reshape(f, q * r, b)).reshape(f, q, r, b)
+        quad = np.real(np.einsum("fqkm,fqkm->f", c.conj(), Gc))
         r2 = self.n2 - 2 * lin + quad
         return np.sqrt(np.maximum(r2, 0.0) / max(self.n2, np.finfo(float).tiny))
 
@@ -242,7 +244,7 @@ def _candidates(indicator: ResidualIndicator, band, chosen_hz, n: int = N_CANDID
 
 def greedy_basis(model, ports, order: int | None, band, *, side: str, solver, phi, head, moments: int | None = None,
                  estimate: bool = True, tol: float | None = None, max_points: int | None = None, label: str = "krylov",
-                 n_candidates: int = N_CANDIDATES, directions: str = "missed"):
+                 n_candidates: int = N_CANDIDATES, directions: str = "missed", compress_to: int | None = None):
     """The greedy Krylov basis (see the module docstring): of order ``order``, or until the estimated band
     error of the body before the latest point falls below ``tol``.
 
@@ -278,6 +280,11 @@ def greedy_basis(model, ports, order: int | None, band, *, side: str, solver, ph
         (:func:`_tangential_blocks`: more points for the order on bodies of many ports, interpolation along
         those directions), or of every load (block moment matching: the body interpolates the full transfer
         function in every port direction, which survives coupling the body to other parts at its ports).
+    compress_to : int, optional
+        Build the basis to the orders of :func:`flexmor.reduction.greedy_compress.growth_orders` (instead of
+        ``order``) and return a body of this order in its span, the greedy or the balanced one, whichever
+        differs less from a reference body (:func:`flexmor.reduction.greedy_compress.compressed_greedy`); its
+        record is ``info['compressed']``.
 
     Returns
     -------
@@ -301,49 +308,80 @@ def greedy_basis(model, ports, order: int | None, band, *, side: str, solver, ph
     V = extend_orthonormal(None, head, tol=DEFLATION_TOL) if head.shape[1] else np.zeros((model.n_dof, 0))
     indicator.extend(np.zeros((model.n_dof, 0)), V)
     limit = model.n_dof if order is None else int(order)
-    points, used, per_point, rho_max, estimates, empty = [static_point(model, phi, band)], [], [], [], [], 0
-    low = abs(points[0])  # a free body: no point on the axis below its static point (_candidates)
+    points, used, per_point, rho_max, estimates, empty = [], [], [], [], [], 0
+    first = static_point(model, phi, band)
+    low = abs(first)  # a free body: no point on the axis below its static point (_candidates)
     cut = False
     n_directions: list[int] = []
-    while V.shape[1] < limit and (max_points is None or len(used) < max_points) and empty < 3:
-        p = points[-1]
-        m = int(moments) if moments is not None else moments_at(len(used), loads.shape[1])
-        with step(solver.progress, f"{label} point {p:.6g} Hz ({m} moment{'s' if m > 1 else ''})"):
-            if used and directions == "missed":  # on the axis: the directions the body misses there
-                blocks, s, n_dir = _tangential_blocks(model, loads, V, indicator, p, m, solver, phi)
-                n_directions.append(n_dir)
-            else:
-                blocks, s = blocks_at_points(model, ports, [p], m, side=side, solver=solver, rigid_modes=phi)
-                n_directions.append(loads.shape[1])
-        used.append(s[0])
-        per_point.append(m)
-        new = _new_columns(model, phi, V, blocks[0])
-        cut = new.shape[1] > limit - V.shape[1]  # the order ends inside this point's blocks
-        new = new[:, :limit - V.shape[1]]
-        empty = 0 if new.shape[1] else empty + 1
-        r_prev = V.shape[1]
-        indicator.extend(V, new)
-        V = np.hstack([V, new])
-        if tol is not None and len(used) > 1 and new.shape[1]:
-            estimates.append(nested_difference(model, ports, V, indicator, r_prev, band)["estimate"])
-            log.debug("%s: %d points, order %d, estimated band error %.2e", label, len(used), V.shape[1],
-                      estimates[-1])
-            if estimates[-1] < tol:
-                break
-        if V.shape[1] >= limit:
+    compressed, before = None, np.inf
+    if compress_to is not None:
+        from .greedy_compress import GROWTH_GAIN, compressed_greedy, growth_orders
+
+        stages = growth_orders(int(compress_to), model.n_dof)
+        limit = stages.pop(0)
+    while True:
+        while V.shape[1] < limit and (max_points is None or len(used) < max_points) and empty < 3:
+            if points:
+                f, rho = _candidates(indicator, band, [abs(complex(q).imag) for q in points], n_candidates, low=low)
+                k = int(np.argmax(rho))
+                if rho[k] < 0:  # nothing left to choose
+                    log.warning("%s: no further expansion point in the band at order %d", label, V.shape[1])
+                    break
+                rho_max.append(float(rho[k]))
+            p = point_of(model, float(f[k])) if points else first
+            points.append(p)
+            m = int(moments) if moments is not None else moments_at(len(used), loads.shape[1])
+            with step(solver.progress, f"{label} point {p:.6g} Hz ({m} moment{'s' if m > 1 else ''})"):
+                if used and directions == "missed":  # on the axis: the directions the body misses there
+                    blocks, s, n_dir = _tangential_blocks(model, loads, V, indicator, p, m, solver, phi)
+                    n_directions.append(n_dir)
+                else:
+                    blocks, s = blocks_at_points(model, ports, [p], m, side=side, solver=solver, rigid_modes=phi)
+                    n_directions.append(loads.shape[1])
+            used.append(s[0])
+            per_point.append(m)
+            new = _new_columns(model, phi, V, blocks[0])
+            cut = new.shape[1] > limit - V.shape[1]  # the order ends inside this point's blocks
+            new = new[:, :limit - V.shape[1]]
+            empty = 0 if new.shape[1] else empty + 1
+            r_prev = V.shape[1]
+            indicator.extend(V, new)
+            V = np.hstack([V, new])
+            if tol is not None and len(used) > 1 and new.shape[1]:
+                estimates.append(nested_difference(model, ports, V, indicator, r_prev, band)["estimate"])
+                log.debug("%s: %d points, order %d, estimated band error %.2e", label, len(used), V.shape[1],
+                          estimates[-1])
+                if estimates[-1] < tol:
+                    break
+        if compress_to is None or V.shape[1] <= compress_to:
             break
-        f, rho = _candidates(indicator, band, [abs(complex(q).imag) for q in points], n_candidates, low=low)
-        k = int(np.argmax(rho))
-        if rho[k] < 0:  # nothing left to choose
-            log.warning("%s: no further expansion point in the band at order %d", label, V.shape[1])
+        chosen = [abs(complex(q).imag) for q in points]
+        compressed = compressed_greedy(
+            model, ports, V, indicator, int(compress_to), band,
+            check=lambda B, chosen=chosen: check_columns(model, ports, B, indicator, band, side=side,
+                                                         solver=solver, phi=phi, chosen=chosen, low=low),
+            differences=lambda W, bases, at: nested_differences(model, ports, W, indicator, bases, band, at,
+                                                                judged=True))
+        if not (stages and compressed.grow and compressed.check["difference"] < GROWTH_GAIN * before):
             break
-        rho_max.append(float(rho[k]))
-        points.append(point_of(model, float(f[k])))
+        before = compressed.check["difference"]
+        # the reference is not much better than the body: its columns (the full model's solutions at the
+        # check frequencies) join the basis, which grows to the next stage
+        limit = max(stages.pop(0), V.shape[1] + compressed.E.shape[1])
+        V = np.hstack([V, compressed.E])
+        for q in compressed.check["checks_hz"]:
+            points.append(point_of(model, q))
+            used.append(2 * np.pi * points[-1])
+            per_point.append(1)
+            n_directions.append(loads.shape[1])
     info = {"points_hz": [str(p) for p in points[:len(used)]], "points_rad_s": [str(s) for s in used],
             "moments": per_point, "directions": n_directions, "rho_max": rho_max,
             "points_cut": int(cut) if used else 0}
     if tol is not None:
         info["estimates"] = estimates
+    if compressed is not None:
+        info["points_check"], info["compressed"] = compressed.check, compressed.record
+        return compressed.V, info, compressed.reduced
     R = indicator.R  # V^T (K, M, D) V, handed on to the projection of the body
     reduced = ReducedMatrices(R[1].copy(), R[0].copy(), R[2].copy() if model.D is not None else None,
                               (V, model.M, model.K, model.D))
@@ -392,10 +430,19 @@ def _new_columns(model, phi, V, blocks) -> np.ndarray:
 
 
 def nested_difference(model, ports, V, indicator: ResidualIndicator, r: int, band, at=None, *,
-                      judged: bool = False) -> dict:
-    """Band error of the body of the leading ``r`` columns of ``V`` against the body of all of ``V`` (the
+                      judged: bool = False, T: np.ndarray | None = None) -> dict:
+    """Band error of the body of the leading ``r`` columns of ``V`` (or, with ``T``, of the columns ``V T``:
+    ``T`` orthonormal, ``r`` of them) against the body of all of ``V``: :func:`nested_differences` of one body."""
+    return nested_differences(model, ports, V, indicator, [np.eye(V.shape[1])[:, :r] if T is None else T], band,
+                              at, judged=judged)[0]
+
+
+def nested_differences(model, ports, V, indicator: ResidualIndicator, bases, band, at=None, *,
+                       judged: bool = False) -> list[dict]:
+    """Band error of the bodies of the columns ``V T`` (``T`` in ``bases``: orthonormal coordinates in ``V``,
+    e.g. its leading columns) against the body of all of ``V`` (the
     reduced matrices of :class:`ResidualIndicator`, extended to ``V``), on the judge's grid and rule
-    (:func:`flexmor.dynamics.grid.adaptive_grid` refined on the larger body,
+    (:func:`flexmor.dynamics.grid.adaptive_grid` refined on the larger body, once for all of them,
     :func:`flexmor.dynamics.grid.band_error`). The smaller body has the damping the projection gives it
     (modal damping: the ratio in its own modes); the larger the damping of the judge's full model (modal
     damping: the ratio in its modes up to :data:`~flexmor.dynamics.surrogate.MODES_MARGIN` times the band's
@@ -408,8 +455,8 @@ def nested_difference(model, ports, V, indicator: ResidualIndicator, r: int, ban
 
     Returns
     -------
-    dict
-        ``estimate``, ``n_freq``, ``order`` (``r``), ``compared_order``; with ``at`` (Hz)
+    list of dict
+        Per body ``estimate``, ``n_freq``, ``order`` (its columns), ``compared_order``; with ``at`` (Hz)
         ``pointwise_at_check``, the relative difference there.
     """
     Kr, Mr, Dr = indicator.reduced()
@@ -421,9 +468,13 @@ def nested_difference(model, ports, V, indicator: ResidualIndicator, r: int, ban
     lam, psi = sla.eigh(Kr, Mr)
     wn = np.sqrt(np.clip(lam, 0, None))
     f_res = wn / (2 * np.pi)
-    Dr_body = Dr[:r, :r]
+    bodies = []
+    for P in bases:
+        Ks, Ms, Ds = P.T @ Kr @ P, P.T @ Mr @ P, P.T @ Dr @ P
+        if isinstance(model.damping, ModalDamping):
+            Ds = model.damping.reduced_matrix(Ms, Ks)
+        bodies.append((P, Ks, Ms, Ds))
     if isinstance(model.damping, ModalDamping):
-        Dr_body = model.damping.reduced_matrix(Mr[:r, :r], Kr[:r, :r])
         top = np.inf if dense_applicable(model) else MODES_MARGIN * band[1]  # the judge's dense path: all modes
         d = np.where(f_res <= top, 2 * model.damping.ratios(f_res) * wn,
                      model.damping.alpha + model.damping.beta * wn ** 2)
@@ -436,17 +487,22 @@ def nested_difference(model, ports, V, indicator: ResidualIndicator, r: int, ban
     def larger(freqs):
         return frf_matrices(Kr, Mr, Dr, Br, Cr, 2 * np.pi * np.asarray(freqs, dtype=float))
 
-    def smaller(freqs):
-        return frf_matrices(Kr[:r, :r], Mr[:r, :r], Dr_body, Br[:r], Cr[:, :r], 2 * np.pi * np.asarray(freqs, float))
+    def smaller(body, freqs):
+        P, Ks, Ms, Ds = body
+        return frf_matrices(Ks, Ms, Ds, P.T @ Br, Cr @ P, 2 * np.pi * np.asarray(freqs, float))
 
+    out = []
     with np.errstate(all="ignore"):
         grid, He, _ = adaptive_grid(larger, band[0], band[1], resonances=f_res[inband], zeta=zeta[inband],
                                     refine=model.D is not None)
-        out = {"estimate": float(band_error(grid, He, smaller(grid))), "n_freq": int(grid.size), "order": int(r),
-               "compared_order": int(V.shape[1])}
-        if at is not None:
-            h, hs = larger([at]), smaller([at])
-            out["pointwise_at_check"] = float(np.linalg.norm(h - hs) / max(np.linalg.norm(h), np.finfo(float).tiny))
+        h = larger([at]) if at is not None else None
+        for body in bodies:
+            rec = {"estimate": float(band_error(grid, He, smaller(body, grid))), "n_freq": int(grid.size),
+                   "order": int(body[0].shape[1]), "compared_order": int(V.shape[1])}
+            if h is not None:
+                rec["pointwise_at_check"] = float(np.linalg.norm(h - smaller(body, [at]))
+                                                  / max(np.linalg.norm(h), np.finfo(float).tiny))
+            out.append(rec)
     return out
 
 
@@ -465,11 +521,25 @@ def difference_estimate(model, ports, V, indicator: ResidualIndicator, band, *, 
         ``check_hz``), ``indicator_at_check``, ``checks_hz``
         (every frequency where the full model was solved), ``n_freq``.
     """
+    out, E = check_columns(model, ports, V, indicator, band, side=side, solver=solver, phi=phi, chosen=chosen,
+                           low=low)
+    if E is None:
+        return out
+    on_axis = model.D is not None  # an undamped model is solved beside the axis (point_of): no exact figure at f[k]
+    out.update(nested_difference(model, ports, np.hstack([V, E]), indicator, V.shape[1], band,
+                                 at=out["check_hz"] if on_axis else None, judged=True))
+    return out
+
+
+def check_columns(model, ports, V, indicator: ResidualIndicator, band, *, side, solver, phi, chosen,
+                  low: float = 0.0):
+    """``(record, E)``: the columns ``E`` of the full model's solutions that :func:`difference_estimate` adds to
+    ``V`` (``indicator`` is extended by them; None when no candidate is left) and the record of where."""
     f, rho = _candidates(indicator, band, chosen, low=low)
     k = int(np.argmax(rho))
     out = {"estimate": float("nan"), "check_hz": float(f[k]), "indicator_at_check": float(rho[k])}
     if rho[k] < 0:
-        return out
+        return out, None
     far = (np.abs(f - f[k]) > CHECK_SEPARATION * f[k]) & (rho >= 0)
     at = [float(f[k])] + ([float(f[int(np.argmax(np.where(far, rho, -1.0)))])] if far.any() else [])
     out["checks_hz"] = at
@@ -478,7 +548,4 @@ def difference_estimate(model, ports, V, indicator: ResidualIndicator, band, *, 
                                      rigid_modes=phi)
     E = _new_columns(model, phi, V, [b for point in blocks for b in point])
     indicator.extend(V, E)
-    on_axis = model.D is not None  # an undamped model is solved beside the axis (point_of): no exact figure at f[k]
-    out.update(nested_difference(model, ports, np.hstack([V, E]), indicator, V.shape[1], band,
-                                 at=float(f[k]) if on_axis else None, judged=True))
-    return out
+    return out, E

@@ -179,11 +179,16 @@ class KrylovOptions:
                              "ports, interpolation along those directions) or of every port (all: interpolation "
                              "in every port direction, kept when the body is coupled at its ports)",
                              choices=("all", "missed"))
+    compress: str = option("auto", "default points at a given order: build the greedy basis to 1.5-3 times the "
+                           "order and return the greedy or the balanced body of the order, whichever differs less "
+                           "from a reference body (auto), or the greedy basis of the order alone (off)",
+                           choices=("auto", "off"))
 
 
 @register_method("krylov", "second-order block Krylov moment matching at expansion points", options=KrylovOptions)
 def krylov(model, ports, order, *, points=None, moments: int | None = None, side: str = "input",
-           band=None, rigid: str = "exclude", directions: str = "missed", solver: SolverContext | None = None) -> Basis:
+           band=None, rigid: str = "exclude", directions: str = "missed", compress: str = "auto",
+           solver: SolverContext | None = None) -> Basis:
     """Second-order block Krylov (moment matching) basis at one or several expansion points.
 
     Parameters
@@ -229,6 +234,15 @@ def krylov(model, ports, order, *, points=None, moments: int | None = None, side
         Default points: at each point on the axis only the Krylov blocks of the load combinations the body
         misses there (default), or of every port (interpolation in every port direction, which carries over
         when the body is coupled at its ports; :func:`flexmor.reduction.greedy_points.greedy_basis`).
+    compress : {'auto', 'off'}
+        Default points with ``directions='missed'``, ``moments`` not given, on a body without included
+        rigid-body modes: ``auto``
+        builds the greedy basis to 1.5 times the order (2 or 3 times while its reference is not ten times better than
+        the body: :data:`flexmor.reduction.greedy_compress.GROWTH`) and returns
+        the greedy body of the order (its leading columns) or the frequency-limited balanced truncation of the
+        larger body, whichever differs less from a reference body
+        (:func:`flexmor.reduction.greedy_compress.compressed_greedy`; ``info['compressed']``); ``off`` builds
+        the greedy basis of the order.
     solver : SolverContext, optional
         Solver (backend, statistics) of :func:`flexmor.linalg.factorize` (one factorization per point).
 
@@ -255,6 +269,7 @@ def krylov(model, ports, order, *, points=None, moments: int | None = None, side
     check_choice("side", side, SIDES)
     check_choice("rigid", rigid, RIGID)
     check_choice("directions", directions, ("all", "missed"))
+    check_choice("compress", compress, ("auto", "off"))
     band = Band.of(band)
     if order is None and moments is None:
         raise OptionError("krylov needs order or moments", params=("order", "moments"))
@@ -269,8 +284,10 @@ def krylov(model, ports, order, *, points=None, moments: int | None = None, side
     phi, excited = rigid_head(model, start_block(ports, side), rigid)  # the rigid motion the ports excite, first
     extra, reduced = {}, None
     if points is None:
+        wide = compress == "auto" and directions == "missed" and moments is None and not excited.shape[1]
         V, extra, reduced = greedy_basis(model, ports, int(order), band, side=side, solver=solver, phi=phi,
-                                         head=excited, moments=moments, directions=directions)
+                                         head=excited, moments=moments, directions=directions,
+                                         compress_to=int(order) if wide else None)
         used, k = extra.pop("points_rad_s"), extra.pop("moments")
         pts = np.array([complex(p) for p in extra.pop("points_hz")])
     else:
@@ -281,7 +298,8 @@ def krylov(model, ports, order, *, points=None, moments: int | None = None, side
         log.warning("krylov: only %d independent directions for order %d (deflation)", V.shape[1], order)
     info = {"points_hz": [str(p) for p in pts], "points_rad_s": [str(s) for s in used], "moments": k,
             "side": side, "rigid": rigid, "n_rigid": int(phi.shape[1]), "n_rigid_excluded": n_rb,
-            "n_rigid_included": int(excited.shape[1]), "nested": True}
+            "n_rigid_included": int(excited.shape[1]),
+            "nested": extra.get("compressed", {}).get("body", "greedy") == "greedy"}
     info.update(extra)
     return Basis(V, "krylov", info, reduced=reduced)
 
