@@ -123,8 +123,8 @@ def test_cli_info_backends(capsys):
     assert main(["info", "--backends", "--json"]) == 0
     out = json.loads(capsys.readouterr().out)
     names = [b["name"] for b in out["backends"]]
-    assert names == ["cholmod", "pardiso", "scipy", "petsc", "amg"]
-    assert [b["name"] for b in out["backends"] if b["iterative"]] == ["amg"]
+    assert names == ["cholmod", "pardiso", "scipy", "petsc", "amg", "petsc-gamg"]
+    assert [b["name"] for b in out["backends"] if b["iterative"]] == ["amg", "petsc-gamg"]
     assert out["memory_available_mb"] is None or out["memory_available_mb"] > 0
     assert main(["info"]) == 2  # neither MODEL nor --backends
 

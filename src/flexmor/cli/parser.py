@@ -138,9 +138,10 @@ def _add_model_args(p, damping=True):
     p.add_argument("--backend", default="auto",
                    help="sparse solver: auto, pardiso, cholmod, scipy, petsc (MPI: mpirun -n P flexmor ...), amg "
                         "(iterative: algebraic multigrid + block CG for real positive definite matrices; no band "
-                        "error, krylov at real points)")
+                        "error, krylov at real points), petsc-gamg (the same with PETSc GAMG + CG under MPI; "
+                        "with --no-error)")
     p.add_argument("--solve-tol", type=float, default=SOLVE_TOL, metavar="TOL",
-                   help=f"relative residual of every solve of backend amg (default {SOLVE_TOL:g})")
+                   help=f"relative residual of every solve of backends amg and petsc-gamg (default {SOLVE_TOL:g})")
     p.add_argument("--factor-memory", choices=FACTOR_MEMORY, default="auto",
                    help="memory mode of the factorizations: double (in core), mixed (single-precision factor, "
                         "solves refined in double; pardiso, scipy), ooc (out of core, files beside the output or "
@@ -346,7 +347,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("study", help="study file (.toml)")
     p.add_argument("-o", "--output-file", metavar="FILE", help="reduced body file (.h5; default the study's)")
     p.add_argument("--force", action="store_true", help="overwrite an existing output file")
-    p.add_argument("--backend", default="auto", help="sparse solver: auto, pardiso, cholmod, scipy, petsc, amg")
+    p.add_argument("--backend", default="auto",
+                   help="sparse solver: auto, pardiso, cholmod, scipy, petsc, amg, petsc-gamg")
     p.add_argument("--solve-tol", type=float, default=SOLVE_TOL, metavar="TOL", help="as for reduce")
     p.add_argument("--factor-memory", choices=FACTOR_MEMORY, default="auto", help="as for reduce")
     p.add_argument("--memory-limit", type=memory_size, metavar="SIZE", help="as for reduce")
