@@ -210,3 +210,22 @@ def test_the_plan_of_modal_under_amg_counts_lobpcg_within_2x_of_the_run():
     measured = time.perf_counter() - t0
     assert solver.stats.eigen_iterations > 0 and solver.stats.solves == 0
     assert 0.5 < row["total_seconds"] / measured < 2.0, (row["total_seconds"], measured)
+
+
+def test_an_iterative_backend_names_itself_where_a_complex_point_is_asked(beam):
+    """krylov's default points lie on the frequency axis: the refusal says that the backend solves real matrices
+    only, not that the point sits at an eigenfrequency; the record names the backend that solved; the band error
+    of every iterative backend is skipped with the same note."""
+    from flexmor.linalg.backends import is_iterative
+    from flexmor.reduction import reduce
+    from flexmor.workflow import ITERATIVE_SKIP
+
+    model = beam
+    ports = make_ports(model, ["TIP:y"])
+    with pytest.raises(SolverError, match="backend amg solves real positive definite matrices only") as exc:
+        reduce(model, "krylov", 6, ports, solver=SolverContext(backend="amg"))
+    assert "eigenfrequency" not in str(exc.value)
+    body = reduce(model, "krylov", 6, ports, points="0", solver=SolverContext(backend="amg"))
+    assert body.info["iterative_solves"]["backend"] == "amg"
+    assert is_iterative("amg") and is_iterative("petsc-gamg") and not is_iterative("pardiso")
+    assert not is_iterative(None) and "amg, petsc-gamg" in ITERATIVE_SKIP

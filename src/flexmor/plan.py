@@ -40,6 +40,7 @@ from .ports import interface_dofs
 from .reduction import check_shift, method_name
 from .reduction.arnoldi import start_block
 from .reduction.free_body import with_inertia_loads
+from .reduction.greedy_compress import growth_orders
 from .reduction.greedy_points import moments_at
 from .reduction.krylov import parse_points
 from .reduction.modal import CLUSTER_MARGIN
@@ -125,7 +126,8 @@ def _rigid_check(model, solver, shared: bool) -> list[Stage]:
 
 
 def _krylov(model, order, ports, options, solver, shared) -> list[Stage]:
-    """Krylov at given points, or at its greedy default points (with their estimate's two factorizations)."""
+    """Krylov at given points, or at its greedy default points (with their estimate's two factorizations), the
+    greedy basis built to 1.5 times the order where the default compresses it."""
     side = options.get("side", "input")
     b = start_block(ports, side).shape[1]
     n = model.n_dof
@@ -142,6 +144,10 @@ def _krylov(model, order, ports, options, solver, shared) -> list[Stage]:
         return []
     missed = options.get("directions", "missed") == "missed"
     stages, cols, i = [], 0, 0
+    if missed and moments is None and options.get("compress", "auto") == "auto" and options.get("rigid") != "include":
+        # the greedy basis runs to the first of its compression's orders (growing further, where its reference
+        # asks for it, adds points that are not planned: flexmor.reduction.greedy_compress)
+        order = growth_orders(order, n)[0]
     while cols < order:
         m = int(moments) if moments is not None else moments_at(i, b)
         if i == 0:

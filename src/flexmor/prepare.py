@@ -27,7 +27,7 @@ from typing import Any
 
 from .damping import Damping, NoDamping
 from .errors import ModelError, OptionError
-from .linalg.context import SolverContext, step
+from .linalg.context import DISTRIBUTED, SolverContext, step
 from .model import FEModel
 
 __all__ = ["prepare", "Prepared", "as_damping", "PREPARATION", "DAMPING_KEYS"]
@@ -184,7 +184,7 @@ def prepare(model, *, format: str | None = None, mesh=None, units=None, select: 
 
     t0 = time.perf_counter()
     label = str(model.source or model.name) if isinstance(model, FEModel) else str(model)
-    if solver is not None and solver.backend == "petsc":  # under mpirun: rank 0 reads, each rank gets its rows
+    if solver is not None and solver.backend in DISTRIBUTED:  # under mpirun: rank 0 reads, each rank its rows
         from .models.distributed import read_on_root
 
         done = read_on_root(load, keep)

@@ -26,6 +26,7 @@ from .checks import check_band
 from .damping import describe_damping
 from .display import Shown, band_text, names_text
 from .errors import ModelError, OptionError, check_keywords_of
+from .linalg.backends import is_iterative
 from .linalg.context import SolverContext, as_solver, step
 from .linalg.distributed import is_partitioned
 from .model import FEModel
@@ -289,7 +290,7 @@ class System(Shown):
         given = {k: v for k, v in options.items() if k not in _JUDGE_KEYWORDS}
         options = self._moving_options(method, self.options(method, options))
         method_band = options.pop("band", None)  # the method's band (the study's unless given)
-        iterative = judge and self.solver.backend == "amg"  # no full FRF: the band for the mounted check alone
+        iterative = judge and is_iterative(self.solver.backend)  # no full FRF: the band for the mounted check alone
         body, record = reduce_and_judge(self.model, method, order, self.ports, method_band=method_band,
                                         full=(lambda: self.full) if judge and not iterative else None,
                                         band=self.band if iterative else None, solver=self.solver,

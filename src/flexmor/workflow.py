@@ -14,6 +14,7 @@ from .checks import check_rigid_body_modes, coupling_frequencies, first_elastic_
 from .damping import Damping, NoDamping, Rayleigh, band_matched
 from .damping import modal_damping as _modal_damping
 from .errors import OptionError, check_keywords, keyword_names
+from .linalg.backends import is_iterative
 from .linalg.context import SolverContext, as_solver
 from .linalg.distributed import is_partitioned
 from .linalg.resources import check_basis_memory
@@ -176,9 +177,9 @@ def reduce_and_judge(model, method: str, order, ports, *, band=None,
         from .tolerance import check_tol_method
 
         check_tol_method(method)
-        if solver.backend == "amg":
-            raise OptionError("tol chooses the order by the band error, which backend amg does not compute (it "
-                              "solves no complex systems); give --order", params=("tol", "backend"))
+        if is_iterative(solver.backend):
+            raise OptionError(f"tol chooses the order by the band error, which backend {solver.backend} does not "
+                              "compute (it solves no complex systems); give --order", params=("tol", "backend"))
         if full is None and band is None and full_of is None:
             raise OptionError("tol needs the error evaluation over a band (band is None)", params=("tol",))
         if full_of is not None:
@@ -218,7 +219,7 @@ def reduce_and_judge(model, method: str, order, ports, *, band=None,
         "info": red.info,
     }
     skipped = None
-    if full is None and (full_of is not None or band is not None) and solver.backend == "amg":
+    if full is None and (full_of is not None or band is not None) and is_iterative(solver.backend):
         skipped, band_only = ITERATIVE_SKIP, band if band is not None else method_band
         band = full_of = None
     if full is None and full_of is not None:
@@ -260,9 +261,9 @@ def reduce_and_judge(model, method: str, order, ports, *, band=None,
 
 
 #: The note of a body whose band error the ``amg`` backend did not compute.
-ITERATIVE_SKIP = ("band error not computed: the amg backend has no solver for the complex K - w^2 M + i w D of "
-                  "the full model's FRF (real positive definite matrices only); judge the body with a direct "
-                  "backend (flexmor compare) where one fits")
+ITERATIVE_SKIP = ("band error not computed: an iterative backend (amg, petsc-gamg) has no solver for the complex "
+                  "K - w^2 M + i w D of the full model's FRF (real positive definite matrices only); judge the body "
+                  "with a direct backend (flexmor compare) where one fits")
 
 
 def record_setup(body, *, couplings=(), interfaces=(), selections=()) -> None:

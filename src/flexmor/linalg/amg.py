@@ -195,6 +195,7 @@ class AmgSolver(Factorization):
         stats = solver.stats
         stats.iterative += 1
         stats.iterative_tol = self._tol
+        stats.iterative_backend = self.backend
         log.info("amg: %d levels, operator complexity %.2f, near-null space %s, set up in %.2f s",
                  self.levels, self.operator_complexity, self.near_null, self.setup_seconds)
 

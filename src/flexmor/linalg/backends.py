@@ -55,7 +55,7 @@ from .factorization import Factorization
 from .memory import MEMORY_FRACTION, estimate_memory, matrix_bytes
 from .resources import describe_memory
 
-__all__ = ["Backend", "BACKENDS", "available_backends",
+__all__ = ["Backend", "BACKENDS", "available_backends", "is_iterative",
            "estimate_memory", "MEMORY_FRACTION", "describe_backends"]
 
 log = logging.getLogger(__name__)
@@ -212,6 +212,13 @@ BACKENDS: Mapping[str, Backend] = MappingProxyType({b.name: b for b in (
             "(--solve-tol); real symmetric positive definite only; LOBPCG eigenpairs",
             _petsc_gamg, _petsc_ok, complex=False, positive_only=True, iterative=True),
 )})
+
+
+def is_iterative(name: str | None) -> bool:
+    """Whether the backend ``name`` solves iteratively (``amg``, ``petsc-gamg``: real positive definite matrices
+    to a tolerance, no complex solves) rather than factorizing."""
+    b = BACKENDS.get(name or "")
+    return bool(b is not None and b.iterative)
 
 
 def available_backends(*, iterative: bool = False) -> list[str]:

@@ -42,9 +42,10 @@ class SolverStats:
     factor_reason : str
         Why the last factorization in mixed precision or out of core was made so
         (:func:`flexmor.linalg.memory.factor_record` summarizes these counts).
-    iterative, iterative_tol : int, float
-        Matrices solved iteratively instead of factorized (the ``amg`` backend,
-        :mod:`flexmor.linalg.amg`; counted in ``count`` too) and the relative residual asked of their solves.
+    iterative, iterative_tol, iterative_backend : int, float, str
+        Matrices solved iteratively instead of factorized (the ``amg`` backend, :mod:`flexmor.linalg.amg`, or
+        ``petsc-gamg``, :mod:`flexmor.linalg.petsc_gamg`; counted in ``count`` too), the relative residual asked
+        of their solves and the backend that solved the last of them.
     iterations, iterations_max, iterative_residual : int, int, float
         Block CG iterations of their solves in all and the most of one, and the largest relative
         residual ``||b - A x|| / ||b||`` of a column they ended with.
@@ -67,6 +68,7 @@ class SolverStats:
     factor_reason: str = ""
     iterative: int = 0
     iterative_tol: float = 0.0
+    iterative_backend: str = ""
     iterations: int = 0
     iterations_max: int = 0
     iterative_residual: float = 0.0

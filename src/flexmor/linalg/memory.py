@@ -188,13 +188,15 @@ def factor_record(stats) -> dict:
 
 
 def iterative_record(stats, since: tuple = (0, 0, 0)) -> dict:
-    """The matrices of ``stats`` solved iteratively (the ``amg`` backend) since the counts ``since`` =
+    """The matrices of ``stats`` solved iteratively (the ``amg`` or ``petsc-gamg`` backend: ``backend``) since
+    the counts ``since`` =
     ``(stats.iterative, stats.iterations, stats.eigen_iterations)`` were taken: how many, their block CG
     iterations (in all, and the most of one solve of the context), the relative residual asked and the largest
     one reached; the iterations of the preconditioned eigensolver (LOBPCG) and its largest relative eigenpair
     residual (None where it did not run)."""
     eig = stats.eigen_iterations - (since[2] if len(since) > 2 else 0)
-    return {"backend": "amg", "matrices": stats.iterative - since[0], "iterations": stats.iterations - since[1],
+    return {"backend": stats.iterative_backend or "amg", "matrices": stats.iterative - since[0],
+            "iterations": stats.iterations - since[1],
             "iterations_max": stats.iterations_max, "solve_tol": stats.iterative_tol,
             "relative_residual_max": stats.iterative_residual if stats.iterations else None,
             "eigen_iterations": eig, "eigen_residual_max": stats.eigen_residual if eig else None}

@@ -155,6 +155,7 @@ class PetscGamg(Factorization):
         stats = solver.stats
         stats.iterative += 1
         stats.iterative_tol = self._tol
+        stats.iterative_backend = self.backend
         log.info("petsc-gamg: %d equations on %d ranks, %d levels, operator complexity %.2f, block %d, near-null "
                  "space %s, set up in %.2f s", n, dist.size(), self.levels, self.operator_complexity, self.block,
                  self.near_null, self.setup_seconds)

@@ -18,6 +18,7 @@ import scipy.linalg as sla
 from ..basis import Columns, extend_orthonormal, rank_revealing_qr
 from ..errors import SolverError, check_choice
 from ..linalg import factorize
+from ..linalg.backends import is_iterative
 from ..linalg.context import SolverContext, as_solver
 from ..linalg.eigen import default_shift
 from ..linalg.factorize import factorize_shifted
@@ -251,6 +252,11 @@ def shifted_factorization(model, s: complex, solver: SolverContext | None = None
     try:
         return factorize(A.tocsr(), solver=solver, symmetric=True, positive=real and s.real >= 0), s
     except SolverError as exc:
+        if not real and is_iterative(solver.backend):  # not singular: an iterative backend solves no complex matrix
+            raise SolverError(f"backend {solver.backend} solves real positive definite matrices only: the expansion "
+                              f"point {s / (2 * math.pi):.6g} Hz is complex (krylov's default points lie on the "
+                              "frequency axis); give real points (e.g. 0) or a direct backend",
+                              params=("points", "backend")) from exc
         if s != 0:
             if not real and abs(s.real) <= 1e-12 * abs(s):  # a point on the frequency axis
                 raise SolverError(f"s^2 M + s D + K is singular at the expansion point {abs(s) / (2 * math.pi):.8g} "
