@@ -95,8 +95,10 @@ def basis_rows(rec: dict) -> list[tuple[str, str]]:
     comp = rec.get("compressed")
     if isinstance(comp, dict) and comp.get("body"):
         diffs = comp.get("differences") or {}
-        rows.append(("compressed", ("the balanced truncation" if comp["body"] == "balanced" else "the leading columns")
-                     + f" of the greedy basis of order {comp.get('from_order')} (differences from the reference: "
+        what = {"greedy": "the leading columns", "balanced": "the balanced truncation",
+                "static+balanced": "the static responses and the balancing directions"}.get(comp["body"], comp["body"])
+        rows.append(("compressed", f"{what} of the greedy basis of order {comp.get('from_order')} (differences "
+                     "from the reference: "
                      + ", ".join(f"{k} {v:.3g}" for k, v in diffs.items()) + "; --compress off: the greedy basis of "
                      "the order)"))
     if rec.get("krylov_points_hz"):
