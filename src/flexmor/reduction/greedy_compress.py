@@ -52,7 +52,7 @@ from ..projection import ReducedMatrices
 from .dense_gramians import dense_gramians, psd_factor
 from .gramians import balance
 
-__all__ = ["GROWTH", "GROWTH_GAIN", "REFERENCE_MARGIN", "STATIC_FACTOR", "STATIC_FLOOR", "Compressed",
+__all__ = ["GROWTH", "GROWTH_GAIN", "REFERENCE_MARGIN", "STATIC_TOL", "Compressed",
            "compressed_greedy", "growth_orders", "static_errors"]
 
 #: The orders of the greedy basis, as multiples of the order asked for: the first, and the next ones while the
@@ -65,12 +65,11 @@ GROWTH = (1.5, 2.0, 3.0)
 #: body's difference from it (the difference is then the reference's error, not the body's).
 REFERENCE_MARGIN = 0.1
 
-#: A candidate other than the greedy body (which holds them exactly) is taken only when the static responses to
-#: the body's loads (ports and the frame's inertia loads) over the field are within ``max(STATIC_FACTOR * RMS
-#: band error, STATIC_FLOOR)`` of the reference's: the threshold of the mounted check's note
-#: (:data:`flexmor.analysis.mounted.NOTE_FACTOR`, :data:`~flexmor.analysis.mounted.NOTE_FLOOR`).
-STATIC_FACTOR = 10.0
-STATIC_FLOOR = 1e-3
+#: A candidate is taken only when its static responses to the body's loads (ports and the frame's inertia loads)
+#: over the field are within this (relative) of the reference's, as the greedy basis' static point holds them:
+#: what the body does under slow loads and its frame's inertia is kept, not traded for band error (the plain
+#: balanced truncation missed them by 1e-3 to 4e-2 on the cases of bench/krylov_points.py).
+STATIC_TOL = 1e-6
 
 #: ... and while the last growth took the difference below this fraction of what it was: a difference that
 #: stays is a floor of every body (e.g. modal damping: the judge's full model damps the modes far above the band
@@ -164,9 +163,7 @@ def compressed_greedy(model, ports, V1, indicator, order: int, band, *, check, d
     got = differences(W, bases, at)  # one grid for all
     diffs = dict(zip(candidates, got))
     statics = {k: float(static_errors(Kw, Bw, P).max()) for k, P in candidates.items()}
-    # the mounted check's standard: a static error within ten times the body's RMS band error (or 1e-3)
-    admitted = [k for k in candidates if k == "greedy" or statics[k] <= max(
-        STATIC_FACTOR * np.sqrt(max(diffs[k]["estimate"], 0.0)), STATIC_FLOOR)]
+    admitted = [k for k in candidates if k == "greedy" or statics[k] <= STATIC_TOL]  # the static responses kept
     best = min(admitted, key=lambda k: (diffs[k]["estimate"], k != "greedy"))
     ref = got[-1]["estimate"] if E is not None else float("nan")
     P = candidates[best][:r1]
