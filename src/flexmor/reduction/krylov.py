@@ -180,8 +180,9 @@ class KrylovOptions:
                              "in every port direction, kept when the body is coupled at its ports)",
                              choices=("all", "missed"))
     compress: str = option("auto", "default points at a given order: build the greedy basis to 1.5-3 times the "
-                           "order and return the greedy or the balanced body of the order, whichever differs less "
-                           "from a reference body (auto), or the greedy basis of the order alone (off)",
+                           "order and return the body of the order in its span that differs least from a reference "
+                           "body with the same static responses (auto: the greedy one, its balanced truncation, or "
+                           "the static responses and balancing directions), or the greedy basis of the order (off)",
                            choices=("auto", "off"))
 
 
@@ -238,9 +239,10 @@ def krylov(model, ports, order, *, points=None, moments: int | None = None, side
         Default points with ``directions='missed'``, ``moments`` not given, on a body without included
         rigid-body modes: ``auto``
         builds the greedy basis to 1.5 times the order (2 or 3 times while its reference is not ten times better than
-        the body: :data:`flexmor.reduction.greedy_compress.GROWTH`) and returns
-        the greedy body of the order (its leading columns) or the frequency-limited balanced truncation of the
-        larger body, whichever differs less from a reference body
+        the body: :data:`flexmor.reduction.greedy_compress.GROWTH`) and returns, of the greedy body of the
+        order (its leading columns), the frequency-limited balanced truncation of the larger body and the static
+        responses followed by its balancing directions, the one that differs least from a reference body among
+        those whose static responses are the reference's
         (:func:`flexmor.reduction.greedy_compress.compressed_greedy`; ``info['compressed']``); ``off`` builds
         the greedy basis of the order.
     solver : SolverContext, optional
