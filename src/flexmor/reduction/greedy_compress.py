@@ -156,7 +156,8 @@ def compressed_greedy(model, ports, V1, indicator, order: int, band, *, check, d
     candidates = {"greedy": np.eye(n)[:, :order]}
     Kr, Mr, Dr = Kw[:r1, :r1], Mw[:r1, :r1], Dw[:r1, :r1]  # an undamped body: its light band damping
     Xs = np.linalg.solve(Kr, Bw[:r1])  # the static responses of the body's loads: exact in the greedy basis
-    U, sv, _ = np.linalg.svd(Xs / np.linalg.norm(Xs, axis=0), full_matrices=False)
+    norms = np.linalg.norm(Xs, axis=0)
+    U, sv, _ = np.linalg.svd(Xs[:, norms > 0] / norms[norms > 0], full_matrices=False)
     S = U[:, :int(np.sum(sv > 1e-8 * sv[0]))] if sv.size else U[:, :0]
     T = _balanced(Kr, Mr, Dr, Bw[:r1], Cw[:, :r1], band, min(order + S.shape[1], r1))
     if T is not None:
