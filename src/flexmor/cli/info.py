@@ -96,7 +96,9 @@ def basis_rows(rec: dict) -> list[tuple[str, str]]:
     if isinstance(comp, dict) and comp.get("body"):
         diffs = comp.get("differences") or {}
         what = {"greedy": "the leading columns", "balanced": "the balanced truncation",
-                "static+balanced": "the static responses and the balancing directions"}.get(comp["body"], comp["body"])
+                "static+balanced": "the static responses and the balancing directions",
+                "static+dynamic": "the static responses and the balancing directions of the dynamic part"}.get(
+                    comp["body"], comp["body"])
         rows.append(("compressed", f"{what} of the greedy basis of order {comp.get('from_order')} (differences "
                      "from the reference: "
                      + ", ".join(f"{k} {v:.3g}" for k, v in diffs.items()) + "; --compress off: the greedy basis of "

@@ -6,7 +6,7 @@ while a balanced truncation of the same ports reaches errors orders of magnitude
 (the clamped plate structure with the six directions of its hole's RBE2 and the frame's inertia loads, order
 30, 1-2000 Hz: greedy Krylov 2.9e-3, fw-sobt 1.1e-9). :func:`compressed_greedy` takes the greedy basis
 (:func:`flexmor.reduction.greedy_points.greedy_basis`) built to a larger order, ``V1`` (the first of
-:data:`GROWTH` times the order asked for), and compares three bodies of the order asked for in its span:
+:data:`GROWTH` times the order asked for), and compares four bodies of the order asked for in its span:
 
 * ``greedy``: the leading columns of ``V1`` (the greedy basis of that order: the basis is nested);
 * ``balanced``: the frequency-limited second-order balanced truncation (position Gramians of the band,
@@ -14,7 +14,10 @@ while a balanced truncation of the same ports reaches errors orders of magnitude
   ``V1``'s body, every port and inertia load weighed as the Gramian methods weigh them (the two-step method's
   second step, Lehner & Eberhard 2007);
 * ``static+balanced``: the static responses of ``V1``'s body to every load (ports and the frame's inertia loads),
-  then the balancing directions as far as they add one.
+  then the balancing directions as far as they add one;
+* ``static+dynamic``: the static responses, then the balancing directions of the dynamic part of the response
+  (the body driven by the inertia forces ``M K^-1 B`` of the static responses: what a body that holds the static
+  responses still has to approximate, ``u - K^-1 B f = -(K + s D + s^2 M)^-1 (s D + s^2 M) K^-1 B f``).
 
 A candidate is admitted where its static responses over the field are those of ``V1``'s body to :data:`STATIC_TOL`
 (the greedy body always: its static point holds them), so that what the body does under slow loads and its frame's
@@ -142,7 +145,8 @@ def compressed_greedy(model, ports, V1, indicator, order: int, band, *, check, d
 
     Returns a :class:`Compressed`: the basis, its matrices, the estimate's record (as
     :func:`flexmor.reduction.greedy_points.difference_estimate`'s, with ``difference``, ``reference_estimate``
-    and ``reference_order``) and ``compressed`` (``body``: 'greedy', 'balanced' or 'static+balanced',
+    and ``reference_order``) and ``compressed`` (``body``: 'greedy', 'balanced', 'static+balanced' or
+    'static+dynamic',
     ``from_order``, ``differences`` and ``static_errors`` of the candidates, ``admitted``).
     """
     r1 = V1.shape[1]
@@ -164,6 +168,11 @@ def compressed_greedy(model, ports, V1, indicator, order: int, band, *, check, d
             Q = _filled(head, T, order) if head.shape[1] < order else None
             if Q is not None:
                 candidates[name] = np.vstack([Q, np.zeros((n - r1, order))])
+    if S.shape[1] and S.shape[1] < order:  # the dynamic part's leading directions after the static responses
+        Td = _balanced(Kr, Mr, Dr, Mr @ Xs, Cw[:, :r1], band, min(order, r1))
+        Q = _filled(S, Td, order) if Td is not None else None
+        if Q is not None:
+            candidates["static+dynamic"] = np.vstack([Q, np.zeros((n - r1, order))])
     bases = [*candidates.values()] + ([np.eye(n)[:, :r1]] if E is not None else [])
     got = differences(W, bases, at)  # one grid for all
     diffs = dict(zip(candidates, got))

@@ -282,8 +282,10 @@ def greedy_basis(model, ports, order: int | None, band, *, side: str, solver, ph
         function in every port direction, which survives coupling the body to other parts at its ports).
     compress_to : int, optional
         Build the basis to the orders of :func:`flexmor.reduction.greedy_compress.growth_orders` (instead of
-        ``order``) and return a body of this order in its span, the greedy or the balanced one, whichever
-        differs less from a reference body (:func:`flexmor.reduction.greedy_compress.compressed_greedy`); its
+        ``order``) and return a body of this order in its span: of the candidates (the greedy body's leading
+        columns, the balanced truncation of the larger body, the static responses followed by the balancing
+        directions) whose static responses equal the larger greedy body's (``STATIC_TOL``), the one that
+        differs least from a reference body (:func:`flexmor.reduction.greedy_compress.compressed_greedy`); its
         record is ``info['compressed']``.
 
     Returns
