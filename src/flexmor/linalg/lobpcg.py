@@ -98,7 +98,8 @@ def _m_orthonormal(M, W: np.ndarray, X: np.ndarray | None = None, MX: np.ndarray
                 C = MX.T @ W
                 W = W - X @ C
         MW = sparse_dense(M, W)
-        G = W.T @ MW
+        with blas_threads(dense_threads(n * W.shape[1])):
+            G = W.T @ MW
         if C is not None:  # M-norm kept over M-norm before the projection (X is M-orthonormal)
             after = np.maximum(np.diag(G), 0.0)
             kept = np.sqrt(after / np.maximum(after + np.einsum("ij,ij->j", C, C), 1e-300))
@@ -119,7 +120,9 @@ def _reorthonormal(M, X, m, precondition, rng):
     dependent."""
     n = X.shape[0]
     MX = sparse_dense(M, X)
-    s, U = np.linalg.eigh(X.T @ MX)
+    with blas_threads(dense_threads(n * m)):
+        G = X.T @ MX
+    s, U = np.linalg.eigh(G)
     if s[0] > 0.5:
         T = (U / np.sqrt(s)) @ U.T
         with blas_threads(dense_threads(n * m)):

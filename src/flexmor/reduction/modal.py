@@ -66,7 +66,8 @@ def modal(model, ports, order, *, rigid: str = "exclude", sigma: float | None = 
     if order is None:
         raise OptionError("modal needs order", params=("order",))
     n = model.n_dof  # (an order above it is refused where every method is called: _registry.check_reachable)
-    extra = (6 if rigid == "exclude" else 0) + CLUSTER_MARGIN  # beyond the order: a pair cut at the order shows
+    # beyond the order: a pair cut at the order shows, and room for the rigid-body modes where there may be some
+    extra = (6 if rigid == "exclude" and _may_move_rigidly(model, solver) else 0) + CLUSTER_MARGIN
     while True:
         k = min(n, order + extra)
         lam, phi = eigenmodes(model.K, model.M, k, sigma=sigma, solver=solver)
@@ -90,6 +91,30 @@ def modal(model, ports, order, *, rigid: str = "exclude", sigma: float | None = 
 
 #: Eigenpairs computed beyond the order, to see whether the order cuts a multiple eigenvalue.
 CLUSTER_MARGIN = 3
+
+
+def _may_move_rigidly(model, solver) -> bool:
+    """Whether modal should ask room for rigid-body modes at the first try. Always, except under an iterative
+    backend (whose eigensolver iterates every column asked for: six of 45 at order 30) on a model whose geometry's
+    six rigid motions have no combination of a Rayleigh quotient below ``1e3`` times the rigid-body threshold:
+    a supported body. A rigid-body mode that is not a motion of the whole geometry (a loose part) is found by
+    the modes themselves, and the eigenpairs are computed again with the room."""
+    from ..linalg.backends import is_iterative
+    from ..linalg.eigen import rigid_body_threshold
+    from ..rigid import rigid_motions
+
+    if not is_iterative(solver.backend):
+        return True
+    R = rigid_motions(model)
+    R = R[:, np.linalg.norm(R, axis=0) > 0]
+    if R.shape[1] < 6:
+        return True
+    R = R / np.linalg.norm(R, axis=0)
+    GK, GM = R.T @ (model.K @ R), R.T @ (model.M @ R)
+    import scipy.linalg as sla
+
+    mu = sla.eigh(0.5 * (GK + GK.T), 0.5 * (GM + GM.T), eigvals_only=True)
+    return bool(mu[0] < 1e3 * rigid_body_threshold(model.K, model.M))
 
 
 def cluster_note(order: int, got: int, f_hz: float) -> str:
