@@ -6,6 +6,7 @@ Run under the MPI environment (``make test-mpi`` builds .venv-mpi), e.g.::
     mpirun -n 2 .venv-mpi/bin/python bench/petsc_scale.py 14 21      # two ranks
     .venv-mpi/bin/python bench/petsc_scale.py 14 --no-modal          # factorization only
     mpirun -n 2 .venv-mpi/bin/python bench/petsc_scale.py 21 --backend petsc-gamg   # GAMG + CG instead
+    mpirun -n 4 .venv-mpi/bin/python bench/petsc_scale.py 32 --backend petsc-gamg --no-modal --krylov 24
 
 For each cantilever resolution ``n`` (14: 94,500 DOF, 21: 304,920 DOF) the model is built
 partitioned (each rank assembles its own rows), ``K - sigma M`` is factorized once by MUMPS
@@ -17,6 +18,9 @@ total (INFOG(22)), process peak memory per rank (VmHWM), factorization and modal
 complexity, set-up time in ``factorize_s``), :data:`SOLVE_COLUMNS` random right-hand sides are solved by CG
 to ``SOLVE_TOL`` (CG iterations per column, largest relative residual, solve time) and ``modal`` runs with
 LOBPCG preconditioned by the GAMG V-cycle (its iterations).
+
+``--krylov R``: a body to compare between rank counts, ``krylov`` of order ``R`` at the real point 0 Hz with the
+inputs ``TIP:y`` and ``TIP:z`` (its seconds, CPU seconds per rank, lowest ten frequencies; CG iterations with GAMG).
 """
 
 from __future__ import annotations
@@ -48,7 +52,7 @@ def peak_mb() -> float:
     return float("nan")
 
 
-def one(n: int, modal: bool = True, backend: str = "petsc") -> dict:
+def one(n: int, modal: bool = True, backend: str = "petsc", krylov: int = 0) -> dict:
     t0 = time.perf_counter()
     model = partitioned_cantilever(n)
     t_build = time.perf_counter() - t0
@@ -73,6 +77,16 @@ def one(n: int, modal: bool = True, backend: str = "petsc") -> dict:
                    cg_iterations_per_column=st.iterations / SOLVE_COLUMNS, cg_iterations_max=st.iterations_max,
                    relative_residual_max=st.iterative_residual)
     del F
+    if krylov:  # a body to compare between rank counts: krylov at the real point 0 Hz
+        solver = SolverContext(backend)
+        t0, c0 = time.perf_counter(), time.process_time()
+        red = reduce(model, "krylov", krylov, make_ports(model, ["TIP:y", "TIP:z"]), solver=solver, points="0")
+        row["krylov_order"], row["krylov_s"] = red.order, time.perf_counter() - t0
+        cpus = dist.comm().allgather(time.process_time() - c0) if dist.size() > 1 else [time.process_time() - c0]
+        row["krylov_cpu_s_per_rank"] = cpus
+        row["krylov_frequencies_hz"] = red.frequencies_hz()[:10].tolist()
+        if backend != "petsc":
+            row["krylov_cg_iterations"] = solver.stats.iterations
     if modal:
         solver = SolverContext(backend)
         t0 = time.perf_counter()
@@ -88,8 +102,10 @@ def one(n: int, modal: bool = True, backend: str = "petsc") -> dict:
 def main(argv) -> int:
     modal = "--no-modal" not in argv
     backend = argv[argv.index("--backend") + 1] if "--backend" in argv else "petsc"
-    for n in (int(a) for a in argv if not a.startswith("--") and a != backend):
-        row = one(n, modal, backend)
+    krylov = int(argv[argv.index("--krylov") + 1]) if "--krylov" in argv else 0
+    values = {backend, str(krylov)}
+    for n in (int(a) for a in argv if not a.startswith("--") and a not in values):
+        row = one(n, modal, backend, krylov)
         if dist.is_root():
             print(json.dumps(row), flush=True)
     return 0
