@@ -45,7 +45,8 @@ from .linalg.threads import sparse_dense
 from .ports import body_ports
 from .projection import project
 
-__all__ = ["ACCELERATIONS", "rigid_motions", "frame_participation", "rigid_body_modes", "m_project", "elastic_loads",
+__all__ = ["ACCELERATIONS", "rigid_motions", "can_move_rigidly", "frame_participation", "rigid_body_modes", "m_project",
+           "elastic_loads",
            "exclude_rigid", "elastic_body", "rigid_content", "rigid_residual", "RIGID_DEFLATION_TOL", "POLISH_TOL",
            "RIGID_CONTENT_TOL"]
 
@@ -83,6 +84,25 @@ def rigid_motions(model, origin=None) -> np.ndarray:
             R[d == j + 1, 3 + a] = np.cross(e, xyz[d == j + 1])[:, j]
         R[d == a + 4, 3 + a] = 1.0
     return R
+
+
+def can_move_rigidly(model) -> bool:
+    """Whether some combination of the geometry's rigid motions (:func:`rigid_motions`) has a Rayleigh quotient
+    ``x^T K x / x^T M x`` below ``1e3`` times the rigid-body threshold
+    (:func:`flexmor.linalg.eigen.rigid_body_threshold`): a free body, or one held at a single node or about an
+    axis, can; a supported body cannot. True where the
+    model has fewer than six rigid motions (no geometry): nothing is known. A rigid-body mode that is not a
+    motion of the whole geometry (a loose part) is not seen here."""
+    from .linalg.eigen import rigid_body_threshold
+
+    R = rigid_motions(model)
+    nrm = np.linalg.norm(R, axis=0)
+    if np.count_nonzero(nrm) < 6:
+        return True
+    R = R / nrm
+    GK, GM = R.T @ (model.K @ R), R.T @ (model.M @ R)
+    mu = sla.eigh(0.5 * (GK + GK.T), 0.5 * (GM + GM.T), eigvals_only=True)
+    return bool(mu[0] < 1e3 * rigid_body_threshold(model.K, model.M))
 
 
 def register_near_null(solver, model) -> None:

@@ -163,16 +163,12 @@ def compressed_greedy(model, ports, V1, indicator, order: int, band, *, check, d
     U, sv, _ = np.linalg.svd(Xs[:, norms > 0] / norms[norms > 0], full_matrices=False)
     S = U[:, :int(np.sum(sv > 1e-8 * sv[0]))] if sv.size else U[:, :0]
     T = _balanced(Kr, Mr, Dr, Bw[:r1], Cw[:, :r1], band, min(order + S.shape[1], r1))
-    if T is not None:
-        for name, head in (("balanced", S[:, :0]), ("static+balanced", S)):
-            Q = _filled(head, T, order) if head.shape[1] < order else None
-            if Q is not None:
-                candidates[name] = np.vstack([Q, np.zeros((n - r1, order))])
-    if S.shape[1] and S.shape[1] < order:  # the dynamic part's leading directions after the static responses
-        Td = _balanced(Kr, Mr, Dr, Mr @ Xs, Cw[:, :r1], band, min(order, r1))
-        Q = _filled(S, Td, order) if Td is not None else None
+    # the dynamic part's leading directions (the body driven by the inertia forces of the static responses)
+    Td = _balanced(Kr, Mr, Dr, Mr @ Xs, Cw[:, :r1], band, min(order, r1)) if 0 < S.shape[1] < order else None
+    for name, head, dirs in (("balanced", S[:, :0], T), ("static+balanced", S, T), ("static+dynamic", S, Td)):
+        Q = _filled(head, dirs, order) if dirs is not None and head.shape[1] < order else None
         if Q is not None:
-            candidates["static+dynamic"] = np.vstack([Q, np.zeros((n - r1, order))])
+            candidates[name] = np.vstack([Q, np.zeros((n - r1, order))])
     bases = [*candidates.values()] + ([np.eye(n)[:, :r1]] if E is not None else [])
     got = differences(W, bases, at)  # one grid for all
     diffs = dict(zip(candidates, got))

@@ -284,9 +284,9 @@ def greedy_basis(model, ports, order: int | None, band, *, side: str, solver, ph
         Build the basis to the orders of :func:`flexmor.reduction.greedy_compress.growth_orders` (instead of
         ``order``) and return a body of this order in its span: of the candidates (the greedy body's leading
         columns, the balanced truncation of the larger body, the static responses followed by the balancing
-        directions) whose static responses equal the larger greedy body's (``STATIC_TOL``), the one that
-        differs least from a reference body (:func:`flexmor.reduction.greedy_compress.compressed_greedy`); its
-        record is ``info['compressed']``.
+        directions of the whole response or of its dynamic part) whose static responses equal the larger
+        greedy body's (``STATIC_TOL``), the one that differs least from a reference body
+        (:func:`flexmor.reduction.greedy_compress.compressed_greedy`); its record is ``info['compressed']``.
 
     Returns
     -------

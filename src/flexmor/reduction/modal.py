@@ -94,27 +94,14 @@ CLUSTER_MARGIN = 3
 
 
 def _may_move_rigidly(model, solver) -> bool:
-    """Whether modal should ask room for rigid-body modes at the first try. Always, except under an iterative
-    backend (whose eigensolver iterates every column asked for: six of 45 at order 30) on a model whose geometry's
-    six rigid motions have no combination of a Rayleigh quotient below ``1e3`` times the rigid-body threshold:
-    a supported body. A rigid-body mode that is not a motion of the whole geometry (a loose part) is found by
-    the modes themselves, and the eigenpairs are computed again with the room."""
+    """Whether modal asks room for rigid-body modes at the first try: always, except under an iterative backend
+    (whose eigensolver iterates every column asked for: six of 45 at order 30) on a body whose geometry cannot
+    move rigidly (:func:`flexmor.rigid.can_move_rigidly`). A rigid-body mode that is no motion of the whole
+    geometry (a loose part) is found by the modes themselves, and the eigenpairs are computed again with room."""
     from ..linalg.backends import is_iterative
-    from ..linalg.eigen import rigid_body_threshold
-    from ..rigid import rigid_motions
+    from ..rigid import can_move_rigidly
 
-    if not is_iterative(solver.backend):
-        return True
-    R = rigid_motions(model)
-    R = R[:, np.linalg.norm(R, axis=0) > 0]
-    if R.shape[1] < 6:
-        return True
-    R = R / np.linalg.norm(R, axis=0)
-    GK, GM = R.T @ (model.K @ R), R.T @ (model.M @ R)
-    import scipy.linalg as sla
-
-    mu = sla.eigh(0.5 * (GK + GK.T), 0.5 * (GM + GM.T), eigvals_only=True)
-    return bool(mu[0] < 1e3 * rigid_body_threshold(model.K, model.M))
+    return not is_iterative(solver.backend) or can_move_rigidly(model)
 
 
 def cluster_note(order: int, got: int, f_hz: float) -> str:
