@@ -140,19 +140,19 @@ def test_modal_under_amg_asks_room_for_rigid_body_modes_only_where_the_geometry_
     direct backend do. A loose part the test cannot see is found by the modes, and modal asks again."""
     import scipy.sparse as sps
 
-    from flexmor.reduction.modal import _may_move_rigidly
+    from flexmor.reduction.modal import room_for_rigid
 
     amg, direct = SolverContext(backend="amg"), SolverContext(backend="scipy")
     free = cantilever(n=3, clamped=False)
-    assert not _may_move_rigidly(beam, amg) and _may_move_rigidly(beam, direct)
-    assert _may_move_rigidly(free, amg)
+    assert room_for_rigid(beam, True) == 0 and room_for_rigid(beam, False) == 6
+    assert room_for_rigid(free, True) == 6
     K = sps.lil_matrix(free.K)  # the first node held by stiff springs in x, y, z: the body can turn about it
     assert list(free.dofs[:3, 1]) == [1, 2, 3] and len(set(free.dofs[:3, 0])) == 1
     for j in range(3):
         K[j, j] += 1e6 * free.K.diagonal().max()
     pinned = cantilever(n=3, clamped=False)
     pinned.K = K.tocsr()
-    assert _may_move_rigidly(pinned, amg)
+    assert room_for_rigid(pinned, True) == 6
     red, _ = reduce_and_judge(beam, "modal", 10, make_ports(beam, ["TIP:z"]), solver=amg)
     ref, _ = reduce_and_judge(beam, "modal", 10, make_ports(beam, ["TIP:z"]), solver=direct)
     assert np.max(np.abs(red.frequencies_hz() - ref.frequencies_hz()) / ref.frequencies_hz()) < 1e-8
@@ -226,6 +226,32 @@ def test_the_plan_estimates_the_amg_setup_within_2x_and_auto_takes_it_when_nothi
     choice = auto_choice(short, list(est.values()), model.n_dof, is_complex=False, positive=True)
     assert choice["backend"] == "amg" and choice["reason"].startswith("no direct factorization fits")
     assert factorize(A, solver=short, positive=True).backend == "amg"
+
+
+def test_the_plan_counts_the_pairs_modal_asks_under_amg(beam, monkeypatch):
+    """flexmor plan's LOBPCG columns for modal follow the pairs modal asks at its first try: no room for rigid-body
+    modes on the clamped beam, six on the free one."""
+    import math
+
+    import flexmor.reduction.modal as modal
+    from flexmor.linalg.lobpcg import guard_columns
+    from flexmor.plan import LOBPCG_COLUMNS_PER_COLUMN, method_stages
+    from flexmor.reduction import reduce
+
+    asked = []
+
+    def counted(K, M, k, **kw):
+        asked.append(k)
+        return eigenmodes(K, M, k, **kw)
+
+    monkeypatch.setattr(modal, "eigenmodes", counted)
+    for model, room in ((beam, 0), (cantilever(n=4, clamped=False), 6)):
+        ports = make_ports(model, ["TIP:z"])
+        stage = method_stages(model, "modal", 10, ports, solver=SolverContext(backend="amg"))[-1]
+        asked.clear()
+        reduce(model, "modal", 10, ports, solver=SolverContext(backend="amg"))
+        assert asked[0] == 10 + room + modal.CLUSTER_MARGIN
+        assert stage.iterative_columns == math.ceil(LOBPCG_COLUMNS_PER_COLUMN * (asked[0] + guard_columns(asked[0])))
 
 
 def test_the_plan_of_modal_under_amg_counts_lobpcg_within_2x_of_the_run():

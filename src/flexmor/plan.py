@@ -43,7 +43,7 @@ from .reduction.free_body import with_inertia_loads
 from .reduction.greedy_compress import growth_orders
 from .reduction.greedy_points import moments_at
 from .reduction.krylov import parse_points
-from .reduction.modal import CLUSTER_MARGIN
+from .reduction.modal import CLUSTER_MARGIN, room_for_rigid
 from .rigid import register_near_null, rigid_body_modes
 
 __all__ = ["ESTIMATED_METHODS", "LANCZOS_COLUMNS_PER_PAIR", "LOBPCG_COLUMNS_PER_COLUMN", "MISSED_DIRECTIONS", "Plan",
@@ -164,10 +164,11 @@ def _krylov(model, order, ports, options, solver, shared) -> list[Stage]:
     return stages
 
 
-def _eigen_stage(solver, what: str, n: int, k: int) -> list[Stage]:
+def _eigen_stage(solver, what: str, n: int, k: int, k_iterative: int | None = None) -> list[Stage]:
+    """The eigen solve of ``k`` pairs (``k_iterative`` under the iterative backends, where it differs)."""
     cols, block, method = _lanczos(solver, n, k)
     return [Stage(f"{what}: {method} {k} pairs", n, False, 0, cols, method == "dense", block,
-                  _lobpcg(n, k, method))]
+                  _lobpcg(n, k if k_iterative is None else k_iterative, method))]
 
 
 def _lobpcg(n: int, k: int, method: str) -> int | None:
@@ -224,8 +225,9 @@ def method_stages(model, method: str, order, ports, *, solver: SolverContext | N
         basis_ports, _ = with_inertia_loads(model, ports, inertia_loads if methods()[method].uses_inputs else "off")
         return stages + _krylov(model, order, basis_ports, options, solver, shared)
     if method == "modal":
-        extra = (6 if options.get("rigid", "exclude") == "exclude" else 0) + CLUSTER_MARGIN
-        return stages + _eigen_stage(solver, "modal", n, min(n, int(order) + extra))
+        room = options.get("rigid", "exclude") == "exclude"  # the iterative backends' LOBPCG may ask fewer pairs
+        k = [min(n, int(order) + (room_for_rigid(model, it) if room else 0) + CLUSTER_MARGIN) for it in (False, True)]
+        return stages + _eigen_stage(solver, "modal", n, k[0], k[1])
     n_b, n_rb = _interface(model, options, method)
     n_i = n - n_b
     if method == "guyan" and n_rb:  # a free body: inertia-relief modes from K - sigma M, refined per column

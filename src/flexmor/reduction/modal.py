@@ -10,6 +10,7 @@ import numpy as np
 from ..basis import Basis
 from ..checks import MAX_RIGID_BODY_MODES, mechanism_error
 from ..errors import OptionError, check_choice
+from ..linalg.backends import is_iterative
 from ..linalg.context import SolverContext, as_solver
 from ..linalg.eigen import eigenmodes, frequencies_hz, is_rigid, whole_clusters
 from ..options import option
@@ -67,7 +68,7 @@ def modal(model, ports, order, *, rigid: str = "exclude", sigma: float | None = 
         raise OptionError("modal needs order", params=("order",))
     n = model.n_dof  # (an order above it is refused where every method is called: _registry.check_reachable)
     # beyond the order: a pair cut at the order shows, and room for the rigid-body modes where there may be some
-    extra = (6 if rigid == "exclude" and _may_move_rigidly(model, solver) else 0) + CLUSTER_MARGIN
+    extra = (room_for_rigid(model, is_iterative(solver.backend)) if rigid == "exclude" else 0) + CLUSTER_MARGIN
     while True:
         k = min(n, order + extra)
         lam, phi = eigenmodes(model.K, model.M, k, sigma=sigma, solver=solver)
@@ -93,15 +94,15 @@ def modal(model, ports, order, *, rigid: str = "exclude", sigma: float | None = 
 CLUSTER_MARGIN = 3
 
 
-def _may_move_rigidly(model, solver) -> bool:
-    """Whether modal asks room for rigid-body modes at the first try: always, except under an iterative backend
-    (whose eigensolver iterates every column asked for: six of 45 at order 30) on a body whose geometry cannot
-    move rigidly (:func:`flexmor.rigid.can_move_rigidly`). A rigid-body mode that is no motion of the whole
-    geometry (a loose part) is found by the modes themselves, and the eigenpairs are computed again with room."""
-    from ..linalg.backends import is_iterative
+def room_for_rigid(model, iterative: bool) -> int:
+    """Eigenpairs modal asks beyond its order at the first try for rigid-body modes: six, except under an
+    iterative backend (whose eigensolver iterates every column asked for: six of 45 at order 30) on a body whose
+    geometry cannot move rigidly (:func:`flexmor.rigid.can_move_rigidly`). A rigid-body mode that is no motion of
+    the whole geometry (a loose part) is found by the modes themselves, and the eigenpairs are computed again with
+    room. :func:`flexmor.plan.method_stages` counts the same."""
     from ..rigid import can_move_rigidly
 
-    return not is_iterative(solver.backend) or can_move_rigidly(model)
+    return 6 if not iterative or can_move_rigidly(model) else 0
 
 
 def cluster_note(order: int, got: int, f_hz: float) -> str:
