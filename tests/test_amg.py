@@ -7,7 +7,7 @@ import scipy.sparse.linalg as sla
 from helpers import CLAMPED, run_json
 
 from flexmor.analysis.compare import FullResponse
-from flexmor.errors import OptionError, SolverError
+from flexmor.errors import OptionError, OutOfMemoryError, SolverError
 from flexmor.linalg import SolverContext, factorize
 from flexmor.linalg.amg import block_cg
 from flexmor.linalg.eigen import eigenmodes
@@ -179,6 +179,35 @@ def test_auto_takes_amg_where_no_factor_fits(beam):
     b = np.ones(beam.n_dof)
     x, xd = F.solve(b), sla.spsolve(beam.K.tocsc(), b)
     assert np.linalg.norm(x - xd) <= 1e-7 * np.linalg.norm(xd)
+
+
+def test_auto_keeps_amg_off_a_shift_inside_the_spectrum(beam):
+    """K - sigma M with sigma between eigenvalues is indefinite: where no factor fits, auto says so instead of
+    running block CG on it (which never converges there)."""
+    w = eigenmodes(beam.K, beam.M, 3)[0]
+    A = (beam.K - 0.5 * (w[1] + w[2]) * beam.M).tocsr()  # between the first bending pair and the next mode
+    solver = SolverContext(memory_limit=2e5)
+    register_near_null(solver, beam)
+    with pytest.raises(OutOfMemoryError):
+        factorize(A, solver=solver)
+    assert solver.stats.iterative == 0
+
+
+def test_block_cg_that_stalls_on_a_matrix_not_known_positive_says_what_amg_needs(beam, monkeypatch):
+    from flexmor.errors import ConvergenceError
+    from flexmor.linalg import amg
+
+    def stalls(*args, **kwargs):
+        raise ConvergenceError("block CG did not reach the relative residual 1e-10 in 1000 iterations")
+
+    solver = SolverContext(backend="amg")
+    register_near_null(solver, beam)
+    F, Fp = factorize(beam.K, solver=solver), factorize(beam.K, solver=solver, positive=True)
+    monkeypatch.setattr(amg, "block_cg", stalls)
+    with pytest.raises(ConvergenceError, match="not known to be positive definite.*sigma below"):
+        F.solve(np.ones(beam.n_dof))
+    with pytest.raises(ConvergenceError, match="1000 iterations$"):
+        Fp.solve(np.ones(beam.n_dof))
 
 
 def test_tol_is_refused_with_amg(beam):

@@ -191,6 +191,7 @@ class AmgSolver(Factorization):
         self._A = None  # (no refinement: the iteration itself solves to the tolerance)
         self._anorm = norm_bound(A)
         self._tol = float(solver.solve_tol)
+        self._positive = bool(positive)
         self.memory_estimate = self.operator_complexity * matrix_bytes(A)
         stats = solver.stats
         stats.iterative += 1
@@ -209,7 +210,14 @@ class AmgSolver(Factorization):
         return self._cycle(R)
 
     def _solve_factor(self, b: np.ndarray) -> np.ndarray:
-        X, its, res = block_cg(self._cycle.A[0], b, self.precondition, tol=self._tol, anorm=self._anorm)
+        try:
+            X, its, res = block_cg(self._cycle.A[0], b, self.precondition, tol=self._tol, anorm=self._anorm)
+        except ConvergenceError as exc:
+            if self._positive:
+                raise
+            raise ConvergenceError(f"{exc}; the matrix was not known to be positive definite, and block CG does not "
+                                   f"converge on an indefinite one: backend 'amg' needs K - sigma M with sigma below "
+                                   f"the lowest eigenvalue", result=exc.result, params=("backend",)) from None
         st = self.stats
         st.iterations += its
         st.iterations_max = max(st.iterations_max, its)

@@ -81,7 +81,7 @@ def factorize(A, *, solver: SolverContext | None = None, symmetric: bool = True,
     try:
         F = BACKENDS[name].factorize(A, solver, symmetric=symmetric, positive=positive)
     except OutOfMemoryError as exc:
-        if not _iterative_instead(solver, is_complex, symmetric):
+        if not _iterative_instead(solver, is_complex, symmetric, positive):
             raise
         log.info("no direct factorization fits (%s): backend amg instead of %s", exc, name)
         name = "amg"
@@ -108,11 +108,12 @@ def factorize(A, *, solver: SolverContext | None = None, symmetric: bool = True,
     return F
 
 
-def _iterative_instead(solver: SolverContext, is_complex: bool, symmetric: bool) -> bool:
+def _iterative_instead(solver: SolverContext, is_complex: bool, symmetric: bool, positive: bool) -> bool:
     """Whether ``auto`` takes the iterative ``amg`` backend for a matrix no direct factorization fits:
-    backend and memory mode ``auto``, a real symmetric matrix, pyamg installed."""
+    backend and memory mode ``auto``, a real symmetric matrix known to be positive definite (``K - sigma M``
+    with ``sigma`` below the spectrum: block CG diverges on ``K - w^2 M`` inside the band), pyamg installed."""
     return (solver.backend == "auto" and solver.factor_memory == "auto" and not is_complex and symmetric
-            and "amg" in solver.available())
+            and positive and "amg" in solver.available())
 
 
 #: The backends that have each forced memory mode (:mod:`flexmor.linalg.memory`).

@@ -453,7 +453,7 @@ def auto_choice(solver: SolverContext, estimates: list[BackendEstimate], n: int,
         usable = None if usable is None else MEMORY_FRACTION * usable
         from .factorize import _iterative_instead
 
-        if isinstance(exc, OutOfMemoryError) and _iterative_instead(solver, is_complex, True):
+        if isinstance(exc, OutOfMemoryError) and _iterative_instead(solver, is_complex, True, positive):
             return {"backend": "amg", "mode": "double", "usable": usable,
                     "reason": f"no direct factorization fits: {exc}; amg (iterative) instead"}
         return {"backend": backend, "mode": None, "reason": str(exc), "usable": usable}
