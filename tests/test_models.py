@@ -175,6 +175,17 @@ def test_clamped_dofs_and_node_sets():
     assert abs(free.K[keep][:, keep] - m.K).max() == 0.0
 
 
+def test_dof_index_finds_every_equation_and_refuses_what_is_not_there():
+    m = cantilever(n=2)
+    rng = np.random.default_rng(1)
+    for i in rng.permutation(m.n_dof)[:50]:
+        assert m.dof_index(*m.dofs[i]) == i
+    fixed = int(np.setdiff1d(m.node_ids, m.dofs[:, 0])[0])  # a clamped node: in the node table, no equations
+    for node, d in ((fixed, 1), (int(m.dofs[0, 0]), 4), (int(m.node_ids.max()) + 1, 1), (int(m.dofs[0, 0]), 9)):
+        with pytest.raises(KeyError):
+            m.dof_index(node, d)
+
+
 def test_plate_edges_and_clamping():
     p = plate(4, a=1.0, b=0.6, t=0.01)  # 7 x 4 x 2 elements
     assert p.n_nodes == 8 * 5 * 3
