@@ -115,23 +115,36 @@ def _m_orthonormal(M, W: np.ndarray, X: np.ndarray | None = None, MX: np.ndarray
 def _reorthonormal(M, X, m, precondition, rng):
     """``X`` (M-orthonormal up to the rounding of the projected problem) made M-orthonormal again, with ``M X``
     and whether its columns are still (near) the Ritz vectors: by the symmetric ``G^-1/2`` of its Gram matrix
-    ``G`` (the nearest M-orthonormal block, which keeps the columns where they are) while ``G`` is near ``I``,
-    else by :func:`_m_orthonormal`, refilled to ``m`` columns by smoothed random ones where columns were
-    dependent."""
+    ``G`` (the nearest M-orthonormal block, which keeps the columns where they are) while ``G`` is near ``I``
+    and ``X`` has its ``m`` columns, else by :func:`_m_orthonormal`, refilled to ``m`` columns by smoothed random
+    ones where columns were dependent or missing (the projected basis had fewer than ``m`` directions)."""
     n = X.shape[0]
     MX = sparse_dense(M, X)
     with blas_threads(dense_threads(n * m)):
         G = X.T @ MX
     s, U = np.linalg.eigh(G)
-    if s[0] > 0.5:
+    if s[0] > 0.5 and X.shape[1] >= m:
         T = (U / np.sqrt(s)) @ U.T
         with blas_threads(dense_threads(n * m)):
             return X @ T, MX @ T, True
-    X, MX = _m_orthonormal(M, X)
-    while X.shape[1] < m:
+    return (*_refilled(M, *_m_orthonormal(M, X), m, precondition, rng), False)
+
+
+def _refilled(M, X, MX, m, precondition, rng):
+    """The M-orthonormal ``X`` (with ``M X``) refilled to ``m`` columns by smoothed random ones M-orthogonal to
+    it (a smoothed random block can be dependent to rounding where a few directions dominate the preconditioned
+    mass, e.g. a heavy rigid part); fewer only where :data:`REFILLS` tries found no more directions."""
+    n = X.shape[0]
+    for _ in range(REFILLS):
+        if X.shape[1] >= m:
+            break
         W, MW = _m_orthonormal(M, precondition(sparse_dense(M, rng.standard_normal((n, m - X.shape[1])))), X, MX)
         X, MX = np.hstack([X, W]), np.hstack([MX, MW])
-    return X, MX, False
+    return X, MX
+
+
+#: Tries of :func:`_refilled` to bring a block to its columns.
+REFILLS = 8
 
 
 def lobpcg(K, M, k: int, A, precondition, sigma: float, *, tol: float = 1e-8, guard: int | None = None,
@@ -182,7 +195,7 @@ def _iterate(K, M, k, A, precondition, sigma, *, tol, guard, max_iter, seed, sta
     scale = abs(sigma)
     rng = np.random.default_rng(seed)
     X = precondition(sparse_dense(M, rng.standard_normal((n, m))))  # a smoothed random start
-    X, MX = _m_orthonormal(M, X)
+    X, MX = _refilled(M, *_m_orthonormal(M, X), m, precondition, rng)
     P = np.zeros((n, 0))
     history: list = []
     its = 0
@@ -201,6 +214,8 @@ def _iterate(K, M, k, A, precondition, sigma, *, tol, guard, max_iter, seed, sta
         mu = np.diag(GXX).copy()  # Rayleigh quotients
         AX -= MX * mu  # the residuals A x - mu M x = K x - lambda M x
         res = np.linalg.norm(AX, axis=0) / ((np.abs(mu + sigma) + scale) * np.linalg.norm(MX, axis=0) + 1e-300)
+        if history and history[-1].size != res.size:  # (the block changed its columns: a new history)
+            history.clear()
         history.append(res)
         old = history.pop(0) if len(history) > STALL_WINDOW else np.full(res.size, np.inf)
         conv = (res <= tol) | ((res >= 0.5 * old) & (res <= 1e-2 * np.sqrt(tol)))
@@ -257,6 +272,8 @@ def _iterate(K, M, k, A, precondition, sigma, *, tol, guard, max_iter, seed, sta
         X = X_new
         del blocks, W, Pa, X_new
         X, MX, ritz = _reorthonormal(M, X, m, precondition, rng)
+        if X.shape[1] != P.shape[1]:  # the projected basis had fewer than m directions, refilled: the new columns
+            P = np.zeros((n, 0))  # have no search directions
         its += 1
         log.debug("LOBPCG iteration %d: %d of %d columns iterating, largest wanted residual %.1e", its,
                   active.size, m, res[:k].max())
