@@ -36,7 +36,10 @@ import argparse
 import dataclasses
 import json
 import pathlib
+import shutil
+import subprocess
 import sys
+import tempfile
 import time
 
 HERE = pathlib.Path(__file__).resolve().parent
@@ -62,7 +65,7 @@ def _spmm_and_cycle(F, n: int) -> tuple[float, float]:
     return spmm, time.perf_counter() - t0
 
 
-def run_case(size: int, order: int, order_krylov: int, direct: bool, judge: bool = False,
+def run_case(size: int, order: int, order_krylov: int, direct: bool, judge: str = "",
              methods: tuple = ("krylov", "modal")) -> dict:
     import numpy as np
 
@@ -119,16 +122,33 @@ def run_case(size: int, order: int, order_krylov: int, direct: bool, judge: bool
             out["runs"][f"{method}/amg"]["vs_direct"] = {
                 "max_rel_freq_diff_20": float(np.max(np.abs(fa[:k] - fb[:k]) / fb[:k])),
                 "transfer_diff": float(np.abs(Ha - Hb).max() / np.abs(Hb).max())}
-        if judge:  # both bodies against the full model (the grid's own path: the surrogate, checked by direct solves)
-            from flexmor.analysis.compare import FullResponse
+        if judge:  # the bodies for the judge's own process (_judge_case): a fresh one has the memory for its factors
+            from flexmor.io.hdf5 import write_body
 
-            t0 = time.perf_counter()
-            full = FullResponse(model, ports, (1.0, 2000.0))
-            out["judge"] = {"seconds": time.perf_counter() - t0, "grid": full.summary()}
-            for method in methods:
-                for backend in ("amg", "pardiso"):
-                    out["runs"][f"{method}/{backend}"]["band_error"] = float(full.evaluate(
-                        bodies[(method, backend)]).band_error)
+            pathlib.Path(judge).mkdir(parents=True, exist_ok=True)
+            for (method, backend), body in bodies.items():
+                write_body(body, pathlib.Path(judge) / f"{method}-{backend}.h5")
+    return out
+
+
+def _judge_case(size: int, folder: str) -> dict:
+    """The bodies written to ``folder`` against the full model of ``size`` (the grid's own path: the surrogate,
+    checked by direct solves), in a process of its own: band error of each, the grid's record and its seconds."""
+    from flexmor.analysis.compare import FullResponse
+    from flexmor.io import read_body
+    from flexmor.models import cantilever, size_for_dofs
+    from flexmor.ports import make_ports
+
+    model = cantilever(size_for_dofs(size))
+    ports = make_ports(model, INPUTS)
+    _reset_peak()
+    t0 = time.perf_counter()
+    full = FullResponse(model, ports, (1.0, 2000.0))
+    out = {"seconds": time.perf_counter() - t0, "peak_mb": _status("VmHWM"), "grid": full.summary(),
+           "band_error": {}}
+    for path in sorted(pathlib.Path(folder).glob("*.h5")):
+        method, backend = path.stem.split("-", 1)
+        out["band_error"][f"{method}/{backend}"] = float(full.evaluate(read_body(path)).band_error)
     return out
 
 
@@ -163,7 +183,8 @@ def main(argv=None) -> int:
     ap.add_argument("--with-direct", action="store_true", help=argparse.SUPPRESS)
     ap.add_argument("--judge", default="", help="sizes (of --direct) at which both bodies are judged against the "
                     "full model (band error over 1-2000 Hz, the grid's default path)")
-    ap.add_argument("--with-judge", action="store_true", help=argparse.SUPPRESS)
+    ap.add_argument("--with-judge", default="", help=argparse.SUPPRESS)
+    ap.add_argument("--judge-case", type=int, help=argparse.SUPPRESS)
     ap.add_argument("--methods", default="krylov,modal", help="some of krylov,modal")
     ap.add_argument("--out", default=str(HERE / "results" / "amg.json"))
     args = ap.parse_args(argv)
@@ -171,17 +192,41 @@ def main(argv=None) -> int:
         print(json.dumps(run_case(args.case, args.order, args.order_krylov, args.with_direct, args.with_judge,
                                   tuple(args.methods.split(",")))))
         return 0
+    if args.judge_case:
+        print(json.dumps(_judge_case(args.judge_case, args.with_judge)))
+        return 0
     direct = {int(s) for s in args.direct.split(",") if s.strip()}
     judged = {int(s) for s in args.judge.split(",") if s.strip()}
+
+    folder = tempfile.mkdtemp(prefix="flexmor-amg-bodies-")
 
     def command(size: int) -> list[str]:
         cmd = [sys.executable, str(pathlib.Path(__file__).resolve()), "--case", str(size), "--order", str(args.order),
                "--order-krylov", str(args.order_krylov), "--methods", args.methods]
         return cmd + (["--with-direct"] if size in direct else []) + \
-            (["--with-judge"] if size in judged and size in direct else [])
+            (["--with-judge", f"{folder}/{size}"] if size in judged and size in direct else [])
 
     print(f"{'size':>8} {'n_dof':>8} {'nnz(K)':>11}", flush=True)
-    run_cases([int(s) for s in args.sizes.split(",")], command, _rows, timeout=args.timeout, out=args.out)
+    records = run_cases([int(s) for s in args.sizes.split(",")], command, _rows, timeout=args.timeout,
+                        out=args.out)
+    for r in records:  # the judge of each judged size in a process of its own, after the bodies' process ended
+        size = r["target_dofs"]
+        if size not in judged or size not in direct:
+            continue
+        proc = subprocess.run([sys.executable, str(pathlib.Path(__file__).resolve()), "--judge-case", str(size),
+                               "--with-judge", f"{folder}/{size}"], capture_output=True, text=True,
+                              timeout=args.timeout, check=False)
+        lines = [ln for ln in proc.stdout.splitlines() if ln.startswith("{")]
+        if proc.returncode or not lines:
+            print(f"{size:>8}  judge failed:\n" + "\n".join(proc.stderr.strip().splitlines()[-15:]), flush=True)
+            continue
+        r["judge"] = json.loads(lines[-1])
+        for name, value in r["judge"]["band_error"].items():
+            r["runs"][name]["band_error"] = value
+        print(f"{size:>8}  judge {r['judge']['seconds']:.1f} s (peak {r['judge']['peak_mb']:.0f} MB): "
+              + ", ".join(f"{k} {v:.2e}" for k, v in r["judge"]["band_error"].items()), flush=True)
+    pathlib.Path(args.out).write_text(json.dumps(records, indent=1))
+    shutil.rmtree(folder, ignore_errors=True)
     return 0
 
 

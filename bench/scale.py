@@ -211,7 +211,7 @@ def run_cases(sizes: list[int], command, rows, *, timeout: float, out: str) -> l
         proc = subprocess.run(command(size), capture_output=True, text=True, timeout=timeout, check=False)
         lines = [ln for ln in proc.stdout.splitlines() if ln.startswith("{")]
         if proc.returncode or not lines:
-            print(f"{size:>8}  failed: {(proc.stderr.strip().splitlines() or ['?'])[-1]}", flush=True)
+            print(f"{size:>8}  failed:\n" + "\n".join(proc.stderr.strip().splitlines()[-15:] or ["?"]), flush=True)
             continue
         r = json.loads(lines[-1])
         r["process_s"] = time.perf_counter() - t0
