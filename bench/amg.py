@@ -26,6 +26,9 @@ Usage::
 
     python bench/amg.py --sizes 100000,300000 --direct 100000,300000
     python bench/amg.py --sizes 3000000 --out bench/results/amg_3m.json
+    python bench/amg.py --sizes 1000000 --direct 1000000 --judge 1000000 --judge-checks 0 --methods krylov \
+        --out bench/results/amg_1m.json
+    python bench/amg.py --judge-case 1000000 --with-judge FOLDER --judge-checks 0   # bodies saved in FOLDER
 
 Writes ``bench/results/amg.json``.
 """
@@ -131,9 +134,11 @@ def run_case(size: int, order: int, order_krylov: int, direct: bool, judge: str 
     return out
 
 
-def _judge_case(size: int, folder: str) -> dict:
+def _judge_case(size: int, folder: str, judge_checks: int | None = None) -> dict:
     """The bodies written to ``folder`` against the full model of ``size`` (the grid's own path: the surrogate,
-    checked by direct solves), in a process of its own: band error of each, the grid's record and its seconds."""
+    checked by its own solves), in a process of its own: band error of each, the grid's record and its seconds.
+    ``judge_checks``: the direct solves of the full model per body (FullResponse's default where None; at 1M DOF
+    each is a complex factorization out of core, hours; 0: only the surrogate's own checks)."""
     from flexmor.analysis.compare import FullResponse
     from flexmor.io import read_body
     from flexmor.models import cantilever, size_for_dofs
@@ -143,9 +148,10 @@ def _judge_case(size: int, folder: str) -> dict:
     ports = make_ports(model, INPUTS)
     _reset_peak()
     t0 = time.perf_counter()
-    full = FullResponse(model, ports, (1.0, 2000.0))
+    opts = {} if judge_checks is None else {"judge_checks": judge_checks}
+    full = FullResponse(model, ports, (1.0, 2000.0), **opts)
     out = {"seconds": time.perf_counter() - t0, "peak_mb": _status("VmHWM"), "grid": full.summary(),
-           "band_error": {}}
+           "judge_checks": judge_checks, "band_error": {}}
     for path in sorted(pathlib.Path(folder).glob("*.h5")):
         method, backend = path.stem.split("-", 1)
         out["band_error"][f"{method}/{backend}"] = float(full.evaluate(read_body(path)).band_error)
@@ -184,7 +190,10 @@ def main(argv=None) -> int:
     ap.add_argument("--judge", default="", help="sizes (of --direct) at which both bodies are judged against the "
                     "full model (band error over 1-2000 Hz, the grid's default path)")
     ap.add_argument("--with-judge", default="", help=argparse.SUPPRESS)
-    ap.add_argument("--judge-case", type=int, help=argparse.SUPPRESS)
+    ap.add_argument("--judge-case", type=int, help="judge the bodies (.h5) in the folder --with-judge against the "
+                    "full model of this size, alone")
+    ap.add_argument("--judge-checks", type=int, help="direct solves of the full model per judged body (default "
+                    "FullResponse's; 0: the surrogate's own checks only, where a complex factor does not fit)")
     ap.add_argument("--methods", default="krylov,modal", help="some of krylov,modal")
     ap.add_argument("--out", default=str(HERE / "results" / "amg.json"))
     args = ap.parse_args(argv)
@@ -193,7 +202,7 @@ def main(argv=None) -> int:
                                   tuple(args.methods.split(",")))))
         return 0
     if args.judge_case:
-        print(json.dumps(_judge_case(args.judge_case, args.with_judge)))
+        print(json.dumps(_judge_case(args.judge_case, args.with_judge, args.judge_checks)))
         return 0
     direct = {int(s) for s in args.direct.split(",") if s.strip()}
     judged = {int(s) for s in args.judge.split(",") if s.strip()}
@@ -213,8 +222,9 @@ def main(argv=None) -> int:
         size = r["target_dofs"]
         if size not in judged or size not in direct:
             continue
+        checks = [] if args.judge_checks is None else ["--judge-checks", str(args.judge_checks)]
         proc = subprocess.run([sys.executable, str(pathlib.Path(__file__).resolve()), "--judge-case", str(size),
-                               "--with-judge", f"{folder}/{size}"], capture_output=True, text=True,
+                               "--with-judge", f"{folder}/{size}", *checks], capture_output=True, text=True,
                               timeout=args.timeout, check=False)
         lines = [ln for ln in proc.stdout.splitlines() if ln.startswith("{")]
         if proc.returncode or not lines:
