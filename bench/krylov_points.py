@@ -23,8 +23,9 @@ estimate / band_error. The rows:
 Cases: the plate structure (``flexmor.models.plate_structure``) clamped with one port at a top corner (z)
 and free with its hole's RBE2 (six directions) plus the corner; the plate structure with the hole's six
 ports, clamped and free; the cantilever with the tip's RBE2 (y) and undamped with two tip ports; the
-CalculiX beams of ``tests/data/calculix``; the Abaqus C3D10 block of ``tests/data/abaqus`` undamped (where one
-check of the estimate fell 67x short).
+CalculiX beams of ``tests/data/calculix`` (the clamped one damped and undamped: the estimate's second
+reference); the Abaqus C3D10 block of ``tests/data/abaqus`` undamped (where one check of the estimate fell 67x
+short).
 
 Usage::
 
@@ -104,6 +105,9 @@ def cases(n: int) -> dict:
                                 "cantilever(4), TIP:y and TIP:z, undamped"),
         "ccx-clamped": (lambda: (read(ccx / "beam8_clamped_mat.sti"), ["TIP@rbe2:y"], ["TIP@rbe2"]),
                         (10.0, 5000.0), rayleigh, 10, "CalculiX beam8 clamped, TIP@rbe2:y, Rayleigh 1 %"),
+        "ccx-clamped-undamped": (lambda: (read(ccx / "beam8_clamped_mat.sti"), ["TIP@rbe2:y"], ["TIP@rbe2"]),
+                                 (10.0, 5000.0), None, 10,
+                                 "CalculiX beam8 clamped, TIP@rbe2:y, undamped (the estimate's second reference)"),
         "ccx-free": (lambda: (read(ccx / "beam8_free_mat.sti"), [f"FIX@rbe2:{d}" for d in SIX], ["FIX@rbe2"]),
                      (10.0, 5000.0), rayleigh, 24, "CalculiX beam8 free, FIX@rbe2 x..rz, Rayleigh 1 %"),
         "c3d10-block": (_block, (10.0, 2000.0), None, 12,

@@ -83,7 +83,10 @@ def basis_rows(rec: dict) -> list[tuple[str, str]]:
                         if moments is not None else "")))
     check = rec.get("points_check")
     if isinstance(check, dict) and check.get("estimate") is not None:
-        more = (check.get("checks_hz") or [])[1:]
+        first = check.get("checks_hz") or []
+        if isinstance(check.get("second_reference"), dict):  # its checks follow the first reference's
+            first = first[:len(first) - len(check["second_reference"].get("checks_hz") or [])]
+        more = first[1:]
         text = f"band_error {check['estimate']:.3g} (against the body " + (
             f"of the greedy basis of order {check['reference_order']} " if check.get("reference_order") else "")
         text += "enriched by the full solution"
@@ -91,6 +94,10 @@ def basis_rows(rec: dict) -> list[tuple[str, str]]:
             text += f"s at {check['check_hz']:.4g} and {more[0]:.4g} Hz" if more else f" at {check['check_hz']:.4g} Hz"
             if check.get("pointwise_at_check") is not None:
                 text += f", its relative error at {check['check_hz']:.4g} Hz {check['pointwise_at_check']:.3g}"
+        second = check.get("second_reference")
+        if isinstance(second, dict) and second.get("checks_hz"):
+            text += (f"; that body enriched again at {', '.join(f'{q:.4g}' for q in second['checks_hz'])} Hz, "
+                     f"order {second['order']}, where the larger greedy body is far worse than the body")
         rows.append(("estimate", text + "; the judge's figure is verified)"))
     comp = rec.get("compressed")
     if isinstance(comp, dict) and comp.get("body"):
