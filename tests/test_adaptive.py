@@ -134,3 +134,24 @@ def test_points_go_where_the_residual_is_largest(clamped):
     pts = [complex(p) for p in red.info["points_hz"]]
     assert pts[0] == 0 and all(p.real == 0 and band[0] <= p.imag <= band[1] for p in pts[1:])
 
+
+
+def test_a_body_cut_from_a_larger_nested_basis_does_not_carry_its_estimate():
+    """``--tol`` bisects on the leading columns of the largest krylov basis it built; the body it returns had the
+    estimate of that basis's order in its record (the undamped CalculiX beam8 at tol 1e-5: order 18, verified
+    2.7e-7, recorded estimate 6.1e-8 of the order-32 body). A cut body's record says what it was cut from and gives
+    no estimate; a body reduced at its own order keeps its own."""
+    import flexmor
+    from flexmor.tolerance import OF_THE_ORDER
+
+    S = flexmor.System(flexmor.io.read(CLAMPED), inputs=["TIP@rbe2:y"], interfaces=["TIP@rbe2"],
+                       band=(10.0, 5000.0), damping=None, cache=False)
+    red, rec = S.reduce_and_judge("krylov", tol=1e-5, mounted=False)
+    err = rec["band_error"]
+    assert red.info["tol_search"]["tol_reached"] and err <= 1e-5
+    check = red.info.get("points_check")
+    if check is None:  # cut from the leading columns of a larger basis
+        assert red.info["cut_from_order"] > red.order and not any(k in red.info for k in OF_THE_ORDER)
+    else:  # the search's own body of that order
+        assert check["order"] == red.order
+        assert err / 3 <= check["estimate"] <= 3 * err

@@ -34,6 +34,10 @@ log = logging.getLogger(__name__)
 #: Methods whose bases are nested without saying so in ``info['nested']``.
 NESTED = {"modal"}
 
+#: Records of a body's ``info`` that hold for its order alone: krylov's estimate of its band error
+#: (``points_check``) and the candidates it was chosen from (``compressed``).
+OF_THE_ORDER = ("points_check", "compressed")
+
 
 def tol_methods() -> list[str]:
     """The registered methods that ``tol`` works with: those that take an order (not ``guyan``)."""
@@ -69,9 +73,14 @@ def leading(big, r: int) -> tuple[int, dict]:
     columns as the method itself returns for order ``r`` (a multiple eigenvalue that ``r`` cuts kept whole, as
     :func:`flexmor.reduction.modal.modal` and ``craig_bampton`` keep it: the basis is then the same whatever
     order ``big`` has) and ``big.info`` with the mode frequencies (``frequencies_hz`` of ``modal``,
-    ``fixed_interface_hz`` and ``n_modes`` of the Craig-Bampton family) and ``order_note`` of those columns."""
+    ``fixed_interface_hz`` and ``n_modes`` of the Craig-Bampton family) and ``order_note`` of those columns; the
+    records of :data:`OF_THE_ORDER` (``big``'s estimate) are left out, ``cut_from_order`` says so."""
     info = dict(big.info)
     info.pop("order_note", None)  # big's own, of its order
+    for k in OF_THE_ORDER:  # the estimate and compression of big's order: not this body's
+        if k in info:
+            info.pop(k)
+            info["cut_from_order"] = int(big.order)
     key = next((k for k in ("fixed_interface_hz", "frequencies_hz") if isinstance(info.get(k), list)), None)
     if key is None:
         return r, info
