@@ -42,6 +42,8 @@ def test_mounted_note_names_inertia_loads_and_the_command_line_its_flag():
     assert "frequency of mode 1 (120 Hz) off by 20 %" in note
     assert "keep inertia_loads auto or on" in note and "--" not in note
     assert "keep --inertia-loads auto or on" in note_text(note)
+    supported = mounted_note(rec, 1e-4, free=False)  # its inertia loads hold no interface
+    assert "add residual_vectors" in supported and "add --residual-vectors" in note_text(supported)
 
 
 def test_the_flags_of_note_parameters_exist(capsys):

@@ -75,7 +75,7 @@ log = logging.getLogger(__name__)
 NOTE_FACTOR = 10.0
 NOTE_FLOOR = 1e-3
 #: The parameters :func:`mounted_note` names, as bare words (see :func:`flexmor.errors.name_parameters`).
-NOTE_PARAMS = ("inertia_loads",)
+NOTE_PARAMS = ("inertia_loads", "residual_vectors")
 
 #: Relative singular value (of the constraint rows) and eigenvalue (of the mounted mass) below which
 #: a direction counts as absent.
@@ -397,11 +397,13 @@ def mounted_check(model, body, *, ports=None, full: FullMounted | None = None, m
     return check
 
 
-def mounted_note(check: MountedCheck | dict, band_rms_error: float | None) -> str | None:
+def mounted_note(check: MountedCheck | dict, band_rms_error: float | None, *, free: bool = True) -> str | None:
     """A one-line note when the mounted body is off by more than its band error suggests, else None.
 
     The threshold is ``max(NOTE_FACTOR * band_rms_error, NOTE_FLOOR)`` (``NOTE_FLOOR`` without a band
-    error); frequencies count for the modes in the band. ``check`` may be the JSON record.
+    error); frequencies count for the modes in the band. ``check`` may be the JSON record. Its advice is for a
+    free body (``free``: the inertia loads add the accelerations of the body held at each coupling master) or a
+    supported one (whose inertia loads hold no interface: the residual vectors add the masters' unit loads).
     """
     rec = check.to_dict() if isinstance(check, MountedCheck) else check
     limit = max(NOTE_FACTOR * (band_rms_error or 0.0), NOTE_FLOOR)
@@ -420,9 +422,13 @@ def mounted_note(check: MountedCheck | dict, band_rms_error: float | None) -> st
         return None
     worst.sort(reverse=True)
     told = "" if band_rms_error is None else f" (its band RMS error is {100 * band_rms_error:.3g} %)"
-    return (f"mounted body: {'; '.join(w for _, w in worst[:3])}{told}: the basis misses the body as held in its "
-            "joint; raise the order (methods that use the inputs: keep inertia_loads auto or on, which adds the "
-            "loads of the body held at each coupling master)")
+    advice = ("raise the order (methods that use the inputs: keep inertia_loads auto or on, which adds the loads of "
+              "the body held at each coupling master)" if free else
+              "add residual_vectors (the static responses to the coupling masters' unit loads join the basis) or "
+              "the interface's six directions as inputs: the frame's inertia loads of a supported body hold none of "
+              "its interfaces")
+    return f"mounted body: {'; '.join(w for _, w in worst[:3])}{told}: the basis misses the body as held in its " \
+           f"joint; {advice}"
 
 
 def mounted_record(model, body, *, band_rms_error: float | None = None, **options) -> dict | None:
@@ -433,7 +439,7 @@ def mounted_record(model, body, *, band_rms_error: float | None = None, **option
     if not check.cases:
         return None
     rec = check.to_dict()
-    rec["note"] = mounted_note(rec, band_rms_error)
+    rec["note"] = mounted_note(rec, band_rms_error, free=bool(rigid_body_modes(model).shape[1]))
     rec["damping_note"] = damping_note(model, body)
     return rec
 
