@@ -293,7 +293,10 @@ def test_the_second_reference_replaces_the_estimate_only_where_it_is_far_better_
     top = int(model.node_ids[np.argmax(model.xyz[:, 2] + 1e-3 * model.xyz[:, 0])])
     S = flexmor.System(model, inputs=[f"{top}:x", f"{top}:y"], band=(10.0, 3000.0), damping=None, cache=False)
     body = S.reduce("krylov", 12)
-    err, check = S.judge(body).band_error, body.info["points_check"]
+    judged = S.judge(body)
+    err, check = judged.band_error, body.info["points_check"]
+    assert any(n.startswith("the band holds 313 resonances of the full model, more than the body's order 12")
+               for n in judged.notes)
     second = check["second_reference"]
     assert second["reference_estimate"] > 0.1 * second["difference"]  # not far better than the body
     assert check["estimate"] == pytest.approx(check["difference"] + check["reference_estimate"])

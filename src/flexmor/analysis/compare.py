@@ -428,7 +428,8 @@ class FullResponse:
         note = sr.pop("note")
         unseen = sr.pop("unseen_note", None)
         out.update(sr)
-        notes = error_notes(out, damped=body.D is not None) + ([note] if note else []) + ([unseen] if unseen else [])
+        notes = error_notes(out, damped=body.D is not None, n_resonances=int(self.resonances.size),
+                            order=body.order) + ([note] if note else []) + ([unseen] if unseen else [])
         if check is not None:
             notes += judge_notes(check[0], out["band_error"])
         if shared:

@@ -32,7 +32,7 @@ from ..errors import OptionError
 
 __all__ = ["rel_error", "band_error", "trapezoid_weights", "max_rel_error", "hinf_error", "band_grid", "error_measures",
            "MEASURES", "TOL_MEASURES", "MEASURE_KEYS", "measure_record", "at_antiresonance", "resonance_share",
-           "error_notes", "ANTIRESONANCE_FACTOR", "NOTE_PARAMS"]
+           "error_notes", "ANTIRESONANCE_FACTOR", "MANY_MODES_ERROR", "NOTE_PARAMS"]
 
 #: One line per error measure, in the order of the tables.
 MEASURES = {
@@ -64,6 +64,10 @@ ANTIRESONANCE_WINDOW = 0.05
 #: Share of the band_error within ±1 % of the resonances above which an undamped body's
 #: error is said to be dominated by them.
 RESONANCE_DOMINATED = 0.5
+
+#: A body whose band error is above this, judged over a band with more of the full model's resonances than its
+#: order, is told so (:func:`error_notes`).
+MANY_MODES_ERROR = 1e-2
 
 
 def max_rel_error(H, Hr) -> float:
@@ -138,9 +142,17 @@ def measure_record(measures: dict | None) -> dict:
     return {**{k: measures.get(k) for k in MEASURE_KEYS}, "notes": list(measures.get("notes", []))}
 
 
-def error_notes(measures: dict, *, damped: bool) -> list[str]:
-    """One-line explanations of ``measures`` (of :func:`error_measures`) a user should read."""
+def error_notes(measures: dict, *, damped: bool, n_resonances: int | None = None,
+                order: int | None = None) -> list[str]:
+    """One-line explanations of ``measures`` (of :func:`error_measures`) a user should read; with the number of the
+    full model's resonances in the band and the body's order, whether the band holds more modes than the body can
+    (where the band error is above :data:`MANY_MODES_ERROR`)."""
     notes = []
+    if n_resonances is not None and order is not None and n_resonances > order \
+            and measures["band_error"] > MANY_MODES_ERROR:
+        notes.append(f"the band holds {n_resonances} resonances of the full model, more than the body's order "
+                     f"{order}: those its ports see it cannot all hold (nor can an estimate built from bodies of "
+                     "a similar order tell its error); raise the order or narrow the band")
     if measures.get("max_rel_error_at_antiresonance") and measures["max_rel_error"] >= 0.1:
         notes.append(f"max_rel_error {measures['max_rel_error']:.3g} is at the anti-resonance near "
                      f"{measures['max_rel_error_hz']:.4g} Hz, where |H| is small; rms_rel_error_pct and "
