@@ -284,23 +284,53 @@ def test_the_estimate_takes_a_second_reference_where_the_larger_greedy_body_is_f
     assert solver.stats.count == len(body.info["points_hz"]) + len(check["checks_hz"])
 
 
-def test_the_second_reference_replaces_the_estimate_only_where_it_is_far_better_than_the_body():
-    """The Ansys rotor (345 DOF, free) with two ports at its top node, 10-3000 Hz undamped: 313 modes in the band,
-    no body of order 12 to 34 holds the response (verified 15.5 at order 12; modal 0.94, fw-sobt 0.50). The
-    second reference differs from the first by 1.05, two thirds of the body's difference from it (1.65): the
-    estimate it gives, 2.7, was 5.7x below the verified figure; the first estimate (8.5) stays."""
+@pytest.mark.parametrize("body_diff, first_diff, replaced", [(1.65, 1.05, False), (6.9e-4, 4e-22, True)])
+def test_the_second_reference_replaces_the_estimate_only_where_it_is_far_better_than_the_body(
+        body_diff, first_diff, replaced):
+    """The second estimate (the body's difference from the second reference plus the first reference's) is taken
+    where the first reference differs from the second by less than REFERENCE_MARGIN times the body's difference.
+    Measured on the Ansys rotor (345 DOF, 313 modes in 10-3000 Hz, undamped, two ports at its top node, order 12),
+    where no body of orders 12-34 holds the response: 1.65 and 1.05, and the second estimate, 2.7, was 5.7x below
+    the verified 15.5 (the first, kept: 8.5). That body is decided by rounding (on another arithmetic path the
+    same points give 3.6), so the rule is checked here on its figures; on the beam8 the second reference is far
+    better than the body (6.9e-4 and 4e-22, the test above)."""
+    from types import SimpleNamespace
+
+    from flexmor.reduction.greedy_compress import _second_reference
+
+    W, P, E2 = np.eye(7)[:, :4], np.eye(4)[:, :2], np.eye(7)[:, 4:]
+
+    def check(B):
+        assert B is W
+        return {"check_hz": 120.0, "checks_hz": [120.0, 250.0]}, E2
+
+    def differences(W2, bases, at):
+        assert W2.shape == (7, 7) and bases[0].shape == (7, 2) and bases[1].shape == (7, 4) and at is None
+        np.testing.assert_array_equal(bases[0][:4], P)
+        return [{"estimate": body_diff}, {"estimate": first_diff}]
+
+    rec, got = _second_reference(SimpleNamespace(D=None), W, P, check, differences)
+    assert got is E2 and rec["second_reference"] == {"checks_hz": [120.0, 250.0], "order": 7,
+                                                     "difference": body_diff, "reference_estimate": first_diff}
+    assert ("estimate" in rec) == replaced
+    if replaced:
+        assert rec["estimate"] == body_diff + first_diff
+
+
+def test_a_band_with_more_modes_than_the_order_is_told():
+    """The Ansys rotor (345 DOF) over 10-3000 Hz holds 313 of its modes; a body of order 12 cannot hold those its
+    ports see (modal 0.94), and the judge says so; over 10-300 Hz (8 modes, modal 1.0e-3) it does not."""
     model = flexmor.io.read(ROOT / "tests" / "data" / "ansys" / "rotorAnsysStiffnessMatrixSparse.txt")
     top = int(model.node_ids[np.argmax(model.xyz[:, 2] + 1e-3 * model.xyz[:, 0])])
-    S = flexmor.System(model, inputs=[f"{top}:x", f"{top}:y"], band=(10.0, 3000.0), damping=None, cache=False)
-    body = S.reduce("krylov", 12)
-    judged = S.judge(body)
-    err, check = judged.band_error, body.info["points_check"]
-    assert any(n.startswith("the band holds 313 resonances of the full model, more than the body's order 12")
-               for n in judged.notes)
-    second = check["second_reference"]
-    assert second["reference_estimate"] > 0.1 * second["difference"]  # not far better than the body
-    assert check["estimate"] == pytest.approx(check["difference"] + check["reference_estimate"])
-    assert err / 3 <= check["estimate"] <= 3 * err, (check, err)
+    for band, told in (((10.0, 3000.0), True), ((10.0, 300.0), False)):
+        S = flexmor.System(model, inputs=[f"{top}:x", f"{top}:y"], band=band, damping=None, cache=False)
+        judged = S.judge(S.reduce("modal", 12))
+        many = [n for n in judged.notes if n.startswith("the band holds")]
+        assert bool(many) == told, (band, judged.band_error, judged.notes)
+        if told:
+            assert judged.band_error > 0.1 and many[0].startswith(
+                f"the band holds {S.full.resonances.size} resonances of the full model, more than the body's order 12")
+            assert S.full.resonances.size == 313
 
 
 @pytest.mark.parametrize("damping", [{"band_rayleigh": 0.01}, None])
