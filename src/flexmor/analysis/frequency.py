@@ -151,8 +151,8 @@ def error_notes(measures: dict, *, damped: bool, n_resonances: int | None = None
     if n_resonances is not None and order is not None and n_resonances > order \
             and measures["band_error"] > MANY_MODES_ERROR:
         notes.append(f"the band holds {n_resonances} resonances of the full model, more than the body's order "
-                     f"{order}: those its ports see it cannot all hold (nor can an estimate built from bodies of "
-                     "a similar order tell its error); raise the order or narrow the band")
+                     f"{order}: it cannot hold all that its ports see, nor can an estimate built from bodies of a "
+                     "similar order tell its error; raise the order or narrow the band")
     if measures.get("max_rel_error_at_antiresonance") and measures["max_rel_error"] >= 0.1:
         notes.append(f"max_rel_error {measures['max_rel_error']:.3g} is at the anti-resonance near "
                      f"{measures['max_rel_error_hz']:.4g} Hz, where |H| is small; rms_rel_error_pct and "
