@@ -81,10 +81,14 @@ def test_out_of_core_solves_equal_the_in_core_ones_and_leave_no_files(beam, kind
 
 
 @needs_pardiso
-def test_an_out_of_core_factor_that_solves_inaccurately_is_refined(beam, tmp_path, monkeypatch):
+@pytest.mark.parametrize("off", [5e-7, 5e-5, 1e-2])
+def test_an_out_of_core_factor_that_solves_inaccurately_is_refined(beam, tmp_path, monkeypatch, off):
     """MKL's out-of-core factor once solved with a relative error of 7e-4 (its residual inside the 1e-6 of
-    the factor check): a factor whose backward error is above BACKWARD_TOL has its solves refined in
-    double precision, so that they equal the in-core ones."""
+    the factor check), and in one run in four of this module its check's residual was 5.9e-6: a factor whose
+    backward error is above BACKWARD_TOL has its solves refined in double precision, so that they equal the
+    in-core ones; one whose check's residual is above OOC_CHECK_TOL (1e-3) is refused."""
+    from flexmor.errors import SolverError
+    from flexmor.linalg.memory import OOC_CHECK_TOL
     from flexmor.linalg.pardiso import PardisoFactorization
 
     A, positive = _matrices(beam)["real"]
@@ -92,11 +96,15 @@ def test_an_out_of_core_factor_that_solves_inaccurately_is_refined(beam, tmp_pat
     X0 = factorize(A, solver=SolverContext("pardiso"), positive=positive).solve(B)
     exact = PardisoFactorization._solve_factor
 
-    def off(self, b):  # solves 5e-7 too long: inside the check's residual (1e-6), a backward error above BACKWARD_TOL
-        return (1 + 5e-7) * exact(self, b)
+    def inexact(self, b):  # solves `off` too long: a backward error above BACKWARD_TOL
+        return (1 + off) * exact(self, b)
 
-    monkeypatch.setattr(PardisoFactorization, "_solve_factor", off)
+    monkeypatch.setattr(PardisoFactorization, "_solve_factor", inexact)
     solver = SolverContext("pardiso", factor_memory="ooc", scratch_dir=str(tmp_path))
+    if off > OOC_CHECK_TOL:
+        with pytest.raises(SolverError, match="failed its check"):
+            factorize(A, solver=solver, positive=positive)
+        return
     F = factorize(A, solver=solver, positive=positive)
     assert F.memory.mode == "ooc"
     X = F.solve(B)

@@ -33,6 +33,10 @@ def band_text(band) -> str:
 MAX_FACT = 72
 
 
+#: Characters of one line of a text repr at most, before its count of the facts left out.
+MAX_LINE = 150
+
+
 def _clip(text: str) -> str:
     return text if len(text) <= MAX_FACT else text[:MAX_FACT - 3] + "..."
 
@@ -53,9 +57,17 @@ def text_repr(kind: str, head: str, rows) -> str:
     lines = [f"<{kind} {head}>"]
     parts = [_clip(f"{label} {value}" if label else str(value)) for label, value in rows]
     per_line = max(1, -(-len(parts) // (MAX_REPR_LINES - 1))) if parts else 1
-    for i in range(0, len(parts), per_line):
-        lines.append("  " + "; ".join(parts[i:i + per_line]))
-    return "\n".join(lines[:MAX_REPR_LINES])
+    shown = 0
+    while shown < len(parts) and len(lines) < MAX_REPR_LINES:
+        line, end = "  " + parts[shown], min(shown + per_line, len(parts))
+        shown += 1
+        while shown < end and len(line) + 2 + len(parts[shown]) <= MAX_LINE:  # the rest: the HTML table
+            line += "; " + parts[shown]
+            shown += 1
+        lines.append(line)
+    if shown < len(parts):
+        lines[-1] += f" (+{len(parts) - shown} more)"
+    return "\n".join(lines)
 
 
 def html_table(kind: str, head: str, rows) -> str:

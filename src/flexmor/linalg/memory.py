@@ -80,6 +80,11 @@ REFINE_RESTART = 10
 #: double precision (twice the unit roundoff; see :func:`refine`).
 BACKWARD_TARGET = float(np.finfo(float).eps)
 
+#: Relative residual of the check of an out-of-core factor (:meth:`OutOfCore.verify`) above which it is refused;
+#: below it, a solve whose backward error is above the double-precision factor's is refined (GMRES with the factor,
+#: whose steps contract the error by about this residual each).
+OOC_CHECK_TOL = 1e-3
+
 #: Share of the in-core factor that PARDISO's out-of-core mode needs in memory beside its
 #: permanent data when MKL does not report a minimum (``iparm[62] = 0``, as MKL 2026 does):
 #: measured on 3D cantilevers, where 1/10 of the factor (plus the permanent data) sufficed.
@@ -513,15 +518,18 @@ class OutOfCore:
         ``a = ||A b|| / ||b||`` (at most ``||A||``: over- rather than underestimated).
 
         With little memory in core, MKL may return a wrong out-of-core factor without an error
-        (seen once, otherwise its error -9), so each one is checked, whatever ``check`` says.
+        (seen once, otherwise its error -9), or a slightly inaccurate one (a check's relative residual
+        of 5.9e-6 on the CalculiX beam, one run in four of the memory-mode tests), so each one is checked,
+        whatever ``check`` says; the caller refines the solves of a factor whose backward error is above
+        its bound, which converges in a few steps where the residual is small (:data:`OOC_CHECK_TOL`).
 
         Raises
         ------
         SolverError
-            The relative residual exceeds 1e-6 (the bound of ``factorize(check=True)``).
+            The relative residual exceeds :data:`OOC_CHECK_TOL`.
         """
         res, eta = check_solve(A, solve)
-        if not res <= 1e-6:
+        if not res <= OOC_CHECK_TOL:
             raise SolverError(f"the out-of-core factorization failed its check (relative residual {res:.1e}) with "
                               f"{self.core_mb} MB in core: give it more memory (memory_limit), or the matrix is "
                               "singular", params=("memory_limit",))
