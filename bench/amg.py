@@ -40,7 +40,6 @@ import dataclasses
 import json
 import pathlib
 import shutil
-import subprocess
 import sys
 import tempfile
 import time
@@ -48,7 +47,7 @@ import time
 HERE = pathlib.Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 
-from scale import INPUTS, _cpu, _reset_peak, _status, run_cases  # noqa: E402
+from scale import INPUTS, _cpu, _reset_peak, _status, run_cases, run_json  # noqa: E402
 
 #: the damping ratio (at the band's ends) both sides are judged with (:func:`_judge_case`)
 JUDGE_ZETA = 0.01
@@ -240,14 +239,12 @@ def main(argv=None) -> int:
         if size not in judged or size not in direct:
             continue
         checks = [] if args.judge_checks is None else ["--judge-checks", str(args.judge_checks)]
-        proc = subprocess.run([sys.executable, str(pathlib.Path(__file__).resolve()), "--judge-case", str(size),
-                               "--with-judge", f"{folder}/{size}", *checks], capture_output=True, text=True,
-                              timeout=args.timeout, check=False)
-        lines = [ln for ln in proc.stdout.splitlines() if ln.startswith("{")]
-        if proc.returncode or not lines:
-            print(f"{size:>8}  judge failed:\n" + "\n".join(proc.stderr.strip().splitlines()[-15:]), flush=True)
+        judged_r = run_json([sys.executable, str(pathlib.Path(__file__).resolve()), "--judge-case", str(size),
+                             "--with-judge", f"{folder}/{size}", *checks], f"{size:>8}  judge failed:",
+                            timeout=args.timeout)
+        if judged_r is None:
             continue
-        r["judge"] = json.loads(lines[-1])
+        r["judge"] = judged_r
         for name, value in r["judge"]["band_error"].items():
             r["runs"][name]["band_error"] = value
         print(f"{size:>8}  judge {r['judge']['seconds']:.1f} s (peak {r['judge']['peak_mb']:.0f} MB): "

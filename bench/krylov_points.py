@@ -148,7 +148,7 @@ def _with_static(S, order: int):
     if s >= order:
         raise ValueError(f"the static block has {s} columns, the order {order}")
     Vf = S.reduce("fw-sobt", order - s).V
-    Q, _ = np.linalg.qr(np.hstack([Vs, Vf - Vs @ np.linalg.lstsq(Vs, Vf, rcond=None)[0]]))
+    Q, _ = np.linalg.qr(np.hstack([Vs, Vf]))  # Vs's span first, then what Vf adds to it
     return flexmor.project(S.model, Q[:, :order], S.ports)
 
 

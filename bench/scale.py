@@ -202,18 +202,26 @@ def main(argv=None) -> int:
     return 0
 
 
+def run_json(cmd: list[str], label: str, *, timeout: float) -> dict | None:
+    """The record of a process that prints one JSON line last, or None: then the tail of its error output is
+    printed after ``label`` (e.g. ``size  failed:``)."""
+    proc = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout, check=False)
+    lines = [ln for ln in proc.stdout.splitlines() if ln.startswith("{")]
+    if proc.returncode or not lines:
+        print(f"{label}\n" + "\n".join(proc.stderr.strip().splitlines()[-15:] or ["?"]), flush=True)
+        return None
+    return json.loads(lines[-1])
+
+
 def run_cases(sizes: list[int], command, rows, *, timeout: float, out: str) -> list[dict]:
     """Each size in a fresh process (``command(size)``, which prints one JSON line), its lines of ``rows(size, r)``
     printed as it ends; all records written to ``out``."""
     records = []
     for size in sizes:
         t0 = time.perf_counter()
-        proc = subprocess.run(command(size), capture_output=True, text=True, timeout=timeout, check=False)
-        lines = [ln for ln in proc.stdout.splitlines() if ln.startswith("{")]
-        if proc.returncode or not lines:
-            print(f"{size:>8}  failed:\n" + "\n".join(proc.stderr.strip().splitlines()[-15:] or ["?"]), flush=True)
+        r = run_json(command(size), f"{size:>8}  failed:", timeout=timeout)
+        if r is None:
             continue
-        r = json.loads(lines[-1])
         r["process_s"] = time.perf_counter() - t0
         records.append(r)
         print("\n".join(rows(size, r)), flush=True)

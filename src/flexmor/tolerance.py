@@ -77,10 +77,8 @@ def leading(big, r: int) -> tuple[int, dict]:
     records of :data:`OF_THE_ORDER` (``big``'s estimate) are left out, ``cut_from_order`` says so."""
     info = dict(big.info)
     info.pop("order_note", None)  # big's own, of its order
-    for k in OF_THE_ORDER:  # the estimate and compression of big's order: not this body's
-        if k in info:
-            info.pop(k)
-            info["cut_from_order"] = int(big.order)
+    if [info.pop(k) for k in OF_THE_ORDER if k in info]:  # the estimate and compression of big's order
+        info["cut_from_order"] = int(big.order)
     key = next((k for k in ("fixed_interface_hz", "frequencies_hz") if isinstance(info.get(k), list)), None)
     if key is None:
         return r, info
