@@ -25,7 +25,8 @@ and free with its hole's RBE2 (six directions) plus the corner; the plate struct
 ports, clamped and free; the cantilever with the tip's RBE2 (y) and undamped with two tip ports; the
 CalculiX beams of ``tests/data/calculix`` (the clamped one damped and undamped: the estimate's second
 reference); the Abaqus C3D10 block of ``tests/data/abaqus`` undamped (where one check of the estimate fell 67x
-short).
+short); the Ansys files of ``tests/data/ansys``: the clamped SOLID186 beam of the ``.full`` file with its ``.cdb``
+mesh (two ports at a tip corner) and the free rotor over its lowest eight modes.
 
 Usage::
 
@@ -70,6 +71,23 @@ def _block():
     return m, [f"{int(m.node_ids[np.argmin(np.linalg.norm(m.xyz - [4.0, 1.0, 1.0], axis=1))])}:z"], []
 
 
+def _hexbeam():
+    from flexmor.io import read
+
+    a = ROOT / "tests" / "data" / "ansys"
+    m = read(a / "ansys_file.full", coordinates=a / "ansys_HexBeam.cdb")
+    tip = int(m.node_ids[np.argmax(m.xyz @ [1.0, 1.0, 10.0])])
+    return m, [f"{tip}:x", f"{tip}:z"], []
+
+
+def _rotor():
+    from flexmor.io import read
+
+    m = read(ROOT / "tests" / "data" / "ansys" / "rotorAnsysStiffnessMatrixSparse.txt")
+    top = int(m.node_ids[np.argmax(m.xyz[:, 2] + 1e-3 * m.xyz[:, 0])])
+    return m, [f"{top}:x", f"{top}:y"], []
+
+
 def cases(n: int) -> dict:
     """``key: (build() -> (model, inputs, interfaces), band, damping, order, text)``."""
     from flexmor.io import read
@@ -112,6 +130,10 @@ def cases(n: int) -> dict:
                      (10.0, 5000.0), rayleigh, 24, "CalculiX beam8 free, FIX@rbe2 x..rz, Rayleigh 1 %"),
         "c3d10-block": (_block, (10.0, 2000.0), None, 12,
                         "Abaqus C3D10 block (free), corner node z, undamped: ten modes in the band, three at 1030 Hz"),
+        "ansys-hexbeam": (_hexbeam, (100.0, 20000.0), rayleigh, 12,
+                          "Ansys .full (SOLID186 beam, clamped, .cdb mesh), tip corner x and z, Rayleigh 1 %"),
+        "ansys-rotor": (_rotor, (10.0, 300.0), None, 12,
+                        "Ansys rotor (free, HBMAT/MMF), top node x and y, undamped: eight modes in the band"),
     }
 
 
