@@ -139,8 +139,9 @@ def test_points_go_where_the_residual_is_largest(clamped):
 def test_a_body_cut_from_a_larger_nested_basis_does_not_carry_its_estimate():
     """``--tol`` bisects on the leading columns of the largest krylov basis it built; the body it returns had the
     estimate of that basis's order in its record (the undamped CalculiX beam8 at tol 1e-5: order 18, verified
-    2.7e-7, recorded estimate 6.1e-8 of the order-32 body). A cut body's record says what it was cut from and gives
-    no estimate; a body reduced at its own order keeps its own."""
+    2.7e-7, recorded estimate 6.1e-8 of the order-32 body). A cut body's record says what it was cut from, gives
+    no estimate and lists the points of its own columns (it listed all of the larger basis's); a body reduced at
+    its own order keeps its own estimate."""
     import flexmor
     from flexmor.tolerance import OF_THE_ORDER
 
@@ -150,8 +151,12 @@ def test_a_body_cut_from_a_larger_nested_basis_does_not_carry_its_estimate():
     err = rec["band_error"]
     assert red.info["tol_search"]["tol_reached"] and err <= 1e-5
     check = red.info.get("points_check")
-    if check is None:  # cut from the leading columns of a larger basis
+    if check is None:  # cut from the leading columns of a larger basis: the points those columns come from
         assert red.info["cut_from_order"] > red.order and not any(k in red.info for k in OF_THE_ORDER)
+        ref = S.reduce("krylov", red.order, compress="off").info  # the greedy basis of the order
+        np.testing.assert_allclose([complex(p) for p in red.info["points_hz"]],
+                                   [complex(p) for p in ref["points_hz"]], rtol=1e-9)
+        assert red.info["points_columns"] == ref["points_columns"]
     else:  # the search's own body of that order
         assert check["order"] == red.order
         assert err / 3 <= check["estimate"] <= 3 * err

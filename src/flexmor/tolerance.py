@@ -74,11 +74,16 @@ def leading(big, r: int) -> tuple[int, dict]:
     :func:`flexmor.reduction.modal.modal` and ``craig_bampton`` keep it: the basis is then the same whatever
     order ``big`` has) and ``big.info`` with the mode frequencies (``frequencies_hz`` of ``modal``,
     ``fixed_interface_hz`` and ``n_modes`` of the Craig-Bampton family) and ``order_note`` of those columns; the
-    records of :data:`OF_THE_ORDER` (``big``'s estimate) are left out, ``cut_from_order`` says so."""
+    records of :data:`OF_THE_ORDER` (``big``'s estimate) are left out, ``cut_from_order`` says so; krylov's greedy
+    points are those the ``r`` columns come from (:func:`flexmor.reduction.greedy_points.points_within`)."""
     info = dict(big.info)
     info.pop("order_note", None)  # big's own, of its order
     if [info.pop(k) for k in OF_THE_ORDER if k in info]:  # the estimate and compression of big's order
         info["cut_from_order"] = int(big.order)
+    if info.get("nested") and not info.get("n_rigid_dropped"):  # krylov's greedy points: those of the r columns
+        from .reduction.greedy_points import points_within
+
+        info = points_within(info, r)
     key = next((k for k in ("fixed_interface_hz", "frequencies_hz") if isinstance(info.get(k), list)), None)
     if key is None:
         return r, info

@@ -72,7 +72,7 @@ from .arnoldi import DEFLATION_TOL, _point_blocks, blocks_at_points, rigid_proje
 from .gramians import UNDAMPED_ZETA
 
 __all__ = ["ResidualIndicator", "greedy_basis", "difference_estimate", "moments_at", "N_CANDIDATES",
-           "CHECK_SEPARATION", "point_of"]
+           "CHECK_SEPARATION", "point_of", "points_within"]
 
 log = logging.getLogger(__name__)
 
@@ -293,10 +293,13 @@ def greedy_basis(model, ports, order: int | None, band, *, side: str, solver, ph
     V : ndarray, shape (n_dof, <= order)
     info : dict
         ``points_hz``, ``points_rad_s``, ``moments`` (per point), ``rho_max`` (the largest residual ``rho``
-        on the candidates before each point on the axis), ``directions`` (load combinations per
-        point), ``points_cut`` (1 when the order ends inside the last point's blocks: its moments are not all
-        matched), ``estimates`` (with ``tol``: after each point from the
-        second on) and ``points_check`` (the estimate).
+        on the candidates before each point on the axis; None for the estimate's check frequencies),
+        ``directions`` (load combinations per point), ``points_cut`` (1 when the order ends inside the last
+        point's blocks: its moments are not all matched), ``points_columns`` (the columns ``[first, end)`` of
+        the basis each point added; the full solutions at the estimate's check frequencies, where the basis grew
+        by them, share theirs), ``estimates`` (with ``tol``: after each point from the second on) and
+        ``points_check`` (the estimate). A body of the greedy basis's leading columns lists the points those
+        columns come from (:func:`points_within`).
     reduced : ReducedMatrices
         ``V^T (M, K, D) V`` (for :func:`flexmor.projection.project`).
     """
@@ -311,6 +314,7 @@ def greedy_basis(model, ports, order: int | None, band, *, side: str, solver, ph
     indicator.extend(np.zeros((model.n_dof, 0)), V)
     limit = model.n_dof if order is None else int(order)
     points, used, per_point, rho_max, estimates, empty = [], [], [], [], [], 0
+    spans: list[tuple[int, int]] = []  # the columns [first, end) each point added (the check points: together)
     first = static_point(model, phi, band)
     low = abs(first)  # a free body: no point on the axis below its static point (_candidates)
     cut = False
@@ -347,6 +351,7 @@ def greedy_basis(model, ports, order: int | None, band, *, side: str, solver, ph
             new = new[:, :limit - V.shape[1]]
             empty = 0 if new.shape[1] else empty + 1
             r_prev = V.shape[1]
+            spans.append((r_prev, r_prev + new.shape[1]))
             indicator.extend(V, new)
             V = np.hstack([V, new])
             if tol is not None and len(used) > 1 and new.shape[1]:
@@ -370,19 +375,23 @@ def greedy_basis(model, ports, order: int | None, band, *, side: str, solver, ph
         # the reference is not much better than the body: its columns (the full model's solutions at the
         # check frequencies) join the basis, which grows to the next stage
         limit = max(stages.pop(0), V.shape[1] + compressed.E.shape[1])
+        spans += [(V.shape[1], V.shape[1] + compressed.E.shape[1])] * len(compressed.check["checks_hz"])
         V = np.hstack([V, compressed.E])
         for q in compressed.check["checks_hz"]:
             points.append(point_of(model, q))
             used.append(2 * np.pi * points[-1])
             per_point.append(1)
             n_directions.append(loads.shape[1])
+            rho_max.append(None)  # chosen by the estimate, not by the residual
     info = {"points_hz": [str(p) for p in points[:len(used)]], "points_rad_s": [str(s) for s in used],
             "moments": per_point, "directions": n_directions, "rho_max": rho_max,
-            "points_cut": int(cut) if used else 0}
+            "points_cut": int(cut) if used else 0, "points_columns": [list(c) for c in spans]}
     if tol is not None:
         info["estimates"] = estimates
     if compressed is not None:
         info["points_check"], info["compressed"] = compressed.check, compressed.record
+        if compressed.record["body"] == "greedy":  # the leading columns: the points they come from
+            info = points_within(info, compressed.V.shape[1])
         return compressed.V, info, compressed.reduced
     R = indicator.R  # V^T (K, M, D) V, handed on to the projection of the body
     reduced = ReducedMatrices(R[1].copy(), R[0].copy(), R[2].copy() if model.D is not None else None,
@@ -391,6 +400,27 @@ def greedy_basis(model, ports, order: int | None, band, *, side: str, solver, ph
         info["points_check"] = difference_estimate(model, ports, V, indicator, band, side=side, solver=solver,
                                                    phi=phi, chosen=[abs(complex(q).imag) for q in points], low=low)
     return V, info, reduced
+
+
+def points_within(info: dict, r: int) -> dict:
+    """``info`` (of :func:`greedy_basis`) of the body of the basis's leading ``r`` columns: the points, their moments,
+    directions and columns (up to ``r``) of those that added a column among them, ``points_cut`` when ``r`` ends
+    inside the last one's, ``points_built`` the points of the whole basis (one factorization each); ``info`` itself
+    without ``points_columns``."""
+    spans = info.get("points_columns")
+    if not isinstance(spans, list):
+        return info
+    keep = [i for i, (a, b) in enumerate(spans) if a < r and b > a]
+    out = dict(info)
+    for key in ("points_hz", "points_rad_s", "moments", "directions", "points_columns"):
+        if isinstance(out.get(key), list) and len(out[key]) == len(spans):
+            out[key] = [out[key][i] for i in keep]
+    if isinstance(out.get("rho_max"), list) and len(out["rho_max"]) == len(spans) - 1:  # one per point after the first
+        out["rho_max"] = [out["rho_max"][i - 1] for i in keep if i > 0]
+    out["points_cut"] = int(bool(keep) and spans[keep[-1]][1] > r)
+    out["points_columns"] = [[a, min(b, r)] for a, b in (spans[i] for i in keep)]
+    out.setdefault("points_built", len(spans))  # the basis's points, one factorization each
+    return out
 
 
 def _tangential_blocks(model, loads, V, indicator, p, m, solver, phi):
