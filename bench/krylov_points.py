@@ -12,8 +12,9 @@ estimate / band_error. The rows:
   residual is largest, with the load combinations the body misses there:
   :mod:`flexmor.reduction.greedy_points`), built to 1.5-3 times the order and compressed where the balanced
   truncation of that body is better (:mod:`flexmor.reduction.greedy_compress`); ``krylov greedy``: the greedy
-  basis of the order (``compress='off'``); ``krylov all``: the greedy basis with ``directions='all'`` (every
-  port's blocks at each point);
+  basis of the order (``compress='off'``); ``krylov band``: ``compress='band'``, chosen on the band alone (the
+  static responses not kept, the balanced truncation of the reference body among the candidates); ``krylov
+  all``: the greedy basis with ``directions='all'`` (every port's blocks at each point);
 * ``krylov 1 real``, ``krylov 3 real``: the earlier defaults, one real point at the band's geometric mean,
   and the three real points of :func:`flexmor.reduction.krylov.default_points`;
 * ``krylov 0,f/2 j,f j``: the fixed choice that did well on the C3D10 structure (0, the band's middle and
@@ -143,6 +144,7 @@ def rows(band, interfaces) -> list[tuple[str, str, dict]]:
     f1, f2 = band
     three = ",".join(f"{p.real:.6g}" for p in default_points(band))
     out = [("krylov", "krylov", {}), ("krylov greedy", "krylov", {"compress": "off"}),
+           ("krylov band", "krylov", {"compress": "band"}),
            ("krylov all", "krylov", {"directions": "all"}),
            ("krylov 1 real", "krylov", {"points": f"{np.sqrt(f1 * f2):.6g}"}),
            ("krylov 3 real", "krylov", {"points": three}),

@@ -144,7 +144,7 @@ def _krylov(model, order, ports, options, solver, shared) -> list[Stage]:
         return []
     missed = options.get("directions", "missed") == "missed"
     stages, cols, i = [], 0, 0
-    if missed and moments is None and options.get("compress", "auto") == "auto" and options.get("rigid") != "include":
+    if missed and moments is None and options.get("compress", "auto") != "off" and options.get("rigid") != "include":
         # the greedy basis runs to the first of its compression's orders (growing further, where its reference
         # asks for it, adds points that are not planned: flexmor.reduction.greedy_compress)
         order = growth_orders(order, n)[0]

@@ -509,15 +509,18 @@ def static_record(model, body, *, ports=None, full: FullMounted | None = None, m
            "max_static_error": max(every) if every else None,
            "frame_error": max(frame) if frame and held == AS_SUPPORTED else None}
     rec["note"] = static_note(rec, band_rms_error, inertia_loads=(body.info.get("inertia_loads"),
-                                                                  body.info.get("n_inertia_loads")))
+                                                                  body.info.get("n_inertia_loads")),
+                              static_kept=(body.info.get("compressed") or {}).get("keep_static", True))
     return rec
 
 
-def static_note(rec: dict, band_rms_error: float | None, *, inertia_loads: tuple = (None, None)) -> str | None:
+def static_note(rec: dict, band_rms_error: float | None, *, inertia_loads: tuple = (None, None),
+                static_kept: bool = True) -> str | None:
     """A one-line note when the body's static error at its inputs (``rec``: :func:`static_record`) exceeds
     ``NOTE_FLOOR`` (1e-3) or ``NOTE_FACTOR`` (10) times its band RMS error; else, for a supported body built
     without the frame's inertia loads (``inertia_loads``: the body's ``inertia_loads`` mode, None for a method
-    whose basis ignores the inputs, and ``n_inertia_loads``, 0), when its deflection under one of the frame's
+    whose basis ignores the inputs, and ``n_inertia_loads``, 0) or compressed without keeping the static responses
+    (``static_kept`` False: krylov's ``compress='band'``), when its deflection under one of the frame's
     accelerations (``frame_error``) is off by more than ``NOTE_FLOOR``; else None."""
     e = rec.get("static_error")
     frame = rec.get("frame_error")
@@ -526,9 +529,11 @@ def static_note(rec: dict, band_rms_error: float | None, *, inertia_loads: tuple
     limits = [NOTE_FLOOR] + ([NOTE_FACTOR * band_rms_error] if band_rms_error is not None else [])
     if e is None or e <= min(limits):
         mode, n = inertia_loads
-        if frame is None or frame <= NOTE_FLOOR or n != 0:
+        if frame is None or frame <= NOTE_FLOOR or (n != 0 and static_kept):
             return None
-        how = ("it was built for its ports alone: --inertia-loads on adds the six to the inputs the basis is built "
+        how = ("its compression did not keep the static responses (--compress band): --compress auto keeps them, "
+               if not static_kept else
+               "it was built for its ports alone: --inertia-loads on adds the six to the inputs the basis is built "
                "for (they share the order), " if mode is not None else "its basis is not built for them: ")
         return (f"frame accelerations: the supported body deflects {100 * frame:.3g} % off the full model under "
                 f"one of the frame's unit accelerations (gravity, its support's motion; see the static table); {how}"

@@ -106,10 +106,14 @@ def basis_rows(rec: dict) -> list[tuple[str, str]]:
                 "static+balanced": "the static responses and the balancing directions",
                 "static+dynamic": "the static responses and the balancing directions of the dynamic part"}.get(
                     comp["body"], comp["body"])
-        rows.append(("compressed", f"{what} of the greedy basis of order {comp.get('from_order')} (differences "
-                     "from the reference: "
-                     + ", ".join(f"{k} {v:.3g}" for k, v in diffs.items()) + "; --compress off: the greedy basis of "
-                     "the order)"))
+        if comp["body"] == "reference balanced":
+            what = f"the balanced truncation of the reference body (order {(check or {}).get('reference_order')})"
+        else:
+            what += f" of the greedy basis of order {comp.get('from_order')}"
+        kept = "" if comp.get("keep_static", True) else "; --compress band: the static responses not kept"
+        rows.append(("compressed", f"{what} (differences from the reference: "
+                     + ", ".join(f"{k} {v:.3g}" for k, v in diffs.items()) + f"{kept}; --compress off: the greedy "
+                     "basis of the order)"))
     if rec.get("krylov_points_hz"):
         rows.append(("points", f"{_points(rec['krylov_points_hz'])} Hz (s / 2 pi) of the Krylov step"
                      + (f" to order {rec['intermediate']}" if rec.get("intermediate") else "")))

@@ -22,8 +22,10 @@ while a balanced truncation of the same ports reaches errors orders of magnitude
 A candidate is admitted where its static responses over the field are those of ``V1``'s body to :data:`STATIC_TOL`
 (the greedy body always: its static point holds them), so that what the body does under slow loads and its frame's
 inertia is not traded for band error (the plain balanced truncation missed them by 1e-3 to 4e-2 on the cases of
-``bench/krylov_points.py``). They are compared on the judge's grid and rule with the reference body of ``V1``
-enriched by the full model's solutions where ``V1``'s residual is largest and at its largest peak elsewhere
+``bench/krylov_points.py``); with ``keep_static=False`` (``compress='band'`` of
+:func:`flexmor.reduction.krylov.krylov`) every candidate is, for a body judged at its ports alone. They are
+compared on the judge's grid and rule with the reference body of ``V1`` enriched by the full model's solutions
+where ``V1``'s residual is largest and at its largest peak elsewhere
 (:func:`flexmor.reduction.greedy_points.check_columns`: two factorizations, as the estimate of a greedy body costs).
 The admitted body with the smallest difference is returned (the greedy one on a tie). Its estimate is that
 difference plus the reference's own estimated error (the difference of ``V1``'s body from the reference): by the
@@ -172,7 +174,8 @@ def _second_reference(model, W, P, check, differences):
     return rec, E2
 
 
-def compressed_greedy(model, ports, V1, indicator, order: int, band, *, check, differences):
+def compressed_greedy(model, ports, V1, indicator, order: int, band, *, check, differences,
+                      keep_static: bool = True):
     """The body of ``order`` in the span of the greedy basis ``V1`` (see the module docstring).
 
     ``indicator`` is the greedy's :class:`~flexmor.reduction.greedy_points.ResidualIndicator`; ``check(V)``
@@ -184,7 +187,7 @@ def compressed_greedy(model, ports, V1, indicator, order: int, band, *, check, d
     :func:`flexmor.reduction.greedy_points.difference_estimate`'s, with ``difference``, ``reference_estimate``
     and ``reference_order``) and ``compressed`` (``body``: 'greedy', 'balanced', 'static+balanced' or
     'static+dynamic',
-    ``from_order``, ``differences`` and ``static_errors`` of the candidates, ``admitted``).
+    ``from_order``, ``differences`` and ``static_errors`` of the candidates, ``admitted``, ``keep_static``).
     """
     r1 = V1.shape[1]
     info, E = check(V1)
@@ -206,18 +209,24 @@ def compressed_greedy(model, ports, V1, indicator, order: int, band, *, check, d
         Q = _filled(head, dirs, order) if dirs is not None and head.shape[1] < order else None
         if Q is not None:
             candidates[name] = np.vstack([Q, np.zeros((n - r1, order))])
+    if E is not None and not keep_static:  # the balanced truncation of the reference body itself
+        Tw = _balanced(Kw, Mw, Dw, Bw, Cw, band, min(order, n))
+        Q = _filled(np.zeros((n, 0)), Tw, order) if Tw is not None else None
+        if Q is not None:
+            candidates["reference balanced"] = Q
     bases = [*candidates.values()] + ([np.eye(n)[:, :r1]] if E is not None else [])
     got = differences(W, bases, at)  # one grid for all
     diffs = dict(zip(candidates, got))
     # against the larger greedy body's static responses (those of its static point), which static+balanced holds
     # exactly: the reference's differ from them on a free body (its static point is shifted) by about 1e-7
-    statics = {k: float(static_errors(Kr, Bw[:r1], P[:r1]).max()) for k, P in candidates.items()}
-    admitted = [k for k in candidates if k == "greedy" or statics[k] <= STATIC_TOL]  # the static responses kept
+    statics = {k: float(static_errors(Kr, Bw[:r1], P[:r1]).max() if k != "reference balanced" else
+                        static_errors(Kw, Bw, P).max()) for k, P in candidates.items()}
+    admitted = [k for k in candidates if k == "greedy" or statics[k] <= STATIC_TOL or not keep_static]
     best = min(admitted, key=lambda k: (diffs[k]["estimate"], k != "greedy"))
     ref = got[-1]["estimate"] if E is not None else float("nan")
-    P = candidates[best][:r1]
-    V = V1 @ P if best != "greedy" else V1[:, :order]
-    parts = [P.T @ X[:r1, :r1] @ P for X in indicator.R]
+    P = candidates[best] if best == "reference balanced" else candidates[best][:r1]
+    V = V1[:, :order] if best == "greedy" else (W if P.shape[0] == n else V1) @ P
+    parts = [P.T @ X[:P.shape[0], :P.shape[0]] @ P for X in indicator.R]
     reduced = ReducedMatrices(parts[1], parts[0], parts[2] if model.D is not None else None,
                               (V, model.M, model.K, model.D))
     out = {**info, **diffs[best], "difference": diffs[best]["estimate"], "reference_estimate": ref,
@@ -229,7 +238,7 @@ def compressed_greedy(model, ports, V1, indicator, order: int, band, *, check, d
             out.update(second)
             out["checks_hz"] = out["checks_hz"] + second["second_reference"]["checks_hz"]
             E = np.hstack([E, E2])
-    record = {"body": best, "from_order": int(r1), "admitted": admitted,
+    record = {"body": best, "from_order": int(r1), "admitted": admitted, "keep_static": bool(keep_static),
               "differences": {k: float(d["estimate"]) for k, d in diffs.items()}, "static_errors": statics}
     # the reference limits the body, and more order helps: the greedy body of the order is well above the reference
     # (where it is not, the bodies of the order and the reference share a floor that no order removes)

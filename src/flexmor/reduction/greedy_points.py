@@ -244,7 +244,8 @@ def _candidates(indicator: ResidualIndicator, band, chosen_hz, n: int = N_CANDID
 
 def greedy_basis(model, ports, order: int | None, band, *, side: str, solver, phi, head, moments: int | None = None,
                  estimate: bool = True, tol: float | None = None, max_points: int | None = None, label: str = "krylov",
-                 n_candidates: int = N_CANDIDATES, directions: str = "missed", compress_to: int | None = None):
+                 n_candidates: int = N_CANDIDATES, directions: str = "missed", compress_to: int | None = None,
+                 keep_static: bool = True):
     """The greedy Krylov basis (see the module docstring): of order ``order``, or until the estimated band
     error of the body before the latest point falls below ``tol``.
 
@@ -285,8 +286,9 @@ def greedy_basis(model, ports, order: int | None, band, *, side: str, solver, ph
         ``order``) and return a body of this order in its span: of the candidates (the greedy body's leading
         columns, the balanced truncation of the larger body, the static responses followed by the balancing
         directions of the whole response or of its dynamic part) whose static responses equal the larger
-        greedy body's (``STATIC_TOL``), the one that differs least from a reference body
-        (:func:`flexmor.reduction.greedy_compress.compressed_greedy`); its record is ``info['compressed']``.
+        greedy body's (``STATIC_TOL``; every candidate with ``keep_static=False``), the one that differs least
+        from a reference body (:func:`flexmor.reduction.greedy_compress.compressed_greedy`); its record is
+        ``info['compressed']``.
 
     Returns
     -------
@@ -368,7 +370,7 @@ def greedy_basis(model, ports, order: int | None, band, *, side: str, solver, ph
             check=lambda B, chosen=chosen: check_columns(model, ports, B, indicator, band, side=side,
                                                          solver=solver, phi=phi, chosen=chosen, low=low),
             differences=lambda W, bases, at: nested_differences(model, ports, W, indicator, bases, band, at,
-                                                                judged=True))
+                                                                judged=True), keep_static=keep_static)
         if not (stages and compressed.grow and compressed.check["difference"] < GROWTH_GAIN * before):
             break
         before = compressed.check["difference"]

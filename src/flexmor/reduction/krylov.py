@@ -182,8 +182,10 @@ class KrylovOptions:
     compress: str = option("auto", "default points at a given order: build the greedy basis to 1.5-3 times the "
                            "order and return the body of the order in its span that differs least from a reference "
                            "body with the same static responses (auto: the greedy one, its balanced truncation, or "
-                           "the static responses and balancing directions), or the greedy basis of the order (off)",
-                           choices=("auto", "off"))
+                           "the static responses and balancing directions), the same without keeping the static "
+                           "responses (band: for a body judged at its ports alone; its deflection under slow loads "
+                           "and the frame's accelerations may be off), or the greedy basis of the order (off)",
+                           choices=("auto", "band", "off"))
 
 
 @register_method("krylov", "second-order block Krylov moment matching at expansion points", options=KrylovOptions)
@@ -235,7 +237,7 @@ def krylov(model, ports, order, *, points=None, moments: int | None = None, side
         Default points: at each point on the axis only the Krylov blocks of the load combinations the body
         misses there (default), or of every port (interpolation in every port direction, which carries over
         when the body is coupled at its ports; :func:`flexmor.reduction.greedy_points.greedy_basis`).
-    compress : {'auto', 'off'}
+    compress : {'auto', 'band', 'off'}
         Default points with ``directions='missed'``, ``moments`` not given, on a body without included
         rigid-body modes: ``auto``
         builds the greedy basis to 1.5 times the order (2 or 3 times while its reference is not ten times better than
@@ -243,8 +245,9 @@ def krylov(model, ports, order, *, points=None, moments: int | None = None, side
         order (its leading columns), the frequency-limited balanced truncation of the larger body and the static
         responses followed by its balancing directions, the one that differs least from a reference body among
         those whose static responses are the reference's
-        (:func:`flexmor.reduction.greedy_compress.compressed_greedy`; ``info['compressed']``); ``off`` builds
-        the greedy basis of the order.
+        (:func:`flexmor.reduction.greedy_compress.compressed_greedy`; ``info['compressed']``); ``band`` the
+        same among all of them, the static responses not kept (a body judged at its ports alone: fw-sobt's band
+        error, with fw-sobt's static errors); ``off`` builds the greedy basis of the order.
     solver : SolverContext, optional
         Solver (backend, statistics) of :func:`flexmor.linalg.factorize` (one factorization per point).
 
@@ -271,7 +274,7 @@ def krylov(model, ports, order, *, points=None, moments: int | None = None, side
     check_choice("side", side, SIDES)
     check_choice("rigid", rigid, RIGID)
     check_choice("directions", directions, ("all", "missed"))
-    check_choice("compress", compress, ("auto", "off"))
+    check_choice("compress", compress, ("auto", "band", "off"))
     band = Band.of(band)
     if order is None and moments is None:
         raise OptionError("krylov needs order or moments", params=("order", "moments"))
@@ -286,10 +289,10 @@ def krylov(model, ports, order, *, points=None, moments: int | None = None, side
     phi, excited = rigid_head(model, start_block(ports, side), rigid)  # the rigid motion the ports excite, first
     extra, reduced = {}, None
     if points is None:
-        wide = compress == "auto" and directions == "missed" and moments is None and not excited.shape[1]
+        wide = compress != "off" and directions == "missed" and moments is None and not excited.shape[1]
         V, extra, reduced = greedy_basis(model, ports, int(order), band, side=side, solver=solver, phi=phi,
                                          head=excited, moments=moments, directions=directions,
-                                         compress_to=int(order) if wide else None)
+                                         compress_to=int(order) if wide else None, keep_static=compress != "band")
         used, k = extra.pop("points_rad_s"), extra.pop("moments")
         pts = np.array([complex(p) for p in extra.pop("points_hz")])
     else:
