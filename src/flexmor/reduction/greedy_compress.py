@@ -224,9 +224,9 @@ def compressed_greedy(model, ports, V1, indicator, order: int, band, *, check, d
     admitted = [k for k in candidates if k == "greedy" or statics[k] <= STATIC_TOL or not keep_static]
     best = min(admitted, key=lambda k: (diffs[k]["estimate"], k != "greedy"))
     ref = got[-1]["estimate"] if E is not None else float("nan")
-    P = candidates[best] if best == "reference balanced" else candidates[best][:r1]
-    V = V1[:, :order] if best == "greedy" else (W if P.shape[0] == n else V1) @ P
-    parts = [P.T @ X[:P.shape[0], :P.shape[0]] @ P for X in indicator.R]
+    P = candidates[best]  # coordinates in W (zero beyond V1's columns but for the reference's own truncation)
+    V = V1[:, :order] if best == "greedy" else W @ P
+    parts = [P.T @ X[:n, :n] @ P for X in indicator.R]
     reduced = ReducedMatrices(parts[1], parts[0], parts[2] if model.D is not None else None,
                               (V, model.M, model.K, model.D))
     out = {**info, **diffs[best], "difference": diffs[best]["estimate"], "reference_estimate": ref,
